@@ -1,0 +1,257 @@
+"""Scalar backends: the arithmetic under sparse symbolic multivectors, with exact constants.
+
+A coefficient is either an **exact constant** (a sympy number: rationals, sqrt(2), cos(pi/7), ...)
+or a :class:`Poly`: a sum of terms ``exact coefficient × product of native atoms``, where an atom
+is a native expression of the backend (a CasADi ``SX`` node or a sympy expression). Terms with the
+same atoms merge exactly, so ``x*y − y*x`` and ``½(x1 − x2) + ½(x1 + x2) − x1`` are exactly zero
+and never reach the graph, and a 90° rotation yields exact zeros rather than 1e-17.
+
+A Poly stays unexpanded until it must become one native node ("materialised", once, cached):
+when it is multiplied by another sum, passed to a function (sqrt, sin, ...), divided by, or
+flattened. Multiplying a Poly by an exact constant keeps it a Poly when that costs no extra
+multiplication (the constant is ±1, or the Poly is small), so chains of exact constants fold.
+The sympy backend expands every product instead (``expand_all``): exact polynomial algebra.
+
+When a term is emitted, 0 drops it, ±1 folds into an addition or subtraction and any other value
+is rounded once to the nearest double (so ``0.5*x``, never ``x/2``).
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from collections.abc import Hashable, Sequence
+from typing import Any
+
+import sympy
+
+ZERO = sympy.Integer(0)
+ONE = sympy.Integer(1)
+
+Key = tuple[Hashable, ...]  # sorted identities of a term's atoms (commutative product)
+
+
+class Poly:
+    """Σ coef · Π atoms, with exact coefficients; immutable apart from its materialisation cache."""
+
+    __slots__ = ("_native", "terms")
+
+    def __init__(self, terms: dict[Key, tuple[sympy.Expr, tuple[Any, ...]]]) -> None:
+        self.terms = terms  # key -> (non-zero exact coefficient, atoms in first-seen order)
+        self._native: Any = None
+
+    def __len__(self) -> int:
+        return len(self.terms)
+
+    def __repr__(self) -> str:
+        return " + ".join(f"{c}*{'*'.join(map(str, atoms)) or '1'}" for c, atoms in self.terms.values())
+
+
+Scalar = sympy.Expr | Poly
+
+
+def to_exact(value: Any) -> sympy.Expr | None:
+    """An exact sympy number for a Python/numpy/sympy number, else None.
+
+    Floats become the exact rational value of the double (no guessing), so no precision is lost.
+    """
+    if isinstance(value, sympy.Basic):
+        return value if value.is_number else None
+    if isinstance(value, bool):
+        return sympy.Integer(int(value))
+    if isinstance(value, int):
+        return sympy.Integer(value)
+    if isinstance(value, float) or type(value).__module__ == "numpy":
+        f = float(value)
+        if not math.isfinite(f):
+            raise ValueError(f"non-finite constant {f!r} in a symbolic expression")
+        return sympy.Integer(int(f)) if f.is_integer() else sympy.Rational(f)
+    return None
+
+
+class ScalarBackend(ABC):
+    """Native arithmetic plus the exact folding shared by every backend."""
+
+    name: str
+    expand_all: bool = False  # distribute every product of sums (exact algebra) instead of materialising
+    scale_expand_limit: int = 4  # a Poly this small stays a Poly when scaled by any exact constant
+
+    # -- to be provided by a backend -------------------------------------------------------------
+    @abstractmethod
+    def symbols(self, name: str, labels: Sequence[str]) -> list[Any]:
+        """Fresh independent native symbols, one per label."""
+
+    @abstractmethod
+    def is_native(self, value: Any) -> bool:
+        """Whether ``value`` is a native scalar expression of this backend."""
+
+    @abstractmethod
+    def native_constant_value(self, x: Any) -> float | None:
+        """The value of a native expression that is structurally a constant, else None."""
+
+    @abstractmethod
+    def constant(self, value: sympy.Expr) -> Any:
+        """Native constant for an exact value."""
+
+    @abstractmethod
+    def key(self, atom: Any) -> Hashable:
+        """Identity of a native atom (orderable), for merging terms with the same atoms."""
+
+    @abstractmethod
+    def native_product(self, atoms: Sequence[Any]) -> Any: ...
+
+    @abstractmethod
+    def native_sum(self, positive: Sequence[Any], negative: Sequence[Any]) -> Any:
+        """Σ positive − Σ negative, at least one of them non-empty."""
+
+    @abstractmethod
+    def native_scale(self, value: sympy.Expr, x: Any) -> Any:
+        """value · x for an exact positive value other than 1."""
+
+    @abstractmethod
+    def native_call(self, fn: str, *args: Any) -> Any:
+        """A math function (see ``MATH_FUNCTIONS``) of native arguments."""
+
+    @abstractmethod
+    def native_divide(self, a: Any, b: Any) -> Any: ...
+
+    # -- entering the scalar layer ------------------------------------------------------------------
+    def lift(self, value: Any) -> Scalar:
+        """Exact constant or Poly for a number, a native expression, or a scalar of this layer."""
+        if isinstance(value, Poly):
+            return value
+        exact = to_exact(value)
+        if exact is not None:
+            return exact
+        if self.is_native(value):
+            const = self.native_constant_value(value)
+            return to_exact(const) if const is not None else self.atom(value)
+        raise TypeError(f"{self.name} backend: cannot use {type(value).__name__} as a scalar")
+
+    def atom(self, native: Any) -> Poly:
+        """A native expression as a one-term Poly."""
+        return Poly({(self.key(native),): (ONE, (native,))})
+
+    @staticmethod
+    def is_exact(value: Any) -> bool:
+        return isinstance(value, sympy.Basic)
+
+    @staticmethod
+    def is_zero(value: Scalar) -> bool:
+        return isinstance(value, sympy.Basic) and value == 0
+
+    # -- arithmetic -----------------------------------------------------------------------------------
+    def add(self, *values: Any) -> Scalar:
+        const = ZERO
+        terms: dict[Key, list[Any]] = {}
+        for v in values:
+            v = self.lift(v)
+            if isinstance(v, Poly):
+                for k, (c, atoms) in v.terms.items():
+                    if k in terms:
+                        terms[k][0] += c
+                    else:
+                        terms[k] = [c, atoms]
+            else:
+                const += v
+        return self._poly(terms, const)
+
+    def neg(self, a: Any) -> Scalar:
+        return self._scale(-ONE, self.lift(a))
+
+    def sub(self, a: Any, b: Any) -> Scalar:
+        return self.add(a, self.neg(b))
+
+    def mul(self, *values: Any) -> Scalar:
+        result: Scalar = ONE
+        for v in values:
+            result = self._mul2(result, self.lift(v))
+        return result
+
+    def div(self, a: Any, b: Any) -> Scalar:
+        a, b = self.lift(a), self.lift(b)
+        if self.is_exact(b):
+            if b == 0:
+                raise ZeroDivisionError("division by an exact zero in a symbolic expression")
+            return self._scale(1 / b, a)
+        if self.is_zero(a):
+            return ZERO
+        return self.lift(self.native_divide(self.native(a), self.native(b)))
+
+    def call(self, fn: str, *args: Any) -> Scalar:
+        """Math function; evaluated exactly when every argument is exact."""
+        lifted = [self.lift(a) for a in args]
+        if all(self.is_exact(a) for a in lifted):
+            return EXACT_FUNCTIONS[fn](*lifted)
+        return self.lift(self.native_call(fn, *(self.native(a) for a in lifted)))
+
+    def _mul2(self, a: Scalar, b: Scalar) -> Scalar:
+        if self.is_exact(a):
+            return self._scale(a, b)
+        if self.is_exact(b):
+            return self._scale(b, a)
+        if not self.expand_all:  # a product of sums: each sum becomes one node first
+            a, b = self._as_monomial(a), self._as_monomial(b)
+        terms: dict[Key, list[Any]] = {}
+        for ka, (ca, xa) in a.terms.items():
+            for kb, (cb, xb) in b.terms.items():
+                k = tuple(sorted(ka + kb))
+                if k in terms:
+                    terms[k][0] += ca * cb
+                else:
+                    terms[k] = [ca * cb, xa + xb]
+        return self._poly(terms, ZERO)
+
+    def _scale(self, c: sympy.Expr, p: Scalar) -> Scalar:
+        if self.is_exact(p) or c == 0:
+            return c * p
+        if c == 1:
+            return p
+        if c != -1 and not self.expand_all and len(p) > self.scale_expand_limit:
+            p = self.atom(self.native(p))  # one multiplication instead of one per term
+        return Poly({k: (c * cp, atoms) for k, (cp, atoms) in p.terms.items()})
+
+    def _as_monomial(self, p: Poly) -> Poly:
+        return p if len(p) == 1 else self.atom(self.native(p))
+
+    def _poly(self, terms: dict[Key, list[Any]], const: sympy.Expr) -> Scalar:
+        kept = {k: (c, atoms) for k, (c, atoms) in terms.items() if c != 0}
+        if const != 0:
+            kept[()] = (const, ())
+        if not kept:
+            return ZERO
+        if list(kept) == [()]:
+            return const
+        return Poly(kept)
+
+    # -- leaving the scalar layer ---------------------------------------------------------------------
+    def native(self, value: Scalar) -> Any:
+        """One native expression for a scalar (materialised once per Poly)."""
+        if self.is_exact(value):
+            return self.constant(value)
+        if value._native is None:
+            value._native = self._emit(value)
+        return value._native
+
+    def _emit(self, p: Poly) -> Any:
+        positive, negative = [], []
+        for coef, atoms in p.terms.values():
+            prod = self.native_product(atoms) if atoms else None
+            magnitude = -coef if coef.is_extended_negative else coef
+            if prod is None:
+                value = self.constant(magnitude)
+            elif magnitude == 1:
+                value = prod
+            else:
+                value = self.native_scale(magnitude, prod)
+            (negative if coef.is_extended_negative else positive).append(value)
+        return self.native_sum(positive, negative)
+
+
+EXACT_FUNCTIONS = {
+    "sqrt": sympy.sqrt, "sin": sympy.sin, "cos": sympy.cos, "tan": sympy.tan, "asin": sympy.asin,
+    "acos": sympy.acos, "atan": sympy.atan, "atan2": sympy.atan2, "exp": sympy.exp, "log": sympy.log,
+    "sinh": sympy.sinh, "cosh": sympy.cosh, "tanh": sympy.tanh, "asinh": sympy.asinh,
+    "acosh": sympy.acosh, "atanh": sympy.atanh, "fabs": sympy.Abs,
+}
+MATH_FUNCTIONS = tuple(EXACT_FUNCTIONS)
