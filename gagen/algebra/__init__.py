@@ -1,9 +1,22 @@
-"""The compiler's algebra: algebra descriptions, exact blade rules, sparse symbolic multivectors."""
+"""The compiler's algebra: algebra descriptions, exact blade rules, sparse symbolic multivectors.
 
-from gagen.algebra.blade_rules import BladeRules, rules_for
-from gagen.algebra.multivector import SparseMultivector
-from gagen.algebra.protocol import Multivector
-from gagen.algebra.signature import Algebra, cga2d, cga3d, from_signature, ga3d, pga3d, preset
+Names load lazily, so that the reference interpreter, which needs only ``signature``, never
+imports the compiler's rules.
+"""
 
-__all__ = ["Algebra", "BladeRules", "Multivector", "SparseMultivector", "cga2d", "cga3d",
-           "from_signature", "ga3d", "pga3d", "preset", "rules_for"]
+from importlib import import_module
+from typing import Any
+
+_EXPORTS = {
+    "Algebra": "signature", "cga2d": "signature", "cga3d": "signature", "from_signature": "signature",
+    "ga3d": "signature", "pga3d": "signature", "preset": "signature",
+    "BladeRules": "blade_rules", "rules_for": "blade_rules",
+    "SparseMultivector": "multivector", "Multivector": "protocol",
+}
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _EXPORTS:
+        raise AttributeError(f"module 'gagen.algebra' has no attribute {name!r}")
+    return getattr(import_module(f"gagen.algebra.{_EXPORTS[name]}"), name)

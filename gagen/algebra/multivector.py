@@ -16,7 +16,7 @@ from typing import Any
 from gagen.algebra.blade_rules import BladeRules, Entries, rules_for
 from gagen.algebra.protocol import BladeKey
 from gagen.algebra.signature import Algebra
-from gagen.symbolic.backend import ZERO, Scalar, ScalarBackend
+from gagen.symbolic.backend import ZERO, BackendMath, Scalar, ScalarBackend
 
 
 class SparseMultivector:
@@ -49,6 +49,11 @@ class SparseMultivector:
 
     def _like(self, coeffs: Mapping[int, Scalar]) -> SparseMultivector:
         return SparseMultivector(self.algebra, self.backend, coeffs)
+
+    @property
+    def math(self) -> BackendMath:
+        """sqrt, sin, cos, atan2, ... on scalars of this multivector's backend."""
+        return BackendMath(self.backend)
 
     # -- coefficients --------------------------------------------------------------------------------
     @property

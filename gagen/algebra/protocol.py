@@ -38,6 +38,11 @@ BladeKey = int | str  # a bitmask or a blade name such as "e12", "e0inf", "1"
 class Multivector(Protocol):
     algebra: Algebra
 
+    @property
+    def math(self) -> Any:
+        """Namespace of scalar functions (sqrt, sin, cos, tan, asin, acos, atan, atan2, exp, log,
+        sinh, cosh, tanh, asinh, acosh, atanh, fabs) for this implementation's scalars."""
+
     # -- construction of constants of the same kind (same backend) ------------------------------
     def make(self, coefficients: Mapping[BladeKey, Any]) -> Self:
         """A multivector of the same kind with the given coefficients (others zero)."""

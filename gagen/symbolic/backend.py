@@ -32,16 +32,57 @@ Key = tuple[Hashable, ...]  # sorted identities of a term's atoms (commutative p
 
 
 class Poly:
-    """Σ coef · Π atoms, with exact coefficients; immutable apart from its materialisation cache."""
+    """Σ coef · Π atoms, with exact coefficients; immutable apart from its materialisation cache.
 
-    __slots__ = ("_native", "terms")
+    Supports Python arithmetic with numbers and other Polys of its backend, so formulas can treat
+    scalars of the symbolic path like floats.
+    """
 
-    def __init__(self, terms: dict[Key, tuple[sympy.Expr, tuple[Any, ...]]]) -> None:
+    __slots__ = ("_native", "backend", "terms")
+
+    def __init__(self, backend: ScalarBackend, terms: dict[Key, tuple[sympy.Expr, tuple[Any, ...]]]) -> None:
+        self.backend = backend
         self.terms = terms  # key -> (non-zero exact coefficient, atoms in first-seen order)
         self._native: Any = None
 
     def __len__(self) -> int:
         return len(self.terms)
+
+    def _operand(self, other: Any) -> Any:
+        if isinstance(other, Poly) or to_exact(other) is not None or self.backend.is_native(other):
+            return other
+        return None
+
+    def __add__(self, other: Any) -> Any:
+        o = self._operand(other)
+        return NotImplemented if o is None else self.backend.add(self, o)
+
+    __radd__ = __add__
+
+    def __sub__(self, other: Any) -> Any:
+        o = self._operand(other)
+        return NotImplemented if o is None else self.backend.sub(self, o)
+
+    def __rsub__(self, other: Any) -> Any:
+        o = self._operand(other)
+        return NotImplemented if o is None else self.backend.sub(o, self)
+
+    def __mul__(self, other: Any) -> Any:
+        o = self._operand(other)
+        return NotImplemented if o is None else self.backend.mul(self, o)
+
+    __rmul__ = __mul__
+
+    def __truediv__(self, other: Any) -> Any:
+        o = self._operand(other)
+        return NotImplemented if o is None else self.backend.div(self, o)
+
+    def __rtruediv__(self, other: Any) -> Any:
+        o = self._operand(other)
+        return NotImplemented if o is None else self.backend.div(o, self)
+
+    def __neg__(self) -> Any:
+        return self.backend.neg(self)
 
     def __repr__(self) -> str:
         return " + ".join(f"{c}*{'*'.join(map(str, atoms)) or '1'}" for c, atoms in self.terms.values())
@@ -56,7 +97,10 @@ def to_exact(value: Any) -> sympy.Expr | None:
     Floats become the exact rational value of the double (no guessing), so no precision is lost.
     """
     if isinstance(value, sympy.Basic):
-        return value if value.is_number else None
+        if not value.is_number:
+            return None
+        # a sympy Float (e.g. from 0.5 * Integer(3)) becomes the exact value of its binary digits
+        return value.xreplace({f: sympy.Rational(f) for f in value.atoms(sympy.Float)})
     if isinstance(value, bool):
         return sympy.Integer(int(value))
     if isinstance(value, int):
@@ -130,7 +174,7 @@ class ScalarBackend(ABC):
 
     def atom(self, native: Any) -> Poly:
         """A native expression as a one-term Poly."""
-        return Poly({(self.key(native),): (ONE, (native,))})
+        return Poly(self, {(self.key(native),): (ONE, (native,))})
 
     @staticmethod
     def is_exact(value: Any) -> bool:
@@ -209,7 +253,7 @@ class ScalarBackend(ABC):
             return p
         if c != -1 and not self.expand_all and len(p) > self.scale_expand_limit:
             p = self.atom(self.native(p))  # one multiplication instead of one per term
-        return Poly({k: (c * cp, atoms) for k, (cp, atoms) in p.terms.items()})
+        return Poly(self, {k: (c * cp, atoms) for k, (cp, atoms) in p.terms.items()})
 
     def _as_monomial(self, p: Poly) -> Poly:
         return p if len(p) == 1 else self.atom(self.native(p))
@@ -222,7 +266,7 @@ class ScalarBackend(ABC):
             return ZERO
         if list(kept) == [()]:
             return const
-        return Poly(kept)
+        return Poly(self, kept)
 
     # -- leaving the scalar layer ---------------------------------------------------------------------
     def native(self, value: Scalar) -> Any:
@@ -234,18 +278,35 @@ class ScalarBackend(ABC):
         return value._native
 
     def _emit(self, p: Poly) -> Any:
-        positive, negative = [], []
+        """Σ ±terms, with terms sharing a coefficient magnitude c ≠ 1 summed first and scaled once."""
+        groups: dict[sympy.Expr, tuple[list[Any], list[Any]]] = {}
         for coef, atoms in p.terms.values():
-            prod = self.native_product(atoms) if atoms else None
-            magnitude = -coef if coef.is_extended_negative else coef
-            if prod is None:
-                value = self.constant(magnitude)
-            elif magnitude == 1:
-                value = prod
+            negative = bool(coef.is_extended_negative)
+            magnitude = -coef if negative else coef
+            if atoms:
+                value = self.native_product(atoms)
+            else:  # the constant term
+                value, magnitude = self.constant(magnitude), ONE
+            groups.setdefault(magnitude, ([], []))[negative].append(value)
+        positive, negative = groups.pop(ONE, ([], []))
+        for magnitude, (pos, neg) in groups.items():
+            if pos:
+                positive.append(self.native_scale(magnitude, self.native_sum(pos, neg)))
             else:
-                value = self.native_scale(magnitude, prod)
-            (negative if coef.is_extended_negative else positive).append(value)
+                negative.append(self.native_scale(magnitude, self.native_sum(neg, [])))
         return self.native_sum(positive, negative)
+
+
+class BackendMath:
+    """``math``-like namespace over a backend's scalars (exact when the arguments are)."""
+
+    def __init__(self, backend: ScalarBackend) -> None:
+        self._backend = backend
+
+    def __getattr__(self, fn: str) -> Any:
+        if fn not in EXACT_FUNCTIONS:
+            raise AttributeError(f"no math function {fn!r}; known: {', '.join(MATH_FUNCTIONS)}")
+        return lambda *args: self._backend.call(fn, *args)
 
 
 EXACT_FUNCTIONS = {

@@ -10,6 +10,7 @@ Each port records its layout (blade order for multivectors), so callers know wha
 from __future__ import annotations
 
 import itertools
+import re
 from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -101,6 +102,12 @@ def flatten(name: str, inputs: Sequence[tuple[str, Value]], outputs: Sequence[tu
     return _flatten_sympy(name, in_ports, in_entries, out_ports, out_entries, backend)
 
 
+def identifier(name: str) -> str:
+    """A C/CasADi identifier for a human-readable name: 'v v^-1' -> 'v_v_1'."""
+    ident = re.sub(r"[^0-9A-Za-z]+", "_", name).strip("_") or "f"
+    return ident if ident[0].isalpha() else "f_" + ident
+
+
 # -- CasADi ------------------------------------------------------------------------------------------
 _OP_NAMES = {getattr(ca, a): a[3:].lower() for a in dir(ca) if a.startswith("OP_")}
 _IGNORED = {"const", "input", "output", "parameter", "assign"}
@@ -129,7 +136,8 @@ def _flatten_casadi(name, in_ports, in_entries, out_ports, out_entries, backend)
     joined = ca.cse(ca.vertcat(*flat)) if flat else ca.SX(0, 1)
     sizes = np.cumsum([0] + [p.size for p in out_ports])
     sym_out = [joined[int(a):int(b)] for a, b in itertools.pairwise(sizes)]
-    f = ca.Function(name, sym_in, sym_out, [p.name for p in in_ports], [p.name for p in out_ports])
+    f = ca.Function(identifier(name), sym_in, sym_out, [identifier(p.name) for p in in_ports],
+                    [identifier(p.name) for p in out_ports])
 
     def evaluate(*arrays: np.ndarray) -> list[np.ndarray]:
         res = f.call(list(arrays))
