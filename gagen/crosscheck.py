@@ -36,42 +36,48 @@ class Formula:
         return [self.algebra.blade(b) if isinstance(b, str) else b for b in blades]
 
 
+def _outputs(result: Any) -> list[Any]:
+    """A formula returns one value or a tuple of values (multivectors or scalars)."""
+    return list(result) if isinstance(result, tuple) else [result]
+
+
 def flatten_formula(formula: Formula, backend: ScalarBackend | None = None) -> FlatKernel:
-    """Run the formula on symbolic inputs and flatten its result (one output port, ``out``)."""
+    """Run the formula on symbolic inputs and flatten its result(s): ports ``out0``, ``out1``, ..."""
     backend = backend or CasadiBackend()
     args = [SparseMultivector.symbolic(formula.algebra, backend, name, blades)
             for name, blades in formula.inputs]
-    result = formula.fn(*args)
+    results = _outputs(formula.fn(*args))
     return flatten(formula.name, [(n, a) for (n, _), a in zip(formula.inputs, args, strict=True)],
-                   [("out", result)], backend)
+                   [(f"out{i}", r) for i, r in enumerate(results)], backend)
 
 
-def interpret(formula: Formula, arrays: Sequence[np.ndarray]) -> np.ndarray:
-    """The formula on the interpreter: dense coefficients (or a length-1 array for a scalar)."""
+def interpret(formula: Formula, arrays: Sequence[np.ndarray]) -> list[np.ndarray]:
+    """The formula on the interpreter: dense coefficients per output (length 1 for a scalar)."""
     args = []
     for (_, blades), values in zip(formula.inputs, arrays, strict=True):
         args.append(MultiVector.from_blades(formula.algebra, dict(zip(formula.masks(blades), values,
                                                                       strict=True))))
-    result = formula.fn(*args)
-    if isinstance(result, MultiVector):
-        return np.asarray(result.coeffs, dtype=float)
-    return np.array([float(result)])
+    return [np.asarray(r.coeffs, dtype=float) if isinstance(r, MultiVector) else np.array([float(r)])
+            for r in _outputs(formula.fn(*args))]
 
 
-def dense_output(kernel: FlatKernel, algebra: Algebra, values: np.ndarray) -> np.ndarray:
-    """Scatter a kernel's multivector output (ordered by its port labels) into a dense array."""
-    port = kernel.outputs[0]
-    if port.labels == ("0",):
-        return np.asarray(values, dtype=float).reshape(1)
-    dense = np.zeros(algebra.size)
-    for label, v in zip(port.labels, values, strict=True):
-        dense[algebra.blade(label)] = v
-    return dense
+def dense_outputs(kernel: FlatKernel, algebra: Algebra, values: Sequence[np.ndarray]) -> list[np.ndarray]:
+    """Scatter a kernel's outputs (ordered by port labels) into dense arrays (length 1 for scalars)."""
+    dense_all = []
+    for port, vals in zip(kernel.outputs, values, strict=True):
+        if port.labels == ("0",):
+            dense_all.append(np.asarray(vals, dtype=float).reshape(1))
+            continue
+        dense = np.zeros(algebra.size)
+        for label, v in zip(port.labels, vals, strict=True):
+            dense[algebra.blade(label)] = v
+        dense_all.append(dense)
+    return dense_all
 
 
 def relative_error(kernel: FlatKernel, formula: Formula, arrays: Sequence[np.ndarray]) -> float:
-    """max |kernel − interpreter| / max(1, max |interpreter|) on one set of inputs."""
-    (out,) = kernel(*arrays)
-    ours = dense_output(kernel, formula.algebra, out)
-    ref = interpret(formula, arrays)
-    return float(np.max(np.abs(ours - ref)) / max(1.0, float(np.max(np.abs(ref)))))
+    """max over outputs of |kernel − interpreter| / max(1, max |interpreter|) on one set of inputs."""
+    ours = dense_outputs(kernel, formula.algebra, kernel(*arrays))
+    refs = interpret(formula, arrays)
+    return max(float(np.max(np.abs(o - r)) / max(1.0, float(np.max(np.abs(r)))))
+               for o, r in zip(ours, refs, strict=True))

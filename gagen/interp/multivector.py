@@ -16,6 +16,7 @@ import numpy as np
 
 from gagen.algebra.signature import Algebra
 from gagen.interp.frame import Tables, tables
+from gagen.interp.scalar_math import INTERP_MATH
 
 BladeKey = int | str  # a bitmask or a blade name such as "e12", "e0inf", "1"
 
@@ -71,8 +72,8 @@ class MultiVector:
 
     @property
     def math(self) -> Any:
-        """Scalar functions (sqrt, sin, atan2, ...) for this implementation's scalars: Python's ``math``."""
-        return math
+        """Scalar functions (sqrt, sin, atan2, ..., lt, if_else) for this implementation's floats."""
+        return INTERP_MATH
 
     # -- coefficients ---------------------------------------------------------------------------------
     def __getitem__(self, blade: BladeKey) -> float:

@@ -159,6 +159,14 @@ class ScalarBackend(ABC):
     @abstractmethod
     def native_divide(self, a: Any, b: Any) -> Any: ...
 
+    @abstractmethod
+    def native_less(self, a: Any, b: Any) -> Any:
+        """A native boolean expression a < b."""
+
+    @abstractmethod
+    def native_select(self, cond: Any, a: Any, b: Any) -> Any:
+        """cond ? a : b, without letting a NaN or Inf of the branch not taken leak through."""
+
     # -- entering the scalar layer ------------------------------------------------------------------
     def lift(self, value: Any) -> Scalar:
         """Exact constant or Poly for a number, a native expression, or a scalar of this layer."""
@@ -229,6 +237,19 @@ class ScalarBackend(ABC):
             return EXACT_FUNCTIONS[fn](*lifted)
         return self.lift(self.native_call(fn, *(self.native(a) for a in lifted)))
 
+    def less(self, a: Any, b: Any) -> Any:
+        """a < b: a Python bool when both are exact, else a native boolean expression."""
+        a, b = self.lift(a), self.lift(b)
+        if self.is_exact(a) and self.is_exact(b):
+            return bool(a < b)
+        return self.native_less(self.native(a), self.native(b))
+
+    def select(self, cond: Any, a: Any, b: Any) -> Scalar:
+        """cond ? a : b; folded when the condition is known at build time."""
+        if isinstance(cond, bool):
+            return self.lift(a if cond else b)
+        return self.lift(self.native_select(cond, self.native(self.lift(a)), self.native(self.lift(b))))
+
     def _mul2(self, a: Scalar, b: Scalar) -> Scalar:
         if self.is_exact(a):
             return self._scale(a, b)
@@ -298,10 +319,20 @@ class ScalarBackend(ABC):
 
 
 class BackendMath:
-    """``math``-like namespace over a backend's scalars (exact when the arguments are)."""
+    """``math``-like namespace over a backend's scalars (exact when the arguments are).
+
+    Besides the functions of ``MATH_FUNCTIONS`` it has ``lt(a, b)`` and ``if_else(cond, a, b)``,
+    with which formulas write guarded, branch-free special cases.
+    """
 
     def __init__(self, backend: ScalarBackend) -> None:
         self._backend = backend
+
+    def lt(self, a: Any, b: Any) -> Any:
+        return self._backend.less(a, b)
+
+    def if_else(self, cond: Any, a: Any, b: Any) -> Scalar:
+        return self._backend.select(cond, a, b)
 
     def __getattr__(self, fn: str) -> Any:
         if fn not in EXACT_FUNCTIONS:

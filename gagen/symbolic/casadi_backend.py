@@ -53,3 +53,10 @@ class CasadiBackend(ScalarBackend):
 
     def native_divide(self, a: Any, b: Any) -> Any:
         return a / b
+
+    def native_less(self, a: Any, b: Any) -> Any:
+        return a < b
+
+    def native_select(self, cond: Any, a: Any, b: Any) -> Any:
+        # if_else_zero(c, x) is "c ? x : 0" in generated code, so a NaN in the other branch stays out
+        return ca.if_else(cond, a, b)

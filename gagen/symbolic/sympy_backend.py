@@ -49,3 +49,9 @@ class SympyBackend(ScalarBackend):
 
     def native_divide(self, a: Any, b: Any) -> Any:
         return a / b
+
+    def native_less(self, a: Any, b: Any) -> Any:
+        return sympy.Lt(a, b)
+
+    def native_select(self, cond: Any, a: Any, b: Any) -> Any:
+        return sympy.Piecewise((a, cond), (b, True))

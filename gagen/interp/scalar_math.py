@@ -1,0 +1,43 @@
+"""Scalar functions of the interpreter's path: Python floats, plus ``lt`` and ``if_else``.
+
+The same names as the symbolic path's ``BackendMath``, so a formula written against the
+multivector protocol can call ``X.math.sqrt(...)`` or ``X.math.if_else(...)`` on either path.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+
+class InterpMath:
+    """``math`` for floats, with the extra names formulas use for guarded special cases."""
+
+    sqrt = staticmethod(math.sqrt)
+    sin = staticmethod(math.sin)
+    cos = staticmethod(math.cos)
+    tan = staticmethod(math.tan)
+    asin = staticmethod(math.asin)
+    acos = staticmethod(math.acos)
+    atan = staticmethod(math.atan)
+    atan2 = staticmethod(math.atan2)
+    exp = staticmethod(math.exp)
+    log = staticmethod(math.log)
+    sinh = staticmethod(math.sinh)
+    cosh = staticmethod(math.cosh)
+    tanh = staticmethod(math.tanh)
+    asinh = staticmethod(math.asinh)
+    acosh = staticmethod(math.acosh)
+    atanh = staticmethod(math.atanh)
+    fabs = staticmethod(math.fabs)
+
+    @staticmethod
+    def lt(a: float, b: float) -> bool:
+        return a < b
+
+    @staticmethod
+    def if_else(cond: bool, a: Any, b: Any) -> Any:
+        return a if cond else b
+
+
+INTERP_MATH = InterpMath()

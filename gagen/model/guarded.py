@@ -1,0 +1,54 @@
+"""Guarded scalar functions: exact, smooth and NaN-free at their removable singularities.
+
+Each function switches to a Taylor series below a small threshold and evaluates the closed form
+at a *safe* argument otherwise (the "double where" pattern), so neither the value nor its
+derivative (CasADi AD) meets 0/0 or sqrt(0): the branch not taken never sees the singular point.
+The series are truncated where the next term is below 1e-16 relative at the threshold.
+
+``m`` is the ``math`` namespace of a multivector (interpreter floats or symbolic scalars).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+SERIES_BELOW = 1e-4  # squared-angle threshold for the series branches
+TINY = 1e-300  # replaces an exactly-zero denominator so that nothing becomes Inf or NaN
+
+
+def _switch(m: Any, s: Any, series: Any, closed_form: Any) -> Any:
+    return m.if_else(m.lt(s, SERIES_BELOW), series, closed_form)
+
+
+def _safe(m: Any, s: Any) -> Any:
+    """s where the closed form is used, a harmless 1 where the series is."""
+    return m.if_else(m.lt(s, SERIES_BELOW), 1.0, s)
+
+
+def cos_half_sqrt(m: Any, s: Any) -> Any:
+    """cos(√s / 2) for s >= 0, smooth at s = 0."""
+    series = 1 - s / 8 + s * s / 384 - s * s * s / 46080
+    return _switch(m, s, series, m.cos(m.sqrt(_safe(m, s)) / 2))
+
+
+def sin_half_sqrt_over_sqrt(m: Any, s: Any) -> Any:
+    """sin(√s / 2) / √s for s >= 0, → ½ at s = 0."""
+    series = 0.5 - s / 48 + s * s / 3840 - s * s * s / 645120
+    safe = _safe(m, s)
+    root = m.sqrt(safe)
+    return _switch(m, s, series, m.sin(root / 2) / root)
+
+
+def atan2_sqrt_over_sqrt(m: Any, s: Any, w: Any) -> Any:
+    """atan2(√s, w) / √s for s >= 0; for w > 0 it tends to 1/w at s = 0 (the identity rotor)."""
+    w_series = m.if_else(m.lt(s, SERIES_BELOW), w, 1.0)  # w ≈ ±1 where the series is used
+    z2 = s / (w_series * w_series)
+    series = (1 - z2 / 3 + z2 * z2 / 5 - z2 * z2 * z2 / 7) / w_series
+    safe = _safe(m, s)
+    root = m.sqrt(safe)
+    return _switch(m, s, series, m.atan2(root, w) / root)
+
+
+def safe_reciprocal(m: Any, x: Any) -> Any:
+    """1/x, with an exactly-zero (or subnormal) x replaced by TINY so the result stays finite."""
+    return 1 / m.if_else(m.lt(m.fabs(x), TINY), TINY, x)

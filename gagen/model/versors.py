@@ -1,0 +1,233 @@
+"""Versors of the similarity group and their exp/log charts [COOP Appendix A].
+
+Convention of [COOP]: ``exp(B) = e^{−B/2}``; B is the twist-like generator, a bivector on
+e12, e13, e23 (rotation: angle θ about unit n is θ(n3 e12 − n2 e13 + n1 e23)), e0∞ (dilation:
+λ = −ln d scales about the origin by d, gafro's convention) and e1∞, e2∞, e3∞ (translation by t
+is t ∧ e∞). Motors and similarity versors use the *decoupled* product charts of Eq. 72-77:
+exp(B) = T(t) R(b) [D(λ)], log returns the world-frame translation and the rotation generator.
+
+Every exp/log is exact and smooth at the identity (guarded series, see ``guarded``), valid for
+rotation angles |θ| < π, and finite at θ = π.
+"""
+
+from __future__ import annotations
+
+from typing import Any, NamedTuple
+
+from gagen.model.conformal import (
+    DILATION,
+    EUCLID,
+    MOTOR,
+    ROTATION,
+    TRANSLATION,
+    e0,
+    einf,
+    location,
+    normalized_point,
+    part,
+    vector,
+)
+from gagen.model.guarded import (
+    atan2_sqrt_over_sqrt,
+    cos_half_sqrt,
+    safe_reciprocal,
+    sin_half_sqrt_over_sqrt,
+)
+
+ROTOR = ("1", *ROTATION)
+DILATOR = ("1", *DILATION)
+
+
+# -- rotors -------------------------------------------------------------------------------------------
+def exp_rotor(b: Any) -> Any:
+    """R = cos(‖B‖/2) − sin(‖B‖/2) B/‖B‖ for the rotation part of B [Eq. 62]."""
+    m = b.math
+    br = part(b, ROTATION)
+    s = br.sp(~br)  # = b12² + b13² + b23² = θ²
+    return cos_half_sqrt(m, s) - br * sin_half_sqrt_over_sqrt(m, s)
+
+
+def log_rotor(r: Any) -> Any:
+    """Rotation generator of a rotor (any positive scale): −2 atan2(|⟨R⟩₂|, ⟨R⟩₀) ⟨R⟩₂/|⟨R⟩₂| [Eq. 63]."""
+    br = part(r, ROTATION)
+    s = br.sp(~br)
+    return br * (-2 * atan2_sqrt_over_sqrt(r.math, s, r.scalar()))
+
+
+def rotor(axis: Any, angle: Any) -> Any:
+    """Rotor turning by ``angle`` about the unit Euclidean vector ``axis`` (right-handed)."""
+    n1, n2, n3 = (axis[k] for k in EUCLID)
+    return exp_rotor(axis.make({"e12": angle * n3, "e13": -angle * n2, "e23": angle * n1}))
+
+
+# -- translators --------------------------------------------------------------------------------------
+def exp_translator(b: Any) -> Any:
+    """T = 1 − ½ B_T [Eq. 64]."""
+    return 1 - part(b, TRANSLATION) * 0.5
+
+
+def log_translator(t: Any) -> Any:
+    """B_T = −2 ⟨T⟩₂ / ⟨T⟩₀ [Eq. 65] (the scalar part divides out any scale)."""
+    return part(t, TRANSLATION) * (-2 / t.scalar())
+
+
+def translator(t: Any) -> Any:
+    """Translator by the Euclidean vector t: exp(t ∧ e∞) [Eq. 66]."""
+    return exp_translator(t ^ einf(t))
+
+
+# -- dilators -----------------------------------------------------------------------------------------
+def exp_dilator(b: Any) -> Any:
+    """D = cosh(λ/2) − sinh(λ/2) e0∞ for λ the e0∞ coefficient of B [Eq. 67]; scales by e^{−λ}."""
+    m = b.math
+    half = b["e0inf"] * 0.5
+    return b.make({"1": m.cosh(half), "e0inf": -m.sinh(half)})
+
+
+def log_dilator(d: Any) -> Any:
+    """λ e0∞ with λ = 2 atanh(−⟨D⟩_{e0∞} / ⟨D⟩₀) [Eq. 68], any positive scale of D."""
+    return d.make({"e0inf": 2 * d.math.atanh(-d["e0inf"] / d.scalar())})
+
+
+def dilator_between_radii(like: Any, r1_squared: Any, r2_squared: Any) -> Any:
+    """The dilator taking radius r1 to radius r2, from the squared radii, with no logarithm:
+    D = ½(k + 1/k) − ½(k − 1/k) e0∞, k = (r1²/r2²)^¼ (exactly 1 for equal radii)."""
+    m = like.math
+    k = m.sqrt(m.sqrt(r1_squared * safe_reciprocal(m, r2_squared)))
+    inv = 1 / k
+    return like.make({"1": (k + inv) * 0.5, "e0inf": (inv - k) * 0.5})
+
+
+def dilator(like: Any, d: Any) -> Any:
+    """Dilator scaling about the origin by d > 0."""
+    return exp_dilator(like.make({"e0inf": -like.math.log(d)}))
+
+
+# -- motors and similarity versors --------------------------------------------------------------------
+def exp_motor(b: Any) -> Any:
+    """M = exp(B_T) exp(B_R) [Eq. 72]."""
+    return exp_translator(b) * exp_rotor(b)
+
+
+def log_motor(motor: Any) -> Any:
+    """log M = log T + log R with R the Euclidean part of M and T = M R⁻¹ [Eq. 73]."""
+    r = part(motor, ROTOR)
+    t = part(motor * ~r, ("1", *TRANSLATION))  # = T ⟨R R~⟩₀; log_translator divides the scale out
+    return log_translator(t) + log_rotor(r)
+
+
+def exp_similarity(b: Any) -> Any:
+    """V = exp(B_T) exp(B_R) exp(B_D) [Eq. 76]."""
+    return exp_translator(b) * exp_rotor(b) * exp_dilator(b)
+
+
+class SimilarityFactors(NamedTuple):
+    translator: Any
+    rotor: Any
+    dilator: Any
+
+
+def decompose_similarity(v: Any) -> SimilarityFactors:
+    """V = T R D for a unit similarity versor.
+
+    T from the image of the origin (V e0 V~ ∝ P(t): R and D keep the origin), then R D = T~ V,
+    whose {1, e12, e13, e23} part is cosh(λ/2) R; D = R~ (R D).
+    """
+    t = translator(location(v.sandwich(e0(v))))
+    rd = ~t * v
+    a = part(rd, ROTOR)
+    r = a / a.math.sqrt(a.norm_squared())
+    d = part(~r * rd, DILATOR)
+    return SimilarityFactors(t, r, d)
+
+
+def log_similarity(v: Any) -> Any:
+    """log V = log V_T + log V_R + log V_D [Eq. 77]."""
+    t, r, d = decompose_similarity(v)
+    return log_translator(t) + log_rotor(r) + log_dilator(d)
+
+
+# -- versors between two objects ----------------------------------------------------------------------
+class Versor(NamedTuple):
+    """A versor and how well-conditioned its construction was (0 = degenerate; see each function)."""
+
+    versor: Any
+    conditioning: Any
+
+
+def half_turn_perpendicular(v: Any) -> Any:
+    """A rotor turning by π about a unit axis perpendicular to the Euclidean vector v
+    (v × e1, or v × e2 when v is close to e1); it maps v to −v."""
+    m = v.math
+    v1, v2, v3 = (v[k] for k in EUCLID)
+    use_e1 = m.lt(m.fabs(v1) * m.fabs(v1), 0.81 * v.sp(v))
+    h1, h2 = m.if_else(use_e1, 1.0, 0.0), m.if_else(use_e1, 0.0, 1.0)
+    u1, u2, u3 = -v3 * h2, v3 * h1, v1 * h2 - v2 * h1
+    norm = m.sqrt(u1 * u1 + u2 * u2 + u3 * u3)
+    return v.make({"e12": -u3 / norm, "e13": u2 / norm, "e23": -u1 / norm})
+
+
+def _select(cond: Any, x: Any, y: Any, blades: tuple[str, ...]) -> Any:
+    m = x.math
+    return x.make({k: m.if_else(cond, x[k], y[k]) for k in blades})
+
+
+ANTIPARALLEL = 1e-16  # |a + b|² (or K0) below this: a guarded half turn; both forms err by ~1e-8 there
+
+
+def rotor_between(a: Any, b: Any) -> Versor:
+    """Rotor turning unit vector a onto unit vector b: (1 + b a)/‖1 + b a‖ [COOP Eq. 26].
+
+    Evaluated as (a + b) a / |a + b|, which equals it for unit vectors and loses only eps/|a + b|
+    near antiparallel vectors (the problem's own conditioning), where 1 + a·b would lose
+    eps/|a + b|². Conditioning |a + b|²/4 = (1 + a·b)/2: 1 for a = b, 0 for antiparallel vectors,
+    where the rotor is a half turn about an axis perpendicular to a (guarded, never NaN).
+    """
+    m = a.math
+    s = a + b
+    n2 = s.sp(s)
+    antiparallel = m.lt(n2, ANTIPARALLEL)
+    generic = (s * a) * (1 / m.sqrt(m.if_else(antiparallel, 1.0, n2)))
+    return Versor(_select(antiparallel, half_turn_perpendicular(a), generic, ROTOR), n2 * 0.25)
+
+
+def _flat_axis(x: Any, sigma: int) -> Any:
+    """Direction of a line P∧P∧e∞ (σ = 1: its e0∧d∧e∞ part), or normal of a plane (σ = −1: the
+    Euclidean part of X*)."""
+    if sigma < 0:
+        return part(x.dual(), EUCLID)
+    return vector(x, [x[f"e0{k}inf"] for k in "123"])
+
+
+def versor_between(x1: Any, x2: Any, sigma: int) -> Versor:
+    """Motor taking the flat x1 onto the flat x2 of the same kind and orientation [COOP Eq. 21].
+
+    Each is scaled so that X² = σ (σ = +1 for lines P∧P∧e∞, −1 for planes P∧P∧P∧e∞);
+    K = 2 + σ(X2X1 + X1X2) = K0 + K4 with K4 null, and V = (1 + σX2X1)(1 − K4/(2K0))/√K0.
+    With S = X1 + X2 these are K = σS² and 1 + σX2X1 = σSX1, which keep full accuracy near
+    opposite orientations. Conditioning K0/4: 1 for x1 = x2, 0 for x2 = −x1, where x1 is first
+    given a half turn about a perpendicular axis through its point nearest the origin (guarded).
+    """
+    m = x1.math
+    n1 = x1 * (1 / m.sqrt(m.fabs(x1.sp(x1))))
+    n2 = x2 * (1 / m.sqrt(m.fabs(x2.sp(x2))))
+
+    def eq21(a: Any) -> tuple[Any, Any]:
+        s = a + n2
+        k = s * s * sigma
+        k0 = k.scalar()
+        inv_k0 = safe_reciprocal(m, k0)
+        v = s * a * sigma * (1 - k.grade(4) * (0.5 * inv_k0)) * m.sqrt(m.fabs(inv_k0))
+        return part(v, MOTOR), k0
+
+    direct, k0 = eq21(n1)
+    foot = location(normalized_point(project_point_of_origin(n1)))
+    flip = translator(foot) * half_turn_perpendicular(_flat_axis(n1, sigma)) * translator(-foot)
+    flipped, _ = eq21(flip.sandwich(n1))
+    opposite = m.lt(k0, ANTIPARALLEL)
+    return Versor(_select(opposite, part(flipped * flip, MOTOR), direct, MOTOR), k0 * 0.25)
+
+
+def project_point_of_origin(x: Any) -> Any:
+    """(e0·X) X⁻¹: the origin projected onto a flat (a scaled point)."""
+    return (e0(x) | x) * x.inverse()
