@@ -16,15 +16,13 @@ import sympy
 from gagen.algebra.signature import cga3d
 from gagen.crosscheck import Formula, flatten_formula, relative_error
 from gagen.interp import MultiVector
+from gagen.model.conformal import EUCLID, MOTOR, SIMILARITY_GENERATOR, point
+from gagen.model.primitives import through
+from gagen.model.similarity import cooperative_similarity
+from gagen.model.versors import exp_similarity
 
-MOTOR = ("1", "e12", "e13", "e23", "e1inf", "e2inf", "e3inf", "e123inf")
-VECTOR3 = ("e1", "e2", "e3")
+VECTOR3 = EUCLID
 PLANE = ("e012inf", "e013inf", "e023inf", "e123inf")  # grade 4 blades containing e∞
-
-
-def conformal_point(x: Any) -> Any:
-    """P(x) = e0 + x + ½|x|² e∞ [COOP Eq. 1]."""
-    return x.make({"e0": 1}) + x + x.make({"einf": 1}) * (sympy.Rational(1, 2) * x.sp(x))
 
 
 def quarter_turn(x: Any) -> Any:
@@ -37,13 +35,17 @@ def _formulas() -> list[Formula]:
     a = cga3d()
     return [
         Formula("motor * motor", a, (("a", MOTOR), ("b", MOTOR)), lambda m, n: m * n),
-        Formula("conformal point P(x)", a, (("x", VECTOR3),), conformal_point),
+        Formula("conformal point P(x)", a, (("x", VECTOR3),), point),
         Formula("motor moves point M P M~", a, (("m", MOTOR), ("x", VECTOR3)),
-                lambda m, x: m.sandwich(conformal_point(x))),
+                lambda m, x: m.sandwich(point(x))),
         Formula("squared distance -2 P(x).P(y)", a, (("x", VECTOR3), ("y", VECTOR3)),
-                lambda x, y: -2 * conformal_point(x).sp(conformal_point(y))),
+                lambda x, y: -2 * point(x).sp(point(y))),
         Formula("meet of two planes", a, (("p", PLANE), ("q", PLANE)), lambda p, q: p & q),
         Formula("quarter turn (exact constants)", a, (("x", VECTOR3),), quarter_turn),
+        Formula("exp similarity (7 generators)", a, (("b", SIMILARITY_GENERATOR),), exp_similarity),
+        Formula("V_Sc of circle through 3 points", a, (("x", VECTOR3), ("y", VECTOR3), ("z", VECTOR3)),
+                lambda x, y, z: cooperative_similarity("circle", through("circle", [point(x), point(y),
+                                                                                    point(z)]))),
     ]
 
 

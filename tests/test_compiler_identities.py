@@ -14,7 +14,7 @@ from hypothesis.extra.numpy import arrays
 
 from gagen.algebra import SparseMultivector, cga2d, cga3d
 from gagen.crosscheck import Formula, flatten_formula
-from gagen.demo import conformal_point
+from gagen.model.conformal import point as conformal_point
 from gagen.symbolic import CasadiBackend, SympyBackend
 
 

@@ -1,7 +1,7 @@
 """Sparsity and op counts: the compiler expands only what can contribute (pinned numbers)."""
 
 from gagen.algebra import SparseMultivector, cga3d
-from gagen.demo import MOTOR
+from gagen.model.conformal import MOTOR
 from gagen.symbolic import CasadiBackend, SympyBackend
 from gagen.symbolic.flatten import flatten
 
