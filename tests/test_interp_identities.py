@@ -239,7 +239,7 @@ def test_meet_of_two_planes_is_their_line(pts):
     meet = plane1 & plane2
     einf = MultiVector.from_blades(alg, {"einf": 1})
     line = conformal_point(alg, x0) ^ conformal_point(alg, x0 + u / np.linalg.norm(u)) ^ einf
-    assert meet.grades() <= {3} and line.grades() <= {3}
+    assert meet.grades <= {3} and line.grades <= {3}
     ratio = float(meet.coeffs @ line.coeffs / (line.coeffs @ line.coeffs))
     assert abs(ratio) > 1e-6 * mag(meet) / mag(line)
     assert close(meet, ratio * line, mag(meet) * 10)

@@ -198,7 +198,7 @@ def test_every_chart_kernel_equals_the_interpreter(name):
 @pytest.mark.parametrize("shortfall", [0.0, 1e-12, 1e-9, 1e-6])
 def test_log_is_finite_and_correct_at_and_near_a_half_turn(name, shortfall):
     """θ = π − shortfall: exp then log gives the generator back (no NaN at θ = π itself)."""
-    gens, exp, log, versor = CHARTS[name]
+    gens, exp, _log, versor = CHARTS[name]
     rng = np.random.default_rng(5)
     b = rng.normal(size=len(gens))
     rot = [i for i, g in enumerate(gens) if g in ROTATION]

@@ -52,6 +52,10 @@ class Multivector(Protocol):
     def __getitem__(self, blade: BladeKey) -> Any:
         """Coefficient of one blade (zero if absent)."""
 
+    @property
+    def grades(self) -> frozenset[int]:
+        """Grades present: non-zero coefficients (interpreter) or the proven support (compiler)."""
+
     def scalar(self) -> Any:
         """The grade-0 coefficient ⟨X⟩₀ as a scalar."""
 

@@ -224,6 +224,7 @@ class MultiVector:
         keep = [k] if isinstance(k, numbers.Integral) else list(k)
         return self._like(np.where(np.isin(self._tables.grades, keep), self.coeffs, 0.0))
 
+    @property
     def grades(self) -> frozenset[int]:
         """Grades with a non-zero coefficient."""
         return frozenset(int(g) for g in self._tables.grades[self.coeffs != 0])
@@ -251,7 +252,7 @@ class MultiVector:
     def sandwich(self, x: MultiVector) -> MultiVector:
         """V x V~, restricted to the grades present in x."""
         x = self._require(x)
-        return self.gp(x).gp(self.reverse()).grade(x.grades())
+        return self.gp(x).gp(self.reverse()).grade(x.grades)
 
     # -- comparison helper (tests) --------------------------------------------------------------------
     def allclose(self, other: Any, rtol: float = 1e-12, atol: float = 0.0) -> bool:

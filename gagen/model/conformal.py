@@ -8,6 +8,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+from gagen.model.guarded import safe_reciprocal
+
 EUCLID = ("e1", "e2", "e3")
 ROTATION = ("e12", "e13", "e23")  # B_R = θ (n3 e12 − n2 e13 + n1 e23) for angle θ about unit n
 DILATION = ("e0inf",)
@@ -48,13 +50,20 @@ def point_weight(p: Any) -> Any:
 
 
 def location(p: Any) -> Any:
-    """Euclidean vector of a (possibly scaled) point: its e1, e2, e3 part divided by −P·e∞."""
-    return part(p, EUCLID) / point_weight(p)
+    """Euclidean vector of a (possibly scaled) point: its e1, e2, e3 part divided by −P·e∞
+    (guarded: a zero weight, from a degenerate construction, gives a finite result)."""
+    return part(p, EUCLID) * safe_reciprocal(p.math, point_weight(p))
 
 
 def normalized_point(p: Any) -> Any:
-    """The point scaled so that −P·e∞ = 1."""
-    return p / point_weight(p)
+    """The point scaled so that −P·e∞ = 1 (guarded like ``location``)."""
+    return p * safe_reciprocal(p.math, point_weight(p))
+
+
+def unit(v: Any) -> Any:
+    """v / |v| for a Euclidean vector; a zero vector (degenerate input) stays zero, finite."""
+    m = v.math
+    return v * safe_reciprocal(m, m.sqrt(v.sp(v)))
 
 
 def norm2(x: Any) -> Any:

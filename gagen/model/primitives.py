@@ -9,7 +9,7 @@ from collections.abc import Sequence
 from functools import reduce
 from typing import Any
 
-from gagen.model.conformal import EUCLID, einf, norm2, normalized_point, part, point, vector
+from gagen.model.conformal import EUCLID, einf, norm2, normalized_point, part, point, unit, vector
 
 KINDS = ("point", "point_pair", "line", "circle", "plane", "sphere")
 ROUNDS = ("point_pair", "circle", "sphere")
@@ -91,15 +91,13 @@ def carrier_plane(x: Any) -> Any:
 def unit_normal(circle: Any) -> Any:
     """Unit normal of a circle's carrier plane: the Euclidean part of (X ∧ e∞)* [COOP Eq. 25],
     oriented like (x2 − x1) × (x3 − x1) for the circle P1 ∧ P2 ∧ P3."""
-    n = part(carrier_plane(circle).dual(), EUCLID)
-    return n * (-1 / n.math.sqrt(n.sp(n)))
+    return -unit(part(carrier_plane(circle).dual(), EUCLID))
 
 
 def direction(line: Any) -> Any:
     """Unit direction of a line P1∧P2∧e∞, along x2 − x1: its e0∧d∧e∞ part. For a point pair,
     pass its carrier line ``carrier_plane(pp)``."""
-    d = vector(line, [line[f"e0{k}inf"] for k in "123"])
-    return d * (1 / d.math.sqrt(d.sp(d)))
+    return unit(vector(line, [line[f"e0{k}inf"] for k in "123"]))
 
 
 def project_point(p: Any, x: Any) -> Any:

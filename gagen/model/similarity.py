@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from gagen.model.conformal import location
+from gagen.model.conformal import SIMILARITY, location
 from gagen.model.guarded import safe_reciprocal
 from gagen.model.primitives import (
     carrier_plane,
@@ -40,22 +40,39 @@ from gagen.model.versors import (
 )
 
 SIGMA = {"line": 1, "plane": -1}  # X² sign of P∧P∧e∞ and P∧P∧P∧e∞
+DEGENERATE_BELOW = 1e-30  # conditioning below this: the versor is replaced by the identity
 
 
 def similarity(kind: str, x1: Any, x2: Any) -> Versor:
-    """V_S(X1, X2) and its conditioning (see the module docstring)."""
-    check_kind(kind)
+    """V_S(X1, X2) and its conditioning (see the module docstring).
+
+    When the spanning points are degenerate to below ``DEGENERATE_BELOW`` (the size part of the
+    conditioning, not the orientation part) the versor is the identity: an exactly degenerate
+    input then gives finite values on every path (guarded intermediate values can overflow there).
+    """
+    v, conditioning, size = _similarity(check_kind(kind), x1, x2)
+    m = x1.math
+    degenerate = m.lt(m.fabs(size), DEGENERATE_BELOW)
+    return Versor(v.make({k: m.if_else(degenerate, 1.0 if k == "1" else 0.0, v[k]) for k in SIMILARITY}),
+                  conditioning)
+
+
+def _similarity(kind: str, x1: Any, x2: Any) -> tuple[Any, Any, Any]:
+    """(versor, conditioning, size): size is the part of the conditioning that measures how
+    degenerate the spanning points are, without the orientation factor."""
     m = x1.math
     if kind == "point":
-        return Versor(translator(location(x2) - location(x1)), 1)
+        return translator(location(x2) - location(x1)), 1, 1
     if kind in SIGMA:
         v, k = versor_between(x1, x2, SIGMA[kind])
         size = m.fabs(x1.sp(x1))
         size2 = m.fabs(x2.sp(x2))
-        return Versor(v, k * m.if_else(m.lt(size, size2), size, size2))
+        smaller = m.if_else(m.lt(size, size2), size, size2)
+        return v, k * smaller, smaller
     num1, den1 = radius_squared_parts(x1)
     num2, den2 = radius_squared_parts(x2)
-    conditioning = m.if_else(m.lt(den1, den2), den1, den2)
+    size = m.if_else(m.lt(den1, den2), den1, den2)
+    conditioning = size
     d = dilator_between_radii(x1, num1 * safe_reciprocal(m, den1), num2 * safe_reciprocal(m, den2))
     if kind == "sphere":
         rd = d
@@ -67,7 +84,7 @@ def similarity(kind: str, x1: Any, x2: Any) -> Versor:
         conditioning = conditioning * health
     moved = rd.sandwich(x1)
     t = translator(location(centre(x2)) - location(centre(moved)))
-    return Versor(t * rd, conditioning)
+    return t * rd, conditioning, size
 
 
 def cooperative_similarity(kind: str, xc: Any) -> Versor:

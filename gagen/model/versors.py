@@ -93,7 +93,10 @@ def dilator_between_radii(like: Any, r1_squared: Any, r2_squared: Any) -> Any:
     """The dilator taking radius r1 to radius r2, from the squared radii, with no logarithm:
     D = ½(k + 1/k) − ½(k − 1/k) e0∞, k = (r1²/r2²)^¼ (exactly 1 for equal radii)."""
     m = like.math
-    k = m.sqrt(m.sqrt(r1_squared * safe_reciprocal(m, r2_squared)))
+    # |…|: for nearly coincident points the r² numerators cancel and may come out slightly negative
+    k = m.sqrt(m.sqrt(m.fabs(r1_squared * safe_reciprocal(m, r2_squared))))
+    # radius ratios beyond 1e±60 only come from degenerate rounds: clamp so nothing overflows
+    k = m.if_else(m.lt(k, 1e-30), 1e-30, m.if_else(m.lt(1e30, k), 1e30, k))
     inv = 1 / k
     return like.make({"1": (k + inv) * 0.5, "e0inf": (inv - k) * 0.5})
 
@@ -163,8 +166,8 @@ def half_turn_perpendicular(v: Any) -> Any:
     use_e1 = m.lt(m.fabs(v1) * m.fabs(v1), 0.81 * v.sp(v))
     h1, h2 = m.if_else(use_e1, 1.0, 0.0), m.if_else(use_e1, 0.0, 1.0)
     u1, u2, u3 = -v3 * h2, v3 * h1, v1 * h2 - v2 * h1
-    norm = m.sqrt(u1 * u1 + u2 * u2 + u3 * u3)
-    return v.make({"e12": -u3 / norm, "e13": u2 / norm, "e23": -u1 / norm})
+    inv = safe_reciprocal(m, m.sqrt(u1 * u1 + u2 * u2 + u3 * u3))
+    return v.make({"e12": -u3 * inv, "e13": u2 * inv, "e23": -u1 * inv})
 
 
 def _select(cond: Any, x: Any, y: Any, blades: tuple[str, ...]) -> Any:
@@ -209,8 +212,8 @@ def versor_between(x1: Any, x2: Any, sigma: int) -> Versor:
     given a half turn about a perpendicular axis through its point nearest the origin (guarded).
     """
     m = x1.math
-    n1 = x1 * (1 / m.sqrt(m.fabs(x1.sp(x1))))
-    n2 = x2 * (1 / m.sqrt(m.fabs(x2.sp(x2))))
+    n1 = x1 * safe_reciprocal(m, m.sqrt(m.fabs(x1.sp(x1))))
+    n2 = x2 * safe_reciprocal(m, m.sqrt(m.fabs(x2.sp(x2))))
 
     def eq21(a: Any) -> tuple[Any, Any]:
         s = a + n2
@@ -230,4 +233,4 @@ def versor_between(x1: Any, x2: Any, sigma: int) -> Versor:
 
 def project_point_of_origin(x: Any) -> Any:
     """(e0·X) X⁻¹: the origin projected onto a flat (a scaled point)."""
-    return (e0(x) | x) * x.inverse()
+    return (e0(x) | x) * ~x * safe_reciprocal(x.math, x.norm_squared())

@@ -248,6 +248,9 @@ class ScalarBackend(ABC):
         """cond ? a : b; folded when the condition is known at build time."""
         if isinstance(cond, bool):
             return self.lift(a if cond else b)
+        a, b = self.lift(a), self.lift(b)
+        if a is b or (self.is_exact(a) and self.is_exact(b) and a == b):
+            return a
         return self.lift(self.native_select(cond, self.native(self.lift(a)), self.native(self.lift(b))))
 
     def _mul2(self, a: Scalar, b: Scalar) -> Scalar:
