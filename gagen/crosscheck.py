@@ -25,12 +25,14 @@ from gagen.symbolic.flatten import FlatKernel, flatten
 
 @dataclass(frozen=True)
 class Formula:
-    """A function of multivectors, with the blades each input may have."""
+    """A function of multivectors (and of scalar vectors, such as joint angles), with the blades
+    each multivector input may have, or the length of each scalar-vector input."""
 
     name: str
     algebra: Algebra
-    inputs: tuple[tuple[str, tuple[BladeKey, ...]], ...]
+    inputs: tuple[tuple[str, tuple[BladeKey, ...] | int], ...]
     fn: Callable[..., Any]
+    pass_zero: bool = False  # call fn(zero, *inputs), zero being a 0 multivector of the path's kind
 
     def masks(self, blades: Sequence[BladeKey]) -> list[int]:
         return [self.algebra.blade(b) if isinstance(b, str) else b for b in blades]
@@ -44,19 +46,28 @@ def _outputs(result: Any) -> list[Any]:
 def flatten_formula(formula: Formula, backend: ScalarBackend | None = None) -> FlatKernel:
     """Run the formula on symbolic inputs and flatten its result(s): ports ``out0``, ``out1``, ..."""
     backend = backend or CasadiBackend()
-    args = [SparseMultivector.symbolic(formula.algebra, backend, name, blades)
-            for name, blades in formula.inputs]
+    args = [[backend.lift(x) for x in backend.symbols(name, [str(i) for i in range(spec)])]
+            if isinstance(spec, int) else SparseMultivector.symbolic(formula.algebra, backend, name, spec)
+            for name, spec in formula.inputs]
+    if formula.pass_zero:
+        args = [SparseMultivector(formula.algebra, backend, {}), *args]
     results = _outputs(formula.fn(*args))
+    args = args[1:] if formula.pass_zero else args
     return flatten(formula.name, [(n, a) for (n, _), a in zip(formula.inputs, args, strict=True)],
                    [(f"out{i}", r) for i, r in enumerate(results)], backend)
 
 
 def interpret(formula: Formula, arrays: Sequence[np.ndarray]) -> list[np.ndarray]:
     """The formula on the interpreter: dense coefficients per output (length 1 for a scalar)."""
-    args = []
-    for (_, blades), values in zip(formula.inputs, arrays, strict=True):
-        args.append(MultiVector.from_blades(formula.algebra, dict(zip(formula.masks(blades), values,
+    args: list[Any] = []
+    for (_, spec), values in zip(formula.inputs, arrays, strict=True):
+        if isinstance(spec, int):
+            args.append([float(v) for v in values])
+            continue
+        args.append(MultiVector.from_blades(formula.algebra, dict(zip(formula.masks(spec), values,
                                                                       strict=True))))
+    if formula.pass_zero:
+        args = [MultiVector.zero(formula.algebra), *args]
     return [np.asarray(r.coeffs, dtype=float) if isinstance(r, MultiVector) else np.array([float(r)])
             for r in _outputs(formula.fn(*args))]
 

@@ -66,3 +66,13 @@ def test_quarter_turn_rotor_costs_no_multiplication(backend):
     out = kernel([1.0, 2.0, 3.0])[0]
     # rotation by +90° about e3 (e1 → e2): (1, 2, 3) → (−2, 1, 3)
     np.testing.assert_array_equal(out, [-2.0, 1.0, 3.0])
+
+
+def test_transcendental_constants_become_their_nearest_double_exactly():
+    """cos(1/7) is not carried symbolically: it becomes the exact value of the nearest double,
+    while cos(π/4) stays the algebraic √2/2."""
+    from gagen.symbolic.backend import exact_call
+
+    value = exact_call("cos", sympy.Rational(1, 7))
+    assert value.is_Rational and float(value) == math.cos(1 / 7)
+    assert exact_call("cos", sympy.pi / 4) == sympy.sqrt(2) / 2

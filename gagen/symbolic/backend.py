@@ -234,7 +234,7 @@ class ScalarBackend(ABC):
         """Math function; evaluated exactly when every argument is exact."""
         lifted = [self.lift(a) for a in args]
         if all(self.is_exact(a) for a in lifted):
-            return EXACT_FUNCTIONS[fn](*lifted)
+            return exact_call(fn, *lifted)
         return self.lift(self.native_call(fn, *(self.native(a) for a in lifted)))
 
     def less(self, a: Any, b: Any) -> Any:
@@ -271,7 +271,9 @@ class ScalarBackend(ABC):
         return self._poly(terms, ZERO)
 
     def _scale(self, c: sympy.Expr, p: Scalar) -> Scalar:
-        if self.is_exact(p) or c == 0:
+        if c == 0:
+            return ZERO
+        if self.is_exact(p):
             return c * p
         if c == 1:
             return p
@@ -319,6 +321,16 @@ class ScalarBackend(ABC):
             else:
                 negative.append(self.native_scale(magnitude, self.native_sum(neg, [])))
         return self.native_sum(positive, negative)
+
+
+def exact_call(fn: str, *args: sympy.Expr) -> sympy.Expr:
+    """A math function of exact arguments: exact when the value is rational or a short algebraic
+    number (cos(π/4) = √2/2), otherwise the exact value of its nearest double — carrying cos(1/7)
+    symbolically through a kinematic chain costs much and gains nothing."""
+    value = EXACT_FUNCTIONS[fn](*args)
+    if value.is_Rational or (value.is_algebraic and sympy.count_ops(value) <= 8):
+        return value
+    return to_exact(float(value))
 
 
 class BackendMath:

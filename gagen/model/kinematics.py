@@ -1,0 +1,104 @@
+"""Serial kinematic chains as motors [COOP 2.2, SMC III]: fixed link transforms and joint motions.
+
+A chain is a list of :class:`Joint`: URDF-style, each with the fixed transform from its parent
+frame (``xyz``, ``rpy``) followed by its motion about or along ``axis``. Fixed transforms become
+*exact* constant motors: translations are the exact values of the given doubles, and rpy angles
+within ``SNAP`` of a multiple of π/4 are taken as that multiple, so a URDF's 90° turns give exact
+0, ±1 and ±√½ and the sparsity analysis removes what they zero out.
+
+FK: V_M(q) = Π_j F_j J_j(q_j) with F_j the fixed motor and J_j the joint rotor
+cos(q/2) − sin(q/2) (n3 e12 − n2 e13 + n1 e23) (revolute) or translator 1 − ½ q n∧e∞ (prismatic);
+the end point is P(q) = V_M e0 V_M~.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import sympy
+
+from gagen.model.conformal import e0, vector
+from gagen.model.versors import exp_translator, translator
+from gagen.symbolic.backend import to_exact
+
+SNAP = 1e-9  # rpy angles this close to a multiple of π/4 are taken as exactly that multiple
+JOINT_KINDS = ("revolute", "continuous", "prismatic", "fixed")
+
+
+@dataclass(frozen=True)
+class Joint:
+    """One URDF-style joint: fixed transform (xyz, rpy) from the parent frame, then motion."""
+
+    name: str
+    kind: str
+    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
+
+    def __post_init__(self) -> None:
+        if self.kind not in JOINT_KINDS:
+            raise ValueError(f"joint {self.name!r}: kind {self.kind!r} is not one of "
+                             f"{', '.join(JOINT_KINDS)}")
+        if self.moves and not math.isclose(sum(a * a for a in self.axis), 1.0, rel_tol=1e-9):
+            raise ValueError(f"joint {self.name!r}: axis {self.axis} is not a unit vector")
+
+    @property
+    def moves(self) -> bool:
+        return self.kind != "fixed"
+
+
+def exact_angle(angle: float) -> sympy.Expr:
+    """An rpy angle as an exact value: a multiple of π/4 when within SNAP of one."""
+    k = round(angle / (math.pi / 4))
+    if abs(angle - k * math.pi / 4) <= SNAP:
+        return k * sympy.pi / 4
+    return to_exact(angle)
+
+
+def _axis_rotor(like: Any, axis: int, angle: Any) -> Any:
+    """Rotor about a basis axis (0, 1, 2 = x, y, z) by an exact or symbolic angle."""
+    m = like.math
+    c, s = m.cos(angle * sympy.Rational(1, 2)), m.sin(angle * sympy.Rational(1, 2))
+    plane = ("e23", "e13", "e12")[axis]
+    sign = -1 if axis != 1 else 1  # generator n* has +n1 on e23, −n2 on e13, +n3 on e12
+    return like.make({"1": c, plane: sign * s})
+
+
+def fixed_motor(like: Any, joint: Joint) -> Any:
+    """The joint's fixed transform T(xyz) Rz(yaw) Ry(pitch) Rx(roll), with exact constants."""
+    roll, pitch, yaw = (exact_angle(a) for a in joint.rpy)
+    rotation = _axis_rotor(like, 2, yaw) * _axis_rotor(like, 1, pitch) * _axis_rotor(like, 0, roll)
+    return translator(vector(like, [to_exact(v) for v in joint.xyz])) * rotation
+
+
+def joint_motor(like: Any, joint: Joint, q: Any) -> Any:
+    """Motion of a joint by q: rotor about its axis, or translator along it."""
+    n = [to_exact(a) for a in joint.axis]
+    if joint.kind == "prismatic":
+        return exp_translator(like.make({f"e{i + 1}inf": n[i] * q for i in range(3)}))
+    m = like.math
+    c, s = m.cos(q * 0.5), m.sin(q * 0.5)
+    return like.make({"1": c, "e12": -s * n[2], "e13": s * n[1], "e23": -s * n[0]})
+
+
+def forward_kinematics(like: Any, joints: Sequence[Joint], q: Sequence[Any]) -> Any:
+    """V_M(q) = Π_j F_j J_j(q_j) for a chain; q has one entry per moving joint."""
+    moving = [j for j in joints if j.moves]
+    if len(q) != len(moving):
+        raise ValueError(f"chain has {len(moving)} moving joints, got {len(q)} joint values")
+    motor = like.make({"1": 1})
+    values = iter(q)
+    for joint in joints:
+        motor = motor * fixed_motor(like, joint)
+        if joint.moves:
+            motor = motor * joint_motor(like, joint, next(values))
+    return motor
+
+
+def end_point(motor: Any) -> Any:
+    """P(q) = V_M e0 V_M~ [COOP Eq. 17 context]."""
+    return motor.sandwich(e0(motor))
+

@@ -1,0 +1,115 @@
+"""Serial-chain FK as motors against an independent 4×4 homogeneous-matrix chain (numpy)."""
+
+from __future__ import annotations
+
+import math
+from functools import cache
+
+import numpy as np
+import pytest
+import sympy
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from gagen.algebra.signature import cga3d
+from gagen.crosscheck import Formula, flatten_formula, relative_error
+from gagen.interp import MultiVector
+from gagen.model.conformal import EUCLID, location, vector
+from gagen.model.kinematics import Joint, end_point, exact_angle, forward_kinematics
+
+HALF_PI = math.pi / 2
+# Franka Emika Panda, joint origins of franka_description's panda_arm.xacro, plus the flange
+PANDA = (
+    Joint("joint1", "revolute", (0, 0, 0.333), (0, 0, 0)),
+    Joint("joint2", "revolute", (0, 0, 0), (-HALF_PI, 0, 0)),
+    Joint("joint3", "revolute", (0, -0.316, 0), (HALF_PI, 0, 0)),
+    Joint("joint4", "revolute", (0.0825, 0, 0), (HALF_PI, 0, 0)),
+    Joint("joint5", "revolute", (-0.0825, 0.384, 0), (-HALF_PI, 0, 0)),
+    Joint("joint6", "revolute", (0, 0, 0), (HALF_PI, 0, 0)),
+    Joint("joint7", "revolute", (0.088, 0, 0), (HALF_PI, 0, 0)),
+    Joint("flange", "fixed", (0, 0, 0.107)),
+)
+# a chain with every kind of joint and general (non-snapped) angles and axes
+MIXED = (
+    Joint("a", "revolute", (0.1, -0.2, 0.3), (0.3, -0.7, 1.1), (0.6, 0.0, 0.8)),
+    Joint("b", "prismatic", (0.0, 0.5, 0.0), (0.0, HALF_PI, 0.0), (0.0, 0.0, 1.0)),
+    Joint("c", "fixed", (0.2, 0.0, 0.0), (math.pi, 0.0, -HALF_PI)),
+    Joint("d", "continuous", (0.0, 0.0, 0.4), (0.1, 0.2, 0.3), (0.0, 1.0, 0.0)),
+)
+CHAINS = {"panda": PANDA, "mixed": MIXED}
+
+
+def _rot(axis, angle):
+    """Rodrigues rotation matrix."""
+    k = np.asarray(axis, float)
+    kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + math.sin(angle) * kx + (1 - math.cos(angle)) * kx @ kx
+
+
+def _homogeneous_fk(joints, q):
+    h = np.eye(4)
+    values = iter(q)
+    for j in joints:
+        r, p, y = j.rpy
+        fixed = np.eye(4)
+        fixed[:3, :3] = _rot((0, 0, 1), y) @ _rot((0, 1, 0), p) @ _rot((1, 0, 0), r)
+        fixed[:3, 3] = j.xyz
+        h = h @ fixed
+        if j.moves:
+            move = np.eye(4)
+            if j.kind == "prismatic":
+                move[:3, 3] = np.asarray(j.axis) * next(values)
+            else:
+                move[:3, :3] = _rot(j.axis, next(values))
+            h = h @ move
+    return h
+
+
+def _dof(joints):
+    return sum(j.moves for j in joints)
+
+
+@pytest.mark.parametrize("chain", sorted(CHAINS))
+@settings(max_examples=100)
+@given(data=st.data())
+def test_motor_fk_equals_homogeneous_matrix_chain(chain, data):
+    joints = CHAINS[chain]
+    q = data.draw(arrays(np.float64, _dof(joints), elements=st.floats(-3.1, 3.1)))
+    like = MultiVector.zero(cga3d())
+    motor = forward_kinematics(like, joints, list(q))
+    h = _homogeneous_fk(joints, q)
+    np.testing.assert_allclose([location(end_point(motor))[k] for k in EUCLID], h[:3, 3], atol=1e-12)
+    for i in range(3):  # rotation: images of the basis vectors
+        image = motor.sandwich(vector(like, np.eye(3)[i]))
+        np.testing.assert_allclose([image[k] for k in EUCLID], h[:3, i], atol=1e-12)
+
+
+@cache
+def _fk_kernel(chain):
+    joints = CHAINS[chain]
+    formula = Formula(f"fk_{chain}", cga3d(), (("q", _dof(joints)),),
+                      lambda zero, q: (forward_kinematics(zero, joints, q), end_point(
+                          forward_kinematics(zero, joints, q))), pass_zero=True)
+    return formula, flatten_formula(formula)
+
+
+@pytest.mark.parametrize("chain", sorted(CHAINS))
+def test_fk_kernel_equals_interpreter(chain):
+    formula, kernel = _fk_kernel(chain)
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        assert relative_error(kernel, formula, [rng.uniform(-3, 3, _dof(CHAINS[chain]))]) < 1e-12
+
+
+def test_quarter_turns_snap_to_exact_constants():
+    assert exact_angle(1.5707963267948966) == sympy.pi / 2
+    assert exact_angle(-math.pi) == -sympy.pi
+    assert exact_angle(1.5708) != sympy.pi / 2  # 3.7e-6 away: kept as given
+
+
+def test_panda_fk_op_count_is_pinned():
+    """The Panda FK motor + end point; the exact quarter turns keep it near the matrix chain's cost."""
+    _, kernel = _fk_kernel("panda")
+    ops = kernel.op_count
+    assert (ops.mul, ops.add, ops.neg, ops.calls.get("sin"), ops.calls.get("cos")) == (173, 181, 0, 7, 7)
