@@ -15,6 +15,7 @@ from hypothesis.extra.numpy import arrays
 from gagen.algebra.signature import cga3d
 from gagen.crosscheck import Formula, flatten_formula, relative_error
 from gagen.interp import MultiVector
+from gagen.model import kinematics as K
 from gagen.model.conformal import EUCLID, location, vector
 from gagen.model.kinematics import Joint, end_point, exact_angle, forward_kinematics
 
@@ -113,3 +114,77 @@ def test_panda_fk_op_count_is_pinned():
     _, kernel = _fk_kernel("panda")
     ops = kernel.op_count
     assert (ops.mul, ops.add, ops.neg, ops.calls.get("sin"), ops.calls.get("cos")) == (173, 181, 0, 7, 7)
+
+
+def _fd(fn, q, h=1e-6):
+    """Central differences of a multivector-valued function of q: one dense column per joint."""
+    cols = []
+    for i in range(len(q)):
+        step = np.zeros(len(q))
+        step[i] = h
+        cols.append((fn(q + step).coeffs - fn(q - step).coeffs) / (2 * h))
+    return cols
+
+
+@pytest.mark.parametrize("chain", sorted(CHAINS))
+@settings(max_examples=20)
+@given(data=st.data())
+def test_jacobians_from_joint_lines_equal_finite_differences(chain, data):
+    """Spatial (−2 J_A V~), body (−2 V~ J_A), analytic (∂V/∂q) and point (∂P/∂q) Jacobians from the
+    joint lines, against central differences of the interpreter's FK."""
+    joints = CHAINS[chain]
+    q = data.draw(arrays(np.float64, _dof(joints), elements=st.floats(-3, 3)))
+    like = MultiVector.zero(cga3d())
+    motor, lines = K.chain_kinematics(like, joints, list(q))
+    fk = lambda x: forward_kinematics(like, joints, list(x))  # noqa: E731
+    d_motor = _fd(fk, q)
+    d_point = _fd(lambda x: end_point(fk(x)), q)
+    for i, dv in enumerate(d_motor):
+        dv = MultiVector(cga3d(), dv)
+        np.testing.assert_allclose(K.analytic_jacobian(motor, lines)[i].coeffs, dv.coeffs, atol=1e-8)
+        np.testing.assert_allclose(K.spatial_jacobian(lines)[i].coeffs, (dv * ~motor * -2).coeffs, atol=1e-8)
+        np.testing.assert_allclose(K.body_jacobian(motor, lines)[i].coeffs, (~motor * dv * -2).coeffs,
+                                   atol=1e-8)
+        np.testing.assert_allclose(K.point_jacobian(motor, lines)[i].coeffs, d_point[i], atol=1e-8)
+
+
+@pytest.mark.parametrize("chain", sorted(CHAINS))
+def test_spatial_jacobian_columns_are_the_world_screw_axes(chain):
+    """Against the matrix chain: a revolute column is (ω, p × ω) with ω the world axis and p a
+    point on it; the tip moves at ω × (x_tip − p)."""
+    joints = CHAINS[chain]
+    rng = np.random.default_rng(4)
+    q = rng.uniform(-2, 2, _dof(joints))
+    like = MultiVector.zero(cga3d())
+    _, lines = K.chain_kinematics(like, joints, list(q))
+    tip = _homogeneous_fk(joints, q)[:3, 3]
+    moving = [j for j in joints if j.moves]
+    for k, (joint, line) in enumerate(zip(moving, lines, strict=True)):
+        # frame of joint k before its motion: the chain up to it, with its own value set to 0
+        head = joints[: joints.index(joint) + 1]
+        frame = _homogeneous_fk(head, np.concatenate([q[:k], [0.0]]))
+        axis = frame[:3, :3] @ np.asarray(joint.axis)
+        omega = np.array([line["e23"], -line["e13"], line["e12"]])
+        v = np.array([line[f"e{i}inf"] for i in (1, 2, 3)])
+        if joint.kind == "prismatic":
+            np.testing.assert_allclose(omega, 0, atol=1e-12)
+            np.testing.assert_allclose(v, axis, atol=1e-12)
+        else:
+            np.testing.assert_allclose(omega, axis, atol=1e-12)
+            np.testing.assert_allclose(v, np.cross(frame[:3, 3], omega), atol=1e-12)
+            tip_velocity = np.cross(omega, tip - frame[:3, 3])
+            np.testing.assert_allclose(tip_velocity, v + np.cross(omega, tip), atol=1e-12)
+
+
+def test_panda_fk_and_spatial_jacobian_op_count_is_pinned():
+    """Motor + end point + 6×7 spatial Jacobian from the joint lines (baseline for the FK work:
+    the 4×4-matrix chain with its analytic Jacobian is 217 flops + 7 sincos)."""
+
+    def fk_and_jacobian(zero, q):
+        motor, lines = K.chain_kinematics(zero, PANDA, q)
+        return (motor, end_point(motor), *K.spatial_jacobian(lines))
+
+    kernel = flatten_formula(Formula("panda_fk_jacobian", cga3d(), (("q", 7),), fk_and_jacobian,
+                                     pass_zero=True))
+    ops = kernel.op_count
+    assert (ops.mul, ops.add, ops.neg, ops.calls) == (372, 379, 4, {"cos": 7, "sin": 7})

@@ -84,18 +84,61 @@ def joint_motor(like: Any, joint: Joint, q: Any) -> Any:
     return like.make({"1": c, "e12": -s * n[2], "e13": s * n[1], "e23": -s * n[0]})
 
 
-def forward_kinematics(like: Any, joints: Sequence[Joint], q: Sequence[Any]) -> Any:
-    """V_M(q) = Π_j F_j J_j(q_j) for a chain; q has one entry per moving joint."""
+def joint_generator(like: Any, joint: Joint) -> Any:
+    """The joint's unit generator B in its own frame, J(q) = e^{−qB/2}: n* for a revolute joint
+    (n3 e12 − n2 e13 + n1 e23), n ∧ e∞ for a prismatic one."""
+    n = [to_exact(a) for a in joint.axis]
+    if joint.kind == "prismatic":
+        return like.make({f"e{i + 1}inf": n[i] for i in range(3)})
+    return like.make({"e12": n[2], "e13": -n[1], "e23": n[0]})
+
+
+def chain_kinematics(like: Any, joints: Sequence[Joint], q: Sequence[Any]) -> tuple[Any, list[Any]]:
+    """(V_M(q), [L'_1 … L'_n]): the FK motor and each moving joint's generator carried to the base
+    frame by everything before the joint's motion, L'_i = A_i B_i A_i~ [SMC Eq. 17-20].
+
+    Since ∂V_M/∂q_i = −½ L'_i V_M, the spatial Jacobian −2 J_A V_M~ has exactly the columns L'_i:
+    the O(n) construction, one sandwich of a bivector per joint.
+    """
     moving = [j for j in joints if j.moves]
     if len(q) != len(moving):
         raise ValueError(f"chain has {len(moving)} moving joints, got {len(q)} joint values")
     motor = like.make({"1": 1})
+    lines = []
     values = iter(q)
     for joint in joints:
         motor = motor * fixed_motor(like, joint)
         if joint.moves:
+            lines.append(motor.sandwich(joint_generator(like, joint)))
             motor = motor * joint_motor(like, joint, next(values))
-    return motor
+    return motor, lines
+
+
+def forward_kinematics(like: Any, joints: Sequence[Joint], q: Sequence[Any]) -> Any:
+    """V_M(q) = Π_j F_j J_j(q_j) for a chain; q has one entry per moving joint."""
+    return chain_kinematics(like, joints, q)[0]
+
+
+def spatial_jacobian(lines: Sequence[Any]) -> list[Any]:
+    """−2 J_A V_M~, columns [e12, e13, e23, e1∞, e2∞, e3∞] = [ωz, −ωy, ωx, v] about the base origin."""
+    return list(lines)
+
+
+def body_jacobian(motor: Any, lines: Sequence[Any]) -> list[Any]:
+    """−2 V_M~ J_A [COOP Eq. 8]: the spatial columns seen from the end-effector frame."""
+    inverse = ~motor
+    return [inverse.sandwich(line) for line in lines]
+
+
+def analytic_jacobian(motor: Any, lines: Sequence[Any]) -> list[Any]:
+    """J_A = ∂V_M/∂q, column i = −½ L'_i V_M."""
+    return [(line * motor) * -0.5 for line in lines]
+
+
+def point_jacobian(motor: Any, lines: Sequence[Any]) -> list[Any]:
+    """∂P/∂q_i for P = V_M e0 V_M~: ½(P L'_i − L'_i P), the commutator [COOP Eq. 17]."""
+    p = end_point(motor)
+    return [p.commutator(line) for line in lines]
 
 
 def end_point(motor: Any) -> Any:
