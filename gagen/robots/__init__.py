@@ -1,0 +1,1 @@
+"""Robots: URDF import of kinematic chains and (later) the bundled robot specs."""
