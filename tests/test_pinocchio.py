@@ -18,7 +18,8 @@ from gagen.model.conformal import EUCLID, location, vector
 from gagen.robots.urdf import load_chain
 
 ROBOTS = Path(__file__).resolve().parent.parent / "robots"
-CHAINS = {"panda": (ROBOTS / "panda" / "panda.urdf", "panda_link0", "panda_link8")}
+CHAINS = {"panda": (ROBOTS / "panda" / "panda.urdf", "panda_link0", "panda_link8"),
+          "iiwa14": (ROBOTS / "iiwa14" / "iiwa14.urdf", "iiwa_link_0", "iiwa_link_ee")}
 ALG = cga3d()
 
 
