@@ -57,7 +57,8 @@ def build_system_kernels(system: System) -> SystemKernels:
                "conditioning": backend.native(backend.lift(conditioning)), "J_A": j_a, "J_G": j_g,
                "log_V": log_v, "J_B": ca.jacobian(log_v, q), "e": error, "J_Be": ca.jacobian(error, q)}
     vsd = ca.vertcat(*[backend.native(desired[b]) for b in SIMILARITY])
-    f = ca.Function(identifier(system.name), [q, vsd], list(outputs.values()), ["q", "V_Sd"], list(outputs))
+    shared = ca.cse(list(outputs.values()))  # on all outputs together: they share the whole FK
+    f = ca.Function(identifier(system.name), [q, vsd], shared, ["q", "V_Sd"], list(outputs))
     blades = {"X_c": xc_blades, "V_Sc": SIMILARITY, "log_V": SIMILARITY_GENERATOR, "e": SIMILARITY_GENERATOR,
               "J_G": SIMILARITY_GENERATOR}
     return SystemKernels(f, blades)
