@@ -188,3 +188,20 @@ def test_panda_fk_and_spatial_jacobian_op_count_is_pinned():
                                      pass_zero=True))
     ops = kernel.op_count
     assert (ops.mul, ops.add, ops.neg, ops.calls) == (372, 379, 4, {"cos": 7, "sin": 7})
+
+
+@pytest.mark.parametrize("chain", sorted(CHAINS))
+def test_line_jacobian_equals_finite_differences(chain):
+    """[SMC Eq. 20] for the tool's z axis (the bivector e12, rotation about it) and a line offset
+    from the tool origin, against central differences of V_M L V_M~."""
+    joints = CHAINS[chain]
+    like = MultiVector.zero(cga3d())
+    rng = np.random.default_rng(8)
+    tool_lines = [like.make({"e12": 1.0}), like.make({"e23": 0.6, "e13": -0.8, "e2inf": 0.3})]
+    for _ in range(5):
+        q = rng.uniform(-2.5, 2.5, _dof(joints))
+        motor, lines = K.chain_kinematics(like, joints, list(q))
+        for tool_line in tool_lines:
+            fd = _fd(lambda x, t=tool_line: forward_kinematics(like, joints, list(x)).sandwich(t), q)
+            for ours, numeric in zip(K.line_jacobian(motor, lines, tool_line), fd, strict=True):
+                np.testing.assert_allclose(ours.coeffs, numeric, atol=1e-8)

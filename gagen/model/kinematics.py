@@ -141,6 +141,13 @@ def point_jacobian(motor: Any, lines: Sequence[Any]) -> list[Any]:
     return [p.commutator(line) for line in lines]
 
 
+def line_jacobian(motor: Any, lines: Sequence[Any], tool_line: Any) -> list[Any]:
+    """∂L'_p/∂q_i for a line (bivector) fixed in the tool, L'_p = V_M L_p V_M~:
+    ½(L'_p L'_i − L'_i L'_p) [SMC Eq. 20]."""
+    carried = motor.sandwich(tool_line)
+    return [carried.commutator(line) for line in lines]
+
+
 def end_point(motor: Any) -> Any:
     """P(q) = V_M e0 V_M~ [COOP Eq. 17 context]."""
     return motor.sandwich(e0(motor))
