@@ -18,7 +18,7 @@ from gagen.model.conformal import SIMILARITY, SIMILARITY_GENERATOR
 from gagen.model.cooperative import System, cooperative_jacobian, cooperative_primitive, similarity_of
 from gagen.model.versors import log_similarity
 from gagen.symbolic.casadi_backend import CasadiBackend
-from gagen.symbolic.flatten import casadi_op_count, identifier
+from gagen.symbolic.flatten import identifier
 
 
 @dataclass
@@ -62,6 +62,3 @@ def build_system_kernels(system: System) -> SystemKernels:
     blades = {"X_c": xc_blades, "V_Sc": SIMILARITY, "log_V": SIMILARITY_GENERATOR, "e": SIMILARITY_GENERATOR,
               "J_G": SIMILARITY_GENERATOR}
     return SystemKernels(f, blades)
-
-
-__all__ = ["SystemKernels", "build_system_kernels", "casadi_op_count"]
