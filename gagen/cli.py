@@ -1,4 +1,5 @@
-"""The ``gagen`` command line: ``gagen demo`` (compiler core on CGA formulas) and ``gagen algebra``."""
+"""The ``gagen`` command line: ``demo`` (the compiler core on CGA formulas), ``algebra`` (a preset's
+metric and blade order) and ``kernels`` (a spec's kernel catalogue with op counts)."""
 
 from __future__ import annotations
 
@@ -38,6 +39,27 @@ def _cmd_algebra(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_kernels(args: argparse.Namespace) -> int:
+    import time
+
+    from gagen.errors import SpecError
+    from gagen.kernels import build_kernels
+    from gagen.report import op_count_table
+    from gagen.spec.loader import load_system
+
+    try:
+        system, _ = load_system(args.spec)
+    except SpecError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    start = time.perf_counter()
+    kernels = build_kernels(system)
+    print(f"{system.name}: a {system.kind} spanned by {len(system.chains)} chains, {system.dof} joints; "
+          f"{len(kernels)} kernels built in {time.perf_counter() - start:.2f} s\n")
+    print(op_count_table(kernels.values()))
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="gagen", description="Symbolic code generation for conformal "
                                      "geometric algebra in robotics.")
@@ -53,6 +75,10 @@ def main(argv: list[str] | None = None) -> int:
     alg = sub.add_parser("algebra", help="print an algebra preset: metric and blade order")
     alg.add_argument("name", help="cga3d, cga2d, pga3d or ga3d")
     alg.set_defaults(run=_cmd_algebra)
+
+    kernels = sub.add_parser("kernels", help="build a spec's kernels and print their shapes and op counts")
+    kernels.add_argument("spec", help="robot spec (YAML), e.g. robots/three_pandas_circle.yaml")
+    kernels.set_defaults(run=_cmd_kernels)
 
     args = parser.parse_args(argv)
     return args.run(args)

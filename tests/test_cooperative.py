@@ -1,5 +1,9 @@
-"""Cooperative task-space kernels of every bundled system against the interpreter: values, the
-similarity property X_c = V_Sc X_u V_Sc~, and every Jacobian against central differences."""
+"""The kernel catalogue of every bundled system against the interpreter: values, the similarity
+property X_c = V_Sc X_u V_Sc~, and every Jacobian against central differences of the interpreter.
+
+Finite differences perturb one joint at a time, so the interpreter's FK of the chains that do not
+contain that joint is memoised (same numbers, computed once): the 34-DOF systems stay affordable.
+"""
 
 from __future__ import annotations
 
@@ -10,10 +14,11 @@ import pytest
 
 from gagen.algebra.signature import cga3d
 from gagen.interp import MultiVector
-from gagen.kernels import build_system_kernels
+from gagen.kernels import TOOL_LINE, build_kernels
+from gagen.model import kinematics as K
 from gagen.model.conformal import SIMILARITY, SIMILARITY_GENERATOR
-from gagen.model.cooperative import cooperative_primitive, similarity_of, task_error
-from gagen.model.primitives import unit_primitive
+from gagen.model.cooperative import cooperative_jacobian, cooperative_primitive, similarity_of, task_error
+from gagen.model.primitives import through, unit_primitive
 from gagen.model.similarity import cooperative_similarity
 from gagen.model.versors import exp_similarity, log_similarity
 from gagen.robots.systems import bundled_systems, ready_configuration
@@ -21,11 +26,13 @@ from gagen.robots.systems import bundled_systems, ready_configuration
 ALG = cga3d()
 ZERO = MultiVector.zero(ALG)
 SYSTEMS = bundled_systems()
+CONFIGURATIONS = 20
+H = 1e-6
 
 
 @cache
 def _kernels(name):
-    return build_system_kernels(SYSTEMS[name])
+    return build_kernels(SYSTEMS[name])
 
 
 def _configurations(name, count, seed=0):
@@ -40,83 +47,155 @@ def _desired(seed=1):
     return exp_similarity(b)
 
 
+@cache
+def _chain_point(name: str, chain: int, qc: tuple[float, ...]) -> MultiVector:
+    return K.end_point(K.forward_kinematics(ZERO, SYSTEMS[name].chains[chain].joints, list(qc)))
+
+
 def _interp(name, q, desired):
-    """The model on the interpreter (FK once; same formulas as similarity_of and task_error)."""
+    """The model on the interpreter: X_c = through(kind, end points), as cooperative_primitive."""
     system = SYSTEMS[name]
-    xc = cooperative_primitive(ZERO, system, list(q))
+    points = [_chain_point(name, i, tuple(qc)) for i, qc in enumerate(system.split(list(q)))]
+    xc = through(system.kind, points)
     v, cond = cooperative_similarity(system.kind, xc)
     return {"X_c": xc, "V_Sc": v, "conditioning": cond, "log_V": log_similarity(v),
             "e": log_similarity(~v * desired)}
 
 
-def _rows(x: MultiVector, blades):
-    return np.array([x[b] for b in blades])
+def _rows(x: MultiVector, port) -> np.ndarray:
+    return np.array([x[b] for b in port.rows])
 
 
-def _outputs(name, q, desired):
-    k = _kernels(name)
-    values = k.function(q, [desired[b] for b in SIMILARITY])
-    return {n: np.asarray(v, dtype=float) for n, v in zip(k.function.name_out(), values, strict=True)}, k
+def _call(kernel, *args) -> dict[str, np.ndarray]:
+    values = kernel.function(*args)
+    values = values if isinstance(values, (list, tuple)) else [values]
+    return {p.name: np.asarray(v, dtype=float).reshape(p.shape) for p, v in zip(kernel.outputs, values,
+                                                                               strict=True)}
+
+
+def _port(kernel, name):
+    return next(p for p in kernel.outputs if p.name == name)
 
 
 @pytest.mark.parametrize("name", sorted(SYSTEMS))
 def test_kernel_values_equal_interpreter_and_v_sc_moves_x_u_onto_x_c(name):
     desired = _desired()
     system = SYSTEMS[name]
-    q = _configurations(name, 1)[0]  # the model's own entry points agree with the inlined ones
-    v, _ = similarity_of(ZERO, system, list(q))
-    np.testing.assert_allclose(v.coeffs, _interp(name, q, desired)["V_Sc"].coeffs, atol=1e-14)
-    np.testing.assert_allclose(task_error(ZERO, system, list(q), desired).coeffs,
-                               _interp(name, q, desired)["e"].coeffs, atol=1e-14)
-    for q in _configurations(name, 20):
-        out, k = _outputs(name, q, desired)
+    q = _configurations(name, 1)[0]  # the model's own entry points agree with the memoised one
+    ref = _interp(name, q, desired)
+    np.testing.assert_allclose(cooperative_primitive(ZERO, system, list(q)).coeffs, ref["X_c"].coeffs, atol=0)
+    np.testing.assert_allclose(similarity_of(ZERO, system, list(q))[0].coeffs, ref["V_Sc"].coeffs, atol=0)
+    np.testing.assert_allclose(task_error(ZERO, system, list(q), desired).coeffs, ref["e"].coeffs, atol=0)
+    kernels = _kernels(name)
+    full = kernels["system"]
+    vsd = [desired[b] for b in SIMILARITY]
+    for q in _configurations(name, CONFIGURATIONS):
+        out = _call(full, q, vsd)
         ref = _interp(name, q, desired)
         assert ref["conditioning"] > 1e-6  # configurations near the ready pose are well-conditioned
         for key in ("X_c", "V_Sc", "log_V", "e"):
-            np.testing.assert_allclose(out[key].ravel(), _rows(ref[key], k.blades[key]), atol=1e-10)
+            np.testing.assert_allclose(out[key].ravel(), _rows(ref[key], _port(full, key)), atol=1e-10)
         assert abs(out["conditioning"].item() - ref["conditioning"]) < 1e-10
-        moved = ref["V_Sc"].sandwich(unit_primitive(SYSTEMS[name].kind, ZERO)).coeffs
+        moved = ref["V_Sc"].sandwich(unit_primitive(system.kind, ZERO)).coeffs
         xc = ref["X_c"].coeffs
         scale = moved @ xc / (xc @ xc)
         np.testing.assert_allclose(moved, scale * xc, atol=1e-10 * np.max(np.abs(xc)))
+        # the smaller kernels are the same numbers as the catalogue's union
+        for kernel in ("primitive", "similarity", "task"):
+            k = kernels[kernel]
+            args = [q] if len(k.inputs) == 1 else [q, vsd]
+            for key, value in _call(k, *args).items():
+                np.testing.assert_allclose(value, out[key], rtol=1e-13, atol=1e-13)
 
 
-def _central_differences(name, q, desired, h=1e-6):
+def _central_differences(name, q, desired):
     cols = {key: [] for key in ("X_c", "V_Sc", "log_V", "e")}
     for i in range(q.size):
         step = np.zeros(q.size)
-        step[i] = h
+        step[i] = H
         plus, minus = _interp(name, q + step, desired), _interp(name, q - step, desired)
         for key in cols:
-            cols[key].append((plus[key].coeffs - minus[key].coeffs) / (2 * h))
+            cols[key].append((plus[key].coeffs - minus[key].coeffs) / (2 * H))
     return {key: np.array(c).T for key, c in cols.items()}
 
 
-def _blade_rows(dense, blades):
-    return dense[[ALG.blade(b) for b in blades], :]
+def _blade_rows(dense, port):
+    return dense[[ALG.blade(b) for b in port.rows], :]
 
 
 @pytest.mark.parametrize("name", sorted(SYSTEMS))
-def test_every_jacobian_equals_central_differences(name):
+def test_every_system_jacobian_equals_central_differences(name):
     desired = _desired()
-    count = 20 if name == "three_pandas_circle" else 4
-    for q in _configurations(name, count, seed=5):
-        out, k = _outputs(name, q, desired)
+    full = _kernels(name)["system"]
+    vsd = [desired[b] for b in SIMILARITY]
+    for q in _configurations(name, CONFIGURATIONS, seed=5):
+        out = _call(full, q, vsd)
         fd = _central_differences(name, q, desired)
         v = _interp(name, q, desired)["V_Sc"]
-        np.testing.assert_allclose(out["J_c"], _blade_rows(fd["X_c"], k.blades["X_c"]), atol=2e-7)
-        np.testing.assert_allclose(out["J_A"], _blade_rows(fd["V_Sc"], SIMILARITY), atol=2e-7)
+        np.testing.assert_allclose(out["J_c"], _blade_rows(fd["X_c"], _port(full, "J_c")), atol=2e-7)
+        np.testing.assert_allclose(out["J_A"], _blade_rows(fd["V_Sc"], _port(full, "J_A")), atol=2e-7)
         j_g = np.array([(~v * MultiVector(ALG, col) * -2).coeffs for col in fd["V_Sc"].T]).T
-        np.testing.assert_allclose(out["J_G"], _blade_rows(j_g, SIMILARITY_GENERATOR), atol=2e-7)
-        np.testing.assert_allclose(out["J_B"], _blade_rows(fd["log_V"], SIMILARITY_GENERATOR), atol=2e-7)
-        np.testing.assert_allclose(out["J_Be"], _blade_rows(fd["e"], SIMILARITY_GENERATOR), atol=2e-7)
+        np.testing.assert_allclose(out["J_G"], _blade_rows(j_g, _port(full, "J_G")), atol=2e-7)
+        np.testing.assert_allclose(out["J_B"], _blade_rows(fd["log_V"], _port(full, "J_B")), atol=2e-7)
+        np.testing.assert_allclose(out["J_Be"], _blade_rows(fd["e"], _port(full, "J_Be")), atol=2e-7)
+
+
+@pytest.mark.parametrize("name", sorted(SYSTEMS))
+def test_system_jacobian_j_c_equals_the_models_closed_form(name):
+    """J_c of the kernel equals the model's Eq. 15-17 on the interpreter (shared joints summed)."""
+    full = _kernels(name)["system"]
+    for q in _configurations(name, 3, seed=9):
+        out = _call(full, q, [_desired()[b] for b in SIMILARITY])
+        columns = cooperative_jacobian(ZERO, SYSTEMS[name], list(q))
+        ours = np.array([[c[b] for b in _port(full, "J_c").rows] for c in columns]).T
+        np.testing.assert_allclose(out["J_c"], ours, atol=1e-10)
+
+
+def _chain_fd(joints, qc, fn):
+    cols = []
+    for i in range(qc.size):
+        step = np.zeros(qc.size)
+        step[i] = H
+        plus = fn(K.forward_kinematics(ZERO, joints, list(qc + step)))
+        minus = fn(K.forward_kinematics(ZERO, joints, list(qc - step)))
+        cols.append((plus.coeffs - minus.coeffs) / (2 * H))
+    return np.array(cols).T
+
+
+@pytest.mark.parametrize("name", sorted(SYSTEMS))
+def test_every_chain_kernel_equals_interpreter_and_its_jacobians_central_differences(name):
+    """Per chain of every system: M, P, L values against the interpreter; J_A, J_S, J_b, J_P, J_L
+    against central differences of the interpreter's FK."""
+    system = SYSTEMS[name]
+    tool = ZERO.make({TOOL_LINE: 1})
+    for q in _configurations(name, CONFIGURATIONS, seed=11):
+        for chain, qc in zip(system.chains, system.split(list(q)), strict=True):
+            qc = np.array(qc)
+            kernel = _kernels(name)[f"{chain.name}_jacobians"]
+            out = _call(kernel, qc)
+            motor = K.forward_kinematics(ZERO, chain.joints, list(qc))
+            np.testing.assert_allclose(out["M"].ravel(), _rows(motor, _port(kernel, "M")), atol=1e-12)
+            np.testing.assert_allclose(out["P"].ravel(), _rows(K.end_point(motor), _port(kernel, "P")),
+                                       atol=1e-12)
+            np.testing.assert_allclose(out["L"].ravel(), _rows(motor.sandwich(tool), _port(kernel, "L")),
+                                       atol=1e-12)
+            d_motor = _chain_fd(chain.joints, qc, lambda m: m)
+            spatial = np.array([(MultiVector(ALG, c) * ~motor * -2).coeffs for c in d_motor.T]).T
+            body = np.array([(~motor * MultiVector(ALG, c) * -2).coeffs for c in d_motor.T]).T
+            expected = {"J_A": d_motor, "J_S": spatial, "J_b": body,
+                        "J_P": _chain_fd(chain.joints, qc, K.end_point),
+                        "J_L": _chain_fd(chain.joints, qc, lambda m: m.sandwich(tool))}
+            for key, dense in expected.items():
+                np.testing.assert_allclose(out[key], _blade_rows(dense, _port(kernel, key)), atol=2e-7,
+                                           err_msg=f"{chain.name} {key}")
+            fk = _call(_kernels(name)[f"{chain.name}_fk"], qc)
+            np.testing.assert_allclose(fk["M"], out["M"], atol=1e-15)
+            np.testing.assert_allclose(fk["P"], out["P"], atol=1e-15)
 
 
 def test_three_panda_circle_kernel_cost_does_not_regress():
     """The chain rule through the similarity construction (not AD through the kinematics) keeps the
     21-DOF circle's kernels at 29 792 flops + 21 sin/cos together (AD through the kinematics: 113 044)."""
-    from gagen.symbolic.flatten import casadi_op_count
-
-    ops = casadi_op_count(_kernels("three_pandas_circle").function)
+    ops = _kernels("three_pandas_circle")["system"].op_count
     assert ops.flops <= 30_000
     assert ops.calls["sin"] == ops.calls["cos"] == 21

@@ -1,5 +1,9 @@
 """FK and 6×n Jacobians of URDF chains against Pinocchio (an independent rigid-body library), on the
-same URDF file: the interpreter's model and the flattened CasADi kernel, at 50 random configurations."""
+same URDF file: the interpreter's model and the flattened CasADi kernel, at 50 random configurations.
+
+Pinocchio models the whole URDF tree (a humanoid's two arms, a hand's four fingers); a chain's joints
+are found in it by name: its values are picked from Pinocchio's q and its columns from the Jacobian,
+whose other columns (joints not between base and tip) must be zero."""
 
 from __future__ import annotations
 
@@ -18,8 +22,17 @@ from gagen.model.conformal import EUCLID, location, vector
 from gagen.robots.urdf import load_chain
 
 ROBOTS = Path(__file__).resolve().parent.parent / "robots"
+G1 = ROBOTS / "g1" / "g1_upper_body.urdf"
+LEAP = ROBOTS / "leap_hand" / "leap_hand.urdf"
 CHAINS = {"panda": (ROBOTS / "panda" / "panda.urdf", "panda_link0", "panda_link8"),
-          "iiwa14": (ROBOTS / "iiwa14" / "iiwa14.urdf", "iiwa_link_0", "iiwa_link_ee")}
+          "iiwa14": (ROBOTS / "iiwa14" / "iiwa14.urdf", "iiwa_link_0", "iiwa_link_ee"),
+          "g1_left_arm": (G1, "pelvis", "left_rubber_hand"),
+          "g1_right_arm": (G1, "pelvis", "right_rubber_hand"),
+          "g1_torso_point": (G1, "pelvis", "torso_point"),
+          "leap_index": (LEAP, "palm_lower", "index_tip"),
+          "leap_middle": (LEAP, "palm_lower", "middle_tip"),
+          "leap_ring": (LEAP, "palm_lower", "ring_tip"),
+          "leap_thumb": (LEAP, "palm_lower", "thumb_tip")}
 ALG = cga3d()
 
 
@@ -29,11 +42,21 @@ def _twist(line) -> np.ndarray:
 
 
 @cache
+def _model(urdf: Path):
+    return pin.buildModelFromUrdf(str(urdf))
+
+
+@cache
 def _setup(name: str):
     urdf, base, tip = CHAINS[name]
-    model = pin.buildModelFromUrdf(str(urdf))
+    model = _model(urdf)
+    assert model.frames[model.getFrameId(base)].parentJoint == 0, f"{base} is not Pinocchio's root body"
     joints = load_chain(urdf, base, tip)
     dof = sum(j.moves for j in joints)
+    ids = [model.getJointId(j.name) for j in joints if j.moves]
+    assert all(0 < i < model.njoints and model.joints[i].nq == 1 for i in ids), f"{name}: joints by name"
+    idx_q = [model.joints[i].idx_q for i in ids]
+    idx_v = [model.joints[i].idx_v for i in ids]
 
     def fk_and_jacobian(zero, q):
         motor, lines = K.chain_kinematics(zero, joints, q)
@@ -41,7 +64,7 @@ def _setup(name: str):
 
     kernel = flatten_formula(Formula(f"{name}_fk_jacobian", ALG, (("q", dof),), fk_and_jacobian,
                                      pass_zero=True))
-    return model, model.getFrameId(tip), joints, kernel
+    return model, model.getFrameId(tip), joints, kernel, idx_q, idx_v
 
 
 def _pinocchio(model, frame, q):
@@ -55,12 +78,15 @@ def _pinocchio(model, frame, q):
 
 @pytest.mark.parametrize("name", sorted(CHAINS))
 def test_fk_and_jacobian_agree_with_pinocchio(name):
-    model, frame, joints, kernel = _setup(name)
+    model, frame, joints, kernel, idx_q, idx_v = _setup(name)
     rng = np.random.default_rng(2024)
     like = MultiVector.zero(ALG)
+    others = np.setdiff1d(np.arange(model.nv), idx_v)
     for _ in range(50):
-        q = rng.uniform(model.lowerPositionLimit, model.upperPositionLimit)
-        position, rotation, jacobian = _pinocchio(model, frame, q)
+        full = rng.uniform(model.lowerPositionLimit, model.upperPositionLimit)
+        position, rotation, full_jacobian = _pinocchio(model, frame, full)
+        np.testing.assert_array_equal(full_jacobian[:, others], 0.0)  # no other joint moves the tip
+        q, jacobian = full[idx_q], full_jacobian[:, idx_v]
         # the interpreter's model
         motor, lines = K.chain_kinematics(like, joints, list(q))
         np.testing.assert_allclose([location(K.end_point(motor))[k] for k in EUCLID], position, atol=1e-10)

@@ -48,6 +48,13 @@ class Algebra:
         if sympy.Matrix(self.frame).rank() != n:
             raise ValueError(f"algebra {self.name!r}: basis vectors are not independent")
 
+    def __hash__(self) -> int:  # algebras key every table cache; hashing the sympy frame is slow
+        return self._hash
+
+    @cached_property
+    def _hash(self) -> int:
+        return hash((self.name, self.vector_labels, self.frame_squares, self.frame))
+
     # -- sizes -------------------------------------------------------------------------------
     @property
     def dimension(self) -> int:

@@ -134,7 +134,8 @@ class MultiVector:
     def _product(self, table: np.ndarray, other: Any) -> MultiVector:
         o = self._require(other)
         # result[k] = Σ_ij self[i] other[j] table[i, j, k]
-        return self._like(o.coeffs @ np.tensordot(self.coeffs, table, axes=(0, 0)))
+        n = table.shape[0]
+        return self._like(o.coeffs @ (self.coeffs @ table.reshape(n, n * n)).reshape(n, n))
 
     def gp(self, other: Any) -> MultiVector:
         """Geometric product."""

@@ -11,6 +11,7 @@ from typing import Any
 from gagen.model.guarded import safe_reciprocal
 
 EUCLID = ("e1", "e2", "e3")
+POINT = ("e0", "e1", "e2", "e3", "einf")
 ROTATION = ("e12", "e13", "e23")  # B_R = θ (n3 e12 − n2 e13 + n1 e23) for angle θ about unit n
 DILATION = ("e0inf",)
 TRANSLATION = ("e1inf", "e2inf", "e3inf")

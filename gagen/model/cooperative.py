@@ -21,17 +21,31 @@ from gagen.model.versors import log_similarity
 
 @dataclass(frozen=True)
 class Chain:
+    """A serial chain from the system's base frame to one spanning point.
+
+    ``robot`` labels the physical robot the chain belongs to: chains with the same label share the
+    moving joints that have the same name (a humanoid's waist joints drive both of its arms).
+    """
+
     name: str
     joints: tuple[K.Joint, ...]
+    robot: str = ""
 
     @property
     def dof(self) -> int:
         return sum(j.moves for j in self.joints)
 
+    def joint_keys(self) -> list[tuple[str, str]]:
+        """(robot, joint name) of each moving joint: equal keys are one physical joint."""
+        return [(self.robot or self.name, j.name) for j in self.joints if j.moves]
+
 
 @dataclass(frozen=True)
 class System:
-    """Chains whose end points span a primitive of ``kind`` (Table 1)."""
+    """Chains whose end points span a primitive of ``kind`` (Table 1).
+
+    q holds every distinct moving joint once, in order of first appearance along the chains.
+    """
 
     name: str
     kind: str
@@ -42,20 +56,36 @@ class System:
         if len(self.chains) != points_needed(self.kind):
             raise ValueError(f"system {self.name!r}: a {self.kind} is spanned by "
                              f"{points_needed(self.kind)} chains, got {len(self.chains)}")
+        names = [c.name for c in self.chains]
+        if len(set(names)) != len(names):
+            raise ValueError(f"system {self.name!r}: chain names must differ, got {names}")
+        seen: dict[tuple[str, str], K.Joint] = {}
+        for chain in self.chains:
+            moving = [j for j in chain.joints if j.moves]
+            for key, joint in zip(chain.joint_keys(), moving, strict=True):
+                if seen.setdefault(key, joint) != joint:
+                    raise ValueError(f"system {self.name!r}: joint {key[1]!r} of robot {key[0]!r} is "
+                                     f"shared by chains but differs between them")
+
+    @property
+    def joint_keys(self) -> list[tuple[str, str]]:
+        """(robot, joint name) of each entry of q."""
+        return list(dict.fromkeys(key for chain in self.chains for key in chain.joint_keys()))
 
     @property
     def dof(self) -> int:
-        return sum(c.dof for c in self.chains)
+        return len(self.joint_keys)
+
+    def chain_indices(self) -> list[list[int]]:
+        """Per chain, the index in q of each of its moving joints."""
+        index = {key: i for i, key in enumerate(self.joint_keys)}
+        return [[index[key] for key in chain.joint_keys()] for chain in self.chains]
 
     def split(self, q: Sequence[Any]) -> list[list[Any]]:
-        """q = [q_1; …; q_n] cut into one joint vector per chain."""
+        """Each chain's joint values, picked from q (shared joints appear in several chains)."""
         if len(q) != self.dof:
             raise ValueError(f"system {self.name!r} has {self.dof} joints, got {len(q)} values")
-        out, start = [], 0
-        for c in self.chains:
-            out.append(list(q[start:start + c.dof]))
-            start += c.dof
-        return out
+        return [[q[i] for i in indices] for indices in self.chain_indices()]
 
 
 def end_points(zero: Any, system: System, q: Sequence[Any]) -> list[tuple[Any, list[Any]]]:
@@ -73,18 +103,24 @@ def cooperative_primitive(zero: Any, system: System, q: Sequence[Any]) -> Any:
 
 
 def cooperative_jacobian(zero: Any, system: System, q: Sequence[Any]) -> list[Any]:
-    """J_c = ∂X_c/∂q: block i has columns P_1 ∧ … ∧ J_P,i ∧ … ∧ P_n (∧ e∞) [COOP Eq. 15-17]."""
-    points = end_points(zero, system, q)
+    """J_c = ∂X_c/∂q [COOP Eq. 15-17]; see :func:`primitive_jacobian`."""
+    return primitive_jacobian(system, end_points(zero, system, q))
+
+
+def primitive_jacobian(system: System, points: Sequence[tuple[Any, Sequence[Any]]]) -> list[Any]:
+    """J_c from each chain's (P_i, ∂P_i/∂q_i): the column of joint j is Σ_i P_1 ∧ … ∧ ∂P_i/∂q_j ∧ … ∧ P_n
+    (∧ e∞ for lines and planes) over the chains i that contain joint j (one unless it is shared)."""
     closed = system.kind in ("line", "plane")
-    columns = []
-    for i, (_, jacobian) in enumerate(points):
-        for column in jacobian:
+    columns: list[Any] = [None] * system.dof
+    for i, ((_, jacobian), indices) in enumerate(zip(points, system.chain_indices(), strict=True)):
+        for column, j in zip(jacobian, indices, strict=True):
             factors = [p for p, _ in points]
             factors[i] = column
             x = factors[0]
             for f in factors[1:]:
                 x = x ^ f
-            columns.append(x ^ einf(x) if closed else x)
+            x = x ^ einf(x) if closed else x
+            columns[j] = x if columns[j] is None else columns[j] + x
     return columns
 
 

@@ -67,8 +67,23 @@ def _axis_rotor(like: Any, axis: int, angle: Any) -> Any:
     return like.make({"1": c, plane: sign * s})
 
 
+_FIXED_MOTORS: dict[tuple, Any] = {}
+
+
 def fixed_motor(like: Any, joint: Joint) -> Any:
-    """The joint's fixed transform T(xyz) Rz(yaw) Ry(pitch) Rx(roll), with exact constants."""
+    """The joint's fixed transform T(xyz) Rz(yaw) Ry(pitch) Rx(roll), with exact constants.
+
+    Memoised per implementation, algebra and backend: it is a constant, and building it from the
+    exact angles costs the interpreter more than the rest of a chain."""
+    key = (type(like), like.algebra, getattr(like, "backend", None), joint)
+    if key not in _FIXED_MOTORS:
+        if len(_FIXED_MOTORS) > 4096:  # many short-lived backends: keep the memo bounded
+            _FIXED_MOTORS.clear()
+        _FIXED_MOTORS[key] = _fixed_motor(like, joint)
+    return _FIXED_MOTORS[key]
+
+
+def _fixed_motor(like: Any, joint: Joint) -> Any:
     roll, pitch, yaw = (exact_angle(a) for a in joint.rpy)
     rotation = _axis_rotor(like, 2, yaw) * _axis_rotor(like, 1, pitch) * _axis_rotor(like, 0, roll)
     return translator(vector(like, [to_exact(v) for v in joint.xyz])) * rotation

@@ -10,6 +10,7 @@ A spec::
         base_link: panda_link0
         tip_link: panda_link8
         base: {xyz: [0.8, 0, 0], rpy: [0, 0, 3.14159]}     # placement of the chain's base (optional)
+        robot: left_rig                # optional: chains with one robot label share same-named joints
       - name: finger
         joints:                        # explicit joints instead of a URDF
           - {name: j1, type: revolute, axis: [0, 0, 1], xyz: [0, 0, 0.1], rpy: [0, 0, 0]}
@@ -122,9 +123,10 @@ def _chain(spec: _Spec, value: Any, field: str) -> Chain:
     if not isinstance(value, dict):
         raise spec.error(field, f"got {value!r}; expected a chain mapping (name and urdf or joints)")
     name = _require(spec, value, "name", f"{field}.name", str, "a chain name")
+    robot = _require(spec, value, "robot", f"{field}.robot", str, "a robot label") if "robot" in value else ""
     joints: list[Joint] = []
     if "base" in value:
-        joints.append(_placement(spec, value["base"], f"{field}.base", f"{name}_base"))
+        joints.append(_placement(spec, value["base"], f"{field}.base", f"{robot or name}_base"))
     if "urdf" in value:
         urdf = spec.path.parent / _require(spec, value, "urdf", f"{field}.urdf", str, "a URDF path")
         base = _require(spec, value, "base_link", f"{field}.base_link", str, "the chain's first link")
@@ -139,10 +141,30 @@ def _chain(spec: _Spec, value: Any, field: str) -> Chain:
         joints += [_explicit_joint(spec, j, f"{field}.joints[{i}]") for i, j in enumerate(listed)]
     else:
         raise spec.error(field, "needs either urdf (with base_link, tip_link) or joints")
-    chain = Chain(name, tuple(joints))
+    chain = Chain(name, tuple(joints), robot)
     if chain.dof == 0:
         raise spec.error(field, "has no moving joint")
     return chain
+
+
+def _check_shared_robots(spec: _Spec, chains: tuple[Chain, ...]) -> None:
+    """Chains of one robot share its base placement and every same-named moving joint."""
+    first: dict[str, int] = {}
+    for i, chain in enumerate(chains):
+        if not chain.robot:
+            continue
+        k = first.setdefault(chain.robot, i)
+        other = chains[k]
+        bases = [c.joints[0] if c.joints and c.joints[0].name == f"{c.robot}_base" else None
+                 for c in (chain, other)]
+        if bases[0] != bases[1]:
+            raise spec.error(f"chains[{i}].base", f"differs from chains[{k}].base; chains of robot "
+                                                  f"{chain.robot!r} share one base placement")
+        theirs = {j.name: j for j in other.joints if j.moves}
+        for j in chain.joints:
+            if j.moves and j.name in theirs and theirs[j.name] != j:
+                raise spec.error(f"chains[{i}]", f"joint {j.name!r} differs from the one in chains[{k}]; "
+                                                 f"chains of robot {chain.robot!r} share same-named joints")
 
 
 def load_system(path: str | Path) -> tuple[System, dict[str, list[float]]]:
@@ -158,6 +180,11 @@ def load_system(path: str | Path) -> tuple[System, dict[str, list[float]]]:
         raise spec.error("chains", f"a {kind} is spanned by {points_needed(kind)} chains "
                                    f"(one per point), got {len(chains_data)}")
     chains = tuple(_chain(spec, c, f"chains[{i}]") for i, c in enumerate(chains_data))
+    for i, chain in enumerate(chains):
+        if chain.name in [c.name for c in chains[:i]]:
+            raise spec.error(f"chains[{i}].name", f"got {chain.name!r} twice; chain names name the "
+                                                  f"generated kernels and must differ")
+    _check_shared_robots(spec, chains)
     system = System(name, kind, chains)
     configurations = {}
     for key, q in (data.get("configurations") or {}).items():

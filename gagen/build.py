@@ -1,0 +1,196 @@
+"""``gagen build``: a spec's kernels as a generated module (CasADi Functions, C source, library).
+
+The output folder ``generated/<system>/`` holds:
+
+- ``manifest.json``: kernels, ports (row labels, shapes, layout), op counts, hashes;
+- ``<system>.h`` / ``<system>.c``: the C kernels, from ``templates/`` by our emitter;
+- ``casadi/<kernel>.casadi``: the CasADi Functions, serialised;
+- ``__init__.py``: the Python module (``casadi.<kernel>``, ``c.<kernel>``);
+- ``lib<system>_<key>.so``: the compiled library (not committed; compiled on first use if absent).
+
+Builds are deterministic (same spec, templates and gagen version → same bytes), cached by a key
+over exactly those, and atomic: everything is written to a temporary sibling folder that replaces
+the old one only when complete, so a failed build leaves the previous module untouched.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import jinja2
+
+from gagen import __version__
+from gagen.codegen.c_emitter import emit_body
+from gagen.codegen.compiler import CompileError, CompilerNotFound, compile_shared, library_name
+from gagen.kernels import Kernel, Port, build_kernels
+from gagen.model.cooperative import System
+from gagen.runtime import MANIFEST
+from gagen.spec.loader import load_system
+
+TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
+TEMPLATE_FILES = ("kernels.h.j2", "kernels.c.j2", "module.py.j2")
+DEFAULT_ROOT = Path("generated")
+
+
+@dataclass
+class BuildResult:
+    folder: Path
+    key: str
+    cached: bool
+    compiled: bool
+    seconds: float
+
+
+def _templates() -> jinja2.Environment:
+    missing = [t for t in TEMPLATE_FILES if not (TEMPLATES / t).is_file()]
+    if missing:
+        raise FileNotFoundError(f"gagen templates not found in {TEMPLATES}: {', '.join(missing)} "
+                                "(gagen must be installed from its source tree, e.g. pip install -e .)")
+    return jinja2.Environment(loader=jinja2.FileSystemLoader(TEMPLATES), keep_trailing_newline=True,
+                              undefined=jinja2.StrictUndefined, autoescape=False)
+
+
+def build_key(system: System) -> str:
+    """Hash of what decides the output: the loaded system (every joint constant, so URDF edits that
+    change nothing do not rebuild), the templates, and gagen's version and code generator."""
+    h = hashlib.sha256()
+    h.update(repr(system).encode())
+    for name in TEMPLATE_FILES:
+        h.update((TEMPLATES / name).read_bytes())
+    h.update(__version__.encode())
+    for module in ("kernels.py", "codegen/c_emitter.py", "build.py"):
+        h.update((Path(__file__).parent / module).read_bytes())
+    return h.hexdigest()
+
+
+def _port_entry(port: Port) -> dict:
+    return {"name": port.name, "rows": list(port.rows), "cols": port.cols, "layout": "column-major"}
+
+
+def _params(kernel: Kernel, restrict: str) -> str:
+    ins = [f"const double *{restrict} {p.name}" for p in kernel.inputs]
+    outs = [f"double *{restrict} {p.name}" for p in kernel.outputs]
+    return ", ".join(ins + outs)
+
+
+def _render(system: System, kernels: dict[str, Kernel], spec_path: Path, key: str,
+            progress: Callable[[str], None]) -> dict[str, str]:
+    """Every file of the module, as text, by relative path."""
+    env = _templates()
+    spec_hash = hashlib.sha256(spec_path.read_bytes()).hexdigest()
+    entries, contexts = [], []
+    for i, kernel in enumerate(kernels.values(), 1):
+        start = time.perf_counter()
+        c_name = f"{system.name}_{kernel.name}"
+        body = emit_body(kernel.function, [p.name for p in kernel.inputs], [p.name for p in kernel.outputs])
+        ops = kernel.op_count
+        contexts.append({"c_name": c_name, "doc": kernel.doc, "inputs": kernel.inputs,
+                         "outputs": kernel.outputs, "ops": str(ops), "locals": body.locals,
+                         "statements": body.statements,
+                         "params": _params(kernel, "restrict"), "params_h": _params(kernel, "GAGEN_RESTRICT"),
+                         "names": [p.name for p in (*kernel.inputs, *kernel.outputs)]})
+        entries.append({"name": kernel.name, "c_name": c_name, "doc": kernel.doc,
+                        "inputs": [_port_entry(p) for p in kernel.inputs],
+                        "outputs": [_port_entry(p) for p in kernel.outputs],
+                        "op_count": {"mul": ops.mul, "add": ops.add, "neg": ops.neg, "div": ops.div,
+                                     "flops": ops.flops, "calls": ops.calls},
+                        "casadi": f"casadi/{kernel.name}.casadi"})
+        progress(f"  [{i}/{len(kernels)}] {kernel.name}: {ops.flops} flops, "
+                 f"{len(body.statements)} C statements ({time.perf_counter() - start:.2f} s)")
+    common = {"system": system.name, "kind": system.kind, "dof": system.dof, "version": __version__,
+              "spec_name": spec_path.name, "spec_hash": spec_hash[:16], "build_key": key[:16]}
+    manifest = {"system": system.name, "primitive": system.kind, "dof": system.dof,
+                "joints": [f"{r}/{j}" for r, j in system.joint_keys], "gagen_version": __version__,
+                "spec": spec_path.name, "spec_sha256": spec_hash, "build_key": key,
+                "c_source": f"{system.name}.c", "c_header": f"{system.name}.h",
+                "library": library_name(f"{system.name}_{key[:12]}"), "kernels": entries}
+    files = {
+        MANIFEST: json.dumps(manifest, indent=1, sort_keys=False) + "\n",
+        f"{system.name}.h": env.get_template("kernels.h.j2").render(
+            **common, kernels=contexts, guard=f"GAGEN_{system.name.upper()}_H"),
+        f"{system.name}.c": env.get_template("kernels.c.j2").render(**common, kernels=contexts),
+        "__init__.py": env.get_template("module.py.j2").render(
+            **common, kernel_names=list(kernels), example=next(reversed(kernels))),
+    }
+    return files
+
+
+def _cached(folder: Path, key: str) -> bool:
+    try:
+        return json.loads((folder / MANIFEST).read_text())["build_key"] == key
+    except (OSError, ValueError, KeyError):
+        return False
+
+
+def _replace(partial: Path, folder: Path) -> None:
+    """Swap the finished folder in: the old one is moved aside first and removed last."""
+    old = folder.with_name(f".{folder.name}.old-{os.getpid()}")
+    if folder.exists():
+        folder.rename(old)
+    try:
+        partial.rename(folder)
+    except BaseException:
+        if old.exists():
+            old.rename(folder)
+        raise
+    shutil.rmtree(old, ignore_errors=True)
+
+
+def build(spec: str | Path, out: str | Path | None = None, *, force: bool = False, compile_c: bool = True,
+          progress: Callable[[str], None] = print) -> BuildResult:
+    """Build the module of ``spec`` into ``out`` (default ``generated/<system>/``).
+
+    A malformed spec raises ``SpecError`` before anything is written. With no C compiler the
+    module is still written (CasADi Functions and C source) and the missing library is reported.
+    """
+    start = time.perf_counter()
+    spec_path = Path(spec)
+    system, _ = load_system(spec_path)
+    folder = Path(out) if out is not None else DEFAULT_ROOT / system.name
+    key = build_key(system)
+    manifest_library = folder / library_name(f"{system.name}_{key[:12]}")
+    if not force and _cached(folder, key):
+        progress(f"{system.name}: up to date ({folder})")
+        return BuildResult(folder, key, True, manifest_library.exists(), time.perf_counter() - start)
+
+    progress(f"{system.name}: a {system.kind} of {len(system.chains)} chains, {system.dof} joints "
+             f"-> {folder}")
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    partial = folder.with_name(f".{folder.name}.partial-{os.getpid()}")
+    shutil.rmtree(partial, ignore_errors=True)
+    compiled = False
+    try:
+        t = time.perf_counter()
+        kernels = build_kernels(system)
+        progress(f"  model and {len(kernels)} kernel graphs built ({time.perf_counter() - t:.2f} s)")
+        files = _render(system, kernels, spec_path, key, progress)
+        (partial / "casadi").mkdir(parents=True)
+        for name, text in files.items():
+            (partial / name).write_text(text)
+        for kernel in kernels.values():
+            kernel.function.save(str(partial / "casadi" / f"{kernel.name}.casadi"))
+        if compile_c:
+            t = time.perf_counter()
+            try:
+                compile_shared(partial / f"{system.name}.c", partial / manifest_library.name)
+                compiled = True
+                progress(f"  compiled {manifest_library.name} ({time.perf_counter() - t:.2f} s)")
+            except CompilerNotFound as e:
+                progress(f"  warning: {e}; the CasADi module and the C source were still written")
+        _replace(partial, folder)
+    except BaseException:
+        shutil.rmtree(partial, ignore_errors=True)
+        raise
+    seconds = time.perf_counter() - start
+    progress(f"{system.name}: built in {seconds:.2f} s")
+    return BuildResult(folder, key, False, compiled, seconds)
+
+
+__all__ = ["BuildResult", "CompileError", "build", "build_key"]
