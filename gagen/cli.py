@@ -1,5 +1,6 @@
 """The ``gagen`` command line: ``demo`` (the compiler core on CGA formulas), ``algebra`` (a preset's
-metric and blade order) and ``kernels`` (a spec's kernel catalogue with op counts)."""
+metric and blade order), ``kernels`` (a spec's kernel catalogue with op counts) and ``build`` (a spec's
+generated module, optionally checked against the interpreter)."""
 
 from __future__ import annotations
 
@@ -60,6 +61,49 @@ def _cmd_kernels(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_build(args: argparse.Namespace) -> int:
+    from gagen.build import build_many
+    from gagen.codegen.compiler import CompileError
+    from gagen.errors import SpecError
+
+    if args.output and len(args.spec) > 1:
+        print("error: -o/--output takes one spec; several specs go to generated/<system>", file=sys.stderr)
+        return 2
+    try:
+        results = build_many(args.spec, force=args.force, compile_c=not args.no_compile, jobs=args.jobs,
+                             outputs=[args.output] if args.output else None)
+    except SpecError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    except CompileError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    status = 0
+    if args.check:
+        for spec, result in zip(args.spec, results, strict=True):
+            status = max(status, _check(spec, result.folder, args.samples, args.tolerance))
+    return status
+
+
+def _check(spec: str, folder, samples: int, tolerance: float) -> int:
+    from gagen.check import check_module, format_report
+    from gagen.runtime import load
+    from gagen.spec.loader import load_system
+
+    system, configurations = load_system(spec)
+    print(f"{system.name}: checking every kernel (C single, C batched, CasADi) on {samples} samples")
+    report = check_module(load(folder), system, configurations.get("ready"), count=samples)
+    print(format_report(report))
+    worst_value = max((d.worst for d in report if d.reference == "interpreter"), default=0.0)
+    worst_fd = max((d.worst for d in report if d.reference != "interpreter"), default=0.0)
+    print(f"max error: {worst_value:.2e} against the interpreter, {worst_fd:.2e} against central differences "
+          f"(step 1e-6)")
+    if worst_value > tolerance or worst_fd > 1e-6:
+        print(f"error: above tolerance ({tolerance:g}; 1e-6 for central differences)", file=sys.stderr)
+        return 1
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="gagen", description="Symbolic code generation for conformal "
                                      "geometric algebra in robotics.")
@@ -79,6 +123,18 @@ def main(argv: list[str] | None = None) -> int:
     kernels = sub.add_parser("kernels", help="build a spec's kernels and print their shapes and op counts")
     kernels.add_argument("spec", help="robot spec (YAML), e.g. robots/three_pandas_circle.yaml")
     kernels.set_defaults(run=_cmd_kernels)
+
+    build = sub.add_parser("build", help="generate a spec's module: CasADi Functions, C kernels, library")
+    build.add_argument("spec", nargs="+", help="robot spec(s) (YAML), e.g. robots/three_pandas_circle.yaml")
+    build.add_argument("-o", "--output", help="output folder (one spec only; default generated/<system>)")
+    build.add_argument("--force", action="store_true", help="rebuild even if the cached build is up to date")
+    build.add_argument("--no-compile", action="store_true", help="write the C source but do not compile it")
+    build.add_argument("--check", action="store_true",
+                       help="evaluate every kernel against the interpreter and print the maximum error")
+    build.add_argument("-j", "--jobs", type=int, help="parallel C compilations (default: CPU count)")
+    build.add_argument("--samples", type=int, default=5, help="random inputs for --check (default 5)")
+    build.add_argument("--tolerance", type=float, default=1e-10, help="--check fails above this error")
+    build.set_defaults(run=_cmd_build)
 
     args = parser.parse_args(argv)
     return args.run(args)

@@ -12,13 +12,16 @@ outputs need. Per chain (in the system's base frame):
 Per system:
 
 - ``primitive``: q → X_c, J_c [COOP Eq. 14-17];
-- ``similarity``: q → V_Sc, its conditioning, J_A,Sc and J_G,Sc = −2 V_Sc~ J_A,Sc [Eq. 28-30];
-- ``task``: (q, V_Sd) → e = log(V_Sc~ V_Sd) and J_Be = ∂e/∂q [Eq. 40-44];
-- ``system``: (q, V_Sd) → all of the above plus log V_Sc and J_B.
+- ``similarity``: q → V_Sc, its conditioning and J_G,Sc = −2 V_Sc~ J_A,Sc [Eq. 28-30];
+- ``similarity_jacobians``: q → J_A,Sc = ∂V_Sc/∂q, log V_Sc and J_B = ∂ log V_Sc/∂q [Eq. 29, 31];
+- ``task``: (q, V_Sd) → e = log(V_Sc~ V_Sd) and J_Be = ∂e/∂q [Eq. 40-44].
 
-Jacobians of the similarity part use the chain rule through the similarity construction: with x
-the coefficients of X_c, ∂V_Sc/∂q = (∂V_S(X_u, x)/∂x) J_c, where ∂/∂x is CasADi AD on the similarity
-alone (ten inputs, no kinematics in it) and J_c comes from the point Jacobians.
+No kernel is the union of the others: each output is computed by exactly one kernel, which keeps
+the generated C (and its compile time) proportional to what is asked.
+
+System Jacobians use the chain rule through the chains' end positions (see ``build_kernels``):
+AD on the task-space formulas alone (3 inputs per chain, no kinematics in them), times each
+chain's position Jacobian from its joint lines.
 
 Matrices are (rows = blades, columns = joints), stored column-major as CasADi does.
 """
@@ -34,8 +37,17 @@ import casadi as ca
 from gagen.algebra.multivector import SparseMultivector
 from gagen.algebra.signature import cga3d
 from gagen.model import kinematics as K
-from gagen.model.conformal import MOTOR, MOTOR_GENERATOR, POINT, SIMILARITY, SIMILARITY_GENERATOR
-from gagen.model.cooperative import System, primitive_jacobian
+from gagen.model.conformal import (
+    EUCLID,
+    MOTOR,
+    MOTOR_GENERATOR,
+    POINT,
+    SIMILARITY,
+    SIMILARITY_GENERATOR,
+    point,
+    vector,
+)
+from gagen.model.cooperative import System
 from gagen.model.primitives import through
 from gagen.model.similarity import cooperative_similarity
 from gagen.model.versors import log_similarity
@@ -139,44 +151,75 @@ def _chain_kernels(graph: _Graph) -> tuple[list[Kernel], list[tuple[SparseMultiv
     return kernels, points
 
 
+def _task_space(graph: _Graph, positions: ca.SX, vsd: ca.SX) -> dict[str, ca.SX]:
+    """X_c, V_Sc, conditioning, log V_Sc and e as functions of the end positions (3 per chain), and
+    the derivatives of X_c, V_Sc, log V_Sc and e with respect to them (CasADi AD on this small graph
+    only), with G = −2 V_Sc~ ∂V_Sc/∂p for J_G. Points are rebuilt as P(p) = e0 + p + ½|p|² e∞."""
+    system, algebra = graph.system, graph.algebra
+    points = [point(vector(graph.zero, [graph.backend.lift(positions[3 * i + k]) for k in range(3)]))
+              for i in range(len(system.chains))]
+    xc = through(system.kind, points)
+    xc_blades = tuple(algebra.blade_name(b) for b in xc.support)
+    v, conditioning = cooperative_similarity(system.kind, xc)
+    values = {"X_c": graph.column(xc, xc_blades), "V_Sc": graph.column(v, SIMILARITY),
+              "conditioning": graph.backend.native(graph.backend.lift(conditioning)),
+              "log_V": graph.column(log_similarity(v), SIMILARITY_GENERATOR),
+              "e": graph.column(log_similarity(~v * graph.multivector(vsd, SIMILARITY)),
+                                SIMILARITY_GENERATOR)}
+    derivatives = {key: ca.jacobian(values[key], positions) for key in ("X_c", "V_Sc", "log_V", "e")}
+    reverse = ~v  # G = −2 V~ ∂V/∂p, column by column on the symbolic multivectors
+    derivatives["G"] = graph.matrix([(reverse * graph.multivector(derivatives["V_Sc"][:, k], SIMILARITY)) * -2
+                                     for k in range(positions.numel())], SIMILARITY_GENERATOR)
+    return {"blades": xc_blades, **values, **{f"d{key}": d for key, d in derivatives.items()}}
+
+
+def _chain_rule(system: System, by_position: ca.SX, position_jacobians: Sequence[ca.SX]) -> ca.SX:
+    """∂y/∂q from ∂y/∂p (3 columns per chain) and each chain's 3 × n_i position Jacobian; a joint
+    shared by several chains sums their contributions."""
+    columns: list[ca.SX | None] = [None] * system.dof
+    for i, (indices, jp) in enumerate(zip(system.chain_indices(), position_jacobians, strict=True)):
+        block = ca.mtimes(by_position[:, 3 * i:3 * i + 3], jp)
+        for c, j in enumerate(indices):
+            columns[j] = block[:, c] if columns[j] is None else columns[j] + block[:, c]
+    return ca.horzcat(*columns)
+
+
 def build_kernels(system: System) -> dict[str, Kernel]:
-    """Every kernel of ``system`` by name, in catalogue order (chains first)."""
+    """Every kernel of ``system`` by name, in catalogue order (chains first).
+
+    The system Jacobians use the chain rule through the end positions: with p = (p_1 … p_n),
+    ∂y/∂q = Σ_i (∂y/∂p_i) J_p,i, where ∂y/∂p_i (3 columns) is CasADi AD on the task-space formulas
+    alone (X_c from the points, the similarity construction, the logarithms) and J_p,i is chain i's
+    position Jacobian from its joint lines (the e1, e2, e3 rows of [COOP Eq. 17]). For J_G,Sc the
+    product −2 V_Sc~ ∂V_Sc/∂p is taken before the chain rule (7 × 3n instead of 7 × m columns).
+    """
     graph = _Graph(system)
     kernels, points = _chain_kernels(graph)
-    algebra, backend, n = graph.algebra, graph.backend, system.dof
+    n = system.dof
+    positions_q = ca.vertcat(*[graph.column(p, EUCLID) for p, _ in points])
+    jps = [graph.matrix(jac, EUCLID) for _, jac in points]
 
-    xc = through(system.kind, [p for p, _ in points])
-    xc_blades = tuple(algebra.blade_name(b) for b in xc.support)
-    x_q, jc = graph.column(xc, xc_blades), graph.matrix(primitive_jacobian(system, points), xc_blades)
-
-    # the similarity part as a function of the primitive's coefficients x (and of V_Sd)
-    x = ca.SX.sym("x", len(xc_blades))
+    # the task space as a function of the end positions (and of V_Sd), differentiated there
+    positions = ca.SX.sym("p", 3 * len(system.chains))
     vsd = ca.SX.sym("V_Sd", len(SIMILARITY))
-    v, conditioning = cooperative_similarity(system.kind, graph.multivector(x, xc_blades))
-    v_col = graph.column(v, SIMILARITY)
-    log_v = graph.column(log_similarity(v), SIMILARITY_GENERATOR)
-    error = graph.column(log_similarity(~v * graph.multivector(vsd, SIMILARITY)), SIMILARITY_GENERATOR)
-    similarity_part = ca.Function("similarity_part", [x, vsd], [
-        v_col, backend.native(backend.lift(conditioning)), log_v, error,
-        ca.jacobian(v_col, x), ca.jacobian(log_v, x), ca.jacobian(error, x)])
-    v_q, cond_q, log_q, error_q, dv_dx, dlog_dx, derror_dx = similarity_part(x_q, vsd)
-    j_a = ca.mtimes(dv_dx, jc)
-    reverse = ~graph.multivector(v_q, SIMILARITY)  # J_G = −2 V~ J_A, column by column
-    j_g = graph.matrix([(reverse * graph.multivector(j_a[:, i], SIMILARITY)) * -2 for i in range(n)],
-                       SIMILARITY_GENERATOR)
+    task = _task_space(graph, positions, vsd)
+    names = ("X_c", "V_Sc", "conditioning", "log_V", "e", "dX_c", "dV_Sc", "dG", "dlog_V", "de")
+    task_function = ca.Function("task_space", [positions, vsd], [task[k] for k in names])
+    at_q = dict(zip(names, task_function(positions_q, vsd), strict=True))
+    xc_blades = task["blades"]
 
     q_port, vsd_port = (Port("q", graph.joint_labels), graph.q), (Port("V_Sd", SIMILARITY), vsd)
     out = {
-        "X_c": (Port("X_c", xc_blades), x_q),
-        "J_c": (Port("J_c", xc_blades, n), jc),
-        "V_Sc": (Port("V_Sc", SIMILARITY), v_q),
-        "conditioning": (Port("conditioning", ("conditioning",)), cond_q),
-        "J_A": (Port("J_A", SIMILARITY, n), j_a),
-        "J_G": (Port("J_G", SIMILARITY_GENERATOR, n), j_g),
-        "log_V": (Port("log_V", SIMILARITY_GENERATOR), log_q),
-        "J_B": (Port("J_B", SIMILARITY_GENERATOR, n), ca.mtimes(dlog_dx, jc)),
-        "e": (Port("e", SIMILARITY_GENERATOR), error_q),
-        "J_Be": (Port("J_Be", SIMILARITY_GENERATOR, n), ca.mtimes(derror_dx, jc)),
+        "X_c": (Port("X_c", xc_blades), at_q["X_c"]),
+        "J_c": (Port("J_c", xc_blades, n), _chain_rule(system, at_q["dX_c"], jps)),
+        "V_Sc": (Port("V_Sc", SIMILARITY), at_q["V_Sc"]),
+        "conditioning": (Port("conditioning", ("conditioning",)), at_q["conditioning"]),
+        "J_A": (Port("J_A", SIMILARITY, n), _chain_rule(system, at_q["dV_Sc"], jps)),
+        "J_G": (Port("J_G", SIMILARITY_GENERATOR, n), _chain_rule(system, at_q["dG"], jps)),
+        "log_V": (Port("log_V", SIMILARITY_GENERATOR), at_q["log_V"]),
+        "J_B": (Port("J_B", SIMILARITY_GENERATOR, n), _chain_rule(system, at_q["dlog_V"], jps)),
+        "e": (Port("e", SIMILARITY_GENERATOR), at_q["e"]),
+        "J_Be": (Port("J_Be", SIMILARITY_GENERATOR, n), _chain_rule(system, at_q["de"], jps)),
     }
 
     def pick(*names: str) -> list[tuple[Port, ca.SX]]:
@@ -184,9 +227,10 @@ def build_kernels(system: System) -> dict[str, Kernel]:
 
     kernels += [
         _kernel("primitive", f"the cooperative {system.kind} X_c(q) and J_c", [q_port], pick("X_c", "J_c")),
-        _kernel("similarity", "V_Sc(q), its conditioning, J_A,Sc and J_G,Sc", [q_port],
-                pick("V_Sc", "conditioning", "J_A", "J_G")),
+        _kernel("similarity", "V_Sc(q), its conditioning and J_G,Sc", [q_port],
+                pick("V_Sc", "conditioning", "J_G")),
+        _kernel("similarity_jacobians", "J_A,Sc = dV_Sc/dq, log V_Sc and J_B = d log V_Sc/dq", [q_port],
+                pick("J_A", "log_V", "J_B")),
         _kernel("task", "task error e = log(V_Sc~ V_Sd) and J_Be", [q_port, vsd_port], pick("e", "J_Be")),
-        _kernel("system", "every system output", [q_port, vsd_port], list(out.values())),
     ]
     return {k.name: k for k in kernels}

@@ -1,15 +1,21 @@
-"""Loading a generated module: its manifest, CasADi Functions, and the compiled C through ctypes.
+"""Loading a generated module: its manifest, CasADi Functions, and the compiled C kernels.
 
-A C kernel is called through its ``*_argv`` entry point with two pointer arrays that are built once,
-over input and output buffers the kernel owns: a call copies the inputs into those buffers and
-makes one ctypes call, so no per-call conversion or allocation happens. The returned arrays are the
-kernel's output buffers (overwritten by the next call; copy what you keep). ``batch`` allocates.
+A single call goes through the module's CPython binding: the kernel reads the input arrays in place
+(float64, contiguous; anything else is converted first) and writes into output arrays registered
+once, so a call allocates nothing. The returned arrays are the kernel's output buffers, overwritten
+by the next call: copy what you keep. Without the binding (no Python headers at build time) calls
+go through ctypes and the ``*_argv`` entry points, with the inputs copied into owned buffers.
+``batch`` goes through ctypes and allocates its outputs.
 """
 
 from __future__ import annotations
 
 import ctypes
+import functools
+import gzip
+import importlib.util
 import json
+import warnings
 from functools import cached_property
 from pathlib import Path
 from typing import Any
@@ -22,7 +28,7 @@ MANIFEST = "manifest.json"
 class CKernel:
     """One compiled kernel: ``kernel(*inputs) -> outputs`` and ``kernel.batch(*inputs)``."""
 
-    def __init__(self, library: ctypes.CDLL, entry: dict[str, Any]) -> None:
+    def __init__(self, library: ctypes.CDLL, entry: dict[str, Any], binding: Any = None) -> None:
         self.name = entry["name"]
         self.inputs = [p["name"] for p in entry["inputs"]]
         self.outputs = [p["name"] for p in entry["outputs"]]
@@ -41,17 +47,32 @@ class CKernel:
         self._resv = (ctypes.c_void_p * len(self._out))(*[a.ctypes.data for a in self._out])
         self._argv_address, self._resv_address = ctypes.addressof(self._argv), ctypes.addressof(self._resv)
         self._views = tuple(a[:, 0] if a.shape[1] == 1 else a for a in self._out)
+        result = self._views[0] if len(self._views) == 1 else self._views
+        self.fast = None  # call(*float64 arrays) with no checks beyond the binding's: the hot path
+        if binding is not None:
+            address = ctypes.cast(getattr(library, c_name), ctypes.c_void_p).value
+            capsule = getattr(binding, f"make_{self.name}")(address, *self._out, result)
+            self.fast = functools.partial(getattr(binding, f"call_{self.name}"), capsule)
 
     def __repr__(self) -> str:
         return f"<C kernel {self.name}({', '.join(self.inputs)}) -> {', '.join(self.outputs)}>"
 
     def __call__(self, *args: Any) -> Any:
         """Evaluate once; vectors come back 1-D, matrices (rows, cols); one output comes back alone."""
+        if self.fast is not None:
+            try:
+                return self.fast(*args)
+            except (TypeError, ValueError, BufferError):  # not contiguous float64 of the right size
+                pass
         if len(args) != len(self._in):
             raise TypeError(f"{self.name} takes {len(self._in)} inputs ({', '.join(self.inputs)}), "
                             f"got {len(args)}")
-        for buffer, value in zip(self._in, args, strict=True):
-            buffer[:] = value
+        for buffer, value, name in zip(self._in, args, self.inputs, strict=True):
+            value = np.asarray(value, dtype=float)
+            if value.size != buffer.size:
+                raise ValueError(f"{self.name}: input {name} needs {buffer.size} values, "
+                                 f"got shape {value.shape}")
+            buffer[:] = value.ravel(order="F")
         self._single(self._argv_address, self._resv_address)
         return self._views[0] if len(self._views) == 1 else self._views
 
@@ -108,7 +129,8 @@ class GeneratedModule:
     def _load_casadi(self, name: str) -> Any:
         import casadi as ca
 
-        return ca.Function.load(str(self.folder / self._entry(name)["casadi"]))
+        data = gzip.decompress((self.folder / self._entry(name)["casadi"]).read_bytes())
+        return ca.Function.deserialize(data.decode())
 
     @cached_property
     def library(self) -> ctypes.CDLL:
@@ -120,8 +142,26 @@ class GeneratedModule:
             compile_shared(self.folder / self.manifest["c_source"], library)
         return ctypes.CDLL(str(library))
 
+    @cached_property
+    def binding(self) -> Any:
+        """The CPython binding module (compiled here first if absent), or None: then ctypes."""
+        from gagen.codegen.compiler import CompileError, compile_binding, extension_path
+
+        name = self.manifest["binding"]
+        path = extension_path(self.folder, name)
+        if not path.exists():
+            try:
+                compile_binding(self.folder / self.manifest["binding_source"])
+            except CompileError as e:
+                warnings.warn(f"{name}: {e}; C kernels are called through ctypes", stacklevel=2)
+                return None
+        spec = importlib.util.spec_from_file_location(name, path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return module
+
     def _load_c(self, name: str) -> CKernel:
-        return CKernel(self.library, self._entry(name))
+        return CKernel(self.library, self._entry(name), self.binding)
 
 
 def load(folder: str | Path) -> GeneratedModule:

@@ -77,6 +77,24 @@ def _port(kernel, name):
     return next(p for p in kernel.outputs if p.name == name)
 
 
+SYSTEM_KERNELS = ("primitive", "similarity", "similarity_jacobians", "task")
+
+
+class _Union:
+    """The system kernels' outputs together (each output comes from exactly one kernel)."""
+
+    def __init__(self, name):
+        self.kernels = [_kernels(name)[k] for k in SYSTEM_KERNELS]
+        self.outputs = tuple(p for k in self.kernels for p in k.outputs)
+        assert len({p.name for p in self.outputs}) == len(self.outputs) == 10
+
+    def __call__(self, q, vsd):
+        out = {}
+        for k in self.kernels:
+            out.update(_call(k, *([q] if len(k.inputs) == 1 else [q, vsd])))
+        return out
+
+
 @pytest.mark.parametrize("name", sorted(SYSTEMS))
 def test_kernel_values_equal_interpreter_and_v_sc_moves_x_u_onto_x_c(name):
     desired = _desired()
@@ -86,13 +104,12 @@ def test_kernel_values_equal_interpreter_and_v_sc_moves_x_u_onto_x_c(name):
     np.testing.assert_allclose(cooperative_primitive(ZERO, system, list(q)).coeffs, ref["X_c"].coeffs, atol=0)
     np.testing.assert_allclose(similarity_of(ZERO, system, list(q))[0].coeffs, ref["V_Sc"].coeffs, atol=0)
     np.testing.assert_allclose(task_error(ZERO, system, list(q), desired).coeffs, ref["e"].coeffs, atol=0)
-    kernels = _kernels(name)
-    full = kernels["system"]
+    full = _Union(name)
     vsd = [desired[b] for b in SIMILARITY]
     for q in _configurations(name, CONFIGURATIONS):
-        out = _call(full, q, vsd)
+        out = full(q, vsd)
         ref = _interp(name, q, desired)
-        assert ref["conditioning"] > 1e-6  # configurations near the ready pose are well-conditioned
+        assert ref["conditioning"] > 1e-8  # near the ready pose: well-conditioned (hands: (6 vol)² ~ 1e-6)
         for key in ("X_c", "V_Sc", "log_V", "e"):
             np.testing.assert_allclose(out[key].ravel(), _rows(ref[key], _port(full, key)), atol=1e-10)
         assert abs(out["conditioning"].item() - ref["conditioning"]) < 1e-10
@@ -100,12 +117,6 @@ def test_kernel_values_equal_interpreter_and_v_sc_moves_x_u_onto_x_c(name):
         xc = ref["X_c"].coeffs
         scale = moved @ xc / (xc @ xc)
         np.testing.assert_allclose(moved, scale * xc, atol=1e-10 * np.max(np.abs(xc)))
-        # the smaller kernels are the same numbers as the catalogue's union
-        for kernel in ("primitive", "similarity", "task"):
-            k = kernels[kernel]
-            args = [q] if len(k.inputs) == 1 else [q, vsd]
-            for key, value in _call(k, *args).items():
-                np.testing.assert_allclose(value, out[key], rtol=1e-13, atol=1e-13)
 
 
 def _central_differences(name, q, desired):
@@ -126,10 +137,10 @@ def _blade_rows(dense, port):
 @pytest.mark.parametrize("name", sorted(SYSTEMS))
 def test_every_system_jacobian_equals_central_differences(name):
     desired = _desired()
-    full = _kernels(name)["system"]
+    full = _Union(name)
     vsd = [desired[b] for b in SIMILARITY]
     for q in _configurations(name, CONFIGURATIONS, seed=5):
-        out = _call(full, q, vsd)
+        out = full(q, vsd)
         fd = _central_differences(name, q, desired)
         v = _interp(name, q, desired)["V_Sc"]
         np.testing.assert_allclose(out["J_c"], _blade_rows(fd["X_c"], _port(full, "J_c")), atol=2e-7)
@@ -143,9 +154,9 @@ def test_every_system_jacobian_equals_central_differences(name):
 @pytest.mark.parametrize("name", sorted(SYSTEMS))
 def test_system_jacobian_j_c_equals_the_models_closed_form(name):
     """J_c of the kernel equals the model's Eq. 15-17 on the interpreter (shared joints summed)."""
-    full = _kernels(name)["system"]
+    full = _Union(name)
     for q in _configurations(name, 3, seed=9):
-        out = _call(full, q, [_desired()[b] for b in SIMILARITY])
+        out = full(q, [_desired()[b] for b in SIMILARITY])
         columns = cooperative_jacobian(ZERO, SYSTEMS[name], list(q))
         ours = np.array([[c[b] for b in _port(full, "J_c").rows] for c in columns]).T
         np.testing.assert_allclose(out["J_c"], ours, atol=1e-10)
@@ -194,8 +205,8 @@ def test_every_chain_kernel_equals_interpreter_and_its_jacobians_central_differe
 
 
 def test_three_panda_circle_kernel_cost_does_not_regress():
-    """The chain rule through the similarity construction (not AD through the kinematics) keeps the
-    21-DOF circle's kernels at 29 792 flops + 21 sin/cos together (AD through the kinematics: 113 044)."""
-    ops = _kernels("three_pandas_circle")["system"].op_count
-    assert ops.flops <= 30_000
+    """The chain rule through the end positions (AD on the task-space formulas only) keeps the 21-DOF
+    circle's V_Sc + J_G,Sc kernel at 8 487 flops + 21 sin/cos (AD through the kinematics: ~45 000)."""
+    ops = _kernels("three_pandas_circle")["similarity"].op_count
+    assert ops.flops <= 8_500
     assert ops.calls["sin"] == ops.calls["cos"] == 21

@@ -106,3 +106,31 @@ def test_missing_urdf_file(tmp_path):
 def test_every_bundled_spec_loads_with_a_ready_configuration(name):
     system, configs = load_system(ROBOTS / f"{name}.yaml")
     assert system.name == name and len(configs["ready"]) == system.dof
+
+
+def _robot_chain(i, robot, base="", tip="panda_link8"):
+    return (f"  - name: arm{i}\n    robot: {robot}\n    urdf: {PANDA_URDF}\n    base_link: panda_link0\n"
+            f"    tip_link: {tip}\n" + (f"    base: {base}\n" if base else ""))
+
+
+def test_chains_of_one_robot_share_same_named_joints(tmp_path):
+    """Two chains of one Panda, to link8 and link6: joints 1-6 appear once in q (7 DOF, not 13)."""
+    text = ("name: t\nprimitive: point_pair\nchains:\n" + _robot_chain(0, "p") +
+            _robot_chain(1, "p", tip="panda_link6"))
+    system, _ = load_system(_write(tmp_path, text))
+    assert system.dof == 7
+    assert system.chain_indices() == [list(range(7)), list(range(6))]
+
+
+def test_chains_of_one_robot_with_different_bases(tmp_path):
+    text = ("name: t\nprimitive: point_pair\nchains:\n" + _robot_chain(0, "p", "{xyz: [0, 0, 0]}") +
+            _robot_chain(1, "p", "{xyz: [1, 0, 0]}"))
+    e = _error(tmp_path, text)
+    assert e.field.startswith("chains[1].base") and "share one base placement" in e.message
+
+
+def test_duplicate_chain_names(tmp_path):
+    chain = CHAIN.format(i=0, urdf=PANDA_URDF, tip="panda_link8")
+    text = "name: t\nprimitive: point_pair\nchains:\n" + chain * 2
+    e = _error(tmp_path, text)
+    assert e.field.startswith("chains[1].name") and "twice" in e.message

@@ -118,15 +118,29 @@ def chain_kinematics(like: Any, joints: Sequence[Joint], q: Sequence[Any]) -> tu
     moving = [j for j in joints if j.moves]
     if len(q) != len(moving):
         raise ValueError(f"chain has {len(moving)} moving joints, got {len(q)} joint values")
-    motor = like.make({"1": 1})
+    # The chain runs on unnormalised fixed motors F_j = s_j F~_j (F~_j with unit rotation entries
+    # where F_j has ±√½, as a URDF's quarter turns do): the scale Λ = Π s_j is applied once, to
+    # the motor at the end and as Λ² (an exact power of ½) to each carried line.
+    motor, scale = like.make({"1": 1}), 1
     lines = []
     values = iter(q)
     for joint in joints:
-        motor = motor * fixed_motor(like, joint)
+        fixed, s = _unscaled(fixed_motor(like, joint))
+        motor, scale = motor * fixed, scale * s
         if joint.moves:
-            lines.append(motor.sandwich(joint_generator(like, joint)))
+            lines.append(motor.sandwich(joint_generator(like, joint)) * (scale * scale))
             motor = motor * joint_motor(like, joint, next(values))
-    return motor, lines
+    return (motor if scale == 1 else motor * scale), lines
+
+
+def _unscaled(fixed: Any) -> tuple[Any, Any]:
+    """(F~, s) with F = s F~ and s the common magnitude of F's rotation coefficients, when they
+    share one (quarter and half turns); (F, 1) otherwise."""
+    magnitudes = {abs(fixed[b]) for b in ("1", "e12", "e13", "e23")} - {0}
+    if len(magnitudes) != 1:
+        return fixed, 1
+    s = magnitudes.pop()
+    return (fixed, 1) if s == 1 else (fixed * (1 / s), s)
 
 
 def forward_kinematics(like: Any, joints: Sequence[Joint], q: Sequence[Any]) -> Any:

@@ -1,0 +1,174 @@
+"""`gagen build`: the committed generated modules against the interpreter, determinism, the cache,
+atomic replacement, missing compilers, corrupted kernels caught by --check, and a generated CasADi
+Function inside IPOPT."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+from functools import cache
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from gagen import build as build_module
+from gagen.build import build, build_key
+from gagen.check import check_module
+from gagen.errors import SpecError
+from gagen.robots.systems import ROBOTS, bundled_specs, bundled_systems, ready_configuration
+from gagen.runtime import load
+
+GENERATED = ROBOTS.parent / "generated"
+SYSTEMS = bundled_systems()
+QUIET = {"progress": lambda _: None}
+
+
+@cache
+def _module(name: str):
+    return load(GENERATED / name)
+
+
+@pytest.mark.parametrize("name", sorted(SYSTEMS))
+def test_committed_module_is_current(name):
+    """generated/<system> was built from the current spec, templates and code generator."""
+    manifest = json.loads((GENERATED / name / "manifest.json").read_text())
+    assert manifest["build_key"] == build_key(SYSTEMS[name]), f"run: gagen build robots/{name}.yaml"
+
+
+@pytest.mark.parametrize("name", sorted(SYSTEMS))
+def test_every_kernel_c_single_batched_and_casadi_equal_the_interpreter(name):
+    """Values and closed-form Jacobians to 1e-10; the AD Jacobians to central differences (1e-6)."""
+    system = SYSTEMS[name]
+    report = check_module(_module(name), system, ready_configuration(system), count=3, seed=7)
+    assert {d.kernel for d in report} == {k["name"] for k in _module(name).manifest["kernels"]}
+    for d in report:
+        tolerance = 1e-10 if d.reference == "interpreter" else 1e-6
+        assert d.worst <= tolerance, d
+
+
+def test_c_and_casadi_give_the_same_doubles():
+    """The emitter replays CasADi's instructions in order (no FMA): identical results, bit for bit."""
+    module = _module("three_pandas_circle")
+    rng = np.random.default_rng(3)
+    for name in ("arm1_jacobians", "similarity", "task"):
+        entry = next(k for k in module.manifest["kernels"] if k["name"] == name)
+        inputs = [rng.uniform(-1, 1, len(p["rows"]) * p["cols"]) for p in entry["inputs"]]
+        c_out = getattr(module.c, name)(*inputs)
+        ca_out = getattr(module.casadi, name)(*inputs)
+        for c, ref in zip(c_out, ca_out, strict=True):
+            assert np.array_equal(np.ravel(c, order="F"), np.asarray(ref).ravel(order="F"))
+
+
+def _files(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*"))
+            if p.is_file() and not p.name.endswith((".so", ".dylib"))}
+
+
+def test_two_builds_are_byte_identical_and_the_second_is_cached(tmp_path):
+    spec = bundled_specs()["panda_point"]
+    first = build(spec, tmp_path / "a", compile_c=False, **QUIET)
+    second = build(spec, tmp_path / "b", compile_c=False, **QUIET)
+    assert not first.cached and _files(tmp_path / "a") == _files(tmp_path / "b")
+    again = build(spec, tmp_path / "a", compile_c=False, **QUIET)
+    assert again.cached and again.key == first.key == second.key
+
+
+def test_a_build_failing_midway_leaves_the_previous_output_untouched(tmp_path, monkeypatch):
+    spec, out = bundled_specs()["panda_point"], tmp_path / "panda_point"
+    build(spec, out, compile_c=False, **QUIET)
+    before = _files(out)
+
+    def fail(*args, **kwargs):
+        raise RuntimeError("injected failure while writing the C source")
+
+    monkeypatch.setattr(build_module, "emit_body", fail)
+    with pytest.raises(RuntimeError, match="injected"):
+        build(spec, out, force=True, compile_c=False, **QUIET)
+    assert _files(out) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["panda_point"]  # no partial folder left
+
+
+def test_a_malformed_spec_writes_nothing(tmp_path):
+    spec = tmp_path / "bad.yaml"
+    spec.write_text("name: bad\nprimitive: circle\nchains: []\n")
+    with pytest.raises(SpecError):
+        build(spec, tmp_path / "out", **QUIET)
+    assert [p.name for p in tmp_path.iterdir()] == ["bad.yaml"]
+
+
+def test_without_a_c_compiler_the_casadi_module_is_still_written(tmp_path, monkeypatch):
+    monkeypatch.setenv("CC", "no-such-c-compiler")
+    messages = []
+    result = build(bundled_specs()["panda_point"], tmp_path / "m", progress=messages.append)
+    assert not result.compiled
+    assert any("no-such-c-compiler" in m and "CasADi module" in m for m in messages)
+    module = load(tmp_path / "m")
+    q = np.array(ready_configuration(SYSTEMS["panda_point"]))
+    reference = _module("panda_point").c.arm0_fk(q)
+    for ours, ref in zip(module.casadi.arm0_fk(q), reference, strict=True):
+        np.testing.assert_allclose(np.asarray(ours).ravel(), ref, atol=1e-15)
+
+
+def test_check_catches_a_wrong_constant_in_the_c_source(tmp_path):
+    """Scale the last link-length constant of the Panda FK kernel by 1.01 in the C source: --check
+    must see it in the C rows and not in the (untouched) CasADi ones."""
+    out = tmp_path / "m"
+    shutil.copytree(GENERATED / "panda_point", out, ignore=shutil.ignore_patterns("*.so", "*.dylib"))
+    source = out / "panda_point.c"
+    text = source.read_text()
+    start = text.index("void panda_point_arm0_fk(")
+    body = text[start:text.index("\n}\n", start)]
+    constants = re.findall(r"(w\d+ = (0\.\d+);)", body)
+    statement, value = constants[-1]
+    wrong = body.replace(statement, statement.replace(value, repr(float(value) * 1.01)))
+    source.write_text(text.replace(body, wrong))
+    report = check_module(load(out), SYSTEMS["panda_point"], count=2)
+    by_output = {(d.kernel, d.output): d for d in report}
+    assert by_output[("arm0_fk", "P")].c_single > 1e-5
+    assert by_output[("arm0_fk", "P")].c_batch > 1e-5
+    assert by_output[("arm0_fk", "P")].casadi < 1e-12
+    assert by_output[("arm0_fk_jacobian", "P")].c_single < 1e-12  # other kernels untouched
+
+
+def test_generated_casadi_function_inside_ipopt_solves_panda_ik_to_a_pose():
+    """IK to a pose with the generated FK Function in casadi.nlpsol: ‖M(q) − M*‖² from the ready pose."""
+    fk = _module("panda_point").casadi.arm0_fk
+    rng = np.random.default_rng(11)
+    ready = np.array(ready_configuration(SYSTEMS["panda_point"]))
+    target_q = ready + rng.uniform(-0.3, 0.3, 7)
+    target_motor = np.asarray(fk(target_q)[0]).ravel()
+    q = ca.MX.sym("q", 7)
+    motor, _ = fk(q)
+    problem = {"x": q, "f": ca.sumsqr(motor - target_motor)}
+    solver = ca.nlpsol("ik", "ipopt", problem, {"ipopt.print_level": 0, "print_time": False,
+                                                 "ipopt.tol": 1e-14})
+    solution = solver(x0=ready)
+    assert solver.stats()["success"]
+    reached = np.asarray(fk(np.asarray(solution["x"]).ravel())[0]).ravel()
+    np.testing.assert_allclose(reached, target_motor, atol=1e-7)
+
+
+def test_binding_and_ctypes_paths_agree_and_bad_inputs_are_named():
+    """The CPython binding (the fast path) and the ctypes fallback give the same arrays; lists and
+    strided arrays are converted; a wrong size names the input."""
+    from gagen.runtime import CKernel
+
+    module = _module("three_pandas_circle")
+    entry = next(k for k in module.manifest["kernels"] if k["name"] == "task")
+    fast = module.c.task
+    assert fast.fast is not None  # the binding compiled on this machine
+    slow = CKernel(module.library, entry, binding=None)
+    rng = np.random.default_rng(5)
+    q, vsd = rng.uniform(-1, 1, 21), rng.uniform(-1, 1, 12)
+    expected = [np.array(a) for a in slow(q, vsd)]
+    strided = np.repeat(q, 2)[::2]  # not contiguous: converted on the slow path
+    for args in ((q, vsd), (list(q), list(vsd)), (q.reshape(21, 1), vsd), (strided, vsd)):
+        for ours, ref in zip(fast(*args), expected, strict=True):
+            assert np.array_equal(ours, ref)
+    with pytest.raises(ValueError, match="input q needs 21 values"):
+        fast(q[:20], vsd)
+    with pytest.raises(TypeError, match="takes 2 inputs"):
+        fast(q)
