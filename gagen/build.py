@@ -47,6 +47,9 @@ from gagen.spec.loader import load_system
 TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
 TEMPLATE_FILES = ("kernels.h.j2", "kernels.c.j2", "binding.c.j2", "module.py.j2")
 DEFAULT_ROOT = Path("generated")
+# the modules that generation runs through (editing any other one does not rebuild)
+IN_KEY = {"algebra", "symbolic", "model", "codegen", "spec", "robots", "kernels.py", "build.py", "errors.py",
+          "__init__.py"}
 
 
 @dataclass
@@ -69,14 +72,19 @@ def _templates() -> jinja2.Environment:
 
 def build_key(system: System) -> str:
     """Hash of what decides the output: the loaded system (every joint constant, so URDF edits that
-    change nothing do not rebuild), the templates, and gagen's version and code generator."""
+    change nothing do not rebuild), the templates, gagen's version and the source of every module
+    that takes part in generation (the model, the symbolic layer, the emitter, ...)."""
     h = hashlib.sha256()
     h.update(repr(system).encode())
     for name in TEMPLATE_FILES:
         h.update((TEMPLATES / name).read_bytes())
     h.update(__version__.encode())
-    for module in ("kernels.py", "codegen/c_emitter.py", "build.py"):
-        h.update((Path(__file__).parent / module).read_bytes())
+    package = Path(__file__).parent
+    for module in sorted(package.rglob("*.py")):
+        name = module.relative_to(package).as_posix()
+        if name.split("/")[0] in IN_KEY:
+            h.update(name.encode())
+            h.update(module.read_bytes())
     return h.hexdigest()
 
 

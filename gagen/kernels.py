@@ -124,14 +124,15 @@ def _chain_kernels(graph: _Graph) -> tuple[list[Kernel], list[tuple[SparseMultiv
     kernels, points = [], []
     for chain, indices in zip(graph.system.chains, graph.system.chain_indices(), strict=True):
         qc = ca.vertcat(*[graph.q[i] for i in indices])
-        motor, lines = K.chain_kinematics(graph.zero, chain.joints, [graph.backend.lift(graph.q[i])
-                                                                    for i in indices])
-        point, point_jac = K.end_point(motor), K.point_jacobian(motor, lines)
-        points.append((point, point_jac))
+        motor, lines, position = K.chain_pose(graph.zero, chain.joints, [graph.backend.lift(graph.q[i])
+                                                                         for i in indices])
+        end = point(position)  # = V_M e0 V_M~, from the position the chain carries
+        point_jac = K.point_jacobian(motor, lines, end)
+        points.append((end, point_jac))
         tool = graph.zero.make({TOOL_LINE: 1})
         n = len(indices)
         q_port = Port("q", tuple(graph.joint_labels[i] for i in indices))
-        fk = [(Port("M", MOTOR), graph.column(motor, MOTOR)), (Port("P", POINT), graph.column(point, POINT))]
+        fk = [(Port("M", MOTOR), graph.column(motor, MOTOR)), (Port("P", POINT), graph.column(end, POINT))]
         spatial = (Port("J_S", MOTOR_GENERATOR, n), graph.matrix(K.spatial_jacobian(lines), MOTOR_GENERATOR))
         rest = [
             (Port("J_b", MOTOR_GENERATOR, n), graph.matrix(K.body_jacobian(motor, lines), MOTOR_GENERATOR)),

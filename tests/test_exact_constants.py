@@ -76,3 +76,16 @@ def test_transcendental_constants_become_their_nearest_double_exactly():
     value = exact_call("cos", sympy.Rational(1, 7))
     assert value.is_Rational and float(value) == math.cos(1 / 7)
     assert exact_call("cos", sympy.pi / 4) == sympy.sqrt(2) / 2
+
+
+@given(c=st.floats(-10, 10), d=st.floats(-10, 10), x=st.floats(-10, 10))
+def test_a_sums_constant_term_survives_adding_constants(c, d, x):
+    """(c + x) + d = c + d + x, also after a product: the Poly's own constant term and a loose
+    constant add up (a regression: the loose one used to replace it)."""
+    b = CasadiBackend()
+    (sym,) = b.symbols("v", ["x"])
+    expressions = [b.add(b.add(c, sym), d), b.add(d, b.add(sym, c)), b.add(b.mul(b.add(c, sym), 3), d)]
+    f = ca.Function("f", [b.native(b.lift(sym))], [b.native(e) for e in expressions])
+    values = [float(v) for v in f(x)]
+    expected = [c + x + d, d + x + c, 3 * (c + x) + d]
+    np.testing.assert_allclose(values, expected, rtol=1e-12, atol=1e-12)

@@ -16,7 +16,7 @@ from gagen.algebra.signature import cga3d
 from gagen.crosscheck import Formula, flatten_formula, relative_error
 from gagen.interp import MultiVector
 from gagen.model import kinematics as K
-from gagen.model.conformal import EUCLID, location, vector
+from gagen.model.conformal import EUCLID, location, point, vector
 from gagen.model.kinematics import Joint, end_point, exact_angle, forward_kinematics
 
 HALF_PI = math.pi / 2
@@ -39,6 +39,8 @@ MIXED = (
     Joint("d", "continuous", (0.0, 0.0, 0.4), (0.1, 0.2, 0.3), (0.0, 1.0, 0.0)),
 )
 CHAINS = {"panda": PANDA, "mixed": MIXED}
+PINNED_FK = (174, 149, 1, 7, 7)
+PINNED_FK_JACOBIAN = (323, 271, 8, {"cos": 7, "sin": 7})
 
 
 def _rot(axis, angle):
@@ -109,11 +111,21 @@ def test_quarter_turns_snap_to_exact_constants():
     assert exact_angle(1.5708) != sympy.pi / 2  # 3.7e-6 away: kept as given
 
 
+def _pose_kernel(with_jacobian: bool):
+    """The production path (``chain_pose``): motor, P(t) from the carried position, spatial J."""
+
+    def pose(zero, q):
+        motor, lines, position = K.chain_pose(zero, PANDA, q)
+        return (motor, point(position), *(K.spatial_jacobian(lines) if with_jacobian else ()))
+
+    return flatten_formula(Formula("panda_pose", cga3d(), (("q", 7),), pose, pass_zero=True))
+
+
 def test_panda_fk_op_count_is_pinned():
-    """The Panda FK motor + end point; the exact quarter turns keep it near the matrix chain's cost."""
-    _, kernel = _fk_kernel("panda")
-    ops = kernel.op_count
-    assert (ops.mul, ops.add, ops.neg, ops.calls.get("sin"), ops.calls.get("cos")) == (157, 183, 0, 7, 7)
+    """Panda FK motor + end point on the production path: 324 flops + 7 sin/cos (the motor product
+    chain was 340; the 4×4-matrix chain is 129)."""
+    ops = _pose_kernel(False).op_count
+    assert (ops.mul, ops.add, ops.neg, ops.calls.get("sin"), ops.calls.get("cos")) == PINNED_FK
 
 
 def _fd(fn, q, h=1e-6):
@@ -177,17 +189,23 @@ def test_spatial_jacobian_columns_are_the_world_screw_axes(chain):
 
 
 def test_panda_fk_and_spatial_jacobian_op_count_is_pinned():
-    """Motor + end point + 6×7 spatial Jacobian from the joint lines (baseline for the FK work:
-    the 4×4-matrix chain with its analytic Jacobian is 217 flops + 7 sincos)."""
+    """Motor + end point + 6×7 spatial Jacobian from the joint lines: 602 flops + 7 sin/cos (the motor
+    product chain was 744; the 4×4-matrix chain with its spatial Jacobian is 186)."""
+    ops = _pose_kernel(True).op_count
+    assert (ops.mul, ops.add, ops.neg, ops.calls) == PINNED_FK_JACOBIAN
 
-    def fk_and_jacobian(zero, q):
-        motor, lines = K.chain_kinematics(zero, PANDA, q)
-        return (motor, end_point(motor), *K.spatial_jacobian(lines))
 
-    kernel = flatten_formula(Formula("panda_fk_jacobian", cga3d(), (("q", 7),), fk_and_jacobian,
-                                     pass_zero=True))
-    ops = kernel.op_count
-    assert (ops.mul, ops.add, ops.neg, ops.calls) == (357, 383, 4, {"cos": 7, "sin": 7})
+def test_pose_kernel_values_equal_the_motor_sandwich_end_point():
+    """P(t) from the carried position equals V_M e0 V_M~ of the interpreter's motor (1e-12)."""
+    kernel, like = _pose_kernel(True), MultiVector.zero(cga3d())
+    rng = np.random.default_rng(12)
+    for _ in range(20):
+        q = rng.uniform(-3, 3, 7)
+        motor = forward_kinematics(like, PANDA, list(q))
+        outputs = kernel(q)
+        np.testing.assert_allclose(outputs[0], [motor[b] for b in kernel.outputs[0].labels], atol=1e-12)
+        np.testing.assert_allclose(outputs[1], [end_point(motor)[b] for b in kernel.outputs[1].labels],
+                                   atol=1e-12)
 
 
 @pytest.mark.parametrize("chain", sorted(CHAINS))

@@ -84,9 +84,32 @@ def fixed_motor(like: Any, joint: Joint) -> Any:
 
 
 def _fixed_motor(like: Any, joint: Joint) -> Any:
-    roll, pitch, yaw = (exact_angle(a) for a in joint.rpy)
-    rotation = _axis_rotor(like, 2, yaw) * _axis_rotor(like, 1, pitch) * _axis_rotor(like, 0, roll)
-    return translator(vector(like, [to_exact(v) for v in joint.xyz])) * rotation
+    return translator(vector(like, [to_exact(v) for v in joint.xyz])) * fixed_rotation(like, joint)
+
+
+_FIXED_ROTATIONS: dict[tuple, Any] = {}
+
+
+def fixed_rotation(like: Any, joint: Joint) -> Any:
+    """The rotor of the joint's fixed rpy, Rz(yaw) Ry(pitch) Rx(roll), with exact constants (memoised)."""
+    key = (type(like), like.algebra, getattr(like, "backend", None), joint.rpy)
+    if key not in _FIXED_ROTATIONS:
+        if len(_FIXED_ROTATIONS) > 4096:
+            _FIXED_ROTATIONS.clear()
+        roll, pitch, yaw = (exact_angle(a) for a in joint.rpy)
+        _FIXED_ROTATIONS[key] = (_axis_rotor(like, 2, yaw) * _axis_rotor(like, 1, pitch)
+                                 * _axis_rotor(like, 0, roll))
+    return _FIXED_ROTATIONS[key]
+
+
+def _unscaled(rotation: Any) -> tuple[Any, Any]:
+    """(R~, s) with R = s R~ and s the common magnitude of R's nonzero coefficients, when they share
+    one (quarter and half turns); (R, 1) otherwise."""
+    magnitudes = {abs(rotation[b]) for b in ("1", "e12", "e13", "e23")} - {0}
+    if len(magnitudes) != 1:
+        return rotation, 1
+    s = magnitudes.pop()
+    return (rotation, 1) if s == 1 else (rotation * (1 / s), s)
 
 
 def joint_motor(like: Any, joint: Joint, q: Any) -> Any:
@@ -113,34 +136,49 @@ def chain_kinematics(like: Any, joints: Sequence[Joint], q: Sequence[Any]) -> tu
     frame by everything before the joint's motion, L'_i = A_i B_i A_i~ [SMC Eq. 17-20].
 
     Since ∂V_M/∂q_i = −½ L'_i V_M, the spatial Jacobian −2 J_A V_M~ has exactly the columns L'_i:
-    the O(n) construction, one sandwich of a bivector per joint.
+    the O(n) construction, one carried bivector per joint. See :func:`chain_pose`.
+    """
+    motor, lines, _ = chain_pose(like, joints, q)
+    return motor, lines
+
+
+def chain_pose(like: Any, joints: Sequence[Joint], q: Sequence[Any]) -> tuple[Any, list[Any], Any]:
+    """(V_M, [L'_i], t): the FK motor, the carried joint lines and the end position t.
+
+    The chain is carried as a rotor R and a position t rather than as one motor (A = T(t) R): a joint
+    rotation then touches only the four rotor coefficients, where a motor product would also rework
+    the four translational ones; fixed offsets move t by R x R~; each line is T(t) (R B R~) T(t)~, and
+    V_M = T(t) R is assembled once at the end. The rotor runs on unnormalised fixed rotations
+    (F = s F~ with unit entries where F has ±√½, as a URDF's quarter turns do): the scale Λ = Π s is
+    applied to V_M once, and as Λ² (an exact power of ½ for quarter turns) to rotated vectors and lines.
     """
     moving = [j for j in joints if j.moves]
     if len(q) != len(moving):
         raise ValueError(f"chain has {len(moving)} moving joints, got {len(q)} joint values")
-    # The chain runs on unnormalised fixed motors F_j = s_j F~_j (F~_j with unit rotation entries
-    # where F_j has ±√½, as a URDF's quarter turns do): the scale Λ = Π s_j is applied once, to
-    # the motor at the end and as Λ² (an exact power of ½) to each carried line.
-    motor, scale = like.make({"1": 1}), 1
+    rotation, scale = like.make({"1": 1}), 1
+    position = like.make({})
     lines = []
     values = iter(q)
+
+    def rotate(x: Any) -> Any:  # R x R~ with the unnormalised rotor
+        return rotation.sandwich(x) * (scale * scale)
+
     for joint in joints:
-        fixed, s = _unscaled(fixed_motor(like, joint))
-        motor, scale = motor * fixed, scale * s
-        if joint.moves:
-            lines.append(motor.sandwich(joint_generator(like, joint)) * (scale * scale))
-            motor = motor * joint_motor(like, joint, next(values))
-    return (motor if scale == 1 else motor * scale), lines
-
-
-def _unscaled(fixed: Any) -> tuple[Any, Any]:
-    """(F~, s) with F = s F~ and s the common magnitude of F's rotation coefficients, when they
-    share one (quarter and half turns); (F, 1) otherwise."""
-    magnitudes = {abs(fixed[b]) for b in ("1", "e12", "e13", "e23")} - {0}
-    if len(magnitudes) != 1:
-        return fixed, 1
-    s = magnitudes.pop()
-    return (fixed, 1) if s == 1 else (fixed * (1 / s), s)
+        offset = vector(like, [to_exact(v) for v in joint.xyz])
+        if any(v != 0 for v in joint.xyz):
+            position = position + rotate(offset)
+        fixed, s = _unscaled(fixed_rotation(like, joint))
+        rotation, scale = rotation * fixed, scale * s
+        if not joint.moves:
+            continue
+        lines.append(translator(position).sandwich(rotate(joint_generator(like, joint))))
+        value = next(values)
+        if joint.kind == "prismatic":
+            position = position + rotate(vector(like, [to_exact(a) * value for a in joint.axis]))
+        else:
+            rotation = rotation * joint_motor(like, joint, value)
+    motor = translator(position) * (rotation if scale == 1 else rotation * scale)
+    return motor, lines, position
 
 
 def forward_kinematics(like: Any, joints: Sequence[Joint], q: Sequence[Any]) -> Any:
@@ -164,9 +202,10 @@ def analytic_jacobian(motor: Any, lines: Sequence[Any]) -> list[Any]:
     return [(line * motor) * -0.5 for line in lines]
 
 
-def point_jacobian(motor: Any, lines: Sequence[Any]) -> list[Any]:
-    """∂P/∂q_i for P = V_M e0 V_M~: ½(P L'_i − L'_i P), the commutator [COOP Eq. 17]."""
-    p = end_point(motor)
+def point_jacobian(motor: Any, lines: Sequence[Any], point: Any = None) -> list[Any]:
+    """∂P/∂q_i for P = V_M e0 V_M~: ½(P L'_i − L'_i P), the commutator [COOP Eq. 17]. ``point`` may
+    pass P when it is at hand (e.g. P(t) from :func:`chain_pose`)."""
+    p = end_point(motor) if point is None else point
     return [p.commutator(line) for line in lines]
 
 

@@ -285,6 +285,8 @@ class ScalarBackend(ABC):
         return p if len(p) == 1 else self.atom(self.native(p))
 
     def _poly(self, terms: dict[Key, list[Any]], const: sympy.Expr) -> Scalar:
+        if () in terms:  # a Poly's own constant term joins the loose constants
+            const = const + terms.pop(())[0]
         kept = {k: (c, atoms) for k, (c, atoms) in terms.items() if c != 0}
         if const != 0:
             kept[()] = (const, ())
