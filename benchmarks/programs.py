@@ -43,12 +43,19 @@ def c_compiler() -> list[str]:
 def gagen_cflags(optimisation: str | None = None) -> list[str]:
     """gagen's flags for its kernels (gagen.codegen.compiler.FLAGS) as an object's: no -shared; with
     ``optimisation`` (e.g. "-O3") in place of gagen's -O level."""
-    from gagen.codegen.compiler import FLAGS
+    from gagen.codegen.compiler import FLAGS, vector_math
 
-    flags = [f for f in FLAGS if f != "-shared"]
+    flags = [f for f in FLAGS if f != "-shared"] + [f for f in vector_math() if f.startswith("-D")]
     if optimisation:
         flags = [optimisation if f.startswith("-O") else f for f in flags]
     return flags
+
+
+def _vector_libs() -> list[str]:
+    """glibc's libmvec when gagen compiles its kernels against it (see gagen_cflags)."""
+    from gagen.codegen.compiler import vector_math
+
+    return [f for f in vector_math() if not f.startswith("-D")]
 
 
 def compiler_version(command: list[str]) -> str:
@@ -151,7 +158,7 @@ def build(wanted: set[str], force: bool = False) -> tuple[dict[str, Path], list[
         objects += [_compile(cc, [*gagen_cflags(), f"-I{folder}"], src, kernels, [hdr]),
                     _compile(cc, [*DRIVER_CFLAGS, f"-I{BENCH}", f"-I{folder}"], BENCH / "circle_bench.c",
                              driver, [harness, hdr])]
-        links.append(_link(cc, [kernels, driver], BUILD / "circle_bench", ["-lm"]))
+        links.append(_link(cc, [kernels, driver], BUILD / "circle_bench", [*_vector_libs(), "-lm"]))
         programs["circle"] = BUILD / "circle_bench"
 
     if "matrix_chain" in wanted:
@@ -177,7 +184,7 @@ def build(wanted: set[str], force: bool = False) -> tuple[dict[str, Path], list[
             kernels = BUILD / f"{variant}_kernels.o"
             flags = gagen_cflags("-O3" if variant.endswith("_O3") else None)
             objects.append(_compile(cc, [*flags, f"-I{folder}"], src, kernels, [hdr]))
-            links.append(_link(cc, [kernels, driver], BUILD / f"{variant}_bench", ["-lm"]))
+            links.append(_link(cc, [kernels, driver], BUILD / f"{variant}_bench", [*_vector_libs(), "-lm"]))
             programs[variant] = BUILD / f"{variant}_bench"
 
     start = time.perf_counter()

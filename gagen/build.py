@@ -47,6 +47,9 @@ from gagen.spec.loader import load_system
 TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
 TEMPLATE_FILES = ("kernels.h.j2", "kernels.c.j2", "binding.c.j2", "module.py.j2")
 DEFAULT_ROOT = Path("generated")
+# kernels up to this many C statements also get a SIMD batch (the chains' FK and FK + Jacobian): it
+# runs GAGEN_W samples at once, and doubles the kernel's code and compile time
+SIMD_MAX_STATEMENTS = 1500
 # the modules that generation runs through (editing any other one does not rebuild)
 IN_KEY = {"algebra", "symbolic", "model", "codegen", "spec", "robots", "kernels.py", "build.py", "errors.py",
           "__init__.py"}
@@ -107,11 +110,17 @@ def _render(system: System, kernels: dict[str, Kernel], spec_path: Path, key: st
     for i, kernel in enumerate(kernels.values(), 1):
         start = time.perf_counter()
         c_name = f"{system.name}_{kernel.name}"
-        body = emit_body(kernel.function, [p.name for p in kernel.inputs], [p.name for p in kernel.outputs])
+        names = ([p.name for p in kernel.inputs], [p.name for p in kernel.outputs])
+        body = emit_body(kernel.function, *names)
+        # the SIMD batch doubles a kernel's code: only kernels up to SIMD_MAX_STATEMENTS get one
+        simd = len(body.statements) <= SIMD_MAX_STATEMENTS
+        vector = emit_body(kernel.function, *names, vector=True) if simd else None
         ops = kernel.op_count
         contexts.append({"c_name": c_name, "doc": kernel.doc, "inputs": kernel.inputs,
                          "outputs": kernel.outputs, "ops": str(ops), "locals": body.locals,
                          "statements": body.statements,
+                         "vector_locals": vector.locals if vector else (),
+                         "vector_statements": vector.statements if vector else (),
                          "params": _params(kernel, "restrict"), "params_h": _params(kernel, "GAGEN_RESTRICT"),
                          "names": [p.name for p in (*kernel.inputs, *kernel.outputs)]})
         entries.append({"name": kernel.name, "c_name": c_name, "doc": kernel.doc,

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import ctypes.util
 import os
+import platform
 import shlex
 import shutil
 import subprocess
@@ -41,10 +43,18 @@ def library_name(stem: str) -> str:
     return f"lib{stem}.dylib" if sys.platform == "darwin" else f"lib{stem}.so"
 
 
+def vector_math() -> list[str]:
+    """Flags for glibc's vector sin/cos (libmvec) on x86-64 Linux, when it is installed."""
+    if sys.platform.startswith("linux") and platform.machine() in ("x86_64", "AMD64") \
+            and ctypes.util.find_library("mvec"):
+        return ["-DGAGEN_HAVE_LIBMVEC", "-lmvec"]
+    return []
+
+
 def compile_shared(source: Path, library: Path) -> None:
     """Compile ``source`` into ``library`` (written next to a temporary name, then renamed)."""
     partial = library.with_name(library.name + f".{os.getpid()}.partial")
-    command = [*find_compiler(), *FLAGS, "-o", str(partial), str(source), "-lm"]
+    command = [*find_compiler(), *FLAGS, "-o", str(partial), str(source), *vector_math(), "-lm"]
     result = subprocess.run(command, capture_output=True, text=True)
     if result.returncode != 0:
         partial.unlink(missing_ok=True)
