@@ -1,11 +1,13 @@
 """The ``gagen`` command line: ``demo`` (the compiler core on CGA formulas), ``algebra`` (a preset's
 metric and blade order), ``kernels`` (a spec's kernel catalogue with op counts) and ``build`` (a spec's
-generated module, optionally checked against the interpreter)."""
+generated module, optionally checked against the interpreter), ``reach`` (IPOPT cooperative reaching
+on a paper scenario) and ``smc`` (sliding-mode tracking in a real-time loop)."""
 
 from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from gagen import __version__
 
@@ -104,6 +106,37 @@ def _check(spec: str, folder, samples: int, tolerance: float) -> int:
     return 0
 
 
+def _cmd_smc(args: argparse.Namespace) -> int:
+    from gagen.control import smc
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    print(f"sliding-mode pose tracking, Panda, {args.rate:g} Hz for {args.duration:g} s "
+          f"(generated C step kernel and loop; building on first use)")
+    summary = smc.run_loop(args.duration, args.rate, out / "smc_log.csv", fifo=args.fifo)
+    print(f"  scheduler {summary.scheduler}: achieved {summary.achieved_rate_hz:.3f} Hz over {summary.ticks} "
+          f"ticks, {summary.deadline_misses} deadline misses")
+    print(f"  tick lateness mean {summary.jitter_mean_us:.1f} µs, std {summary.jitter_std_us:.1f} µs, "
+          f"max {summary.jitter_max_us:.1f} µs; step work mean {summary.work_mean_us:.2f} µs")
+    print(f"  tracking after {summary.transient_s:g} s: max |s_i| {summary.error_max:.2e}, position "
+          f"{summary.position_error_max:.2e} m, direction {summary.direction_error_max:.2e}")
+    for path in smc.plot_run(out / "smc_log.csv", out):
+        print(f"  wrote {path}")
+    return 0
+
+
+def _cmd_reach(args: argparse.Namespace) -> int:
+    from gagen.control.scenarios import main as scenarios
+
+    return scenarios([args.scenario, "--out", args.out, "--N", str(args.N), "--horizon", str(args.horizon)])
+
+
+def _cmd_nullspace(args: argparse.Namespace) -> int:
+    from gagen.control.nullspace_demo import main as demo
+
+    return demo(["--out", args.out])
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="gagen", description="Symbolic code generation for conformal "
                                      "geometric algebra in robotics.")
@@ -135,6 +168,25 @@ def main(argv: list[str] | None = None) -> int:
     build.add_argument("--samples", type=int, default=5, help="random inputs for --check (default 5)")
     build.add_argument("--tolerance", type=float, default=1e-10, help="--check fails above this error")
     build.set_defaults(run=_cmd_build)
+
+    reach = sub.add_parser("reach", help="cooperative reaching with IPOPT on a paper scenario, with plots")
+    reach.add_argument("scenario", help="line, circle, plane, hand_sphere, humanoids_sphere or all")
+    reach.add_argument("--out", default="plots", help="folder for the plots (default plots/)")
+    reach.add_argument("--N", type=int, default=100, help="time steps (default 100)")
+    reach.add_argument("--horizon", type=float, default=2.5, help="seconds (default 2.5)")
+    reach.set_defaults(run=_cmd_reach)
+
+    nullspace = sub.add_parser("nullspace", help="one of three Pandas moves along the circle through N(q), "
+                               "with and without the projection (plots)")
+    nullspace.add_argument("--out", default="plots", help="folder for the plot (default plots/)")
+    nullspace.set_defaults(run=_cmd_nullspace)
+
+    smc = sub.add_parser("smc", help="sliding-mode pose tracking of a Panda in a real-time C loop (plots)")
+    smc.add_argument("--duration", type=float, default=10.0, help="seconds (default 10)")
+    smc.add_argument("--rate", type=float, default=1000.0, help="loop rate in Hz (default 1000)")
+    smc.add_argument("--out", default="plots/smc", help="folder for the log and the plots")
+    smc.add_argument("--fifo", action="store_true", help="ask for SCHED_FIFO and locked memory")
+    smc.set_defaults(run=_cmd_smc)
 
     args = parser.parse_args(argv)
     return args.run(args)

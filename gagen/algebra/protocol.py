@@ -42,7 +42,8 @@ class Multivector(Protocol):
     def math(self) -> Any:
         """Namespace of scalar functions (sqrt, sin, cos, tan, asin, acos, atan, atan2, exp, log,
         sinh, cosh, tanh, asinh, acosh, atanh, fabs) for this implementation's scalars, plus
-        ``lt(a, b)`` (a < b) and ``if_else(cond, a, b)`` for guarded, branch-free special cases."""
+        ``lt(a, b)`` (a < b) and ``if_else(cond, a, b)`` for guarded, branch-free special cases, and
+        ``shared(a)``: the same value, computed once where it is reused (identity on numbers)."""
 
     # -- construction of constants of the same kind (same backend) ------------------------------
     def make(self, coefficients: Mapping[BladeKey, Any]) -> Self:

@@ -3,7 +3,13 @@
 - ``ik``: inverse kinematics on the task error e(q) = log(V_Sc(q)~ V_Sd) by damped Gauss-Newton /
   Levenberg-Marquardt with a backtracking line search [COOP Eq. 43-47];
 - ``differential``: differential kinematics q̇ = J_G⁺ B [Eq. 48], the nullspace projector
-  N = I − J⁺J [Eq. 58] and the similarity manipulability M_S = J_G J_Gᵀ [Eq. 59].
+  N = I − J⁺J [Eq. 58] and the similarity manipulability M_S = J_G J_Gᵀ [Eq. 59];
+- ``ocp`` and ``scenarios``: cooperative reaching as an optimal control problem solved by IPOPT
+  [Eq. 53-57], and the paper's scenarios with plots (``gagen reach``);
+- ``nullspace_demo``: one of three Pandas moves along the circle through N(q) [COOP 4.3]
+  (``gagen nullspace``);
+- ``smc``: sliding-mode pose tracking [SMC] as a generated C step kernel in a real-time loop
+  (``gagen smc``).
 
 Everything here works on plain numpy arrays, so the compiled C kernels (``module.c.task``) and the
 CasADi Functions evaluated on numbers can both be passed in.

@@ -39,5 +39,10 @@ class InterpMath:
     def if_else(cond: bool, a: Any, b: Any) -> Any:
         return a if cond else b
 
+    @staticmethod
+    def shared(a: Any) -> Any:
+        """A value reused in many places: numbers are already shared."""
+        return a
+
 
 INTERP_MATH = InterpMath()

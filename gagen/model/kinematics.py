@@ -20,7 +20,7 @@ from typing import Any
 
 import sympy
 
-from gagen.model.conformal import e0, vector
+from gagen.model.conformal import e0, einf, vector
 from gagen.model.versors import exp_translator, translator
 from gagen.symbolic.backend import to_exact
 
@@ -145,38 +145,57 @@ def chain_kinematics(like: Any, joints: Sequence[Joint], q: Sequence[Any]) -> tu
 def chain_pose(like: Any, joints: Sequence[Joint], q: Sequence[Any]) -> tuple[Any, list[Any], Any]:
     """(V_M, [L'_i], t): the FK motor, the carried joint lines and the end position t.
 
-    The chain is carried as a rotor R and a position t rather than as one motor (A = T(t) R): a joint
-    rotation then touches only the four rotor coefficients, where a motor product would also rework
-    the four translational ones; fixed offsets move t by R x R~; each line is T(t) (R B R~) T(t)~, and
-    V_M = T(t) R is assembled once at the end. The rotor runs on unnormalised fixed rotations
-    (F = s F~ with unit entries where F has ±√½, as a URDF's quarter turns do): the scale Λ = Π s is
-    applied to V_M once, and as Λ² (an exact power of ½ for quarter turns) to rotated vectors and lines.
+    The chain carries its frame as the images a_k = A e_k A~ of the basis vectors, a position t and
+    a rotor R (A = T(t) R). A versor V of the chain acts on the frame linearly: a_k ← Σ_j (V e_k V~)_j a_j,
+    with V e_k V~ taken in the link's own coordinates, where the engine folds it to exact constants
+    (quarter turns: signs and swaps, no flop) or to cos q, sin q of the joint (a rotation about a link
+    axis touches two of the three vectors: 12 mul + 6 add). Offsets move t by Σ xyz_k a_k; each line is
+    T(t) (n_world)* T(t)~ with n_world = Σ n_k a_k; the rotor (for V_M only) runs on unnormalised
+    fixed rotations F = s F~ (unit entries where F has ±√½) with the scale Λ = Π s applied once.
+    Kernels that need no V_M (positions, point Jacobians) lose the rotor chain in flattening.
     """
     moving = [j for j in joints if j.moves]
     if len(q) != len(moving):
         raise ValueError(f"chain has {len(moving)} moving joints, got {len(q)} joint values")
+    basis = [vector(like, row) for row in ((1, 0, 0), (0, 1, 0), (0, 0, 1))]
+    frame = list(basis)
     rotation, scale = like.make({"1": 1}), 1
     position = like.make({})
     lines = []
     values = iter(q)
 
-    def rotate(x: Any) -> Any:  # R x R~ with the unnormalised rotor
-        return rotation.sandwich(x) * (scale * scale)
+    def along(coefficients: Sequence[Any]) -> Any:  # Σ c_k a_k: a link-frame vector in the base frame
+        total = like.make({})
+        for c, a in zip(coefficients, frame, strict=True):
+            if not (isinstance(c, (int, float)) and c == 0):
+                total = total + a * c
+        return total
+
+    def carried(versor: Any) -> list[Any]:  # the frame after a versor of the link: a_k ← Σ_j (V e_k V~)_j a_j
+        m = versor.math  # each entry (exact, or e.g. cos q = c² − s²) computed once, reused by 3 products
+        images = [versor.sandwich(e) for e in basis]
+        return [along([m.shared(image[b]) for b in ("e1", "e2", "e3")]) for image in images]
 
     for joint in joints:
-        offset = vector(like, [to_exact(v) for v in joint.xyz])
         if any(v != 0 for v in joint.xyz):
-            position = position + rotate(offset)
-        fixed, s = _unscaled(fixed_rotation(like, joint))
+            position = position + along([to_exact(v) for v in joint.xyz])
+        fixed_rot = fixed_rotation(like, joint)
+        frame = carried(fixed_rot)
+        fixed, s = _unscaled(fixed_rot)
         rotation, scale = rotation * fixed, scale * s
         if not joint.moves:
             continue
-        lines.append(translator(position).sandwich(rotate(joint_generator(like, joint))))
+        axis = along([to_exact(a) for a in joint.axis])
         value = next(values)
         if joint.kind == "prismatic":
-            position = position + rotate(vector(like, [to_exact(a) * value for a in joint.axis]))
+            lines.append(axis ^ einf(axis))
+            position = position + axis * value
         else:
-            rotation = rotation * joint_motor(like, joint, value)
+            generator = axis.make({"e12": axis["e3"], "e13": -axis["e2"], "e23": axis["e1"]})
+            lines.append(translator(position).sandwich(generator))
+            motion = joint_motor(like, joint, value)
+            frame = carried(motion)
+            rotation = rotation * motion
     motor = translator(position) * (rotation if scale == 1 else rotation * scale)
     return motor, lines, position
 

@@ -339,7 +339,7 @@ class BackendMath:
     """``math``-like namespace over a backend's scalars (exact when the arguments are).
 
     Besides the functions of ``MATH_FUNCTIONS`` it has ``lt(a, b)`` and ``if_else(cond, a, b)``,
-    with which formulas write guarded, branch-free special cases.
+    with which formulas write guarded, branch-free special cases, and ``shared(a)``.
     """
 
     def __init__(self, backend: ScalarBackend) -> None:
@@ -350,6 +350,12 @@ class BackendMath:
 
     def if_else(self, cond: Any, a: Any, b: Any) -> Scalar:
         return self._backend.select(cond, a, b)
+
+    def shared(self, a: Any) -> Scalar:
+        """``a`` as one node, computed once: products with it stay binary instead of expanding it
+        into its terms (e.g. cos q = c² − s² of a joint, reused by every frame vector)."""
+        value = self._backend.lift(a)
+        return value if self._backend.is_exact(value) else self._backend.lift(self._backend.native(value))
 
     def __getattr__(self, fn: str) -> Any:
         if fn not in EXACT_FUNCTIONS:
