@@ -155,10 +155,13 @@ def build(wanted: set[str], force: bool = False) -> tuple[dict[str, Path], list[
         folder = GENERATED / "three_pandas_circle"
         src, hdr = folder / "three_pandas_circle.c", folder / "three_pandas_circle.h"
         kernels, driver = BUILD / "circle_kernels.o", BUILD / "circle_bench.o"
+        simd = BUILD / "circle_kernels_simd.o"  # gagen compiles its _simd.c companion at -O3
         objects += [_compile(cc, [*gagen_cflags(), f"-I{folder}"], src, kernels, [hdr]),
+                    _compile(cc, [*gagen_cflags("-O3"), f"-I{folder}"], folder / "three_pandas_circle_simd.c",
+                             simd, [hdr]),
                     _compile(cc, [*DRIVER_CFLAGS, f"-I{BENCH}", f"-I{folder}"], BENCH / "circle_bench.c",
                              driver, [harness, hdr])]
-        links.append(_link(cc, [kernels, driver], BUILD / "circle_bench", [*_vector_libs(), "-lm"]))
+        links.append(_link(cc, [kernels, simd, driver], BUILD / "circle_bench", [*_vector_libs(), "-lm"]))
         programs["circle"] = BUILD / "circle_bench"
 
     if "matrix_chain" in wanted:
@@ -181,10 +184,13 @@ def build(wanted: set[str], force: bool = False) -> tuple[dict[str, Path], list[
         objects.append(_compile(cc, [*DRIVER_CFLAGS, f"-I{BENCH}", f"-I{folder}"], BENCH / "gagen_fk_bench.c",
                                 driver, [harness, hdr]))
         for variant in fk_variants:
-            kernels = BUILD / f"{variant}_kernels.o"
+            kernels, simd = BUILD / f"{variant}_kernels.o", BUILD / f"{variant}_kernels_simd.o"
             flags = gagen_cflags("-O3" if variant.endswith("_O3") else None)
             objects.append(_compile(cc, [*flags, f"-I{folder}"], src, kernels, [hdr]))
-            links.append(_link(cc, [kernels, driver], BUILD / f"{variant}_bench", [*_vector_libs(), "-lm"]))
+            objects.append(_compile(cc, [*gagen_cflags("-O3"), f"-I{folder}"], folder / "panda_point_simd.c",
+                                    simd, [hdr]))  # as gagen does: its _simd.c companion at -O3
+            links.append(_link(cc, [kernels, simd, driver], BUILD / f"{variant}_bench",
+                               [*_vector_libs(), "-lm"]))
             programs[variant] = BUILD / f"{variant}_bench"
 
     start = time.perf_counter()

@@ -4,6 +4,7 @@ The output folder ``generated/<system>/`` holds:
 
 - ``manifest.json``: kernels, ports (row labels, shapes, layout), op counts, hashes;
 - ``<system>.h`` / ``<system>.c``: the C kernels, from ``templates/`` by our emitter;
+- ``<system>_simd.c``: the batched forms of the smaller kernels, GAGEN_W samples at a time;
 - ``_gagen_<system>_<key>.c``: the CPython binding (no per-call conversion or allocation);
 - ``casadi/<kernel>.casadi.gz``: the CasADi Functions, serialised and gzipped;
 - ``__init__.py``: the Python module (``casadi.<kernel>``, ``c.<kernel>``);
@@ -45,7 +46,7 @@ from gagen.runtime import MANIFEST
 from gagen.spec.loader import load_system
 
 TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
-TEMPLATE_FILES = ("kernels.h.j2", "kernels.c.j2", "binding.c.j2", "module.py.j2")
+TEMPLATE_FILES = ("kernels.h.j2", "kernels.c.j2", "simd.c.j2", "binding.c.j2", "module.py.j2")
 DEFAULT_ROOT = Path("generated")
 # kernels up to this many C statements also get a SIMD batch (the chains' FK and FK + Jacobian): it
 # runs GAGEN_W samples at once, and doubles the kernel's code and compile time
@@ -145,6 +146,7 @@ def _render(system: System, kernels: dict[str, Kernel], spec_path: Path, key: st
         f"{system.name}.h": env.get_template("kernels.h.j2").render(
             **common, kernels=contexts, guard=f"GAGEN_{system.name.upper()}_H"),
         f"{system.name}.c": env.get_template("kernels.c.j2").render(**common, kernels=contexts),
+        f"{system.name}_simd.c": env.get_template("simd.c.j2").render(**common, kernels=contexts),
         f"{binding}.c": env.get_template("binding.c.j2").render(
             **common, kernels=[{**c, "name": k} for c, k in zip(contexts, kernels, strict=True)],
             binding=binding, max_outputs=max(len(k.outputs) for k in kernels.values())),
