@@ -3,7 +3,7 @@
     python benchmarks/ocp.py [--N 100] [--repeats 5] [--no-external]
 
 The same NLP (``gagen.control.ocp.ReachingOCP``: multiple shooting, exact Hessian, multiplier updates
-until ‖e(q_N)‖ <= 1e-9) with the terminal error e(q_N) supplied five ways:
+until ‖e(q_N)‖ <= 1e-9) with the terminal error e(q_N) supplied six ways:
 
 1. ``flat SX``: the generated ``task`` CasADi Function (an SX graph) called on the NLP's MX symbols
    and ``expand=True``: the whole NLP, kernel included, becomes one flat SX graph; CasADi's AD sees
@@ -12,10 +12,12 @@ until ‖e(q_N)‖ <= 1e-9) with the terminal error e(q_N) supplied five ways:
    its derivatives are the SX Function's own derivative Functions;
 3. ``MX wrapper``: the kernel wrapped in an MX Function (``task_mx(q, V) = task(q, V)`` built on MX
    symbols), so the NLP calls an MX Function that calls the SX one; ``expand=False``: nothing is
-   flattened, every derivative goes through the MX layer. (GA formulas evaluated directly on MX
-   symbols are not available: gagen's symbolic multivectors run on SX.)
+   flattened, every derivative goes through the MX layer;
 4. ``MX wrapper, expand``: the same wrapper with ``expand=True`` (flattened again);
-5. ``C external``: gagen's compiled C kernel (``<system>_task``, the same doubles as the CasADi
+5. ``GA formulas on MX``: the model's formulas run on the interpreter's operations over MX symbols
+   (``benchmarks/mx_baseline.py``: dense product tables as DM matrices, no flattening, no CSE):
+   the unflattened formulation the generated kernels are measured against;
+6. ``C external``: gagen's compiled C kernel (``<system>_task``, the same doubles as the CasADi
    Function) through ``casadi.external``: a small C shim implements CasADi's external-function API
    for e and its Jacobian (J_Be from the kernel); the Hessian is taken by CasADi's finite differences
    of that exact Jacobian (``enable_fd``), as a compiled kernel has no second derivatives.
@@ -44,9 +46,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from benchmarks.mx_baseline import task_mx  # noqa: E402
 from gagen.codegen.compiler import FLAGS, find_compiler  # noqa: E402
 from gagen.control import scenarios  # noqa: E402
 from gagen.control.ocp import ReachingOCP, target_from  # noqa: E402
+from gagen.robots.systems import bundled_systems  # noqa: E402
 
 SYSTEM = "three_pandas_circle"
 
@@ -130,6 +134,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--N", type=int, default=100)
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--no-external", action="store_true", help="skip the casadi.external variant")
+    parser.add_argument("--scenarios", action="store_true",
+                        help="also every paper scenario: generated kernels vs the GA formulas on MX")
     args = parser.parse_args(argv)
 
     module = scenarios.module(SYSTEM)
@@ -145,6 +151,8 @@ def main(argv: list[str] | None = None) -> int:
         ("generated SX Function as an MX call node", task, False),
         ("MX wrapper around it (unflattened)", mx_wrapper(task, m), False),
         ("MX wrapper, expanded", mx_wrapper(task, m), True),
+        ("GA formulas on MX (interpreter's operations, unflattened)", task_mx(bundled_systems()[SYSTEM]),
+         False),
     ]
     rows = []
     for label, function, expand in variants:
@@ -172,7 +180,31 @@ def main(argv: list[str] | None = None) -> int:
               f"| {r['wall']:.3f} | {r['functions']:.3f} | {1e3 * r['wall'] / max(r['iterations'], 1):.1f} "
               f"| {r['error']:.1e} "
               f"| {'✓' if met else '✗'} |")
+    if args.scenarios:
+        every_scenario(args.N, args.repeats)
     return 0
+
+
+def every_scenario(N: int, repeats: int) -> None:
+    """Each paper scenario: the generated task Function (flat NLP) vs the GA formulas on MX."""
+    rows = []
+    for name, s in scenarios.SCENARIOS.items():
+        module = scenarios.module(s.system)
+        q0, limits = scenarios.ready(s.system), scenarios.joint_limits(s.system)
+        V_Sd = target_from(np.array(module.c.similarity(q0)[0]), s.translation, s.rotation, s.dilation,
+                           kind=module.manifest["primitive"])
+        print(f"  {name}: generated, then GA formulas on MX ...", file=sys.stderr, flush=True)
+        flat = measure("generated", module.casadi.task, True, q0, V_Sd, limits, N, repeats)
+        mx = measure("MX", task_mx(bundled_systems()[s.system]), False, q0, V_Sd, limits, N, repeats)
+        rows.append((name, s.system, q0.size, flat, mx))
+    print(f"\n### Every scenario, N = {N}: generated kernels vs the GA formulas on MX (unflattened)\n")
+    print("| scenario | system | DOF | iterations (generated / MX) | wall generated (s) | wall MX (s) "
+          "| × faster | final ‖e‖ (generated / MX) |")
+    print("| --- | --- | --: | --: | --: | --: | --: | --: |")
+    for name, system, dof, flat, mx in rows:
+        print(f"| {name} | {system} | {dof} | {flat['iterations']} / {mx['iterations']} | {flat['wall']:.3f} "
+              f"| {mx['wall']:.3f} | {mx['wall'] / flat['wall']:.1f} "
+              f"| {flat['error']:.1e} / {mx['error']:.1e} |")
 
 
 if __name__ == "__main__":
