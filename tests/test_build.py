@@ -177,13 +177,14 @@ def test_binding_and_ctypes_paths_agree_and_bad_inputs_are_named():
 @pytest.mark.parametrize("name", sorted(SYSTEMS))
 def test_simd_batch_equals_single_calls(name):
     """The batched chain kernels run GAGEN_W samples at once (vector extensions, vector sin/cos):
-    19 samples (blocks plus a scalar remainder) against single calls, which equal CasADi exactly."""
+    59 samples (blocks, some with the outputs of a later block prefetched, plus a scalar remainder)
+    against single calls, which equal CasADi exactly."""
     module = _module(name)
     system = SYSTEMS[name]
     rng = np.random.default_rng(17)
     for chain, indices in zip(system.chains, system.chain_indices(), strict=True):
         kernel = getattr(module.c, f"{chain.name}_fk_jacobian")
-        qs = rng.uniform(-2.5, 2.5, (19, len(indices)))
+        qs = rng.uniform(-2.5, 2.5, (59, len(indices)))
         batched = kernel.batch(qs)
         for i, q in enumerate(qs):
             for b, single in zip(batched, kernel(q), strict=True):

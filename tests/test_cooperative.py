@@ -205,9 +205,48 @@ def test_every_chain_kernel_equals_interpreter_and_its_jacobians_central_differe
 
 
 def test_three_panda_circle_kernel_cost_does_not_regress():
-    """The chain rule through the end positions (AD on the task-space formulas only) and the frame
-    carried as basis images keep the 21-DOF circle's V_Sc + J_G,Sc kernel at 6 337 flops + 18 sin/cos
-    (a Panda's 7th joint does not move its flange point; AD through the kinematics: ~45 000 flops)."""
+    """The chain rule through the end positions (AD on the task-space formulas only), the product rule
+    over V_T V_R V_D (each factor differentiated alone) and guards that add constants instead of
+    selecting values keep the 21-DOF circle's V_Sc + J_G,Sc kernel at 3 475 flops, 287 selects and
+    18 sin/cos (AD of the whole similarity: 6 337 flops and 2 022 selects; AD through the kinematics
+    too: ~45 000 flops)."""
     ops = _kernels("three_pandas_circle")["similarity"].op_count
-    assert ops.flops <= 6_400
+    assert ops.flops <= 3_500
+    assert ops.calls["if_else_zero"] <= 300
     assert ops.calls["sin"] == ops.calls["cos"] == 18
+
+
+ONE_SYSTEM_PER_KIND = {SYSTEMS[name].kind: name for name in sorted(SYSTEMS)}
+
+
+@pytest.mark.parametrize("name", sorted(ONE_SYSTEM_PER_KIND.values()))
+def test_task_space_derivatives_equal_plain_ad_of_the_whole_construction(name):
+    """G = −2 V~ ∂V/∂p by the product rule over the similarity's factors, ∂V = −½ V G, and the local
+    derivatives of the logarithms equal CasADi AD straight through V_S(X_u, X_c(p)) and the logs, at
+    random end positions (1e-10 relative)."""
+    import casadi as ca
+
+    from gagen.kernels import _Graph, _task_space
+
+    system = SYSTEMS[name]
+    graph = _Graph(system)
+    p = ca.SX.sym("p", 3 * len(system.chains))
+    vsd = ca.SX.sym("v", len(SIMILARITY))
+    task = _task_space(graph, p, vsd)
+    ours = ca.Function("ours", [p, vsd], [task[k] for k in ("dV_Sc", "dG", "dlog_V", "de")])
+    plain = {k: ca.jacobian(task[k], p) for k in ("V_Sc", "log_V", "e")}
+    reverse = graph.multivector(task["V_Sc"], SIMILARITY).reverse()
+    g_plain = graph.matrix([(reverse * graph.multivector(plain["V_Sc"][:, k], SIMILARITY)) * -2
+                            for k in range(p.numel())], SIMILARITY_GENERATOR)
+    reference = ca.Function("plain", [p, vsd], [plain["V_Sc"], g_plain, plain["log_V"], plain["e"]])
+    rng = np.random.default_rng(7)
+    for _ in range(10):
+        q = _configurations(name, 1, seed=int(rng.integers(1 << 30)))[0]
+        euclid = [ALG.blade(b) for b in ("e1", "e2", "e3")]
+        positions = np.concatenate([_chain_point(name, i, tuple(q[idx])).coeffs[euclid]
+                                    for i, idx in enumerate(system.chain_indices())])
+        desired = _desired(int(rng.integers(1 << 30))).coeffs[[ALG.blade(b) for b in SIMILARITY]]
+        for key, a, b in zip(("dV_Sc", "G", "dlog_V", "de"), ours(positions, desired),
+                             reference(positions, desired), strict=True):
+            a, b = np.array(a), np.array(b)
+            assert np.max(np.abs(a - b)) <= 1e-10 * max(1.0, np.max(np.abs(b))), f"{name} {key}"

@@ -170,8 +170,9 @@ OVERFLOW_OK = pytest.mark.filterwarnings("ignore:overflow:RuntimeWarning",
 TINY_PAIR_NAN = pytest.mark.xfail(
     strict=True,
     reason="known limitation: a point pair ~1e-9 long as the *first* argument: its r² numerator −⟨XX~⟩ "
-           "rounds to 0, the dilator is clamped at k = 1e-30, and the centre of the dilated pair "
-           "(normalized_point of a tiny-weight point) overflows to NaN; conditioning is ~1e-19")
+           "rounds to 0, the dilator's radius ratio is squashed to its floor (k = 1e-30), and the pair's "
+           "centre moved by it (normalized_point of a tiny-weight point) overflows to NaN; conditioning "
+           "is ~1e-19")
 
 
 @pytest.mark.parametrize("direction", DIRECTIONS)

@@ -89,3 +89,22 @@ def test_a_sums_constant_term_survives_adding_constants(c, d, x):
     values = [float(v) for v in f(x)]
     expected = [c + x + d, d + x + c, 3 * (c + x) + d]
     np.testing.assert_allclose(values, expected, rtol=1e-12, atol=1e-12)
+
+
+def test_sums_equal_up_to_a_constant_share_one_node():
+    """s·(−½s) + ½s² is exactly zero although both s and −½s become nodes before the products: the
+    scalar layer materialises a sum once and takes its multiples as multiples of that node (a
+    translator T = 1 − ½t e∞ and its reverse meet in every sandwich)."""
+    b = CasadiBackend()
+    x, y, z = b.symbols("v", ["x", "y", "z"])
+    s = b.add(x, y)
+    minus_half = b.mul(sympy.Rational(-1, 2), s)
+    product = b.mul(s, minus_half)
+    assert len(product) == 1  # one term: −½ · node²
+    assert b.add(product, b.mul(sympy.Rational(1, 2), b.mul(s, s))) == 0
+    # x − y and y − x too; an unrelated sum does not share it
+    assert b.add(b.mul(b.sub(x, y), z), b.mul(b.sub(y, x), z)) == 0
+    other = b.add(x, z)
+    assert b.native(b.mul(other, s)).n_dep() == 2
+    value = ca.Function("f", [x, y, z], [b.native(b.mul(s, minus_half))])
+    assert float(value(1.0, 2.0, 0.0)) == -4.5

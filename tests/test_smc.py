@@ -75,7 +75,8 @@ def test_step_kernel_matches_interpreter_finite_differences_and_numpy(function, 
     assert np.abs(J - fd).max() < 1e-6
     assert np.linalg.matrix_rank(J, tol=1e-9) == 5  # ḋ ⊥ d: the direction rows lose one rank
     assert np.abs(J[3:].T @ x[3:]).max() < 1e-12
-    assert np.abs(u - numpy_u(J, x, x_ref)).max() < 1e-10
+    reference = numpy_u(J, x, x_ref)  # |u| reaches ~500 rad/s when saturated: compare relatively
+    assert np.abs(u - reference).max() < 1e-12 * max(1.0, np.abs(reference).max())
 
 
 @needs_cc

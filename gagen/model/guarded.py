@@ -5,6 +5,11 @@ at a *safe* argument otherwise (the "double where" pattern), so neither the valu
 derivative (CasADi AD) meets 0/0 or sqrt(0): the branch not taken never sees the singular point.
 The series are truncated where the next term is below 1e-16 relative at the threshold.
 
+A guard that only keeps an argument away from a singular point *adds* a selected constant
+(x + [x near 0]·c) instead of selecting between x and a constant: its derivative is then dx with
+no select at all, where a selected x makes AD put a select on every derivative path through it
+(and the branch it guards is never used where the constant is added).
+
 ``m`` is the ``math`` namespace of a multivector (interpreter floats or symbolic scalars).
 """
 
@@ -21,8 +26,8 @@ def _switch(m: Any, s: Any, series: Any, closed_form: Any) -> Any:
 
 
 def _safe(m: Any, s: Any) -> Any:
-    """s where the closed form is used, a harmless 1 where the series is."""
-    return m.if_else(m.lt(s, SERIES_BELOW), 1.0, s)
+    """s where the closed form is used, a harmless s + 1 where the series is."""
+    return s + m.if_else(m.lt(s, SERIES_BELOW), 1.0, 0.0)
 
 
 def cos_half_sqrt(m: Any, s: Any) -> Any:
@@ -41,7 +46,7 @@ def sin_half_sqrt_over_sqrt(m: Any, s: Any) -> Any:
 
 def atan2_sqrt_over_sqrt(m: Any, s: Any, w: Any) -> Any:
     """atan2(√s, w) / √s for s >= 0; for w > 0 it tends to 1/w at s = 0 (the identity rotor)."""
-    w_series = m.if_else(m.lt(s, SERIES_BELOW), w, 1.0)  # w ≈ ±1 where the series is used
+    w_series = w + m.if_else(m.lt(s, SERIES_BELOW), 0.0, 3.0)  # w ≈ ±1 where the series is used
     z2 = s / (w_series * w_series)
     series = (1 - z2 / 3 + z2 * z2 / 5 - z2 * z2 * z2 / 7) / w_series
     safe = _safe(m, s)
@@ -50,5 +55,5 @@ def atan2_sqrt_over_sqrt(m: Any, s: Any, w: Any) -> Any:
 
 
 def safe_reciprocal(m: Any, x: Any) -> Any:
-    """1/x, with an exactly-zero (or subnormal) x replaced by TINY so the result stays finite."""
-    return 1 / m.if_else(m.lt(m.fabs(x), TINY), TINY, x)
+    """1/x, with an exactly-zero (or subnormal) x moved TINY away from 0 so the result stays finite."""
+    return 1 / (x + m.if_else(m.lt(m.fabs(x), TINY), m.if_else(m.lt(x, 0), -TINY, TINY), 0.0))

@@ -18,7 +18,7 @@ Conditioning per kind (each is a continuous function of the inputs):
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 from gagen.model.conformal import SIMILARITY, location
 from gagen.model.guarded import safe_reciprocal
@@ -43,6 +43,15 @@ SIGMA = {"line": 1, "plane": -1}  # X² sign of P∧P∧e∞ and P∧P∧P∧e�
 DEGENERATE_BELOW = 1e-30  # conditioning below this: the versor is replaced by the identity
 
 
+class Factored(NamedTuple):
+    """V = factors[0] factors[1] … (V_T V_R V_D for rounds, one motor for flats), its conditioning,
+    and whether the spanning points are degenerate (a native boolean, or a bool when known)."""
+
+    factors: tuple[Any, ...]
+    conditioning: Any
+    degenerate: Any
+
+
 def similarity(kind: str, x1: Any, x2: Any) -> Versor:
     """V_S(X1, X2) and its conditioning (see the module docstring).
 
@@ -50,41 +59,59 @@ def similarity(kind: str, x1: Any, x2: Any) -> Versor:
     conditioning, not the orientation part) the versor is the identity: an exactly degenerate
     input then gives finite values on every path (guarded intermediate values can overflow there).
     """
-    v, conditioning, size = _similarity(check_kind(kind), x1, x2)
+    factors, conditioning, degenerate = similarity_factors(kind, x1, x2)
+    v = factors[0]
+    for f in factors[1:]:
+        v = v * f
+    return Versor(if_degenerate_identity(v, degenerate), conditioning)
+
+
+def if_degenerate_identity(v: Any, degenerate: Any) -> Any:
+    m = v.math
+    return v.make({k: m.if_else(degenerate, 1.0 if k == "1" else 0.0, v[k]) for k in SIMILARITY})
+
+
+def similarity_factors(kind: str, x1: Any, x2: Any) -> Factored:
+    """The factors of V_S(X1, X2), its conditioning and the degeneracy test (see ``similarity``).
+
+    The factors let a Jacobian use the product rule at the group level (``generator_jacobian``):
+    each factor depends on few of the inputs' degrees of freedom (T on the centre, R on the axis,
+    D on the radius), so its own derivative is cheap."""
+    factors, conditioning, size = _similarity(check_kind(kind), x1, x2)
     m = x1.math
-    degenerate = m.lt(m.fabs(size), DEGENERATE_BELOW)
-    return Versor(v.make({k: m.if_else(degenerate, 1.0 if k == "1" else 0.0, v[k]) for k in SIMILARITY}),
-                  conditioning)
+    return Factored(factors, conditioning, m.lt(m.fabs(size), DEGENERATE_BELOW))
 
 
-def _similarity(kind: str, x1: Any, x2: Any) -> tuple[Any, Any, Any]:
-    """(versor, conditioning, size): size is the part of the conditioning that measures how
+def _similarity(kind: str, x1: Any, x2: Any) -> tuple[tuple[Any, ...], Any, Any]:
+    """(factors, conditioning, size): size is the part of the conditioning that measures how
     degenerate the spanning points are, without the orientation factor."""
     m = x1.math
     if kind == "point":
-        return translator(location(x2) - location(x1)), 1, 1
+        return (translator(location(x2) - location(x1)),), 1, 1
     if kind in SIGMA:
         v, k = versor_between(x1, x2, SIGMA[kind])
         size = m.fabs(x1.sp(x1))
         size2 = m.fabs(x2.sp(x2))
         smaller = m.if_else(m.lt(size, size2), size, size2)
-        return v, k * smaller, smaller
+        return (v,), k * smaller, smaller
     num1, den1 = radius_squared_parts(x1)
     num2, den2 = radius_squared_parts(x2)
     size = m.if_else(m.lt(den1, den2), den1, den2)
     conditioning = size
     d = dilator_between_radii(x1, num1 * safe_reciprocal(m, den1), num2 * safe_reciprocal(m, den2))
     if kind == "sphere":
+        turn: tuple[Any, ...] = ()
         rd = d
     else:
         axis = direction(carrier_plane(x1)) if kind == "point_pair" else unit_normal(x1)
         axis2 = direction(carrier_plane(x2)) if kind == "point_pair" else unit_normal(x2)
         r, health = rotor_between(axis, axis2)
-        rd = r * d
+        turn, rd = (r,), r * d
         conditioning = conditioning * health
-    moved = rd.sandwich(x1)
-    t = translator(location(centre(x2)) - location(centre(moved)))
-    return t * rd, conditioning, size
+    # the centre is covariant: centre(RD X1 (RD)~) = RD centre(X1) (RD)~, which for the unit
+    # primitives is the origin exactly (no AD through the moved round's centre)
+    t = translator(location(centre(x2)) - location(rd.sandwich(centre(x1))))
+    return (t, *turn, d), conditioning, size
 
 
 def cooperative_similarity(kind: str, xc: Any) -> Versor:

@@ -94,9 +94,10 @@ def dilator_between_radii(like: Any, r1_squared: Any, r2_squared: Any) -> Any:
     D = ½(k + 1/k) − ½(k − 1/k) e0∞, k = (r1²/r2²)^¼ (exactly 1 for equal radii)."""
     m = like.math
     # |…|: for nearly coincident points the r² numerators cancel and may come out slightly negative
-    k = m.sqrt(m.sqrt(m.fabs(r1_squared * safe_reciprocal(m, r2_squared))))
-    # radius ratios beyond 1e±60 only come from degenerate rounds: clamp so nothing overflows
-    k = m.if_else(m.lt(k, 1e-30), 1e-30, m.if_else(m.lt(1e30, k), 1e30, k))
+    ratio = m.fabs(r1_squared * safe_reciprocal(m, r2_squared))
+    # ratios beyond 1e±100 only come from degenerate rounds: squash them into [1e-120, 1e120] so that
+    # nothing overflows, smoothly (no select for AD); ordinary ratios come through bit for bit
+    k = m.sqrt(m.sqrt((ratio + 1e-120) / (1 + ratio * 1e-120)))
     inv = 1 / k
     return like.make({"1": (k + inv) * 0.5, "e0inf": (inv - k) * 0.5})
 
@@ -190,7 +191,7 @@ def rotor_between(a: Any, b: Any) -> Versor:
     s = a + b
     n2 = s.sp(s)
     antiparallel = m.lt(n2, ANTIPARALLEL)
-    generic = (s * a) * (1 / m.sqrt(m.if_else(antiparallel, 1.0, n2)))
+    generic = (s * a) * (1 / m.sqrt(n2 + m.if_else(antiparallel, 1.0, 0.0)))
     return Versor(_select(antiparallel, half_turn_perpendicular(a), generic, ROTOR), n2 * 0.25)
 
 
@@ -207,9 +208,12 @@ def versor_between(x1: Any, x2: Any, sigma: int) -> Versor:
 
     Each is scaled so that X² = σ (σ = +1 for lines P∧P∧e∞, −1 for planes P∧P∧P∧e∞);
     K = 2 + σ(X2X1 + X1X2) = K0 + K4 with K4 null, and V = (1 + σX2X1)(1 − K4/(2K0))/√K0.
-    With S = X1 + X2 these are K = σS² and 1 + σX2X1 = σSX1, which keep full accuracy near
-    opposite orientations. Conditioning K0/4: 1 for x1 = x2, 0 for x2 = −x1, where x1 is first
-    given a half turn about a perpendicular axis through its point nearest the origin (guarded).
+    With S = X1 + X2 these are K = σS² and 1 + σX2X1 = σSX1, which avoid the cancellation in
+    1 + σX2X1 itself. Near opposite orientations Eq. 21 stays ill-conditioned all the same: the screw
+    axis of two nearly antiparallel skew flats runs ~1/√K0 away, so the motor grows like that and
+    loses ~eps/K0 (e.g. 5e-10 at 0.6° from opposite; the conditioning K0/4 reports it).
+    Conditioning K0/4: 1 for x1 = x2, 0 for x2 = −x1, where x1 is first given a half turn about a
+    perpendicular axis through its point nearest the origin (guarded).
     """
     m = x1.math
     n1 = x1 * safe_reciprocal(m, m.sqrt(m.fabs(x1.sp(x1))))

@@ -8,8 +8,10 @@ and never reach the graph, and a 90° rotation yields exact zeros rather than 1e
 
 A Poly stays unexpanded until it must become one native node ("materialised", once, cached):
 when it is multiplied by another sum, passed to a function (sqrt, sin, ...), divided by, or
-flattened. Multiplying a Poly by an exact constant keeps it a Poly when that costs no extra
-multiplication (the constant is ±1, or the Poly is small), so chains of exact constants fold.
+flattened. Sums that differ only by an exact factor (x − y and y − x, t and −½t) share that node,
+so their products merge as exactly as atoms do. Multiplying a Poly by an exact constant keeps it
+a Poly when that costs no extra multiplication (the constant is ±1, or the Poly is small), so
+chains of exact constants fold.
 The sympy backend expands every product instead (``expand_all``): exact polynomial algebra.
 
 When a term is emitted, 0 drops it, ±1 folds into an addition or subtraction and any other value
@@ -119,6 +121,10 @@ class ScalarBackend(ABC):
     name: str
     expand_all: bool = False  # distribute every product of sums (exact algebra) instead of materialising
     scale_expand_limit: int = 4  # a Poly this small stays a Poly when scaled by any exact constant
+
+    def __init__(self) -> None:
+        # a normalised sum -> (f, node, its atoms) with sum = f · node (see _node)
+        self._materialised: dict[tuple, tuple[sympy.Expr, Any, list]] = {}
 
     # -- to be provided by a backend -------------------------------------------------------------
     @abstractmethod
@@ -282,7 +288,28 @@ class ScalarBackend(ABC):
         return Poly(self, {k: (c * cp, atoms) for k, (cp, atoms) in p.terms.items()})
 
     def _as_monomial(self, p: Poly) -> Poly:
-        return p if len(p) == 1 else self.atom(self.native(p))
+        if len(p) == 1:
+            return p
+        factor, node = self._node(p)
+        return Poly(self, {(self.key(node),): (factor, (node,))})
+
+    def _node(self, p: Poly) -> tuple[sympy.Expr, Any]:
+        """(c, node) with p = c · node, where every sum that differs from p only by an exact factor
+        (½t and −½t of a translator and its reverse, x and −x) shares the node: products of them then
+        merge exactly, and each sum is emitted once."""
+        signature = sorted((k, c) for k, (c, _) in p.terms.items())
+        lead = signature[0][1]
+        # divide out the sign, and the magnitude when every coefficient shares it (no rounding then)
+        scale = abs(lead) if all(abs(c) == abs(lead) for _, c in signature) else ONE
+        scale = -scale if lead.is_extended_negative else scale
+        normal = tuple((k, c / scale) for k, c in signature)
+        if normal in self._materialised:  # normal = f · node
+            f, node, _ = self._materialised[normal]
+            return scale * f, node
+        node = p._native if p._native is not None else self._emit(p)
+        # the entry holds the atoms too: keys are node addresses, which must not be reused
+        self._materialised[normal] = (1 / scale, node, [atoms for _, atoms in p.terms.values()])
+        return ONE, node
 
     def _poly(self, terms: dict[Key, list[Any]], const: sympy.Expr) -> Scalar:
         if () in terms:  # a Poly's own constant term joins the loose constants
@@ -302,7 +329,9 @@ class ScalarBackend(ABC):
         if self.is_exact(value):
             return self.constant(value)
         if value._native is None:
-            value._native = self._emit(value)
+            factor, node = self._node(value)
+            scaled = Poly(self, {(self.key(node),): (factor, (node,))})
+            value._native = node if factor == 1 else self._emit(scaled)
         return value._native
 
     def _emit(self, p: Poly) -> Any:
