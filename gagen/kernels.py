@@ -171,14 +171,16 @@ def _task_space(graph: _Graph, positions: ca.SX, vsd: ca.SX) -> dict[str, ca.SX]
     for f in factors[1:]:
         v = v * f
     v = if_degenerate_identity(v, degenerate)
-    g = _generator_jacobian(graph, factors, positions)
-    if isinstance(degenerate, bool):
-        g = ca.SX.zeros(g.shape) if degenerate else g
-    else:  # like the identity that replaces V_Sc there: G = 0, whatever the guarded factors give
-        g = ca.if_else(degenerate, ca.SX.zeros(g.shape), g)
+    g = _masked(_generator_jacobian(graph, factors, positions), degenerate)
     directions = [graph.multivector(g[:, k], SIMILARITY_GENERATOR) for k in range(positions.numel())]
     w = ~v * graph.multivector(vsd, SIMILARITY)
-    dv = graph.matrix([(v * d) * -0.5 for d in directions], SIMILARITY)
+    if len(factors) == 1:  # V_Sc is its one factor (flats, points): its own AD derivative is ∂V_Sc
+        blades = tuple(algebra.blade_name(b) for b in factors[0].support)
+        derivative = ca.jacobian(graph.column(factors[0], blades), positions)
+        dv = _masked(graph.matrix([graph.multivector(derivative[:, k], blades)
+                                   for k in range(positions.numel())], SIMILARITY), degenerate)
+    else:
+        dv = graph.matrix([(v * d) * -0.5 for d in directions], SIMILARITY)
     dw = graph.matrix([(d * w) * 0.5 for d in directions], SIMILARITY)
     values = {"X_c": graph.column(xc, xc_blades), "V_Sc": graph.column(v, SIMILARITY),
               "conditioning": graph.backend.native(graph.backend.lift(conditioning)),
@@ -187,6 +189,14 @@ def _task_space(graph: _Graph, positions: ca.SX, vsd: ca.SX) -> dict[str, ca.SX]
     return {"blades": xc_blades, **values, "dX_c": ca.jacobian(values["X_c"], positions), "dV_Sc": dv,
             "dG": g, "dlog_V": _log_derivative(graph, values["V_Sc"], dv),
             "de": _log_derivative(graph, graph.column(w, SIMILARITY), dw)}
+
+
+def _masked(derivative: ca.SX, degenerate: object) -> ca.SX:
+    """Zero where the spanning points are degenerate, like the identity that replaces V_Sc there,
+    whatever the guarded factors' derivatives give."""
+    if isinstance(degenerate, bool):
+        return ca.SX.zeros(derivative.shape) if degenerate else derivative
+    return ca.if_else(degenerate, ca.SX.zeros(derivative.shape), derivative)
 
 
 def _generator_jacobian(graph: _Graph, factors: Sequence[SparseMultivector], wrt: ca.SX) -> ca.SX:
