@@ -5,6 +5,8 @@
  * Prints one JSON object: fk_ns, fk_jacobian_ns (one call per configuration), fk_batch_ns,
  * fk_jacobian_batch_ns (one batched call over all BENCH_N configurations, divided by BENCH_N),
  * fk_jacobian_batch_big_ns (the same over BIG_N, default 100 000, configurations: median of 5 batches),
+ * fk_jacobian_batch_columns_ns and fk_jacobian_batch_columns_big_ns (the same two batches in the column
+ * layout, panda_point_arm0_fk_jacobian_batch_columns, on 64-byte-aligned arrays),
  * and the first configuration's P (e0, e1, e2, e3, e∞) and J_S (6×7, column-major,
  * [e12 e13 e23 e1∞ e2∞ e3∞]) for run.py's cross-check against Pinocchio.
  *
@@ -62,6 +64,25 @@ int main(int argc, char **argv) {
         bench_clobber(Jb);
         checksum += Pb[5 * big_n - 1] + Jb[42 * big_n - 1];
     });
+    /* the same batches in the column layout (element k of sample s at [k * ld + s]), 64-byte aligned */
+    double fkj_cols_ns, fkj_cols_big_ns;
+    for (int big = 0; big < 2; ++big) {
+        const long n = big ? big_n : BENCH_N, ld = (n + 7) / 8 * 8;
+        const double *src = big ? qb : qs;
+        double *qc, *Mc, *Pc, *Jc;
+        if (posix_memalign((void **)&qc, 64, sizeof(double) * 7 * ld) ||
+            posix_memalign((void **)&Mc, 64, sizeof(double) * 8 * ld) ||
+            posix_memalign((void **)&Pc, 64, sizeof(double) * 5 * ld) ||
+            posix_memalign((void **)&Jc, 64, sizeof(double) * 42 * ld)) return 1;
+        for (long s = 0; s < n; ++s)
+            for (int k = 0; k < 7; ++k) qc[k * ld + s] = src[7 * s + k];
+        BENCH_BATCH(*(big ? &fkj_cols_big_ns : &fkj_cols_ns), big ? 5 : repeats, n, {
+            panda_point_arm0_fk_jacobian_batch_columns(n, ld, qc, Mc, Pc, Jc);
+            bench_clobber(Jc);
+            checksum += Pc[4 * ld + n - 1] + Jc[41 * ld + n - 1];
+        });
+        free(qc); free(Mc); free(Pc); free(Jc);
+    }
     free(qb);
 
     panda_point_arm0_fk_jacobian(qs, M, P, J);
@@ -71,6 +92,8 @@ int main(int argc, char **argv) {
     bench_json_num("fk_batch_ns", fk_batch_ns);
     bench_json_num("fk_jacobian_batch_ns", fkj_batch_ns);
     bench_json_num("fk_jacobian_batch_big_ns", fkj_big_ns);
+    bench_json_num("fk_jacobian_batch_columns_ns", fkj_cols_ns);
+    bench_json_num("fk_jacobian_batch_columns_big_ns", fkj_cols_big_ns);
     bench_json_num("big_n", (double)big_n);
     printf(", \"P0\": [");
     for (int k = 0; k < 5; ++k) printf("%s%.17g", k ? ", " : "", P[k]);

@@ -378,11 +378,16 @@ def section_circle(ctx: Context) -> Section:
     except Exception as e:
         notes.append(f"Python rows skipped: {type(e).__name__}: {e}")
     per_core = [(f"Panda FK + J: panda_point `arm0_fk_jacobian_batch`, n = {fmt_count(big)}, per "
-                 "configuration (one core)", g["fk_jacobian_batch_big_ns"], flags)
+                 "configuration (one core)", g["fk_jacobian_batch_big_ns"], flags, False)
                 for g, flags in ((g1, o1), (g3, flag_label("-O3")))]
+    per_core += [(f"Panda FK + J, column layout: `arm0_fk_jacobian_batch_columns`, n = {n_label}, per "
+                  "configuration (one core)", g1[key], o1, target)
+                 for n_label, key, target in (("1000", "fk_jacobian_batch_columns_ns", False),
+                                              (fmt_count(big), "fk_jacobian_batch_columns_big_ns", True))]
     rows += [(m, f, ns, ops_cell(kernel_entry(PANDA, "arm0_fk_jacobian")["op_count"]),
-              s.target("batched Panda FK + J per configuration per core (gagen's flags)", ns, 40, "ns")
-              if i == 0 else "") for i, (m, ns, f) in enumerate(per_core)]
+              s.target(f"batched Panda FK + J per configuration per core, n = {fmt_count(big)} "
+                       f"({'column layout' if target else 'sample-major'}, gagen's flags)", ns, 40, "ns")
+              if i == 0 or target else "") for i, (m, ns, f, target) in enumerate(per_core)]
     s.add(table(["measurement", "flags", "ns (median)", "flops", "target"], "llrrr",
                 [[m, f, fmt_ns(ns), fl, tg] for m, f, ns, fl, tg in rows]))
 

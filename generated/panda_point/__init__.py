@@ -4,8 +4,9 @@ From panda_point.yaml (spec sha256 c0de11e79de637f1). Do not edit: run `gagen bu
 
     from generated.panda_point import casadi, c
     casadi.task       # casadi.Function: numbers, SX or MX (drops into casadi.nlpsol)
-    c.task(...)       # compiled C through ctypes: numpy in, numpy out
-    c.task.batch(...) # n samples at once
+    c.task(...)       # compiled C (CPython binding): numpy in, numpy out
+    c.task.batch(...) # n samples at once, shape (n, size) each
+    c.task.batch_columns(...)  # the same with samples last, (size, n): fastest for large n
 
 Kernels: arm0_fk, arm0_fk_jacobian, arm0_jacobians, primitive, similarity, similarity_jacobians, task. Shapes, row labels (blades, joints) and op counts are in
 manifest.json (``MANIFEST``).
