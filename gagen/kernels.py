@@ -125,11 +125,14 @@ def _chain_kernels(graph: _Graph) -> tuple[list[Kernel], list[tuple[SparseMultiv
     kernels, points = [], []
     for chain, indices in zip(graph.system.chains, graph.system.chain_indices(), strict=True):
         qc = ca.vertcat(*[graph.q[i] for i in indices])
-        motor, lines, position = K.chain_pose(graph.zero, chain.joints, [graph.backend.lift(graph.q[i])
-                                                                         for i in indices])
+        qi = [graph.backend.lift(graph.q[i]) for i in indices]
+        motor, lines, position = K.chain_pose(graph.zero, chain.joints, qi)
         end = point(position)  # = V_M e0 V_M~, from the position the chain carries
         point_jac = K.point_jacobian(motor, lines, end)
-        points.append((end, point_jac))
+        # the system kernels need positions and lines only: turn the frame by cos q, sin q directly
+        _, free_lines, free_position = K.chain_pose(graph.zero, chain.joints, qi, with_motor=False)
+        free_end = point(free_position)
+        points.append((free_end, K.point_jacobian(None, free_lines, free_end)))
         tool = graph.zero.make({TOOL_LINE: 1})
         n = len(indices)
         q_port = Port("q", tuple(graph.joint_labels[i] for i in indices))

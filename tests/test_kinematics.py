@@ -225,3 +225,21 @@ def test_line_jacobian_equals_finite_differences(chain):
             fd = _fd(lambda x, t=tool_line: forward_kinematics(like, joints, list(x)).sandwich(t), q)
             for ours, numeric in zip(K.line_jacobian(motor, lines, tool_line), fd, strict=True):
                 np.testing.assert_allclose(ours.coeffs, numeric, atol=1e-8)
+
+
+@pytest.mark.parametrize("chain", sorted(CHAINS))
+def test_frame_turned_by_full_angles_gives_the_same_positions_and_lines(chain):
+    """Without the motor the frame turns by cos q, sin q (Rodrigues) instead of by the joint rotor's
+    half angles: the same end position and joint lines to 1e-14 (MIXED has a general, non-axis
+    joint axis), and exactly what the system kernels use."""
+    joints = CHAINS[chain]
+    like = MultiVector.zero(cga3d())
+    rng = np.random.default_rng(11)
+    for _ in range(50):
+        q = list(rng.uniform(-3.2, 3.2, _dof(joints)))
+        _, lines, position = K.chain_pose(like, joints, q)
+        none, free_lines, free_position = K.chain_pose(like, joints, q, with_motor=False)
+        assert none is None
+        np.testing.assert_allclose(free_position.coeffs, position.coeffs, rtol=0, atol=1e-14)
+        for a, b in zip(free_lines, lines, strict=True):
+            np.testing.assert_allclose(a.coeffs, b.coeffs, rtol=0, atol=1e-14)

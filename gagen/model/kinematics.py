@@ -142,8 +142,13 @@ def chain_kinematics(like: Any, joints: Sequence[Joint], q: Sequence[Any]) -> tu
     return motor, lines
 
 
-def chain_pose(like: Any, joints: Sequence[Joint], q: Sequence[Any]) -> tuple[Any, list[Any], Any]:
+def chain_pose(like: Any, joints: Sequence[Joint], q: Sequence[Any], *,
+               with_motor: bool = True) -> tuple[Any, list[Any], Any]:
     """(V_M, [L'_i], t): the FK motor, the carried joint lines and the end position t.
+
+    With ``with_motor=False`` the motor is None and the frame turns by cos q and sin q directly
+    (Rodrigues) instead of by the joint rotor's half angles, whose cos q = c² − s², sin q = 2cs cost
+    5 flops a joint: for kernels that need positions and lines only.
 
     The chain carries its frame as the images a_k = A e_k A~ of the basis vectors, a position t and
     a rotor R (A = T(t) R). A versor V of the chain acts on the frame linearly: a_k ← Σ_j (V e_k V~)_j a_j,
@@ -172,8 +177,10 @@ def chain_pose(like: Any, joints: Sequence[Joint], q: Sequence[Any]) -> tuple[An
         return total
 
     def carried(versor: Any) -> list[Any]:  # the frame after a versor of the link: a_k ← Σ_j (V e_k V~)_j a_j
-        m = versor.math  # each entry (exact, or e.g. cos q = c² − s²) computed once, reused by 3 products
-        images = [versor.sandwich(e) for e in basis]
+        return moved([versor.sandwich(e) for e in basis])
+
+    def moved(images: Sequence[Any]) -> list[Any]:  # the frame after a rotation of the link, from its images
+        m = like.math  # each entry (exact, or e.g. cos q = c² − s²) computed once, reused by 3 products
         return [along([m.shared(image[b]) for b in ("e1", "e2", "e3")]) for image in images]
 
     for joint in joints:
@@ -193,11 +200,30 @@ def chain_pose(like: Any, joints: Sequence[Joint], q: Sequence[Any]) -> tuple[An
         else:
             generator = axis.make({"e12": axis["e3"], "e13": -axis["e2"], "e23": axis["e1"]})
             lines.append(translator(position).sandwich(generator))
-            motion = joint_motor(like, joint, value)
-            frame = carried(motion)
-            rotation = rotation * motion
+            if with_motor:
+                motion = joint_motor(like, joint, value)
+                frame = carried(motion)
+                rotation = rotation * motion
+            else:
+                frame = moved(_rotated_basis(like, joint.axis, value))
+    if not with_motor:
+        return None, lines, position
     motor = translator(position) * (rotation if scale == 1 else rotation * scale)
     return motor, lines, position
+
+
+def _rotated_basis(like: Any, axis: Sequence[float], q: Any) -> list[Any]:
+    """The basis vectors turned by q about the unit axis n (link coordinates), by Rodrigues:
+    R e_k = cos q e_k + sin q (n × e_k) + (1 − cos q) n_k n."""
+    m = like.math
+    c, s = m.cos(q), m.sin(q)
+    n = [to_exact(a) for a in axis]
+    images = []
+    for k in range(3):
+        e = [1 if j == k else 0 for j in range(3)]
+        cross = [n[1] * e[2] - n[2] * e[1], n[2] * e[0] - n[0] * e[2], n[0] * e[1] - n[1] * e[0]]
+        images.append(vector(like, [c * e[j] + s * cross[j] + (1 - c) * (n[k] * n[j]) for j in range(3)]))
+    return images
 
 
 def forward_kinematics(like: Any, joints: Sequence[Joint], q: Sequence[Any]) -> Any:
