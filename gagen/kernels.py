@@ -50,7 +50,7 @@ from gagen.model.conformal import (
 )
 from gagen.model.cooperative import System
 from gagen.model.primitives import through, unit_primitive
-from gagen.model.similarity import if_degenerate_identity, similarity_factors
+from gagen.model.similarity import similarity_factors
 from gagen.model.versors import log_similarity
 from gagen.symbolic.casadi_backend import CasadiBackend
 from gagen.symbolic.flatten import OpCount, casadi_op_count, identifier
@@ -169,11 +169,9 @@ def _task_space(graph: _Graph, positions: ca.SX, vsd: ca.SX) -> dict[str, ca.SX]
               for i in range(len(system.chains))]
     xc = through(system.kind, points)
     xc_blades = tuple(algebra.blade_name(b) for b in xc.support)
-    factors, conditioning, degenerate = similarity_factors(system.kind, unit_primitive(system.kind, xc), xc)
-    v = factors[0]
-    for f in factors[1:]:
-        v = v * f
-    v = if_degenerate_identity(v, degenerate)
+    factored = similarity_factors(system.kind, unit_primitive(system.kind, xc), xc)
+    factors, conditioning, degenerate = factored
+    v = factored.versor()
     g = _masked(_generator_jacobian(graph, factors, positions), degenerate)
     directions = [graph.multivector(g[:, k], SIMILARITY_GENERATOR) for k in range(positions.numel())]
     w = ~v * graph.multivector(vsd, SIMILARITY)

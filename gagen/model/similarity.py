@@ -51,6 +51,14 @@ class Factored(NamedTuple):
     conditioning: Any
     degenerate: Any
 
+    def versor(self) -> Any:
+        """The product of the factors, or the identity where the spanning points are degenerate."""
+        v = self.factors[0]
+        for f in self.factors[1:]:
+            v = v * f
+        m = v.math
+        return v.make({k: m.if_else(self.degenerate, 1.0 if k == "1" else 0.0, v[k]) for k in SIMILARITY})
+
 
 def similarity(kind: str, x1: Any, x2: Any) -> Versor:
     """V_S(X1, X2) and its conditioning (see the module docstring).
@@ -59,22 +67,14 @@ def similarity(kind: str, x1: Any, x2: Any) -> Versor:
     conditioning, not the orientation part) the versor is the identity: an exactly degenerate
     input then gives finite values on every path (guarded intermediate values can overflow there).
     """
-    factors, conditioning, degenerate = similarity_factors(kind, x1, x2)
-    v = factors[0]
-    for f in factors[1:]:
-        v = v * f
-    return Versor(if_degenerate_identity(v, degenerate), conditioning)
-
-
-def if_degenerate_identity(v: Any, degenerate: Any) -> Any:
-    m = v.math
-    return v.make({k: m.if_else(degenerate, 1.0 if k == "1" else 0.0, v[k]) for k in SIMILARITY})
+    factored = similarity_factors(kind, x1, x2)
+    return Versor(factored.versor(), factored.conditioning)
 
 
 def similarity_factors(kind: str, x1: Any, x2: Any) -> Factored:
     """The factors of V_S(X1, X2), its conditioning and the degeneracy test (see ``similarity``).
 
-    The factors let a Jacobian use the product rule at the group level (``generator_jacobian``):
+    The factors let a Jacobian use the product rule at the group level (``gagen.kernels``):
     each factor depends on few of the inputs' degrees of freedom (T on the centre, R on the axis,
     D on the radius), so its own derivative is cheap."""
     factors, conditioning, size = _similarity(check_kind(kind), x1, x2)
