@@ -4,20 +4,34 @@ Parsing is yourdfpy's (a maintained URDF library; meshes are not loaded). yourdf
 joint origin as a 4×4 matrix, so the rpy angles are read back from it; ``Joint``'s exact-constant
 folding then snaps them to multiples of π/4 where they are within 1e-9 of one, as URDF files'
 90° turns are. Translations keep the exact doubles of the file.
+
+Before yourdfpy sees a file it is checked here: UTF-8 (or declared) XML without entity declarations
+(no entity bombs), not a xacro source (expand it first), a ``<robot>`` root, joint and link names
+each defined once, and every joint's origin ``xyz``/``rpy`` and ``axis`` three finite numbers with
+coordinates within ±``MAX_COORDINATE`` m and angles within ±``MAX_ANGLE`` rad. The walk from the tip
+link to the base link refuses links with two parents and kinematic loops (it is bounded by the
+number of joints); the chain's joints must be revolute, continuous, prismatic or fixed, and their
+names (which become row labels ``robot/joint``) follow ``gagen.spec.names.LABEL_RULE``. Each
+problem is a ``SpecError`` naming the file, the joint and its line.
 """
 
 from __future__ import annotations
 
 import math
 from pathlib import Path
-from xml.etree import ElementTree
+from typing import Any
 
 import numpy as np
+from lxml import etree
 
 from gagen.errors import SpecError
 from gagen.model.kinematics import Joint
+from gagen.spec.names import LABEL_RULE, label_problem
 
 _KINDS = {"revolute": "revolute", "continuous": "continuous", "prismatic": "prismatic", "fixed": "fixed"}
+MAX_COORDINATE = 1e6  # metres: a larger joint offset is a unit mistake or garbage
+MAX_ANGLE = 1e3  # radians, for rpy
+MIN_AXIS = 1e-12  # an axis shorter than this is taken as the zero vector
 
 
 def rpy_from_matrix(r: np.ndarray) -> tuple[float, float, float]:
@@ -28,33 +42,113 @@ def rpy_from_matrix(r: np.ndarray) -> tuple[float, float, float]:
     return math.atan2(r[2, 1], r[2, 2]), pitch, math.atan2(r[1, 0], r[0, 0])
 
 
-def _load(path: Path):
+def _joint_field(name: str) -> str:
+    """``joint NAME``, the name quoted when it is not a plain label (it may hold anything)."""
+    return f"joint {name}" if label_problem(name) is None else f"joint {name!r}"
+
+
+def _numbers(path: Path, element: Any, attribute: str, default: str, field: str, bound: float) -> None:
+    """Refuse an ``xyz``/``rpy`` attribute that is not three finite numbers within ±bound."""
+    text = element.get(attribute, default)
+    try:
+        values = [float(v) for v in text.split()]
+    except ValueError:
+        values = []
+    if len(values) != 3 or not all(math.isfinite(v) and abs(v) <= bound for v in values):
+        raise SpecError(path, field, f"line {element.sourceline}: {attribute}={text!r}; expected three "
+                                     f"finite numbers within ±{bound:g}")
+
+
+def _check_xml(path: Path, data: bytes) -> dict[str, int]:
+    """Check the raw file (see the module docstring); the line of each joint by name."""
+    if path.name.endswith(".xacro") or b"xmlns:xacro" in data or b"<xacro:" in data:
+        stem = path.name.removesuffix(".xacro").removesuffix(".urdf")
+        target = f"{stem}.urdf" if f"{stem}.urdf" != path.name else f"{stem}_expanded.urdf"
+        raise SpecError(path, "urdf", f"a xacro file, not a URDF: expand it first, e.g. "
+                                      f"`xacro {path.name} > {target}`, and name the result in the spec")
+    if b"<!ENTITY" in data:
+        raise SpecError(path, "urdf", "XML entity declarations (<!ENTITY) are not supported in URDF files")
+    parser = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False, huge_tree=False)
+    try:
+        root = etree.fromstring(data, parser)
+    except etree.XMLSyntaxError as e:
+        line, column = e.position
+        raise SpecError(path, "urdf", f"not a readable URDF: malformed XML at line {line}, column {column} "
+                                      f"({e.msg})") from e
+    except (ValueError, etree.LxmlError) as e:
+        raise SpecError(path, "urdf", f"not a readable URDF ({type(e).__name__}: {e})") from e
+    if root.tag != "robot":
+        raise SpecError(path, "urdf", f"the root element is <{root.tag}>; expected <robot>")
+    lines: dict[str, int] = {}
+    for kind in ("link", "joint"):
+        seen: dict[str, int] = {}
+        for element in root.findall(kind):
+            name = element.get("name")
+            if name is None:
+                raise SpecError(path, kind, f"line {element.sourceline}: a <{kind}> without a name")
+            if name in seen:
+                raise SpecError(path, f"{kind} {name!r}" if kind == "link" else _joint_field(name),
+                                f"defined twice (lines {seen[name]} and {element.sourceline}); "
+                                f"{kind} names must differ")
+            seen[name] = element.sourceline
+        if kind == "joint":
+            lines = seen
+    for element in root.findall("joint"):
+        field = _joint_field(element.get("name"))
+        origin = element.find("origin")
+        if origin is not None:
+            _numbers(path, origin, "xyz", "0 0 0", f"{field}: origin", MAX_COORDINATE)
+            _numbers(path, origin, "rpy", "0 0 0", f"{field}: origin", MAX_ANGLE)
+        axis = element.find("axis")
+        if axis is not None:
+            _numbers(path, axis, "xyz", "1 0 0", f"{field}: axis", MAX_COORDINATE)
+    return lines
+
+
+def _check_label(path: Path, name: Any, line: int | None) -> None:
+    if not isinstance(name, str) or label_problem(name):
+        raise SpecError(path, _joint_field(str(name)),
+                        f"line {line}: the joint name {name!r} becomes a row label (robot/joint) in the "
+                        f"generated code; expected {LABEL_RULE}")
+
+
+def _load(path: Path) -> tuple[Any, dict[str, int]]:
+    """The yourdfpy model of a checked file, and each joint's line."""
     import yourdfpy
 
-    if not path.is_file():
-        raise SpecError(path, "urdf", "file not found")
-    try:  # yourdfpy's parser recovers from broken XML silently; refuse it first, with its position
-        ElementTree.parse(path)
-    except ElementTree.ParseError as e:
-        line, column = e.position
-        raise SpecError(path, "urdf",
-                        f"not a readable URDF: malformed XML at line {line}, column {column}") from e
     try:
-        return yourdfpy.URDF.load(str(path), build_scene_graph=False, load_meshes=False,
+        if not path.is_file():
+            raise SpecError(path, "urdf", "file not found")
+        data = path.read_bytes()
+    except (OSError, ValueError) as e:  # unreadable, a name too long, a NUL in the name
+        raise SpecError(path, "urdf", f"cannot read the file ({type(e).__name__}: {e})") from e
+    lines = _check_xml(path, data)  # yourdfpy's parser recovers from broken XML silently
+    try:
+        urdf = yourdfpy.URDF.load(str(path), build_scene_graph=False, load_meshes=False,
                                   build_collision_scene_graph=False, load_collision_meshes=False)
     except Exception as e:  # yourdfpy/lxml raise many types for malformed XML
         raise SpecError(path, "urdf", f"not a readable URDF ({type(e).__name__}: {e})") from e
+    return urdf, lines
 
 
 def load_chain(path: str | Path, base_link: str, tip_link: str) -> list[Joint]:
     """The joints from ``base_link`` to ``tip_link`` (fixed joints included), in order."""
     path = Path(path)
-    robot = _load(path).robot
+    urdf, lines = _load(path)
+    robot = urdf.robot
     links = {link.name for link in robot.links}
     for field, link in (("base_link", base_link), ("tip_link", tip_link)):
         if link not in links:
             raise SpecError(path, field, f"no link named {link!r}; links are: {', '.join(sorted(links))}")
-    parent_joint = {j.child: j for j in robot.joints}
+    parent_joint: dict[str, Any] = {}
+    for j in robot.joints:
+        if j.child in parent_joint:
+            other = parent_joint[j.child]
+            raise SpecError(path, _joint_field(j.name),
+                            f"line {lines.get(j.name)}: link {j.child!r} already has the parent joint "
+                            f"{other.name!r} (line {lines.get(other.name)}); a URDF is a tree, each link "
+                            f"has at most one parent")
+        parent_joint[j.child] = j
     chain = []
     link = tip_link
     while link != base_link:
@@ -62,20 +156,67 @@ def load_chain(path: str | Path, base_link: str, tip_link: str) -> list[Joint]:
             raise SpecError(path, "tip_link",
                             f"{tip_link!r} is not below {base_link!r} in the kinematic tree")
         joint = parent_joint[link]
+        if any(joint is seen for seen in chain):  # each joint is visited once: the walk is bounded
+            first = next(i for i, seen in enumerate(chain) if seen is joint)
+            loop = " -> ".join(j.name for j in [*chain[first:], joint])
+            raise SpecError(path, _joint_field(joint.name), f"line {lines.get(joint.name)}: a kinematic "
+                                                            f"loop ({loop}); a URDF is a tree")
         chain.append(joint)
         link = joint.parent
     joints = []
     for j in reversed(chain):
+        field = _joint_field(j.name)
+        _check_label(path, j.name, lines.get(j.name))
+        if j.type in ("floating", "planar"):
+            raise SpecError(path, field, f"line {lines.get(j.name)}: floating/planar joints are not "
+                                         f"supported; a chain is made of 1-DOF joints (revolute, continuous, "
+                                         f"prismatic) and fixed ones: choose base_link below it")
         if j.type not in _KINDS:
-            raise SpecError(path, f"joint {j.name}", f"type {j.type!r} is not supported; expected one of "
-                                                      f"{', '.join(_KINDS)}")
+            raise SpecError(path, field, f"type {j.type!r} is not supported; expected one of "
+                                         f"{', '.join(_KINDS)}")
         origin = np.eye(4) if j.origin is None else np.asarray(j.origin, dtype=float)
         axis = (1.0, 0.0, 0.0) if j.axis is None else tuple(float(a) for a in j.axis)  # URDF default
+        if origin.shape != (4, 4) or not np.isfinite(origin).all() or len(axis) != 3:
+            raise SpecError(path, field, f"line {lines.get(j.name)}: origin and axis must be finite "
+                                         f"(three numbers each)")
         if j.type != "fixed":
             norm = math.sqrt(sum(a * a for a in axis))
-            if norm == 0:
-                raise SpecError(path, f"joint {j.name}: axis", "a non-zero axis vector")
+            if norm < MIN_AXIS:
+                raise SpecError(path, f"{field}: axis", f"line {lines.get(j.name)}: a non-zero axis vector "
+                                                        f"(length at least {MIN_AXIS:g})")
             axis = tuple(a / norm for a in axis)
-        joints.append(Joint(j.name, _KINDS[j.type], tuple(float(v) for v in origin[:3, 3]),
-                            rpy_from_matrix(origin[:3, :3]), axis))
+        try:  # Joint's own checks (e.g. on a mimic), as an error naming the file and the joint
+            joints.append(Joint(j.name, _KINDS[j.type], tuple(float(v) for v in origin[:3, 3]),
+                                rpy_from_matrix(origin[:3, :3]), axis, mimic=_mimic(path, robot, j)))
+        except ValueError as e:
+            raise SpecError(path, field, f"line {lines.get(j.name)}: {e}") from e
+        if joints[-1].mimic is not None:  # the leader's name labels the chain's joint variable
+            _check_label(path, joints[-1].mimic[0], lines.get(joints[-1].mimic[0]))
     return joints
+
+
+def _mimic(path: Path, robot, joint) -> tuple[str, float, float] | None:
+    """A joint's ``<mimic>`` as (leader, multiplier, offset), a chain of mimics resolved to its first
+    leader (q = m1 (m2 q_leader + o2) + o1); a missing, fixed or cyclic leader is a SpecError."""
+    by_name = {j.name: j for j in robot.joints}
+    multiplier, offset, seen, current = 1.0, 0.0, [joint.name], joint
+    while current.mimic is not None:
+        m = 1.0 if current.mimic.multiplier is None else float(current.mimic.multiplier)
+        o = 0.0 if current.mimic.offset is None else float(current.mimic.offset)
+        field = f"joint {joint.name}: mimic"
+        if not (math.isfinite(m) and math.isfinite(o)):
+            raise SpecError(path, field, f"finite multiplier and offset, got {m} and {o}")
+        multiplier, offset = multiplier * m, multiplier * o + offset
+        leader = by_name.get(current.mimic.joint)
+        if leader is None:
+            raise SpecError(path, field, f"the name of a joint of this robot; there is no joint "
+                                         f"{current.mimic.joint!r}")
+        if leader.name in seen:
+            raise SpecError(path, field, f"a mimic leader, but mimics form a loop: "
+                                         f"{' -> '.join([*seen, leader.name])}")
+        if leader.type not in ("revolute", "continuous", "prismatic"):
+            raise SpecError(path, field, f"a revolute, continuous or prismatic leader; {leader.name!r} "
+                                         f"is {leader.type}")
+        seen.append(leader.name)
+        current = leader
+    return None if current is joint else (current.name, multiplier, offset)

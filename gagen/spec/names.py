@@ -1,0 +1,79 @@
+"""The rules for names that reach generated code, file names and labels.
+
+* **Identifiers** (the system name, chain names): the system name names the output folder, the C
+  files, the C symbols ``<system>_<kernel>`` and a Python package; a chain name prefixes its kernels'
+  names ``<chain>_fk``, ``<chain>_fk_jacobian``, ``<chain>_jacobians`` (Python attributes, C symbols,
+  upper-cased size macros). They must be a letter followed by letters and digits, with single
+  underscores between them (``arm_0``, not ``arm-0``, ``_arm``, ``arm__0`` or ``arm_``): exactly the
+  names that ``gagen.symbolic.flatten.identifier`` leaves unchanged, so no two names map to one
+  identifier; not a C (C99 to C23) or Python keyword; at most ``MAX_LENGTH`` characters. This also
+  makes ``../x``, absolute paths and quotes impossible in file names and strings.
+* **Labels** (joint names, robot labels, configuration names): they appear as row labels
+  ``robot/joint`` in headers, comments, docstrings and the manifest. Letters, digits and ``_ . : -``,
+  starting with a letter, digit or underscore (every bundled URDF's joint names qualify), at most
+  ``MAX_LENGTH`` characters: nothing that can end a comment or string (``*/``, quotes, newlines)
+  and no ``/``, which separates the robot from the joint.
+
+Names that break a rule are refused (a ``SpecError`` from the loader), never mapped silently.
+"""
+
+from __future__ import annotations
+
+import keyword
+import re
+
+MAX_LENGTH = 64
+_IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9]*(?:_[A-Za-z0-9]+)*")
+_LABEL = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.:-]*")
+
+# C99 to C23 keywords (the _Uppercase ones cannot match the identifier rule anyway)
+C_KEYWORDS = frozenset((
+    "auto", "break", "case", "char", "const", "continue", "default", "do", "double", "else", "enum",
+    "extern", "float", "for", "goto", "if", "inline", "int", "long", "register", "restrict", "return",
+    "short", "signed", "sizeof", "static", "struct", "switch", "typedef", "union", "unsigned", "void",
+    "volatile", "while", "alignas", "alignof", "bool", "constexpr", "false", "nullptr", "static_assert",
+    "thread_local", "true", "typeof", "typeof_unqual",
+))
+PYTHON_KEYWORDS = frozenset(keyword.kwlist)  # soft keywords (match, case, type, _) are valid names
+
+# the kernels every system has, and the suffixes of each chain's kernels (gagen.kernels.build_kernels)
+SYSTEM_KERNELS = ("primitive", "similarity", "similarity_jacobians", "task")
+CHAIN_KERNEL_SUFFIXES = ("fk", "fk_jacobian", "jacobians")
+
+IDENTIFIER_RULE = (f"a letter, then letters, digits and single underscores between them (no '-', no "
+                   f"leading, trailing or double '_'), not a C or Python keyword, at most {MAX_LENGTH} "
+                   f"characters")
+LABEL_RULE = (f"letters, digits and '_', '.', ':', '-' (starting with a letter, digit or '_'), at most "
+              f"{MAX_LENGTH} characters")
+
+
+def identifier_problem(name: str) -> str | None:
+    """Why ``name`` cannot be a system or chain name (None when it can)."""
+    if not _IDENTIFIER.fullmatch(name):
+        return "not an identifier"
+    if name in C_KEYWORDS or name in PYTHON_KEYWORDS:
+        return "a C or Python keyword"
+    if len(name) > MAX_LENGTH:
+        return f"{len(name)} characters; at most {MAX_LENGTH}"
+    return None
+
+
+def label_problem(name: str) -> str | None:
+    """Why ``name`` cannot be a joint name, robot label or configuration name (None when it can)."""
+    if not _LABEL.fullmatch(name):
+        return "contains characters outside the label set"
+    if len(name) > MAX_LENGTH:
+        return f"{len(name)} characters; at most {MAX_LENGTH}"
+    return None
+
+
+def suggest_identifier(name: str) -> str:
+    """A nearby valid identifier, for error messages ('arm-0' -> 'arm_0')."""
+    ident = re.sub(r"[^A-Za-z0-9]+", "_", name).strip("_")[:MAX_LENGTH - 2] or "name"
+    ident = ident if ident[0].isalpha() else f"n_{ident}"
+    return f"{ident}_x" if ident in C_KEYWORDS or ident in PYTHON_KEYWORDS else ident
+
+
+def chain_kernel_names(chain: str) -> tuple[str, ...]:
+    """The kernels named after a chain."""
+    return tuple(f"{chain}_{suffix}" for suffix in CHAIN_KERNEL_SUFFIXES)
