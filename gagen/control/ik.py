@@ -16,6 +16,7 @@ clipping every iterate into the box.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -23,6 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from gagen.control.differential import RCOND
+from gagen.model.similarity import DEGENERATE_BELOW
 
 Task = Callable[[NDArray[np.float64], NDArray[np.float64]], tuple[ArrayLike, ArrayLike]]
 """task(q, V_Sd) -> (e, J_Be), e.g. ``load(folder).c.task``; returned buffers may be reused."""
@@ -38,7 +40,8 @@ class IKResult:
 
     ``q``: the last accepted iterate; ``error_norm``: ‖e(q)‖; ``iterations``: accepted steps;
     ``converged``: ‖e(q)‖ <= tol; ``history``: ‖e‖ at q0 and after every accepted step;
-    ``evaluations``: calls of ``task`` (one per iteration plus one per line-search trial).
+    ``evaluations``: calls of ``task`` (one per iteration plus one per line-search trial);
+    ``status``: why the solve stopped, one of ``STATUSES``; ``message``: the same in a sentence.
     """
 
     q: NDArray[np.float64]
@@ -47,6 +50,23 @@ class IKResult:
     converged: bool
     history: NDArray[np.float64]
     evaluations: int = 0
+    status: str = "converged"
+    message: str = ""
+
+
+STATUSES = {
+    "converged": "‖e‖ <= tol",
+    "max_iterations": "max_iterations steps taken with ‖e‖ > tol",
+    "degenerate_primitive": "the spanning points are degenerate (coincident, collinear, coplanar: "
+                            "conditioning 0), so V_Sc is the identity and J_Be = 0: no direction decreases "
+                            "‖e‖; start from a configuration with positive conditioning",
+    "stationary": "Jᵀe = 0 with ‖e‖ > tol: a stationary point of ‖e‖², e.g. an unreachable V_Sd or a "
+                  "singular configuration",
+    "line_search_failed": "no step length decreased ‖e‖² even with the largest damping (the "
+                          "floating-point floor above a very small tol, or joint limits blocking every step)",
+    "non_finite": "the task kernel returned NaN or inf",
+}
+"""``IKResult.status`` values and what each means."""
 
 
 def _limits(limits: tuple[ArrayLike, ArrayLike] | None, m: int) -> tuple[NDArray, NDArray] | None:
@@ -69,7 +89,8 @@ def _step(J: NDArray[np.float64], e: NDArray[np.float64], damping: float) -> NDA
 
 
 def solve_ik(task: Task, q0: ArrayLike, V_Sd: ArrayLike, *, tol: float = 1e-12, max_iterations: int = 100,
-             damping: float = 1e-6, limits: tuple[ArrayLike, ArrayLike] | None = None) -> IKResult:
+             damping: float = 1e-6, limits: tuple[ArrayLike, ArrayLike] | None = None,
+             conditioning: Callable[[NDArray[np.float64]], float] | None = None) -> IKResult:
     """Solve q* = argmin ‖log(V_Sc(q)~ V_Sd)‖² [COOP Eq. 43-44] from ``q0`` by damped Gauss-Newton.
 
     ``task(q, V_Sd) -> (e, J_Be)`` is the generated task kernel [Eq. 44, 47] (C or CasADi on numbers);
@@ -84,12 +105,24 @@ def solve_ik(task: Task, q0: ArrayLike, V_Sd: ArrayLike, *, tol: float = 1e-12, 
     with ‖e‖ > 0, e.g. an unreachable V_Sd, or the floating-point floor above a very small ``tol``).
 
     ``limits`` = (lower, upper) joint bounds (arrays of m, or scalars); q0 and every iterate are
-    clipped into them. Returns an ``IKResult``; ``converged`` means ‖e‖ <= ``tol``.
+    clipped into them. ``conditioning(q)``: optional, e.g. ``lambda q: module.c.similarity(q)[1]``, to
+    tell a degenerate primitive from another stationary point where J_Be is not exactly zero.
+    Returns an ``IKResult``; ``converged`` means ‖e‖ <= ``tol``, and ``status`` /
+    ``message`` say why the solve stopped (``STATUSES``): e.g. ``degenerate_primitive`` when J_Be
+    is zero at a stop because the spanning points are degenerate there. Non-finite q0, V_Sd, tol or
+    damping are a ValueError.
     """
-    if tol < 0 or max_iterations < 0 or damping < 0:
-        raise ValueError("tol, max_iterations and damping must be >= 0")
+    if not all(isinstance(v, (int, float)) and math.isfinite(v) and v >= 0 for v in (tol, damping)):
+        raise ValueError(f"tol and damping must be finite numbers >= 0, got {tol!r} and {damping!r}")
+    if isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer)) \
+            or max_iterations < 0:
+        raise ValueError(f"max_iterations must be an integer >= 0, got {max_iterations!r}")
     q = np.array(q0, dtype=float).ravel()
     target = np.ascontiguousarray(V_Sd, dtype=float).ravel()
+    if not np.all(np.isfinite(q)):
+        raise ValueError(f"q0 must be finite, got {q}")
+    if not np.all(np.isfinite(target)):
+        raise ValueError(f"V_Sd must be finite, got {target}")
     bounds = _limits(limits, q.size)
 
     def clip(x: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -108,11 +141,14 @@ def solve_ik(task: Task, q0: ArrayLike, V_Sd: ArrayLike, *, tol: float = 1e-12, 
     history = [np.sqrt(f)]
     lam = max(damping, DAMPING_MIN)
     iterations = 0
-    while iterations < max_iterations and np.sqrt(f) > tol and lam <= DAMPING_MAX:
+    stalled = "stationary"  # why λ last had to grow
+    finite = bool(np.all(np.isfinite(e)) and np.all(np.isfinite(J)))
+    while finite and iterations < max_iterations and np.sqrt(f) > tol and lam <= DAMPING_MAX:
         delta = _step(J, e, lam)
         slope = 2.0 * float(e @ (J @ delta))  # d‖e(q + αΔ)‖²/dα at α = 0 (<= 0)
         if not slope < 0:  # Jᵀ e = 0 numerically: stationary
             lam *= 100.0
+            stalled = "stationary"
             continue
         alpha, accepted = 1.0, None
         for _ in range(MAX_BACKTRACKS):
@@ -122,12 +158,14 @@ def solve_ik(task: Task, q0: ArrayLike, V_Sd: ArrayLike, *, tol: float = 1e-12, 
             f_trial = float(e_trial @ e_trial)
             moved = trial - q
             # Armijo on the step actually taken (clipping may shorten or bend it)
-            if np.isfinite(f_trial) and f_trial <= f + ARMIJO * 2.0 * float(e @ (J @ moved)):
+            if (np.isfinite(f_trial) and np.all(np.isfinite(J_trial))
+                    and f_trial <= f + ARMIJO * 2.0 * float(e @ (J @ moved))):
                 accepted = trial, e_trial, J_trial, f_trial, moved
                 break
             alpha *= 0.5
         if accepted is None:
             lam *= 100.0
+            stalled = "line_search_failed"
             continue
         trial, e_trial, J_trial, f_trial, moved = accepted
         if alpha == 1.0:
@@ -144,5 +182,18 @@ def solve_ik(task: Task, q0: ArrayLike, V_Sd: ArrayLike, *, tol: float = 1e-12, 
         iterations += 1
         history.append(np.sqrt(f))
     error = float(np.sqrt(f))
+    if not finite:
+        status = "non_finite"
+    elif error <= tol:
+        status = "converged"
+    elif lam <= DAMPING_MAX:
+        status = "max_iterations"
+    elif not np.any(J) or (conditioning is not None
+                           and float(np.asarray(conditioning(q)).ravel()[0]) <= DEGENERATE_BELOW):
+        status = "degenerate_primitive"  # the kernels' J_Be is exactly 0 where the primitive is degenerate
+    else:
+        status = stalled
+    message = (f"{status} after {iterations} iterations, ‖e‖ = {error:.3g} (tol {tol:g}): "
+               f"{STATUSES[status]}")
     return IKResult(q=q, error_norm=error, iterations=iterations, converged=error <= tol,
-                    history=np.array(history), evaluations=evaluations)
+                    history=np.array(history), evaluations=evaluations, status=status, message=message)

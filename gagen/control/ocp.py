@@ -41,6 +41,7 @@ zero for a rest-to-rest motion. ``task_errors`` gives the remaining error e(q_k)
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
@@ -113,8 +114,9 @@ class OCPResult:
     and ``wall_time``: seconds in the solver calls, both summed over the updates (``function_time``:
     the part of it spent evaluating the NLP's CasADi Functions, the rest is IPOPT's own; ``build_time``:
     building the NLP and IPOPT's derivative functions, 0 when the NLP came from the cache);
-    ``success``: IPOPT succeeded and, for ``exact``, ‖e(q_N)‖ <= tol; ``status``: IPOPT's return
-    status of the last solve; ``w``, ``lam_x``, ``lam_g``: the raw primal-dual solution (warm starts).
+    ``success``: IPOPT's return status (``status``, of the last solve) is one of ``IPOPT_SUCCESS``
+    and, for ``exact``, ‖e(q_N)‖ <= tol; ``message``: why it succeeded or not, in a sentence;
+    ``w``, ``lam_x``, ``lam_g``: the raw primal-dual solution (warm starts).
     """
 
     q: NDArray[np.float64]
@@ -136,6 +138,7 @@ class OCPResult:
     w: NDArray[np.float64] = field(repr=False)
     lam_x: NDArray[np.float64] = field(repr=False)
     lam_g: NDArray[np.float64] = field(repr=False)
+    message: str = ""
 
     @property
     def N(self) -> int:
@@ -168,8 +171,7 @@ class ReachingOCP:
     def __init__(self, task: ca.Function, m: int, *, N: int = DEFAULT_N, horizon: float = DEFAULT_HORIZON,
                  R: ArrayLike = DEFAULT_R, Q: ArrayLike = DEFAULT_Q, rest: bool = True, expand: bool = True,
                  options: dict[str, Any] | None = None) -> None:
-        if N < 1 or horizon <= 0:
-            raise ValueError(f"need N >= 1 and horizon > 0, got N={N}, horizon={horizon}")
+        check_horizon(N, horizon)
         self.task, self.m, self.N, self.horizon, self.rest = task, m, N, float(horizon), rest
         self.dt = self.horizon / N
         self.R, self.Q = _weight(R, m, "R"), _weight(Q, len(BLADES), "Q")
@@ -253,6 +255,11 @@ class ReachingOCP:
         if q0.size != m or qdot0.size != m or V_Sd.size != 12:
             raise ValueError(f"need q0 and qdot0 of {m} values and V_Sd of 12, got {q0.size}, {qdot0.size}, "
                              f"{V_Sd.size}")
+        for name, value in (("q0", q0), ("qdot0", qdot0), ("V_Sd", V_Sd)):
+            if not np.all(np.isfinite(value)):
+                raise ValueError(f"{name} must be finite, got {value}")
+        if not (isinstance(tol, (int, float)) and math.isfinite(tol) and tol >= 0):
+            raise ValueError(f"tol must be a finite number >= 0, got {tol!r}")
         inf = np.full(m, np.inf)
         lower_q, upper_q = (-inf, inf) if limits is None else _box(limits, m, "limits")
         if np.any(q0 < lower_q - 1e-12) or np.any(q0 > upper_q + 1e-12):
@@ -292,21 +299,52 @@ class ReachingOCP:
             w = np.array(solution["x"]).ravel()
             start = (w, np.array(solution["lam_x"]).ravel(), np.array(solution["lam_g"]).ravel())
             e = self._error(w[-2 * m: -m], V_Sd)  # q_N
-            if not exact or not stats["success"] or np.linalg.norm(e) <= tol or updates >= max_updates:
+            if (not exact or str(stats["return_status"]) not in IPOPT_SUCCESS or np.linalg.norm(e) <= tol
+                    or updates >= max_updates):
                 break
             shift = shift - e
             updates += 1
         u, x = self._layout(w)
-        success = bool(stats["success"]) and (not exact or np.linalg.norm(e) <= tol)
+        status = str(stats["return_status"])
+        success, message = _verdict(status, float(np.linalg.norm(e)), exact, tol, updates, max_updates)
         return OCPResult(q=np.vstack([q0, x[:, :m]]), qdot=np.vstack([qdot0, x[:, m:]]), u=u, dt=self.dt,
                          V_Sd=V_Sd, error=e, error_norm=float(np.linalg.norm(e)), shift=shift,
                          updates=updates, objective=float(solution["f"]), iterations=iterations,
                          wall_time=wall, function_time=functions, build_time=self._built, success=success,
-                         status=str(stats["return_status"]), w=w, lam_x=start[1], lam_g=start[2])
+                         status=status, w=w, lam_x=start[1], lam_g=start[2], message=message)
 
     def _error(self, q: NDArray[np.float64], V_Sd: NDArray[np.float64]) -> NDArray[np.float64]:
         out = self.task(q, V_Sd)
         return np.array(out[0] if isinstance(out, (list, tuple)) else out).ravel()
+
+
+IPOPT_SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+"""IPOPT return statuses that count as solved (CasADi's own ``success`` flag also accepts e.g.
+Feasible_Point_Found, which is no optimum)."""
+
+
+def _verdict(status: str, error: float, exact: bool, tol: float, updates: int,
+             max_updates: int) -> tuple[bool, str]:
+    """(success, message) from IPOPT's return status and the final terminal error."""
+    if status not in IPOPT_SUCCESS:
+        return False, f"IPOPT stopped with {status}; final ‖e(q_N)‖ = {error:.3g}"
+    if not exact:
+        return True, (f"IPOPT {status}; the penalty problem (exact=False) keeps a residual ‖e(q_N)‖ = "
+                      f"{error:.3g}, not held to tol")
+    if error > tol:
+        return False, (f"IPOPT {status}, but ‖e(q_N)‖ = {error:.3g} > tol {tol:g} after {updates} of at most "
+                       f"{max_updates} multiplier updates: the target is not reached (out of reach within "
+                       f"the joint limits and horizon, or tol below what the solver attains)")
+    return True, f"IPOPT {status}; ‖e(q_N)‖ = {error:.3g} <= tol {tol:g} after {updates} multiplier updates"
+
+
+def check_horizon(N: int, horizon: float) -> None:
+    """ValueError unless N is an integer >= 1 and the horizon a finite number > 0 (seconds)."""
+    if isinstance(N, bool) or not isinstance(N, (int, np.integer)) or N < 1:
+        raise ValueError(f"N must be an integer >= 1 (time steps), got {N!r}")
+    if isinstance(horizon, bool) or not isinstance(horizon, (int, float, np.floating)) \
+            or not math.isfinite(horizon) or horizon <= 0:
+        raise ValueError(f"horizon must be a finite number of seconds > 0, got {horizon!r}")
 
 
 def _box(bounds: tuple[ArrayLike, ArrayLike], m: int, name: str) -> tuple[NDArray, NDArray]:
@@ -344,6 +382,7 @@ def reach(module: Any, q0: ArrayLike, V_Sd: ArrayLike, *, N: int = DEFAULT_N,
     last 8): ``build_time`` is non-zero only when something had to be built.
     ``task`` replaces ``module.casadi.task`` (e.g. a wrapped or external Function, for benchmarks).
     """
+    check_horizon(N, horizon)
     task = module.casadi.task if task is None else task
     m = int(module.manifest["dof"])
     key = (id(task), m, N, float(horizon), _key(R), _key(Q), rest, expand,

@@ -30,6 +30,7 @@ import numpy as np
 import yaml
 from numpy.typing import NDArray
 
+from gagen.cli import positive_float, positive_int
 from gagen.control.ocp import (
     BLADES,
     DEFAULT_HORIZON,
@@ -330,8 +331,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                                      description=__doc__.split("\n")[0])
     parser.add_argument("scenario", choices=[*SCENARIOS, "all"])
     parser.add_argument("--out", type=Path, default=Path("plots"), help="folder for the PNG plots")
-    parser.add_argument("--N", type=int, default=DEFAULT_N, help="time steps")
-    parser.add_argument("--horizon", type=float, default=DEFAULT_HORIZON, help="seconds")
+    parser.add_argument("--N", type=positive_int, default=DEFAULT_N, help="time steps")
+    parser.add_argument("--horizon", type=positive_float, default=DEFAULT_HORIZON, help="seconds")
     args = parser.parse_args(argv)
     names = list(SCENARIOS) if args.scenario == "all" else [args.scenario]
     ok = True
@@ -342,6 +343,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"{name} ({r.scenario.system}, {r.q0.size} DOF, N = {args.N}): {res.iterations} iterations, "
               f"{res.wall_time:.3f} s wall (+ {res.build_time:.3f} s building the NLP), "
               f"final ‖e‖ = {res.error_norm:.2e}, {res.status}")
+        print(f"  {'reached' if res.success else 'NOT reached'}: {res.message}",
+              file=sys.stdout if res.success else sys.stderr)
         for p in r.plots:
             print(f"  {p}")
     return 0 if ok else 1

@@ -165,7 +165,7 @@ def smc_step_function(joints: Sequence[Joint], *, K: float | Sequence[float] = G
     J⁺ = Jᵀ(J Jᵀ + λ_d² I)⁻¹ (λ_d = ``damping``). ``K``: a scalar or 6 task-space gains."""
     if not epsilon > 0:
         raise ValueError(f"epsilon must be > 0, got {epsilon}")
-    n = sum(1 for j in joints if j.moves)
+    n = len(kin.chain_variables(joints))  # mimic joints follow their leader: no entry of their own
     q = ca.SX.sym("q", n)
     x_ref = ca.SX.sym("x_ref", len(POSE))
     x, J = pose_and_jacobian(joints, q)
@@ -383,7 +383,13 @@ def simulate(step: Callable[[ArrayLike, ArrayLike], tuple[Any, Any, Any]], q0: A
     runner's log bit for bit. ``disturbance(t)``: an optional joint-velocity disturbance d added to u
     in the integration (q += (u + d) dt), i.e. λ = J d in ẋ = J u + λ [SMC Eq. 32]."""
     q = np.array(q0, dtype=float)
+    if not np.all(np.isfinite(q)):
+        raise ValueError(f"q0 must be finite, got {q}")
+    _finite("duration", duration, "s", positive=True)
+    _finite("dt", dt, "s", positive=True)
     ticks = round(duration / dt)
+    if ticks < 1:
+        raise ValueError(f"a duration of {duration:g} s is less than one tick of {dt:g} s")
     rows: dict[str, list] = {"t": [], "q": [], "x": [], "x_ref": [], "u": []}
     for k in range(ticks):
         t = k * dt
@@ -432,11 +438,40 @@ def _parse(output: str) -> dict[str, str]:
     return dict(line.split("=", 1) for line in output.splitlines() if "=" in line)
 
 
+def _finite(name: str, value: Any, unit: str, *, positive: bool) -> None:
+    """ValueError unless value is a finite real number > 0 (``positive``) or >= 0."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+            or not math.isfinite(value) or value < 0 or (positive and value == 0):
+        raise ValueError(f"{name} must be a finite number of {unit} {'>' if positive else '>='} 0, "
+                         f"got {value!r}")
+
+
+def loop_ticks(duration: float, rate: float, transient: float = 0.0) -> int:
+    """The number of ticks of a ``duration`` s run at ``rate`` Hz, as the C loop counts them
+    (round half away from zero); ValueError for a non-finite or non-positive duration or rate, a run
+    shorter than one tick, or a ``transient`` (s) that is negative, non-finite or leaves no tick after it."""
+    _finite("duration", duration, "s", positive=True)
+    _finite("rate", rate, "Hz", positive=True)
+    _finite("transient", transient, "s", positive=False)
+    ticks = math.floor(duration * rate + 0.5)
+    if ticks < 1:
+        raise ValueError(f"a duration of {duration:g} s at {rate:g} Hz is less than one tick: give at least "
+                         f"{0.5 / rate:g} s (one tick is {1 / rate:g} s)")
+    if transient > (ticks - 1) * (1.0 / rate):  # the last tick's t, as the C loop computes it
+        raise ValueError(f"transient {transient:g} s leaves no tick to measure the tracking error in a "
+                         f"run of {ticks} ticks ({duration:g} s at {rate:g} Hz): give a shorter transient")
+    return ticks
+
+
 def run_loop(duration: float = 10.0, rate: float = 1000.0, csv: str | Path | None = None, *,
              q0: Sequence[float] | None = None, transient: float = 0.5, fifo: bool = False,
              smc: SmcBuild | None = None, timeout: float | None = None) -> LoopSummary:
     """Build (cached) and run the C loop for ``duration`` s at ``rate`` Hz; log to ``csv`` if given.
-    ``fifo``: ask for SCHED_FIFO and locked memory (best effort, reported in ``scheduler``)."""
+    ``fifo``: ask for SCHED_FIFO and locked memory (best effort, reported in ``scheduler``). The
+    arguments are checked first (``loop_ticks``), before anything is built."""
+    loop_ticks(duration, rate, transient)
+    if q0 is not None and not all(math.isfinite(float(v)) for v in q0):
+        raise ValueError(f"q0 must be finite, got {list(q0)}")
     smc = smc or build()
     command = [str(smc.runner), "--rate", repr(float(rate)), "--duration", repr(float(duration)),
                "--transient", repr(float(transient))]

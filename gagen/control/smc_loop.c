@@ -149,8 +149,12 @@ int main(int argc, char **argv) {
     }
   }
   if (bench_steps > 0) return bench(bench_steps, repeats < 1 ? 1 : repeats);
-  if (!(rate > 0) || !(duration > 0)) {
+  if (!(rate > 0) || !(duration > 0) || !isfinite(rate) || !isfinite(duration)) {
     usage();
+    return 2;
+  }
+  if (llround(duration * rate) < 1) { /* 0 ticks: nothing to log or summarise */
+    fprintf(stderr, "smc_loop: --duration %g s at --rate %g Hz is less than one tick\n", duration, rate);
     return 2;
   }
 

@@ -25,26 +25,37 @@ class Chain:
 
     ``robot`` labels the physical robot the chain belongs to: chains with the same label share the
     moving joints that have the same name (a humanoid's waist joints drive both of its arms).
+    A mimic joint is no variable of its own: its leader's is (:func:`kinematics.chain_variables`).
     """
 
     name: str
     joints: tuple[K.Joint, ...]
     robot: str = ""
 
+    def __post_init__(self) -> None:
+        K.chain_variables(self.joints)  # refuses mimics of fixed joints and chained mimics
+
     @property
     def dof(self) -> int:
-        return sum(j.moves for j in self.joints)
+        """The number of independent joint variables (mimic followers excluded)."""
+        return len(K.chain_variables(self.joints))
 
     def joint_keys(self) -> list[tuple[str, str]]:
-        """(robot, joint name) of each moving joint: equal keys are one physical joint."""
-        return [(self.robot or self.name, j.name) for j in self.joints if j.moves]
+        """(robot, joint name) of each joint variable: equal keys are one physical joint."""
+        return [(self.robot or self.name, name) for name in K.chain_variables(self.joints)]
+
+    def joint_values(self, q: Sequence[Any]) -> list[Any]:
+        """Every moving joint's value (mimic followers: multiplier·q_leader + offset) from the chain's
+        variables."""
+        return K.joint_values(self.joints, q)
 
 
 @dataclass(frozen=True)
 class System:
     """Chains whose end points span a primitive of ``kind`` (Table 1).
 
-    q holds every distinct moving joint once, in order of first appearance along the chains.
+    q holds every distinct joint variable once (a mimic joint's is its leader's), in order of first
+    appearance along the chains.
     """
 
     name: str
@@ -60,12 +71,18 @@ class System:
         if len(set(names)) != len(names):
             raise ValueError(f"system {self.name!r}: chain names must differ, got {names}")
         seen: dict[tuple[str, str], K.Joint] = {}
-        for chain in self.chains:
-            moving = [j for j in chain.joints if j.moves]
-            for key, joint in zip(chain.joint_keys(), moving, strict=True):
+        for chain in self.chains:  # every moving joint by its own key, mimic followers included
+            for joint in (j for j in chain.joints if j.moves):
+                key = (chain.robot or chain.name, joint.name)
                 if seen.setdefault(key, joint) != joint:
                     raise ValueError(f"system {self.name!r}: joint {key[1]!r} of robot {key[0]!r} is "
                                      f"shared by chains but differs between them")
+        followers = {key for key, joint in seen.items() if joint.mimic is not None}
+        for key in self.joint_keys:
+            if key in followers:
+                raise ValueError(f"system {self.name!r}: joint {key[1]!r} of robot {key[0]!r} is mimicked "
+                                 f"in one chain but mimics {seen[key].mimic[0]!r} in another: chained "
+                                 f"mimics must be resolved to the first leader")
 
     @property
     def joint_keys(self) -> list[tuple[str, str]]:
@@ -82,10 +99,15 @@ class System:
         return [[index[key] for key in chain.joint_keys()] for chain in self.chains]
 
     def split(self, q: Sequence[Any]) -> list[list[Any]]:
-        """Each chain's joint values, picked from q (shared joints appear in several chains)."""
+        """Each chain's joint variables, picked from q (shared joints appear in several chains): the
+        input of its chain kernels and of ``kinematics.chain_pose``."""
         if len(q) != self.dof:
             raise ValueError(f"system {self.name!r} has {self.dof} joints, got {len(q)} values")
         return [[q[i] for i in indices] for indices in self.chain_indices()]
+
+    def joint_values(self, q: Sequence[Any]) -> list[list[Any]]:
+        """Each chain's value of every moving joint, mimic followers expanded (multiplier·q + offset)."""
+        return [chain.joint_values(qc) for chain, qc in zip(self.chains, self.split(q), strict=True)]
 
 
 def end_points(zero: Any, system: System, q: Sequence[Any]) -> list[tuple[Any, list[Any]]]:

@@ -9,13 +9,20 @@ within ``SNAP`` of a multiple of π/4 are taken as that multiple, so a URDF's 90
 FK: V_M(q) = Π_j F_j J_j(q_j) with F_j the fixed motor and J_j the joint rotor
 cos(q/2) − sin(q/2) (n3 e12 − n2 e13 + n1 e23) (revolute) or translator 1 − ½ q n∧e∞ (prismatic);
 the end point is P(q) = V_M e0 V_M~.
+
+Mimic joints (URDF ``<mimic>``): a follower turns by multiplier·q_leader + offset and has no entry of
+its own in q. A chain's joint variables (:func:`chain_variables`) are its moving joints with each
+follower replaced by its leader, which may lie outside the chain (a gripper's second finger mimics
+the first); the carried lines are summed per variable with the multipliers (the chain rule), so every
+Jacobian, being linear in the lines, is taken with respect to the variables.
 """
 
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 import sympy
@@ -37,6 +44,8 @@ class Joint:
     xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
     rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
     axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    # (leader joint name, multiplier, offset): this joint turns by multiplier·q_leader + offset
+    mimic: tuple[str, float, float] | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         if self.kind not in JOINT_KINDS:
@@ -44,6 +53,23 @@ class Joint:
                              f"{', '.join(JOINT_KINDS)}")
         if self.moves and not math.isclose(sum(a * a for a in self.axis), 1.0, rel_tol=1e-9):
             raise ValueError(f"joint {self.name!r}: axis {self.axis} is not a unit vector")
+        if self.mimic is not None:
+            leader, multiplier, offset = self.mimic
+            if not self.moves:
+                raise ValueError(f"joint {self.name!r}: a fixed joint cannot mimic {leader!r}")
+            if not isinstance(leader, str) or leader == self.name:
+                raise ValueError(f"joint {self.name!r}: mimics {leader!r}; expected another joint's name")
+            if not all(isinstance(v, (int, float)) and math.isfinite(v) for v in (multiplier, offset)):
+                raise ValueError(f"joint {self.name!r}: mimic multiplier {multiplier!r} and offset "
+                                 f"{offset!r} must be finite numbers")
+
+    def __repr__(self) -> str:
+        # the dataclass repr, plus ``mimic`` only when set: Systems without mimic joints keep their
+        # repr, which the build key hashes
+        shown = [f"{f.name}={getattr(self, f.name)!r}" for f in fields(self) if f.repr]
+        if self.mimic is not None:
+            shown.append(f"mimic={self.mimic!r}")
+        return f"Joint({', '.join(shown)})"
 
     @property
     def moves(self) -> bool:
@@ -131,6 +157,81 @@ def joint_generator(like: Any, joint: Joint) -> Any:
     return like.make({"e12": n[2], "e13": -n[1], "e23": n[0]})
 
 
+def chain_variables(joints: Sequence[Joint]) -> list[str]:
+    """The names of a chain's joint variables, its entries of q: each moving joint, a mimic follower
+    replaced by its leader, in order of first appearance. Raises ValueError for a mimic of a fixed
+    joint or of another follower (chained mimics are resolved when loading: ``gagen.robots.urdf``)."""
+    by_name = {j.name: j for j in joints}
+    names = []
+    for joint in joints:
+        if not joint.moves:
+            continue
+        name = joint.name
+        if joint.mimic is not None:
+            name = joint.mimic[0]
+            leader = by_name.get(name)
+            if leader is not None and not leader.moves:
+                raise ValueError(f"joint {joint.name!r} mimics the fixed joint {name!r}")
+            if leader is not None and leader.mimic is not None:
+                raise ValueError(f"joint {joint.name!r} mimics {name!r}, itself a mimic of "
+                                 f"{leader.mimic[0]!r}: chained mimics must be resolved to the first leader")
+        if name not in names:
+            names.append(name)
+    return names
+
+
+def _mimics(joints: Sequence[Joint]) -> bool:
+    return any(j.mimic is not None for j in joints)
+
+
+def _constant(value: Any, c: float) -> Any:
+    """c as a plain float beside plain numbers (the interpreter), else as the exact value of the double."""
+    return float(c) if isinstance(value, numbers.Real) and not isinstance(value, sympy.Basic) else to_exact(c)
+
+
+def _scaled(value: Any, factor: float) -> Any:
+    """value·factor, skipping the product for ±1."""
+    if factor == 1:
+        return value
+    return -value if factor == -1 else value * _constant(value, factor)
+
+
+def joint_values(joints: Sequence[Joint], q: Sequence[Any]) -> list[Any]:
+    """Each moving joint's value from the chain's variables q (:func:`chain_variables`): a follower's
+    is multiplier·q_leader + offset."""
+    names = chain_variables(joints)
+    if len(q) != len(names):
+        raise ValueError(f"chain has {len(names)} joint variables, got {len(q)} joint values")
+    if not _mimics(joints):
+        return list(q)
+    index = {name: i for i, name in enumerate(names)}
+    values = []
+    for joint in (j for j in joints if j.moves):
+        if joint.mimic is None:
+            values.append(q[index[joint.name]])
+            continue
+        leader, multiplier, offset = joint.mimic
+        value = _scaled(q[index[leader]], multiplier)
+        values.append(value if offset == 0 else value + _constant(value, offset))
+    return values
+
+
+def variable_columns(joints: Sequence[Joint], columns: Sequence[Any]) -> list[Any]:
+    """Columns per moving joint (∂/∂ joint value) → columns per chain variable: the chain rule sums a
+    leader's own column and multiplier × each follower's."""
+    names = chain_variables(joints)
+    if not _mimics(joints):
+        return list(columns)
+    index = {name: i for i, name in enumerate(names)}
+    out: list[Any] = [None] * len(names)
+    for joint, column in zip((j for j in joints if j.moves), columns, strict=True):
+        name, multiplier = (joint.name, 1.0) if joint.mimic is None else joint.mimic[:2]
+        term = _scaled(column, multiplier)
+        i = index[name]
+        out[i] = term if out[i] is None else out[i] + term
+    return out
+
+
 def chain_kinematics(like: Any, joints: Sequence[Joint], q: Sequence[Any]) -> tuple[Any, list[Any]]:
     """(V_M(q), [L'_1 … L'_n]): the FK motor and each moving joint's generator carried to the base
     frame by everything before the joint's motion, L'_i = A_i B_i A_i~ [SMC Eq. 17-20].
@@ -146,6 +247,9 @@ def chain_pose(like: Any, joints: Sequence[Joint], q: Sequence[Any], *,
                with_motor: bool = True) -> tuple[Any, list[Any], Any]:
     """(V_M, [L'_i], t): the FK motor, the carried joint lines and the end position t.
 
+    q holds the chain's variables (:func:`chain_variables`: one per moving joint unless some mimic
+    another); the lines are per variable, a leader's line plus multiplier × its followers' lines.
+
     With ``with_motor=False`` the motor is None and the frame turns by cos q and sin q directly
     (Rodrigues) instead of by the joint rotor's half angles, whose cos q = c² − s², sin q = 2cs cost
     5 flops a joint: for kernels that need positions and lines only.
@@ -159,15 +263,12 @@ def chain_pose(like: Any, joints: Sequence[Joint], q: Sequence[Any], *,
     fixed rotations F = s F~ (unit entries where F has ±√½) with the scale Λ = Π s applied once.
     Kernels that need no V_M (positions, point Jacobians) lose the rotor chain in flattening.
     """
-    moving = [j for j in joints if j.moves]
-    if len(q) != len(moving):
-        raise ValueError(f"chain has {len(moving)} moving joints, got {len(q)} joint values")
+    values = iter(joint_values(joints, q))
     basis = [vector(like, row) for row in ((1, 0, 0), (0, 1, 0), (0, 0, 1))]
     frame = list(basis)
     rotation, scale = like.make({"1": 1}), 1
     position = like.make({})
     lines = []
-    values = iter(q)
 
     def along(coefficients: Sequence[Any]) -> Any:  # Σ c_k a_k: a link-frame vector in the base frame
         total = like.make({})
@@ -206,6 +307,7 @@ def chain_pose(like: Any, joints: Sequence[Joint], q: Sequence[Any], *,
                 rotation = rotation * motion
             else:
                 frame = moved(_rotated_basis(like, joint.axis, value))
+    lines = variable_columns(joints, lines)
     if not with_motor:
         return None, lines, position
     motor = translator(position) * (rotation if scale == 1 else rotation * scale)
