@@ -11,7 +11,8 @@ panda_link8. ``pygafro.createManipulator(<that yaml>, 7, "panda_joint8")`` build
 panda_link8 as the tip, which is what our URDF and the other rows use; ``check_pygafro`` compares both
 with Pinocchio.
 
-    python benchmarks/python_calls.py     # timings and the pygafro check, as JSON
+    python benchmarks/python_calls.py     # the one-call table, then timings and the pygafro check (JSON)
+    python benchmarks/python_calls.py --calls-only   # only gagen's ways to call Panda FK + J, side by side
 """
 
 from __future__ import annotations
@@ -69,9 +70,14 @@ def _cycle(items, calls):
 
 def gagen_calls(folder: str | Path, kernels: list[str], qs: np.ndarray, calls: int = CALLS,
                 repeats: int = REPEATS) -> dict[str, dict[str, float]]:
-    """Per kernel of the generated module in ``folder``: ``call_ns`` for ``k(q)`` (the checked call) and
-    ``fast_ns`` for ``k.fast(q)`` (the binding's raw entry point; float64 contiguous input)."""
-    from gagen.runtime import load
+    """Per kernel of the generated module in ``folder``, ns per call (median):
+
+    - ``call_ns``: ``k(q)``, fresh output arrays every call (the default);
+    - ``out_ns``: ``k(q, out=outs)``, into caller-owned arrays (zero allocation);
+    - ``fast_ns``: ``f(q)`` with ``f = k.bind()`` (``k.fast``): outputs bound once, the fastest call;
+    - ``ctypes_ns``: ``k(q)`` through the ctypes fallback (the same kernel without the binding);
+    - ``casadi_ns``: the generated CasADi Function called on the numpy q (``casadi.<kernel>(q)``)."""
+    from gagen.runtime import CKernel, load
 
     module = load(folder)
     seq = _cycle([np.ascontiguousarray(q, dtype=float) for q in qs], calls)
@@ -80,6 +86,10 @@ def gagen_calls(folder: str | Path, kernels: list[str], qs: np.ndarray, calls: i
         kernel = getattr(module.c, name)
         if kernel.fast is None:
             raise RuntimeError(f"{folder}: no CPython binding, calls go through ctypes")
+        entry = next(k for k in module.manifest["kernels"] if k["name"] == name)
+        via_ctypes = CKernel(module.library, entry, binding=None)
+        casadi_function = getattr(module.casadi, name)
+        outs = kernel.empty()
 
         def loop(f):
             def run():
@@ -87,8 +97,15 @@ def gagen_calls(folder: str | Path, kernels: list[str], qs: np.ndarray, calls: i
                     f(q)
             return run
 
+        def into(kernel=kernel, outs=outs):
+            for q in seq:
+                kernel(q, out=outs)
+
         out[name] = {"call_ns": _median_ns(loop(kernel), calls, repeats),
-                     "fast_ns": _median_ns(loop(kernel.fast), calls, repeats)}
+                     "out_ns": _median_ns(into, calls, repeats),
+                     "fast_ns": _median_ns(loop(kernel.bind()), calls, repeats),
+                     "ctypes_ns": _median_ns(loop(via_ctypes), calls, repeats),
+                     "casadi_ns": _median_ns(loop(casadi_function), calls, repeats)}
     return out
 
 
@@ -184,9 +201,33 @@ def check_pygafro(n: int = 20, seed: int = 3) -> dict:
             "flange_offset_spread": spread}
 
 
+def one_call_table(folder: str | Path = ROOT / "generated" / "panda_point", calls: int = CALLS) -> str:
+    """Panda FK + J, one call from Python, every way side by side (medians, one run)."""
+    timings = gagen_calls(folder, ["arm0_fk_jacobian"], configs(), calls)["arm0_fk_jacobian"]
+    rows = [("`k(q)`: fresh arrays (default)", "call_ns", 400), ("`k(q, out=outs)`", "out_ns", 150),
+            ("`f(q)`, `f = k.bind()` (= `k.fast`)", "fast_ns", None),
+            ("`k(q)` through the ctypes fallback", "ctypes_ns", None),
+            ("`casadi.arm0_fk_jacobian(q)` (CasADi Function)", "casadi_ns", None)]
+    lines = ["| Panda FK + J from Python | ns per call (median) | target |", "|---|---:|---:|"]
+    for label, key, target in rows:
+        lines.append(f"| {label} | {timings[key]:.0f} | {f'≤ {target}' if target else ''} |")
+    return "\n".join(lines)
+
+
 def main() -> None:
+    import argparse
+
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--module", default=str(ROOT / "generated" / "panda_point"),
+                        help="the generated panda_point module (compiled on first use)")
+    parser.add_argument("--calls-only", action="store_true",
+                        help="only the one-call table of gagen's paths (no Pinocchio, pygafro)")
+    args = parser.parse_args()
+    print(one_call_table(args.module))
+    if args.calls_only:
+        return
     qs = configs()
-    gagen = gagen_calls(ROOT / "generated" / "panda_point", ["arm0_fk", "arm0_fk_jacobian"], qs)
+    gagen = gagen_calls(args.module, ["arm0_fk", "arm0_fk_jacobian"], qs)
     print(json.dumps({"gagen": gagen,
                       "pinocchio_python": pinocchio_python(qs), "pygafro": pygafro_calls(qs),
                       "pygafro_check": check_pygafro()}, indent=1))

@@ -314,9 +314,10 @@ def section_fk(ctx: Context) -> Section:
                 [[t, m, fmt_ns(ns), f"{ns / ref:.2f}", tg] for t, m, ns, ref, tg in rows]))
     lines = [f"- median of 7 loops of {calls} calls, cycling through the same 1000 configurations; the loop "
              "itself (a Python `for` over a list) is included, ~10–20 ns a call",
-             "- gagen: `m = gagen.runtime.load('generated/panda_point')`; `k(q)` returns the kernel's own "
-             "output buffers (M, P[, J_S]); `k.fast(q)` is the binding's raw entry point (float64 "
-             "contiguous q)"]
+             "- gagen: `m = gagen.load('generated/panda_point')`; `k(q)` returns fresh output arrays "
+             "(M, P[, J_S]) every call; `k.fast(q)` writes into outputs bound once (`k.bind()`; "
+             "`k(q, out=outs)` costs about the same); all of them thread-safe "
+             "(benchmarks/python_calls.py --calls-only: every way side by side)"]
     if gg:
         k = load_kernel(PANDA, "arm0_fk_jacobian")
         _, P, J = k(np.ascontiguousarray(qs[0]))

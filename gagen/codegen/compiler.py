@@ -10,6 +10,7 @@ import shutil
 import subprocess
 import sys
 import sysconfig
+import threading
 from pathlib import Path
 
 # -O1: straight-line kernels run as fast as at -O3 (three-Panda circle: FK+J 180 vs 189 ns, V_Sc+J_G
@@ -63,7 +64,7 @@ def compile_shared(source: Path, library: Path) -> None:
     """Compile ``source`` (and its ``<stem>_simd.c`` companion, if any, at -O3: the vector blocks'
     gathers and scatters gain from it, and they are small) into ``library``, written under a
     temporary name and then renamed. The two objects compile in parallel."""
-    partial = library.with_name(library.name + f".{os.getpid()}.partial")
+    partial = library.with_name(library.name + f".{os.getpid()}.{threading.get_ident()}.partial")
     compiler = find_compiler()
     simd = source.with_name(f"{source.stem}_simd.c")
     units = [(source, list(FLAGS))]
@@ -104,10 +105,12 @@ def compile_binding(source: Path) -> Path:
     include = Path(sysconfig.get_paths()["include"])
     if not (include / "Python.h").is_file():
         raise CompileError(f"no Python.h in {include} (install the Python development headers)")
+    import numpy  # the binding uses numpy's C API (headers only; the API table is imported at load)
+
     target = extension_path(source.parent, source.stem)
-    partial = target.with_name(target.name + f".{os.getpid()}.partial")
-    command = [*find_compiler(), "-std=c99", "-O2", "-fPIC", "-shared", f"-I{include}", f"-I{source.parent}",
-               "-o", str(partial), str(source)]
+    partial = target.with_name(target.name + f".{os.getpid()}.{threading.get_ident()}.partial")
+    command = [*find_compiler(), "-std=c99", "-O2", "-fPIC", "-shared", f"-I{include}",
+               f"-I{numpy.get_include()}", f"-I{source.parent}", "-o", str(partial), str(source)]
     result = subprocess.run(command, capture_output=True, text=True)
     if result.returncode != 0:
         partial.unlink(missing_ok=True)
