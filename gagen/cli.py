@@ -6,6 +6,7 @@ on a paper scenario) and ``smc`` (sliding-mode tracking in a real-time loop)."""
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
@@ -64,7 +65,7 @@ def _cmd_kernels(args: argparse.Namespace) -> int:
 
 
 def _cmd_build(args: argparse.Namespace) -> int:
-    from gagen.build import build_many
+    from gagen.build import OutputError, build_many
     from gagen.codegen.compiler import CompileError
     from gagen.errors import SpecError
 
@@ -77,7 +78,7 @@ def _cmd_build(args: argparse.Namespace) -> int:
     except SpecError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
-    except CompileError as e:
+    except (CompileError, OutputError) as e:  # OutputError: "cannot write <path>: <reason>", one line
         print(f"error: {e}", file=sys.stderr)
         return 1
     status = 0
@@ -88,39 +89,80 @@ def _cmd_build(args: argparse.Namespace) -> int:
 
 
 def _check(spec: str, folder, samples: int, tolerance: float) -> int:
-    from gagen.check import check_module, format_report
+    """Every kernel against the interpreter on every named configuration and ``samples`` random ones
+    within the joint limits; relative tolerances (``tolerance`` for values, 1e-6 for the Richardson
+    differences of the AD Jacobians; see ``gagen.check``). Exit status 1 naming each failing output."""
+    from gagen.check import FD_RTOL, FD_STEPS, check_module, failures, format_report
     from gagen.runtime import load
     from gagen.spec.loader import load_system
 
     system, configurations = load_system(spec)
-    print(f"{system.name}: checking every kernel (C single, C batched, CasADi) on {samples} samples")
-    report = check_module(load(folder), system, configurations.get("ready"), count=samples)
+    named = ", ".join(configurations) or "none"
+    print(f"{system.name}: checking every kernel (C single, C batched, CasADi) on {len(configurations)} "
+          f"named configurations ({named}) and {samples} random samples within the joint limits", flush=True)
+    report = check_module(load(folder), system, configurations, count=samples, rtol=tolerance,
+                          progress=lambda line: print(line, flush=True))
     print(format_report(report))
     worst_value = max((d.worst for d in report if d.reference == "interpreter"), default=0.0)
     worst_fd = max((d.worst for d in report if d.reference != "interpreter"), default=0.0)
-    print(f"max error: {worst_value:.2e} against the interpreter, {worst_fd:.2e} against central differences "
-          f"(step 1e-6)")
-    if worst_value > tolerance or worst_fd > 1e-6:
-        print(f"error: above tolerance ({tolerance:g}; 1e-6 for central differences)", file=sys.stderr)
-        return 1
-    return 0
+    print(f"max relative error: {worst_value:.2e} against the interpreter (tolerance {tolerance:g}), "
+          f"{worst_fd:.2e} against Richardson central differences (steps {FD_STEPS[0]:g}…{FD_STEPS[-1]:g}, "
+          f"tolerance {FD_RTOL:g})")
+    failed = failures(report)
+    for d in failed:
+        print(f"error: {system.name}: {d.message()}", file=sys.stderr)
+    return 1 if failed else 0
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a finite number > 0 (nan, inf, 0 and negatives are refused with a message)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
+    return value
+
+
+def positive_int(text: str) -> int:
+    """argparse type: an integer >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}")
+    return value
 
 
 def _cmd_smc(args: argparse.Namespace) -> int:
+    from gagen.codegen.compiler import CompileError
     from gagen.control import smc
 
+    try:  # before anything is built or written: a run shorter than one tick is refused here
+        ticks = smc.loop_ticks(args.duration, args.rate)
+    except ValueError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    transient = min(0.5, (ticks // 2) * (1.0 / args.rate))  # a short run still has settled ticks to report
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     print(f"sliding-mode pose tracking, Panda, {args.rate:g} Hz for {args.duration:g} s "
           f"(generated C step kernel and loop; building on first use)")
-    summary = smc.run_loop(args.duration, args.rate, out / "smc_log.csv", fifo=args.fifo)
+    try:
+        summary = smc.run_loop(args.duration, args.rate, out / "smc_log.csv", fifo=args.fifo,
+                               transient=transient)
+    except (RuntimeError, CompileError, OSError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
     print(f"  scheduler {summary.scheduler}: achieved {summary.achieved_rate_hz:.3f} Hz over {summary.ticks} "
           f"ticks, {summary.deadline_misses} deadline misses")
     print(f"  tick lateness mean {summary.jitter_mean_us:.1f} µs, std {summary.jitter_std_us:.1f} µs, "
           f"max {summary.jitter_max_us:.1f} µs; step work mean {summary.work_mean_us:.2f} µs")
     print(f"  tracking after {summary.transient_s:g} s: max |s_i| {summary.error_max:.2e}, position "
           f"{summary.position_error_max:.2e} m, direction {summary.direction_error_max:.2e}")
-    for path in smc.plot_run(out / "smc_log.csv", out):
+    for path in smc.plot_run(out / "smc_log.csv", out, transient=transient):
         print(f"  wrote {path}")
     return 0
 
@@ -128,7 +170,12 @@ def _cmd_smc(args: argparse.Namespace) -> int:
 def _cmd_reach(args: argparse.Namespace) -> int:
     from gagen.control.scenarios import main as scenarios
 
-    return scenarios([args.scenario, "--out", args.out, "--N", str(args.N), "--horizon", str(args.horizon)])
+    try:  # the library's own checks (e.g. a horizon too short for N steps) as one line, not a traceback
+        return scenarios([args.scenario, "--out", args.out, "--N", str(args.N), "--horizon",
+                          repr(args.horizon)])
+    except ValueError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
 
 
 def _cmd_nullspace(args: argparse.Namespace) -> int:
@@ -172,8 +219,8 @@ def main(argv: list[str] | None = None) -> int:
     reach = sub.add_parser("reach", help="cooperative reaching with IPOPT on a paper scenario, with plots")
     reach.add_argument("scenario", help="line, circle, plane, hand_sphere, humanoids_sphere or all")
     reach.add_argument("--out", default="plots", help="folder for the plots (default plots/)")
-    reach.add_argument("--N", type=int, default=100, help="time steps (default 100)")
-    reach.add_argument("--horizon", type=float, default=2.5, help="seconds (default 2.5)")
+    reach.add_argument("--N", type=positive_int, default=100, help="time steps (default 100)")
+    reach.add_argument("--horizon", type=positive_float, default=2.5, help="seconds (default 2.5)")
     reach.set_defaults(run=_cmd_reach)
 
     nullspace = sub.add_parser("nullspace", help="one of three Pandas moves along the circle through N(q), "
@@ -182,8 +229,8 @@ def main(argv: list[str] | None = None) -> int:
     nullspace.set_defaults(run=_cmd_nullspace)
 
     smc = sub.add_parser("smc", help="sliding-mode pose tracking of a Panda in a real-time C loop (plots)")
-    smc.add_argument("--duration", type=float, default=10.0, help="seconds (default 10)")
-    smc.add_argument("--rate", type=float, default=1000.0, help="loop rate in Hz (default 1000)")
+    smc.add_argument("--duration", type=positive_float, default=10.0, help="seconds (default 10)")
+    smc.add_argument("--rate", type=positive_float, default=1000.0, help="loop rate in Hz (default 1000)")
     smc.add_argument("--out", default="plots/smc", help="folder for the log and the plots")
     smc.add_argument("--fifo", action="store_true", help="ask for SCHED_FIFO and locked memory")
     smc.set_defaults(run=_cmd_smc)
