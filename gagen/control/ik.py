@@ -27,7 +27,7 @@ from gagen.control.differential import RCOND
 from gagen.model.similarity import DEGENERATE_BELOW
 
 Task = Callable[[NDArray[np.float64], NDArray[np.float64]], tuple[ArrayLike, ArrayLike]]
-"""task(q, V_Sd) -> (e, J_Be), e.g. ``load(folder).c.task``; returned buffers may be reused."""
+"""task(q, V_Sd) -> (e, J_Be), e.g. ``load(folder).c.task`` (any callable returning arrays)."""
 
 ARMIJO = 1e-4  # sufficient decrease: ‖e_new‖² <= ‖e‖² + ARMIJO · α · ∂‖e‖²/∂α
 MAX_BACKTRACKS = 30
@@ -130,7 +130,7 @@ def solve_ik(task: Task, q0: ArrayLike, V_Sd: ArrayLike, *, tol: float = 1e-12, 
 
     def evaluate(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         e, J = task(x, target)
-        return np.array(e, dtype=float).ravel(), np.array(J, dtype=float)  # copies: kernels reuse buffers
+        return np.array(e, dtype=float).ravel(), np.array(J, dtype=float)  # copies: bound kernels reuse outputs
 
     q = clip(q)
     e, J = evaluate(q)

@@ -46,6 +46,9 @@ class Joint:
     axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
     # (leader joint name, multiplier, offset): this joint turns by multiplier·q_leader + offset
     mimic: tuple[str, float, float] | None = field(default=None, repr=False)
+    # (lower, upper) of the URDF <limit> (rad, or m for prismatic joints), or None: used to sample
+    # `--check` configurations only, so it is left out of the repr (the build key) and of equality
+    limits: tuple[float, float] | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if self.kind not in JOINT_KINDS:

@@ -14,6 +14,15 @@ Conditioning per kind (each is a continuous function of the inputs):
   two are oppositely oriented (then the rotor is a guarded half turn).
 - line, plane: K0/4 of Eq. 21 (1 for equal flats, 0 for opposite orientation) times the smaller
   |X²| of the two (zero for coincident points).
+
+Near a degeneracy every output stays finite (``tests/test_degenerate_sweep.py`` sweeps each kind to
+ε = 1e-15 and exactly degenerate), but the derivatives are the geometry's: |J_G| grows like 1/ε
+towards coincident, collinear, coplanar or concyclic points (≈ 10-800/ε on 1-3 m configurations:
+1e9-1e11 at ε = 1e-9), like 1/ε² towards antiparallel flats (≈ 6-8/ε² until the half-turn switch),
+and is not clamped, since any clamp would change meaningful results. Precision runs out first for the
+point pair: its r² numerator −⟨XX~⟩ cancels to a relative error ≈ 1e-16·|x|⁵/ε³, i.e. all digits at
+ε ≈ 1e-5 m for |x| ≈ 1 m, so below that the dilation (and its row of J_G, up to ~1e27 at ε = 1e-14)
+is rounding noise; the bounded dilator (``_dilator_between``) keeps it finite.
 """
 
 from __future__ import annotations
@@ -33,7 +42,6 @@ from gagen.model.primitives import (
 )
 from gagen.model.versors import (
     Versor,
-    dilator_between_radii,
     rotor_between,
     translator,
     versor_between,
@@ -98,7 +106,7 @@ def _similarity(kind: str, x1: Any, x2: Any) -> tuple[tuple[Any, ...], Any, Any]
     num2, den2 = radius_squared_parts(x2)
     size = m.if_else(m.lt(den1, den2), den1, den2)
     conditioning = size
-    d = dilator_between_radii(x1, num1 * safe_reciprocal(m, den1), num2 * safe_reciprocal(m, den2))
+    d = _dilator_between(x1, num1 * safe_reciprocal(m, den1), num2 * safe_reciprocal(m, den2))
     if kind == "sphere":
         turn: tuple[Any, ...] = ()
         rd = d
@@ -112,6 +120,27 @@ def _similarity(kind: str, x1: Any, x2: Any) -> tuple[tuple[Any, ...], Any, Any]
     # primitives is the origin exactly (no AD through the moved round's centre)
     t = translator(location(centre(x2)) - location(rd.sandwich(centre(x1))))
     return (t, *turn, d), conditioning, size
+
+
+RATIO_BOUND = 1e-24  # squared-radius ratios are squashed into (1e-24, 1e24): the dilator's k into (1e-6, 1e6)
+
+
+def _dilator_between(like: Any, r1_squared: Any, r2_squared: Any) -> Any:
+    """The dilator taking radius r1 to r2, from the squared radii, with no logarithm:
+    D = ½(k + 1/k) − ½(k − 1/k) e0∞ with k⁴ = r1²/r2², squashed as k⁴ = (N + εN')/(N' + εN),
+    N = |r1²|, N' = |r2²|, ε = RATIO_BOUND.
+
+    For 1e-8 < N/N' < 1e8 the ε terms vanish in rounding and k⁴ = N·(1/N') to the last bit (as
+    before this guard); beyond, k⁴ is bounded smoothly by 1/ε, so k stays within 1e±6 (a radius
+    ratio of 1e±12) and log V_D = 2 atanh((k² − 1)/(k² + 1)) stays finite (it overflowed past
+    k ≈ 1e8). Why no 1/r2²: near coincident points r2² cancels to ~0 (or a rounding-sign negative,
+    hence |…|); its guarded reciprocal was finite, but its AD derivative −1/r2⁴ overflowed and
+    put inf·0 = NaN into J_G. Here the denominator stays ≥ ε·N."""
+    m = like.math
+    n, n2 = m.fabs(r1_squared), m.fabs(r2_squared)
+    k = m.sqrt(m.sqrt((n + n2 * RATIO_BOUND) * safe_reciprocal(m, n2 + n * RATIO_BOUND)))
+    inv = 1 / k
+    return like.make({"1": (k + inv) * 0.5, "e0inf": (inv - k) * 0.5})
 
 
 def cooperative_similarity(kind: str, xc: Any) -> Versor:

@@ -187,12 +187,26 @@ def load_chain(path: str | Path, base_link: str, tip_link: str) -> list[Joint]:
             axis = tuple(a / norm for a in axis)
         try:  # Joint's own checks (e.g. on a mimic), as an error naming the file and the joint
             joints.append(Joint(j.name, _KINDS[j.type], tuple(float(v) for v in origin[:3, 3]),
-                                rpy_from_matrix(origin[:3, :3]), axis, mimic=_mimic(path, robot, j)))
+                                rpy_from_matrix(origin[:3, :3]), axis, mimic=_mimic(path, robot, j),
+                                limits=_limits(j)))
         except ValueError as e:
             raise SpecError(path, field, f"line {lines.get(j.name)}: {e}") from e
         if joints[-1].mimic is not None:  # the leader's name labels the chain's joint variable
             _check_label(path, joints[-1].mimic[0], lines.get(joints[-1].mimic[0]))
     return joints
+
+
+def _limits(joint) -> tuple[float, float] | None:
+    """(lower, upper) of a revolute or prismatic joint's <limit>, when both are finite and ordered."""
+    limit = getattr(joint, "limit", None)
+    if joint.type not in ("revolute", "prismatic") or limit is None:
+        return None
+    lower, upper = getattr(limit, "lower", None), getattr(limit, "upper", None)
+    if lower is None or upper is None:
+        return None
+    if not (math.isfinite(lower) and math.isfinite(upper) and lower < upper):
+        return None
+    return float(lower), float(upper)
 
 
 def _mimic(path: Path, robot, joint) -> tuple[str, float, float] | None:
