@@ -43,8 +43,8 @@ def _image(V_Sd: np.ndarray, xyz) -> np.ndarray:
     p = MultiVector.from_blades(ALG, {"e0": 1.0, "e1": x[0], "e2": x[1], "e3": x[2],
                                       "einf": 0.5 * float(x @ x)})
     image = _versor(V_Sd).sandwich(p)
-    return np.array([image["e1"], image["e2"], image["e3"]]) / -image.sp(MultiVector.from_blades(ALG,
-                                                                                                  {"einf": 1}))
+    weight = -image.sp(MultiVector.from_blades(ALG, {"einf": 1}))
+    return np.array([image["e1"], image["e2"], image["e3"]]) / weight
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -153,7 +153,8 @@ def test_ik_reaches_a_circle_stated_by_centre_radius_normal():
 @pytest.fixture(scope="module")
 def panda():
     model = pin.buildModelFromUrdf(str(ROOT / "robots" / "panda" / "panda.urdf"))
-    return model, model.createData(), model.getFrameId("panda_link8"), load(ROOT / "generated" / "panda_point")
+    module = load(ROOT / "generated" / "panda_point")
+    return model, model.createData(), model.getFrameId("panda_link8"), module
 
 
 def test_spatial_jacobian_and_motor_in_pinocchio_layout(panda):

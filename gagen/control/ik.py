@@ -130,7 +130,7 @@ def solve_ik(task: Task, q0: ArrayLike, V_Sd: ArrayLike, *, tol: float = 1e-12, 
 
     def evaluate(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         e, J = task(x, target)
-        return np.array(e, dtype=float).ravel(), np.array(J, dtype=float)  # copies: bound kernels reuse outputs
+        return np.array(e, dtype=float).ravel(), np.array(J, dtype=float)  # copies (a bound kernel reuses)
 
     q = clip(q)
     e, J = evaluate(q)
