@@ -130,17 +130,23 @@ class _Reference:
     def task(self, q: np.ndarray) -> dict[str, MultiVector]:
         return self._once(("task", q.tobytes()), lambda: self._task(q))
 
+    def _end_point(self, index: int, qc: list[float]) -> MultiVector:
+        # a difference step moves one joint: the chains without it keep their end points (memoised)
+        return self._once(("end", index, tuple(qc)), lambda: K.end_point(
+            K.forward_kinematics(self.zero, self.system.chains[index].joints, qc)))
+
     def _task(self, q: np.ndarray) -> dict[str, MultiVector]:
-        points = end_points(self.zero, self.system, list(q))
-        xc = through(self.system.kind, [p for p, _ in points])
+        points = [self._end_point(i, qc) for i, qc in enumerate(self.system.split(list(q)))]
+        xc = through(self.system.kind, points)
         v, conditioning = cooperative_similarity(self.system.kind, xc)
         return {"X_c": xc, "V_Sc": v, "conditioning": conditioning, "log_V": log_similarity(v),
-                "e": log_similarity(~v * self.desired), "points": points}
+                "e": log_similarity(~v * self.desired)}
 
     def system_output(self, port: str, rows) -> np.ndarray:
         at = self.task(self.q)
         if port == "J_c":
-            return _matrix(primitive_jacobian(self.system, at["points"]), rows)
+            points = self._once(("points",), lambda: end_points(self.zero, self.system, list(self.q)))
+            return _matrix(primitive_jacobian(self.system, points), rows)
         if port == "conditioning":
             return np.array([at["conditioning"]])
         if port in BY_DIFFERENCES:

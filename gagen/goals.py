@@ -95,7 +95,11 @@ def through(kind: str, points: Sequence[ArrayLike]) -> NDArray[np.float64]:
     scale = float(moved @ x_d.coeffs) / float(x_d.coeffs @ x_d.coeffs)
     if not (np.all(np.isfinite(coefficients)) and scale > 0
             and np.linalg.norm(moved - scale * x_d.coeffs) <= 1e-9 * np.linalg.norm(moved)):
-        raise ValueError(f"degenerate {kind} goal: {_why(kind)}; points {[p.tolist() for p in xyz]}")
+        flat = kind in ("line", "plane")
+        raise ValueError(f"{kind} goal: its similarity from the unit {kind} does not reproduce it to 1e-9"
+                         + (" (a flat within about 1e-3 rad of the unit flat's opposite orientation: Eq. 21 "
+                            "loses eps/K0 there; give the points in the other order)" if flat else "")
+                         + f"; points {[p.tolist() for p in xyz]}")
     return coefficients
 
 
