@@ -11,3 +11,13 @@ class SpecError(ValueError):
     def __init__(self, file: str | Path, field: str, message: str) -> None:
         self.file, self.field, self.message = str(file), field, message
         super().__init__(f"{file}: {field}: {message}")
+
+
+def read_input(path: Path, field: str) -> bytes:
+    """The bytes of an input file, or a SpecError naming it (missing, unreadable, a bad name)."""
+    try:
+        if not path.is_file():
+            raise SpecError(path, field, "file not found")
+        return path.read_bytes()
+    except (OSError, ValueError) as e:  # unreadable, a name too long, a NUL in the name
+        raise SpecError(path, field, f"cannot read the file ({type(e).__name__}: {e})") from e

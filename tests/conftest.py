@@ -1,6 +1,9 @@
 """Shared test settings: hypothesis profiles and the algebras every test runs over."""
 
 import os
+import signal
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 import pytest
 from hypothesis import HealthCheck, settings
@@ -51,3 +54,17 @@ def versor_from_vectors(algebra, vectors):
     for row in vectors:
         v = v * MultiVector.from_blades(algebra, dict(zip(algebra.blades_of_grade(1), row, strict=True)))
     return v
+
+
+@contextmanager
+def deadline(seconds: float) -> Iterator[None]:
+    """Raise TimeoutError in the test if the body runs longer: a case that used to hang fails instead."""
+    def expire(signum, frame):
+        raise TimeoutError(f"still running after {seconds} s")
+    previous = signal.signal(signal.SIGALRM, expire)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)

@@ -14,12 +14,11 @@ import math
 import random
 import re
 import shutil
-import signal
 import time
-from contextlib import contextmanager
 from pathlib import Path
 
 import yaml
+from conftest import deadline
 
 from gagen.errors import SpecError
 from gagen.model.cooperative import System
@@ -40,17 +39,6 @@ XML_NUMBERS = ["nan", "inf", "-inf", "1e9", "1e400", "x", "", "0 0", "1 2 3 4", 
 JOINT_TYPES = ["floating", "planar", "fixed", "prismatic", "continuous", "weird", ""]
 
 
-@contextmanager
-def _deadline(seconds: float):
-    def expire(signum, frame):
-        raise TimeoutError(f"still running after {seconds} s")
-    previous = signal.signal(signal.SIGALRM, expire)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
-    try:
-        yield
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
 
 
 def _slots(node):
@@ -181,7 +169,7 @@ def test_mutated_specs_and_urdfs_load_or_name_the_file_and_field(tmp_path):
             target.write_text(mutated)
         start = time.perf_counter()
         try:
-            with _deadline(CASE_SECONDS):
+            with deadline(CASE_SECONDS):
                 system, configurations = load_system(spec)
             if not _finite(system, configurations):
                 failures.append(f"{case} {spec.name} {what}: a non-finite model")

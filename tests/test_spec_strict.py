@@ -7,14 +7,13 @@ from __future__ import annotations
 
 import itertools
 import math
-import signal
 import time
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 import pytest
+from conftest import deadline
 
 from gagen.algebra.signature import cga3d
 from gagen.errors import SpecError
@@ -171,17 +170,6 @@ def test_duplicate_explicit_joint_names(tmp_path):
 
 # -- bounded YAML, encodings --------------------------------------------------------------------------------
 
-@contextmanager
-def _deadline(seconds: float):
-    def expire(signum, frame):
-        raise TimeoutError(f"still running after {seconds} s")
-    previous = signal.signal(signal.SIGALRM, expire)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
-    try:
-        yield
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
 
 
 def _laughs() -> str:
@@ -197,7 +185,7 @@ def test_billion_laughs_is_refused_at_once(tmp_path):
     text = _laughs()
     assert len(text) < 330
     start = time.perf_counter()
-    with _deadline(5):  # the old loader ran for minutes: fail, do not hang
+    with deadline(5):  # the old loader ran for minutes: fail, do not hang
         e = _error(tmp_path, text)
     assert time.perf_counter() - start < 0.5
     assert e.field == "spec" and "expands (through its aliases) to more than 100000 nodes" in e.message

@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import signal
-from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
+from conftest import deadline
 
 from gagen.errors import SpecError
 from gagen.robots.urdf import load_chain
@@ -78,22 +77,10 @@ def _moving(origin='<origin xyz="0 0 0.1" rpy="0 0 0"/>', axis='<axis xyz="0 0 1
     return f"    {origin}\n    {axis}\n    {LIMIT}\n"
 
 
-@contextmanager
-def _deadline(seconds: float):
-    """Raise TimeoutError in the test if the body runs longer (the old parent walk never ended)."""
-    def expire(signum, frame):
-        raise TimeoutError(f"still running after {seconds} s")
-    previous = signal.signal(signal.SIGALRM, expire)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
-    try:
-        yield
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
 
 
 def _refused(path, base="a", tip="c") -> SpecError:
-    with _deadline(5), pytest.raises(SpecError) as e:
+    with deadline(5), pytest.raises(SpecError) as e:
         load_chain(path, base, tip)
     assert e.value.file == str(path)
     return e.value

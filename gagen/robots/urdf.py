@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 from lxml import etree
 
-from gagen.errors import SpecError
+from gagen.errors import SpecError, read_input
 from gagen.model.kinematics import Joint
 from gagen.spec.names import LABEL_RULE, label_problem
 
@@ -116,12 +116,7 @@ def _load(path: Path) -> tuple[Any, dict[str, int]]:
     """The yourdfpy model of a checked file, and each joint's line."""
     import yourdfpy
 
-    try:
-        if not path.is_file():
-            raise SpecError(path, "urdf", "file not found")
-        data = path.read_bytes()
-    except (OSError, ValueError) as e:  # unreadable, a name too long, a NUL in the name
-        raise SpecError(path, "urdf", f"cannot read the file ({type(e).__name__}: {e})") from e
+    data = read_input(path, "urdf")
     lines = _check_xml(path, data)  # yourdfpy's parser recovers from broken XML silently
     try:
         urdf = yourdfpy.URDF.load(str(path), build_scene_graph=False, load_meshes=False,

@@ -49,7 +49,7 @@ from typing import Any
 
 import yaml
 
-from gagen.errors import SpecError
+from gagen.errors import SpecError, read_input
 from gagen.model.cooperative import Chain, System
 from gagen.model.kinematics import JOINT_KINDS, Joint
 from gagen.model.primitives import KINDS, points_needed
@@ -78,12 +78,7 @@ class _Spec:
 
     def __init__(self, path: Path) -> None:
         self.path = path
-        try:
-            if not path.is_file():
-                raise SpecError(path, "spec", "file not found")
-            raw = path.read_bytes()
-        except (OSError, ValueError) as e:  # unreadable, a name too long, a NUL in the name
-            raise SpecError(path, "spec", f"cannot read the file ({type(e).__name__}: {e})") from e
+        raw = read_input(path, "spec")
         try:
             text = raw.decode("utf-8")
         except UnicodeDecodeError as e:
