@@ -35,7 +35,6 @@ import functools
 import gzip
 import hashlib
 import json
-import keyword
 import os
 import platform
 import re
@@ -63,6 +62,7 @@ from gagen.kernels import Kernel, Port, build_kernels
 from gagen.model.cooperative import System
 from gagen.runtime import MANIFEST
 from gagen.spec.loader import load_system
+from gagen.spec.names import RESERVED_WORDS
 
 TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
 TEMPLATE_FILES = ("kernels.h.j2", "kernels.c.j2", "simd.c.j2", "binding.c.j2", "module.py.j2")
@@ -80,25 +80,7 @@ IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 MAX_NAME = 100
 
 
-def _words(text: str) -> frozenset[str]:
-    return frozenset(text.split())
-
-
-C_KEYWORDS = _words("""
-    auto break case char const continue default do double else enum extern float for goto if inline int
-    long register restrict return short signed sizeof static struct switch typedef union unsigned void
-    volatile while _Alignas _Alignof _Atomic _Bool _Complex _Generic _Imaginary _Noreturn _Static_assert
-    _Thread_local _Pragma alignas alignof bool constexpr false nullptr static_assert thread_local true
-    typeof typeof_unqual _BitInt _Decimal32 _Decimal64 _Decimal128 asm fortran
-    """)
-# the generated header is included from C++ too (extern "C")
-CPP_KEYWORDS = _words("""
-    and and_eq bitand bitor catch char8_t char16_t char32_t class compl concept consteval constinit
-    const_cast co_await co_return co_yield decltype delete dynamic_cast explicit export friend mutable
-    namespace new noexcept not not_eq operator or or_eq private protected public reinterpret_cast
-    requires static_cast template this throw try typeid typename using virtual wchar_t xor xor_eq
-    """)
-RESERVED = C_KEYWORDS | CPP_KEYWORDS | frozenset(keyword.kwlist)
+RESERVED = RESERVED_WORDS  # C, C++ and Python keywords: one list, the loader's
 
 
 class OutputError(RuntimeError):

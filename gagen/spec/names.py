@@ -6,7 +6,7 @@
   upper-cased size macros). They must be a letter followed by letters and digits, with single
   underscores between them (``arm_0``, not ``arm-0``, ``_arm``, ``arm__0`` or ``arm_``): exactly the
   names that ``gagen.symbolic.flatten.identifier`` leaves unchanged, so no two names map to one
-  identifier; not a C (C99 to C23) or Python keyword; at most ``MAX_LENGTH`` characters. This also
+  identifier; not a C (C99 to C23), C++ or Python keyword; at most ``MAX_LENGTH`` characters. This also
   makes ``../x``, absolute paths and quotes impossible in file names and strings.
 * **Labels** (joint names, robot labels, configuration names): they appear as row labels
   ``robot/joint`` in headers, comments, docstrings and the manifest. Letters, digits and ``_ . : -``,
@@ -26,22 +26,34 @@ MAX_LENGTH = 64
 _IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9]*(?:_[A-Za-z0-9]+)*")
 _LABEL = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.:-]*")
 
-# C99 to C23 keywords (the _Uppercase ones cannot match the identifier rule anyway)
-C_KEYWORDS = frozenset((
-    "auto", "break", "case", "char", "const", "continue", "default", "do", "double", "else", "enum",
-    "extern", "float", "for", "goto", "if", "inline", "int", "long", "register", "restrict", "return",
-    "short", "signed", "sizeof", "static", "struct", "switch", "typedef", "union", "unsigned", "void",
-    "volatile", "while", "alignas", "alignof", "bool", "constexpr", "false", "nullptr", "static_assert",
-    "thread_local", "true", "typeof", "typeof_unqual",
-))
+def _words(text: str) -> frozenset[str]:
+    return frozenset(text.split())
+
+
+# C99 to C23 keywords (and the compilers' asm, fortran)
+C_KEYWORDS = _words("""
+    auto break case char const continue default do double else enum extern float for goto if inline int
+    long register restrict return short signed sizeof static struct switch typedef union unsigned void
+    volatile while _Alignas _Alignof _Atomic _Bool _Complex _Generic _Imaginary _Noreturn _Static_assert
+    _Thread_local _Pragma alignas alignof bool constexpr false nullptr static_assert thread_local true
+    typeof typeof_unqual _BitInt _Decimal32 _Decimal64 _Decimal128 asm fortran
+    """)
+# the generated header is included from C++ too (extern "C")
+CPP_KEYWORDS = _words("""
+    and and_eq bitand bitor catch char8_t char16_t char32_t class compl concept consteval constinit
+    const_cast co_await co_return co_yield decltype delete dynamic_cast explicit export friend mutable
+    namespace new noexcept not not_eq operator or or_eq private protected public reinterpret_cast
+    requires static_cast template this throw try typeid typename using virtual wchar_t xor xor_eq
+    """)
 PYTHON_KEYWORDS = frozenset(keyword.kwlist)  # soft keywords (match, case, type, _) are valid names
+RESERVED_WORDS = C_KEYWORDS | CPP_KEYWORDS | PYTHON_KEYWORDS
 
 # the kernels every system has, and the suffixes of each chain's kernels (gagen.kernels.build_kernels)
 SYSTEM_KERNELS = ("primitive", "similarity", "similarity_jacobians", "task")
 CHAIN_KERNEL_SUFFIXES = ("fk", "fk_jacobian", "jacobians")
 
 IDENTIFIER_RULE = (f"a letter, then letters, digits and single underscores between them (no '-', no "
-                   f"leading, trailing or double '_'), not a C or Python keyword, at most {MAX_LENGTH} "
+                   f"leading, trailing or double '_'), not a C, C++ or Python keyword, at most {MAX_LENGTH} "
                    f"characters")
 LABEL_RULE = (f"letters, digits and '_', '.', ':', '-' (starting with a letter, digit or '_'), at most "
               f"{MAX_LENGTH} characters")
@@ -51,8 +63,8 @@ def identifier_problem(name: str) -> str | None:
     """Why ``name`` cannot be a system or chain name (None when it can)."""
     if not _IDENTIFIER.fullmatch(name):
         return "not an identifier"
-    if name in C_KEYWORDS or name in PYTHON_KEYWORDS:
-        return "a C or Python keyword"
+    if name in RESERVED_WORDS:
+        return "a C, C++ or Python keyword"
     if len(name) > MAX_LENGTH:
         return f"{len(name)} characters; at most {MAX_LENGTH}"
     return None
@@ -71,7 +83,7 @@ def suggest_identifier(name: str) -> str:
     """A nearby valid identifier, for error messages ('arm-0' -> 'arm_0')."""
     ident = re.sub(r"[^A-Za-z0-9]+", "_", name).strip("_")[:MAX_LENGTH - 2] or "name"
     ident = ident if ident[0].isalpha() else f"n_{ident}"
-    return f"{ident}_x" if ident in C_KEYWORDS or ident in PYTHON_KEYWORDS else ident
+    return f"{ident}_x" if ident in RESERVED_WORDS else ident
 
 
 def chain_kernel_names(chain: str) -> tuple[str, ...]:
