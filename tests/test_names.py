@@ -60,7 +60,8 @@ def test_valid_identifiers(name):
     ("arm-0", "not an identifier"), ("_arm", "not an identifier"), ("arm_", "not an identifier"),
     ("arm__0", "not an identifier"), ("0arm", "not an identifier"), ("", "not an identifier"),
     ("../escape", "not an identifier"), ("/tmp/x", "not an identifier"), ('a"""b', "not an identifier"),
-    ("arm\u00e9", "not an identifier"), ("for", "a C, C++ or Python keyword"), ("None", "a C, C++ or Python keyword"),
+    ("arm\u00e9", "not an identifier"), ("for", "a C, C++ or Python keyword"),
+    ("None", "a C, C++ or Python keyword"), ("class", "a C, C++ or Python keyword"),
     ("volatile", "a C, C++ or Python keyword"), ("static_assert", "a C, C++ or Python keyword"),
     ("a" * 65, "65 characters; at most 64"),
 ])
