@@ -49,7 +49,7 @@ def _last_line(text: str) -> str:
 
 
 def _c_source_kb(folder: Path) -> float | None:
-    sources = [p for p in folder.glob("*.c") if not p.name.startswith("_gagen_")]
+    sources = [p for p in folder.glob("*.c") if not p.name.endswith("_binding.c")]
     return sum(p.stat().st_size for p in sources) / 1000 if sources else None
 
 

@@ -160,21 +160,24 @@ def kernel_entry(folder: Path, name: str) -> dict:
 
 
 def generated_status(folder: Path) -> str:
-    """Whether generated/<system> is what the current gagen builds from its spec (the build key)."""
-    from gagen.build import build_key
-    from gagen.spec.loader import load_system
+    """Whether generated/<system> is what the current gagen builds from its spec (regenerated in
+    memory and compared byte for byte, as the golden test does)."""
+    from gagen.build import render
+    from gagen.cooperative_module import cooperative_source
 
     m = manifest(folder)
-    spec = ROOT / "robots" / m["spec"]
+    spec_name = m.get("source", m.get("spec"))
     rel = os.path.relpath(folder, ROOT)
     try:
-        current = build_key(load_system(spec)[0])
+        expected = render(cooperative_source(ROOT / "robots" / spec_name))
     except Exception as e:
-        return f"{rel}: build key {m['build_key'][:12]} (could not rebuild the key: {e})"
-    if current == m["build_key"]:
-        return f"{rel}: build key {m['build_key'][:12]}, up to date with robots/{m['spec']} and this gagen"
-    return (f"{rel}: build key {m['build_key'][:12]} is **stale** (this gagen builds {current[:12]} from "
-            f"robots/{m['spec']}): run `gagen build robots/{m['spec']}`")
+        return f"{rel}: could not regenerate it from robots/{spec_name} ({e})"
+    stale = [name for name, data in expected.items()
+             if not (folder / name).is_file() or (folder / name).read_bytes() != data]
+    if not stale:
+        return f"{rel}: up to date with robots/{spec_name} and this gagen (regenerated, byte-identical)"
+    return (f"{rel}: **stale** ({', '.join(stale[:3])}{', ...' if len(stale) > 3 else ''} differ from what "
+            f"this gagen generates): run `gagen build robots/{spec_name}`")
 
 
 def flag_label(optimisation: str | None = None) -> str:

@@ -1,14 +1,16 @@
-"""gagen: a symbolic code-generation compiler for conformal geometric algebra in robotics.
+"""gagen: a symbolic code-generation compiler for geometric algebra in robotics.
 
-Subpackages: ``algebra`` (algebra descriptions, exact blade rules, sparse symbolic multivectors),
-``symbolic`` (exact scalar layer over CasADi SX / sympy, flattening, op counts), ``interp`` (the
-independent dense reference interpreter). ``gagen.load(folder)`` opens a generated module.
+``gagen.kernel`` declares a Python function over multivectors as a kernel and ``gagen.compile``
+compiles it (see ``gagen.frontend``); ``gagen.load(folder)`` opens a generated module. Subpackages:
+``algebra`` (algebra descriptions, kinds, exact blade rules, sparse symbolic multivectors),
+``symbolic`` (exact scalar layer, flattening, op counts), ``interp`` (the independent dense
+reference interpreter), ``model`` (the geometry, written once), ``codegen`` (the backends).
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from gagen.runtime import GeneratedModule
@@ -22,3 +24,15 @@ def load(folder: str | Path) -> GeneratedModule:
     from gagen.runtime import load as _load
 
     return _load(folder)
+
+
+_FRONT_END = ("kernel", "compile", "scalars", "blades", "matrix", "KernelError", "KernelFunction")
+
+
+def __getattr__(name: str) -> Any:
+    """The front-end (``gagen.kernel``, ``gagen.compile``, …) loads on first use (it imports CasADi)."""
+    if name in _FRONT_END:
+        from importlib import import_module
+
+        return getattr(import_module("gagen.frontend"), name)
+    raise AttributeError(f"module 'gagen' has no attribute {name!r}")

@@ -1,19 +1,25 @@
-"""``gagen build``: a spec's kernels as a generated module (CasADi Functions, C source, library).
+"""``gagen build``: a module of kernels as generated files (CasADi Functions, C source, CPython binding),
+compiled.
 
-The output folder ``generated/<system>/`` holds:
+What is built is a :class:`gagen.codegen.ir.ModuleSource`: a robot spec's (``.yaml``: the cooperative
+system's kernel catalogue, ``gagen.cooperative_module``) or a Python file's (``.py``: its
+``@gagen.kernel`` functions, ``gagen.frontend.module_from_file``). Every backend of the registry
+(``gagen.codegen.backends``, or those asked for) renders its files into the output folder
+``generated/<name>/`` (or ``-o``), which holds:
 
-- ``manifest.json``: kernels, ports (row labels, shapes, layout), op counts, hashes;
-- ``<system>.h`` / ``<system>.c``: the C kernels, from ``templates/`` by our emitter;
-- ``<system>_simd.c``: the batched forms of the smaller kernels, GAGEN_W samples at a time;
-- ``_gagen_<system>_<key>.c``: the CPython binding (no per-call conversion or allocation);
-- ``casadi/<kernel>.casadi.gz``: the CasADi Functions, serialised and gzipped;
-- ``__init__.py``: the Python module (``casadi.<kernel>``, ``c.<kernel>``);
-- ``lib<system>_<key>.so`` and the binding's extension module: compiled (not committed; compiled on
-  first use if absent).
+- ``manifest.json``: the module, its backends, kernels, ports (row labels, shapes, layout), op counts
+  and every other file with its sha256;
+- the backends' files: ``casadi/<kernel>.casadi.gz``; ``<name>.h``, ``<name>.c``, ``<name>_simd.c``;
+  ``<name>_binding.c``;
+- ``__init__.py``: the Python module (a namespace per backend that has one: ``casadi``, ``c``);
+- not committed: the compiled ``lib<name>_<tag>.so`` and binding ``_gagen_<name>_<tag>`` (``<tag>``:
+  12 hex digits over the files' sha256; compiled on first use if absent), and ``.build-key``.
 
-Builds are deterministic (same spec, templates and gagen version → same bytes), cached by a key
-over exactly those (and "up to date" also means every file the manifest lists is there with its
-sha256), and atomic: everything is written to a temporary sibling folder ``.<name>.partial-<pid>``
+Builds are deterministic (same source and gagen version → same bytes; nothing in the files depends on
+gagen's own source bytes, so a committed module is checked by regenerating it and comparing), cached
+by a key over the source and gagen's code generator kept in ``.build-key`` (a fresh clone has none,
+and rebuilds to the same bytes; "up to date" also means every file the manifest lists is there with
+its sha256), and atomic: everything is written to a temporary sibling folder ``.<name>.partial-<pid>``
 that replaces the old one only when complete, so a failed build leaves the previous module untouched.
 On Linux the two folders are swapped by one ``renameat2(RENAME_EXCHANGE)``: at no instant is the
 output folder missing or half-written. Elsewhere the old folder is renamed aside and the new one in
@@ -22,9 +28,9 @@ are serialised by ``flock`` on ``.<name>.lock`` beside it; sibling folders left 
 are removed when a build starts.
 
 Names reach the generated code only as checked identifiers (``[A-Za-z_][A-Za-z0-9_]*``, no C, C++
-or Python keyword), and labels (docs, joint names, the spec's file name) only through the escaping
+or Python keyword), and labels (docs, joint names, the source's file name) only through the escaping
 filters of their context (``c_comment``, ``c_string``, ``py_doc``, ``py_string``), whatever the
-spec loader let through; every file is written inside the output folder.
+front-end let through; every file is written inside the output folder.
 """
 
 from __future__ import annotations
@@ -32,7 +38,6 @@ from __future__ import annotations
 import ctypes
 import errno
 import functools
-import gzip
 import hashlib
 import json
 import os
@@ -41,42 +46,34 @@ import re
 import shutil
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
-
-import jinja2
+from typing import Any
 
 from gagen import __version__
-from gagen.codegen.c_emitter import emit_body
-from gagen.codegen.compiler import (
-    CompileError,
-    CompilerNotFound,
-    compile_binding,
-    compile_shared,
-    library_name,
-)
+from gagen.codegen.backends import Backend, Context, select
+from gagen.codegen.backends.base import template
+from gagen.codegen.compiler import CompileError, CompilerNotFound
+from gagen.codegen.escape import c_comment, c_string, py_doc, py_string
+from gagen.codegen.ir import Kernel, ModuleSource, Port
 from gagen.errors import SpecError
-from gagen.kernels import Kernel, Port, build_kernels
-from gagen.model.cooperative import System
 from gagen.runtime import MANIFEST
-from gagen.spec.loader import load_system
 from gagen.spec.names import RESERVED_WORDS
 
-TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
-TEMPLATE_FILES = ("kernels.h.j2", "kernels.c.j2", "simd.c.j2", "binding.c.j2", "module.py.j2")
+PACKAGE = Path(__file__).resolve().parent
+CODEGEN = PACKAGE / "codegen"  # the code generator: its sources and templates are in the build key
+MODULE_TEMPLATES = CODEGEN / "templates"  # module.py.j2: the module's __init__.py
 DEFAULT_ROOT = Path("generated")
-# kernels up to this many C statements also get a SIMD batch (the chains' FK and FK + Jacobian): it
-# runs GAGEN_W samples at once, and doubles the kernel's code and compile time
-SIMD_MAX_STATEMENTS = 1500
-# the modules that generation runs through (editing any other one does not rebuild)
-IN_KEY = {"algebra", "symbolic", "model", "codegen", "spec", "robots", "kernels.py", "build.py", "errors.py",
-          "__init__.py"}
+BUILD_KEY = ".build-key"  # the cache key of the build in a module folder (not committed)
+# the manifest's own entries (neither a source's meta nor a backend may set them)
+MANIFEST_KEYS = ("module", "title", "gagen_version", "source", "source_sha256", "backends", "kernels",
+                 "files")
 
 
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
-# system names prefix every C symbol and name files: bounded well below file-name limits (255 bytes)
+# module names prefix every C symbol and name files: bounded well below file-name limits (255 bytes)
 MAX_NAME = 100
 
 
@@ -104,47 +101,6 @@ def check_identifier(name: object, what: str, spec: str | Path = "<system>", fie
     return name
 
 
-# -- escaping, one filter per context (the templates pass every label through one) --------------------
-
-def _escape_char(ch: str) -> str:
-    code = ord(ch)
-    named = {"\n": "\\n", "\t": "\\t", "\r": "\\r"}
-    if ch in named:
-        return named[ch]
-    if code < 0x100:
-        return f"\\x{code:02x}"
-    return f"\\u{code:04x}" if code < 0x10000 else f"\\U{code:08x}"
-
-
-def c_comment(text: object) -> str:
-    """``text`` inside a C block comment, on one line: printable ASCII stays, except ``*`` (so no
-    ``*/`` or ``/*`` can form), ``?`` (trigraphs such as ``??/``) and ``\\`` (line splices), which
-    are written as escapes like every control and non-ASCII character (``\\x2a``, ``\\u00e9``)."""
-    return "".join(ch if " " <= ch <= "~" and ch not in "*?\\" else _escape_char(ch) for ch in str(text))
-
-
-def c_string(text: object) -> str:
-    """``text`` as the inside of a C string literal: ``"``, ``\\`` and ``?`` escaped, every byte of
-    anything but printable ASCII as an octal escape (three digits: never merges with what follows)."""
-    out = []
-    for byte in str(text).encode():
-        ch = chr(byte)
-        out.append("\\" + ch if ch in '"\\?' else ch if 0x20 <= byte < 0x7F else f"\\{byte:03o}")
-    return "".join(out)
-
-
-def py_doc(text: object) -> str:
-    """``text`` inside a (non-raw) triple-quoted Python docstring or a comment, on one line: ``"`` and
-    ``\\`` escaped (no ``\"\"\"`` can close it), control and non-ASCII characters as escapes."""
-    return "".join(ch if " " <= ch <= "~" and ch not in '"\\' else
-                   "\\" + ch if ch in '"\\' else _escape_char(ch) for ch in str(text))
-
-
-def py_string(text: object) -> str:
-    """``text`` as a complete Python string literal (quotes included), ASCII only."""
-    return ascii(str(text))
-
-
 @dataclass
 class BuildResult:
     folder: Path
@@ -152,129 +108,114 @@ class BuildResult:
     cached: bool
     compiled: bool
     seconds: float
+    source: ModuleSource | None = None
 
 
-def _templates() -> jinja2.Environment:
-    return _environment(TEMPLATES)
+# -- the key and the files ------------------------------------------------------------------------------
+
+def key_files(backends: Sequence[Backend] | None = None) -> list[Path]:
+    """The files of gagen that decide a module's bytes besides its source: this module, the code
+    generator (``gagen/codegen``: printers, backends, templates) and every template a backend uses."""
+    files = {Path(__file__).resolve(), *CODEGEN.rglob("*.py"), *CODEGEN.rglob("*.j2"),
+             *MODULE_TEMPLATES.glob("*.j2")}
+    for backend in backends if backends is not None else select():
+        if backend.templates is not None:
+            files.update(backend.templates.glob("*.j2"))
+    return sorted(files)
 
 
-@functools.cache
-def _environment(folder: Path) -> jinja2.Environment:
-    """One environment per templates folder: it compiles each template once (and again if edited)."""
-    missing = [t for t in TEMPLATE_FILES if not (folder / t).is_file()]
-    if missing:
-        raise FileNotFoundError(f"gagen templates not found in {folder}: {', '.join(missing)} "
-                                "(gagen must be installed from its source tree, e.g. pip install -e .)")
-    env = jinja2.Environment(loader=jinja2.FileSystemLoader(folder), keep_trailing_newline=True,
-                             undefined=jinja2.StrictUndefined, autoescape=False)
-    env.filters.update(c_comment=c_comment, c_string=c_string, py_doc=py_doc, py_string=py_string)
-    return env
+def _kernels_digest(kernels: Iterable[Kernel]) -> str:
+    digest = hashlib.sha256()
+    for k in kernels:
+        digest.update(repr((k.name, k.doc, k.inputs, k.outputs)).encode())
+        digest.update(k.function.serialize().encode())
+    return digest.hexdigest()
 
 
-def build_key(system: System) -> str:
-    """Hash of what decides the output: the loaded system (every joint constant, so URDF edits that
-    change nothing do not rebuild), the templates, gagen's version and the source of every module
-    that takes part in generation (the model, the symbolic layer, the emitter, ...)."""
-    h = hashlib.sha256()
-    h.update(repr(system).encode())
-    for name in TEMPLATE_FILES:
-        h.update((TEMPLATES / name).read_bytes())
-    h.update(__version__.encode())
-    package = Path(__file__).parent
-    for module in sorted(package.rglob("*.py")):
-        name = module.relative_to(package).as_posix()
-        if name.split("/")[0] in IN_KEY:
-            h.update(name.encode())
-            h.update(module.read_bytes())
-    return h.hexdigest()
+def build_key(source: ModuleSource, backends: Sequence[str] | None = None) -> str:
+    """The cache key of a build: the source (everything it says about itself, and its ``key``, or,
+    without one, the kernels' content), the backends, gagen's version and the bytes of every file of
+    ``key_files``. It is kept in the module folder's ``.build-key``, never in the module's files."""
+    chosen = select(backends)
+    digest = hashlib.sha256()
+    digest.update(json.dumps([source.name, source.title, source.source_name, source.source_hash, source.meta,
+                              source.rebuild, source.key or _kernels_digest(source.kernels.values()),
+                              __version__, [b.name for b in chosen]], default=repr).encode())
+    for path in key_files(chosen):
+        name = path.relative_to(PACKAGE).as_posix() if path.is_relative_to(PACKAGE) else path.name
+        digest.update(name.encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()
 
 
 def _port_entry(port: Port) -> dict:
     return {"name": port.name, "rows": list(port.rows), "cols": port.cols, "layout": "column-major"}
 
 
-def _params(kernel: Kernel, restrict: str) -> str:
-    ins = [f"const double *{restrict} {p.name}" for p in kernel.inputs]
-    outs = [f"double *{restrict} {p.name}" for p in kernel.outputs]
-    return ", ".join(ins + outs)
+def _kernel_entry(kernel: Kernel) -> dict:
+    ops = kernel.op_count
+    return {"name": kernel.name, "doc": kernel.doc, "inputs": [_port_entry(p) for p in kernel.inputs],
+            "outputs": [_port_entry(p) for p in kernel.outputs],
+            "op_count": {"mul": ops.mul, "add": ops.add, "neg": ops.neg, "div": ops.div, "flops": ops.flops,
+                         "calls": ops.calls}}
 
 
-def _check_names(system: System, kernels: dict[str, Kernel], spec: Path) -> None:
-    """Every name that becomes C or Python code or a file name is an identifier (whatever built the
-    System: the spec loader refuses these first, with the field; this is the builder's own check)."""
-    check_identifier(system.name, "system name", spec)
-    for name, kernel in kernels.items():
-        check_identifier(name, "kernel name", spec, "chains")
-        check_identifier(kernel.name, "kernel name", spec, "chains")
-        check_identifier(f"{system.name}_{kernel.name}", "C function name", spec, "chains")
+def _check_names(source: ModuleSource) -> None:
+    """Every name that becomes C or Python code or a file name is an identifier (whatever made the
+    source: the spec loader and the front-end refuse these first; this is the builder's own check)."""
+    origin = source.source_name
+    check_identifier(source.name, "module name", origin)
+    if not source.kernels:
+        raise SpecError(origin, "kernels", f"module {source.name} has no kernels")
+    for name, kernel in source.kernels.items():
+        check_identifier(name, "kernel name", origin, "kernels")
+        check_identifier(kernel.name, "kernel name", origin, "kernels")
+        if name != kernel.name:
+            raise SpecError(origin, "kernels", f"kernel {kernel.name!r} is listed as {name!r}")
+        check_identifier(f"{source.name}_{kernel.name}", "C function name", origin, "kernels")
         for port in (*kernel.inputs, *kernel.outputs):
-            check_identifier(port.name, f"port name of kernel {kernel.name}", spec, "chains")
+            check_identifier(port.name, f"port name of kernel {kernel.name}", origin, "kernels")
 
 
-def _render(system: System, kernels: dict[str, Kernel], spec_path: Path, key: str,
-            progress: Callable[[str], None]) -> tuple[dict, dict[str, str]]:
-    """The manifest (without its file list) and every other file of the module, as text, by relative
-    path."""
-    _check_names(system, kernels, spec_path)
-    env = _templates()
-    spec_hash = hashlib.sha256(spec_path.read_bytes()).hexdigest()
-    entries, contexts = [], []
-    for i, kernel in enumerate(kernels.values(), 1):
-        start = time.perf_counter()
-        c_name = f"{system.name}_{kernel.name}"
-        names = ([p.name for p in kernel.inputs], [p.name for p in kernel.outputs])
-        body = emit_body(kernel.function, *names)
-        # the SIMD batch doubles a kernel's code: only kernels up to SIMD_MAX_STATEMENTS get one
-        simd = len(body.statements) <= SIMD_MAX_STATEMENTS
-        vector = emit_body(kernel.function, *names, vector=True) if simd else None
-        ops = kernel.op_count
-        contexts.append({"c_name": c_name, "doc": kernel.doc, "inputs": kernel.inputs,
-                         "outputs": kernel.outputs, "ops": str(ops), "locals": body.locals,
-                         "statements": body.statements,
-                         "vector_locals": vector.locals if vector else (),
-                         "vector_statements": vector.statements if vector else (),
-                         "params": _params(kernel, "restrict"), "params_h": _params(kernel, "GAGEN_RESTRICT"),
-                         "names": [p.name for p in (*kernel.inputs, *kernel.outputs)]})
-        entries.append({"name": kernel.name, "c_name": c_name, "doc": kernel.doc,
-                        "inputs": [_port_entry(p) for p in kernel.inputs],
-                        "outputs": [_port_entry(p) for p in kernel.outputs],
-                        "op_count": {"mul": ops.mul, "add": ops.add, "neg": ops.neg, "div": ops.div,
-                                     "flops": ops.flops, "calls": ops.calls},
-                        "casadi": f"casadi/{kernel.name}.casadi.gz"})
-        progress(f"  [{i}/{len(kernels)}] {kernel.name}: {ops.flops} flops, "
-                 f"{len(body.statements)} C statements ({time.perf_counter() - start:.2f} s)")
-    binding = f"_gagen_{system.name}_{key[:12]}"
-    common = {"system": system.name, "kind": system.kind, "dof": system.dof, "version": __version__,
-              "spec_name": spec_path.name, "spec_hash": spec_hash[:16], "build_key": key[:16]}
-    manifest = {"system": system.name, "primitive": system.kind, "dof": system.dof,
-                "joints": [f"{r}/{j}" for r, j in system.joint_keys], "gagen_version": __version__,
-                "spec": spec_path.name, "spec_sha256": spec_hash, "build_key": key,
-                "c_source": f"{system.name}.c", "c_header": f"{system.name}.h",
-                "library": library_name(f"{system.name}_{key[:12]}"),
-                "binding": binding, "binding_source": f"{binding}.c", "kernels": entries}
-    files = {
-        f"{system.name}.h": env.get_template("kernels.h.j2").render(
-            **common, kernels=contexts, guard=f"GAGEN_{system.name.upper()}_H"),
-        f"{system.name}.c": env.get_template("kernels.c.j2").render(**common, kernels=contexts),
-        f"{system.name}_simd.c": env.get_template("simd.c.j2").render(**common, kernels=contexts),
-        f"{binding}.c": env.get_template("binding.c.j2").render(
-            **common, kernels=[{**c, "name": k} for c, k in zip(contexts, kernels, strict=True)],
-            binding=binding, max_outputs=max(len(k.outputs) for k in kernels.values())),
-        "__init__.py": env.get_template("module.py.j2").render(
-            **common, kernel_names=list(kernels), example=next(reversed(kernels))),
-    }
-    return manifest, files
+def _merge(into: dict[str, Any], entries: dict[str, Any], what: str) -> None:
+    clash = [k for k in entries if k in into or k in MANIFEST_KEYS]
+    if clash:
+        raise ValueError(f"{what} sets manifest entries that are taken: {', '.join(clash)}")
+    into.update(entries)
 
 
-def _contents(system: System, kernels: dict[str, Kernel], spec_path: Path, key: str,
-              progress: Callable[[str], None]) -> dict[str, bytes]:
-    """Every file of the module as bytes, by relative path; the manifest lists the others with their
-    sha256 (what "up to date" checks)."""
-    manifest, texts = _render(system, kernels, spec_path, key, progress)
-    files = {name: text.encode() for name, text in texts.items()}
-    for kernel in kernels.values():  # serialised and gzipped (about 10x smaller), mtime 0: deterministic
-        files[f"casadi/{kernel.name}.casadi.gz"] = gzip.compress(kernel.function.serialize().encode(),
-                                                                 compresslevel=9, mtime=0)
+def render(source: ModuleSource, backends: Sequence[str] | None = None,
+           progress: Callable[[str], None] = lambda _: None) -> dict[str, bytes]:
+    """Every file of the module ``source`` as bytes, by relative path (the manifest included, listing
+    the others with their sha256), from every backend asked for (default: all): what a build writes,
+    without writing or compiling anything."""
+    chosen = select(backends)
+    _check_names(source)
+    kernels = source.kernels
+    variables = {"name": source.name, "title": source.title, "version": __version__,
+                 "source_name": source.source_name, "source_hash": source.source_hash[:16],
+                 "rebuild": source.rebuild}
+    context = Context(variables, progress)
+    entries = {name: _kernel_entry(kernel) for name, kernel in kernels.items()}
+    manifest: dict[str, Any] = {"module": source.name, "title": source.title}
+    _merge(manifest, dict(source.meta), f"the meta of module {source.name}")
+    manifest.update({"gagen_version": __version__, "source": source.source_name,
+                     "source_sha256": source.source_hash, "backends": [b.name for b in chosen]})
+    files: dict[str, bytes] = {}
+    for backend in chosen:
+        output = backend.render(source, context)
+        context.earlier[backend.name] = output
+        taken = [path for path in output.files if path in files or path in (MANIFEST, "__init__.py")]
+        if taken:
+            raise ValueError(f"backend {backend.name} writes {', '.join(taken)}, which another file is")
+        files.update(output.files)
+        _merge(manifest, output.manifest, f"backend {backend.name}")
+        for name, extra in output.kernels.items():
+            _merge(entries[name], extra, f"backend {backend.name} (kernel {name})")
+    names = list(kernels)
+    files["__init__.py"] = template(MODULE_TEMPLATES, "module.py.j2").render(
+        **variables, namespaces=[b.namespace for b in chosen if b.namespace],
+        backends=[b.name for b in chosen], kernel_names=names, example=names[-1]).encode()
+    manifest["kernels"] = list(entries.values())
     manifest["files"] = {name: hashlib.sha256(data).hexdigest() for name, data in sorted(files.items())}
     return {MANIFEST: (json.dumps(manifest, indent=1, sort_keys=False) + "\n").encode(), **files}
 
@@ -294,12 +235,22 @@ def _write(path: Path, data: bytes) -> None:
         f.write(data)
 
 
-def _cached(folder: Path, key: str) -> bool:
-    """Whether ``folder`` holds the build ``key``: its manifest says so and every file it lists is
-    there with the listed sha256 (a deleted or damaged file rebuilds)."""
+def _manifest(folder: Path) -> dict[str, Any] | None:
     try:
         manifest = json.loads((folder / MANIFEST).read_text())
-        if manifest["build_key"] != key or not manifest["files"]:
+    except (OSError, ValueError):
+        return None
+    return manifest if isinstance(manifest, dict) else None
+
+
+def _cached(folder: Path, key: str) -> bool:
+    """Whether ``folder`` holds the build ``key``: its ``.build-key`` says so and every file its
+    manifest lists is there with the listed sha256 (a deleted or damaged file rebuilds)."""
+    try:
+        if (folder / BUILD_KEY).read_text().strip() != key:
+            return False
+        manifest = _manifest(folder)
+        if not manifest or not manifest["files"]:
             return False
         for name, digest in manifest["files"].items():
             if hashlib.sha256(_inside(folder, name).read_bytes()).hexdigest() != digest:
@@ -307,6 +258,11 @@ def _cached(folder: Path, key: str) -> bool:
         return True
     except (OSError, ValueError, KeyError, TypeError, AttributeError, OutputError):
         return False
+
+
+def _compiled(folder: Path, manifest: dict[str, Any], backends: Sequence[Backend]) -> bool:
+    """Whether every compiled file of the backends that the module cannot do without is there."""
+    return all(path.exists() for b in backends if not b.optional for path in b.artefacts(folder, manifest))
 
 
 # -- the swap, the lock and stale folders --------------------------------------------------------------
@@ -447,45 +403,54 @@ def _check_replaceable(folder: Path) -> None:
         raise OutputError(folder, "it exists and is not a gagen module (no manifest.json)")
 
 
-def _compile(folder: Path, name: str, key: str, library: str, progress: Callable[[str], None]) -> bool:
-    """Compile the library and the CPython binding of the sources in ``folder``; False without a
-    compiler (reported). Each file is written under a temporary name and renamed."""
+def _compile(folder: Path, manifest: dict[str, Any], backends: Sequence[Backend],
+             progress: Callable[[str], None]) -> bool:
+    """Compile what the backends compile from the sources in ``folder`` (the library, the CPython
+    binding); False without a compiler (reported). A backend that is optional only warns when it
+    fails. Each file is written under a temporary name and renamed."""
     t = time.perf_counter()
-    try:
-        compile_shared(folder / f"{name}.c", folder / library)
-    except CompilerNotFound as e:
-        progress(f"  warning: {e}; the CasADi module and the C source were still written")
-        return False
-    try:
-        compile_binding(folder / f"_gagen_{name}_{key[:12]}.c")
-    except CompileError as e:  # e.g. no Python headers: the runtime falls back to ctypes
-        progress(f"  warning: the CPython binding did not compile; calls go through ctypes ({e})")
-    progress(f"  {name}: compiled {library} ({time.perf_counter() - t:.2f} s)")
+    made = []
+    for backend in backends:
+        artefacts = backend.artefacts(folder, manifest)
+        if not artefacts:
+            continue
+        try:
+            backend.compile(folder, manifest)
+        except CompilerNotFound as e:
+            progress(f"  warning: {e}; the module's files were written, not compiled")
+            return False
+        except CompileError as e:  # e.g. no Python headers for the binding: calls go through ctypes
+            if not backend.optional:
+                raise
+            progress(f"  warning: the {backend.name} backend did not compile; {backend.optional} ({e})")
+            continue
+        made += [path.name for path in artefacts]
+    if made:
+        progress(f"  {manifest['module']}: compiled {' and '.join(made)} ({time.perf_counter() - t:.2f} s)")
     return True
 
 
 @dataclass
 class _Prepared:
-    """A module written to its partial folder, waiting for its library and the swap (the lock held)."""
+    """A module written to its partial folder, waiting for its compilation and the swap (the lock held)."""
 
-    system: System
+    source: ModuleSource
     folder: Path
     partial: Path
     key: str
-    library: str
+    manifest: dict[str, Any]
+    backends: list[Backend]
     start: float
     lock: _Lock
 
 
-def _prepare(spec: str | Path, out: str | Path | None, force: bool, compile_c: bool,
-             progress: Callable[[str], None]) -> BuildResult | _Prepared:
+def _prepare(source: ModuleSource, out: str | Path | None, force: bool, compile_c: bool,
+             backends: Sequence[str] | None, progress: Callable[[str], None]) -> BuildResult | _Prepared:
     start = time.perf_counter()
-    spec_path = Path(spec)
-    system, _ = load_system(spec_path)
-    check_identifier(system.name, "system name", spec_path)  # before it names any folder or file
-    folder = _output_folder(out, system.name)
-    key = build_key(system)
-    library = library_name(f"{system.name}_{key[:12]}")
+    name = check_identifier(source.name, "module name", source.source_name)  # before it names anything
+    chosen = select(backends)
+    folder = _output_folder(out, name)
+    key = build_key(source, [b.name for b in chosen])
     partial = folder.with_name(f".{folder.name}.partial-{os.getpid()}")
     lock = None
     try:
@@ -493,32 +458,35 @@ def _prepare(spec: str | Path, out: str | Path | None, force: bool, compile_c: b
             folder.parent.mkdir(parents=True, exist_ok=True)
             lock = _Lock(folder, progress)
         except OSError:
-            if not force and _cached(folder, key) and (not compile_c or (folder / library).exists()):
+            if not force and _cached(folder, key) and \
+                    (not compile_c or _compiled(folder, _manifest(folder), chosen)):
                 # a read-only copy that is up to date: nothing to write, nothing to lock
-                progress(f"{system.name}: up to date ({folder})")
-                compiled = (folder / library).exists()
-                return BuildResult(folder, key, True, compiled, time.perf_counter() - start)
+                progress(f"{name}: up to date ({folder})")
+                return BuildResult(folder, key, True, _compiled(folder, _manifest(folder), chosen),
+                                   time.perf_counter() - start, source)
             raise
         _clean_stale(folder)
         if not force and _cached(folder, key):
-            compiled = (folder / library).exists()
-            if compile_c and not compiled:  # the sources are current: only the library is missing
-                compiled = _compile(folder, system.name, key, library, progress)
-            progress(f"{system.name}: up to date ({folder})")
+            manifest = _manifest(folder)
+            compiled = _compiled(folder, manifest, chosen)
+            if compile_c and not compiled:  # the sources are current: only compiled files are missing
+                compiled = _compile(folder, manifest, chosen, progress)
+            progress(f"{name}: up to date ({folder})")
             lock.release()
-            return BuildResult(folder, key, True, compiled, time.perf_counter() - start)
+            return BuildResult(folder, key, True, compiled, time.perf_counter() - start, source)
         _check_replaceable(folder)
-        progress(f"{system.name}: a {system.kind} of {len(system.chains)} chains, {system.dof} joints "
-                 f"-> {folder}")
+        progress(f"{name}: {source.title} -> {folder}")
         t = time.perf_counter()
-        kernels = build_kernels(system)
-        progress(f"  model and {len(kernels)} kernel graphs built ({time.perf_counter() - t:.2f} s)")
-        files = _contents(system, kernels, spec_path, key, progress)
-        paths = {name: _inside(partial, name) for name in files}  # all checked before anything is written
+        count = len(source.kernels)  # (a spec's kernel graphs are built here, on first use)
+        progress(f"  {count} kernel graph{'s' if count != 1 else ''} ready ({time.perf_counter() - t:.2f} s)")
+        files = render(source, [b.name for b in chosen], progress)
+        paths = {path: _inside(partial, path) for path in files}  # all checked before anything is written
         partial.mkdir()
-        (partial / "casadi").mkdir()
-        for name, data in files.items():
-            _write(paths[name], data)
+        for path, data in files.items():
+            paths[path].parent.mkdir(parents=True, exist_ok=True)
+            _write(paths[path], data)
+        _write(partial / BUILD_KEY, f"{key}\n".encode())
+        manifest = json.loads(files[MANIFEST])
     except BaseException as e:
         if lock is not None:  # (without it, the partial folder may be another thread's)
             shutil.rmtree(partial, ignore_errors=True)
@@ -526,15 +494,15 @@ def _prepare(spec: str | Path, out: str | Path | None, force: bool, compile_c: b
         if isinstance(e, OSError):
             raise OutputError(e.filename or partial, e.strerror or str(e)) from e
         raise
-    return _Prepared(system, folder, partial, key, library, start, lock)
+    return _Prepared(source, folder, partial, key, manifest, chosen, start, lock)
 
 
 def _finish(prepared: _Prepared, compile_c: bool, progress: Callable[[str], None]) -> BuildResult:
-    name, partial = prepared.system.name, prepared.partial
+    partial = prepared.partial
     compiled = False
     try:
         if compile_c:
-            compiled = _compile(partial, name, prepared.key, prepared.library, progress)
+            compiled = _compile(partial, prepared.manifest, prepared.backends, progress)
         _replace(partial, prepared.folder)
     except BaseException as e:
         shutil.rmtree(partial, ignore_errors=True)
@@ -544,21 +512,20 @@ def _finish(prepared: _Prepared, compile_c: bool, progress: Callable[[str], None
     finally:
         prepared.lock.release()
     seconds = time.perf_counter() - prepared.start
-    progress(f"{name}: built in {seconds:.2f} s")
-    return BuildResult(prepared.folder, prepared.key, False, compiled, seconds)
+    progress(f"{prepared.source.name}: built in {seconds:.2f} s")
+    return BuildResult(prepared.folder, prepared.key, False, compiled, seconds, prepared.source)
 
 
-def build_many(specs: list[str | Path], *, force: bool = False, compile_c: bool = True,
-               progress: Callable[[str], None] = print, jobs: int | None = None,
-               outputs: list[str | Path | None] | None = None) -> list[BuildResult]:
-    """Build several specs: models and sources one after another, while the C compiler runs on the
-    previous ones in up to ``jobs`` (default: CPU count) parallel processes."""
-    outputs = outputs or [None] * len(specs)
+def _build_all(work: Iterable[tuple[Callable[[], ModuleSource], str | Path | None]], force: bool,
+               compile_c: bool, backends: Sequence[str] | None, progress: Callable[[str], None],
+               jobs: int | None) -> list[BuildResult]:
+    """Make each source and write its files one after another, while the C compiler runs on the
+    previous ones in up to ``jobs`` (default: CPU count) parallel threads."""
     results: list[BuildResult | Future] = []
     with ThreadPoolExecutor(max_workers=jobs or os.cpu_count() or 1) as pool:
         try:
-            for spec, out in zip(specs, outputs, strict=True):
-                prepared = _prepare(spec, out, force, compile_c, progress)
+            for make, out in work:
+                prepared = _prepare(make(), out, force, compile_c, backends, progress)
                 results.append(prepared if isinstance(prepared, BuildResult)
                                else pool.submit(_finish, prepared, compile_c, progress))
         finally:  # on a failure, let the started compilations finish and swap in (they are complete)
@@ -566,17 +533,56 @@ def build_many(specs: list[str | Path], *, force: bool = False, compile_c: bool 
     return done
 
 
-def build(spec: str | Path, out: str | Path | None = None, *, force: bool = False, compile_c: bool = True,
-          progress: Callable[[str], None] = print) -> BuildResult:
-    """Build the module of ``spec`` into ``out`` (default ``generated/<system>/``).
+def build_source(source: ModuleSource, out: str | Path | None = None, *, force: bool = False,
+                 compile_c: bool = True, progress: Callable[[str], None] = print,
+                 backends: Sequence[str] | None = None) -> BuildResult:
+    """Build the module ``source`` into ``out`` (default ``generated/<name>/``) with the backends
+    ``backends`` (default: every registered one). See ``build`` for the errors."""
+    return _build_all([(lambda: source, out)], force, compile_c, backends, progress, None)[0]
 
-    A malformed spec, or a name that cannot be an identifier, raises ``SpecError`` before anything is
-    written. An output that cannot be written raises ``OutputError`` (``cannot write <path>:
-    <reason>``) and leaves the previous module as it was. With no C compiler the module is still
-    written (CasADi Functions and C source) and the missing library is reported.
+
+def load_source(path: str | Path, name: str | None = None) -> ModuleSource:
+    """The ModuleSource of a file: a Python file of ``@gagen.kernel`` functions (``.py``; ``name``
+    overrides the module name, default the file's stem) or a robot spec (anything else)."""
+    path = Path(path)
+    if path.suffix == ".py":
+        from gagen.frontend import module_from_file
+
+        return module_from_file(path, name)
+    if name is not None:
+        raise SpecError(path, "name", "a spec names its system itself (a module name is for .py files)")
+    from gagen.cooperative_module import cooperative_source
+
+    return cooperative_source(path)
+
+
+def build_many(paths: Sequence[str | Path], *, force: bool = False, compile_c: bool = True,
+               progress: Callable[[str], None] = print, jobs: int | None = None,
+               outputs: Sequence[str | Path | None] | None = None,
+               names: Sequence[str | None] | None = None) -> list[BuildResult]:
+    """Build several files (specs or Python files): sources and files one after another, while the C
+    compiler runs on the previous ones in up to ``jobs`` (default: CPU count) parallel processes."""
+    outputs = outputs or [None] * len(paths)
+    names = names or [None] * len(paths)
+    work = [(functools.partial(load_source, path, name), out)
+            for path, out, name in zip(paths, outputs, names, strict=True)]
+    return _build_all(work, force, compile_c, None, progress, jobs)
+
+
+def build(path: str | Path, out: str | Path | None = None, *, name: str | None = None, force: bool = False,
+          compile_c: bool = True, progress: Callable[[str], None] = print) -> BuildResult:
+    """Build the module of ``path`` (a robot spec, or a Python file of kernels named ``name``) into
+    ``out`` (default ``generated/<name>/``).
+
+    A malformed spec or kernel, or a name that cannot be an identifier, raises a ValueError
+    (``SpecError``, ``KernelError``) before anything is written. An output that cannot be written
+    raises ``OutputError`` (``cannot write <path>: <reason>``) and leaves the previous module as it
+    was. With no C compiler the module is still written (CasADi Functions and C source) and the
+    missing compilation is reported.
     """
-    return build_many([spec], force=force, compile_c=compile_c, progress=progress, outputs=[out])[0]
+    return build_many([path], force=force, compile_c=compile_c, progress=progress, outputs=[out],
+                      names=[name])[0]
 
 
-__all__ = ["BuildResult", "CompileError", "OutputError", "build", "build_key", "build_many",
-           "check_identifier"]
+__all__ = ["BuildResult", "CompileError", "OutputError", "build", "build_key", "build_many", "build_source",
+           "c_comment", "c_string", "check_identifier", "load_source", "py_doc", "py_string", "render"]

@@ -1,9 +1,11 @@
 """``gagen build --check``: every generated kernel (C single, C batched, CasADi) against the interpreter.
 
-References come from the reference interpreter running the model's formulas on floats: values
-directly, the closed-form Jacobians (joint lines, Eq. 15-17) directly, and the Jacobians that the
-kernels take by AD (J_A,Sc, J_G,Sc, J_B, J_Be) by step-adapted, Richardson-extrapolated central
-differences of the interpreter: R(h) = (4 D(h/2) − D(h)) / 3 with D(h) = (f(q + h) − f(q − h)) / 2h,
+One mechanism for every module: each kernel is a front-end kernel (``gagen.frontend.KernelFunction``)
+whose function, run on the reference interpreter, is its reference (``check_kernels``). Outputs the
+function returns are compared with its values; the Jacobians it leaves to the compiler (AD or a rule:
+J_c, J_A,Sc, J_G,Sc, J_B, J_Be of the robots; the AD Jacobians of user kernels) with step-adapted,
+Richardson-extrapolated central differences of the interpreter: R(h) = (4 D(h/2) − D(h)) / 3 with
+D(h) = (f(q + h) − f(q − h)) / 2h,
 whose truncation error is O(h⁴) and rounding error ≈ 3 eps |f| / h. Per joint, R(1e-3) and R(1e-4)
 (rad or m) are compared; when they disagree by more than 1e-9 of their magnitude (a function that
 turns on a scale below 1e-3, e.g. a small or nearly flat primitive), R(1e-5) is taken too, and the
@@ -23,18 +25,17 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from gagen.algebra.signature import cga3d
+from gagen.frontend import KernelFunction
 from gagen.interp import MultiVector
-from gagen.kernels import TOOL_LINE
 from gagen.model import kinematics as K
 from gagen.model.conformal import SIMILARITY, SIMILARITY_GENERATOR
-from gagen.model.cooperative import System, end_points, primitive_jacobian
-from gagen.model.primitives import through
-from gagen.model.similarity import cooperative_similarity
-from gagen.model.versors import exp_similarity, log_similarity
+from gagen.model.cooperative import System
+from gagen.model.versors import exp_similarity
 from gagen.runtime import GeneratedModule
 
 FD_STEPS = (1e-3, 1e-4, 1e-5)  # h of the Richardson-extrapolated central differences (rad or m)
@@ -92,94 +93,170 @@ def relative_error(value, reference: np.ndarray) -> float:
     return float(np.max(np.abs(value - reference))) / scale if reference.size else 0.0
 
 
-def _dense(x: MultiVector, rows) -> np.ndarray:
-    return np.array([x[b] for b in rows])
+class _Entry:
+    """A port as the manifest lists it (name, rows, cols)."""
+
+    def __init__(self, entry: Mapping) -> None:
+        self.name, self.rows, self.cols = entry["name"], tuple(entry["rows"]), int(entry["cols"])
 
 
-def _matrix(columns, rows) -> np.ndarray:
-    return np.array([[c[b] for b in rows] for c in columns]).T
+def _dense_value(value: Any, algebra) -> np.ndarray:
+    """The interpreter's value of an output as one dense array (multivectors: every coefficient)."""
+    if isinstance(value, MultiVector):
+        return np.array(value.coeffs, dtype=float)
+    if isinstance(value, list):
+        return np.array([float(v) for v in value])
+    return np.array([float(value)])
 
 
-class _Reference:
-    """The interpreter's values of every kernel output at one (q, V_Sd)."""
+def _rows(dense: np.ndarray, rows: Sequence[str], algebra, is_multivector: bool) -> np.ndarray:
+    if is_multivector:
+        return np.array([dense[algebra.blade(b)] for b in rows])
+    return dense[:len(rows)] if len(dense) >= len(rows) else dense
 
-    def __init__(self, system: System, q: np.ndarray, desired: MultiVector) -> None:
-        self.system, self.q, self.desired = system, q, desired
-        self.zero = MultiVector.zero(cga3d())
-        self._memo: dict[tuple, object] = {}
 
-    def _once(self, key: tuple, compute: Callable[[], object]) -> object:
+class _Differences:
+    """Step-adapted Richardson central differences of a kernel function's interpreter values (see the
+    module docstring), memoised per input point."""
+
+    def __init__(self, function: KernelFunction, in_ports: Sequence[_Entry]) -> None:
+        self.function, self.in_ports = function, in_ports
+        self._memo: dict[bytes, dict[str, Any]] = {}
+
+    def values(self, arrays: Sequence[np.ndarray]) -> dict[str, Any]:
+        key = b"".join(np.asarray(a, dtype=float).tobytes() for a in arrays)
         if key not in self._memo:
-            self._memo[key] = compute()
+            self._memo[key] = self.function.values(arrays, self.in_ports)
         return self._memo[key]
 
-    def chain(self, index: int, port: str, rows) -> np.ndarray:
-        chain = self.system.chains[index]
-        qc = self.system.split(list(self.q))[index]
-        motor, lines = self._once(("chain", index), lambda: K.chain_kinematics(self.zero, chain.joints, qc))
-        tool = self.zero.make({TOOL_LINE: 1})
-        values = {"M": lambda: _dense(motor, rows), "P": lambda: _dense(K.end_point(motor), rows),
-                  "J_S": lambda: _matrix(K.spatial_jacobian(lines), rows),
-                  "J_b": lambda: _matrix(K.body_jacobian(motor, lines), rows),
-                  "J_A": lambda: _matrix(K.analytic_jacobian(motor, lines), rows),
-                  "J_P": lambda: _matrix(K.point_jacobian(motor, lines), rows),
-                  "L": lambda: _dense(motor.sandwich(tool), rows),
-                  "J_L": lambda: _matrix(K.line_jacobian(motor, lines, tool), rows)}
-        return values[port]()
+    def _value(self, of: str, arrays: Sequence[np.ndarray]) -> np.ndarray:
+        return _dense_value(self.values(arrays)[of], self.function.algebra)
 
-    def task(self, q: np.ndarray) -> dict[str, MultiVector]:
-        return self._once(("task", q.tobytes()), lambda: self._task(q))
+    def _central(self, of: str, arrays: Sequence[np.ndarray], port: int, i: int, h: float) -> np.ndarray:
+        plus = [np.array(a, dtype=float) for a in arrays]
+        minus = [np.array(a, dtype=float) for a in arrays]
+        plus[port].reshape(-1)[i] += h
+        minus[port].reshape(-1)[i] -= h
+        return (self._value(of, plus) - self._value(of, minus)) * (0.5 / h)
 
-    def _end_point(self, index: int, qc: list[float]) -> MultiVector:
-        # a difference step moves one joint: the chains without it keep their end points (memoised)
-        return self._once(("end", index, tuple(qc)), lambda: K.end_point(
-            K.forward_kinematics(self.zero, self.system.chains[index].joints, qc)))
-
-    def _task(self, q: np.ndarray) -> dict[str, MultiVector]:
-        points = [self._end_point(i, qc) for i, qc in enumerate(self.system.split(list(q)))]
-        xc = through(self.system.kind, points)
-        v, conditioning = cooperative_similarity(self.system.kind, xc)
-        return {"X_c": xc, "V_Sc": v, "conditioning": conditioning, "log_V": log_similarity(v),
-                "e": log_similarity(~v * self.desired)}
-
-    def system_output(self, port: str, rows) -> np.ndarray:
-        at = self.task(self.q)
-        if port == "J_c":
-            points = self._once(("points",), lambda: end_points(self.zero, self.system, list(self.q)))
-            return _matrix(primitive_jacobian(self.system, points), rows)
-        if port == "conditioning":
-            return np.array([at["conditioning"]])
-        if port in BY_DIFFERENCES:
-            return self._differences(port, at["V_Sc"], rows)
-        return _dense(at[port], rows)
-
-    def _central(self, of: str, i: int, h: float) -> MultiVector:
-        step = np.zeros(self.q.size)
-        step[i] = h
-        return (self.task(self.q + step)[of] - self.task(self.q - step)[of]) * (0.5 / h)
-
-    def _richardson(self, of: str, i: int, h: float) -> MultiVector:
+    def _richardson(self, of: str, arrays, port: int, i: int, h: float) -> np.ndarray:
         # the h² error terms of the two central differences cancel
-        return (self._central(of, i, h / 2) * 4 - self._central(of, i, h)) * (1 / 3)
+        return (4 * self._central(of, arrays, port, i, h / 2) - self._central(of, arrays, port, i, h)) / 3
 
-    def _derivative(self, of: str, i: int) -> MultiVector:
-        """∂f/∂q_i, step-adapted (see the module docstring)."""
-        estimates = [self._richardson(of, i, FD_STEPS[0]), self._richardson(of, i, FD_STEPS[1])]
+    def derivative(self, of: str, arrays: Sequence[np.ndarray], port: int, i: int) -> np.ndarray:
+        estimates = [self._richardson(of, arrays, port, i, FD_STEPS[0]),
+                     self._richardson(of, arrays, port, i, FD_STEPS[1])]
         gaps = [_size(estimates[1] - estimates[0])]
         if gaps[0] > FD_AGREE * max(_size(estimates[1]), FLOOR):
             for h in FD_STEPS[2:]:
-                estimates.append(self._richardson(of, i, h))
+                estimates.append(self._richardson(of, arrays, port, i, h))
                 gaps.append(_size(estimates[-1] - estimates[-2]))
         return estimates[1 + int(np.argmin(gaps))]
 
-    def _differences(self, port: str, v: MultiVector, rows) -> np.ndarray:
-        of = {"J_A": "V_Sc", "J_G": "V_Sc", "J_B": "log_V", "J_Be": "e"}[port]
-        columns = [self._once(("d", of, i), lambda i=i: self._derivative(of, i)) for i in range(self.q.size)]
-        return _matrix([~v * d * -2 for d in columns] if port == "J_G" else columns, rows)
+    def jacobian(self, derivative: tuple, arrays: Sequence[np.ndarray], rows: Sequence[str]) -> np.ndarray:
+        """The Jacobian output (rows × entries of the input) from differences: ∂of/∂wrt, each column
+        passed through ``post(value, column)`` when the Jacobian is a transformed one."""
+        of, wrt, *post = derivative
+        port = next(k for k, p in enumerate(self.in_ports) if p.name == wrt)
+        algebra = self.function.algebra
+        value = self.values(arrays)[of]
+        is_multivector = isinstance(value, MultiVector)
+        columns = []
+        for i in range(len(self.in_ports[port].rows)):
+            column = self.derivative(of, arrays, port, i)
+            if post:
+                column = post[0](value, MultiVector(algebra, column)).coeffs
+            columns.append(_rows(column, rows, algebra, is_multivector))
+        return np.array(columns).T
 
 
-def _size(x: MultiVector) -> float:
-    return float(np.max(np.abs(x.coeffs)))
+def _size(x: np.ndarray) -> float:
+    return float(np.max(np.abs(x))) if x.size else 0.0
+
+
+def _in_domain(function: KernelFunction, differences: _Differences, rng: np.random.Generator,
+               tries: int = 50) -> list[np.ndarray]:
+    """A random input where the function is defined on the interpreter (finite values, no error):
+    random coefficients of a kind (a circle, say) can be imaginary or degenerate; they are drawn
+    again. A kernel with a narrow domain should give ``sample=`` to ``gagen.kernel``."""
+    from gagen.frontend import KernelError
+
+    for _ in range(tries):
+        arrays = function.sample(rng)
+        try:
+            values = differences.values(arrays)
+        except KernelError:
+            continue
+        if all(np.all(np.isfinite(_dense_value(v, function.algebra))) for v in values.values()):
+            return arrays
+    raise ValueError(f"kernel {function.name}: no random input out of {tries} is in its domain; "
+                     "give gagen.kernel a sample= function")
+
+
+def check_kernels(module: GeneratedModule, functions: Mapping[str, KernelFunction],
+                  inputs: Mapping[str, list[tuple[str, list[np.ndarray]]]] | None = None, *,
+                  count: int = 5, seed: int = 0, progress: Callable[[str], None] = lambda _: None,
+                  rtol: float = VALUE_RTOL, fd_rtol: float = FD_RTOL) -> list[Discrepancy]:
+    """Evaluate every kernel of ``module`` (C single, C batched, CasADi) on labelled input samples
+    (``inputs[kernel]``, else ``count`` draws of the function's ``sample``) against its function on
+    the interpreter; one Discrepancy per output and one progress line per kernel."""
+    rng = np.random.default_rng(seed)
+    entries = module.manifest["kernels"]
+    result = []
+    for number, entry in enumerate(entries, 1):
+        name = entry["name"]
+        function = functions[name]
+        in_ports = [_Entry(p) for p in entry["inputs"]]
+        out_ports = [_Entry(p) for p in entry["outputs"]]
+        derivatives = function.jacobians
+        differences = _Differences(function, in_ports)
+        points = list(inputs[name]) if inputs is not None and name in inputs else \
+            [(f"random~{i}", _in_domain(function, differences, rng)) for i in range(count)]
+        c_kernel, ca_function = getattr(module.c, name), getattr(module.casadi, name)
+        worst: dict[str, list[tuple[float, str]]] = {p.name: [(0.0, "")] * 3 for p in out_ports}
+
+        def note(port: str, path: int, error: float, label: str, worst=worst) -> None:
+            current = worst[port][path][0]
+            if not np.isnan(current) and (np.isnan(error) or error > current):  # NaN counts as the worst
+                worst[port][path] = (error, label)
+
+        references = []
+        for label, arrays in points:
+            values = differences.values(arrays)
+            given = function.layout(values, out_ports)
+            refs = [ref if ref is not None else differences.jacobian(derivatives[p.name], arrays, p.rows)
+                    for p, ref in zip(out_ports, given, strict=True)]
+            c_out = c_kernel(*arrays)
+            c_out = c_out if isinstance(c_out, tuple) else (c_out,)
+            ca_out = ca_function(*arrays)
+            ca_out = ca_out if isinstance(ca_out, (list, tuple)) else [ca_out]
+            for k, port in enumerate(out_ports):
+                ref = np.reshape(refs[k], (len(port.rows), port.cols))
+                refs[k] = ref
+                note(port.name, 0, relative_error(c_out[k], ref), label)
+                note(port.name, 2, relative_error(ca_out[k], ref), label)
+            references.append(refs)
+        if points:
+            stacked = [np.array([arrays[i] for _, arrays in points]) for i in range(len(in_ports))]
+            batched = c_kernel.batch(*stacked)
+            batched = batched if isinstance(batched, tuple) else (batched,)
+            for k, port in enumerate(out_ports):
+                shape = (len(points), len(port.rows), port.cols)
+                values = np.reshape(np.asarray(batched[k], dtype=float), shape)
+                for s, (label, _) in enumerate(points):
+                    note(port.name, 1, relative_error(values[s], references[s][k]), label)
+        found = []
+        for port in out_ports:
+            by_differences = port.name in derivatives and port.name not in function.returned(
+                differences.values(points[0][1]) if points else {})
+            errors = worst[port.name]
+            path = max(range(3), key=lambda p: (np.isnan(errors[p][0]), errors[p][0]))
+            found.append(Discrepancy(name, port.name, DIFFERENCES if by_differences else INTERPRETER,
+                                     *(e for e, _ in errors), fd_rtol if by_differences else rtol,
+                                     errors[path][1], ("C single", "C batched", "CasADi")[path]))
+        result += found
+        progress(_progress_line(number, len(entries), name, found))
+    return result
 
 
 def joint_limits(system: System) -> tuple[np.ndarray, np.ndarray, list[str]]:
@@ -241,67 +318,27 @@ def check_module(module: GeneratedModule, system: System,
                  configurations: Mapping[str, Sequence[float]] | Sequence[float] | None = None,
                  count: int = 5, seed: int = 0, progress: Callable[[str], None] = lambda _: None,
                  rtol: float = VALUE_RTOL, fd_rtol: float = FD_RTOL) -> list[Discrepancy]:
-    """Evaluate every kernel of ``module`` on the samples (see ``samples``); one Discrepancy per output,
-    and one progress line per kernel with its worst relative error."""
-    chain_index = {c.name: i for i, c in enumerate(system.chains)}
+    """Every kernel of a cooperative system's module on the samples (see ``samples``): the chain
+    kernels on each chain's joints, ``task`` also on a random V_Sd (``check_kernels``)."""
+    from gagen.kernels import kernel_functions
+
+    functions = kernel_functions(system)
     pairs = samples(system, configurations, count, seed)
-    entries = module.manifest["kernels"]
-    # one reference per sample for all kernels: its memo keeps the interpreter's values (and the
-    # differences' evaluations at q ± h) across the kernels that share them
-    sample_references = [_Reference(system, sample.q, sample.desired) for sample in pairs]
-    result = []
-    for number, entry in enumerate(entries, 1):
+    chain_of = {f"{c.name}_{suffix}": i for i, c in enumerate(system.chains)
+                for suffix in ("fk", "fk_jacobian", "jacobians")}
+    inputs = {}
+    for entry in module.manifest["kernels"]:
         name = entry["name"]
-        c_kernel, ca_function = getattr(module.c, name), getattr(module.casadi, name)
-        scope = next((c for c in chain_index if name.startswith(c + "_")
-                      and name[len(c) + 1:] in ("fk", "fk_jacobian", "jacobians")), None)
-        # per output: worst (error, sample label) for C single, C batched, CasADi
-        worst: dict[str, list[tuple[float, str]]] = {p["name"]: [(0.0, "")] * 3 for p in entry["outputs"]}
-
-        def note(port: str, path: int, error: float, label: str, worst=worst) -> None:
-            current = worst[port][path][0]
-            if not np.isnan(current) and (np.isnan(error) or error > current):  # NaN counts as the worst
-                worst[port][path] = (error, label)
-
-        batch_inputs, references = [], []
-        for sample, reference in zip(pairs, sample_references, strict=True):
-            inputs = [sample.q if p["name"] == "q" else np.array([sample.desired[b] for b in SIMILARITY])
-                      for p in entry["inputs"]]
-            if scope is not None:
-                inputs = [np.array(system.split(list(sample.q))[chain_index[scope]])]
-            batch_inputs.append(inputs)
-            c_out = c_kernel(*inputs)
-            c_out = c_out if isinstance(c_out, tuple) else (c_out,)
-            ca_out = ca_function(*inputs)
-            ca_out = ca_out if isinstance(ca_out, (list, tuple)) else [ca_out]
-            refs = []
-            for k, port in enumerate(entry["outputs"]):
-                rows, shape = port["rows"], (len(port["rows"]), port["cols"])
-                ref = (reference.chain(chain_index[scope], port["name"], rows) if scope is not None
-                       else reference.system_output(port["name"], rows)).reshape(shape)
-                refs.append(ref)
-                note(port["name"], 0, relative_error(c_out[k], ref), sample.label)
-                note(port["name"], 2, relative_error(ca_out[k], ref), sample.label)
-            references.append(refs)
-        stacked_inputs = [np.array([b[i] for b in batch_inputs]) for i in range(len(entry["inputs"]))]
-        batched = c_kernel.batch(*stacked_inputs)
-        batched = batched if isinstance(batched, tuple) else (batched,)
-        for k, port in enumerate(entry["outputs"]):
-            shape = (len(pairs), len(port["rows"]), port["cols"])
-            values = np.reshape(np.asarray(batched[k], dtype=float), shape)
-            for s, sample in enumerate(pairs):
-                note(port["name"], 1, relative_error(values[s], references[s][k]), sample.label)
-        found = []
-        for port in entry["outputs"]:
-            by_differences = scope is None and port["name"] in BY_DIFFERENCES
-            errors = worst[port["name"]]
-            path = max(range(3), key=lambda p: (np.isnan(errors[p][0]), errors[p][0]))
-            found.append(Discrepancy(name, port["name"], DIFFERENCES if by_differences else INTERPRETER,
-                                     *(e for e, _ in errors), fd_rtol if by_differences else rtol,
-                                     errors[path][1], ("C single", "C batched", "CasADi")[path]))
-        result += found
-        progress(_progress_line(number, len(entries), name, found))
-    return result
+        points = []
+        for sample in pairs:
+            if name in chain_of:
+                arrays = [np.array(system.split(list(sample.q))[chain_of[name]], dtype=float)]
+            else:
+                arrays = [sample.q if p["name"] == "q" else np.array([sample.desired[b] for b in SIMILARITY])
+                          for p in entry["inputs"]]
+            points.append((sample.label, arrays))
+        inputs[name] = points
+    return check_kernels(module, functions, inputs, progress=progress, rtol=rtol, fd_rtol=fd_rtol)
 
 
 def _progress_line(number: int, total: int, name: str, found: list[Discrepancy]) -> str:

@@ -1,7 +1,8 @@
 """The ``gagen`` command line: ``demo`` (the compiler core on CGA formulas), ``algebra`` (a preset's
-metric and blade order), ``kernels`` (a spec's kernel catalogue with op counts) and ``build`` (a spec's
-generated module, optionally checked against the interpreter), ``reach`` (IPOPT cooperative reaching
-on a paper scenario) and ``smc`` (sliding-mode tracking in a real-time loop)."""
+metric and blade order), ``kernels`` (a spec's kernel catalogue with op counts) and ``build`` (the
+generated module of a spec or of a Python file of kernels, optionally checked against the
+interpreter), ``reach`` (IPOPT cooperative reaching on a paper scenario) and ``smc`` (sliding-mode
+tracking in a real-time loop)."""
 
 from __future__ import annotations
 
@@ -66,26 +67,56 @@ def _cmd_kernels(args: argparse.Namespace) -> int:
 
 def _cmd_build(args: argparse.Namespace) -> int:
     from gagen.build import OutputError, build_many
+    from gagen.codegen.backends import TemplateNotFound
     from gagen.codegen.compiler import CompileError
     from gagen.errors import SpecError
 
     if args.output and len(args.spec) > 1:
-        print("error: -o/--output takes one spec; several specs go to generated/<system>", file=sys.stderr)
+        print("error: -o/--output takes one file; several go to generated/<name>", file=sys.stderr)
         return 2
+    if args.name and (len(args.spec) > 1 or Path(args.spec[0]).suffix != ".py"):
+        print("error: --name names the module of one Python file (a spec names its system)", file=sys.stderr)
+        return 2
+    errors: tuple[type[BaseException], ...] = (SpecError,)
+    if any(Path(path).suffix == ".py" for path in args.spec):
+        from gagen.frontend import KernelError
+
+        errors = (SpecError, KernelError, FileNotFoundError)
     try:
         results = build_many(args.spec, force=args.force, compile_c=not args.no_compile, jobs=args.jobs,
-                             outputs=[args.output] if args.output else None)
-    except SpecError as e:
+                             outputs=[args.output] if args.output else None,
+                             names=[args.name] if args.name else None)
+    except errors as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
-    except (CompileError, OutputError) as e:  # OutputError: "cannot write <path>: <reason>", one line
+    except (CompileError, OutputError, TemplateNotFound) as e:  # OutputError: "cannot write <path>: <reason>"
         print(f"error: {e}", file=sys.stderr)
         return 1
     status = 0
     if args.check:
         for spec, result in zip(args.spec, results, strict=True):
-            status = max(status, _check(spec, result.folder, args.samples, args.tolerance))
+            if Path(spec).suffix == ".py":
+                status = max(status, _check_kernels(result, args.samples, args.tolerance))
+            else:
+                status = max(status, _check(spec, result.folder, args.samples, args.tolerance))
     return status
+
+
+def _check_kernels(result, samples: int, tolerance: float) -> int:
+    """The kernels of a Python file against their functions run on the interpreter (``gagen.check``)."""
+    from gagen.check import check_kernels, failures, format_report
+    from gagen.runtime import load
+
+    source = result.source
+    print(f"{source.name}: checking every kernel (C single, C batched, CasADi) against the interpreter on "
+          f"{samples} random samples", flush=True)
+    report = check_kernels(load(result.folder), source.functions, count=samples, rtol=tolerance,
+                           progress=lambda line: print(line, flush=True))
+    print(format_report(report))
+    failed = failures(report)
+    for d in failed:
+        print(f"error: {source.name}: {d.message()}", file=sys.stderr)
+    return 1 if failed else 0
 
 
 def _check(spec: str, folder, samples: int, tolerance: float) -> int:
@@ -204,9 +235,11 @@ def main(argv: list[str] | None = None) -> int:
     kernels.add_argument("spec", help="robot spec (YAML), e.g. robots/three_pandas_circle.yaml")
     kernels.set_defaults(run=_cmd_kernels)
 
-    build = sub.add_parser("build", help="generate a spec's module: CasADi Functions, C kernels, library")
-    build.add_argument("spec", nargs="+", help="robot spec(s) (YAML), e.g. robots/three_pandas_circle.yaml")
-    build.add_argument("-o", "--output", help="output folder (one spec only; default generated/<system>)")
+    build = sub.add_parser("build", help="generate a module of kernels: CasADi Functions, C kernels, library")
+    build.add_argument("spec", nargs="+", help="robot spec(s) (YAML), e.g. robots/three_pandas_circle.yaml, "
+                       "or Python files of @gagen.kernel functions")
+    build.add_argument("-o", "--output", help="output folder (one file only; default generated/<name>)")
+    build.add_argument("--name", help="the module name of a Python file (default: the file's stem)")
     build.add_argument("--force", action="store_true", help="rebuild even if the cached build is up to date")
     build.add_argument("--no-compile", action="store_true", help="write the C source but do not compile it")
     build.add_argument("--check", action="store_true",

@@ -28,14 +28,15 @@ Matrices are (rows = blades, columns = joints), stored column-major as CasADi do
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
-from functools import cached_property
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import casadi as ca
 
 from gagen.algebra.multivector import SparseMultivector
 from gagen.algebra.signature import cga3d
+from gagen.codegen.ir import Kernel
+from gagen.frontend import KernelFunction, scalars
 from gagen.model import kinematics as K
 from gagen.model.conformal import (
     EUCLID,
@@ -48,55 +49,13 @@ from gagen.model.conformal import (
     point,
     vector,
 )
-from gagen.model.cooperative import System
-from gagen.model.primitives import through, unit_primitive
-from gagen.model.similarity import similarity_factors
+from gagen.model.cooperative import Chain, System
+from gagen.model.primitives import points_needed, through, unit_primitive
+from gagen.model.similarity import cooperative_similarity, similarity_factors
 from gagen.model.versors import log_similarity
 from gagen.symbolic.casadi_backend import CasadiBackend
-from gagen.symbolic.flatten import OpCount, casadi_op_count, identifier
 
 TOOL_LINE = "e12"  # the tool's z axis through its origin, as a line bivector (rotation about z)
-
-
-@dataclass(frozen=True)
-class Port:
-    """A named input or output: one label per row (blade or joint) and a column count."""
-
-    name: str
-    rows: tuple[str, ...]
-    cols: int = 1
-
-    @property
-    def shape(self) -> tuple[int, int]:
-        return len(self.rows), self.cols
-
-    @property
-    def size(self) -> int:
-        return len(self.rows) * self.cols
-
-
-@dataclass
-class Kernel:
-    """One generated computation: a CasADi SX Function and the meaning of its ports."""
-
-    name: str
-    doc: str
-    inputs: tuple[Port, ...]
-    outputs: tuple[Port, ...]
-    function: ca.Function
-
-    @cached_property
-    def op_count(self) -> OpCount:
-        return casadi_op_count(self.function)
-
-
-def _kernel(name: str, doc: str, inputs: Sequence[tuple[Port, ca.SX]],
-            outputs: Sequence[tuple[Port, ca.SX]]) -> Kernel:
-    # one CSE per kernel, over all its outputs together (they share the kinematics)
-    values = ca.cse([value for _, value in outputs])
-    function = ca.Function(identifier(name), [s for _, s in inputs], values,
-                           [p.name for p, _ in inputs], [p.name for p, _ in outputs])
-    return Kernel(identifier(name), doc, tuple(p for p, _ in inputs), tuple(p for p, _ in outputs), function)
 
 
 class _Graph:
@@ -121,39 +80,54 @@ class _Graph:
             self.algebra.blade(b): self.backend.lift(values[r]) for r, b in enumerate(blades)})
 
 
-def _chain_kernels(graph: _Graph) -> tuple[list[Kernel], list[tuple[SparseMultivector, list]]]:
-    kernels, points = [], []
-    for chain, indices in zip(graph.system.chains, graph.system.chain_indices(), strict=True):
-        qc = ca.vertcat(*[graph.q[i] for i in indices])
-        qi = [graph.backend.lift(graph.q[i]) for i in indices]
-        motor, lines, position = K.chain_pose(graph.zero, chain.joints, qi)
+CHAIN_KERNELS = (
+    ("fk", "motor and end point", ("M", "P")),
+    ("fk_jacobian", "motor, end point and spatial (geometric) Jacobian", ("M", "P", "J_S")),
+    ("jacobians", "motor, end point, every Jacobian and the tool z-axis line",
+     ("M", "P", "J_S", "J_b", "J_A", "J_P", "L", "J_L")),
+)
+
+
+def _chain_function(chain: Chain, names: Sequence[str]) -> Callable[..., dict[str, Any]]:
+    """The chain's kinematics as one function over the multivector protocol (the compiler's and the
+    interpreter's path alike): the Jacobians are the closed forms from the joint lines [COOP Eq. 15-17]."""
+
+    def kinematics(ga: Any, q: Sequence[Any]) -> dict[str, Any]:
+        motor, lines, position = K.chain_pose(ga, chain.joints, q)
         end = point(position)  # = V_M e0 V_M~, from the position the chain carries
-        point_jac = K.point_jacobian(motor, lines, end)
-        # the system kernels need positions and lines only: turn the frame by cos q, sin q directly
-        _, free_lines, free_position = K.chain_pose(graph.zero, chain.joints, qi, with_motor=False)
-        free_end = point(free_position)
-        points.append((free_end, K.point_jacobian(None, free_lines, free_end)))
-        tool = graph.zero.make({TOOL_LINE: 1})
+        tool = ga.make({TOOL_LINE: 1})
+        values = {"M": lambda: motor, "P": lambda: end, "J_S": lambda: K.spatial_jacobian(lines),
+                  "J_b": lambda: K.body_jacobian(motor, lines),
+                  "J_A": lambda: K.analytic_jacobian(motor, lines),
+                  "J_P": lambda: K.point_jacobian(motor, lines, end),
+                  "L": lambda: part(motor.sandwich(tool), MOTOR_GENERATOR),
+                  "J_L": lambda: K.line_jacobian(motor, lines, tool)}
+        return {name: values[name]() for name in names}
+
+    return kinematics
+
+
+def _chain_outputs(n: int) -> dict[str, Any]:
+    return {"M": MOTOR, "P": POINT, "J_S": (MOTOR_GENERATOR, n), "J_b": (MOTOR_GENERATOR, n),
+            "J_A": (MOTOR, n), "J_P": (POINT, n), "L": MOTOR_GENERATOR, "J_L": (MOTOR_GENERATOR, n)}
+
+
+def chain_kernel_functions(system: System) -> dict[str, KernelFunction]:
+    """``<chain>_fk``, ``<chain>_fk_jacobian`` and ``<chain>_jacobians`` of every chain, as front-end
+    kernels (J_A = ∂M/∂q and J_P = ∂P/∂q are the function's own, cheaper than AD)."""
+    labels = tuple(f"{robot}/{joint}" for robot, joint in system.joint_keys)
+    functions = {}
+    for chain, indices in zip(system.chains, system.chain_indices(), strict=True):
         n = len(indices)
-        q_port = Port("q", tuple(graph.joint_labels[i] for i in indices))
-        fk = [(Port("M", MOTOR), graph.column(motor, MOTOR)), (Port("P", POINT), graph.column(end, POINT))]
-        spatial = (Port("J_S", MOTOR_GENERATOR, n), graph.matrix(K.spatial_jacobian(lines), MOTOR_GENERATOR))
-        rest = [
-            (Port("J_b", MOTOR_GENERATOR, n), graph.matrix(K.body_jacobian(motor, lines), MOTOR_GENERATOR)),
-            (Port("J_A", MOTOR, n), graph.matrix(K.analytic_jacobian(motor, lines), MOTOR)),
-            (Port("J_P", POINT, n), graph.matrix(point_jac, POINT)),
-            (Port("L", MOTOR_GENERATOR), graph.column(motor.sandwich(tool), MOTOR_GENERATOR)),
-            (Port("J_L", MOTOR_GENERATOR, n),
-             graph.matrix(K.line_jacobian(motor, lines, tool), MOTOR_GENERATOR)),
-        ]
-        for suffix, doc, outputs in (
-                ("fk", "motor and end point", fk),
-                ("fk_jacobian", "motor, end point and spatial (geometric) Jacobian", [*fk, spatial]),
-                ("jacobians", "motor, end point, every Jacobian and the tool z-axis line",
-                 [*fk, spatial, *rest])):
-            kernels.append(_kernel(f"{chain.name}_{suffix}", f"chain {chain.name}: {doc}", [(q_port, qc)],
-                                   outputs))
-    return kernels, points
+        declared = _chain_outputs(n)
+        for suffix, doc, names in CHAIN_KERNELS:
+            jacobians = {j: (of, "q") for j, of in (("J_A", "M"), ("J_P", "P")) if j in names}
+            name = f"{chain.name}_{suffix}"
+            functions[name] = KernelFunction(
+                _chain_function(chain, names), algebra=cga3d(), name=name, doc=f"chain {chain.name}: {doc}",
+                inputs={"ga": "algebra", "q": scalars(n, [labels[i] for i in indices])},
+                outputs={k: declared[k] for k in names}, jacobians=jacobians)
+    return functions
 
 
 def _task_space(graph: _Graph, positions: ca.SX, vsd: ca.SX) -> dict[str, ca.SX]:
@@ -254,8 +228,8 @@ def _chain_rule(system: System, by_position: ca.SX, position_jacobians: Sequence
     return ca.horzcat(*columns)
 
 
-def build_kernels(system: System) -> dict[str, Kernel]:
-    """Every kernel of ``system`` by name, in catalogue order (chains first).
+class _SystemGraph:
+    """The system kernels' expressions, built once on CasADi symbols (q, V_Sd) and shared by their rules.
 
     The system Jacobians use the chain rule through the end positions: with p = (p_1 … p_n),
     ∂y/∂q = Σ_i (∂y/∂p_i) J_p,i, where ∂y/∂p_i (3 columns) is CasADi AD on the task-space formulas
@@ -263,44 +237,143 @@ def build_kernels(system: System) -> dict[str, Kernel]:
     position Jacobian from its joint lines (the e1, e2, e3 rows of [COOP Eq. 17]). For J_G,Sc the
     product −2 V_Sc~ ∂V_Sc/∂p is taken before the chain rule (7 × 3n instead of 7 × m columns).
     """
-    graph = _Graph(system)
-    kernels, points = _chain_kernels(graph)
-    n = system.dof
-    positions_q = ca.vertcat(*[graph.column(p, EUCLID) for p, _ in points])
-    jps = [graph.matrix(jac, EUCLID) for _, jac in points]
 
-    # the task space as a function of the end positions (and of V_Sd), differentiated there
-    positions = ca.SX.sym("p", 3 * len(system.chains))
-    vsd = ca.SX.sym("V_Sd", len(SIMILARITY))
-    task = _task_space(graph, positions, vsd)
-    names = ("X_c", "V_Sc", "conditioning", "log_V", "e", "dX_c", "dV_Sc", "dG", "dlog_V", "de")
-    task_function = ca.Function("task_space", [positions, vsd], [task[k] for k in names])
-    at_q = dict(zip(names, task_function(positions_q, vsd), strict=True))
-    xc_blades = task["blades"]
+    NAMES = ("X_c", "J_c", "V_Sc", "conditioning", "J_A", "J_G", "log_V", "J_B", "e", "J_Be")
 
-    q_port, vsd_port = (Port("q", graph.joint_labels), graph.q), (Port("V_Sd", SIMILARITY), vsd)
-    out = {
-        "X_c": (Port("X_c", xc_blades), at_q["X_c"]),
-        "J_c": (Port("J_c", xc_blades, n), _chain_rule(system, at_q["dX_c"], jps)),
-        "V_Sc": (Port("V_Sc", SIMILARITY), at_q["V_Sc"]),
-        "conditioning": (Port("conditioning", ("conditioning",)), at_q["conditioning"]),
-        "J_A": (Port("J_A", SIMILARITY, n), _chain_rule(system, at_q["dV_Sc"], jps)),
-        "J_G": (Port("J_G", SIMILARITY_GENERATOR, n), _chain_rule(system, at_q["dG"], jps)),
-        "log_V": (Port("log_V", SIMILARITY_GENERATOR), at_q["log_V"]),
-        "J_B": (Port("J_B", SIMILARITY_GENERATOR, n), _chain_rule(system, at_q["dlog_V"], jps)),
-        "e": (Port("e", SIMILARITY_GENERATOR), at_q["e"]),
-        "J_Be": (Port("J_Be", SIMILARITY_GENERATOR, n), _chain_rule(system, at_q["de"], jps)),
-    }
+    def __init__(self, system: System) -> None:
+        self.system = system
+        self._function: ca.Function | None = None
 
-    def pick(*names: str) -> list[tuple[Port, ca.SX]]:
-        return [out[k] for k in names]
+    @property
+    def function(self) -> ca.Function:
+        if self._function is None:
+            self._function = self._build()
+        return self._function
 
-    kernels += [
-        _kernel("primitive", f"the cooperative {system.kind} X_c(q) and J_c", [q_port], pick("X_c", "J_c")),
-        _kernel("similarity", "V_Sc(q), its conditioning and J_G,Sc", [q_port],
-                pick("V_Sc", "conditioning", "J_G")),
-        _kernel("similarity_jacobians", "J_A,Sc = dV_Sc/dq, log V_Sc and J_B = d log V_Sc/dq", [q_port],
-                pick("J_A", "log_V", "J_B")),
-        _kernel("task", "task error e = log(V_Sc~ V_Sd) and J_Be", [q_port, vsd_port], pick("e", "J_Be")),
-    ]
-    return {k.name: k for k in kernels}
+    def _build(self) -> ca.Function:
+        system = self.system
+        graph = _Graph(system)
+        points = []
+        for indices, chain in zip(system.chain_indices(), system.chains, strict=True):
+            qi = [graph.backend.lift(graph.q[i]) for i in indices]
+            # the system kernels need positions and lines only: turn the frame by cos q, sin q directly
+            _, free_lines, free_position = K.chain_pose(graph.zero, chain.joints, qi, with_motor=False)
+            free_end = point(free_position)
+            points.append((free_end, K.point_jacobian(None, free_lines, free_end)))
+        positions_q = ca.vertcat(*[graph.column(p, EUCLID) for p, _ in points])
+        jps = [graph.matrix(jac, EUCLID) for _, jac in points]
+        # the task space as a function of the end positions (and of V_Sd), differentiated there
+        positions = ca.SX.sym("p", 3 * len(system.chains))
+        vsd = ca.SX.sym("V_Sd", len(SIMILARITY))
+        task = _task_space(graph, positions, vsd)
+        names = ("X_c", "V_Sc", "conditioning", "log_V", "e", "dX_c", "dV_Sc", "dG", "dlog_V", "de")
+        task_function = ca.Function("task_space", [positions, vsd], [task[k] for k in names])
+        at_q = dict(zip(names, task_function(positions_q, vsd), strict=True))
+        values = {
+            "X_c": at_q["X_c"], "J_c": _chain_rule(system, at_q["dX_c"], jps),
+            "V_Sc": at_q["V_Sc"], "conditioning": at_q["conditioning"],
+            "J_A": _chain_rule(system, at_q["dV_Sc"], jps), "J_G": _chain_rule(system, at_q["dG"], jps),
+            "log_V": at_q["log_V"], "J_B": _chain_rule(system, at_q["dlog_V"], jps),
+            "e": at_q["e"], "J_Be": _chain_rule(system, at_q["de"], jps)}
+        return ca.Function("system", [graph.q, vsd], [values[k] for k in self.NAMES], ["q", "V_Sd"],
+                           list(self.NAMES))
+
+    def rule(self, names: Sequence[str]) -> Callable[[dict[str, ca.SX]], dict[str, ca.SX]]:
+        def expressions(inputs: dict[str, ca.SX]) -> dict[str, ca.SX]:
+            vsd = inputs.get("V_Sd", ca.SX.zeros(len(SIMILARITY)))
+            values = dict(zip(self.NAMES, self.function(inputs["q"], vsd), strict=True))
+            return {name: values[name] for name in names}
+
+        return expressions
+
+
+def primitive_blades(kind: str) -> tuple[str, ...]:
+    """The blades X_c may have (its proven support from symbolic points)."""
+    zero = SparseMultivector(cga3d(), CasadiBackend(), {})
+    points = [point(vector(zero, [zero.backend.lift(s) for s in ca.SX.sym(f"p{i}", 3).nz]))
+              for i in range(points_needed(kind))]
+    x = through(kind, points)
+    return tuple(x.algebra.blade_name(b) for b in x.support)
+
+
+def _system_values(system: System, names: Sequence[str]) -> Callable[..., dict[str, Any]]:
+    """The system kernels' values as one function over the multivector protocol: the end points from
+    each chain's forward kinematics, X_c through them, V_Sc = V_S(X_u, X_c) and the logarithms
+    [COOP Eq. 14, 28-31, 40]. On the interpreter the end points are memoised per chain (a difference
+    step moves one joint; the other chains keep theirs)."""
+    memo: dict[tuple, Any] = {}
+
+    def end_point(ga: Any, index: int, qc: list[Any]) -> Any:
+        key = (index, tuple(qc)) if all(isinstance(v, float) for v in qc) else None
+        if key is not None and key in memo:
+            return memo[key]
+        value = K.end_point(K.forward_kinematics(ga, system.chains[index].joints, qc))
+        if key is not None:
+            if len(memo) > 4096:
+                memo.clear()
+            memo[key] = value
+        return value
+
+    def values(ga: Any, q: Sequence[Any], V_Sd: Any = None) -> dict[str, Any]:
+        points = [end_point(ga, i, qc) for i, qc in enumerate(system.split(list(q)))]
+        xc = through(system.kind, points)
+        v, conditioning = cooperative_similarity(system.kind, xc)
+        found = {"X_c": lambda: xc, "V_Sc": lambda: v, "conditioning": lambda: conditioning,
+                 "log_V": lambda: log_similarity(v), "e": lambda: log_similarity(~v * V_Sd)}
+        return {name: found[name]() for name in names}
+
+    if "e" in names:
+        return lambda ga, q, V_Sd: values(ga, q, V_Sd)
+    return lambda ga, q: values(ga, q)
+
+
+def _generator_column(v: Any, derivative: Any) -> Any:
+    """A column of J_G = −2 V~ ∂V from one of ∂V (on the interpreter, for the checks)."""
+    return ~v * derivative * -2
+
+
+SYSTEM_KERNELS = (
+    ("primitive", "the cooperative {kind} X_c(q) and J_c", {"X_c": "X_c", "J_c": "X_c"},
+     {"J_c": ("X_c", "q")}),
+    ("similarity", "V_Sc(q), its conditioning and J_G,Sc",
+     {"V_Sc": "similarity", "conditioning": "scalar", "J_G": "similarity_generator"},
+     {"J_G": ("V_Sc", "q", _generator_column)}),
+    ("similarity_jacobians", "J_A,Sc = dV_Sc/dq, log V_Sc and J_B = d log V_Sc/dq",
+     {"J_A": "similarity", "log_V": "similarity_generator", "J_B": "similarity_generator"},
+     {"J_A": ("V_Sc", "q"), "J_B": ("log_V", "q")}),
+    ("task", "task error e = log(V_Sc~ V_Sd) and J_Be",
+     {"e": "similarity_generator", "J_Be": "similarity_generator"},
+     {"J_Be": ("e", "q")}),
+)
+
+
+def system_kernel_functions(system: System) -> dict[str, KernelFunction]:
+    """``primitive``, ``similarity``, ``similarity_jacobians`` and ``task`` as front-end kernels: the
+    model's formulas are their reference; the compiler's expressions come from one shared graph
+    (``_SystemGraph``) by rules, with the chain rule through the end positions."""
+    graph = _SystemGraph(system)
+    labels = tuple(f"{robot}/{joint}" for robot, joint in system.joint_keys)
+    functions = {}
+    for name, doc, outputs, jacobians in SYSTEM_KERNELS:
+        declared = {k: (primitive_blades(system.kind) if d == "X_c" else d) for k, d in outputs.items()}
+        declared = {k: (d, system.dof) if k in jacobians else d for k, d in declared.items()}
+        inputs = {"ga": "algebra", "q": scalars(system.dof, labels)}
+        if name == "task":
+            inputs["V_Sd"] = "similarity"
+        # a Jacobian taken of an output the kernel does not return (J_A of V_Sc) is still declared on it
+        hidden = sorted({of for of, *_ in jacobians.values()} - set(declared))
+        values = [*(k for k in declared if k not in jacobians), *hidden]
+        functions[name] = KernelFunction(
+            _system_values(system, values), algebra=cga3d(), name=name, doc=doc.format(kind=system.kind),
+            inputs=inputs, outputs=declared, jacobians=jacobians, rule=graph.rule(list(declared)))
+    return functions
+
+
+def kernel_functions(system: System) -> dict[str, KernelFunction]:
+    """Every kernel of ``system`` as a front-end kernel, in catalogue order (chains first)."""
+    return {**chain_kernel_functions(system), **system_kernel_functions(system)}
+
+
+def build_kernels(system: System) -> dict[str, Kernel]:
+    """Every kernel of ``system`` by name, traced (see ``kernel_functions``)."""
+    return {name: f.trace() for name, f in kernel_functions(system).items()}

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from gagen.kernels import Kernel, Port
+from gagen.codegen.ir import Kernel, Port
 
 
 def _shape(port: Port) -> str:

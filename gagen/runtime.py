@@ -38,8 +38,6 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import functools
-import gzip
-import importlib.util
 import json
 import os
 import sys
@@ -53,7 +51,6 @@ from typing import Any
 import numpy as np
 
 MANIFEST = "manifest.json"
-BINDING_ABI = 2  # the calling convention of templates/binding.c.j2 (make_<kernel>(address, slow, out, info))
 
 
 class _Port:
@@ -263,7 +260,9 @@ class CKernel:
     """One compiled kernel: ``kernel(*inputs, out=None)``, ``kernel.bind(out)``, ``kernel.fast``,
     ``kernel.batch(*inputs)`` and ``kernel.batch_columns(*inputs)`` (see the module docstring)."""
 
-    def __init__(self, library: ctypes.CDLL, entry: dict[str, Any], binding: Any = None) -> None:
+    def __init__(self, library: ctypes.CDLL, entry: dict[str, Any], binding: Any = None,
+                 module: GeneratedModule | None = None) -> None:
+        self.module, self._entry = module, entry
         self._sig = sig = _Signature(entry)
         self.name = sig.name
         self.inputs = [p.name for p in sig.inputs]
@@ -289,6 +288,25 @@ class CKernel:
             # from info): k(...) and k(..., out=...) go straight into C
             self._make = functools.partial(getattr(binding, f"make_{self.name}"), address, self._slow)
             self._own = self._make(None, None)  # holds no reference back to self
+
+    @property
+    def op_count(self) -> dict[str, Any]:
+        """The kernel's scalar operations (mul, add, neg, div, flops, calls), as the manifest lists them."""
+        return dict(self._entry["op_count"])
+
+    @property
+    def casadi(self) -> Any:
+        """The same kernel as a casadi.Function (from the module's casadi backend)."""
+        if self.module is None:
+            raise AttributeError(f"{self.name}: loaded without its module")
+        return getattr(self.module.casadi, self.name)
+
+    @property
+    def c_source(self) -> str:
+        """The C source of the module this kernel was compiled from (every kernel of the module)."""
+        if self.module is None:
+            raise AttributeError(f"{self.name}: loaded without its module")
+        return (self.module.folder / self.module.manifest["c_source"]).read_text()
 
     def entry_point(self) -> Any:
         """What ``module.c.<kernel>`` hands out: the binding's kernel object, whose attributes are this
@@ -402,9 +420,14 @@ def _folder_lock(folder: Path) -> Iterator[None]:
 
 
 class GeneratedModule:
-    """A folder written by ``gagen build``: manifest, CasADi Functions, C source (and library)."""
+    """A folder written by ``gagen build``: its manifest, and a namespace of kernels per backend that
+    has one (``casadi``, ``c``), made from the manifest's ``"backends"`` through the registry
+    (``gagen.codegen.backends``). What a backend compiles (the C library, the CPython binding) is
+    compiled here on first use if the folder has only its sources."""
 
     def __init__(self, folder: str | Path) -> None:
+        from gagen.codegen.backends import BACKENDS
+
         self.folder = Path(folder).expanduser().resolve()
         manifest = self.folder / MANIFEST
         if not manifest.is_file():
@@ -412,83 +435,92 @@ class GeneratedModule:
             raise FileNotFoundError(f"no generated gagen module at {self.folder}: the folder {what} "
                                     "(write one with `gagen build SPEC -o FOLDER`)")
         self.manifest = json.loads(manifest.read_text())
-        names = [k["name"] for k in self.manifest["kernels"]]
-        self.casadi = _Namespace(names, self._load_casadi)
-        self.c = _Namespace(names, self._load_c)
+        # (manifests written before the backends were listed had these three)
+        names = self.manifest.get("backends", ["casadi", "c", "cpython"])
+        unknown = [n for n in names if n not in BACKENDS]
+        if unknown:
+            raise ValueError(f"{manifest}: backend(s) {', '.join(map(repr, unknown))} unknown to this gagen "
+                             f"(it has {', '.join(BACKENDS)}); rebuild the module with `gagen build`")
+        self.backends = {n: BACKENDS[n] for n in names}
+        self.kernel_names = [k["name"] for k in self.manifest["kernels"]]
+        self._handles: dict[str, Any] = {}
+        self._lock = threading.RLock()
+        self._failed: set[str] = set()  # optional backends that did not compile here
+        for backend in self.backends.values():
+            if backend.namespace:
+                if backend.namespace.startswith("_") or hasattr(type(self), backend.namespace):
+                    raise ValueError(f"backend {backend.name}: namespace {backend.namespace!r} is taken")
+                setattr(self, backend.namespace,
+                        _Namespace(self.kernel_names, functools.partial(backend.load, self)))
 
     def __repr__(self) -> str:
-        return f"<gagen module {self.manifest.get('system')} at {self.folder}>"
+        return f"<gagen module {self.manifest.get('module', self.manifest.get('system'))} at {self.folder}>"
 
-    def _entry(self, name: str) -> dict[str, Any]:
+    def entry(self, name: str) -> dict[str, Any]:
+        """The manifest's entry of kernel ``name``."""
         return next(k for k in self.manifest["kernels"] if k["name"] == name)
 
-    def _load_casadi(self, name: str) -> Any:
-        import casadi as ca
+    def path(self, relative: str) -> Path:
+        """``folder / relative``, refused (ValueError) unless it stays inside the folder."""
+        path = self.folder / relative
+        if Path(relative).is_absolute() or ".." in Path(relative).parts or \
+                not path.resolve().is_relative_to(self.folder):
+            raise ValueError(f"{self.folder / MANIFEST}: {relative!r} is outside the module folder")
+        return path
 
-        data = gzip.decompress((self.folder / self._entry(name)["casadi"]).read_bytes())
-        return ca.Function.deserialize(data.decode())
+    def handle(self, backend: str) -> Any:
+        """What backend ``backend`` opened for this module (the loaded library, the binding module),
+        once; None for a backend the module does not have."""
+        if backend not in self.backends:
+            return None
+        with self._lock:
+            if backend not in self._handles:
+                self._handles[backend] = self.backends[backend].open(self)
+            return self._handles[backend]
 
-    def _compile_missing(self) -> None:
-        """Compile the library and the binding if the folder has only their sources (first use), saying
+    def compile_missing(self) -> None:
+        """Compile what the backends compile if the folder has only their sources (first use), saying
         so in one line on stderr. Threads and processes loading the same folder at once wait for one
-        compilation (a lock on the folder); the compiler writes to a temporary name and renames."""
-        from gagen.codegen.compiler import CompileError, compile_binding, compile_shared, extension_path
+        compilation (a lock on the folder); the compiler writes to a temporary name and renames. An
+        optional backend that fails to compile (the binding without Python headers) warns once."""
+        from gagen.codegen.compiler import CompileError
 
-        library = self.folder / self.manifest["library"]
-        binding = extension_path(self.folder, self.manifest["binding"])
-        if library.exists() and (binding.exists() or self._binding_failed):
+        def missing() -> list[tuple[Any, list[Path]]]:
+            pending = []
+            for b in self.backends.values():
+                paths = [p for p in b.artefacts(self.folder, self.manifest) if not p.exists()]
+                if paths and b.name not in self._failed:
+                    pending.append((b, paths))
+            return pending
+
+        if not missing():
             return
         with _folder_lock(self.folder):
-            missing = [p.name for p in (library, binding) if not p.exists()]
-            if not missing or (missing == [binding.name] and self._binding_failed):
+            pending = missing()
+            if not pending:
                 return
-            print(f"gagen: compiling {' and '.join(missing)} in {self.folder} (first use; a few seconds)",
+            names = [p.name for _, paths in pending for p in paths]
+            print(f"gagen: compiling {' and '.join(names)} in {self.folder} (first use; a few seconds)",
                   file=sys.stderr, flush=True)
-            if not library.exists():
-                compile_shared(self.folder / self.manifest["c_source"], library)
-            if not binding.exists():
+            for backend, paths in pending:
                 try:
-                    compile_binding(self.folder / self.manifest["binding_source"])
+                    backend.compile(self.folder, self.manifest)
                 except CompileError as e:  # e.g. no Python headers
-                    self._binding_failed = True
-                    warnings.warn(f"{binding.name}: {e}; C kernels are called through ctypes", stacklevel=3)
+                    if not backend.optional:
+                        raise
+                    self._failed.add(backend.name)
+                    warnings.warn(f"{', '.join(p.name for p in paths)}: {e}; {backend.optional}",
+                                  stacklevel=3)
 
-    _binding_failed = False
-
-    @cached_property
+    @property
     def library(self) -> ctypes.CDLL:
-        """The compiled library (compiled here first if the folder has only the source)."""
-        self._compile_missing()
-        return ctypes.CDLL(str(self.folder / self.manifest["library"]))
+        """The compiled C library (compiled here first if the folder has only the source)."""
+        return self.handle("c")
 
-    @cached_property
+    @property
     def binding(self) -> Any:
         """The CPython binding module (compiled here first if absent), or None: then ctypes."""
-        from gagen.codegen.compiler import extension_path
-
-        self._compile_missing()
-        name = self.manifest["binding"]
-        path = extension_path(self.folder, name)
-        if not path.exists():
-            return None
-        if name in sys.modules:  # loaded already (another GeneratedModule of the same build)
-            return sys.modules[name]
-        try:
-            spec = importlib.util.spec_from_file_location(name, path)
-            module = importlib.util.module_from_spec(spec)
-            spec.loader.exec_module(module)
-        except ImportError as e:  # e.g. built against another numpy: still usable through ctypes
-            warnings.warn(f"{name}: {e}; C kernels are called through ctypes", stacklevel=2)
-            return None
-        if getattr(module, "GAGEN_BINDING_ABI", None) != BINDING_ABI:  # built by another gagen version
-            warnings.warn(f"{name}: a binding from another gagen version (rebuild the module: gagen build); "
-                          "C kernels are called through ctypes", stacklevel=2)
-            return None
-        sys.modules[name] = module
-        return module
-
-    def _load_c(self, name: str) -> CKernel:
-        return CKernel(self.library, self._entry(name), self.binding).entry_point()
+        return self.handle("cpython")
 
 
 def load(folder: str | Path) -> GeneratedModule:

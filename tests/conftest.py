@@ -1,4 +1,9 @@
-"""Shared test settings: hypothesis profiles and the algebras every test runs over."""
+"""Shared test settings: the test tiers, hypothesis profiles and the algebras every test runs over.
+
+Tiers: a plain ``pytest`` runs the fast tier, every test not marked ``slow``, ``compiling`` or
+``realtime`` (see ``markers`` in pyproject.toml); ``pytest --full`` (or GAGEN_TESTS=full) runs them
+all, as CI does. An explicit ``-m`` expression, or a test named by its node id (``file::test``),
+selects by itself, whatever the tier: ``pytest -m compiling`` runs the compiling tests."""
 
 import os
 import signal
@@ -15,6 +20,62 @@ settings.register_profile("dev", deadline=None, suppress_health_check=[HealthChe
 # derandomized by default, so CI runs exactly the examples every local run has passed; set
 # GAGEN_HYPOTHESIS=dev to explore fresh random examples (and keep any failure in .hypothesis/)
 settings.load_profile(os.environ.get("GAGEN_HYPOTHESIS", "ci"))
+
+TIER_MARKERS = ("slow", "compiling", "realtime")  # left out of the fast (default) tier
+
+
+def pytest_addoption(parser):
+    parser.addoption("--full", action="store_true", default=False,
+                     help="run the full tier: also the tests marked slow, compiling or realtime "
+                          "(the default is the fast tier; GAGEN_TESTS=full does the same)")
+
+
+def _full_tier(config) -> bool:
+    return config.getoption("--full") or os.environ.get("GAGEN_TESTS", "").strip().lower() == "full"
+
+
+def _tier_applies(config) -> bool:
+    """The fast tier filters unless the full tier is asked for, an explicit -m expression selects, or
+    the command line names single tests (``path::name``)."""
+    return not (_full_tier(config) or config.getoption("markexpr")
+                or any("::" in str(arg) for arg in config.args))
+
+
+# The committed generated modules the fast tier uses the C kernels of. A module compiles its C on first
+# use (after a fresh checkout or a rebuild of generated/: ≈ 5 s panda_point, ≈ 15 s three_pandas_circle,
+# up to 30 s the larger ones on a 2-core VM; then cached beside it), so a test that needs the C
+# kernels of any other one is marked ``compiling``.
+FAST_MODULES = frozenset({"panda_point", "three_pandas_circle"})
+
+
+def tiered(values, fast, *marks):
+    """Parametrize values with the tier marks (``slow`` unless others are given) on all but those in
+    ``fast``: the fast tier keeps a representative few, the full tier runs all. A tuple value is one
+    test's several arguments. The test ids are those of the plain values."""
+    marks = marks or (pytest.mark.slow,)
+    fast = set(fast)
+    return [value if value in fast else
+            pytest.param(*(value if isinstance(value, tuple) else (value,)), marks=marks)
+            for value in values]
+
+
+def pytest_report_header(config):
+    if _tier_applies(config):
+        return (f"gagen tier: fast (tests marked {', '.join(TIER_MARKERS)} deselected; "
+                "--full or GAGEN_TESTS=full runs them)")
+    return "gagen tier: full" if _full_tier(config) else "gagen tier: as selected (-m or node ids)"
+
+
+def pytest_collection_modifyitems(config, items):
+    if not _tier_applies(config):
+        return
+    kept, deselected = [], []
+    for item in items:
+        (deselected if any(item.get_closest_marker(m) for m in TIER_MARKERS) else kept).append(item)
+    if deselected:
+        config.hook.pytest_deselected(items=deselected)
+        items[:] = kept
+
 
 ALGEBRAS = {"cga3d": cga3d(), "cga2d": cga2d(), "pga3d": pga3d(), "ga3d": ga3d()}
 
@@ -68,3 +129,11 @@ def deadline(seconds: float) -> Iterator[None]:
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, previous)
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _private_compile_cache(tmp_path_factory):
+    """gagen.compile caches into $GAGEN_CACHE (else ~/.cache/gagen): the tests use a fresh folder."""
+    if "GAGEN_CACHE" not in os.environ:
+        os.environ["GAGEN_CACHE"] = str(tmp_path_factory.mktemp("gagen-cache"))
+    yield

@@ -118,6 +118,7 @@ class SparseMultivector:
             for b, cb in other.coeffs.items():
                 entries = rule(a, b)
                 if not entries:
+                    self.backend.removed["sparsity pruning"] += 1  # a blade pair that cannot contribute
                     continue
                 product = mul(ca, cb)
                 for blade, c in entries:

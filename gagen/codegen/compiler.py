@@ -99,18 +99,21 @@ def extension_path(folder: Path, module: str) -> Path:
     return folder / (module + (sysconfig.get_config_var("EXT_SUFFIX") or ".so"))
 
 
-def compile_binding(source: Path) -> Path:
-    """Compile the CPython binding ``source`` into an extension module (it reaches the kernels through
-    function addresses from the loaded library, so it does not link to it)."""
+def compile_binding(source: Path, module: str | None = None) -> Path:
+    """Compile the CPython binding ``source`` into the extension module ``module`` (default: the
+    source's stem) beside it, its name given to the source as ``-DGAGEN_MODULE=<module>``. The binding
+    reaches the kernels through function addresses from the loaded library, so it does not link to it."""
+    module = module or source.stem
     include = Path(sysconfig.get_paths()["include"])
     if not (include / "Python.h").is_file():
         raise CompileError(f"no Python.h in {include} (install the Python development headers)")
     import numpy  # the binding uses numpy's C API (headers only; the API table is imported at load)
 
-    target = extension_path(source.parent, source.stem)
+    target = extension_path(source.parent, module)
     partial = target.with_name(target.name + f".{os.getpid()}.{threading.get_ident()}.partial")
     command = [*find_compiler(), "-std=c99", "-O2", "-fPIC", "-shared", f"-I{include}",
-               f"-I{numpy.get_include()}", f"-I{source.parent}", "-o", str(partial), str(source)]
+               f"-I{numpy.get_include()}", f"-I{source.parent}", f"-DGAGEN_MODULE={module}", "-o",
+               str(partial), str(source)]
     result = subprocess.run(command, capture_output=True, text=True)
     if result.returncode != 0:
         partial.unlink(missing_ok=True)

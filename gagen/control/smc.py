@@ -16,7 +16,7 @@ pseudo-inverse must be damped.
 Controller [SMC Eq. 32-40]: ẋ = J u + λ, s = x − x_ref, u = −J⁺ K tanh(ε s) with the sign function
 replaced by tanh (Eq. 39-40) and J⁺ = Jᵀ(J Jᵀ + λ_d² I)⁻¹ the damped pseudo-inverse, solved in the
 step kernel by an explicit LDLᵀ factorisation of the 6 × 6 J Jᵀ + λ_d² I (positive definite for
-λ_d > 0), unrolled in CasADi SX. K = diag(k_1 … k_6) is in task space as in Eq. 36 (the paper's
+λ_d > 0), unrolled on plain scalars. K = diag(k_1 … k_6) is in task space as in Eq. 36 (the paper's
 K = diag{7.5, …} multiplies tanh(ε s); with equal gains K J⁺ = J⁺ K). Inside the boundary layer
 (tanh(ε s) ≈ ε s) the error obeys ṡ ≈ −K ε s − ẋ_ref + λ, so it settles at |s_i| ≲ (|ẋ_ref| + |λ|)/(k ε)
 (0.2 / (7.5 · 50) = 5.3e-4 for the paper's reference at the default ε = 50), after a transient in which
@@ -25,25 +25,29 @@ At the loop's rate the Euler-discretised boundary layer is stable for k ε dt < 
 
 Pieces:
 
-- ``smc_step_function``: the CasADi SX Function q, x_ref -> x, J, u;
-- ``write_step_c`` / ``build``: its C (``smc_step.c``/``.h`` through gagen's emitter), a shared library
-  and the real-time loop runner ``smc_loop`` (``smc_loop.c`` next to this module);
-- ``CompiledStep``: the shared library through ctypes; ``simulate``: the same loop in Python/numpy,
-  tick for tick identical to the C runner (the runner uses nominal tick times);
+- ``step_law`` / ``step_kernel``: the step as one function over the multivector protocol (pose and
+  Jacobian from ``kinematics``, the law on plain scalars, ``damped_solve``), declared as the
+  front-end kernel ``step`` (q, x_ref -> x, J, u): traced for the compiler, and the same function on
+  the reference interpreter is its reference; ``smc_step_function`` is its CasADi Function and
+  ``sx_step_function`` the step built directly in CasADi SX (the earlier construction, kept as the
+  op-count baseline);
+- ``build``: the module ``smc`` (``smc.h``/``smc.c`` with ``smc_step``, library, CPython binding)
+  through ``gagen.build.build_source``, as every module is built, and the real-time loop runner
+  ``smc_loop`` (``smc_loop.c`` next to this module, compiled with the module's C);
+- ``CompiledStep``: the compiled step from Python (``gagen.load(module).c.step``); ``simulate``: the
+  same loop in Python/numpy, tick for tick identical to the C runner (the runner uses nominal tick
+  times);
 - ``run_loop`` / ``bench_step``: run the C loop at a fixed rate, or the step in a tight loop;
 - ``read_log`` / ``plot_run``: the per-tick CSV and plots like the paper's Figs. 6-8.
 """
 
 from __future__ import annotations
 
-import ctypes
 import hashlib
 import json
 import math
 import os
-import shutil
 import subprocess
-import tempfile
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -55,14 +59,21 @@ from numpy.typing import ArrayLike, NDArray
 
 from gagen.algebra.multivector import SparseMultivector
 from gagen.algebra.signature import cga3d
-from gagen.codegen.c_emitter import emit_body
-from gagen.codegen.compiler import FLAGS, CompileError, compile_shared, find_compiler, library_name
+from gagen.codegen.backends.c import library as c_library
+from gagen.codegen.compiler import (
+    FLAGS,
+    CompileError,
+    find_compiler,
+    vector_math_defines,
+    vector_math_libraries,
+)
+from gagen.codegen.ir import ModuleSource
+from gagen.frontend import KernelFunction, cache_root, matrix, scalars, source_of
 from gagen.kernels import TOOL_LINE
 from gagen.model import kinematics as kin
 from gagen.model.conformal import EUCLID, point
 from gagen.model.kinematics import Joint
 from gagen.symbolic.casadi_backend import CasadiBackend
-from gagen.symbolic.flatten import casadi_op_count
 
 POSE = ("px", "py", "pz", "dx", "dy", "dz")
 """The pose coordinates: end point position, then the tool line's direction."""
@@ -73,7 +84,8 @@ PANDA_Q0 = (2.5, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785)
 """Default start for the 7-DOF Panda: its ``ready`` pose with joint 1 turned to 2.5 rad (within its
 ±2.8973 limit), facing the paper's reference, which lies behind the base at azimuth 143°."""
 LOOP_SOURCE = Path(__file__).with_name("smc_loop.c")
-STEP_NAME = "smc_step"
+MODULE = "smc"  # the generated module: smc.h / smc.c
+KERNEL = "step"  # its one kernel: the C function smc_step
 
 
 # -- the reference trajectory [SMC Eq. 43] -----------------------------------------------------------
@@ -88,67 +100,84 @@ def reference_rate(t: float) -> NDArray[np.float64]:
     return np.array([-0.2 * math.sin(2.0 * t), 0.0, 0.0, 0.0, 0.0, 0.0])
 
 
-# -- the symbolic step -------------------------------------------------------------------------------
-def _direction(line: Any, native: Callable[[Any], Any]) -> list[Any]:
+# -- the step, on both paths -------------------------------------------------------------------------
+def _direction(line: Any) -> list[Any]:
     """Direction n of a line bivector n3 e12 − n2 e13 + n1 e23 + moment."""
-    return [native(line["e23"]), -native(line["e13"]), native(line["e12"])]
+    return [line["e23"], -line["e13"], line["e12"]]
+
+
+def pose_and_jacobian_of(ga: Any, joints: Sequence[Joint],
+                         q: Sequence[Any]) -> tuple[list[Any], list[list[Any]]]:
+    """(x, J) on any path (``ga``: the zero multivector of the interpreter's or the compiler's path):
+    the pose [x_p; d] (6 scalars) and its Jacobian as n columns of 6 scalars, from the joint lines
+    [SMC Eq. 17-20]."""
+    motor, lines, position = kin.chain_pose(ga, joints, q)
+    point_columns = kin.point_jacobian(motor, lines, point(position))  # P × L'_j  (Eq. 18)
+    tool = ga.make({TOOL_LINE: 1})
+    line_columns = kin.line_jacobian(motor, lines, tool)  # α_j = ½(L'_p L'_j − L'_j L'_p)  (Eq. 20)
+    x = [position[b] for b in EUCLID] + _direction(motor.sandwich(tool))
+    J = [[p[b] for b in EUCLID] + _direction(a) for p, a in zip(point_columns, line_columns, strict=True)]
+    return x, J
 
 
 def pose_and_jacobian(joints: Sequence[Joint], q: ca.SX) -> tuple[ca.SX, ca.SX]:
-    """(x, J) on CasADi symbols: the pose [x_p; d] (6) and its Jacobian (6 × n) from the joint lines
-    [SMC Eq. 17-20]."""
+    """(x, J) on CasADi symbols: the pose (6) and its Jacobian (6 × n), as gagen built them before the
+    front-end kernel (each coefficient made one SX node, the signs taken in SX): the baseline of
+    ``sx_step_function``."""
     backend = CasadiBackend()
     zero = SparseMultivector(cga3d(), backend, {})
-    n = q.numel()
-    motor, lines, position = kin.chain_pose(zero, joints, [backend.lift(q[i]) for i in range(n)])
-    point_columns = kin.point_jacobian(motor, lines, point(position))  # P × L'_j  (Eq. 18)
+    motor, lines, position = kin.chain_pose(zero, joints, [backend.lift(q[i]) for i in range(q.numel())])
+    point_columns = kin.point_jacobian(motor, lines, point(position))
     tool = zero.make({TOOL_LINE: 1})
-    line_columns = kin.line_jacobian(motor, lines, tool)  # α_j = ½(L'_p L'_j − L'_j L'_p)  (Eq. 20)
+    line_columns = kin.line_jacobian(motor, lines, tool)
     native = backend.native
-    x = ca.vertcat(*[native(position[b]) for b in EUCLID], *_direction(motor.sandwich(tool), native))
-    J = ca.horzcat(*[ca.vertcat(*[native(p[b]) for b in EUCLID], *_direction(a, native))
+
+    def direction(line: Any) -> list[ca.SX]:
+        return [native(line["e23"]), -native(line["e13"]), native(line["e12"])]
+
+    x = ca.vertcat(*[native(position[b]) for b in EUCLID], *direction(motor.sandwich(tool)))
+    J = ca.horzcat(*[ca.vertcat(*[native(p[b]) for b in EUCLID], *direction(a))
                      for p, a in zip(point_columns, line_columns, strict=True)])
     return x, J
 
 
-def _sum(terms: Sequence[ca.SX]) -> ca.SX:
+def _sum(terms: Sequence[Any]) -> Any:
     total = terms[0]
     for t in terms[1:]:
         total = total + t
     return total
 
 
-def damped_solve(J: ca.SX, r: ca.SX, damping: float) -> ca.SX:
-    """w = (J Jᵀ + λ_d² I)⁻¹ r on SX by an unrolled LDLᵀ factorisation (no pivoting: the matrix is
-    symmetric positive definite for λ_d > 0, its eigenvalues ≥ λ_d²; no square roots). Only the upper
-    triangle of J Jᵀ is formed."""
+def damped_solve(J: Sequence[Sequence[Any]], r: Sequence[Any], damping: float) -> list[Any]:
+    """w = (J Jᵀ + λ_d² I)⁻¹ r by an unrolled LDLᵀ factorisation (no pivoting: the matrix is symmetric
+    positive definite for λ_d > 0, its eigenvalues ≥ λ_d²; no square roots), on plain scalars: floats,
+    the compiler's symbolic scalars or CasADi SX elements. ``J``: k rows of n (``J[i][m]``); ``r``: k.
+    Only the upper triangle of J Jᵀ is formed, and each pivot divides (L_ij = C_ij / D_j, z = y / D)."""
     if not damping > 0:
         raise ValueError(f"damping must be > 0 (J Jᵀ of a pose with a unit direction is singular), "
                          f"got {damping}")
-    k, n = J.shape
-    rows = [[J[i, m] for m in range(n)] for i in range(k)]
-    A = [[None] * k for _ in range(k)]
+    k, n = len(J), len(J[0])
+    A: list[list[Any]] = [[None] * k for _ in range(k)]
     for i in range(k):
         for j in range(i, k):
-            A[i][j] = _sum([rows[i][m] * rows[j][m] for m in range(n)])
+            A[i][j] = _sum([J[i][m] * J[j][m] for m in range(n)])
         A[i][i] = A[i][i] + damping * damping
     L: list[list[Any]] = [[None] * k for _ in range(k)]
     C: list[list[Any]] = [[None] * k for _ in range(k)]  # C_ij = L_ij D_j
-    inverse = [None] * k
+    D: list[Any] = [None] * k
     for j in range(k):
-        d = A[j][j] - _sum([C[j][m] * L[j][m] for m in range(j)]) if j else A[j][j]
-        inverse[j] = 1 / d
+        D[j] = A[j][j] - _sum([C[j][m] * L[j][m] for m in range(j)]) if j else A[j][j]
         for i in range(j + 1, k):
             C[i][j] = A[j][i] - _sum([C[i][m] * L[j][m] for m in range(j)]) if j else A[j][i]
-            L[i][j] = C[i][j] * inverse[j]
+            L[i][j] = C[i][j] / D[j]
     y: list[Any] = [None] * k
     for i in range(k):
         y[i] = r[i] - _sum([L[i][m] * y[m] for m in range(i)]) if i else r[i]
     w: list[Any] = [None] * k
     for i in reversed(range(k)):
-        z = y[i] * inverse[i]
+        z = y[i] / D[i]
         w[i] = z - _sum([L[m][i] * w[m] for m in range(i + 1, k)]) if i < k - 1 else z
-    return ca.vertcat(*w)
+    return w
 
 
 def _gains(K: float | Sequence[float], k: int) -> list[float]:
@@ -158,29 +187,93 @@ def _gains(K: float | Sequence[float], k: int) -> list[float]:
     return gains
 
 
-def smc_step_function(joints: Sequence[Joint], *, K: float | Sequence[float] = GAIN, epsilon: float = EPSILON,
-                      damping: float = DAMPING) -> ca.Function:
-    """The sliding-mode step as a CasADi SX Function ``smc_step``: (q[n], x_ref[6]) -> (x[6], J[6×n], u[n])
-    with x the pose, J its Jacobian [SMC Eq. 17-20] and u = −J⁺ K tanh(ε (x − x_ref)) [Eq. 35, 40],
-    J⁺ = Jᵀ(J Jᵀ + λ_d² I)⁻¹ (λ_d = ``damping``). ``K``: a scalar or 6 task-space gains."""
-    if not epsilon > 0:
+def _checked(K: float | Sequence[float], epsilon: float, damping: float) -> list[float]:
+    if not (math.isfinite(float(epsilon)) and epsilon > 0):
         raise ValueError(f"epsilon must be > 0, got {epsilon}")
-    n = len(kin.chain_variables(joints))  # mimic joints follow their leader: no entry of their own
-    q = ca.SX.sym("q", n)
+    if not (math.isfinite(float(damping)) and damping > 0):
+        raise ValueError(f"damping must be > 0 (J Jᵀ of a pose with a unit direction is singular), "
+                         f"got {damping}")
+    return _gains(K, len(POSE))
+
+
+def step_law(joints: Sequence[Joint], gains: Sequence[float], epsilon: float,
+             damping: float) -> Callable[[Any, Sequence[Any], Sequence[Any]], dict[str, Any]]:
+    """The step as one function over the multivector protocol, ``step(ga, q, x_ref) -> {x, J, u}``: the
+    pose and Jacobian (``pose_and_jacobian_of``), r = K tanh(ε (x − x_ref)) [Eq. 40] and
+    u = −Jᵀ (J Jᵀ + λ_d² I)⁻¹ r [Eq. 35]. It runs on the reference interpreter (floats) and on the
+    compiler's path (symbolic scalars) alike."""
+    joints = tuple(joints)
+
+    def step(ga: Any, q: Sequence[Any], x_ref: Sequence[Any]) -> dict[str, Any]:
+        x, J = pose_and_jacobian_of(ga, joints, q)
+        # each pose and Jacobian entry is one value, reused by the solve (on the compiler's path, one
+        # node each, as the outputs have them: cheaper than expanding their sums into every product)
+        shared = ga.math.shared
+        x = [shared(v) for v in x]
+        J = [[shared(v) for v in column] for column in J]
+        r = [g * ga.math.tanh(epsilon * (xi - ri)) for g, xi, ri in zip(gains, x, x_ref, strict=True)]
+        w = damped_solve([[column[i] for column in J] for i in range(len(POSE))], r, damping)
+        u = [-_sum([column[i] * w[i] for i in range(len(POSE))]) for column in J]
+        return {"x": x, "J": J, "u": u}
+
+    return step
+
+
+def step_kernel(joints: Sequence[Joint] | None = None, *, K: float | Sequence[float] = GAIN,
+                epsilon: float = EPSILON, damping: float = DAMPING) -> KernelFunction:
+    """The sliding-mode step as a front-end kernel ``step`` over cga3d: (q[n], x_ref[6]) -> (x[6],
+    J[6×n], u[n]) with x the pose, J its Jacobian [SMC Eq. 17-20] and u = −J⁺ K tanh(ε (x − x_ref))
+    [Eq. 35, 40], J⁺ = Jᵀ(J Jᵀ + λ_d² I)⁻¹ (λ_d = ``damping``). ``K``: a scalar or 6 task-space gains.
+    Its function (``step_law``) is also its reference on the interpreter. ``joints``: default the
+    bundled Panda (``panda_point``'s arm)."""
+    joints = tuple(joints) if joints is not None else _panda_joints()
+    gains = _checked(K, epsilon, damping)
+    variables = tuple(kin.chain_variables(joints))  # mimic joints follow their leader: no entry of their own
+    n = len(variables)
+
+    def sample(rng: np.random.Generator) -> list[np.ndarray]:
+        return [rng.uniform(-2.5, 2.5, n), reference(rng.uniform(0.0, math.pi))]
+
+    return KernelFunction(
+        step_law(joints, gains, float(epsilon), float(damping)), algebra=cga3d(), name=KERNEL,
+        doc="sliding-mode pose tracking step [SMC Eq. 17-20, 35, 40]: pose x, its Jacobian J and "
+            "u = -J+ K tanh(eps (x - x_ref))",
+        inputs={"ga": "algebra", "q": scalars(n, variables), "x_ref": scalars(len(POSE), POSE)},
+        outputs={"x": scalars(len(POSE), POSE), "J": matrix(scalars(len(POSE), POSE), n),
+                 "u": scalars(n, variables)},
+        sample=sample)
+
+
+def smc_step_function(joints: Sequence[Joint] | None = None, *, K: float | Sequence[float] = GAIN,
+                      epsilon: float = EPSILON, damping: float = DAMPING) -> ca.Function:
+    """The compiled step's CasADi SX Function (``step_kernel(...).trace().function``):
+    (q[n], x_ref[6]) -> (x[6], J[6×n], u[n])."""
+    return step_kernel(joints, K=K, epsilon=epsilon, damping=damping).trace().function
+
+
+def sx_step_function(joints: Sequence[Joint] | None = None, *, K: float | Sequence[float] = GAIN,
+                     epsilon: float = EPSILON, damping: float = DAMPING) -> ca.Function:
+    """The step built directly in CasADi SX, as gagen did before the front-end kernel: the pose and
+    Jacobian as SX, then the law in SX operations. Kept as a cross-check and as the op-count baseline
+    the kernel must not exceed."""
+    joints = tuple(joints) if joints is not None else _panda_joints()
+    gains = _checked(K, epsilon, damping)
+    q = ca.SX.sym("q", len(kin.chain_variables(joints)))
     x_ref = ca.SX.sym("x_ref", len(POSE))
     x, J = pose_and_jacobian(joints, q)
-    gains = _gains(K, len(POSE))
     r = ca.vertcat(*[gains[i] * ca.tanh(epsilon * (x[i] - x_ref[i])) for i in range(len(POSE))])
-    u = -ca.mtimes(J.T, damped_solve(J, r, damping))
-    outputs = ca.cse([x, J, u])
-    return ca.Function(STEP_NAME, [q, x_ref], outputs, ["q", "x_ref"], ["x", "J", "u"])
+    rows = [[J[i, m] for m in range(J.shape[1])] for i in range(len(POSE))]
+    w = damped_solve(rows, [r[i] for i in range(len(POSE))], damping)
+    u = -ca.mtimes(J.T, ca.vertcat(*w))
+    return ca.Function("smc_step_sx", [q, x_ref], ca.cse([x, J, u]), ["q", "x_ref"], ["x", "J", "u"])
 
 
-# -- C ---------------------------------------------------------------------------------------------
+# -- C: the module and the runner --------------------------------------------------------------------
 @dataclass(frozen=True)
 class SmcBuild:
-    """A built step: the folder, its C files, the shared library and the loop runner, and the
-    parameters (``meta``: n, k, K, epsilon, damping, q0, op count)."""
+    """A built step: the folder, the generated module (``module``: ``smc.h``/``smc.c`` with
+    ``smc_step``, its library and CPython binding, built by ``gagen.build.build_source``), the loop
+    runner, and the parameters (``meta``: n, k, K, epsilon, damping, q0, op count)."""
 
     folder: Path
     source: Path
@@ -188,87 +281,14 @@ class SmcBuild:
     library: Path
     runner: Path
     meta: dict[str, Any] = field(default_factory=dict)
+    module: Path | None = None
 
     @property
     def q0(self) -> NDArray[np.float64]:
         return np.array(self.meta["q0"], dtype=float)
 
     def step(self) -> CompiledStep:
-        return CompiledStep(self.library, self.meta["n"], self.meta["k"])
-
-
-def _atomic_write(path: Path, text: str) -> None:
-    partial = path.with_name(path.name + f".{os.getpid()}.partial")
-    partial.write_text(text)
-    partial.replace(path)
-
-
-def _c_array(values: Sequence[float]) -> str:
-    return "{" + ", ".join(repr(float(v)) for v in values) + "}"
-
-
-def write_step_c(function: ca.Function, folder: str | Path, *, q0: Sequence[float] | None = None,
-                 compile: bool = True, meta: dict[str, Any] | None = None) -> SmcBuild:
-    """Emit ``smc_step.c``/``smc_step.h`` for ``function`` (from ``smc_step_function``) with gagen's
-    emitter: ``void smc_step(const double *q, const double *x_ref, double *x, double *J, double *u)``
-    (J dense column-major, 6 × n). With ``compile``: the shared library ``libsmc_step.so`` and the
-    loop runner ``smc_loop`` (gagen's compiler flags, so both give CasADi's doubles).
-    ``q0``: the runner's default start (the Panda's ``PANDA_Q0`` for 7 joints)."""
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    n, k = function.numel_in(0), function.numel_in(1)
-    if function.name_in() != ["q", "x_ref"] or function.name_out() != ["x", "J", "u"]:
-        raise ValueError("write_step_c needs a smc_step_function: inputs (q, x_ref), outputs (x, J, u)")
-    if q0 is None:
-        q0 = PANDA_Q0 if n == len(PANDA_Q0) else (0.0,) * n
-    if len(q0) != n:
-        raise ValueError(f"q0 needs {n} joint values, got {len(q0)}")
-    ops = casadi_op_count(function)
-    body = emit_body(function, ["q", "x_ref"], ["x", "J", "u"])
-    declarations = [f"  double {', '.join(body.locals[i:i + 16])};" for i in range(0, len(body.locals), 16)]
-    signature = "void smc_step(const double *q, const double *x_ref, double *x, double *J, double *u)"
-    header = "\n".join([
-        "/* smc_step.h: sliding-mode pose tracking step [SMC Eq. 17-20, 35, 40], generated by",
-        " * gagen.control.smc. Do not edit.",
-        " *   in  q[N]       joint values",
-        f" *   in  x_ref[K]   reference pose ({', '.join(POSE)})",
-        " *   out x[K]       pose: end point position, tool z-axis direction",
-        " *   out J[K*N]     its Jacobian, dense column-major",
-        " *   out u[N]       joint velocities u = -J+ K tanh(eps (x - x_ref)), J+ = J^T (J J^T + l^2 I)^-1",
-        f" * Operation counts: {ops}",
-        " */",
-        "#ifndef SMC_STEP_H", "#define SMC_STEP_H",
-        f"#define SMC_STEP_N {n}", f"#define SMC_STEP_K {k}", f"#define SMC_STEP_Q0 {_c_array(q0)}",
-        f"{signature};", "#endif", ""])
-    source = "\n".join([
-        "/* smc_step.c: generated by gagen.control.smc (one C statement per CasADi instruction). */",
-        "#include <math.h>", "", '#include "smc_step.h"', "",
-        f"{signature} {{", *declarations, *[f"  {s}" for s in body.statements], "}", ""])
-    paths = {"header": folder / "smc_step.h", "source": folder / "smc_step.c",
-             "library": folder / library_name(STEP_NAME), "runner": folder / "smc_loop"}
-    _atomic_write(paths["header"], header)
-    _atomic_write(paths["source"], source)
-    info = {**(meta or {}), "n": n, "k": k, "q0": [float(v) for v in q0], "op_count": str(ops),
-            "flops": ops.flops, "calls": ops.calls}
-    _atomic_write(folder / "smc_step.json", json.dumps(info, indent=1))
-    if compile:
-        compile_shared(paths["source"], paths["library"])
-        _compile_runner(folder, paths["source"], paths["runner"])
-    return SmcBuild(folder, paths["source"], paths["header"], paths["library"], paths["runner"], info)
-
-
-def _compile_runner(folder: Path, step_source: Path, runner: Path) -> None:
-    loop = folder / "smc_loop.c"
-    shutil.copyfile(LOOP_SOURCE, loop)
-    flags = [f for f in FLAGS if f not in ("-shared", "-fPIC")]
-    partial = runner.with_name(runner.name + f".{os.getpid()}.partial")
-    command = [*find_compiler(), *flags, f"-I{folder}", "-o", str(partial), str(loop), str(step_source),
-               "-lm"]
-    result = subprocess.run(command, capture_output=True, text=True)
-    if result.returncode != 0:
-        partial.unlink(missing_ok=True)
-        raise CompileError(f"{' '.join(command)} failed:\n{result.stderr.strip()}")
-    partial.replace(runner)
+        return CompiledStep(self.module or self.source.parent)
 
 
 def _panda_joints() -> tuple[Joint, ...]:
@@ -277,61 +297,110 @@ def _panda_joints() -> tuple[Joint, ...]:
     return tuple(bundled_systems()["panda_point"].chains[0].joints)
 
 
-def _sources_digest() -> str:
-    """Digest of the code the step is generated from (model, algebra, symbolic, emitter), so a cached
-    build is not reused after any of it changes."""
-    root = Path(__file__).resolve().parents[1]
-    digest = hashlib.sha256()
-    for package in ("algebra", "model", "symbolic", "codegen"):
-        for path in sorted((root / package).glob("*.py")):
-            digest.update(path.name.encode() + path.read_bytes())
-    return digest.hexdigest()
+def step_source(joints: Sequence[Joint] | None = None, *, K: float | Sequence[float] = GAIN,
+                epsilon: float = EPSILON, damping: float = DAMPING) -> ModuleSource:
+    """The module ``smc`` of the one kernel ``step`` (C function ``smc_step``), for
+    ``gagen.build.build_source``; its manifest records the parameters under ``"smc"``."""
+    joints = tuple(joints) if joints is not None else _panda_joints()
+    kernel = step_kernel(joints, K=K, epsilon=epsilon, damping=damping)
+    params = {"joints": [j.name for j in joints], "K": _gains(K, len(POSE)), "epsilon": float(epsilon),
+              "damping": float(damping)}
+    source = source_of([kernel], MODULE, "gagen.control.smc",
+                       json.dumps([repr(joints), params]).encode(), "gagen smc")
+    source.title = "sliding-mode pose tracking step [SMC Eq. 17-20, 35, 40]"
+    source.meta["smc"] = params
+    return source
+
+
+def _start(q0: Sequence[float] | None, n: int) -> list[float]:
+    if q0 is None:
+        q0 = PANDA_Q0 if n == len(PANDA_Q0) else (0.0,) * n
+    values = [float(v) for v in q0]
+    if len(values) != n:
+        raise ValueError(f"q0 needs {n} joint values, got {len(values)}")
+    if not all(math.isfinite(v) for v in values):
+        raise ValueError(f"q0 must be finite, got {values}")
+    return values
+
+
+def _compile_runner(module: Path, manifest: dict[str, Any], q0: Sequence[float], runner: Path) -> None:
+    """``smc_loop.c`` with the module's C (``smc.c`` and its SIMD companion) into the executable
+    ``runner`` (gagen's compiler flags, so the step gives the library's doubles); the start q0 comes
+    as ``-DSMC_LOOP_Q0=a,b,…`` (finite doubles, Python's repr: numbers only)."""
+    c_source = module / manifest["c_source"]
+    units = [LOOP_SOURCE, c_source]
+    simd = c_source.with_name(f"{c_source.stem}_simd.c")
+    if simd.is_file():
+        units.append(simd)
+    flags = [f for f in FLAGS if f not in ("-shared", "-fPIC")]
+    partial = runner.with_name(runner.name + f".{os.getpid()}.partial")
+    command = [*find_compiler(), *flags, *vector_math_defines(), f"-I{module}",
+               f"-DSMC_LOOP_Q0={','.join(map(repr, q0))}",
+               "-o", str(partial), *map(str, units), *vector_math_libraries(), "-lm"]
+    result = subprocess.run(command, capture_output=True, text=True)
+    if result.returncode != 0:
+        partial.unlink(missing_ok=True)
+        raise CompileError(f"{' '.join(command)} failed:\n{result.stderr.strip()}")
+    partial.replace(runner)
 
 
 def build(joints: Sequence[Joint] | None = None, *, K: float | Sequence[float] = GAIN,
           epsilon: float = EPSILON, damping: float = DAMPING, q0: Sequence[float] | None = None,
-          folder: str | Path | None = None) -> SmcBuild:
-    """Build (or reuse) the step and the runner for ``joints`` (default: the bundled Panda,
-    ``panda_point``'s arm). Without ``folder`` the build is cached in the temporary directory under a
-    key of the joints, the parameters and the sources."""
-    joints = tuple(joints) if joints is not None else _panda_joints()
-    params = {"K": K if np.isscalar(K) else list(K), "epsilon": epsilon, "damping": damping}
-    key = hashlib.sha256(json.dumps(
-        [repr(joints), params, None if q0 is None else list(q0), LOOP_SOURCE.read_text(),
-         Path(__file__).read_text(), _sources_digest(), list(FLAGS), find_compiler()],
-        default=str).encode()).hexdigest()[:16]
-    target = Path(folder) if folder is not None else Path(tempfile.gettempdir()) / "gagen-smc" / key
-    meta_path = target / "smc_step.json"
-    if folder is None and meta_path.is_file() and (target / "smc_loop").is_file() \
-            and (target / library_name(STEP_NAME)).is_file():
-        meta = json.loads(meta_path.read_text())
-        return SmcBuild(target, target / "smc_step.c", target / "smc_step.h",
-                        target / library_name(STEP_NAME), target / "smc_loop", meta)
-    function = smc_step_function(joints, K=K, epsilon=epsilon, damping=damping)
-    return write_step_c(function, target, q0=q0, meta={**params, "key": key})
+          folder: str | Path | None = None, force: bool = False,
+          progress: Callable[[str], None] | None = None) -> SmcBuild:
+    """Build (or reuse) the step module and the loop runner for ``joints`` (default: the bundled Panda,
+    ``panda_point``'s arm) in ``folder``: the module ``smc/`` through ``gagen.build.build_source`` (its
+    cache: rebuilt only when out of date) and the executable ``smc_loop`` beside it. Without ``folder``:
+    ``gagen.frontend.cache_root() / "smc-<key>"``, keyed by the kernel's content, the start q0 and the
+    loop's source; the runner is compiled when the module was (re)built or it is missing (and always
+    with ``force`` or in a ``folder`` given here, which no key names). ``q0``: the runner's default
+    start (the Panda's ``PANDA_Q0`` for 7 joints, else zeros)."""
+    from gagen.build import build_source
+
+    find_compiler()  # CompilerNotFound before anything is built: the runner needs the compiler
+    source = step_source(joints, K=K, epsilon=epsilon, damping=damping)
+    kernel = source.kernels[KERNEL]
+    n, k = kernel.inputs[0].size, kernel.inputs[1].size
+    start = _start(q0, n)
+    key = hashlib.sha256(json.dumps([source.key, source.source_hash, start,
+                                     hashlib.sha256(LOOP_SOURCE.read_bytes()).hexdigest()]).encode())
+    root = Path(folder) if folder is not None else cache_root() / f"smc-{key.hexdigest()[:16]}"
+    root.mkdir(parents=True, exist_ok=True)
+    module, runner = root / MODULE, root / "smc_loop"
+    result = build_source(source, module, force=force, compile_c=True, progress=progress or (lambda _: None))
+    manifest = json.loads((result.folder / "manifest.json").read_text())
+    if not result.compiled:
+        raise CompileError(f"the step module in {result.folder} was written but not compiled")
+    if force or folder is not None or not result.cached or not runner.is_file():
+        _compile_runner(result.folder, manifest, start, runner)
+    ops = kernel.op_count
+    meta = {**source.meta["smc"], "n": n, "k": k, "q0": start, "op_count": str(ops), "flops": ops.flops,
+            "calls": ops.calls, "key": key.hexdigest()[:16]}
+    return SmcBuild(root, result.folder / manifest["c_source"], result.folder / manifest["c_header"],
+                    result.folder / c_library(manifest), runner, meta, result.folder)
 
 
 # -- the step from Python --------------------------------------------------------------------------
 class CompiledStep:
-    """The compiled ``smc_step`` through ctypes: ``step(q, x_ref) -> (x, J (k × n), u)`` (fresh arrays)."""
+    """The compiled ``smc_step`` of a built module (``gagen.load(module).c.step``, the CPython
+    binding): ``step(q, x_ref) -> (x, J (k × n), u)`` (fresh arrays)."""
 
-    def __init__(self, library: str | Path, n: int, k: int = len(POSE)) -> None:
-        self.library = ctypes.CDLL(str(library))
-        self.n, self.k = n, k
-        self._f = self.library.smc_step
-        pointer = ctypes.POINTER(ctypes.c_double)
-        self._f.argtypes = [pointer] * 5
-        self._f.restype = None
+    def __init__(self, module: str | Path) -> None:
+        import gagen
+
+        self.module = gagen.load(module)
+        self._f = self.module.c.step
+        entry = self.module.entry(KERNEL)
+        self.n = len(entry["inputs"][0]["rows"])
+        self.k = len(entry["inputs"][1]["rows"])
 
     def __call__(self, q: ArrayLike, x_ref: ArrayLike) -> tuple[NDArray, NDArray, NDArray]:
-        q = np.ascontiguousarray(q, dtype=np.float64)
-        x_ref = np.ascontiguousarray(x_ref, dtype=np.float64)
+        q = np.asarray(q, dtype=np.float64)
+        x_ref = np.asarray(x_ref, dtype=np.float64)
         if q.shape != (self.n,) or x_ref.shape != (self.k,):
             raise ValueError(f"smc_step takes q[{self.n}] and x_ref[{self.k}], got {q.shape}, {x_ref.shape}")
-        x, J, u = np.empty(self.k), np.empty(self.k * self.n), np.empty(self.n)
-        ptr = ctypes.POINTER(ctypes.c_double)
-        self._f(*(a.ctypes.data_as(ptr) for a in (q, x_ref, x, J, u)))
-        return x, J.reshape((self.n, self.k)).T.copy(), u
+        x, J, u = self._f(q, x_ref)
+        return x, J, u
 
 
 def casadi_step(function: ca.Function) -> Callable[[ArrayLike, ArrayLike], tuple[NDArray, NDArray, NDArray]]:
@@ -591,6 +660,8 @@ __all__ = [
     "DAMPING",
     "EPSILON",
     "GAIN",
+    "KERNEL",
+    "MODULE",
     "PANDA_Q0",
     "POSE",
     "CompiledStep",
@@ -603,11 +674,15 @@ __all__ = [
     "damped_solve",
     "plot_run",
     "pose_and_jacobian",
+    "pose_and_jacobian_of",
     "read_log",
     "reference",
     "reference_rate",
     "run_loop",
     "simulate",
     "smc_step_function",
-    "write_step_c",
+    "step_kernel",
+    "step_law",
+    "step_source",
+    "sx_step_function",
 ]

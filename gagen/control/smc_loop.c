@@ -1,5 +1,7 @@
 /* smc_loop.c: the fixed-rate loop of the sliding-mode pose tracker [SMC V-VI], around the generated
- * step kernel smc_step() (smc_step.h, written by gagen.control.smc.write_step_c).
+ * step kernel smc_step() of the module smc (smc.h / smc.c, built by gagen.control.smc.build through
+ * gagen's build pipeline). Compiled with the module's C and -DSMC_LOOP_Q0=a,b,... (the default start,
+ * one number per joint).
  *
  * Every tick k (nominal time t_k = k dt, dt = 1 / rate):
  *   x_ref(t_k)                       the paper's reference [SMC Eq. 43]
@@ -32,19 +34,25 @@
 #include <sys/prctl.h>
 #endif
 
-#include "smc_step.h"
+#include "smc.h"
 
-#define N SMC_STEP_N /* joints */
-#define K SMC_STEP_K /* pose coordinates: point (3), line direction (3) */
+#define N SMC_STEP_Q_SIZE     /* joints */
+#define K SMC_STEP_X_REF_SIZE /* pose coordinates: point (3), line direction (3) */
 #if K != 6
 #error "the reference trajectory [SMC Eq. 43] is a 6-vector pose"
+#endif
+#if SMC_STEP_X_SIZE != K || SMC_STEP_U_SIZE != N || SMC_STEP_J_SIZE != K * N
+#error "smc_step: expected x[K], J[K*N], u[N]"
+#endif
+#ifndef SMC_LOOP_Q0
+#error "compile with -DSMC_LOOP_Q0=a,b,... (the start, one value per joint)"
 #endif
 
 /* per-tick log row: t, q[N], x[K], x_ref[K], u[N], position error, direction error, max |s|,
  * lateness, work */
 #define COLS (1 + N + K + K + N + 5)
 
-static const double Q0[N] = SMC_STEP_Q0;
+static const double Q0[N] = {SMC_LOOP_Q0};
 
 /* [SMC Eq. 43]: x_ref = [-0.3 + 0.1 cos 2t, 0.15, 0.25, 0, 1, 0] (point, then line direction) */
 static void reference(double t, double *xr) {

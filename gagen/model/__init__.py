@@ -1,4 +1,5 @@
-"""The geometric program: every formula of gagen written once against the multivector protocol.
+"""The geometric program: every formula of gagen written once against the multivector protocol
+(``gagen.algebra.protocol.Multivector``, the type of every multivector argument here).
 
 Run on ``gagen.interp.MultiVector`` it is the reference interpreter's path; run on
 ``gagen.algebra.SparseMultivector`` it flattens to CasADi SX. Modules: ``conformal`` (points,

@@ -8,6 +8,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+from gagen.algebra.protocol import Multivector
 from gagen.model.guarded import safe_reciprocal
 
 EUCLID = ("e1", "e2", "e3")
@@ -22,51 +23,51 @@ SIMILARITY = ("1", "e12", "e13", "e23", "e0inf", "e1inf", "e2inf", "e012inf", "e
               "e023inf", "e123inf")
 
 
-def part(x: Any, blades: Sequence[str]) -> Any:
+def part(x: Multivector, blades: Sequence[str]) -> Multivector:
     """The multivector made of x's coefficients on ``blades`` only."""
     return x.make({b: x[b] for b in blades})
 
 
-def e0(like: Any) -> Any:
+def e0(like: Multivector) -> Multivector:
     return like.make({"e0": 1})
 
 
-def einf(like: Any) -> Any:
+def einf(like: Multivector) -> Multivector:
     return like.make({"einf": 1})
 
 
-def vector(like: Any, xyz: Sequence[Any]) -> Any:
+def vector(like: Multivector, xyz: Sequence[Any]) -> Multivector:
     """Euclidean vector x1 e1 + x2 e2 + x3 e3."""
     return like.make(dict(zip(EUCLID, xyz, strict=True)))
 
 
-def point(x: Any) -> Any:
+def point(x: Multivector) -> Multivector:
     """P(x) = e0 + x + ½|x|² e∞ for a Euclidean vector x (a multivector on e1, e2, e3)."""
     return e0(x) + x + einf(x) * (0.5 * x.sp(x))
 
 
-def point_weight(p: Any) -> Any:
+def point_weight(p: Multivector) -> Any:
     """−P·e∞: 1 for a normalised point, the scale of a scaled one."""
     return -p.sp(einf(p))
 
 
-def location(p: Any) -> Any:
+def location(p: Multivector) -> Multivector:
     """Euclidean vector of a (possibly scaled) point: its e1, e2, e3 part divided by −P·e∞
     (guarded: a zero weight, from a degenerate construction, gives a finite result)."""
     return part(p, EUCLID) * safe_reciprocal(p.math, point_weight(p))
 
 
-def normalized_point(p: Any) -> Any:
+def normalized_point(p: Multivector) -> Multivector:
     """The point scaled so that −P·e∞ = 1 (guarded like ``location``)."""
     return p * safe_reciprocal(p.math, point_weight(p))
 
 
-def unit(v: Any) -> Any:
+def unit(v: Multivector) -> Multivector:
     """v / |v| for a Euclidean vector; a zero vector (degenerate input) stays zero, finite."""
     m = v.math
     return v * safe_reciprocal(m, m.sqrt(v.sp(v)))
 
 
-def norm2(x: Any) -> Any:
+def norm2(x: Multivector) -> Any:
     """Σ of squared coefficients (the Euclidean 2-norm² of the coefficient array) [COOP Eq. 9]."""
     return sum((x[m] * x[m] for m in range(x.algebra.size)), start=0)

@@ -27,6 +27,7 @@ from typing import Any
 
 import sympy
 
+from gagen.algebra.protocol import Multivector
 from gagen.model.conformal import e0, einf, vector
 from gagen.model.versors import exp_translator, translator
 from gagen.symbolic.backend import to_exact
@@ -87,7 +88,7 @@ def exact_angle(angle: float) -> sympy.Expr:
     return to_exact(angle)
 
 
-def _axis_rotor(like: Any, axis: int, angle: Any) -> Any:
+def _axis_rotor(like: Multivector, axis: int, angle: Any) -> Multivector:
     """Rotor about a basis axis (0, 1, 2 = x, y, z) by an exact or symbolic angle."""
     m = like.math
     c, s = m.cos(angle * sympy.Rational(1, 2)), m.sin(angle * sympy.Rational(1, 2))
@@ -99,7 +100,7 @@ def _axis_rotor(like: Any, axis: int, angle: Any) -> Any:
 _FIXED_MOTORS: dict[tuple, Any] = {}
 
 
-def fixed_motor(like: Any, joint: Joint) -> Any:
+def fixed_motor(like: Multivector, joint: Joint) -> Multivector:
     """The joint's fixed transform T(xyz) Rz(yaw) Ry(pitch) Rx(roll), with exact constants.
 
     Memoised per implementation, algebra and backend: it is a constant, and building it from the
@@ -112,14 +113,14 @@ def fixed_motor(like: Any, joint: Joint) -> Any:
     return _FIXED_MOTORS[key]
 
 
-def _fixed_motor(like: Any, joint: Joint) -> Any:
+def _fixed_motor(like: Multivector, joint: Joint) -> Multivector:
     return translator(vector(like, [to_exact(v) for v in joint.xyz])) * fixed_rotation(like, joint)
 
 
 _FIXED_ROTATIONS: dict[tuple, Any] = {}
 
 
-def fixed_rotation(like: Any, joint: Joint) -> Any:
+def fixed_rotation(like: Multivector, joint: Joint) -> Multivector:
     """The rotor of the joint's fixed rpy, Rz(yaw) Ry(pitch) Rx(roll), with exact constants (memoised)."""
     key = (type(like), like.algebra, getattr(like, "backend", None), joint.rpy)
     if key not in _FIXED_ROTATIONS:
@@ -131,7 +132,7 @@ def fixed_rotation(like: Any, joint: Joint) -> Any:
     return _FIXED_ROTATIONS[key]
 
 
-def _unscaled(rotation: Any) -> tuple[Any, Any]:
+def _unscaled(rotation: Multivector) -> tuple[Any, Any]:
     """(R~, s) with R = s R~ and s the common magnitude of R's nonzero coefficients, when they share
     one (quarter and half turns); (R, 1) otherwise."""
     magnitudes = {abs(rotation[b]) for b in ("1", "e12", "e13", "e23")} - {0}
@@ -141,7 +142,7 @@ def _unscaled(rotation: Any) -> tuple[Any, Any]:
     return (rotation, 1) if s == 1 else (rotation * (1 / s), s)
 
 
-def joint_motor(like: Any, joint: Joint, q: Any) -> Any:
+def joint_motor(like: Multivector, joint: Joint, q: Any) -> Multivector:
     """Motion of a joint by q: rotor about its axis, or translator along it."""
     n = [to_exact(a) for a in joint.axis]
     if joint.kind == "prismatic":
@@ -151,7 +152,7 @@ def joint_motor(like: Any, joint: Joint, q: Any) -> Any:
     return like.make({"1": c, "e12": -s * n[2], "e13": s * n[1], "e23": -s * n[0]})
 
 
-def joint_generator(like: Any, joint: Joint) -> Any:
+def joint_generator(like: Multivector, joint: Joint) -> Multivector:
     """The joint's unit generator B in its own frame, J(q) = e^{−qB/2}: n* for a revolute joint
     (n3 e12 − n2 e13 + n1 e23), n ∧ e∞ for a prismatic one."""
     n = [to_exact(a) for a in joint.axis]
@@ -235,7 +236,7 @@ def variable_columns(joints: Sequence[Joint], columns: Sequence[Any]) -> list[An
     return out
 
 
-def chain_kinematics(like: Any, joints: Sequence[Joint], q: Sequence[Any]) -> tuple[Any, list[Any]]:
+def chain_kinematics(like: Multivector, joints: Sequence[Joint], q: Sequence[Any]) -> tuple[Any, list[Any]]:
     """(V_M(q), [L'_1 … L'_n]): the FK motor and each moving joint's generator carried to the base
     frame by everything before the joint's motion, L'_i = A_i B_i A_i~ [SMC Eq. 17-20].
 
@@ -317,7 +318,7 @@ def chain_pose(like: Any, joints: Sequence[Joint], q: Sequence[Any], *,
     return motor, lines, position
 
 
-def _rotated_basis(like: Any, axis: Sequence[float], q: Any) -> list[Any]:
+def _rotated_basis(like: Multivector, axis: Sequence[float], q: Any) -> list[Multivector]:
     """The basis vectors turned by q about the unit axis n (link coordinates), by Rodrigues:
     R e_k = cos q e_k + sin q (n × e_k) + (1 − cos q) n_k n."""
     m = like.math
@@ -331,42 +332,44 @@ def _rotated_basis(like: Any, axis: Sequence[float], q: Any) -> list[Any]:
     return images
 
 
-def forward_kinematics(like: Any, joints: Sequence[Joint], q: Sequence[Any]) -> Any:
+def forward_kinematics(like: Multivector, joints: Sequence[Joint], q: Sequence[Any]) -> Multivector:
     """V_M(q) = Π_j F_j J_j(q_j) for a chain; q has one entry per moving joint."""
     return chain_kinematics(like, joints, q)[0]
 
 
-def spatial_jacobian(lines: Sequence[Any]) -> list[Any]:
+def spatial_jacobian(lines: Sequence[Multivector]) -> list[Multivector]:
     """−2 J_A V_M~, columns [e12, e13, e23, e1∞, e2∞, e3∞] = [ωz, −ωy, ωx, v] about the base origin."""
     return list(lines)
 
 
-def body_jacobian(motor: Any, lines: Sequence[Any]) -> list[Any]:
+def body_jacobian(motor: Multivector, lines: Sequence[Multivector]) -> list[Multivector]:
     """−2 V_M~ J_A [COOP Eq. 8]: the spatial columns seen from the end-effector frame."""
     inverse = ~motor
     return [inverse.sandwich(line) for line in lines]
 
 
-def analytic_jacobian(motor: Any, lines: Sequence[Any]) -> list[Any]:
+def analytic_jacobian(motor: Multivector, lines: Sequence[Multivector]) -> list[Multivector]:
     """J_A = ∂V_M/∂q, column i = −½ L'_i V_M."""
     return [(line * motor) * -0.5 for line in lines]
 
 
-def point_jacobian(motor: Any, lines: Sequence[Any], point: Any = None) -> list[Any]:
+def point_jacobian(motor: Multivector | None, lines: Sequence[Multivector],
+                   point: Multivector | None = None) -> list[Multivector]:
     """∂P/∂q_i for P = V_M e0 V_M~: ½(P L'_i − L'_i P), the commutator [COOP Eq. 17]. ``point`` may
     pass P when it is at hand (e.g. P(t) from :func:`chain_pose`)."""
     p = end_point(motor) if point is None else point
     return [p.commutator(line) for line in lines]
 
 
-def line_jacobian(motor: Any, lines: Sequence[Any], tool_line: Any) -> list[Any]:
+def line_jacobian(motor: Multivector, lines: Sequence[Multivector],
+                  tool_line: Multivector) -> list[Multivector]:
     """∂L'_p/∂q_i for a line (bivector) fixed in the tool, L'_p = V_M L_p V_M~:
     ½(L'_p L'_i − L'_i L'_p) [SMC Eq. 20]."""
     carried = motor.sandwich(tool_line)
     return [carried.commutator(line) for line in lines]
 
 
-def end_point(motor: Any) -> Any:
+def end_point(motor: Multivector) -> Multivector:
     """P(q) = V_M e0 V_M~ [COOP Eq. 17 context]."""
     return motor.sandwich(e0(motor))
 

@@ -9,6 +9,7 @@ from collections.abc import Sequence
 from functools import reduce
 from typing import Any
 
+from gagen.algebra.protocol import Multivector
 from gagen.model.conformal import EUCLID, einf, norm2, normalized_point, part, point, unit, vector
 
 KINDS = ("point", "point_pair", "line", "circle", "plane", "sphere")
@@ -25,7 +26,7 @@ def points_needed(kind: str) -> int:
     return _SPAN[check_kind(kind)][0]
 
 
-def through(kind: str, points: Sequence[Any]) -> Any:
+def through(kind: str, points: Sequence[Multivector]) -> Multivector:
     """The primitive of ``kind`` through the given conformal points (Table 1)."""
     count, closed = _SPAN[check_kind(kind)]
     if len(points) != count:
@@ -52,19 +53,19 @@ _UNIT_POINTS: dict[str, tuple[tuple[int, int, int], ...]] = {
 }
 
 
-def unit_primitive(kind: str, like: Any) -> Any:
+def unit_primitive(kind: str, like: Multivector) -> Multivector:
     """X_u: point e0; point pair P(−e1)∧P(e1); line through 0 along e1; unit circle in the e1e2
     plane (normal +e3); plane z = 0 (normal +e3); unit sphere at the origin. Exact constants."""
     return through(kind, [point(vector(like, xyz)) for xyz in _UNIT_POINTS[check_kind(kind)]])
 
 
 # -- queries ------------------------------------------------------------------------------------------
-def centre(x: Any) -> Any:
+def centre(x: Multivector) -> Multivector:
     """Centre of a round, normalised: X e∞ X (infinity reflected in X) [COOP Eq. 27]."""
     return normalized_point((x * einf(x) * x).grade(1))
 
 
-def radius_squared_parts(x: Any) -> tuple[Any, Any]:
+def radius_squared_parts(x: Multivector) -> tuple[Any, Any]:
     """(numerator, denominator) of r² = −⟨X X~⟩₀ / ⟨(e∞⌋X)(e∞⌋X)~⟩₀ for a round (OPNS).
 
     The denominator vanishes exactly for degenerate rounds (coincident, collinear or coplanar
@@ -74,38 +75,38 @@ def radius_squared_parts(x: Any) -> tuple[Any, Any]:
     return -x.norm_squared(), n.norm_squared()
 
 
-def radius_squared(x: Any) -> Any:
+def radius_squared(x: Multivector) -> Any:
     num, den = radius_squared_parts(x)
     return num / den
 
 
-def radius(x: Any) -> Any:
+def radius(x: Multivector) -> Any:
     return x.math.sqrt(radius_squared(x))
 
 
-def carrier_plane(x: Any) -> Any:
+def carrier_plane(x: Multivector) -> Multivector:
     """Plane of a circle (or line of a point pair): X ∧ e∞."""
     return x ^ einf(x)
 
 
-def unit_normal(circle: Any) -> Any:
+def unit_normal(circle: Multivector) -> Multivector:
     """Unit normal of a circle's carrier plane: the Euclidean part of (X ∧ e∞)* [COOP Eq. 25],
     oriented like (x2 − x1) × (x3 − x1) for the circle P1 ∧ P2 ∧ P3."""
     return -unit(part(carrier_plane(circle).dual(), EUCLID))
 
 
-def direction(line: Any) -> Any:
+def direction(line: Multivector) -> Multivector:
     """Unit direction of a line P1∧P2∧e∞, along x2 − x1: its e0∧d∧e∞ part. For a point pair,
     pass its carrier line ``carrier_plane(pp)``."""
     return unit(vector(line, [line[f"e0{k}inf"] for k in "123"]))
 
 
-def project_point(p: Any, x: Any) -> Any:
+def project_point(p: Multivector, x: Multivector) -> Multivector:
     """Projection of a point onto a primitive: (P·X) X⁻¹ [COOP Eq. 4] (a scaled point for flats)."""
     return (p | x) * x.inverse()
 
 
-def split_point_pair(pp: Any) -> tuple[Any, Any]:
+def split_point_pair(pp: Multivector) -> tuple[Any, Any]:
     """The two normalised points of a real point pair: (PP ∓ √(PP·PP)) / (−e∞·PP) [SMC Eq. 7]."""
     root = pp.math.sqrt(pp.sp(pp))
     v = -(einf(pp).lc(pp))
@@ -113,11 +114,11 @@ def split_point_pair(pp: Any) -> tuple[Any, Any]:
     return normalized_point((pp - root) * inv), normalized_point((pp + root) * inv)
 
 
-def contains_cost(x: Any, p: Any) -> Any:
+def contains_cost(x: Multivector, p: Multivector) -> Any:
     """‖X ∧ P‖²: zero exactly when the point P lies on X [COOP Eq. 3, 9]."""
     return norm2(x ^ p)
 
 
-def meet(x: Any, y: Any) -> Any:
+def meet(x: Multivector, y: Multivector) -> Multivector:
     """Intersection (X1* ∧ X2*)* [COOP Eq. 5]: the regressive product."""
     return x & y

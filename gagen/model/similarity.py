@@ -29,6 +29,7 @@ from __future__ import annotations
 
 from typing import Any, NamedTuple
 
+from gagen.algebra.protocol import Multivector
 from gagen.model.conformal import SIMILARITY, location
 from gagen.model.guarded import safe_reciprocal
 from gagen.model.primitives import (
@@ -68,7 +69,7 @@ class Factored(NamedTuple):
         return v.make({k: m.if_else(self.degenerate, 1.0 if k == "1" else 0.0, v[k]) for k in SIMILARITY})
 
 
-def similarity(kind: str, x1: Any, x2: Any) -> Versor:
+def similarity(kind: str, x1: Multivector, x2: Multivector) -> Versor:
     """V_S(X1, X2) and its conditioning (see the module docstring).
 
     When the spanning points are degenerate to below ``DEGENERATE_BELOW`` (the size part of the
@@ -79,7 +80,7 @@ def similarity(kind: str, x1: Any, x2: Any) -> Versor:
     return Versor(factored.versor(), factored.conditioning)
 
 
-def similarity_factors(kind: str, x1: Any, x2: Any) -> Factored:
+def similarity_factors(kind: str, x1: Multivector, x2: Multivector) -> Factored:
     """The factors of V_S(X1, X2), its conditioning and the degeneracy test (see ``similarity``).
 
     The factors let a Jacobian use the product rule at the group level (``gagen.kernels``):
@@ -90,7 +91,7 @@ def similarity_factors(kind: str, x1: Any, x2: Any) -> Factored:
     return Factored(factors, conditioning, m.lt(m.fabs(size), DEGENERATE_BELOW))
 
 
-def _similarity(kind: str, x1: Any, x2: Any) -> tuple[tuple[Any, ...], Any, Any]:
+def _similarity(kind: str, x1: Multivector, x2: Multivector) -> tuple[tuple[Any, ...], Any, Any]:
     """(factors, conditioning, size): size is the part of the conditioning that measures how
     degenerate the spanning points are, without the orientation factor."""
     m = x1.math
@@ -125,7 +126,7 @@ def _similarity(kind: str, x1: Any, x2: Any) -> tuple[tuple[Any, ...], Any, Any]
 RATIO_BOUND = 1e-24  # squared-radius ratios are squashed into (1e-24, 1e24): the dilator's k into (1e-6, 1e6)
 
 
-def _dilator_between(like: Any, r1_squared: Any, r2_squared: Any) -> Any:
+def _dilator_between(like: Multivector, r1_squared: Any, r2_squared: Any) -> Multivector:
     """The dilator taking radius r1 to r2, from the squared radii, with no logarithm:
     D = ½(k + 1/k) − ½(k − 1/k) e0∞ with k⁴ = r1²/r2², squashed as k⁴ = (N + εN')/(N' + εN),
     N = |r1²|, N' = |r2²|, ε = RATIO_BOUND.
@@ -143,6 +144,6 @@ def _dilator_between(like: Any, r1_squared: Any, r2_squared: Any) -> Any:
     return like.make({"1": (k + inv) * 0.5, "e0inf": (inv - k) * 0.5})
 
 
-def cooperative_similarity(kind: str, xc: Any) -> Versor:
+def cooperative_similarity(kind: str, xc: Multivector) -> Versor:
     """V_Sc = V_S(X_u, X_c) [COOP Eq. 28]: the similarity taking the unit primitive to X_c."""
     return similarity(kind, unit_primitive(kind, xc), xc)

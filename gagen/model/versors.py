@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from typing import Any, NamedTuple
 
+from gagen.algebra.protocol import Multivector
 from gagen.model.conformal import (
     DILATION,
     EUCLID,
@@ -39,7 +40,7 @@ DILATOR = ("1", *DILATION)
 
 
 # -- rotors -------------------------------------------------------------------------------------------
-def exp_rotor(b: Any) -> Any:
+def exp_rotor(b: Multivector) -> Multivector:
     """R = cos(‖B‖/2) − sin(‖B‖/2) B/‖B‖ for the rotation part of B [Eq. 62]."""
     m = b.math
     br = part(b, ROTATION)
@@ -47,49 +48,49 @@ def exp_rotor(b: Any) -> Any:
     return cos_half_sqrt(m, s) - br * sin_half_sqrt_over_sqrt(m, s)
 
 
-def log_rotor(r: Any) -> Any:
+def log_rotor(r: Multivector) -> Multivector:
     """Rotation generator of a rotor (any positive scale): −2 atan2(|⟨R⟩₂|, ⟨R⟩₀) ⟨R⟩₂/|⟨R⟩₂| [Eq. 63]."""
     br = part(r, ROTATION)
     s = br.sp(~br)
     return br * (-2 * atan2_sqrt_over_sqrt(r.math, s, r.scalar()))
 
 
-def rotor(axis: Any, angle: Any) -> Any:
+def rotor(axis: Multivector, angle: Any) -> Multivector:
     """Rotor turning by ``angle`` about the unit Euclidean vector ``axis`` (right-handed)."""
     n1, n2, n3 = (axis[k] for k in EUCLID)
     return exp_rotor(axis.make({"e12": angle * n3, "e13": -angle * n2, "e23": angle * n1}))
 
 
 # -- translators --------------------------------------------------------------------------------------
-def exp_translator(b: Any) -> Any:
+def exp_translator(b: Multivector) -> Multivector:
     """T = 1 − ½ B_T [Eq. 64]."""
     return 1 - part(b, TRANSLATION) * 0.5
 
 
-def log_translator(t: Any) -> Any:
+def log_translator(t: Multivector) -> Multivector:
     """B_T = −2 ⟨T⟩₂ / ⟨T⟩₀ [Eq. 65] (the scalar part divides out any scale)."""
     return part(t, TRANSLATION) * (-2 / t.scalar())
 
 
-def translator(t: Any) -> Any:
+def translator(t: Multivector) -> Multivector:
     """Translator by the Euclidean vector t: exp(t ∧ e∞) [Eq. 66]."""
     return exp_translator(t ^ einf(t))
 
 
 # -- dilators -----------------------------------------------------------------------------------------
-def exp_dilator(b: Any) -> Any:
+def exp_dilator(b: Multivector) -> Multivector:
     """D = cosh(λ/2) − sinh(λ/2) e0∞ for λ the e0∞ coefficient of B [Eq. 67]; scales by e^{−λ}."""
     m = b.math
     half = b["e0inf"] * 0.5
     return b.make({"1": m.cosh(half), "e0inf": -m.sinh(half)})
 
 
-def log_dilator(d: Any) -> Any:
+def log_dilator(d: Multivector) -> Multivector:
     """λ e0∞ with λ = 2 atanh(−⟨D⟩_{e0∞} / ⟨D⟩₀) [Eq. 68], any positive scale of D."""
     return d.make({"e0inf": 2 * d.math.atanh(-d["e0inf"] / d.scalar())})
 
 
-def dilator_between_radii(like: Any, r1_squared: Any, r2_squared: Any) -> Any:
+def dilator_between_radii(like: Multivector, r1_squared: Any, r2_squared: Any) -> Multivector:
     """The dilator taking radius r1 to radius r2, from the squared radii, with no logarithm:
     D = ½(k + 1/k) − ½(k − 1/k) e0∞, k = (r1²/r2²)^¼ (exactly 1 for equal radii)."""
     m = like.math
@@ -102,25 +103,25 @@ def dilator_between_radii(like: Any, r1_squared: Any, r2_squared: Any) -> Any:
     return like.make({"1": (k + inv) * 0.5, "e0inf": (inv - k) * 0.5})
 
 
-def dilator(like: Any, d: Any) -> Any:
+def dilator(like: Multivector, d: Multivector) -> Multivector:
     """Dilator scaling about the origin by d > 0."""
     return exp_dilator(like.make({"e0inf": -like.math.log(d)}))
 
 
 # -- motors and similarity versors --------------------------------------------------------------------
-def exp_motor(b: Any) -> Any:
+def exp_motor(b: Multivector) -> Multivector:
     """M = exp(B_T) exp(B_R) [Eq. 72]."""
     return exp_translator(b) * exp_rotor(b)
 
 
-def log_motor(motor: Any) -> Any:
+def log_motor(motor: Multivector) -> Multivector:
     """log M = log T + log R with R the Euclidean part of M and T = M R⁻¹ [Eq. 73]."""
     r = part(motor, ROTOR)
     t = part(motor * ~r, ("1", *TRANSLATION))  # = T ⟨R R~⟩₀; log_translator divides the scale out
     return log_translator(t) + log_rotor(r)
 
 
-def exp_similarity(b: Any) -> Any:
+def exp_similarity(b: Multivector) -> Multivector:
     """V = exp(B_T) exp(B_R) exp(B_D) [Eq. 76]."""
     return exp_translator(b) * exp_rotor(b) * exp_dilator(b)
 
@@ -131,7 +132,7 @@ class SimilarityFactors(NamedTuple):
     dilator: Any
 
 
-def decompose_similarity(v: Any) -> SimilarityFactors:
+def decompose_similarity(v: Multivector) -> SimilarityFactors:
     """V = T R D for a unit similarity versor.
 
     T from the image of the origin (V e0 V~ ∝ P(t): R and D keep the origin), then R D = T~ V,
@@ -145,7 +146,7 @@ def decompose_similarity(v: Any) -> SimilarityFactors:
     return SimilarityFactors(t, r, d)
 
 
-def log_similarity(v: Any) -> Any:
+def log_similarity(v: Multivector) -> Multivector:
     """log V = log V_T + log V_R + log V_D [Eq. 77]."""
     t, r, d = decompose_similarity(v)
     return log_translator(t) + log_rotor(r) + log_dilator(d)
@@ -159,7 +160,7 @@ class Versor(NamedTuple):
     conditioning: Any
 
 
-def half_turn_perpendicular(v: Any) -> Any:
+def half_turn_perpendicular(v: Multivector) -> Multivector:
     """A rotor turning by π about a unit axis perpendicular to the Euclidean vector v
     (v × e1, or v × e2 when v is close to e1); it maps v to −v."""
     m = v.math
@@ -171,7 +172,7 @@ def half_turn_perpendicular(v: Any) -> Any:
     return v.make({"e12": -u3 * inv, "e13": u2 * inv, "e23": -u1 * inv})
 
 
-def _select(cond: Any, x: Any, y: Any, blades: tuple[str, ...]) -> Any:
+def _select(cond: Any, x: Multivector, y: Multivector, blades: tuple[str, ...]) -> Any:
     m = x.math
     return x.make({k: m.if_else(cond, x[k], y[k]) for k in blades})
 
@@ -179,7 +180,7 @@ def _select(cond: Any, x: Any, y: Any, blades: tuple[str, ...]) -> Any:
 ANTIPARALLEL = 1e-16  # |a + b|² (or K0) below this: a guarded half turn; both forms err by ~1e-8 there
 
 
-def rotor_between(a: Any, b: Any) -> Versor:
+def rotor_between(a: Multivector, b: Multivector) -> Versor:
     """Rotor turning unit vector a onto unit vector b: (1 + b a)/‖1 + b a‖ [COOP Eq. 26].
 
     Evaluated as (a + b) a / |a + b|, which equals it for unit vectors and loses only eps/|a + b|
@@ -195,7 +196,7 @@ def rotor_between(a: Any, b: Any) -> Versor:
     return Versor(_select(antiparallel, half_turn_perpendicular(a), generic, ROTOR), n2 * 0.25)
 
 
-def _flat_axis(x: Any, sigma: int) -> Any:
+def _flat_axis(x: Multivector, sigma: int) -> Multivector:
     """Direction of a line P∧P∧e∞ (σ = 1: its e0∧d∧e∞ part), or normal of a plane (σ = −1: the
     Euclidean part of X*)."""
     if sigma < 0:
@@ -203,7 +204,7 @@ def _flat_axis(x: Any, sigma: int) -> Any:
     return vector(x, [x[f"e0{k}inf"] for k in "123"])
 
 
-def versor_between(x1: Any, x2: Any, sigma: int) -> Versor:
+def versor_between(x1: Multivector, x2: Multivector, sigma: int) -> Versor:
     """Motor taking the flat x1 onto the flat x2 of the same kind and orientation [COOP Eq. 21].
 
     Each is scaled so that X² = σ (σ = +1 for lines P∧P∧e∞, −1 for planes P∧P∧P∧e∞);
@@ -235,6 +236,6 @@ def versor_between(x1: Any, x2: Any, sigma: int) -> Versor:
     return Versor(_select(opposite, part(flipped * flip, MOTOR), direct, MOTOR), k0 * 0.25)
 
 
-def project_point_of_origin(x: Any) -> Any:
+def project_point_of_origin(x: Multivector) -> Multivector:
     """(e0·X) X⁻¹: the origin projected onto a flat (a scaled point)."""
     return (e0(x) | x) * ~x * safe_reciprocal(x.math, x.norm_squared())

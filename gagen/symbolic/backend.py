@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
+from collections import Counter
 from collections.abc import Hashable, Sequence
 from typing import Any
 
@@ -125,6 +126,8 @@ class ScalarBackend(ABC):
     def __init__(self) -> None:
         # a normalised sum -> (f, node, its atoms) with sum = f · node (see _node)
         self._materialised: dict[tuple, tuple[sympy.Expr, Any, list]] = {}
+        # what the passes of gagen.symbolic.passes removed on this backend (see there)
+        self.removed: Counter[str] = Counter()
 
     # -- to be provided by a backend -------------------------------------------------------------
     @abstractmethod
@@ -240,6 +243,7 @@ class ScalarBackend(ABC):
         """Math function; evaluated exactly when every argument is exact."""
         lifted = [self.lift(a) for a in args]
         if all(self.is_exact(a) for a in lifted):
+            self.removed["constant folding"] += 1
             return exact_call(fn, *lifted)
         return self.lift(self.native_call(fn, *(self.native(a) for a in lifted)))
 
@@ -253,6 +257,7 @@ class ScalarBackend(ABC):
     def select(self, cond: Any, a: Any, b: Any) -> Scalar:
         """cond ? a : b; folded when the condition is known at build time."""
         if isinstance(cond, bool):
+            self.removed["constant folding"] += 1
             return self.lift(a if cond else b)
         a, b = self.lift(a), self.lift(b)
         if a is b or (self.is_exact(a) and self.is_exact(b) and a == b):
@@ -278,8 +283,10 @@ class ScalarBackend(ABC):
 
     def _scale(self, c: sympy.Expr, p: Scalar) -> Scalar:
         if c == 0:
+            self.removed["exact zeros"] += 1
             return ZERO
         if self.is_exact(p):
+            self.removed["constant folding"] += 1
             return c * p
         if c == 1:
             return p
@@ -304,6 +311,7 @@ class ScalarBackend(ABC):
         scale = -scale if lead.is_extended_negative else scale
         normal = tuple((k, c / scale) for k, c in signature)
         if normal in self._materialised:  # normal = f · node
+            self.removed["node sharing"] += 1
             f, node, _ = self._materialised[normal]
             return scale * f, node
         node = p._native if p._native is not None else self._emit(p)
@@ -315,6 +323,7 @@ class ScalarBackend(ABC):
         if () in terms:  # a Poly's own constant term joins the loose constants
             const = const + terms.pop(())[0]
         kept = {k: (c, atoms) for k, (c, atoms) in terms.items() if c != 0}
+        self.removed["cancelled terms"] += len(terms) - len(kept)
         if const != 0:
             kept[()] = (const, ())
         if not kept:

@@ -1,0 +1,102 @@
+"""The C backend: the kernels as C99 (``<name>.h``, ``<name>.c``, and ``<name>_simd.c`` with the batched
+forms of the smaller kernels), from the statements our printer (``printer.py``) replays from each
+kernel's flat CasADi graph; compiled into ``lib<name>_<tag>.so`` and called through ctypes
+(``module.c.<kernel>``, or through the CPython binding when the module has the ``cpython`` backend).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from gagen.codegen.backends.base import Backend, Context, Output, module_name, module_tag
+
+if TYPE_CHECKING:
+    from gagen.codegen.ir import Kernel, ModuleSource
+    from gagen.runtime import GeneratedModule
+
+# kernels up to this many C statements also get a SIMD batch (the chains' FK and FK + Jacobian): it
+# runs GAGEN_W samples at once, and doubles the kernel's code and compile time
+SIMD_MAX_STATEMENTS = 1500
+
+
+def c_name(module: str, kernel: Kernel) -> str:
+    """The C function of ``kernel`` in ``module``: ``<module>_<kernel>``."""
+    return f"{module}_{kernel.name}"
+
+
+def params(kernel: Kernel, restrict: str) -> str:
+    """The C parameter list: ``const double *<restrict> <input>, ..., double *<restrict> <output>, ...``."""
+    ins = [f"const double *{restrict} {p.name}" for p in kernel.inputs]
+    outs = [f"double *{restrict} {p.name}" for p in kernel.outputs]
+    return ", ".join(ins + outs)
+
+
+def library(manifest: Mapping[str, Any]) -> str:
+    """The library's file name, ``lib<name>_<tag>.so`` (``.dylib`` on macOS)."""
+    from gagen.codegen.compiler import library_name
+
+    return manifest.get("library") or library_name(f"{module_name(manifest)}_{module_tag(manifest)}")
+
+
+class CBackend(Backend):
+    name = "c"
+    namespace = "c"
+    templates = Path(__file__).with_name("templates")
+
+    def render(self, source: ModuleSource, context: Context) -> Output:
+        from gagen.codegen.backends.c import printer
+
+        contexts, entries = [], {}
+        for i, kernel in enumerate(source.kernels.values(), 1):
+            start = time.perf_counter()
+            names = ([p.name for p in kernel.inputs], [p.name for p in kernel.outputs])
+            body = printer.emit_body(kernel.function, *names)
+            # the SIMD batch doubles a kernel's code: only kernels up to SIMD_MAX_STATEMENTS get one
+            vector = (printer.emit_body(kernel.function, *names, vector=True)
+                      if len(body.statements) <= SIMD_MAX_STATEMENTS else None)
+            ops = kernel.op_count
+            function = c_name(source.name, kernel)
+            contexts.append({"c_name": function, "doc": kernel.doc, "inputs": kernel.inputs,
+                             "outputs": kernel.outputs, "ops": str(ops), "locals": body.locals,
+                             "statements": body.statements,
+                             "vector_locals": vector.locals if vector else (),
+                             "vector_statements": vector.statements if vector else (),
+                             "params": params(kernel, "restrict"),
+                             "params_h": params(kernel, "GAGEN_RESTRICT")})
+            entries[kernel.name] = {"c_name": function}
+            context.progress(f"  [{i}/{len(source.kernels)}] {kernel.name}: {ops.flops} flops, "
+                             f"{len(body.statements)} C statements ({time.perf_counter() - start:.2f} s)")
+        variables = {**context.variables, "kernels": contexts}
+        name = source.name
+        files = {
+            f"{name}.h": self.template("kernels.h.j2").render(**variables, guard=f"GAGEN_{name.upper()}_H"),
+            f"{name}.c": self.template("kernels.c.j2").render(**variables),
+            f"{name}_simd.c": self.template("simd.c.j2").render(**variables),
+        }
+        return Output({path: text.encode() for path, text in files.items()},
+                      {"c_source": f"{name}.c", "c_header": f"{name}.h"}, entries)
+
+    def artefacts(self, folder: Path, manifest: Mapping[str, Any]) -> list[Path]:
+        return [folder / library(manifest)]
+
+    def compile(self, folder: Path, manifest: Mapping[str, Any]) -> None:
+        from gagen.codegen.compiler import compile_shared
+
+        compile_shared(folder / manifest["c_source"], folder / library(manifest))
+
+    def open(self, module: GeneratedModule) -> Any:
+        import ctypes
+
+        module.compile_missing()
+        return ctypes.CDLL(str(module.path(library(module.manifest))))
+
+    def load(self, module: GeneratedModule, kernel: str) -> Any:
+        from gagen.runtime import CKernel
+
+        return CKernel(module.library, module.entry(kernel), module.binding, module).entry_point()
+
+
+BACKEND = CBackend()
