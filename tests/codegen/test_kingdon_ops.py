@@ -303,7 +303,14 @@ def test_same_formula(c: Comparison) -> None:
         assert np.max(np.abs(ca - ref)) <= RTOL * scale, f"{c.id} sample {n}: CasADi differs"
 
 
-@pytest.mark.parametrize("c", COMPARISONS, ids=[c.id for c in COMPARISONS])
+# gaps still open (issue 13): a sandwich as one quadratic form in the versor's coefficients, and the
+# cancellation of M M~ = 1 for unit versors; strict, so the test says when the compiler closes them
+KNOWN_GAPS = {"unit_sandwich-cga3d-same_basis", "sandwich-pga3d-native", "unit_sandwich-pga3d-native"}
+
+
+@pytest.mark.parametrize("c", [pytest.param(c, id=c.id, marks=pytest.mark.xfail(
+    strict=True, reason="kingdon needs fewer operations (open compiler work)")) if c.id in KNOWN_GAPS
+    else pytest.param(c, id=c.id) for c in COMPARISONS])
 def test_gagen_needs_no_more_operations(c: Comparison) -> None:
     ours, theirs = c.gagen_count(), c.kingdon_count()
     assert not theirs.calls, f"unexpected operations in kingdon's code: {theirs.calls}"
