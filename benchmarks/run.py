@@ -166,7 +166,7 @@ def generated_status(folder: Path) -> str:
     from gagen.cooperative_module import cooperative_source
 
     m = manifest(folder)
-    spec_name = m.get("source", m.get("spec"))
+    spec_name = m["source"]
     rel = os.path.relpath(folder, ROOT)
     try:
         expected = render(cooperative_source(ROOT / "robots" / spec_name))

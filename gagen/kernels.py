@@ -54,6 +54,7 @@ from gagen.model.primitives import points_needed, through, unit_primitive
 from gagen.model.similarity import cooperative_similarity, similarity_factors
 from gagen.model.versors import log_similarity
 from gagen.symbolic.casadi_backend import CasadiBackend
+from gagen.symbolic.flatten import identifier
 
 TOOL_LINE = "e12"  # the tool's z axis through its origin, as a line bivector (rotation about z)
 
@@ -122,7 +123,7 @@ def chain_kernel_functions(system: System) -> dict[str, KernelFunction]:
         declared = _chain_outputs(n)
         for suffix, doc, names in CHAIN_KERNELS:
             jacobians = {j: (of, "q") for j, of in (("J_A", "M"), ("J_P", "P")) if j in names}
-            name = f"{chain.name}_{suffix}"
+            name = identifier(f"{chain.name}_{suffix}")  # (a System built directly may carry any chain name)
             functions[name] = KernelFunction(
                 _chain_function(chain, names), algebra=cga3d(), name=name, doc=f"chain {chain.name}: {doc}",
                 inputs={"ga": "algebra", "q": scalars(n, [labels[i] for i in indices])},

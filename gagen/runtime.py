@@ -435,8 +435,10 @@ class GeneratedModule:
             raise FileNotFoundError(f"no generated gagen module at {self.folder}: the folder {what} "
                                     "(write one with `gagen build SPEC -o FOLDER`)")
         self.manifest = json.loads(manifest.read_text())
-        # (manifests written before the backends were listed had these three)
-        names = self.manifest.get("backends", ["casadi", "c", "cpython"])
+        if "backends" not in self.manifest:
+            raise ValueError(f"{manifest}: a module written by an older gagen (its manifest lists no "
+                             "backends); rebuild it with `gagen build`")
+        names = self.manifest["backends"]
         unknown = [n for n in names if n not in BACKENDS]
         if unknown:
             raise ValueError(f"{manifest}: backend(s) {', '.join(map(repr, unknown))} unknown to this gagen "
@@ -454,7 +456,7 @@ class GeneratedModule:
                         _Namespace(self.kernel_names, functools.partial(backend.load, self)))
 
     def __repr__(self) -> str:
-        return f"<gagen module {self.manifest.get('module', self.manifest.get('system'))} at {self.folder}>"
+        return f"<gagen module {self.manifest['module']} at {self.folder}>"
 
     def entry(self, name: str) -> dict[str, Any]:
         """The manifest's entry of kernel ``name``."""

@@ -75,6 +75,17 @@ def pytest_collection_modifyitems(config, items):
     if deselected:
         config.hook.pytest_deselected(items=deselected)
         items[:] = kept
+    config.stash[_LEFT_OUT] = len(deselected)
+
+
+_LEFT_OUT = pytest.StashKey[int]()
+
+
+def pytest_terminal_summary(terminalreporter, config):
+    left_out = config.stash.get(_LEFT_OUT, 0)
+    if left_out:
+        terminalreporter.write_line(f"fast tier: {left_out} tests marked {'/'.join(TIER_MARKERS)} left out; "
+                                    "pytest --full (or GAGEN_TESTS=full) runs them too")
 
 
 ALGEBRAS = {"cga3d": cga3d(), "cga2d": cga2d(), "pga3d": pga3d(), "ga3d": ga3d()}

@@ -10,8 +10,11 @@ dropped: the support of every result is what the sparsity analysis proves may be
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Callable, Iterable, Mapping
 from typing import Any
+
+import sympy
 
 from gagen.algebra.blade_rules import BladeRules, Entries, rules_for
 from gagen.algebra.protocol import BladeKey
@@ -210,9 +213,48 @@ class SparseMultivector:
         return self.scale(self.backend.div(1, self.backend.call("sqrt", self.backend.call("fabs", n2))))
 
     def sandwich(self, x: Any) -> SparseMultivector:
+        """⟨V X Ṽ⟩ on the grades of X, in one of two exact forms of the same polynomial:
+
+        - ``(V X) Ṽ``, the two products one after the other;
+        - ``X (V Ṽ) + 2 (½(V X − X V)) Ṽ`` (V X Ṽ − X V Ṽ = (V X − X V) Ṽ): the commutator's
+          coefficients are short sums shared by every output, and for a unit versor the ``X ⟨V Ṽ⟩₀``
+          part cancels exactly against a correction ``X (1 − ‖V‖²)`` (``ScalarBackend._merge_cofactors``),
+          leaving kingdon's ``X + 2 (½[V, X]) Ṽ``.
+
+        The second form is weighed (the operations of each graph, ``graph_cost``) only when every
+        coefficient of V and X is a free symbol (a kernel's input multivectors): over computed versors
+        (the kinematic chains) the two products stay, as their derivatives are cheaper there."""
         x = self._coerce(x)
         grades = x.grades
-        return self.gp(x)._bilinear(self.reverse(), "gp", keep=lambda b: b.bit_count() in grades)
+
+        def keep(b: int) -> bool:
+            return b.bit_count() in grades
+
+        backend = self.backend
+        rev = self.reverse()
+
+        def two_products() -> SparseMultivector:
+            return self.gp(x)._bilinear(rev, "gp", keep=keep)
+
+        given = [*self.coeffs.values(), *x.coeffs.values()]
+        if backend.expand_all or not all(backend.is_symbol(c) for c in given):
+            return two_products()
+
+        def commutator() -> SparseMultivector:
+            half = (self.gp(x) - x.gp(self)).scale(sympy.Rational(1, 2))
+            return x._bilinear(self.gp(rev), "gp", keep=keep) + half._bilinear(rev, "gp", keep=keep).scale(2)
+
+        removed = backend.removed.copy()
+        best: tuple[int, SparseMultivector, Counter[str]] | None = None
+        for form in (two_products, commutator):
+            backend.removed = removed.copy()
+            result = form()
+            cost = backend.graph_cost([*given, *result.coeffs.values()])
+            if best is None or cost < best[0]:
+                best = (cost, result, backend.removed)
+        assert best is not None
+        backend.removed = best[2]
+        return best[1]
 
 
 def _mask(algebra: Algebra, blade: BladeKey) -> int:

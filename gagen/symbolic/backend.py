@@ -126,6 +126,8 @@ class ScalarBackend(ABC):
     def __init__(self) -> None:
         # a normalised sum -> (f, node, its atoms) with sum = f · node (see _node)
         self._materialised: dict[tuple, tuple[sympy.Expr, Any, list]] = {}
+        # the key of a node made by _node -> (node, the Poly it computes), for merging by cofactor
+        self._node_polys: dict[Hashable, tuple[Any, Poly]] = {}
         # what the passes of gagen.symbolic.passes removed on this backend (see there)
         self.removed: Counter[str] = Counter()
 
@@ -193,6 +195,14 @@ class ScalarBackend(ABC):
         """A native expression as a one-term Poly."""
         return Poly(self, {(self.key(native),): (ONE, (native,))})
 
+    def is_symbol(self, value: Scalar) -> bool:
+        """Whether a scalar is one free symbol of the backend (an input, not a computed value)."""
+        return False
+
+    def graph_cost(self, values: Sequence[Scalar]) -> int:
+        """The operations of the graph that computes ``values`` (for choosing between exact forms)."""
+        raise NotImplementedError
+
     @staticmethod
     def is_exact(value: Any) -> bool:
         return isinstance(value, sympy.Basic)
@@ -215,7 +225,50 @@ class ScalarBackend(ABC):
                         terms[k] = [c, atoms]
             else:
                 const += v
+        if len(terms) > 1 and self._node_polys:
+            self._merge_cofactors(terms)
         return self._poly(terms, const)
+
+    def _merge_cofactors(self, terms: dict[Key, list[Any]]) -> None:
+        """Merge terms c₁·f·A + c₂·f·B + … that share a cofactor f, where A, B, … are nodes of sums,
+        into f·(c₁A + c₂B + …) when those sums cancel down to at most one term: e.g. x·‖V‖² + x·(1 − ‖V‖²)
+        is x. At most one term replaces several, so the sum never costs more."""
+        groups: dict[Key, list[tuple[Key, Hashable]]] = {}
+        for k in terms:
+            for i, a in enumerate(k):
+                if a in self._node_polys and (i == 0 or k[i - 1] != a):
+                    groups.setdefault(k[:i] + k[i + 1:], []).append((k, a))
+        for cofactor, members in groups.items():
+            members = [(k, a) for k, a in members if k in terms and terms[k][0] != 0]
+            if len(members) < 2:
+                continue
+            merged: dict[Key, list[Any]] = {}
+            parts = 0
+            for k, a in members:
+                c = terms[k][0]
+                poly = self._node_polys[a][1]
+                parts += len(poly)
+                for kp, (cp, atoms) in poly.terms.items():
+                    if kp in merged:
+                        merged[kp][0] += c * cp
+                    else:
+                        merged[kp] = [c * cp, atoms]
+            kept = [(kp, e) for kp, e in merged.items() if e[0] != 0]
+            if any(kp for kp, _ in kept) or len(kept) >= parts:
+                continue
+            k0, a0 = members[0]
+            atoms = list(terms[k0][1])
+            node = self._node_polys[a0][0]
+            atoms.pop(next(j for j, x in enumerate(atoms) if x is node or self.key(x) == a0))
+            for k, _ in members:
+                del terms[k]
+            self.removed["cancelled terms"] += len(members) + parts - len(kept)
+            for kp, (cp, atoms_p) in kept:
+                key = tuple(sorted(cofactor + kp))
+                if key in terms:
+                    terms[key][0] += cp
+                else:
+                    terms[key] = [cp, tuple(atoms) + tuple(atoms_p)]
 
     def neg(self, a: Any) -> Scalar:
         return self._scale(-ONE, self.lift(a))
@@ -315,6 +368,7 @@ class ScalarBackend(ABC):
             f, node, _ = self._materialised[normal]
             return scale * f, node
         node = p._native if p._native is not None else self._emit(p)
+        self._node_polys.setdefault(self.key(node), (node, p))
         # the entry holds the atoms too: keys are node addresses, which must not be reused
         self._materialised[normal] = (1 / scale, node, [atoms for _, atoms in p.terms.values()])
         return ONE, node

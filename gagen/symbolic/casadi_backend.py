@@ -34,6 +34,23 @@ class CasadiBackend(ScalarBackend):
     def key(self, value: Any) -> Hashable:
         return value.element_hash()
 
+    def is_symbol(self, value: Any) -> bool:
+        if self.is_exact(value) or len(value.terms) != 1:
+            return False
+        ((c, atoms),) = value.terms.values()
+        return c == 1 and len(atoms) == 1 and atoms[0].is_symbolic()
+
+    def graph_cost(self, values: Sequence[Any]) -> int:
+        """The operations (after CSE) of the graph that computes ``values``: what they would cost a
+        kernel that computes them from its inputs."""
+        from gagen.symbolic.flatten import casadi_op_count
+
+        natives = [self.native(v) for v in values]
+        if not natives:
+            return 0
+        f = ca.Function("cost", [], [ca.cse(ca.vertcat(*natives))], {"allow_free": True})
+        return casadi_op_count(f).flops
+
     def native_product(self, factors: Sequence[Any]) -> Any:
         return reduce(lambda a, b: a * b, factors)
 

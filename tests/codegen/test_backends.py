@@ -105,3 +105,18 @@ def test_two_modules_of_one_name_and_different_contents_load_side_by_side(tmp_pa
         assert m.c.scaled.fast is not None  # through the binding
         np.testing.assert_array_equal(m.c.scaled(np.array([1.0, 2.0])), [scale, 2 * scale])
     assert modules[2.0].binding is not modules[3.0].binding
+
+
+def test_a_manifest_without_backends_or_with_an_unknown_one_is_refused(tmp_path):
+    """A module written before the backends were listed, or by a gagen with a backend this one lacks:
+    a message saying what to do, not a KeyError on first use."""
+    out = tmp_path / "twin"
+    build_source(_source("twin", 2.0), out, compile_c=False, **QUIET)
+    manifest = json.loads((out / "manifest.json").read_text())
+    for backends, message in ((None, "older gagen"), (["casadi", "fortran"], "'fortran' unknown")):
+        edited = {k: v for k, v in manifest.items() if k != "backends"}
+        if backends is not None:
+            edited["backends"] = backends
+        (out / "manifest.json").write_text(json.dumps(edited))
+        with pytest.raises(ValueError, match=message):
+            load(out)

@@ -89,8 +89,8 @@ def test_committed_file_names_carry_no_hash():
         assert not hashed, f"{folder.name}: {hashed}"
 
 
-@pytest.mark.parametrize("name", tiered(sorted(SYSTEMS), {"panda_point"}, pytest.mark.slow,
-                                        pytest.mark.compiling))  # 4-30 s a system
+@pytest.mark.slow  # 12-97 s a system (test_check plants errors into panda_point's kernels in the fast tier)
+@pytest.mark.parametrize("name", tiered(sorted(SYSTEMS), FAST_MODULES, pytest.mark.compiling))
 def test_every_kernel_c_single_batched_and_casadi_equal_the_interpreter(name):
     """Values and closed-form Jacobians to 1e-10; the AD Jacobians to central differences (1e-6)."""
     system = SYSTEMS[name]

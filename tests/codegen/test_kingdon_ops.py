@@ -303,9 +303,10 @@ def test_same_formula(c: Comparison) -> None:
         assert np.max(np.abs(ca - ref)) <= RTOL * scale, f"{c.id} sample {n}: CasADi differs"
 
 
-# gaps still open (issue 13): a sandwich as one quadratic form in the versor's coefficients, and the
-# cancellation of M M~ = 1 for unit versors; strict, so the test says when the compiler closes them
-KNOWN_GAPS = {"unit_sandwich-cga3d-same_basis", "sandwich-pga3d-native", "unit_sandwich-pga3d-native"}
+# comparisons where kingdon needs fewer operations (open compiler work), as strict xfails so the test
+# says when the compiler closes them; none left (issue 13 closed the sandwich gaps: the commutator form
+# of V X Ṽ and the exact cancellation of X ⟨V Ṽ⟩₀ against X (1 − ‖V‖²))
+KNOWN_GAPS: set[str] = set()
 
 
 @pytest.mark.parametrize("c", [pytest.param(c, id=c.id, marks=pytest.mark.xfail(

@@ -84,6 +84,7 @@ def test_a_planted_error_is_caught_and_named(panda, kernel, output, factor, path
         assert part in message
 
 
+@pytest.mark.slow
 def test_the_cli_check_names_the_failing_kernel_and_reports_progress(panda, monkeypatch, capsys):
     from gagen import cli
 

@@ -232,6 +232,7 @@ def test_every_chain_kernel_equals_interpreter_and_its_jacobians_central_differe
             np.testing.assert_allclose(fk["P"], out["P"], atol=1e-15)
 
 
+@pytest.mark.slow
 def test_three_panda_circle_kernel_cost_does_not_regress():
     """The chain rule through the end positions (AD on the task-space formulas only), the product rule
     over V_T V_R V_D (each factor differentiated alone) and guards that add constants instead of

@@ -112,8 +112,8 @@ def environment(folder: Path) -> jinja2.Environment:
 
 
 def module_name(manifest: Mapping[str, Any]) -> str:
-    """The module's name (``system`` in manifests written before ``module``)."""
-    return manifest.get("module") or manifest["system"]
+    """The module's name."""
+    return manifest["module"]
 
 
 def module_tag(manifest: Mapping[str, Any]) -> str:

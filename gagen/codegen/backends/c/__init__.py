@@ -38,7 +38,7 @@ def library(manifest: Mapping[str, Any]) -> str:
     """The library's file name, ``lib<name>_<tag>.so`` (``.dylib`` on macOS)."""
     from gagen.codegen.compiler import library_name
 
-    return manifest.get("library") or library_name(f"{module_name(manifest)}_{module_tag(manifest)}")
+    return library_name(f"{module_name(manifest)}_{module_tag(manifest)}")
 
 
 class CBackend(Backend):

@@ -24,7 +24,7 @@ BINDING_ABI = 2  # the calling convention of binding.c.j2 (make_<kernel>(address
 
 def binding_module(manifest: Mapping[str, Any]) -> str:
     """The extension module's name, ``_gagen_<name>_<tag>``: unique per content."""
-    return manifest.get("binding") or f"_gagen_{module_name(manifest)}_{module_tag(manifest)}"
+    return f"_gagen_{module_name(manifest)}_{module_tag(manifest)}"
 
 
 class CPythonBackend(Backend):
