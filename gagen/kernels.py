@@ -297,35 +297,58 @@ def primitive_blades(kind: str) -> tuple[str, ...]:
     return tuple(x.algebra.blade_name(b) for b in x.support)
 
 
-def _system_values(system: System, names: Sequence[str]) -> Callable[..., dict[str, Any]]:
-    """The system kernels' values as one function over the multivector protocol: the end points from
-    each chain's forward kinematics, X_c through them, V_Sc = V_S(X_u, X_c) and the logarithms
-    [COOP Eq. 14, 28-31, 40]. On the interpreter the end points are memoised per chain (a difference
-    step moves one joint; the other chains keep theirs)."""
-    memo: dict[tuple, Any] = {}
+class _SystemValues:
+    """The system kernels' values as functions over the multivector protocol: the end points from each
+    chain's forward kinematics, X_c through them, V_Sc = V_S(X_u, X_c) and the logarithms
+    [COOP Eq. 14, 28-31, 40]. On the interpreter (float joint values) one memo serves all four
+    kernels: the end points per chain (a difference step moves one joint; the other chains keep
+    theirs) and the task-space values per q (the kernels' differences revisit the same q ± h)."""
 
-    def end_point(ga: Any, index: int, qc: list[Any]) -> Any:
-        key = (index, tuple(qc)) if all(isinstance(v, float) for v in qc) else None
-        if key is not None and key in memo:
-            return memo[key]
-        value = K.end_point(K.forward_kinematics(ga, system.chains[index].joints, qc))
-        if key is not None:
-            if len(memo) > 4096:
+    LIMIT = 4096
+
+    def __init__(self, system: System) -> None:
+        self.system = system
+        self._ends: dict[tuple, Any] = {}
+        self._task: dict[tuple, dict[str, Any]] = {}
+
+    def _remember(self, memo: dict, key: tuple | None, compute: Callable[[], Any]) -> Any:
+        if key is None:
+            return compute()
+        if key not in memo:
+            if len(memo) > self.LIMIT:
                 memo.clear()
-            memo[key] = value
-        return value
+            memo[key] = compute()
+        return memo[key]
 
-    def values(ga: Any, q: Sequence[Any], V_Sd: Any = None) -> dict[str, Any]:
-        points = [end_point(ga, i, qc) for i, qc in enumerate(system.split(list(q)))]
-        xc = through(system.kind, points)
-        v, conditioning = cooperative_similarity(system.kind, xc)
-        found = {"X_c": lambda: xc, "V_Sc": lambda: v, "conditioning": lambda: conditioning,
-                 "log_V": lambda: log_similarity(v), "e": lambda: log_similarity(~v * V_Sd)}
-        return {name: found[name]() for name in names}
+    def _at(self, ga: Any, q: Sequence[Any]) -> dict[str, Any]:
+        numeric = all(isinstance(v, float) for v in q)
+        system = self.system
 
-    if "e" in names:
-        return lambda ga, q, V_Sd: values(ga, q, V_Sd)
-    return lambda ga, q: values(ga, q)
+        def end_point(index: int, qc: list[Any]) -> Any:
+            return self._remember(self._ends, (index, tuple(qc)) if numeric else None, lambda: K.end_point(
+                K.forward_kinematics(ga, system.chains[index].joints, qc)))
+
+        def task() -> dict[str, Any]:
+            points = [end_point(i, qc) for i, qc in enumerate(system.split(list(q)))]
+            xc = through(system.kind, points)
+            v, conditioning = cooperative_similarity(system.kind, xc)
+            return {"X_c": xc, "V_Sc": v, "conditioning": conditioning}
+
+        return self._remember(self._task, tuple(q) if numeric else None, task)
+
+    def function(self, names: Sequence[str]) -> Callable[..., dict[str, Any]]:
+        def values(ga: Any, q: Sequence[Any], V_Sd: Any = None) -> dict[str, Any]:
+            at = self._at(ga, q)
+            found = {"X_c": lambda: at["X_c"], "V_Sc": lambda: at["V_Sc"],
+                     "conditioning": lambda: at["conditioning"],
+                     "log_V": lambda: at["log_V"] if "log_V" in at else
+                     at.setdefault("log_V", log_similarity(at["V_Sc"])),
+                     "e": lambda: log_similarity(~at["V_Sc"] * V_Sd)}
+            return {name: found[name]() for name in names}
+
+        if "e" in names:
+            return lambda ga, q, V_Sd: values(ga, q, V_Sd)
+        return lambda ga, q: values(ga, q)
 
 
 def _generator_column(v: Any, derivative: Any) -> Any:
@@ -352,7 +375,7 @@ def system_kernel_functions(system: System) -> dict[str, KernelFunction]:
     """``primitive``, ``similarity``, ``similarity_jacobians`` and ``task`` as front-end kernels: the
     model's formulas are their reference; the compiler's expressions come from one shared graph
     (``_SystemGraph``) by rules, with the chain rule through the end positions."""
-    graph = _SystemGraph(system)
+    graph, reference = _SystemGraph(system), _SystemValues(system)
     labels = tuple(f"{robot}/{joint}" for robot, joint in system.joint_keys)
     functions = {}
     for name, doc, outputs, jacobians in SYSTEM_KERNELS:
@@ -365,7 +388,7 @@ def system_kernel_functions(system: System) -> dict[str, KernelFunction]:
         hidden = sorted({of for of, *_ in jacobians.values()} - set(declared))
         values = [*(k for k in declared if k not in jacobians), *hidden]
         functions[name] = KernelFunction(
-            _system_values(system, values), algebra=cga3d(), name=name, doc=doc.format(kind=system.kind),
+            reference.function(values), algebra=cga3d(), name=name, doc=doc.format(kind=system.kind),
             inputs=inputs, outputs=declared, jacobians=jacobians, rule=graph.rule(list(declared)))
     return functions
 

@@ -15,7 +15,7 @@ Conditioning per kind (each is a continuous function of the inputs):
 - line, plane: K0/4 of Eq. 21 (1 for equal flats, 0 for opposite orientation) times the smaller
   |X²| of the two (zero for coincident points).
 
-Near a degeneracy every output stays finite (``tests/test_degenerate_sweep.py`` sweeps each kind to
+Near a degeneracy every output stays finite (``tests/cooperative/test_degenerate_sweep.py`` sweeps each kind to
 ε = 1e-15 and exactly degenerate), but the derivatives are the geometry's: |J_G| grows like 1/ε
 towards coincident, collinear, coplanar or concyclic points (≈ 10-800/ε on 1-3 m configurations:
 1e9-1e11 at ε = 1e-9), like 1/ε² towards antiparallel flats (≈ 6-8/ε² until the half-turn switch),
