@@ -38,11 +38,11 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from gagen.algebra.signature import Algebra, cga3d  # noqa: E402
+from gagen.apps.cooperative.system import System, task_error  # noqa: E402
 from gagen.interp.frame import tables  # noqa: E402
 from gagen.interp.multivector import _mask  # noqa: E402
 from gagen.interp.scalar_math import INTERP_MATH  # noqa: E402
 from gagen.model.conformal import SIMILARITY  # noqa: E402
-from gagen.model.cooperative import System, task_error  # noqa: E402
 
 BladeKey = int | str
 
@@ -475,8 +475,8 @@ def task_mx(system: System, name: str = "task_mx") -> ca.Function:
 def main() -> int:
     import time
 
-    from gagen.control import scenarios
-    from gagen.robots.systems import bundled_systems, ready_configuration
+    from gagen.apps.cooperative import scenarios
+    from gagen.apps.cooperative.bundled import bundled_systems, ready_configuration
 
     name = "three_pandas_circle"
     system = bundled_systems()[name]

@@ -47,10 +47,10 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from benchmarks.mx_baseline import task_mx  # noqa: E402
+from gagen.apps.cooperative import scenarios  # noqa: E402
+from gagen.apps.cooperative.bundled import bundled_systems  # noqa: E402
 from gagen.codegen.compiler import FLAGS, find_compiler  # noqa: E402
-from gagen.control import scenarios  # noqa: E402
 from gagen.control.ocp import ReachingOCP, target_from  # noqa: E402
-from gagen.robots.systems import bundled_systems  # noqa: E402
 
 SYSTEM = "three_pandas_circle"
 

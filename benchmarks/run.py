@@ -162,8 +162,8 @@ def kernel_entry(folder: Path, name: str) -> dict:
 def generated_status(folder: Path) -> str:
     """Whether generated/<system> is what the current gagen builds from its spec (regenerated in
     memory and compared byte for byte, as the golden test does)."""
+    from gagen.apps.cooperative.module import cooperative_source
     from gagen.build import render
-    from gagen.cooperative_module import cooperative_source
 
     m = manifest(folder)
     spec_name = m["source"]

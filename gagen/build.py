@@ -2,7 +2,7 @@
 compiled.
 
 What is built is a :class:`gagen.codegen.ir.ModuleSource`: a robot spec's (``.yaml``: the cooperative
-system's kernel catalogue, ``gagen.cooperative_module``) or a Python file's (``.py``: its
+system's kernel catalogue, ``gagen.apps.cooperative.module``) or a Python file's (``.py``: its
 ``@gagen.kernel`` functions, ``gagen.frontend.module_from_file``). Every backend of the registry
 (``gagen.codegen.backends``, or those asked for) renders its files into the output folder
 ``generated/<name>/`` (or ``-o``), which holds:
@@ -59,8 +59,8 @@ from gagen.codegen.compiler import CompileError, CompilerNotFound
 from gagen.codegen.escape import c_comment, c_string, py_doc, py_string
 from gagen.codegen.ir import Kernel, ModuleSource, Port
 from gagen.errors import SpecError
+from gagen.names import RESERVED_WORDS
 from gagen.runtime import MANIFEST
-from gagen.spec.names import RESERVED_WORDS
 
 PACKAGE = Path(__file__).resolve().parent
 CODEGEN = PACKAGE / "codegen"  # the code generator: its sources and templates are in the build key
@@ -551,7 +551,7 @@ def load_source(path: str | Path, name: str | None = None) -> ModuleSource:
         return module_from_file(path, name)
     if name is not None:
         raise SpecError(path, "name", "a spec names its system itself (a module name is for .py files)")
-    from gagen.cooperative_module import cooperative_source
+    from gagen.apps.cooperative.module import cooperative_source
 
     return cooperative_source(path)
 

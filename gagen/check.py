@@ -30,11 +30,11 @@ from typing import Any
 import numpy as np
 
 from gagen.algebra.signature import cga3d
+from gagen.apps.cooperative.system import System
 from gagen.frontend import KernelFunction
 from gagen.interp import MultiVector
 from gagen.model import kinematics as K
 from gagen.model.conformal import SIMILARITY, SIMILARITY_GENERATOR
-from gagen.model.cooperative import System
 from gagen.model.versors import exp_similarity
 from gagen.runtime import GeneratedModule
 
@@ -320,7 +320,7 @@ def check_module(module: GeneratedModule, system: System,
                  rtol: float = VALUE_RTOL, fd_rtol: float = FD_RTOL) -> list[Discrepancy]:
     """Every kernel of a cooperative system's module on the samples (see ``samples``): the chain
     kernels on each chain's joints, ``task`` also on a random V_Sd (``check_kernels``)."""
-    from gagen.kernels import kernel_functions
+    from gagen.apps.cooperative.catalogue import kernel_functions
 
     functions = kernel_functions(system)
     pairs = samples(system, configurations, count, seed)

@@ -47,10 +47,10 @@ def _cmd_algebra(args: argparse.Namespace) -> int:
 def _cmd_kernels(args: argparse.Namespace) -> int:
     import time
 
+    from gagen.apps.cooperative.catalogue import build_kernels
+    from gagen.apps.cooperative.spec import load_system
     from gagen.errors import SpecError
-    from gagen.kernels import build_kernels
     from gagen.report import op_count_table
-    from gagen.spec.loader import load_system
 
     try:
         system, _ = load_system(args.spec)
@@ -123,9 +123,9 @@ def _check(spec: str, folder, samples: int, tolerance: float) -> int:
     """Every kernel against the interpreter on every named configuration and ``samples`` random ones
     within the joint limits; relative tolerances (``tolerance`` for values, 1e-6 for the Richardson
     differences of the AD Jacobians; see ``gagen.check``). Exit status 1 naming each failing output."""
+    from gagen.apps.cooperative.spec import load_system
     from gagen.check import FD_RTOL, FD_STEPS, check_module, failures, format_report
     from gagen.runtime import load
-    from gagen.spec.loader import load_system
 
     system, configurations = load_system(spec)
     named = ", ".join(configurations) or "none"
@@ -199,7 +199,7 @@ def _cmd_smc(args: argparse.Namespace) -> int:
 
 
 def _cmd_reach(args: argparse.Namespace) -> int:
-    from gagen.control.scenarios import main as scenarios
+    from gagen.apps.cooperative.scenarios import main as scenarios
 
     try:  # the library's own checks (e.g. a horizon too short for N steps) as one line, not a traceback
         return scenarios([args.scenario, "--out", args.out, "--N", str(args.N), "--horizon",
@@ -210,7 +210,7 @@ def _cmd_reach(args: argparse.Namespace) -> int:
 
 
 def _cmd_nullspace(args: argparse.Namespace) -> int:
-    from gagen.control.nullspace_demo import main as demo
+    from gagen.apps.cooperative.nullspace_demo import main as demo
 
     return demo(["--out", args.out])
 

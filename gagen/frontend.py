@@ -60,7 +60,7 @@ from gagen.algebra.multivector import SparseMultivector
 from gagen.algebra.signature import PRESETS, Algebra
 from gagen.codegen.ir import Kernel, ModuleSource, Port, make_kernel
 from gagen.interp import MultiVector
-from gagen.spec.names import RESERVED_WORDS
+from gagen.names import RESERVED_WORDS
 from gagen.symbolic.backend import Poly
 from gagen.symbolic.casadi_backend import CasadiBackend
 

@@ -4,10 +4,9 @@
   Levenberg-Marquardt with a backtracking line search [COOP Eq. 43-47];
 - ``differential``: differential kinematics q̇ = J_G⁺ B [Eq. 48], the nullspace projector
   N = I − J⁺J [Eq. 58] and the similarity manipulability M_S = J_G J_Gᵀ [Eq. 59];
-- ``ocp`` and ``scenarios``: cooperative reaching as an optimal control problem solved by IPOPT
-  [Eq. 53-57], and the paper's scenarios with plots (``gagen reach``);
-- ``nullspace_demo``: one of three Pandas moves along the circle through N(q) [COOP 4.3]
-  (``gagen nullspace``);
+- ``ocp``: cooperative reaching as an optimal control problem solved by IPOPT [Eq. 53-57] (the
+  paper's scenarios with plots, ``gagen reach``, and the nullspace demo, ``gagen nullspace``, are
+  in ``gagen.apps.cooperative``);
 - ``smc``: sliding-mode pose tracking [SMC] as a generated C step kernel in a real-time loop
   (``gagen smc``).
 

@@ -59,6 +59,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from gagen.algebra.multivector import SparseMultivector
 from gagen.algebra.signature import cga3d
+from gagen.apps.cooperative.catalogue import TOOL_LINE
 from gagen.codegen.backends.c import library as c_library
 from gagen.codegen.compiler import (
     FLAGS,
@@ -69,7 +70,6 @@ from gagen.codegen.compiler import (
 )
 from gagen.codegen.ir import ModuleSource
 from gagen.frontend import KernelFunction, cache_root, matrix, scalars, source_of
-from gagen.kernels import TOOL_LINE
 from gagen.model import kinematics as kin
 from gagen.model.conformal import EUCLID, point
 from gagen.model.kinematics import Joint
@@ -292,7 +292,7 @@ class SmcBuild:
 
 
 def _panda_joints() -> tuple[Joint, ...]:
-    from gagen.robots.systems import bundled_systems
+    from gagen.apps.cooperative.bundled import bundled_systems
 
     return tuple(bundled_systems()["panda_point"].chains[0].joints)
 

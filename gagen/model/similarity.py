@@ -15,8 +15,8 @@ Conditioning per kind (each is a continuous function of the inputs):
 - line, plane: K0/4 of Eq. 21 (1 for equal flats, 0 for opposite orientation) times the smaller
   |X²| of the two (zero for coincident points).
 
-Near a degeneracy every output stays finite (``tests/cooperative/test_degenerate_sweep.py`` sweeps each kind to
-ε = 1e-15 and exactly degenerate), but the derivatives are the geometry's: |J_G| grows like 1/ε
+Near a degeneracy every output stays finite (``tests/cooperative/test_degenerate_sweep.py`` sweeps each
+kind to ε = 1e-15 and exactly degenerate), but the derivatives are the geometry's: |J_G| grows like 1/ε
 towards coincident, collinear, coplanar or concyclic points (≈ 10-800/ε on 1-3 m configurations:
 1e9-1e11 at ε = 1e-9), like 1/ε² towards antiparallel flats (≈ 6-8/ε² until the half-turn switch),
 and is not clamped, since any clamp would change meaningful results. Precision runs out first for the
@@ -83,7 +83,7 @@ def similarity(kind: str, x1: Multivector, x2: Multivector) -> Versor:
 def similarity_factors(kind: str, x1: Multivector, x2: Multivector) -> Factored:
     """The factors of V_S(X1, X2), its conditioning and the degeneracy test (see ``similarity``).
 
-    The factors let a Jacobian use the product rule at the group level (``gagen.kernels``):
+    The factors let a Jacobian use the product rule at the group level (``gagen.apps.cooperative.catalogue``):
     each factor depends on few of the inputs' degrees of freedom (T on the centre, R on the axis,
     D on the radius), so its own derivative is cheap."""
     factors, conditioning, size = _similarity(check_kind(kind), x1, x2)

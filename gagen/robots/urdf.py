@@ -11,7 +11,7 @@ each defined once, and every joint's origin ``xyz``/``rpy`` and ``axis`` three f
 coordinates within ±``MAX_COORDINATE`` m and angles within ±``MAX_ANGLE`` rad. The walk from the tip
 link to the base link refuses links with two parents and kinematic loops (it is bounded by the
 number of joints); the chain's joints must be revolute, continuous, prismatic or fixed, and their
-names (which become row labels ``robot/joint``) follow ``gagen.spec.names.LABEL_RULE``. Each
+names (which become row labels ``robot/joint``) follow ``gagen.names.LABEL_RULE``. Each
 problem is a ``SpecError`` naming the file, the joint and its line.
 """
 
@@ -26,7 +26,7 @@ from lxml import etree
 
 from gagen.errors import SpecError, read_input
 from gagen.model.kinematics import Joint
-from gagen.spec.names import LABEL_RULE, label_problem
+from gagen.names import LABEL_RULE, label_problem
 
 _KINDS = {"revolute": "revolute", "continuous": "continuous", "prismatic": "prismatic", "fixed": "fixed"}
 MAX_COORDINATE = 1e6  # metres: a larger joint offset is a unit mistake or garbage

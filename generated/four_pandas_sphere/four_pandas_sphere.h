@@ -25,10 +25,10 @@
  *   four_pandas_sphere_arm3_fk   mul=156 add=118 neg=1 div=0 cos=7 sin=7 (flops=275)
  *   four_pandas_sphere_arm3_fk_jacobian mul=207 add=154 neg=21 div=0 cos=7 sin=7 (flops=382)
  *   four_pandas_sphere_arm3_jacobians mul=915 add=672 neg=74 div=0 cos=7 sin=7 (flops=1661)
- *   four_pandas_sphere_primitive mul=1280 add=983 neg=9 div=0 cos=24 sin=24 (flops=2272)
- *   four_pandas_sphere_similarity mul=1770 add=1373 neg=85 div=26 cos=24 fabs=5 if_else_zero=130 lt=9 not=5 sign=1 sin=24 sqrt=2 (flops=3254)
- *   four_pandas_sphere_similarity_jacobians mul=2518 add=1822 neg=213 div=45 atanh=1 cos=24 fabs=7 if_else_zero=448 lt=11 not=6 sign=1 sin=24 sqrt=2 (flops=4598)
- *   four_pandas_sphere_task      mul=3556 add=2740 neg=371 div=100 atan2=1 atanh=1 cos=24 fabs=7 if_else_zero=516 lt=14 not=8 sign=1 sin=24 sqrt=4 (flops=6767)
+ *   four_pandas_sphere_primitive mul=1268 add=975 neg=9 div=0 cos=24 sin=24 (flops=2252)
+ *   four_pandas_sphere_similarity mul=1758 add=1365 neg=89 div=26 cos=24 fabs=5 if_else_zero=130 lt=9 not=5 sign=1 sin=24 sqrt=2 (flops=3238)
+ *   four_pandas_sphere_similarity_jacobians mul=2506 add=1814 neg=214 div=45 atanh=1 cos=24 fabs=7 if_else_zero=448 lt=11 not=6 sign=1 sin=24 sqrt=2 (flops=4579)
+ *   four_pandas_sphere_task      mul=3544 add=2732 neg=372 div=100 atan2=1 atanh=1 cos=24 fabs=7 if_else_zero=516 lt=14 not=8 sign=1 sin=24 sqrt=4 (flops=6748)
  */
 #ifndef GAGEN_FOUR_PANDAS_SPHERE_H
 #define GAGEN_FOUR_PANDAS_SPHERE_H

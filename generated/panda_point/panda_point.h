@@ -16,10 +16,10 @@
  *   panda_point_arm0_fk          mul=156 add=116 neg=1 div=0 cos=7 sin=7 (flops=273)
  *   panda_point_arm0_fk_jacobian mul=203 add=147 neg=16 div=0 cos=7 sin=7 (flops=366)
  *   panda_point_arm0_jacobians   mul=892 add=631 neg=64 div=0 cos=7 sin=7 (flops=1587)
- *   panda_point_primitive        mul=174 add=119 neg=11 div=0 cos=6 sin=6 (flops=304)
- *   panda_point_similarity       mul=152 add=102 neg=8 div=0 cos=6 sin=6 (flops=262)
- *   panda_point_similarity_jacobians mul=172 add=105 neg=15 div=0 cos=6 sin=6 (flops=292)
- *   panda_point_task             mul=348 add=296 neg=5 div=21 atan2=1 atanh=1 cos=6 fabs=2 if_else_zero=10 lt=5 not=3 sin=6 sqrt=2 (flops=670)
+ *   panda_point_primitive        mul=169 add=114 neg=10 div=0 cos=6 sin=6 (flops=293)
+ *   panda_point_similarity       mul=147 add=97 neg=7 div=0 cos=6 sin=6 (flops=251)
+ *   panda_point_similarity_jacobians mul=167 add=100 neg=13 div=0 cos=6 sin=6 (flops=280)
+ *   panda_point_task             mul=343 add=291 neg=5 div=21 atan2=1 atanh=1 cos=6 fabs=2 if_else_zero=10 lt=5 not=3 sin=6 sqrt=2 (flops=660)
  */
 #ifndef GAGEN_PANDA_POINT_H
 #define GAGEN_PANDA_POINT_H

@@ -22,10 +22,10 @@
  *   three_iiwas_plane_arm2_fk    mul=151 add=108 neg=1 div=0 cos=7 sin=7 (flops=260)
  *   three_iiwas_plane_arm2_fk_jacobian mul=210 add=166 neg=22 div=0 cos=7 sin=7 (flops=398)
  *   three_iiwas_plane_arm2_jacobians mul=957 add=707 neg=74 div=0 cos=7 sin=7 (flops=1738)
- *   three_iiwas_plane_primitive  mul=663 add=474 neg=21 div=0 cos=18 sin=18 (flops=1158)
- *   three_iiwas_plane_similarity mul=1376 add=1042 neg=155 div=90 cos=18 fabs=6 if_else_zero=438 lt=8 not=5 sign=3 sin=18 sqrt=3 (flops=2663)
- *   three_iiwas_plane_similarity_jacobians mul=1939 add=1405 neg=153 div=145 atan2=2 cos=18 fabs=7 if_else_zero=713 lt=12 not=8 sign=3 sin=18 sqrt=7 (flops=3642)
- *   three_iiwas_plane_task       mul=2900 add=2315 neg=196 div=164 atan2=1 atanh=1 cos=18 fabs=8 if_else_zero=818 lt=13 not=8 sign=3 sin=18 sqrt=5 (flops=5575)
+ *   three_iiwas_plane_primitive  mul=660 add=472 neg=21 div=0 cos=18 sin=18 (flops=1153)
+ *   three_iiwas_plane_similarity mul=1373 add=1040 neg=155 div=90 cos=18 fabs=6 if_else_zero=438 lt=8 not=5 sign=3 sin=18 sqrt=3 (flops=2658)
+ *   three_iiwas_plane_similarity_jacobians mul=1936 add=1403 neg=153 div=145 atan2=2 cos=18 fabs=7 if_else_zero=713 lt=12 not=8 sign=3 sin=18 sqrt=7 (flops=3637)
+ *   three_iiwas_plane_task       mul=2897 add=2313 neg=196 div=164 atan2=1 atanh=1 cos=18 fabs=8 if_else_zero=818 lt=13 not=8 sign=3 sin=18 sqrt=5 (flops=5570)
  */
 #ifndef GAGEN_THREE_IIWAS_PLANE_H
 #define GAGEN_THREE_IIWAS_PLANE_H

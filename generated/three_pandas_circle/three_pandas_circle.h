@@ -22,10 +22,10 @@
  *   three_pandas_circle_arm2_fk  mul=164 add=121 neg=1 div=0 cos=7 sin=7 (flops=286)
  *   three_pandas_circle_arm2_fk_jacobian mul=214 add=166 neg=18 div=0 cos=7 sin=7 (flops=398)
  *   three_pandas_circle_arm2_jacobians mul=961 add=713 neg=67 div=0 cos=7 sin=7 (flops=1741)
- *   three_pandas_circle_primitive mul=1135 add=821 neg=48 div=0 cos=18 sin=18 (flops=2004)
- *   three_pandas_circle_similarity mul=1829 add=1424 neg=54 div=61 cos=18 fabs=6 if_else_zero=287 lt=12 not=7 sign=1 sin=18 sqrt=4 (flops=3368)
- *   three_pandas_circle_similarity_jacobians mul=3763 add=2865 neg=301 div=130 atan2=2 atanh=1 cos=18 fabs=7 if_else_zero=1344 lt=16 not=10 sign=1 sin=18 sqrt=8 (flops=7059)
- *   three_pandas_circle_task     mul=3441 add=2820 neg=152 div=135 atan2=1 atanh=1 cos=18 fabs=8 if_else_zero=655 lt=17 not=10 sign=1 sin=18 sqrt=6 (flops=6548)
+ *   three_pandas_circle_primitive mul=1132 add=819 neg=48 div=0 cos=18 sin=18 (flops=1999)
+ *   three_pandas_circle_similarity mul=1826 add=1422 neg=54 div=61 cos=18 fabs=6 if_else_zero=287 lt=12 not=7 sign=1 sin=18 sqrt=4 (flops=3363)
+ *   three_pandas_circle_similarity_jacobians mul=3760 add=2863 neg=301 div=130 atan2=2 atanh=1 cos=18 fabs=7 if_else_zero=1344 lt=16 not=10 sign=1 sin=18 sqrt=8 (flops=7054)
+ *   three_pandas_circle_task     mul=3438 add=2818 neg=152 div=135 atan2=1 atanh=1 cos=18 fabs=8 if_else_zero=655 lt=17 not=10 sign=1 sin=18 sqrt=6 (flops=6543)
  */
 #ifndef GAGEN_THREE_PANDAS_CIRCLE_H
 #define GAGEN_THREE_PANDAS_CIRCLE_H

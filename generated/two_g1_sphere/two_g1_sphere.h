@@ -25,10 +25,10 @@
  *   two_g1_sphere_g1b_right_hand_fk mul=335 add=197 neg=1 div=0 cos=10 sin=10 (flops=533)
  *   two_g1_sphere_g1b_right_hand_fk_jacobian mul=411 add=346 neg=15 div=0 cos=10 sin=10 (flops=772)
  *   two_g1_sphere_g1b_right_hand_jacobians mul=1422 add=1120 neg=82 div=0 cos=10 sin=10 (flops=2624)
- *   two_g1_sphere_primitive      mul=1939 add=1867 neg=4 div=0 cos=34 sin=34 (flops=3810)
- *   two_g1_sphere_similarity     mul=2393 add=2227 neg=136 div=26 cos=34 fabs=5 if_else_zero=154 lt=9 not=5 sign=1 sin=34 sqrt=2 (flops=4782)
- *   two_g1_sphere_similarity_jacobians mul=3321 add=2826 neg=240 div=45 atanh=1 cos=34 fabs=7 if_else_zero=472 lt=11 not=6 sign=1 sin=34 sqrt=2 (flops=6432)
- *   two_g1_sphere_task           mul=4287 add=3684 neg=380 div=100 atan2=1 atanh=1 cos=34 fabs=7 if_else_zero=540 lt=14 not=8 sign=1 sin=34 sqrt=4 (flops=8451)
+ *   two_g1_sphere_primitive      mul=1937 add=1863 neg=3 div=0 cos=34 sin=34 (flops=3803)
+ *   two_g1_sphere_similarity     mul=2391 add=2223 neg=135 div=26 cos=34 fabs=5 if_else_zero=154 lt=9 not=5 sign=1 sin=34 sqrt=2 (flops=4775)
+ *   two_g1_sphere_similarity_jacobians mul=3319 add=2822 neg=239 div=45 atanh=1 cos=34 fabs=7 if_else_zero=472 lt=11 not=6 sign=1 sin=34 sqrt=2 (flops=6425)
+ *   two_g1_sphere_task           mul=4285 add=3680 neg=379 div=100 atan2=1 atanh=1 cos=34 fabs=7 if_else_zero=540 lt=14 not=8 sign=1 sin=34 sqrt=4 (flops=8444)
  */
 #ifndef GAGEN_TWO_G1_SPHERE_H
 #define GAGEN_TWO_G1_SPHERE_H

@@ -19,10 +19,10 @@
  *   two_iiwas_line_arm1_fk       mul=143 add=101 neg=1 div=0 cos=7 sin=7 (flops=245)
  *   two_iiwas_line_arm1_fk_jacobian mul=206 add=148 neg=14 div=0 cos=7 sin=7 (flops=368)
  *   two_iiwas_line_arm1_jacobians mul=910 add=665 neg=66 div=0 cos=7 sin=7 (flops=1641)
- *   two_iiwas_line_primitive     mul=389 add=262 neg=33 div=0 cos=12 sin=12 (flops=684)
- *   two_iiwas_line_similarity    mul=1174 add=950 neg=164 div=114 cos=12 fabs=6 if_else_zero=372 lt=8 not=5 sign=3 sin=12 sqrt=3 (flops=2402)
- *   two_iiwas_line_similarity_jacobians mul=1656 add=1277 neg=121 div=171 atan2=2 cos=12 fabs=7 if_else_zero=544 lt=12 not=8 sign=3 sin=12 sqrt=7 (flops=3225)
- *   two_iiwas_line_task          mul=2310 add=1935 neg=268 div=188 atan2=1 atanh=1 cos=12 fabs=8 if_else_zero=673 lt=13 not=8 sign=3 sin=12 sqrt=5 (flops=4701)
+ *   two_iiwas_line_primitive     mul=383 add=258 neg=32 div=0 cos=12 sin=12 (flops=673)
+ *   two_iiwas_line_similarity    mul=1168 add=946 neg=167 div=114 cos=12 fabs=6 if_else_zero=372 lt=8 not=5 sign=3 sin=12 sqrt=3 (flops=2395)
+ *   two_iiwas_line_similarity_jacobians mul=1650 add=1273 neg=124 div=171 atan2=2 cos=12 fabs=7 if_else_zero=544 lt=12 not=8 sign=3 sin=12 sqrt=7 (flops=3218)
+ *   two_iiwas_line_task          mul=2304 add=1931 neg=268 div=188 atan2=1 atanh=1 cos=12 fabs=8 if_else_zero=673 lt=13 not=8 sign=3 sin=12 sqrt=5 (flops=4691)
  */
 #ifndef GAGEN_TWO_IIWAS_LINE_H
 #define GAGEN_TWO_IIWAS_LINE_H

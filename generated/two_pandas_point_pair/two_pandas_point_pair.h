@@ -19,10 +19,10 @@
  *   two_pandas_point_pair_arm1_fk mul=156 add=116 neg=1 div=0 cos=7 sin=7 (flops=273)
  *   two_pandas_point_pair_arm1_fk_jacobian mul=207 add=151 neg=19 div=0 cos=7 sin=7 (flops=377)
  *   two_pandas_point_pair_arm1_jacobians mul=911 add=672 neg=71 div=0 cos=7 sin=7 (flops=1654)
- *   two_pandas_point_pair_primitive mul=575 add=387 neg=46 div=0 cos=12 sin=12 (flops=1008)
- *   two_pandas_point_pair_similarity mul=1069 add=835 neg=72 div=71 cos=12 fabs=6 if_else_zero=209 lt=12 not=7 sign=1 sin=12 sqrt=4 (flops=2047)
- *   two_pandas_point_pair_similarity_jacobians mul=2415 add=1865 neg=229 div=140 atan2=2 atanh=1 cos=12 fabs=7 if_else_zero=951 lt=16 not=10 sign=1 sin=12 sqrt=8 (flops=4649)
- *   two_pandas_point_pair_task   mul=2261 add=1904 neg=164 div=145 atan2=1 atanh=1 cos=12 fabs=8 if_else_zero=500 lt=17 not=10 sign=1 sin=12 sqrt=6 (flops=4474)
+ *   two_pandas_point_pair_primitive mul=569 add=383 neg=49 div=0 cos=12 sin=12 (flops=1001)
+ *   two_pandas_point_pair_similarity mul=1063 add=831 neg=74 div=71 cos=12 fabs=6 if_else_zero=209 lt=12 not=7 sign=1 sin=12 sqrt=4 (flops=2039)
+ *   two_pandas_point_pair_similarity_jacobians mul=2409 add=1861 neg=234 div=140 atan2=2 atanh=1 cos=12 fabs=7 if_else_zero=949 lt=16 not=10 sign=1 sin=12 sqrt=8 (flops=4644)
+ *   two_pandas_point_pair_task   mul=2255 add=1900 neg=167 div=145 atan2=1 atanh=1 cos=12 fabs=8 if_else_zero=500 lt=17 not=10 sign=1 sin=12 sqrt=6 (flops=4467)
  */
 #ifndef GAGEN_TWO_PANDAS_POINT_PAIR_H
 #define GAGEN_TWO_PANDAS_POINT_PAIR_H

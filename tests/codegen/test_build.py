@@ -20,10 +20,10 @@ import numpy as np
 import pytest
 from conftest import FAST_MODULES, tiered
 
+from gagen.apps.cooperative.bundled import ROBOTS, bundled_specs, bundled_systems, ready_configuration
 from gagen.build import build, build_source, load_source, render
 from gagen.check import check_module
 from gagen.errors import SpecError
-from gagen.robots.systems import ROBOTS, bundled_specs, bundled_systems, ready_configuration
 from gagen.runtime import load
 
 GENERATED = ROBOTS.parent / "generated"

@@ -27,15 +27,15 @@ import numpy
 import pytest
 
 from gagen import build as build_module
-from gagen import cooperative_module
+from gagen.apps.cooperative import module as cooperative_module
+from gagen.apps.cooperative.bundled import bundled_specs
+from gagen.apps.cooperative.module import cooperative_source
+from gagen.apps.cooperative.spec import load_system
+from gagen.apps.cooperative.system import Chain, System
 from gagen.build import build, build_key
 from gagen.cli import main
 from gagen.codegen.backends import BACKENDS
 from gagen.codegen.backends.c import library
-from gagen.cooperative_module import cooperative_source
-from gagen.model.cooperative import Chain, System
-from gagen.robots.systems import bundled_specs
-from gagen.spec.loader import load_system
 
 SPEC = bundled_specs()["panda_point"]
 QUIET = {"progress": lambda _: None}
@@ -71,9 +71,9 @@ def _use(monkeypatch, system: System) -> None:
 
 # Child processes build a tiny system (the Panda chain cut after its first two joints): quick to build
 TINY = """
-import gagen.cooperative_module
-from gagen.model.cooperative import Chain, System
-from gagen.spec.loader import load_system
+import gagen.apps.cooperative.module
+from gagen.apps.cooperative.system import Chain, System
+from gagen.apps.cooperative.spec import load_system
 
 
 def tiny(path):
@@ -82,10 +82,10 @@ def tiny(path):
     return System(system.name, system.kind, (Chain(chain.name, chain.joints[:3], chain.robot),)), {}
 
 
-gagen.cooperative_module.load_system = tiny
+gagen.apps.cooperative.module.load_system = tiny
 """
 _tiny: dict = {}
-exec(TINY.replace("gagen.cooperative_module.load_system = tiny", ""), _tiny)
+exec(TINY.replace("gagen.apps.cooperative.module.load_system = tiny", ""), _tiny)
 
 
 def _use_tiny(monkeypatch) -> None:

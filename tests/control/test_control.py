@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from conftest import FAST_MODULES, tiered
 
+from gagen.apps.cooperative.bundled import bundled_systems, ready_configuration
 from gagen.control import (
     CONTROLLABLE_DIMENSION,
     damped_pseudo_inverse,
@@ -23,7 +24,6 @@ from gagen.control import (
     nullspace_projector,
     solve_ik,
 )
-from gagen.robots.systems import bundled_systems, ready_configuration
 from gagen.runtime import load
 
 GENERATED = Path(__file__).resolve().parents[2] / "generated"

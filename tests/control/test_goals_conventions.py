@@ -1,4 +1,5 @@
-"""Stating goals (``gagen.goals``: V_Sd from a desired primitive) and the chain kernels' layouts
+"""Stating goals (``gagen.apps.cooperative.goals``: V_Sd from a desired primitive) and the chain
+kernels' layouts
 (``gagen.conventions``: J_S in Pinocchio's [v; ω] WORLD layout, the motor as a 4 × 4 transform).
 
 Goals are checked by what the similarity does to points, not by how it was built: V_Sd must carry
@@ -16,8 +17,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from gagen import goals
 from gagen.algebra.signature import cga3d
+from gagen.apps.cooperative import goals
 from gagen.control import solve_ik
 from gagen.conventions import from_pinocchio_world, motor_to_homogeneous, to_pinocchio_world
 from gagen.interp import MultiVector
@@ -140,7 +141,7 @@ def test_ik_reaches_a_circle_stated_by_centre_radius_normal():
         e, J = task(q, V_Sd)
         return np.array(e).ravel(), np.array(J)
 
-    from gagen.spec import load_system
+    from gagen.apps.cooperative.spec import load_system
 
     _, configurations = load_system(ROOT / "robots" / "three_pandas_circle.yaml")
     q0 = np.array(configurations["ready"])

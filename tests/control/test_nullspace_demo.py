@@ -5,7 +5,7 @@ import struct
 import numpy as np
 import pytest
 
-from gagen.control import nullspace_demo as nd
+from gagen.apps.cooperative import nullspace_demo as nd
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from gagen.algebra.signature import cga3d
-from gagen.control import scenarios
+from gagen.apps.cooperative import scenarios
 from gagen.control.ocp import (
     BLADES,
     ReachingOCP,

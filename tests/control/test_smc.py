@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 
 from gagen.algebra.signature import cga3d
+from gagen.apps.cooperative.bundled import bundled_systems
 from gagen.codegen.compiler import CompilerNotFound, find_compiler
 from gagen.control import smc
 from gagen.interp import MultiVector
 from gagen.model import kinematics as kin
-from gagen.robots.systems import bundled_systems
 from gagen.symbolic.flatten import casadi_op_count
 
 try:

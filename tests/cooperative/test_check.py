@@ -11,11 +11,11 @@ import pytest
 from conftest import tiered
 
 import gagen.check as check
-from gagen.kernels import kernel_functions
-from gagen.model.cooperative import Chain, System
+from gagen.apps.cooperative.catalogue import kernel_functions
+from gagen.apps.cooperative.spec import load_system
+from gagen.apps.cooperative.system import Chain, System
 from gagen.model.kinematics import Joint
 from gagen.runtime import load
-from gagen.spec import load_system
 
 ROOT = Path(__file__).resolve().parents[2]
 GENERATED = ROOT / "generated"

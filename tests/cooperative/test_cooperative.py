@@ -14,15 +14,20 @@ import pytest
 from conftest import tiered
 
 from gagen.algebra.signature import cga3d
+from gagen.apps.cooperative.bundled import bundled_systems, ready_configuration
+from gagen.apps.cooperative.catalogue import TOOL_LINE, build_kernels
+from gagen.apps.cooperative.system import (
+    cooperative_jacobian,
+    cooperative_primitive,
+    similarity_of,
+    task_error,
+)
 from gagen.interp import MultiVector
-from gagen.kernels import TOOL_LINE, build_kernels
 from gagen.model import kinematics as K
 from gagen.model.conformal import SIMILARITY, SIMILARITY_GENERATOR
-from gagen.model.cooperative import cooperative_jacobian, cooperative_primitive, similarity_of, task_error
 from gagen.model.primitives import through, unit_primitive
 from gagen.model.similarity import cooperative_similarity
 from gagen.model.versors import exp_similarity, log_similarity
-from gagen.robots.systems import bundled_systems, ready_configuration
 
 ALG = cga3d()
 ZERO = MultiVector.zero(ALG)
@@ -256,7 +261,7 @@ def test_task_space_derivatives_equal_plain_ad_of_the_whole_construction(name):
     random end positions (1e-10 relative)."""
     import casadi as ca
 
-    from gagen.kernels import _Graph, _task_space
+    from gagen.apps.cooperative.catalogue import _Graph, _task_space
 
     system = SYSTEMS[name]
     graph = _Graph(system)

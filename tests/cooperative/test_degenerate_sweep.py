@@ -1,6 +1,7 @@
 """Every primitive kind swept through its degenerate configurations, on the generated formulas.
 
-The task-space function of the kernels (``gagen.kernels._task_space``: X_c, V_Sc, conditioning,
+The task-space function of the kernels (``gagen.apps.cooperative.catalogue._task_space``: X_c, V_Sc,
+conditioning,
 log V_Sc, e and their derivatives by the end positions, before the chain rule) is evaluated directly
 on end positions that approach coincident, collinear, coplanar, concyclic and antiparallel
 configurations (distance ε = 1e-1 … 1e-15, then exactly degenerate), plus one end-to-end check through
@@ -21,9 +22,9 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from gagen.kernels import _Graph, _task_space
+from gagen.apps.cooperative.catalogue import _Graph, _task_space
+from gagen.apps.cooperative.system import Chain, System
 from gagen.model.conformal import SIMILARITY
-from gagen.model.cooperative import Chain, System
 from gagen.model.kinematics import Joint
 from gagen.model.primitives import points_needed
 
@@ -210,8 +211,8 @@ def test_geometric_jacobian_grows_no_faster_than_the_geometry_says(kind, family)
 def test_coincident_hands_of_two_pandas_through_the_kernels():
     """End to end: the two Pandas' hands placed 1e-3 … 1e-14 m apart (Gauss-Newton on arm1's end
     point), then the ``similarity`` and ``task`` kernels (CasADi Functions) with V_Sd = V_Sc(q)."""
-    from gagen.kernels import build_kernels
-    from gagen.spec import load_system
+    from gagen.apps.cooperative.catalogue import build_kernels
+    from gagen.apps.cooperative.spec import load_system
 
     system, configurations = load_system("robots/two_pandas_point_pair.yaml")
     kernels = build_kernels(system)

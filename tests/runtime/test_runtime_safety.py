@@ -21,8 +21,8 @@ import numpy as np
 import pytest
 
 import gagen
+from gagen.apps.cooperative.bundled import bundled_specs
 from gagen.build import build
-from gagen.robots.systems import bundled_specs
 from gagen.runtime import CKernel, load
 
 

@@ -17,14 +17,14 @@ import pinocchio as pin
 import pytest
 
 from gagen.algebra.signature import cga3d
+from gagen.apps.cooperative.catalogue import build_kernels
+from gagen.apps.cooperative.spec import load_system
+from gagen.apps.cooperative.system import Chain, System
 from gagen.errors import SpecError
 from gagen.interp import MultiVector
-from gagen.kernels import build_kernels
 from gagen.model import kinematics as K
-from gagen.model.cooperative import Chain, System
 from gagen.model.kinematics import Joint
 from gagen.robots.urdf import load_chain
-from gagen.spec.loader import load_system
 
 URDF = Path(__file__).resolve().parents[1] / "data" / "mimic_gripper.urdf"
 # every moving joint of the fixture: (parent-to-joint origin xyz, rpy, axis, kind, value from q)

@@ -10,12 +10,12 @@ from pathlib import Path
 
 import pytest
 
+from gagen.apps.cooperative.catalogue import build_kernels
+from gagen.apps.cooperative.spec import load_system
+from gagen.apps.cooperative.system import Chain, System
 from gagen.errors import SpecError
-from gagen.kernels import build_kernels
-from gagen.model.cooperative import Chain, System
 from gagen.model.kinematics import Joint
-from gagen.spec import load_system
-from gagen.spec.names import (
+from gagen.names import (
     CHAIN_KERNEL_SUFFIXES,
     SYSTEM_KERNELS,
     chain_kernel_names,

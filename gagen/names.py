@@ -48,7 +48,8 @@ CPP_KEYWORDS = _words("""
 PYTHON_KEYWORDS = frozenset(keyword.kwlist)  # soft keywords (match, case, type, _) are valid names
 RESERVED_WORDS = C_KEYWORDS | CPP_KEYWORDS | PYTHON_KEYWORDS
 
-# the kernels every system has, and the suffixes of each chain's kernels (gagen.kernels.build_kernels)
+# the kernels every system has, and the suffixes of each chain's kernels
+# (gagen.apps.cooperative.catalogue.build_kernels)
 SYSTEM_KERNELS = ("primitive", "similarity", "similarity_jacobians", "task")
 CHAIN_KERNEL_SUFFIXES = ("fk", "fk_jacobian", "jacobians")
 

@@ -1,5 +1,5 @@
 """A robot spec as a module source: ``gagen build robots/<system>.yaml`` builds the kernel catalogue of
-the cooperative system it describes (``gagen.kernels.build_kernels``).
+the cooperative system it describes (``gagen.apps.cooperative.catalogue.build_kernels``).
 
 The manifest keeps what the control code reads about the system (``system``, ``primitive``, ``dof``,
 ``joints``) in the source's ``meta``. The kernel graphs are built on first use of ``kernels``: an
@@ -13,17 +13,19 @@ from collections.abc import Iterator, Mapping
 from pathlib import Path
 
 from gagen import __version__
+from gagen.apps.cooperative.catalogue import build_kernels
+from gagen.apps.cooperative.spec import load_system
+from gagen.apps.cooperative.system import System
 from gagen.build import check_identifier
 from gagen.codegen.ir import Kernel, ModuleSource
 from gagen.errors import read_input
-from gagen.kernels import build_kernels
-from gagen.model.cooperative import System
-from gagen.spec.loader import load_system
 
-PACKAGE = Path(__file__).resolve().parent
+PACKAGE = Path(__file__).resolve().parents[2]  # gagen/
 # the parts of gagen that take no part in making a system's kernel graphs: every other module is in
 # the key (the code generator, gagen/codegen and build.py, is in the build's own key)
 NOT_IN_KEY = {"build.py", "codegen", "runtime.py", "cli.py", "check.py", "report.py", "demo.py",
+              "apps/cooperative/scenarios.py", "apps/cooperative/nullspace_demo.py",
+              "apps/cooperative/goals.py",
               "crosscheck.py", "goals.py", "conventions.py", "control", "interp"}
 
 
@@ -58,7 +60,7 @@ def system_key(system: System) -> str:
     digest.update(__version__.encode())
     for module in sorted(PACKAGE.rglob("*.py")):
         name = module.relative_to(PACKAGE).as_posix()
-        if name.split("/")[0] not in NOT_IN_KEY:
+        if name.split("/")[0] not in NOT_IN_KEY and name not in NOT_IN_KEY:
             digest.update(name.encode() + b"\0" + module.read_bytes())
     return digest.hexdigest()
 

@@ -35,6 +35,7 @@ import casadi as ca
 
 from gagen.algebra.multivector import SparseMultivector
 from gagen.algebra.signature import cga3d
+from gagen.apps.cooperative.system import Chain, System
 from gagen.codegen.ir import Kernel
 from gagen.frontend import KernelFunction, scalars
 from gagen.model import kinematics as K
@@ -49,7 +50,6 @@ from gagen.model.conformal import (
     point,
     vector,
 )
-from gagen.model.cooperative import Chain, System
 from gagen.model.primitives import points_needed, through, unit_primitive
 from gagen.model.similarity import cooperative_similarity, similarity_factors
 from gagen.model.versors import log_similarity

@@ -26,7 +26,7 @@ and what was expected. The loader is strict:
 * duplicate keys are refused; anchors and aliases are allowed, but the document expanded through
   them may have at most ``MAX_NODES`` nodes (alias bombs) and no alias may refer to itself;
   the file must be UTF-8;
-* names follow ``gagen.spec.names``: the system and chain names are identifiers (a letter, then
+* names follow ``gagen.names``: the system and chain names are identifiers (a letter, then
   letters, digits and single underscores; no keywords; at most 64 characters), refused rather than
   mapped, so they can name files, C symbols and Python attributes as they are; joint names, robot
   labels and configuration names are labels (letters, digits, ``_ . : -``). No chain's kernel
@@ -49,12 +49,11 @@ from typing import Any
 
 import yaml
 
+from gagen.apps.cooperative.system import Chain, System
 from gagen.errors import SpecError, read_input
-from gagen.model.cooperative import Chain, System
 from gagen.model.kinematics import JOINT_KINDS, Joint
 from gagen.model.primitives import KINDS, points_needed
-from gagen.robots.urdf import MAX_ANGLE, MAX_COORDINATE, MIN_AXIS, load_chain
-from gagen.spec.names import (
+from gagen.names import (
     IDENTIFIER_RULE,
     LABEL_RULE,
     SYSTEM_KERNELS,
@@ -63,6 +62,7 @@ from gagen.spec.names import (
     label_problem,
     suggest_identifier,
 )
+from gagen.robots.urdf import MAX_ANGLE, MAX_COORDINATE, MIN_AXIS, load_chain
 
 MAX_NODES = 100_000  # YAML nodes of the document expanded through its aliases
 

@@ -12,8 +12,8 @@ and writes two plots into an output folder:
   (red) and, for rounds, the centre's path; circles and spheres are drawn from centre, radius (and
   normal), lines and planes as a segment or patch around the end points.
 
-    python -m gagen.control.scenarios circle --out plots/ [--N 100] [--horizon 2.5]
-    python -m gagen.control.scenarios all --out plots/
+    python -m gagen.apps.cooperative.scenarios circle --out plots/ [--N 100] [--horizon 2.5]
+    python -m gagen.apps.cooperative.scenarios all --out plots/
 """
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ import numpy as np
 import yaml
 from numpy.typing import NDArray
 
+from gagen.apps.cooperative.bundled import ROBOTS, bundled_specs, bundled_systems, ready_configuration
 from gagen.cli import positive_float, positive_int
 from gagen.control.ocp import (
     BLADES,
@@ -42,7 +43,6 @@ from gagen.control.ocp import (
     target_from,
     task_errors,
 )
-from gagen.robots.systems import ROBOTS, bundled_specs, bundled_systems, ready_configuration
 from gagen.runtime import GeneratedModule, load
 
 GENERATED = ROBOTS.parent / "generated"
@@ -327,7 +327,7 @@ def plot_trajectory(s: Scenario, m: GeneratedModule, result: OCPResult, path: Pa
 
 # -- command line ------------------------------------------------------------------------------------
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m gagen.control.scenarios",
+    parser = argparse.ArgumentParser(prog="python -m gagen.apps.cooperative.scenarios",
                                      description=__doc__.split("\n")[0])
     parser.add_argument("scenario", choices=[*SCENARIOS, "all"])
     parser.add_argument("--out", type=Path, default=Path("plots"), help="folder for the PNG plots")

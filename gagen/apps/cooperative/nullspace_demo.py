@@ -28,7 +28,7 @@ projected flow keeps ‖e‖ = 0, so the recorded ‖e‖ of the projected run i
 O(dt⁴) (explicit Euler would drift off the circle by O(dt) in total: each step goes along the
 tangent, (v dt)² / 2r off the circle).
 
-    python -m gagen.control.nullspace_demo --out plots/ [--steps 400] [--dt 0.01] [--gain 1.5]
+    python -m gagen.apps.cooperative.nullspace_demo --out plots/ [--steps 400] [--dt 0.01] [--gain 1.5]
 """
 
 from __future__ import annotations
@@ -44,8 +44,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from gagen.apps.cooperative.bundled import ROBOTS, bundled_systems, ready_configuration
 from gagen.control.differential import damped_pseudo_inverse, nullspace_projector
-from gagen.robots.systems import ROBOTS, bundled_systems, ready_configuration
 from gagen.runtime import GeneratedModule, load
 
 SYSTEM = "three_pandas_circle"
@@ -273,7 +273,7 @@ def plot(results: Sequence[DemoResult], out_folder: str | Path, name: str = PLOT
 
 # -- command line ------------------------------------------------------------------------------------
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m gagen.control.nullspace_demo",
+    parser = argparse.ArgumentParser(prog="python -m gagen.apps.cooperative.nullspace_demo",
                                      description=__doc__.split("\n")[0])
     parser.add_argument("--out", type=Path, default=Path("plots"), help="folder for the PNG plot")
     parser.add_argument("--steps", type=int, default=DEFAULT_STEPS)

@@ -3,7 +3,7 @@
 A :class:`System` is a primitive kind and one chain per spanning point (base placement as a
 leading fixed joint). Everything here is written against the protocol; the Jacobians that are
 derivatives of a flat expression (J_A,Sc, J_B, J_Be) are taken on the flattened graph by
-``gagen.kernels``, and the ones with a closed construction (J_c, Eq. 15-17) are here.
+``gagen.apps.cooperative.catalogue``, and the ones with a closed construction (J_c, Eq. 15-17) are here.
 """
 
 from __future__ import annotations

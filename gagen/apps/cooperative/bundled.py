@@ -5,10 +5,10 @@ from __future__ import annotations
 from functools import cache
 from pathlib import Path
 
-from gagen.model.cooperative import System
-from gagen.spec.loader import load_system
+from gagen.apps.cooperative.spec import load_system
+from gagen.apps.cooperative.system import System
 
-ROBOTS = Path(__file__).resolve().parents[2] / "robots"
+ROBOTS = Path(__file__).resolve().parents[3] / "robots"
 
 
 @cache
