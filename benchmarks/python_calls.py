@@ -54,7 +54,7 @@ def configs(n: int = BENCH_N, seed: int = BENCH_SEED, arms: int = 1) -> np.ndarr
     return out
 
 
-def _median_ns(loop, calls: int, repeats: int) -> float:
+def median_ns(loop, calls: int, repeats: int) -> float:
     loop()  # warm-up
     times = []
     for _ in range(repeats):
@@ -101,11 +101,11 @@ def gagen_calls(folder: str | Path, kernels: list[str], qs: np.ndarray, calls: i
             for q in seq:
                 kernel(q, out=outs)
 
-        out[name] = {"call_ns": _median_ns(loop(kernel), calls, repeats),
-                     "out_ns": _median_ns(into, calls, repeats),
-                     "fast_ns": _median_ns(loop(kernel.bind()), calls, repeats),
-                     "ctypes_ns": _median_ns(loop(via_ctypes), calls, repeats),
-                     "casadi_ns": _median_ns(loop(casadi_function), calls, repeats)}
+        out[name] = {"call_ns": median_ns(loop(kernel), calls, repeats),
+                     "out_ns": median_ns(into, calls, repeats),
+                     "fast_ns": median_ns(loop(kernel.bind()), calls, repeats),
+                     "ctypes_ns": median_ns(loop(via_ctypes), calls, repeats),
+                     "casadi_ns": median_ns(loop(casadi_function), calls, repeats)}
     return out
 
 
@@ -130,8 +130,8 @@ def pinocchio_python(qs: np.ndarray, calls: int = CALLS, repeats: int = REPEATS)
             update(model, data, frame)
             jac(model, data, q, frame, world)
 
-    return {"fk_ns": _median_ns(fk_loop, calls, repeats),
-            "fk_jacobian_ns": _median_ns(fkj_loop, calls, repeats)}
+    return {"fk_ns": median_ns(fk_loop, calls, repeats),
+            "fk_jacobian_ns": median_ns(fkj_loop, calls, repeats)}
 
 
 def pygafro_panda(tip_joint: str | None = "panda_joint8"):
@@ -159,8 +159,8 @@ def pygafro_calls(qs: np.ndarray, calls: int = CALLS, repeats: int = REPEATS) ->
             motor(q)
             jacobian(q)
 
-    return {"fk_ns": _median_ns(fk_loop, calls, repeats),
-            "fk_jacobian_ns": _median_ns(fkj_loop, calls, repeats)}
+    return {"fk_ns": median_ns(fk_loop, calls, repeats),
+            "fk_jacobian_ns": median_ns(fkj_loop, calls, repeats)}
 
 
 def _twist(column) -> np.ndarray:

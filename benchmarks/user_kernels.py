@@ -36,10 +36,13 @@ from gagen.algebra.kinds import kind_blades
 from gagen.algebra.signature import cga3d
 from gagen.interp import MultiVector
 from gagen.interp.multivector import conformal_point
-from gagen.model.conformal import location
-from gagen.model.primitives import centre, radius, unit_normal
 
 ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))  # examples/ and benchmarks/ as packages
+
+from benchmarks.python_calls import median_ns  # noqa: E402
+from examples.formulas import circle_distance  # noqa: E402  (the README's kernel)
+
 CALLS = 20000
 REPEATS = 9
 
@@ -55,19 +58,9 @@ def _sample(rng: np.random.Generator) -> list[np.ndarray]:
             np.array([c[b] for b in kind_blades(alg, "circle")])]
 
 
-def circle_distance(X: "point", C: "circle"):  # noqa: F821 (gagen kinds, read by gagen.kernel)
-    """Euclidean distance of a point from a circle."""
-    m = X.math
-    c, r, n = location(centre(C)), radius(C), unit_normal(C)
-    v = location(X) - c
-    h = v.sp(n)
-    rho = m.sqrt(v.sp(v) - h * h)
-    return {"d": m.sqrt((rho - r) * (rho - r) + h * h)}
-
-
 def declare() -> gagen.KernelFunction:
     """A new KernelFunction of the same content each time (nothing traced or compiled yet)."""
-    return gagen.kernel(algebra="cga3d", jacobians={"J_d": ("d", "X")}, sample=_sample)(circle_distance)
+    return gagen.kernel(algebra="cga3d", jacobians={"J_d": ("d", "X")}, sample=_sample)(circle_distance.fn)
 
 
 # -- (a) compile time ---------------------------------------------------------------------------------------
@@ -111,16 +104,6 @@ def compile_times(repeats: int) -> dict[str, float]:
 
 
 # -- (b) one call from Python --------------------------------------------------------------------------------
-def _median_ns(loop, calls: int, repeats: int) -> float:
-    loop()  # warm-up
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter_ns()
-        loop()
-        times.append((time.perf_counter_ns() - t0) / calls)
-    return statistics.median(times)
-
-
 def call_times(calls: int, repeats: int) -> dict[str, float]:
     with tempfile.TemporaryDirectory() as tmp:
         os.environ["GAGEN_CACHE"] = tmp
@@ -147,10 +130,10 @@ def call_times(calls: int, repeats: int) -> dict[str, float]:
             for _x, _c in seq:
                 pass
 
-        return {"k(X, C)": _median_ns(fresh, calls, repeats),
-                "k(X, C, out=outs)": _median_ns(into, calls, repeats),
-                "f(X, C), f = k.bind()": _median_ns(fast, calls, repeats),
-                "(the loop alone)": _median_ns(empty_loop, calls, repeats),
+        return {"k(X, C)": median_ns(fresh, calls, repeats),
+                "k(X, C, out=outs)": median_ns(into, calls, repeats),
+                "f(X, C), f = k.bind()": median_ns(fast, calls, repeats),
+                "(the loop alone)": median_ns(empty_loop, calls, repeats),
                 "binding": float(bool(getattr(k, "binding", False)))}
 
 

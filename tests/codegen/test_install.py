@@ -1,8 +1,8 @@
 """``pip install .`` (not editable) ships everything gagen reads at run time (the backends' templates,
-the module template, the SMC loop's C source): a copy of the source tree is installed into a folder of
-its own, and from an unrelated working directory that install builds a Python file of kernels
-(``gagen build FILE.py``); the module is loaded and called there. Without the templates in the
-wheel, the build fails and so does this test."""
+the module template, the SMC loop's C source, the bundled robots): a copy of the source tree is
+installed into a folder of its own, and from an unrelated working directory that install builds a
+Python file of kernels (``gagen build FILE.py``); the module is loaded and called there. Without the
+templates in the wheel, the build fails and so does this test."""
 
 from __future__ import annotations
 
@@ -21,10 +21,11 @@ REPO = Path(__file__).resolve().parents[2]
 
 KERNELS = '''
 import gagen
+from gagen.kinds import vector
 
 
 @gagen.kernel(algebra="ga3d")
-def wedge(a: "vector", b: "vector"):
+def wedge(a: vector, b: vector):
     """The outer product of two vectors."""
     return {"B": a ^ b}
 '''
@@ -74,6 +75,9 @@ def test_a_non_editable_install_builds_a_python_file_of_kernels_and_loads_it(tmp
     ours = sorted(p.relative_to(REPO / "gagen").as_posix() for p in (REPO / "gagen").rglob("*.j2"))
     assert shipped == ours and "codegen/backends/cpython/templates/binding.c.j2" in ours
     assert (installed / "control" / "smc_loop.c").is_file()
+    bundled = sorted(p.name for p in (installed / "apps" / "cooperative" / "robots").glob("*.yaml"))
+    assert bundled == sorted(p.name for p in (REPO / "robots").glob("*.yaml")) and len(bundled) == 11
+    assert len(list((installed / "apps" / "cooperative" / "robots").glob("*/*.urdf"))) == 4
 
     (work / "tiny.py").write_text(KERNELS)
     env["PYTHONPATH"] = str(site)  # the install, before the editable one of the environment

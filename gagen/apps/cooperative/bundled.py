@@ -8,7 +8,7 @@ from pathlib import Path
 from gagen.apps.cooperative.spec import load_system
 from gagen.apps.cooperative.system import System
 
-ROBOTS = Path(__file__).resolve().parents[3] / "robots"
+ROBOTS = Path(__file__).resolve().parent / "robots"  # shipped with the package; robots/ links here
 
 
 @cache
