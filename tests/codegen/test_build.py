@@ -26,7 +26,8 @@ from gagen.check import check_module
 from gagen.errors import SpecError
 from gagen.runtime import load
 
-GENERATED = ROBOTS.parent / "generated"
+REPO = Path(__file__).resolve().parents[2]
+GENERATED = REPO / "generated"
 SYSTEMS = bundled_systems()
 QUIET = {"progress": lambda _: None}
 
@@ -54,8 +55,8 @@ def _golden() -> dict[str, Path]:
     for folder in sorted(GENERATED.iterdir()):
         if folder.is_dir() and folder.name not in origins and (folder / "manifest.json").is_file():
             name = json.loads((folder / "manifest.json").read_text()).get("source", "")
-            found = [p for p in (ROBOTS / name, ROBOTS.parent / "examples" / name) if name and p.is_file()]
-            origins[folder.name] = found[0] if found else ROBOTS.parent / "examples" / f"{folder.name}.py"
+            found = [p for p in (ROBOTS / name, REPO / "examples" / name) if name and p.is_file()]
+            origins[folder.name] = found[0] if found else REPO / "examples" / f"{folder.name}.py"
     return origins
 
 
@@ -73,7 +74,7 @@ def test_committed_module_is_what_gagen_generates(name):
     if UPDATE_GOLDEN:
         build_source(source, folder, force=True, compile_c=False, **QUIET)
     expected, committed = render(source), _committed(folder)
-    where = origin.relative_to(ROBOTS.parent)
+    where = origin.relative_to(REPO) if origin.is_relative_to(REPO) else origin
     hint = f"regenerate: gagen build {where} (or GAGEN_UPDATE_GOLDEN=1 for this test)"
     assert sorted(committed) == sorted(expected), f"{name}: other files than generated; {hint}"
     different = [path for path, data in expected.items() if committed[path] != data]

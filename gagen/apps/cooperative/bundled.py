@@ -9,6 +9,16 @@ from gagen.apps.cooperative.spec import load_system
 from gagen.apps.cooperative.system import System
 
 ROBOTS = Path(__file__).resolve().parent / "robots"  # shipped with the package; robots/ links here
+_CHECKOUT = Path(__file__).resolve().parents[3]  # the repository root, when gagen runs from a checkout
+
+
+def generated_folder() -> Path:
+    """Where the bundled systems' generated modules are: the checkout's committed ``generated/``, else
+    ``generated/`` in the working directory (where ``gagen build`` writes by default)."""
+    committed = _CHECKOUT / "generated"
+    if (committed / "panda_point" / "manifest.json").is_file():
+        return committed
+    return Path("generated").resolve()
 
 
 @cache

@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from gagen.apps.cooperative.bundled import ROBOTS, bundled_systems, ready_configuration
+from gagen.apps.cooperative.bundled import bundled_systems, generated_folder, ready_configuration
 from gagen.control.differential import damped_pseudo_inverse, nullspace_projector
 from gagen.runtime import GeneratedModule, load
 
@@ -63,7 +63,7 @@ ArrayLike3 = Sequence[float] | NDArray[np.float64]
 
 @cache
 def module() -> GeneratedModule:
-    return load(ROBOTS.parent / "generated" / SYSTEM)
+    return load(generated_folder() / SYSTEM)
 
 
 def ready() -> NDArray[np.float64]:

@@ -30,7 +30,12 @@ import numpy as np
 import yaml
 from numpy.typing import NDArray
 
-from gagen.apps.cooperative.bundled import ROBOTS, bundled_specs, bundled_systems, ready_configuration
+from gagen.apps.cooperative.bundled import (
+    bundled_specs,
+    bundled_systems,
+    generated_folder,
+    ready_configuration,
+)
 from gagen.cli import positive_float, positive_int
 from gagen.control.ocp import (
     BLADES,
@@ -45,7 +50,6 @@ from gagen.control.ocp import (
 )
 from gagen.runtime import GeneratedModule, load
 
-GENERATED = ROBOTS.parent / "generated"
 LABELS = {"e12": "e12", "e13": "e13", "e23": "e23", "e0inf": "e0∞", "e1inf": "e1∞", "e2inf": "e2∞",
           "e3inf": "e3∞"}
 
@@ -98,7 +102,7 @@ class ScenarioResult:
 # -- systems -----------------------------------------------------------------------------------------
 @cache
 def module(system: str) -> GeneratedModule:
-    return load(GENERATED / system)
+    return load(generated_folder() / system)
 
 
 def ready(system: str) -> NDArray[np.float64]:
