@@ -551,9 +551,9 @@ def load_source(path: str | Path, name: str | None = None) -> ModuleSource:
         return module_from_file(path, name)
     if name is not None:
         raise SpecError(path, "name", "a spec names its system itself (a module name is for .py files)")
-    from gagen.apps.cooperative.module import cooperative_source
+    from gagen.apps import spec_source
 
-    return cooperative_source(path)
+    return spec_source(path)
 
 
 def build_many(paths: Sequence[str | Path], *, force: bool = False, compile_c: bool = True,

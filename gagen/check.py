@@ -104,7 +104,9 @@ def _dense_value(value: Any, algebra) -> np.ndarray:
     """The interpreter's value of an output as one dense array (multivectors: every coefficient)."""
     if isinstance(value, MultiVector):
         return np.array(value.coeffs, dtype=float)
-    if isinstance(value, list):
+    if isinstance(value, list):  # a vector of scalars, or a matrix: a list of columns
+        if any(isinstance(v, (list, MultiVector)) for v in value):
+            return np.concatenate([_dense_value(v, algebra) for v in value])
         return np.array([float(v) for v in value])
     return np.array([float(value)])
 

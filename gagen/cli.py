@@ -77,11 +77,9 @@ def _cmd_build(args: argparse.Namespace) -> int:
     if args.name and (len(args.spec) > 1 or Path(args.spec[0]).suffix != ".py"):
         print("error: --name names the module of one Python file (a spec names its system)", file=sys.stderr)
         return 2
-    errors: tuple[type[BaseException], ...] = (SpecError,)
-    if any(Path(path).suffix == ".py" for path in args.spec):
-        from gagen.frontend import KernelError
+    from gagen.frontend import KernelError
 
-        errors = (SpecError, KernelError, FileNotFoundError)
+    errors: tuple[type[BaseException], ...] = (SpecError, KernelError, FileNotFoundError)
     try:
         results = build_many(args.spec, force=args.force, compile_c=not args.no_compile, jobs=args.jobs,
                              outputs=[args.output] if args.output else None,
@@ -95,7 +93,7 @@ def _cmd_build(args: argparse.Namespace) -> int:
     status = 0
     if args.check:
         for spec, result in zip(args.spec, results, strict=True):
-            if Path(spec).suffix == ".py":
+            if result.source.functions:  # front-end kernels (a Python file, a hexapod spec)
                 status = max(status, _check_kernels(result, args.samples, args.tolerance))
             else:
                 status = max(status, _check(spec, result.folder, args.samples, args.tolerance))

@@ -25,7 +25,7 @@ PACKAGE = Path(__file__).resolve().parents[2]  # gagen/
 # the key (the code generator, gagen/codegen and build.py, is in the build's own key)
 NOT_IN_KEY = {"build.py", "codegen", "runtime.py", "cli.py", "check.py", "report.py", "demo.py",
               "apps/cooperative/scenarios.py", "apps/cooperative/nullspace_demo.py",
-              "apps/cooperative/goals.py",
+              "apps/cooperative/goals.py", "apps/hexapod",
               "crosscheck.py", "goals.py", "conventions.py", "control", "interp"}
 
 
@@ -60,7 +60,7 @@ def system_key(system: System) -> str:
     digest.update(__version__.encode())
     for module in sorted(PACKAGE.rglob("*.py")):
         name = module.relative_to(PACKAGE).as_posix()
-        if name.split("/")[0] not in NOT_IN_KEY and name not in NOT_IN_KEY:
+        if not any(name == part or name.startswith(f"{part}/") for part in NOT_IN_KEY):
             digest.update(name.encode() + b"\0" + module.read_bytes())
     return digest.hexdigest()
 
