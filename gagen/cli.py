@@ -47,21 +47,21 @@ def _cmd_algebra(args: argparse.Namespace) -> int:
 def _cmd_kernels(args: argparse.Namespace) -> int:
     import time
 
-    from gagen.apps.cooperative.catalogue import build_kernels
-    from gagen.apps.cooperative.spec import load_system
+    from gagen.build import load_source
     from gagen.errors import SpecError
+    from gagen.frontend import KernelError
     from gagen.report import op_count_table
 
+    start = time.perf_counter()
     try:
-        system, _ = load_system(args.spec)
-    except SpecError as e:
+        source = load_source(args.spec)
+        kernels = [source.kernels[name] for name in source.kernels]
+    except (SpecError, KernelError, FileNotFoundError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
-    start = time.perf_counter()
-    kernels = build_kernels(system)
-    print(f"{system.name}: a {system.kind} spanned by {len(system.chains)} chains, {system.dof} joints; "
-          f"{len(kernels)} kernels built in {time.perf_counter() - start:.2f} s\n")
-    print(op_count_table(kernels.values()))
+    print(f"{source.name}: {source.title}; {len(kernels)} kernels built in "
+          f"{time.perf_counter() - start:.2f} s\n")
+    print(op_count_table(kernels))
     return 0
 
 
@@ -230,12 +230,13 @@ def main(argv: list[str] | None = None) -> int:
     alg.set_defaults(run=_cmd_algebra)
 
     kernels = sub.add_parser("kernels", help="build a spec's kernels and print their shapes and op counts")
-    kernels.add_argument("spec", help="robot spec (YAML), e.g. robots/three_pandas_circle.yaml")
+    kernels.add_argument("spec", help="a spec (YAML: a robot system or a hexapod), e.g. "
+                         "robots/three_pandas_circle.yaml, or a Python file of @gagen.kernel functions")
     kernels.set_defaults(run=_cmd_kernels)
 
     build = sub.add_parser("build", help="generate a module of kernels: CasADi Functions, C kernels, library")
-    build.add_argument("spec", nargs="+", help="robot spec(s) (YAML), e.g. robots/three_pandas_circle.yaml, "
-                       "or Python files of @gagen.kernel functions")
+    build.add_argument("spec", nargs="+", help="spec(s) (YAML: robot systems or hexapods), e.g. "
+                       "robots/three_pandas_circle.yaml, or Python files of @gagen.kernel functions")
     build.add_argument("-o", "--output", help="output folder (one file only; default generated/<name>)")
     build.add_argument("--name", help="the module name of a Python file (default: the file's stem)")
     build.add_argument("--force", action="store_true", help="rebuild even if the cached build is up to date")

@@ -50,12 +50,13 @@ def _committed(folder: Path) -> dict[str, bytes]:
 
 def _golden() -> dict[str, Path]:
     """Each committed module and the file it is generated from: robots/<system>.yaml for the bundled
-    systems, and for any other folder the file its manifest names, in robots/ or examples/."""
+    systems, and for any other folder the file its manifest names, in an app's robots/ or examples/."""
     origins = dict(bundled_specs())
     for folder in sorted(GENERATED.iterdir()):
         if folder.is_dir() and folder.name not in origins and (folder / "manifest.json").is_file():
             name = json.loads((folder / "manifest.json").read_text()).get("source", "")
-            found = [p for p in (ROBOTS / name, REPO / "examples" / name) if name and p.is_file()]
+            places = [ROBOTS, *sorted((REPO / "gagen" / "apps").glob("*/robots")), REPO / "examples"]
+            found = [place / name for place in places if name and (place / name).is_file()]
             origins[folder.name] = found[0] if found else REPO / "examples" / f"{folder.name}.py"
     return origins
 

@@ -52,7 +52,7 @@ def _point(chain: str = ARM, extra: str = "") -> str:
     (_point(ARM + "    bse: {xyz: [1, 0, 0]}\n"), "chains[0].bse (line 8)",
      "unknown key 'bse'; did you mean 'base'?"),
     (_point(extra="units: mm\n"), "units (line 8)",
-     "unknown key 'units'; expected one of name, primitive, chains, configurations"),
+     "unknown key 'units'; expected one of app, name, primitive, chains, configurations"),
     (_point(extra="configuration:\n  ready: [0, 0, 0, 0, 0, 0, 0]\n"), "configuration (line 8)",
      "unknown key 'configuration'; did you mean 'configurations'?"),
     (_point(ARM + "    base: {xyz: [1, 0, 0], rpyy: [0, 0, 1]}\n"), "chains[0].base.rpyy (line 8)",

@@ -25,6 +25,6 @@ def hexapod_source(spec: str | Path) -> ModuleSource:
     meta = {**source.meta, "app": "hexapod", "knee": hexapod.knee, "joints": hexapod.joint_names,
             "legs": [leg.name for leg in hexapod.legs],
             "limits": [list(limit) for leg in hexapod.legs for limit in leg.limits]}
-    title = (f"kernels of the hexapod {hexapod.name} ({len(hexapod.legs)} legs, {hexapod.dof} joints, "
+    title = (f"kernels of {hexapod.name}, a hexapod ({len(hexapod.legs)} legs, {hexapod.dof} joints; "
              f"PGA and CGA)")
     return dataclasses.replace(source, title=title, meta=meta)

@@ -1,0 +1,99 @@
+"""The hexapod spec (issue 14, item 1): the bundled robot carries the paper's numbers, and every
+malformed spec is refused with the file, the field (with its line) and what was expected."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from gagen.apps import spec_app
+from gagen.apps.hexapod.spec import load_hexapod
+from gagen.errors import SpecError
+
+from .conftest import SPEC
+
+LEG = "leg:\n  lengths: [0.05, 0.2, 0.2]\n"
+NAMES = ("a", "b", "c", "d", "e", "f")
+
+
+def _legs(names=NAMES, extra: str = "") -> str:
+    return "legs:\n" + "".join(f"  - {{name: {n}, xyz: [0.1, 0, 0], rpy: [0, 0, {i}]{extra}}}\n"
+                               for i, n in enumerate(names))
+
+
+def _spec(tmp_path, text: str):
+    path = tmp_path / "h.yaml"
+    path.write_text(text)
+    return path
+
+
+def _error(tmp_path, text: str) -> SpecError:
+    path = _spec(tmp_path, text)
+    with pytest.raises(SpecError) as e:
+        load_hexapod(path)
+    assert e.value.file == str(path)
+    return e.value
+
+
+def test_bundled_hexapod_has_the_papers_leg(hexapod):
+    """[HEX 4.1]: l1 = 0.05, l2 = 0.20, l3 = 0.20; hip yaw about z, thigh and knee pitch about y; the
+    toe at (l1 + l2 + l3, 0, 0) in the zero pose; six legs 60° apart on a hexagon."""
+    assert len(hexapod.legs) == 6 and hexapod.dof == 18
+    for i, leg in enumerate(hexapod.legs):
+        assert leg.lengths == (0.05, 0.20, 0.20)
+        assert leg.axes == ((0, 0, 1), (0, 1, 0), (0, 1, 0))
+        assert leg.centres == ((0, 0, 0), (0.05, 0, 0), (0.25, 0, 0)) and leg.toe == (0.45, 0, 0)
+        yaw = leg.rpy[2]
+        assert math.isclose(yaw, math.radians(30 + 60 * i) if i < 3 else math.radians(30 + 60 * i - 360))
+        assert math.isclose(math.hypot(*leg.xyz[:2]), 0.12, rel_tol=1e-11)
+    assert spec_app(SPEC) == "hexapod"
+
+
+def test_minimal_spec_and_overrides(tmp_path):
+    text = f"app: hexapod\nname: h\n{LEG}" + _legs()
+    text = text.replace("{name: f,", "{name: f, lengths: [0.1, 0.3, 0.25],")
+    h = load_hexapod(_spec(tmp_path, text))
+    assert h.legs[5].lengths == (0.1, 0.3, 0.25) and h.legs[0].lengths == (0.05, 0.2, 0.2)
+    assert h.knee == "up" and h.leg("c").rpy == (0, 0, 2)
+
+
+@pytest.mark.parametrize(("text", "field", "message"), [
+    ("app: hexapod\nname: h\n" + LEG + _legs(NAMES[:5]), "legs (line 5)", "got 5 legs; a hexapod has 6"),
+    ("app: hexapod\nname: h\nleg:\n  lenghts: [0.05, 0.2, 0.2]\n" + _legs(), "leg.lenghts (line 4)",
+     "did you mean 'lengths'?"),
+    ("app: hexapod\nname: h\n" + LEG + _legs(("a", "b", "c", "d", "e", "A")), "legs[5].name (line 11)",
+     "the name of legs[0] too"),
+    ("app: hexapod\nname: 1h\n" + LEG + _legs(), "name (line 2)", "expected"),
+    ("app: hexapod\nname: h\n" + LEG + _legs(extra=", axes: [[0, 0, 0], [0, 1, 0], [0, 1, 0]]"),
+     "legs[0].axes[0]", "zero vector"),
+    ("app: hexapod\nname: h\n" + LEG + _legs(extra=", limits: [[1, -1], [-1, 1], [-1, 1]]"),
+     "legs[0].limits[0]", "lower limit must be below the upper"),
+    ("app: hexapod\nname: h\nleg:\n  lengths: [0.05, -0.2, 0.2]\n" + _legs(), "leg.lengths (line 4)",
+     "three positive lengths"),
+    ("app: hexapod\nname: h\n" + _legs(), "legs[0].lengths", "missing"),
+    ("app: hexapod\nname: h\n" + LEG + _legs() + "knee: sideways\n", "knee (line 12)", "up, down"),
+    ("app: hexapod\nname: h\n" + LEG + _legs() + "neutral: [0, 0, 9]\n", "neutral (line 12)",
+     "outside its limits"),
+    ("app: hexapod\nname: h\n" + LEG + _legs(extra=", xyz: [.nan, 0, 0]"), "legs[0]", "duplicate key"),
+    ("app: hexapod\nname: h\n" + LEG + _legs(extra=", lengths: [.nan, 0.2, 0.2]"), "legs[0].lengths",
+     "three positive lengths"),
+    ("app: robot\nname: h\n" + LEG + _legs(), "app (line 1)", "app: hexapod"),
+])
+def test_malformed_spec_names_file_field_and_expectation(tmp_path, text, field, message):
+    e = _error(tmp_path, text)
+    assert e.field.startswith(field) and message in e.message, (e.field, e.message)
+
+
+def test_unknown_app_is_refused_before_any_application_reads_it(tmp_path):
+    path = _spec(tmp_path, "app: linkage\nname: x\n")
+    with pytest.raises(SpecError, match="expected one of cooperative, hexapod"):
+        spec_app(path)
+
+
+def test_a_robot_spec_cannot_claim_another_app(tmp_path):
+    from gagen.apps.cooperative.spec import load_system
+
+    path = _spec(tmp_path, "app: hexapod\nname: t\nprimitive: point\nchains: []\n")
+    with pytest.raises(SpecError, match="a robot spec is app: cooperative"):
+        load_system(path)
