@@ -45,10 +45,14 @@ def library_name(stem: str) -> str:
 
 
 def vector_math() -> list[str]:
-    """Flags for glibc's vector sin/cos (libmvec) on x86-64 Linux, when it is installed."""
+    """Flags for glibc's vector sin/cos (libmvec) on x86-64 Linux, when it is installed, and its
+    vector atan2 (glibc 2.35 and later)."""
     if sys.platform.startswith("linux") and platform.machine() in ("x86_64", "AMD64") \
             and ctypes.util.find_library("mvec"):
-        return ["-DGAGEN_HAVE_LIBMVEC", "-lmvec"]
+        libc, version = platform.libc_ver()
+        numbers = tuple(int(v) for v in version.split(".")[:2] if v.isdigit())
+        atan2 = ["-DGAGEN_HAVE_LIBMVEC_ATAN2"] if libc == "glibc" and numbers >= (2, 35) else []
+        return ["-DGAGEN_HAVE_LIBMVEC", *atan2, "-lmvec"]
     return []
 
 

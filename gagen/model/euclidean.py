@@ -93,6 +93,15 @@ class Geometry:
         m = line.math
         return m.cos(angle * 0.5) - line * m.sin(angle * 0.5)
 
+    def rotate(self, line: Multivector, cos: Any, sin: Any, x: Multivector) -> Multivector:
+        """e^{−θL/2} X e^{θL/2} for a unit line L, from cos θ and sin θ: X + sin θ D(X) + (1 − cos θ) D²(X)
+        with D(X) = X × L = ½(XL − LX) (the commutator). Exact because D³ = −D: the rotation about
+        L has the eigenvalues 0 and ±i on every grade. For a constant L, D is a constant linear map,
+        and a component that L leaves fixed (a parallel axis's direction) stays exactly fixed, where
+        the sandwich would carry cos²(θ/2) + sin²(θ/2) for the compiler to evaluate."""
+        once = x.commutator(line)
+        return x + once * sin + once.commutator(line) * (1 - cos)
+
     def twist(self, line: Multivector) -> tuple[Vec3, Vec3]:
         """(v, ω) of the unit-rate screw motion about L: v the velocity of the point at the origin."""
         w = [line["e23"], -line["e13"], line["e12"]]

@@ -54,35 +54,53 @@ def mount(geo: Geometry, like: Multivector, leg: Leg) -> Multivector:
 
 
 def joint_lines(geo: Geometry, like: Multivector, leg: Leg) -> list[Multivector]:
-    """The three joint lines at the zero pose, in the hip frame (sparse: axes z, y, y through the x axis)."""
-    return [geo.line(like, _exact(c), _exact(u)) for c, u in zip(leg.centres, leg.axes, strict=True)]
+    """The three joint lines at the zero pose, in the body frame (exact constants)."""
+    carry = mount(geo, like, leg)
+    return [carry.sandwich(geo.line(like, _exact(c), _exact(u)))
+            for c, u in zip(leg.centres, leg.axes, strict=True)]
 
 
-def leg_motor(geo: Geometry, like: Multivector, leg: Leg, q: Sequence[Any]) -> tuple[Multivector, list]:
-    """M(q) = S1 S2 S3 M_home in the hip frame, and the joint lines at q (hip frame)."""
-    moved, partial = [], None
-    for line, angle in zip(joint_lines(geo, like, leg), q, strict=True):
-        moved.append(line if partial is None else partial.sandwich(line))
-        screw = geo.screw(line, angle)
-        partial = screw if partial is None else partial * screw
-    return partial * geo.translator(like, _exact(leg.toe)), moved
+def _angles(like: Multivector, q: Sequence[Any]) -> list[tuple[Any, Any, Any, Any]]:
+    """cos and sin of each half angle (for the screws) and of the full angle (for the rotations),
+    the full ones by the double-angle formulas: three sin/cos pairs in all."""
+    m = like.math
+    out = []
+    for angle in q:
+        c, s = m.cos(angle * 0.5), m.sin(angle * 0.5)
+        out.append((c, s, 1 - 2 * s * s, 2 * s * c))
+    return out
+
+
+def leg_motor(geo: Geometry, like: Multivector, leg: Leg, q: Sequence[Any]) -> Multivector:
+    """M(q) = S1 S2 S3 M_home in the body frame, S_j = cos(q_j/2) − sin(q_j/2) L_j."""
+    motor = mount(geo, like, leg) * geo.translator(like, _exact(leg.toe))
+    for line, (c, s, _, _) in reversed(list(zip(joint_lines(geo, like, leg), _angles(like, q), strict=True))):
+        motor = (c - line * s) * motor
+    return motor
 
 
 def leg_kinematics(geo: Geometry, like: Multivector, leg: Leg, q: Sequence[Any]) -> dict[str, Any]:
     """The FK motor, the toe point, its position p, the point Jacobian J (3 columns u_j × (p − c_j))
     and the spatial Jacobian S (3 columns of (v, ω)), all in the body frame.
 
-    The chain is evaluated in the hip frame, where the joint lines are sparse, and carried to the
-    body by the constant mount motor at the end. The toe of a unit motor has weight 1 exactly, so
-    its position is read without the division by the weight."""
-    motor, lines = leg_motor(geo, like, leg, q)
-    carry = mount(geo, like, leg)
-    toe = carry.sandwich(motor.sandwich(geo.origin(like)))
+    The toe and the joint lines at q are the zero-pose ones turned about the constant joint lines,
+    last joint first (:meth:`Geometry.rotate`): P(q) = R1 R2 R3 P_home, L_j(q) = R1 … R_{j−1} L_j; the
+    motor, an output of its own, is the product of the screws. Rotations keep a point's weight
+    exactly, so p is read without dividing by it."""
+    lines, angles = joint_lines(geo, like, leg), _angles(like, q)
+
+    def turned(x: Multivector, joints: int) -> Multivector:  # R1 … R_joints x
+        for line, (_, _, c, s) in reversed(list(zip(lines[:joints], angles[:joints], strict=True))):
+            x = geo.rotate(line, c, s, x)
+        return x
+
+    home = (mount(geo, like, leg) * geo.translator(like, _exact(leg.toe))).sandwich(geo.origin(like))
+    toe = turned(home, 3)
     p = geo.location(toe, unit=True)
-    twists = [geo.twist(carry.sandwich(line)) for line in lines]
+    twists = [geo.twist(turned(line, j)) for j, line in enumerate(lines)]
     J = [[vi + wp for vi, wp in zip(v, cross(w, p), strict=True)] for v, w in twists]
     S = [[*v, *w] for v, w in twists]
-    return {"motor": carry * motor, "toe": toe, "p": p, "J": J, "S": S}
+    return {"motor": leg_motor(geo, like, leg, q), "toe": toe, "p": p, "J": J, "S": S}
 
 
 # -- analytic IK ----------------------------------------------------------------------------------------
@@ -140,13 +158,13 @@ def analytic_ik(geo: Geometry, like: Multivector, leg: Leg, target: Sequence[Any
     d = m.sqrt(d2)
     excess = _max0(m, m.if_else(m.lt(d2, inner), m.fabs(l2 - l3) - d,
                                d - (l2 + l3)))
-    solutions = {}
-    for branch, knee_sign in (("q_up", 1), ("q_down", -1)):
-        phi3 = m.atan2(knee_sign * sin3, cos3)
-        phi2 = towards - m.atan2(l3 * knee_sign * sin3, l2 + l3 * cos3)
-        solutions[branch] = [s1 * yaw, s2 * phi2, s3 * phi3]
+    # knee down mirrors knee up about the line to the target: atan2 is odd in y (exactly, in IEEE
+    # arithmetic), so both branches share two atan2 calls
+    knee = m.atan2(sin3, cos3)
+    bend = m.atan2(l3 * sin3, l2 + l3 * cos3)  # the thigh's angle below the line to the target
     reach = m.if_else(m.lt(REACH_TOLERANCE, excess), 0.0, 1.0)
-    return {**solutions, "reach": reach, "excess": excess}
+    return {"q_up": [s1 * yaw, s2 * (towards - bend), s3 * knee],
+            "q_down": [s1 * yaw, s2 * (towards + bend), -s3 * knee], "reach": reach, "excess": excess}
 
 
 # -- numerical IK -------------------------------------------------------------------------------------

@@ -59,10 +59,10 @@ def _dense_positions(sparsity: ca.Sparsity) -> list[int]:
 # keeps its C syntax; the rest goes through the gagen_v_* helpers of the template.
 _VECTOR_BINARY = {**{k: v for k, v in _BINARY.items() if k in ("ADD", "SUB", "MUL", "DIV")},
                   **{k: f"gagen_v_{k.lower()}({{0}}, {{1}})" for k in ("LT", "LE", "EQ", "NE", "AND", "OR")},
-                  "IF_ELSE_ZERO": "gagen_v_if_else_zero({0}, {1})"}
+                  "IF_ELSE_ZERO": "gagen_v_if_else_zero({0}, {1})", "ATAN2": "gagen_v_atan2({0}, {1})"}
 _VECTOR_UNARY = {"NEG": "-{0}", "SQ": "{0} * {0}", "TWICE": "{0} + {0}", "INV": "1.0 / {0}",
                  "NOT": "gagen_v_not({0})", "FABS": "gagen_v_fabs({0})", "SIN": "gagen_v_sin({0})",
-                 "COS": "gagen_v_cos({0})"}
+                 "COS": "gagen_v_cos({0})", "SQRT": "gagen_v_sqrt({0})"}
 
 
 def emit_body(function: ca.Function, input_names: list[str], output_names: list[str], *,
