@@ -78,6 +78,9 @@ def test_a_non_editable_install_builds_a_python_file_of_kernels_and_loads_it(tmp
     bundled = sorted(p.name for p in (installed / "apps" / "cooperative" / "robots").glob("*.yaml"))
     assert bundled == sorted(p.name for p in (REPO / "robots").glob("*.yaml")) and len(bundled) == 11
     assert len(list((installed / "apps" / "cooperative" / "robots").glob("*/*.urdf"))) == 4
+    hexapod = installed / "apps" / "hexapod" / "robots"
+    assert sorted(p.name for p in hexapod.iterdir() if p.suffix in (".yaml", ".urdf")) == \
+        ["hexapod.urdf", "hexapod.yaml"]
 
     (work / "tiny.py").write_text(KERNELS)
     env["PYTHONPATH"] = str(site)  # the install, before the editable one of the environment
