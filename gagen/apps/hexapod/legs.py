@@ -21,8 +21,12 @@ planar structure (yaw about ±z, thigh and knee about ±y of the hip frame): a l
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Any
+
+import numpy as np
 
 from gagen.algebra.protocol import Multivector
 from gagen.apps.hexapod.spec import Leg
@@ -53,6 +57,29 @@ def mount(geo: Geometry, like: Multivector, leg: Leg) -> Multivector:
     return geo.translator(like, _exact(leg.xyz)) * rotation
 
 
+def _rpy_matrix(rpy: Sequence[float]) -> np.ndarray:
+    (cr, cp, cy), (sr, sp, sy) = np.cos(rpy), np.sin(rpy)
+    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                     [-sp, cp * sr, cp * cr]])
+
+
+def folded(leg: Leg) -> tuple[Leg, float]:
+    """The leg with its mount's rotation moved into the hip joint's angle, and that angle α, when the
+    mount turns about the hip axis (which passes through the hip frame's origin): then
+    T(xyz) R_u(α) S1(q1) = T(xyz) S1(q1 + α), and the joint lines stay as sparse as in the hip frame
+    (a hexagonal body's 30° mounts would otherwise fill them). (leg, 0) when the mount turns otherwise."""
+    if leg.rpy == (0.0, 0.0, 0.0):
+        return leg, 0.0
+    R, u = _rpy_matrix(leg.rpy), np.array(leg.axes[0])
+    if np.linalg.norm(R @ u - u) > AXIS_TOLERANCE:
+        return leg, 0.0
+    e = np.cross(u, [1.0, 0.0, 0.0] if abs(u[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e /= np.linalg.norm(e)
+    turned = R @ e
+    return replace(leg, rpy=(0.0, 0.0, 0.0)), math.atan2(float(u @ np.cross(e, turned)), float(e @ turned))
+
+
 def joint_lines(geo: Geometry, like: Multivector, leg: Leg) -> list[Multivector]:
     """The three joint lines at the zero pose, in the body frame (exact constants)."""
     carry = mount(geo, like, leg)
@@ -71,8 +98,15 @@ def _angles(like: Multivector, q: Sequence[Any]) -> list[tuple[Any, Any, Any, An
     return out
 
 
+def _folded_angles(leg: Leg, q: Sequence[Any]) -> tuple[Leg, list[Any]]:
+    leg, offset = folded(leg)
+    return leg, [q[0] + offset if offset else q[0], *q[1:]]
+
+
 def leg_motor(geo: Geometry, like: Multivector, leg: Leg, q: Sequence[Any]) -> Multivector:
-    """M(q) = S1 S2 S3 M_home in the body frame, S_j = cos(q_j/2) − sin(q_j/2) L_j."""
+    """M(q) = S1 S2 S3 M_home in the body frame, S_j = cos(q_j/2) − sin(q_j/2) L_j (with the mount's
+    turn about the hip axis, if any, in the hip angle: :func:`folded`)."""
+    leg, q = _folded_angles(leg, q)
     motor = mount(geo, like, leg) * geo.translator(like, _exact(leg.toe))
     for line, (c, s, _, _) in reversed(list(zip(joint_lines(geo, like, leg), _angles(like, q), strict=True))):
         motor = (c - line * s) * motor
@@ -87,6 +121,8 @@ def leg_kinematics(geo: Geometry, like: Multivector, leg: Leg, q: Sequence[Any])
     last joint first (:meth:`Geometry.rotate`): P(q) = R1 R2 R3 P_home, L_j(q) = R1 … R_{j−1} L_j; the
     motor, an output of its own, is the product of the screws. Rotations keep a point's weight
     exactly, so p is read without dividing by it."""
+    motor = leg_motor(geo, like, leg, q)
+    leg, q = _folded_angles(leg, q)
     lines, angles = joint_lines(geo, like, leg), _angles(like, q)
 
     def turned(x: Multivector, joints: int) -> Multivector:  # R1 … R_joints x
@@ -100,7 +136,7 @@ def leg_kinematics(geo: Geometry, like: Multivector, leg: Leg, q: Sequence[Any])
     twists = [geo.twist(turned(line, j)) for j, line in enumerate(lines)]
     J = [[vi + wp for vi, wp in zip(v, cross(w, p), strict=True)] for v, w in twists]
     S = [[*v, *w] for v, w in twists]
-    return {"motor": leg_motor(geo, like, leg, q), "toe": toe, "p": p, "J": J, "S": S}
+    return {"motor": motor, "toe": toe, "p": p, "J": J, "S": S}
 
 
 # -- analytic IK ----------------------------------------------------------------------------------------
