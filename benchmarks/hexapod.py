@@ -16,10 +16,11 @@ front-end (``gagen.compile``), into one cached module ``hexapod_fkj``:
 C timings: benchmarks/hexapod_bench.c (harness.h), linked to hexapod.c and hexapod_fkj.c compiled with
 gagen's own flags (their ``_simd.c`` companions at -O3, as gagen does), built into benchmarks/build/.
 Python timings: ``median_ns`` of benchmarks/python_calls.py (the loop's own cost included). Every number
-is the median of 5 rounds that each time every row in turn (the machine is shared). Pinocchio runs from
-Python only (its calls include the bindings' overhead), on the committed hexapod URDF reduced to the leg
-(else a one-leg URDF written from the spec). Every peer's p and J are checked against
-``front_left_fk_pga`` before timing. Not part of the test suite.
+is the median of 5 rounds that each time every row in turn (the machine is shared). Pinocchio runs on
+the committed hexapod URDF reduced to the leg (else a one-leg URDF written from the spec), from Python
+(its calls include the bindings' overhead) and in C++: benchmarks/pinocchio_fk.cpp (programs.py's cached
+``pinocchio`` build, ~1-2 min to compile the first time) on the same configurations as the C rows. Every
+peer's p and J are checked against ``front_left_fk_pga`` before timing. Not part of the test suite.
 """
 
 from __future__ import annotations
@@ -227,13 +228,13 @@ def leg_urdf(leg: Leg) -> str:
     return f'<?xml version="1.0"?><robot name="{leg.name}">{body}</robot>'
 
 
-def pinocchio_leg(leg: Leg) -> tuple[Any, str] | None:
+def pinocchio_leg(leg: Leg, folder: Path) -> tuple[Any, str] | None:
     """(fkj(q) -> (p, J) through Pinocchio's Python bindings, where its model comes from), or None."""
     try:
         import pinocchio as pin
     except ImportError:
         return None
-    model, frame_name, origin = _pinocchio_model(pin, leg)
+    model, frame_name, origin = _pinocchio_model(pin, leg, folder)
     data = model.createData()
     frame = model.getFrameId(frame_name)
     joints, update, get = pin.computeJointJacobians, pin.updateFramePlacement, pin.getFrameJacobian
@@ -247,20 +248,64 @@ def pinocchio_leg(leg: Leg) -> tuple[Any, str] | None:
     return fkj, f"{origin}; Pinocchio {pin.__version__}"
 
 
-def _pinocchio_model(pin: Any, leg: Leg) -> tuple[Any, str, str]:
-    """The leg as a 3-joint Pinocchio model: the committed hexapod URDF (helper ``reference``'s
-    gagen/apps/hexapod/robots/hexapod.urdf) reduced to the leg's joints (the others locked at 0; their
-    legs are separate branches, so the leg's kinematics do not depend on them), else a one-leg URDF."""
+def _pinocchio_model(pin: Any, leg: Leg, folder: Path) -> tuple[Any, str, str]:
+    """The leg as a 3-joint Pinocchio model (see ``_pinocchio_source``), its toe frame and origin."""
+    urdf, frame, keep, origin = _pinocchio_source(pin, leg, folder)
+    model = pin.buildModelFromUrdf(str(urdf))
+    if keep:
+        locked = [model.getJointId(n) for n in model.names[1:] if n not in keep]
+        model = pin.buildReducedModel(model, locked, pin.neutral(model))
+    return model, frame, origin
+
+
+def _pinocchio_source(pin: Any, leg: Leg, folder: Path) -> tuple[Path, str, list[str], str]:
+    """(URDF, toe frame, joints to keep, origin) of the leg for Pinocchio: the committed hexapod URDF
+    (helper ``reference``'s gagen/apps/hexapod/robots/hexapod.urdf) reduced to the leg's joints (the others
+    locked at 0; their legs are separate branches, so the leg's kinematics do not depend on them), else a
+    one-leg URDF written into ``folder`` (all its joints kept)."""
     urdf = SPEC.with_suffix(".urdf")
-    if urdf.is_file():
-        full = pin.buildModelFromUrdf(str(urdf))
-        if full.existFrame(f"{leg.name}_foot"):
-            locked = [full.getJointId(n) for n in full.names[1:] if n not in leg.joint_names]
-            model = pin.buildReducedModel(full, locked, pin.neutral(full))
-            rel = urdf.relative_to(ROOT).as_posix()
-            return model, f"{leg.name}_foot", f"{rel} (committed), reduced to the leg's 3 joints"
-    return (pin.buildModelFromXML(leg_urdf(leg)), f"{leg.name}_toe",
-            "a one-leg URDF written here from the spec's numbers (`leg_urdf`)")
+    if urdf.is_file() and pin.buildModelFromUrdf(str(urdf)).existFrame(f"{leg.name}_foot"):
+        rel = urdf.relative_to(ROOT).as_posix()
+        return (urdf, f"{leg.name}_foot", list(leg.joint_names),
+                f"{rel} (committed), reduced to the leg's 3 joints")
+    path = folder / f"{leg.name}.urdf"
+    path.write_text(leg_urdf(leg))
+    return path, f"{leg.name}_toe", [], "a one-leg URDF written here from the spec's numbers (`leg_urdf`)"
+
+
+def pinocchio_cpp(leg: Leg, folder: Path, qs: np.ndarray) -> list[str] | None:
+    """The command line of benchmarks/pinocchio_fk.cpp (programs.py's cached ``pinocchio`` build) for the
+    leg's toe, LOCAL_WORLD_ALIGNED, over the configurations ``qs`` (written into ``folder``), less REPEATS
+    (inserted at index 2); None without Pinocchio or its headers."""
+    try:
+        import pinocchio as pin
+
+        log("compiling Pinocchio's C++ harness (programs.py, cached; the first time ~1-2 min) ...")
+        program = programs.build({"pinocchio"})[0]["pinocchio"]
+    except (ImportError, SystemExit) as e:  # programs.py reports missing headers and failed builds so
+        log(f"no Pinocchio C++ row: {e}")
+        return None
+    urdf, frame, keep, _ = _pinocchio_source(pin, leg, folder)
+    configs = folder / "pinocchio_configs.bin"
+    configs.write_bytes(np.ascontiguousarray(qs, dtype=np.float64).tobytes())
+    return [str(program), str(urdf), frame, *(["--keep", ",".join(keep)] if keep else []),
+            "--configs", str(configs), "--aligned"]
+
+
+def run_pinocchio_cpp(command: list[str], repeats: int) -> dict[str, Any]:
+    out = subprocess.run([*command[:2], str(repeats), *command[2:]], capture_output=True, text=True,
+                         check=True)
+    return json.loads(out.stdout)
+
+
+def check_pinocchio_cpp(module: Any, out: dict[str, Any], q0: np.ndarray) -> float:
+    """Max |difference| of the C++ harness's p and point Jacobian at its first configuration from
+    front_left_fk_pga's."""
+    if not np.array_equal(out["q0"], q0):
+        raise SystemExit("pinocchio_fk did not read the configurations written for it")
+    _, _, p, J, _ = module.c.front_left_fk_pga(q0)
+    J_cpp = np.asarray(out["J0"]).reshape(3, 6).T[:3]  # column-major 6×3, rows [v; ω]: v, the toe's
+    return max(float(np.max(np.abs(np.asarray(out["p0"]) - p))), float(np.max(np.abs(J_cpp - J))))
 
 
 # -- inputs ------------------------------------------------------------------------------------------
@@ -438,10 +483,13 @@ def main() -> int:
         data = inputs(hexapod, module, np.random.default_rng(14))
         neutral = np.array(hexapod.neutral, dtype=float)
         extra: dict[str, Callable[[np.ndarray], Any]] = {"numpy": numpy_chain(leg)}
-        pin = pinocchio_leg(leg)
+        pin = pinocchio_leg(leg, Path(tmp))
         if pin is not None:
             extra["pinocchio"] = pin[0]
         error = check_peers(module, fkj, data["qs"], extra)
+        pin_cpp = pinocchio_cpp(leg, Path(tmp), data["qs"][:N_CALL]) if pin is not None else None
+        if pin_cpp is not None:
+            error = max(error, check_pinocchio_cpp(module, run_pinocchio_cpp(pin_cpp, 21), data["qs"][0]))
         if error > 1e-12:
             raise SystemExit(f"the FK + J peers disagree by {error:.1e}")
         # rounds of every measurement in turn, the median of the rounds' medians per row: a burst of other
@@ -450,6 +498,10 @@ def main() -> int:
         for r in range(rounds):
             log(f"timing, round {r + 1} of {rounds} ...")
             c_runs.append(run_c(program, data, neutral, c_repeats))
+            if pin_cpp is not None:
+                cpp = run_pinocchio_cpp(pin_cpp, c_repeats)
+                c_runs[-1].update(pin_cpp_ns=cpp["fk_jacobian_lean_ns"],
+                                  pin_cpp_frame_ns=cpp["fk_jacobian_ns"])
             py_runs.append(python_times(module, fkj, data, neutral, calls, repeats, extra))
         c, py = _median_of(c_runs), _median_of(py_runs)
         manifest = {k["name"]: k["op_count"] for k in module.manifest["kernels"]}
@@ -538,6 +590,10 @@ def report(hexapod: Hexapod, fkj: Any, c: dict, py: dict, manifest: dict, per_ou
         ["gagen CGA `front_left_fk_cga` (M, toe, p, J, S)", _ops(manifest["front_left_fk_cga"]),
          c["fk_cga_ns"], py["fk_cga"]],
         ["numpy 4×4 chain (p, J)", "–", None, py["numpy"]]]
+    if "pin_cpp_ns" in c:
+        rows.append(["Pinocchio C++ (`pinocchio_fk.cpp`, `-O3 -march=native`): computeJointJacobians + "
+                     "updateFramePlacement + getFrameJacobian(LOCAL_WORLD_ALIGNED)", "–", c["pin_cpp_ns"],
+                     None])
     if "pinocchio" in py:
         rows.append(["Pinocchio Python: computeJointJacobians + updateFramePlacement + "
                      "getFrameJacobian(LOCAL_WORLD_ALIGNED)", "–", None, py["pinocchio"]])
@@ -548,8 +604,13 @@ def report(hexapod: Hexapod, fkj: Any, c: dict, py: dict, manifest: dict, per_ou
              "Python rows include the call overhead (CPython binding for gagen; Pinocchio's boost::python "
              "bindings, three calls)"]
     if pin_origin:
-        notes.append(f"Pinocchio model: {pin_origin}; from Python only (benchmarks/"
-                     "pinocchio_fk.cpp is the Panda's 7-DOF harness): no pure C++ number for the leg")
+        notes.append(f"Pinocchio model: {pin_origin}")
+    if "pin_cpp_ns" in c:
+        notes.append("Pinocchio C++: benchmarks/pinocchio_fk.cpp (`--keep` the leg's joints, `--aligned`) "
+                     f"instantiated from Pinocchio {programs.pinocchio_paths()['version']}'s headers, on the "
+                     "C rows' configurations, its p and J checked at the first; forwardKinematics + "
+                     "updateFramePlacement + computeFrameJacobian (a second pass over the chain): "
+                     f"{fmt_ns(c['pin_cpp_frame_ns'])} ns")
     print("\n" + "\n".join(f"- {n}" for n in notes) + "\n")
 
     print("## Op counts, FK + J per leg: PGA vs CGA\n")

@@ -3,13 +3,14 @@
 One mechanism for every module: each kernel is a front-end kernel (``gagen.frontend.KernelFunction``)
 whose function, run on the reference interpreter, is its reference (``check_kernels``). Outputs the
 function returns are compared with its values; the Jacobians it leaves to the compiler (AD or a rule:
-J_c, J_A,Sc, J_G,Sc, J_B, J_Be of the robots; the AD Jacobians of user kernels) with step-adapted,
-Richardson-extrapolated central differences of the interpreter: R(h) = (4 D(h/2) − D(h)) / 3 with
-D(h) = (f(q + h) − f(q − h)) / 2h,
-whose truncation error is O(h⁴) and rounding error ≈ 3 eps |f| / h. Per joint, R(1e-3) and R(1e-4)
-(rad or m) are compared; when they disagree by more than 1e-9 of their magnitude (a function that
-turns on a scale below 1e-3, e.g. a small or nearly flat primitive), R(1e-5) is taken too, and the
-later of the two consecutive estimates that agree best is used.
+J_c, J_A,Sc, J_G,Sc, J_B, J_Be of the robots; the AD Jacobians of user kernels), and at the first
+``FD_SAMPLES`` points also the Jacobians it gives itself (J_A, J_P of the chains, a hexapod leg's
+J), with step-adapted, Richardson-extrapolated central differences of the interpreter:
+R(h) = (4 D(h/2) − D(h)) / 3 with D(h) = (f(q + h) − f(q − h)) / 2h, whose truncation error is
+O(h⁴) and rounding error ≈ 3 eps |f| / h. Per joint, R(1e-3) and R(1e-4) (rad or m) are compared;
+when they disagree by more than 1e-9 of their magnitude (a function that turns on a scale below
+1e-3, e.g. a small or nearly flat primitive), R(1e-5) is taken too, and the later of the two
+consecutive estimates that agree best is used.
 
 Tolerances are relative to the magnitude of what is compared. Per output and sample the error is
 max |value − reference| / max(max |reference|, FLOOR), i.e. it passes when
@@ -41,6 +42,7 @@ from gagen.runtime import GeneratedModule
 FD_STEPS = (1e-3, 1e-4, 1e-5)  # h of the Richardson-extrapolated central differences (rad or m)
 FD_AGREE = 1e-9  # R(h1), R(h2) closer than this (relative): no third step
 FD_RTOL = 1e-6  # relative tolerance against those differences
+FD_SAMPLES = 3  # a Jacobian the function gives itself is held against differences at this many points
 VALUE_RTOL = 1e-10  # default relative tolerance against interpreter values
 FLOOR = 1e-6  # magnitudes below this count as this (an all-zero reference is compared absolutely)
 SPREAD = {"prismatic": 0.05}  # half-width of the random samples around a centre (m); 0.4 rad otherwise
@@ -222,8 +224,11 @@ def check_kernels(module: GeneratedModule, functions: Mapping[str, KernelFunctio
             if not np.isnan(current) and (np.isnan(error) or error > current):  # NaN counts as the worst
                 worst[port][path] = (error, label)
 
+        # a Jacobian the function gives itself (an author's rule) is held against its values and,
+        # at the first FD_SAMPLES points, against differences too: its formula is the one at risk
+        authored: dict[str, list[tuple[float, str]]] = {}
         references = []
-        for label, arrays in points:
+        for number_of_point, (label, arrays) in enumerate(points):
             values = differences.values(arrays)
             given = function.layout(values, out_ports)
             refs = [ref if ref is not None else differences.jacobian(derivatives[p.name], arrays, p.rows)
@@ -237,6 +242,13 @@ def check_kernels(module: GeneratedModule, functions: Mapping[str, KernelFunctio
                 refs[k] = ref
                 note(port.name, 0, relative_error(c_out[k], ref), label)
                 note(port.name, 2, relative_error(ca_out[k], ref), label)
+                if port.name in derivatives and given[k] is not None and number_of_point < FD_SAMPLES:
+                    fd = differences.jacobian(derivatives[port.name], arrays, port.rows).reshape(ref.shape)
+                    errors = authored.setdefault(port.name, [(0.0, "")] * 3)
+                    for path, value in ((0, c_out[k]), (2, ca_out[k])):
+                        error = relative_error(value, fd)
+                        if not np.isnan(errors[path][0]) and (np.isnan(error) or error > errors[path][0]):
+                            errors[path] = (error, label)
             references.append(refs)
         if points:
             stacked = [np.array([arrays[i] for _, arrays in points]) for i in range(len(in_ports))]
@@ -256,6 +268,12 @@ def check_kernels(module: GeneratedModule, functions: Mapping[str, KernelFunctio
             found.append(Discrepancy(name, port.name, DIFFERENCES if by_differences else INTERPRETER,
                                      *(e for e, _ in errors), fd_rtol if by_differences else rtol,
                                      errors[path][1], ("C single", "C batched", "CasADi")[path]))
+            if port.name in authored:  # (C batched equals C single to the interpreter's tolerance)
+                errors = authored[port.name]
+                path = max((0, 2), key=lambda p: (np.isnan(errors[p][0]), errors[p][0]))
+                found.append(Discrepancy(name, port.name, DIFFERENCES, errors[0][0], errors[0][0],
+                                         errors[2][0], fd_rtol, errors[path][1],
+                                         ("C single", "C batched", "CasADi")[path]))
         result += found
         progress(_progress_line(number, len(entries), name, found))
     return result

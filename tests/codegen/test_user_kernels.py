@@ -312,3 +312,37 @@ def test_compile_uses_the_cache(tmp_path, monkeypatch) -> None:
 
 def cross_plain(a: "vector", b: "vector"):
     return (a ^ b).dual()
+
+
+# -- --check holds a Jacobian the function gives itself against differences ----------------------------
+
+def _sweep(q: gagen.scalars(2), ga: "algebra", wrong: bool):
+    m = ga.math
+    p = [m.cos(q[0]) + q[1] * q[1], m.sin(q[0]) * q[1]]
+    columns = [[-m.sin(q[0]), m.cos(q[0]) * q[1]], [2 * q[1], m.sin(q[0])]]
+    if wrong:  # an author's slip: one entry's sign
+        columns[1][0] = -columns[1][0]
+    return {"p": p, "J": columns}
+
+
+@pytest.mark.compiling
+@pytest.mark.parametrize("wrong", [False, True])
+def test_check_holds_an_authored_jacobian_against_differences(tmp_path, wrong) -> None:
+    """A Jacobian the function returns itself (declared as ∂p/∂q) used to be compared only with the
+    function's own values, so a wrong formula passed --check; now it is also held against central
+    differences at the first FD_SAMPLES points and fails there."""
+    from gagen.build import build_source
+    from gagen.check import DIFFERENCES, check_kernels, failures
+    from gagen.frontend import KernelFunction, source_of
+    from gagen.runtime import load
+
+    fn = KernelFunction(lambda q, ga: _sweep(q, ga, wrong), algebra="ga3d", name="sweep",
+                        inputs={"q": gagen.scalars(2), "ga": "algebra"},
+                        outputs={"p": gagen.scalars(2), "J": gagen.matrix(gagen.scalars(2), 2)},
+                        jacobians={"J": ("p", "q")})
+    build_source(source_of([fn], "sweep"), tmp_path / "sweep", progress=lambda _: None)
+    report = check_kernels(load(tmp_path / "sweep"), {"sweep": fn}, count=4)
+    by_differences = [d for d in report if d.output == "J" and d.reference == DIFFERENCES]
+    assert len(by_differences) == 1
+    assert [d.output for d in failures(report)] == (["J"] if wrong else [])
+    assert (by_differences[0].worst > 0.1) if wrong else (by_differences[0].worst < 1e-8)

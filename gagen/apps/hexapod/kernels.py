@@ -115,8 +115,10 @@ def _point_sample(algebra: str, rng: np.random.Generator) -> np.ndarray:
 
 def _kernel(fn: Callable, name: str, algebra: str, inputs: dict, outputs: dict, doc: str,
             sample: Callable[[np.random.Generator], list]) -> KernelFunction:
+    # J = ∂p/∂q where a kernel returns both: its own formula, held against differences by --check
+    jacobians = {"J": ("p", "q")} if {"J", "p"} <= set(outputs) and "q" in inputs else None
     return KernelFunction(fn, algebra=algebra, inputs=inputs, outputs=outputs, name=name, doc=doc,
-                          sample=sample)
+                          sample=sample, jacobians=jacobians)
 
 
 def _fk_kernel(leg: Leg, suffix: str) -> KernelFunction:
