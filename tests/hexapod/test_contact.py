@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from gagen.algebra.kinds import kind_blades
 from gagen.apps.hexapod.kernels import hexapod_kernels, random_pose, random_q, toe_position
-from gagen.check import check_kernels, failures
+from gagen.check import DIFFERENCES, INTERPRETER, check_kernels, failures
 from gagen.interp import MultiVector, preset
 from gagen.model.euclidean import GEOMETRIES
 
@@ -127,9 +127,14 @@ def test_body_contact_kernel_against_the_closed_form(hexapod, hexapod_module, al
 @pytest.mark.compiling
 def test_every_kernel_against_the_interpreter(hexapod, hexapod_module):
     """Every generated kernel (C single, C batch, CasADi) against its function on the reference
-    interpreter at random inputs from its sampler (reachable and unreachable IK targets included)."""
+    interpreter at random inputs from its sampler (reachable and unreachable IK targets included),
+    and every J = ∂p/∂q the leg formulas give against central differences."""
     functions = {k.name: k for k in hexapod_kernels(hexapod)}
     report = check_kernels(hexapod_module, functions, count=8, seed=5)
     assert {d.kernel for d in report} == set(functions)
     assert not failures(report), [d.message() for d in failures(report)]
-    assert max(d.worst for d in report) < 1e-12
+    assert max(d.worst for d in report if d.reference == INTERPRETER) < 1e-12
+    # each leg's own J (fk and body_fk kernels) also against central differences of its p
+    by_differences = [d for d in report if d.reference == DIFFERENCES]
+    assert {d.kernel for d in by_differences} == {f for f in functions if "fk_" in f}
+    assert max(d.worst for d in by_differences) < 1e-9
