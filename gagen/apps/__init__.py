@@ -3,7 +3,9 @@
 
 - ``cooperative``: cooperative multi-chain systems [COOP]: robot specs (YAML + URDF), the kernel
   catalogue (fk, Jacobians, primitive, similarity, task), goals and the control scenarios;
-- ``hexapod``: hexapod legs in PGA and CGA [HEX]: kinematics, IK, ground contact, a tripod gait.
+- ``hexapod``: hexapod legs in PGA and CGA [HEX]: kinematics, IK, ground contact, a tripod gait;
+- ``linkage``: closed-loop planar linkages in 2D CGA [LINK]: constraint kernels, a Lie-algebra
+  Newton solver.
 
 A spec names its application by its top-level ``app`` key (default ``cooperative``);
 :func:`spec_source` hands it to that application's module source.
@@ -18,7 +20,8 @@ from gagen.codegen.ir import ModuleSource
 
 # app name -> (module, function making the ModuleSource of a spec path)
 SPEC_APPS = {"cooperative": ("gagen.apps.cooperative.module", "cooperative_source"),
-             "hexapod": ("gagen.apps.hexapod.module", "hexapod_source")}
+             "hexapod": ("gagen.apps.hexapod.module", "hexapod_source"),
+             "linkage": ("gagen.apps.linkage.kernels", "linkage_source")}
 
 
 def spec_app(path: str | Path) -> str:

@@ -1,0 +1,119 @@
+"""The kernel catalogue of a linkage, as front-end kernels over cga2d (``gagen.kernel``):
+
+- ``constraints``: R (the moving bodies' motors, 4 each, ``linkage.unknown`` order) and the crank
+  angle θ → F (the residual rows) and J (∂F/∂ε, three columns per moving body);
+- ``positions``: R, θ → every named point of every body (x, y);
+- ``retract``: R and a Lie-algebra step ΔB (3 per body) → T(Δt) R(Δθ) R per body.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gagen.apps.linkage.constraints import MOTOR, constraints, positions, retract
+from gagen.apps.linkage.spec import Linkage, Prismatic, Revolute, load_linkage
+from gagen.build import check_identifier
+from gagen.codegen.ir import ModuleSource
+from gagen.errors import read_input
+from gagen.frontend import KernelFunction, matrix, scalars, source_of
+
+
+def motor_labels(linkage: Linkage) -> tuple[str, ...]:
+    return tuple(f"{body}_{blade}" for body in linkage.unknown for blade in MOTOR)
+
+
+def step_labels(linkage: Linkage) -> tuple[str, ...]:
+    return tuple(f"{body}_{g}" for body in linkage.unknown for g in ("w", "x", "y"))
+
+
+def row_labels(linkage: Linkage) -> tuple[str, ...]:
+    labels: list[str] = []
+    for i, joint in enumerate(linkage.joints):
+        if joint not in linkage.active_joints:
+            continue
+        if isinstance(joint, Revolute):
+            labels += [f"j{i}_x", f"j{i}_y"]
+        elif isinstance(joint, Prismatic):
+            labels.append(f"j{i}_d")
+    return tuple(labels)
+
+
+def point_labels(linkage: Linkage) -> tuple[str, ...]:
+    return tuple(f"{body}_{name}_{c}" for body, points in linkage.bodies.items() for name in points
+                 for c in "xy")
+
+
+def _motors(ga: Any, linkage: Linkage, R: Any) -> dict[str, Any]:
+    return {body: ga.make(dict(zip(MOTOR, R[4 * i:4 * i + 4], strict=True)))
+            for i, body in enumerate(linkage.unknown)}
+
+
+def identity_motors(linkage: Linkage) -> np.ndarray:
+    """Every moving body at its initial configuration (the identity motor)."""
+    return np.tile([1.0, 0.0, 0.0, 0.0], len(linkage.unknown))
+
+
+def _near(linkage: Linkage, rng: np.random.Generator) -> list[np.ndarray]:
+    """Motors a little off the initial configuration, and a crank angle (for --check)."""
+    motors = []
+    for _ in linkage.unknown:
+        a, t = rng.uniform(-0.2, 0.2), rng.uniform(-0.1, 0.1, 2)
+        c, s = np.cos(a / 2), np.sin(a / 2)
+        # T(t) R(a): (1 − ½ t∧e∞)(c − s e12) on 1, e12, e1∞, e2∞
+        motors += [c, -s, -0.5 * (t[0] * c - t[1] * s), -0.5 * (t[1] * c + t[0] * s)]
+    return [np.array(motors), np.array([rng.uniform(-np.pi, np.pi)])]
+
+
+def linkage_kernels(linkage: Linkage) -> list[KernelFunction]:
+    n, m = len(linkage.unknown), linkage.constraint_rows
+    R = scalars(4 * n, motor_labels(linkage))
+
+    def constraint_values(R: Any, theta: Any, ga: Any) -> dict[str, Any]:
+        F, J = constraints(ga, linkage, _motors(ga, linkage, R), theta)
+        return {"F": F, "J": J}
+
+    def position_values(R: Any, theta: Any, ga: Any) -> dict[str, Any]:
+        return {"P": positions(ga, linkage, _motors(ga, linkage, R), theta)}
+
+    def retract_values(R: Any, dB: Any, ga: Any) -> dict[str, Any]:
+        motors = _motors(ga, linkage, R)
+        moved = [retract(ga, motors[body], dB[3 * i:3 * i + 3]) for i, body in enumerate(linkage.unknown)]
+        return {"R_next": [c for motor in moved for c in (motor[b] for b in MOTOR)]}
+
+    def sample_step(rng: np.random.Generator) -> list[np.ndarray]:
+        return [_near(linkage, rng)[0], rng.uniform(-0.1, 0.1, 3 * n)]
+
+    rows = row_labels(linkage)
+    return [
+        KernelFunction(constraint_values, algebra="cga2d", name="constraints",
+                       doc=f"{linkage.name}: constraint residuals and their Jacobian in se(2)",
+                       inputs={"R": R, "theta": "scalar", "ga": "algebra"},
+                       outputs={"F": scalars(m, rows), "J": matrix(scalars(m, rows), 3 * n)},
+                       sample=lambda rng: _near(linkage, rng)),
+        KernelFunction(position_values, algebra="cga2d", name="positions",
+                       doc=f"{linkage.name}: every body point in the world",
+                       inputs={"R": R, "theta": "scalar", "ga": "algebra"},
+                       outputs={"P": scalars(len(point_labels(linkage)), point_labels(linkage))},
+                       sample=lambda rng: _near(linkage, rng)),
+        KernelFunction(retract_values, algebra="cga2d", name="retract",
+                       doc=f"{linkage.name}: the Newton update R ← T(Δt) R(Δθ) R of every moving body",
+                       inputs={"R": R, "dB": scalars(3 * n, step_labels(linkage)), "ga": "algebra"},
+                       outputs={"R_next": R}, sample=sample_step),
+    ]
+
+
+def linkage_source(spec: str | Path) -> ModuleSource:
+    """The module of a linkage spec, named after the linkage."""
+    path = Path(spec)
+    linkage = load_linkage(path)
+    check_identifier(linkage.name, "linkage name", path)
+    source = source_of(linkage_kernels(linkage), linkage.name, path.name, read_input(path, "spec"),
+                       f"gagen build {path.name}")
+    meta = {**source.meta, "app": "linkage", "bodies": linkage.unknown, "crank": linkage.crank}
+    title = (f"kernels of {linkage.name}, a planar linkage ({len(linkage.bodies)} moving links, "
+             f"{len(linkage.joints)} joints)")
+    return dataclasses.replace(source, title=title, meta=meta)

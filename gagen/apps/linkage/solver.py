@@ -1,0 +1,168 @@
+"""The Lie-algebra Newton solver of a planar linkage [LINK 3.3-3.4], on its generated kernels.
+
+At a crank angle θ the moving bodies' motors R solve F(R, θ) = 0: Newton on se(2), J ΔB = −F (least
+squares, by SVD, when the constraints are redundant), R_b ← T(Δt) R(Δθ) R_b (``retract``). The crank
+is advanced step by step and each solve starts from the previous configuration (continuation), which
+keeps the mechanism on its assembly branch. Every step reports its Newton iterations, the final
+residual (max |F|), and the conditioning of J (its smallest singular value and σ_max/σ_min): near a
+singular configuration (a dead point of the four-bar, a branch point) the crank step is halved, up
+to ``max_halvings`` times, so Newton does not jump to the other branch; a step that still fails is
+reported, never silently replaced.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from gagen.apps.linkage.kernels import identity_motors, linkage_kernels, point_labels
+from gagen.apps.linkage.spec import Linkage
+
+TOLERANCE = 1e-12  # max |F| (m) at convergence
+MAX_ITERATIONS = 30
+
+
+@dataclass
+class Solve:
+    motors: np.ndarray
+    iterations: int
+    residuals: list[float]  # max |F| before each iteration, then the final one
+    sigma_min: float  # smallest singular value of J at the solution
+    condition: float  # σ_max / σ_min
+
+    @property
+    def residual(self) -> float:
+        return self.residuals[-1]
+
+    @property
+    def converged(self) -> bool:
+        return self.residual < TOLERANCE
+
+
+@dataclass
+class Trajectory:
+    angles: np.ndarray
+    motors: np.ndarray  # (steps, 4 × moving bodies)
+    points: np.ndarray  # (steps, 2 × named body points), ``point_labels`` order
+    iterations: np.ndarray
+    residuals: np.ndarray
+    sigma_min: np.ndarray
+    condition: np.ndarray
+    halvings: np.ndarray
+    failures: list[str] = field(default_factory=list)
+
+
+class Kernels:
+    """The three kernels the solver calls, as ``(R, θ) -> (F, J)``, ``(R, ΔB) -> R`` and
+    ``(R, θ) -> P``: the compiled module's (``kernels(linkage)``) or any equivalent."""
+
+    def __init__(self, constraints: Callable, retract: Callable, positions: Callable) -> None:
+        self.constraints, self.retract, self.positions = constraints, retract, positions
+
+
+def kernels(linkage: Linkage, module: Any | None = None) -> Kernels:
+    """The linkage's kernels compiled (``gagen.compile``'s cache, once per content) or from a loaded
+    generated module's C namespace."""
+    if module is None:
+        from gagen.frontend import compile_kernels
+
+        module = compile_kernels(linkage_kernels(linkage), name=linkage.name)
+    return Kernels(module.constraints, module.retract, module.positions)
+
+
+def newton(k: Kernels, motors: np.ndarray, angle: float, *, tolerance: float = TOLERANCE,
+           max_iterations: int = MAX_ITERATIONS) -> Solve:
+    """Newton on se(2) from ``motors`` at the crank angle ``angle``."""
+    R = np.array(motors, dtype=float)
+    theta = np.array([angle])
+    residuals = []
+    for iteration in range(max_iterations + 1):
+        F, J = k.constraints(R, theta)
+        F, J = np.asarray(F).reshape(-1), np.asarray(J)
+        residuals.append(float(np.max(np.abs(F))) if F.size else 0.0)
+        if residuals[-1] < tolerance or iteration == max_iterations:
+            break
+        U, s, Vt = np.linalg.svd(J, full_matrices=False)
+        keep = s > s[0] * 1e-13 if s.size else s
+        step = -(Vt[keep].T @ ((U[:, keep].T @ F) / s[keep]))  # least squares, minimum norm
+        R = np.asarray(k.retract(R, step)).reshape(-1)
+    s = np.linalg.svd(np.asarray(J), compute_uv=False)
+    sigma_min = float(s[-1]) if s.size else 0.0
+    return Solve(R, iteration, residuals, sigma_min, float(s[0] / sigma_min) if sigma_min > 0 else np.inf)
+
+
+def _crank_motion(linkage: Linkage, a: float, b: float) -> float:
+    """How far the crank's farthest point moves when it turns from a to b (the input motion)."""
+    pivot = np.array(linkage.ground[linkage.pivot])
+    radius = max(np.hypot(*(np.array(p) - pivot)) for p in linkage.bodies[linkage.crank].values())
+    return float(radius * abs(b - a))
+
+
+def _advance(k: Kernels, linkage: Linkage, R: np.ndarray, points: np.ndarray, start: float, target: float,
+             halvings: int) -> tuple[Solve, np.ndarray]:
+    """Solve at ``target`` from ``start`` in 2^halvings equal crank steps; the last solve and the
+    largest point displacement of a sub-step over the crank's own motion in it."""
+    parts, ratio = 2 ** halvings, 0.0
+    for part in range(1, parts + 1):
+        a, b = start + (target - start) * (part - 1) / parts, start + (target - start) * part / parts
+        solve = newton(k, R, b)
+        if not solve.converged:
+            return solve, np.inf
+        moved = np.asarray(k.positions(solve.motors, np.array([b]))).reshape(-1)
+        ratio = max(ratio, float(np.max(np.abs(moved - points))) / max(_crank_motion(linkage, a, b), 1e-300))
+        R, points = solve.motors, moved
+    return solve, ratio
+
+
+def simulate(k: Kernels, linkage: Linkage, angles: Sequence[float], *, max_halvings: int = 8,
+             jump: float = 20.0, progress: Callable[[str], None] = lambda _: None) -> Trajectory:
+    """Follow the crank through ``angles`` (rad, from the initial configuration), continuing each
+    solve from the previous one; the first solve assembles the initial guess (identity motors).
+
+    A step is cut into 2, 4, … equal parts (at most 2^max_halvings) while Newton fails or some body
+    point moves more than ``jump`` times as far as the crank's farthest point in a part: near a
+    singular configuration the output races ahead of the input, and a large step there could land
+    on the other assembly branch. A step that still fails is reported in ``failures``, and the
+    configuration stays at the last solved one."""
+    angles = np.asarray(angles, dtype=float)
+    first = newton(k, identity_motors(linkage), float(angles[0]))
+    R, previous = first.motors, float(angles[0])
+    points = np.asarray(k.positions(R, np.array([previous]))).reshape(-1)
+    rows: dict[str, list[Any]] = {key: [] for key in ("motors", "points", "iterations", "residuals",
+                                                      "sigma_min", "condition", "halvings")}
+    failures: list[str] = [] if first.converged else [
+        f"assembly at crank {np.degrees(previous):.3f}°: max |F| = {first.residual:.2e}; the initial "
+        f"points do not close the loop"]
+    for index, target in enumerate(angles):
+        for halvings in range(max_halvings + 1):
+            solve, ratio = _advance(k, linkage, R, points, previous, float(target), halvings)
+            if solve.converged and ratio <= jump:
+                break
+        if not solve.converged:
+            failures.append(f"step {index} (crank {np.degrees(target):.3f}°): Newton stopped at max |F| = "
+                            f"{solve.residual:.2e} after {solve.iterations} iterations, {halvings} halvings "
+                            f"(σ_min of J {solve.sigma_min:.2e}): a singular or unreachable configuration")
+        else:
+            R, previous = solve.motors, float(target)
+            points = np.asarray(k.positions(R, np.array([previous]))).reshape(-1)
+        rows["motors"].append(R.copy())
+        rows["points"].append(points)
+        rows["iterations"].append(solve.iterations)
+        rows["residuals"].append(solve.residual)
+        rows["sigma_min"].append(solve.sigma_min)
+        rows["condition"].append(solve.condition)
+        rows["halvings"].append(halvings)
+        if index % 100 == 0:
+            progress(f"  step {index}/{len(angles)}: crank {np.degrees(target):.1f}°, {solve.iterations} "
+                     f"iterations, max |F| {solve.residual:.1e}")
+    return Trajectory(angles, np.array(rows["motors"]), np.array(rows["points"]),
+                      np.array(rows["iterations"]), np.array(rows["residuals"]), np.array(rows["sigma_min"]),
+                      np.array(rows["condition"]), np.array(rows["halvings"]), failures)
+
+
+def point_index(linkage: Linkage, body: str, name: str) -> int:
+    """The column of a body point's x in ``Trajectory.points`` (y follows)."""
+    return point_labels(linkage).index(f"{body}_{name}_x")
