@@ -3,7 +3,10 @@
 - ``constraints``: R (the moving bodies' motors, 4 each, ``linkage.unknown`` order) and the crank
   angle θ → F (the residual rows) and J (∂F/∂ε, three columns per moving body);
 - ``positions``: R, θ → every named point of every body (x, y);
-- ``retract``: R and a Lie-algebra step ΔB (3 per body) → T(Δt) R(Δθ) R per body.
+- ``retract``: R and a Lie-algebra step ΔB (3 per body) → T(Δt) R(Δθ) R per body;
+- ``newton_step`` (when the constraints are as many as the unknowns, as in every mechanism of mobility
+  1 without redundant joints): R, θ → the next Newton iterate and max |F| at R, the linear solve
+  flattened into the kernel (CasADi's symbolic QR).
 """
 
 from __future__ import annotations
@@ -12,6 +15,7 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
+import casadi as ca
 import numpy as np
 
 from gagen.apps.linkage.constraints import MOTOR, constraints, positions, retract
@@ -88,22 +92,45 @@ def linkage_kernels(linkage: Linkage) -> list[KernelFunction]:
         return [_near(linkage, rng)[0], rng.uniform(-0.1, 0.1, 3 * n)]
 
     rows = row_labels(linkage)
-    return [
-        KernelFunction(constraint_values, algebra="cga2d", name="constraints",
-                       doc=f"{linkage.name}: constraint residuals and their Jacobian in se(2)",
-                       inputs={"R": R, "theta": "scalar", "ga": "algebra"},
-                       outputs={"F": scalars(m, rows), "J": matrix(scalars(m, rows), 3 * n)},
-                       sample=lambda rng: _near(linkage, rng)),
-        KernelFunction(position_values, algebra="cga2d", name="positions",
-                       doc=f"{linkage.name}: every body point in the world",
-                       inputs={"R": R, "theta": "scalar", "ga": "algebra"},
-                       outputs={"P": scalars(len(point_labels(linkage)), point_labels(linkage))},
-                       sample=lambda rng: _near(linkage, rng)),
-        KernelFunction(retract_values, algebra="cga2d", name="retract",
-                       doc=f"{linkage.name}: the Newton update R ← T(Δt) R(Δθ) R of every moving body",
-                       inputs={"R": R, "dB": scalars(3 * n, step_labels(linkage)), "ga": "algebra"},
-                       outputs={"R_next": R}, sample=sample_step),
-    ]
+    constraint = KernelFunction(constraint_values, algebra="cga2d", name="constraints",
+                                doc=f"{linkage.name}: constraint residuals and their Jacobian in se(2)",
+                                inputs={"R": R, "theta": "scalar", "ga": "algebra"},
+                                outputs={"F": scalars(m, rows), "J": matrix(scalars(m, rows), 3 * n)},
+                                sample=lambda rng: _near(linkage, rng))
+    retraction = KernelFunction(retract_values, algebra="cga2d", name="retract",
+                                doc=f"{linkage.name}: the Newton update R ← T(Δt) R(Δθ) R of every "
+                                    f"moving body",
+                                inputs={"R": R, "dB": scalars(3 * n, step_labels(linkage)), "ga": "algebra"},
+                                outputs={"R_next": R}, sample=sample_step)
+
+    def newton_values(R: Any, theta: Any, ga: Any) -> dict[str, Any]:
+        # the reference, on the interpreter: the same step with numpy's least squares
+        F, J = constraint.reference(np.array(R, dtype=float), np.array([theta], dtype=float))
+        step = -np.linalg.lstsq(J, F.reshape(-1), rcond=None)[0]
+        (R_next,) = retraction.reference(np.array(R, dtype=float), step)
+        return {"R_next": [float(v) for v in R_next.reshape(-1)], "residual": float(np.max(np.abs(F)))}
+
+    def newton_rule(inputs: dict[str, Any]) -> dict[str, Any]:
+        # the compiler's: F and J from the constraints kernel's graph, ΔB = −J⁻¹F by CasADi's
+        # symbolic QR (the system is square for a mechanism of mobility 1), then the retraction
+        F, J = constraint.trace().function(inputs["R"], inputs["theta"])
+        return {"R_next": retraction.trace().function(inputs["R"], -ca.solve(J, F)),
+                "residual": ca.mmax(ca.fabs(F))}
+
+    position = KernelFunction(position_values, algebra="cga2d", name="positions",
+                              doc=f"{linkage.name}: every body point in the world",
+                              inputs={"R": R, "theta": "scalar", "ga": "algebra"},
+                              outputs={"P": scalars(len(point_labels(linkage)), point_labels(linkage))},
+                              sample=lambda rng: _near(linkage, rng))
+    kernels = [constraint, position, retraction]
+    if m == 3 * n:
+        kernels.append(KernelFunction(
+            newton_values, algebra="cga2d", name="newton_step",
+            doc=f"{linkage.name}: one Newton step at crank angle theta, and max |F| before it",
+            inputs={"R": R, "theta": "scalar", "ga": "algebra"},
+            outputs={"R_next": R, "residual": "scalar"}, sample=lambda rng: _near(linkage, rng),
+            rule=newton_rule))
+    return kernels
 
 
 def linkage_source(spec: str | Path) -> ModuleSource:

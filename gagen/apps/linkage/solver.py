@@ -56,11 +56,14 @@ class Trajectory:
 
 
 class Kernels:
-    """The three kernels the solver calls, as ``(R, θ) -> (F, J)``, ``(R, ΔB) -> R`` and
-    ``(R, θ) -> P``: the compiled module's (``kernels(linkage)``) or any equivalent."""
+    """The kernels the solver calls, as ``(R, θ) -> (F, J)``, ``(R, ΔB) -> R``, ``(R, θ) -> P`` and,
+    where the module has it, ``(R, θ) -> (R_next, max |F|)`` (the whole Newton step in one kernel):
+    the compiled module's (``kernels(linkage)``) or any equivalent."""
 
-    def __init__(self, constraints: Callable, retract: Callable, positions: Callable) -> None:
+    def __init__(self, constraints: Callable, retract: Callable, positions: Callable,
+                 newton_step: Callable | None = None) -> None:
         self.constraints, self.retract, self.positions = constraints, retract, positions
+        self.newton_step = newton_step
 
 
 def kernels(linkage: Linkage, module: Any | None = None) -> Kernels:
@@ -70,7 +73,7 @@ def kernels(linkage: Linkage, module: Any | None = None) -> Kernels:
         from gagen.frontend import compile_kernels
 
         module = compile_kernels(linkage_kernels(linkage), name=linkage.name)
-    return Kernels(module.constraints, module.retract, module.positions)
+    return Kernels(module.constraints, module.retract, module.positions, getattr(module, "newton_step", None))
 
 
 def newton(k: Kernels, motors: np.ndarray, angle: float, *, tolerance: float = TOLERANCE,
@@ -79,6 +82,14 @@ def newton(k: Kernels, motors: np.ndarray, angle: float, *, tolerance: float = T
     R = np.array(motors, dtype=float)
     theta = np.array([angle])
     residuals = []
+    if k.newton_step is not None:  # one kernel call per iteration; J only for the conditioning
+        for iteration in range(max_iterations + 1):
+            R_next, residual = k.newton_step(R, theta)
+            residuals.append(float(np.asarray(residual).reshape(-1)[0]))
+            if residuals[-1] < tolerance or iteration == max_iterations:
+                break
+            R = np.asarray(R_next).reshape(-1)
+        return _conditioned(k, R, theta, iteration, residuals)
     for iteration in range(max_iterations + 1):
         F, J = k.constraints(R, theta)
         F, J = np.asarray(F).reshape(-1), np.asarray(J)
@@ -89,9 +100,15 @@ def newton(k: Kernels, motors: np.ndarray, angle: float, *, tolerance: float = T
         keep = s > s[0] * 1e-13 if s.size else s
         step = -(Vt[keep].T @ ((U[:, keep].T @ F) / s[keep]))  # least squares, minimum norm
         R = np.asarray(k.retract(R, step)).reshape(-1)
-    s = np.linalg.svd(np.asarray(J), compute_uv=False)
+    return _conditioned(k, R, theta, iteration, residuals)
+
+
+def _conditioned(k: Kernels, R: np.ndarray, theta: np.ndarray, iterations: int,
+                 residuals: list[float]) -> Solve:
+    """The solve, with the singular values of J at its configuration."""
+    s = np.linalg.svd(np.asarray(k.constraints(R, theta)[1]), compute_uv=False)
     sigma_min = float(s[-1]) if s.size else 0.0
-    return Solve(R, iteration, residuals, sigma_min, float(s[0] / sigma_min) if sigma_min > 0 else np.inf)
+    return Solve(R, iterations, residuals, sigma_min, float(s[0] / sigma_min) if sigma_min > 0 else np.inf)
 
 
 def _crank_motion(linkage: Linkage, a: float, b: float) -> float:
