@@ -748,8 +748,9 @@ def compile_kernels(kernels: Sequence[KernelFunction], *, name: str | None = Non
 
     source = source_of(kernels, name or kernels[0].name)
     target = Path(folder) if folder is not None else cache_root() / f"{source.name}-{source.key[:16]}"
-    if not (target / "manifest.json").is_file():
-        build_source(source, target, progress=progress or (lambda _: None))
+    # (a no-op when the folder is current; after a gagen upgrade its code generator's key differs and
+    # the module is rebuilt, so a cached module never outlives the generator that wrote it)
+    build_source(source, target, progress=progress or (lambda _: None))
     module = load(target)
     return getattr(module.c, kernels[0].name) if len(kernels) == 1 else module.c
 

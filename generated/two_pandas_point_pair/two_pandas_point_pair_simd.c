@@ -42,7 +42,10 @@ static inline gagen_v gagen_v_or(gagen_v a, gagen_v b) {
 static inline gagen_v gagen_v_if_else_zero(gagen_v c, gagen_v x) {
   return (gagen_v)((c != gagen_v_splat(0.0)) & (gagen_vi)x);
 }
-static inline gagen_v gagen_v_fabs(gagen_v x) { return (gagen_v)((gagen_vi)x & ~(gagen_vi)gagen_v_splat(-0.0)); }
+/* clear the sign bit (a splat of -0.0 would not do: 0.0 + -0.0 is +0.0) */
+static inline gagen_v gagen_v_fabs(gagen_v x) {
+  return (gagen_v)((gagen_vi)x & ((gagen_vi){0} + 0x7fffffffffffffffLL));
+}
 /* lane by lane, for the operations without a vector form */
 #define GAGEN_V1(f, x) ({ gagen_v a_ = (x), r_; for (int l_ = 0; l_ < GAGEN_W; ++l_) { r_[l_] = f(a_[l_]); } r_; })
 #define GAGEN_V2(f, x, y) ({ gagen_v a_ = (x), b_ = (y), r_; \

@@ -346,3 +346,25 @@ def test_check_holds_an_authored_jacobian_against_differences(tmp_path, wrong) -
     assert len(by_differences) == 1
     assert [d.output for d in failures(report)] == (["J"] if wrong else [])
     assert (by_differences[0].worst > 0.1) if wrong else (by_differences[0].worst < 1e-8)
+
+
+@pytest.mark.compiling
+def test_simd_batch_takes_absolute_values_of_negative_numbers(tmp_path) -> None:
+    """The SIMD batch's fabs masked the sign bit with a splat of −0.0, which the splat (0 + c) turned
+    into +0.0: |x| of a negative x stayed negative in the batch while single calls were right (found
+    through a linkage's max |F|). Batch = single on inputs of both signs."""
+    from gagen.build import build_source
+    from gagen.frontend import KernelFunction, source_of
+    from gagen.runtime import load
+
+    def magnitude(x: gagen.scalars(3), ga: "algebra"):
+        m = ga.math
+        return {"y": [m.fabs(x[0]), m.fabs(x[1] - x[2]), m.fabs(x[0] * x[1]) + m.fabs(x[2])]}
+
+    fn = KernelFunction(magnitude, algebra="ga3d", name="magnitude", outputs={"y": gagen.scalars(3)})
+    build_source(source_of([fn], "magnitude"), tmp_path / "magnitude", progress=lambda _: None)
+    kernel = load(tmp_path / "magnitude").c.magnitude
+    x = np.random.default_rng(3).uniform(-1.0, 1.0, (37, 3))
+    expected = np.c_[np.abs(x[:, 0]), np.abs(x[:, 1] - x[:, 2]), np.abs(x[:, 0] * x[:, 1]) + np.abs(x[:, 2])]
+    np.testing.assert_array_equal(np.asarray(kernel.batch(x)).reshape(37, 3), expected)
+    np.testing.assert_array_equal(np.array([kernel(v) for v in x]).reshape(37, 3), expected)

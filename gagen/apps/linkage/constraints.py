@@ -52,14 +52,15 @@ def rotor(like: Multivector, angle: Any) -> Multivector:
     return like.make({"1": m.cos(angle * 0.5), "e12": -m.sin(angle * 0.5)})
 
 
-def crank_motor(like: Multivector, pivot: Sequence[float], angle: Any) -> Multivector:
+def crank_motor(like: Multivector, pivot: Sequence[Any], angle: Any) -> Multivector:
     """The turn by ``angle`` about ``pivot``: T(p) R(θ) T(p)~."""
-    p = [to_exact(v) for v in pivot]
+    p = _exact(pivot)
     return translator(like, p) * rotor(like, angle) * translator(like, [-p[0], -p[1]])
 
 
-def _exact(xy: Sequence[float]) -> list[Any]:
-    return [to_exact(v) for v in xy]
+def _exact(xy: Sequence[Any]) -> list[Any]:
+    """Spec numbers as exact constants; symbolic values (a parametric kernel's inputs) as they are."""
+    return [v if to_exact(v) is None else to_exact(v) for v in xy]
 
 
 def _line(like: Multivector, through: Sequence[float], direction: Sequence[float]) -> tuple[Multivector, Any]:
@@ -72,30 +73,38 @@ def _line(like: Multivector, through: Sequence[float], direction: Sequence[float
     return line, 1 / w
 
 
+Coordinates = Mapping[tuple[str, str], Sequence[Any]]  # (body or ground, point) -> initial (x, y)
+
+
 class Frames:
     """The world motors of a linkage's bodies at one configuration (moving bodies' motors given, the
-    crank's from its angle) and the world points and lines they carry."""
+    crank's from its angle) and the world points and lines they carry. ``coordinates`` replaces the
+    spec's initial points (a parametric kernel's inputs: one kernel for a family of mechanisms)."""
 
-    def __init__(self, like: Multivector, linkage: Linkage, motors: Mapping[str, Multivector], angle: Any):
+    def __init__(self, like: Multivector, linkage: Linkage, motors: Mapping[str, Multivector], angle: Any,
+                 coordinates: Coordinates | None = None):
         self.like, self.linkage = like, linkage
-        pivot = linkage.ground[linkage.pivot]
+        self.coordinates = coordinates
+        pivot = self.initial((GROUND, linkage.pivot))
         self.motors = {**motors, linkage.crank: crank_motor(like, pivot, angle)}
 
+    def initial(self, ref: tuple[str, str]) -> list[Any]:
+        return _exact(self.coordinates[ref] if self.coordinates is not None else self.linkage.point(ref))
+
     def point(self, ref: tuple[str, str]) -> Multivector:
-        body = ref[0]
-        x = up(self.like, _exact(self.linkage.point(ref)))
-        return x if body == GROUND else self.motors[body].sandwich(x)
+        x = up(self.like, self.initial(ref))
+        return x if ref[0] == GROUND else self.motors[ref[0]].sandwich(x)
 
 
 def _generators(like: Multivector) -> list[Multivector]:
     return [like.make({g: 1}) for g in GENERATORS]
 
 
-def constraints(like: Multivector, linkage: Linkage, motors: Mapping[str, Multivector], angle: Any
-                ) -> tuple[list[Any], list[list[Any]]]:
+def constraints(like: Multivector, linkage: Linkage, motors: Mapping[str, Multivector], angle: Any,
+                coordinates: Coordinates | None = None) -> tuple[list[Any], list[list[Any]]]:
     """The residual F (one entry per constraint row, joints in spec order) and its Jacobian as
     columns, three per moving body (``linkage.unknown`` order): ∂F/∂ε for R_b ← e^{−ε·B/2} R_b."""
-    frames = Frames(like, linkage, motors, angle)
+    frames = Frames(like, linkage, motors, angle, coordinates)
     moving, generators = linkage.unknown, _generators(like)
     rows: list[Any] = []
     grads: list[dict[int, Any]] = []  # per row: column -> entry
@@ -128,10 +137,10 @@ def constraints(like: Multivector, linkage: Linkage, motors: Mapping[str, Multiv
     return rows, columns
 
 
-def positions(like: Multivector, linkage: Linkage, motors: Mapping[str, Multivector],
-              angle: Any) -> list[Any]:
-    """Every named point of every body (then the ground's), x and y, at this configuration."""
-    frames = Frames(like, linkage, motors, angle)
+def positions(like: Multivector, linkage: Linkage, motors: Mapping[str, Multivector], angle: Any,
+              coordinates: Coordinates | None = None) -> list[Any]:
+    """Every named point of every body, x and y, at this configuration."""
+    frames = Frames(like, linkage, motors, angle, coordinates)
     out: list[Any] = []
     for body, points in linkage.bodies.items():
         for name in points:

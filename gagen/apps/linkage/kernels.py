@@ -19,7 +19,7 @@ import casadi as ca
 import numpy as np
 
 from gagen.apps.linkage.constraints import MOTOR, constraints, positions, retract
-from gagen.apps.linkage.spec import Linkage, Prismatic, Revolute, load_linkage
+from gagen.apps.linkage.spec import GROUND, Linkage, Prismatic, Revolute, load_linkage
 from gagen.build import check_identifier
 from gagen.codegen.ir import ModuleSource
 from gagen.errors import read_input
@@ -72,64 +72,98 @@ def _near(linkage: Linkage, rng: np.random.Generator) -> list[np.ndarray]:
     return [np.array(motors), np.array([rng.uniform(-np.pi, np.pi)])]
 
 
-def linkage_kernels(linkage: Linkage) -> list[KernelFunction]:
+def initial_labels(linkage: Linkage) -> tuple[str, ...]:
+    """The points a parametric kernel takes (``X0``): the ground's, then every body's, x and y."""
+    points = [(GROUND, name) for name in linkage.ground]
+    points += [(body, name) for body, named in linkage.bodies.items() for name in named]
+    return tuple(f"{body}_{name}_{c}" for body, name in points for c in "xy")
+
+
+def initial_points(linkage: Linkage) -> np.ndarray:
+    """The spec's initial points in ``initial_labels`` order."""
+    return np.array([v for xy in (*linkage.ground.values(), *(p for named in linkage.bodies.values()
+                                                                for p in named.values())) for v in xy])
+
+
+def _coordinates(linkage: Linkage, X0: Any) -> dict[tuple[str, str], list[Any]] | None:
+    if X0 is None:
+        return None
+    refs = [(GROUND, name) for name in linkage.ground]
+    refs += [(body, name) for body, named in linkage.bodies.items() for name in named]
+    return {ref: [X0[2 * i], X0[2 * i + 1]] for i, ref in enumerate(refs)}
+
+
+def linkage_kernels(linkage: Linkage, parametric: bool = False) -> list[KernelFunction]:
+    """The kernels of one linkage, or with ``parametric`` of the family of linkages of its topology:
+    every kernel but ``retract`` then also takes the initial points ``X0`` (``initial_labels``), so one
+    compiled module solves many mechanisms of different dimensions, batched."""
     n, m = len(linkage.unknown), linkage.constraint_rows
     R = scalars(4 * n, motor_labels(linkage))
+    inputs: dict[str, Any] = {"R": R, "theta": "scalar"}
+    if parametric:
+        inputs["X0"] = scalars(2 * (len(linkage.ground) + sum(map(len, linkage.bodies.values()))),
+                               initial_labels(linkage))
+    inputs["ga"] = "algebra"
 
-    def constraint_values(R: Any, theta: Any, ga: Any) -> dict[str, Any]:
-        F, J = constraints(ga, linkage, _motors(ga, linkage, R), theta)
+    def constraint_values(R: Any, theta: Any, X0: Any, ga: Any) -> dict[str, Any]:
+        F, J = constraints(ga, linkage, _motors(ga, linkage, R), theta, _coordinates(linkage, X0))
         return {"F": F, "J": J}
 
-    def position_values(R: Any, theta: Any, ga: Any) -> dict[str, Any]:
-        return {"P": positions(ga, linkage, _motors(ga, linkage, R), theta)}
+    def position_values(R: Any, theta: Any, X0: Any, ga: Any) -> dict[str, Any]:
+        return {"P": positions(ga, linkage, _motors(ga, linkage, R), theta, _coordinates(linkage, X0))}
 
     def retract_values(R: Any, dB: Any, ga: Any) -> dict[str, Any]:
         motors = _motors(ga, linkage, R)
         moved = [retract(ga, motors[body], dB[3 * i:3 * i + 3]) for i, body in enumerate(linkage.unknown)]
         return {"R_next": [c for motor in moved for c in (motor[b] for b in MOTOR)]}
 
+    def with_points(fn: Any) -> Any:  # the function with the signature the declared inputs name
+        if parametric:
+            return fn
+        return lambda R, theta, ga: fn(R, theta, None, ga)
+
+    def sample(rng: np.random.Generator) -> list[np.ndarray]:
+        return [*_near(linkage, rng), *([initial_points(linkage)] if parametric else [])]
+
     def sample_step(rng: np.random.Generator) -> list[np.ndarray]:
         return [_near(linkage, rng)[0], rng.uniform(-0.1, 0.1, 3 * n)]
 
     rows = row_labels(linkage)
-    constraint = KernelFunction(constraint_values, algebra="cga2d", name="constraints",
+    constraint = KernelFunction(with_points(constraint_values), algebra="cga2d", name="constraints",
                                 doc=f"{linkage.name}: constraint residuals and their Jacobian in se(2)",
-                                inputs={"R": R, "theta": "scalar", "ga": "algebra"},
-                                outputs={"F": scalars(m, rows), "J": matrix(scalars(m, rows), 3 * n)},
-                                sample=lambda rng: _near(linkage, rng))
+                                inputs=inputs, sample=sample,
+                                outputs={"F": scalars(m, rows), "J": matrix(scalars(m, rows), 3 * n)})
     retraction = KernelFunction(retract_values, algebra="cga2d", name="retract",
                                 doc=f"{linkage.name}: the Newton update R ← T(Δt) R(Δθ) R of every "
                                     f"moving body",
                                 inputs={"R": R, "dB": scalars(3 * n, step_labels(linkage)), "ga": "algebra"},
                                 outputs={"R_next": R}, sample=sample_step)
 
-    def newton_values(R: Any, theta: Any, ga: Any) -> dict[str, Any]:
+    def newton_values(R: Any, theta: Any, X0: Any, ga: Any) -> dict[str, Any]:
         # the reference, on the interpreter: the same step with numpy's least squares
-        F, J = constraint.reference(np.array(R, dtype=float), np.array([theta], dtype=float))
+        extra = [np.array(X0, dtype=float)] if parametric else []
+        F, J = constraint.reference(np.array(R, dtype=float), np.array([theta], dtype=float), *extra)
         step = -np.linalg.lstsq(J, F.reshape(-1), rcond=None)[0]
         (R_next,) = retraction.reference(np.array(R, dtype=float), step)
         return {"R_next": [float(v) for v in R_next.reshape(-1)], "residual": float(np.max(np.abs(F)))}
 
-    def newton_rule(inputs: dict[str, Any]) -> dict[str, Any]:
+    def newton_rule(symbols: dict[str, Any]) -> dict[str, Any]:
         # the compiler's: F and J from the constraints kernel's graph, ΔB = −J⁻¹F by CasADi's
         # symbolic QR (the system is square for a mechanism of mobility 1), then the retraction
-        F, J = constraint.trace().function(inputs["R"], inputs["theta"])
-        return {"R_next": retraction.trace().function(inputs["R"], -ca.solve(J, F)),
+        F, J = constraint.trace().function(*(symbols[name] for name in inputs if name != "ga"))
+        return {"R_next": retraction.trace().function(symbols["R"], -ca.solve(J, F)),
                 "residual": ca.mmax(ca.fabs(F))}
 
-    position = KernelFunction(position_values, algebra="cga2d", name="positions",
-                              doc=f"{linkage.name}: every body point in the world",
-                              inputs={"R": R, "theta": "scalar", "ga": "algebra"},
+    position = KernelFunction(with_points(position_values), algebra="cga2d", name="positions",
+                              doc=f"{linkage.name}: every body point in the world", inputs=inputs,
                               outputs={"P": scalars(len(point_labels(linkage)), point_labels(linkage))},
-                              sample=lambda rng: _near(linkage, rng))
+                              sample=sample)
     kernels = [constraint, position, retraction]
     if m == 3 * n:
         kernels.append(KernelFunction(
-            newton_values, algebra="cga2d", name="newton_step",
+            with_points(newton_values), algebra="cga2d", name="newton_step",
             doc=f"{linkage.name}: one Newton step at crank angle theta, and max |F| before it",
-            inputs={"R": R, "theta": "scalar", "ga": "algebra"},
-            outputs={"R_next": R, "residual": "scalar"}, sample=lambda rng: _near(linkage, rng),
-            rule=newton_rule))
+            inputs=inputs, outputs={"R_next": R, "residual": "scalar"}, sample=sample, rule=newton_rule))
     return kernels
 
 
