@@ -159,3 +159,18 @@ def test_newton_converges_quadratically():
     for before, after in pairwise(residuals):
         if before > 1e-7:
             assert after <= 2.0 * before ** 2, residuals
+
+
+@pytest.mark.compiling
+def test_a_rank_deficient_start_is_reported_beside_gruebler(tmp_path):
+    """A four-bar assembled folded flat (every point on the x axis): Grübler–Kutzbach counts 1, but
+    the constraint Jacobian loses rank there; the solver says so instead of stepping on silently."""
+    path = tmp_path / "flat.yaml"
+    path.write_text("app: linkage\nname: flat\nground: {A: [0, 0], D: [4, 0]}\n"
+                    "bodies:\n  crank: {A: [0, 0], B: [1, 0]}\n  coupler: {B: [1, 0], C: [2.5, 0]}\n"
+                    "  rocker: {C: [2.5, 0], D: [4, 0]}\n" + JOINTS + DRIVER)
+    linkage = load_linkage(path)
+    assert linkage.mobility() == 1
+    trajectory = simulate(kernels(linkage), linkage, [0.0])
+    assert trajectory.rank < trajectory.unknowns == 6
+    assert any("rank" in f and "under-constrained" in f for f in trajectory.failures), trajectory.failures

@@ -39,6 +39,8 @@ def summary(linkage: Linkage, trajectory: Trajectory) -> str:
         f"{linkage.name}: {len(t.angles) - 1} crank steps over {deg[-1] - deg[0]:.0f}°, "
         f"{len(linkage.bodies)} bodies, {len(linkage.joints)} joints, {linkage.constraint_rows} "
         f"constraint rows",
+        f"  mobility: Grübler–Kutzbach {linkage.mobility()}; constraint Jacobian rank {t.rank} for "
+        f"{t.unknowns} unknowns and {linkage.constraint_rows} rows at the initial configuration",
         f"  Newton iterations per step: mean {t.iterations.mean():.2f}, max {t.iterations.max()} "
         f"(at {deg[int(np.argmax(t.iterations))]:.1f}°); max residual {t.residuals.max():.2e}",
         f"  σ_min(J): min {t.sigma_min[worst]:.3e} at crank {deg[worst]:.1f}°; max condition number "

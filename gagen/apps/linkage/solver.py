@@ -53,6 +53,8 @@ class Trajectory:
     condition: np.ndarray
     halvings: np.ndarray
     failures: list[str] = field(default_factory=list)
+    rank: int = 0  # of J at the assembled initial configuration (3 × moving bodies when well posed)
+    unknowns: int = 0
 
 
 class Kernels:
@@ -153,6 +155,15 @@ def simulate(k: Kernels, linkage: Linkage, angles: Sequence[float], *, max_halvi
     failures: list[str] = [] if first.converged else [
         f"assembly at crank {np.degrees(previous):.3f}°: max |F| = {first.residual:.2e}; the initial "
         f"points do not close the loop"]
+    rank, unknowns = initial_rank(k, R, previous)
+    if rank < unknowns:
+        failures.append(f"the constraint Jacobian has rank {rank} for {unknowns} unknowns at the initial "
+                        f"configuration: the mechanism is under-constrained there (or at a singular pose), "
+                        f"though Grübler–Kutzbach counts 1 degree of freedom")
+    elif rank < linkage.constraint_rows:
+        failures.append(f"the constraint Jacobian has rank {rank} for {linkage.constraint_rows} constraint "
+                        f"rows: {linkage.constraint_rows - rank} redundant (over-constrained) at the initial "
+                        f"configuration")
     for index, target in enumerate(angles):
         for halvings in range(max_halvings + 1):
             solve, ratio = _advance(k, linkage, R, points, previous, float(target), halvings)
@@ -177,7 +188,15 @@ def simulate(k: Kernels, linkage: Linkage, angles: Sequence[float], *, max_halvi
                      f"iterations, max |F| {solve.residual:.1e}")
     return Trajectory(angles, np.array(rows["motors"]), np.array(rows["points"]),
                       np.array(rows["iterations"]), np.array(rows["residuals"]), np.array(rows["sigma_min"]),
-                      np.array(rows["condition"]), np.array(rows["halvings"]), failures)
+                      np.array(rows["condition"]), np.array(rows["halvings"]), failures, rank, unknowns)
+
+
+def initial_rank(k: Kernels, motors: np.ndarray, angle: float, relative: float = 1e-9) -> tuple[int, int]:
+    """The numerical rank of J (singular values above ``relative`` × the largest) and the number of
+    unknowns, at a configuration: the mobility as the constraints see it, beside Grübler–Kutzbach's count."""
+    J = np.asarray(k.constraints(np.asarray(motors, dtype=float), np.array([angle]))[1])
+    s = np.linalg.svd(J, compute_uv=False)
+    return int(np.count_nonzero(s > relative * s[0])) if s.size else 0, J.shape[1]
 
 
 def point_index(linkage: Linkage, body: str, name: str) -> int:
