@@ -174,3 +174,34 @@ def test_a_rank_deficient_start_is_reported_beside_gruebler(tmp_path):
     trajectory = simulate(kernels(linkage), linkage, [0.0])
     assert trajectory.rank < trajectory.unknowns == 6
     assert any("rank" in f and "under-constrained" in f for f in trajectory.failures), trajectory.failures
+
+
+def test_motor_pose_matches_the_sandwich():
+    """solver._pose reads R and t of T(t) R(φ) from the motor's four coefficients (the travel check's
+    frame change), against the motor acting on points on the interpreter."""
+    from gagen.apps.linkage.constraints import location, rotor, translator, up
+    from gagen.apps.linkage.solver import _pose
+    from gagen.interp import MultiVector, preset
+
+    zero, rng = MultiVector.zero(preset("cga2d")), np.random.default_rng(4)
+    for _ in range(20):
+        motor = translator(zero, list(rng.normal(size=2))) * rotor(zero, rng.uniform(-np.pi, np.pi))
+        rotation, shift = _pose([motor[b] for b in ("1", "e12", "e1inf", "e2inf")])
+        x = rng.normal(size=2)
+        moved = location(motor.sandwich(up(zero, list(x))))
+        np.testing.assert_allclose(moved, rotation @ x + shift, atol=1e-14)
+
+
+@pytest.mark.compiling
+def test_a_slider_leaving_its_travel_is_reported(tmp_path):
+    """The slider-crank's P runs over y = 3 … 5: within travel [3, 5] nothing is reported; with the
+    travel cut to [3.5, 5] the steps where P is below 3.5 are named."""
+    linkage = load_linkage(SLIDER)
+    assert simulate(kernels(linkage), linkage, ANGLES).limits == []
+    path = tmp_path / "short.yaml"
+    path.write_text(SLIDER.read_text().replace("travel: [3, 5]", "travel: [3.5, 5]").replace(
+        "name: slider_crank", "name: short_slider"))
+    short = load_linkage(path)
+    limits = simulate(kernels(short), short, ANGLES).limits
+    assert len(limits) == 1 and "coupler.P" in limits[0] and "[3.5, 5]" in limits[0]
+    assert "from 3 to 5" in limits[0]

@@ -48,6 +48,7 @@ def summary(linkage: Linkage, trajectory: Trajectory) -> str:
         f"  step halvings: {int(t.halvings.sum())} in {halved} step(s)"
         + (first if halved else ""),
         f"  failures: {len(t.failures)}" + (f"; first: {t.failures[0]}" if t.failures else ""),
+        *(f"  travel: {limit}" for limit in t.limits),
     ]
     return "\n".join(lines)
 

@@ -55,6 +55,7 @@ class Trajectory:
     failures: list[str] = field(default_factory=list)
     rank: int = 0  # of J at the assembled initial configuration (3 × moving bodies when well posed)
     unknowns: int = 0
+    limits: list[str] = field(default_factory=list)  # prismatic joints outside their travel
 
 
 class Kernels:
@@ -186,9 +187,60 @@ def simulate(k: Kernels, linkage: Linkage, angles: Sequence[float], *, max_halvi
         if index % 100 == 0:
             progress(f"  step {index}/{len(angles)}: crank {np.degrees(target):.1f}°, {solve.iterations} "
                      f"iterations, max |F| {solve.residual:.1e}")
-    return Trajectory(angles, np.array(rows["motors"]), np.array(rows["points"]),
-                      np.array(rows["iterations"]), np.array(rows["residuals"]), np.array(rows["sigma_min"]),
-                      np.array(rows["condition"]), np.array(rows["halvings"]), failures, rank, unknowns)
+    trajectory = Trajectory(angles, np.array(rows["motors"]), np.array(rows["points"]),
+                            np.array(rows["iterations"]), np.array(rows["residuals"]),
+                            np.array(rows["sigma_min"]), np.array(rows["condition"]),
+                            np.array(rows["halvings"]), failures, rank, unknowns)
+    trajectory.limits = travel_limits(linkage, trajectory)
+    return trajectory
+
+
+TRAVEL_TOLERANCE = 1e-9  # a slider this far beyond its travel still counts as within it
+
+
+def _pose(motor: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+    """(rotation matrix, translation) of an SE(2) motor T(t) R(φ) on 1, e12, e1∞, e2∞."""
+    c, s = motor[0], -motor[1]  # cos(φ/2), sin(φ/2)
+    rotation = np.array([[c * c - s * s, -2 * s * c], [2 * s * c, c * c - s * s]])
+    # (m_e1∞, m_e2∞) = −½ R(φ/2)ᵀ t, so t = −2 R(φ/2) (m_e1∞, m_e2∞)
+    return rotation, -2 * np.array([[c, -s], [s, c]]) @ np.array([motor[2], motor[3]])
+
+
+def travel_limits(linkage: Linkage, trajectory: Trajectory) -> list[str]:
+    """Every prismatic joint whose point leaves its travel, with the crank angles where it does: the
+    point's coordinate (x − through)·direction along the slot, in the frame of the body (or ground)
+    that carries the slot."""
+    from gagen.apps.linkage.spec import GROUND, Prismatic
+
+    out = []
+    for number, joint in enumerate(linkage.joints):
+        if not isinstance(joint, Prismatic) or joint.travel is None:
+            continue
+        column = point_index(linkage, *joint.point)
+        along = []
+        frames = zip(trajectory.angles, trajectory.motors, trajectory.points, strict=True)
+        for angle, motors, points in frames:
+            x = points[column:column + 2]
+            if joint.on != GROUND:
+                if joint.on == linkage.crank:
+                    pivot = np.array(linkage.ground[linkage.pivot])
+                    c, s = np.cos(angle), np.sin(angle)
+                    rotation, shift = np.array([[c, -s], [s, c]]), pivot - np.array([[c, -s], [s, c]]) @ pivot
+                else:
+                    i = linkage.unknown.index(joint.on)
+                    rotation, shift = _pose(motors[4 * i:4 * i + 4])
+                x = rotation.T @ (x - shift)  # into the carrying body's frame
+            along.append(float((x - np.array(joint.through)) @ np.array(joint.direction)))
+        along_ = np.array(along)
+        lo, hi = joint.travel
+        outside = (along_ < lo - TRAVEL_TOLERANCE) | (along_ > hi + TRAVEL_TOLERANCE)
+        if outside.any():
+            degrees = np.degrees(trajectory.angles[outside])
+            out.append(f"joint {number} ({joint.point[0]}.{joint.point[1]} in a slot of {joint.on}) leaves "
+                       f"its travel [{lo:g}, {hi:g}] at {outside.sum()} step(s), crank "
+                       f"{degrees.min():.1f}° … {degrees.max():.1f}° (from {along_.min():.4g} to "
+                       f"{along_.max():.4g})")
+    return out
 
 
 def initial_rank(k: Kernels, motors: np.ndarray, angle: float, relative: float = 1e-9) -> tuple[int, int]:
