@@ -262,10 +262,10 @@ def check_dls(leg: Leg, step, count: int, seed: int) -> int:
     return int(done.max())
 
 
-@pytest.mark.parametrize("count", [pytest.param(2, id="12"),
-                                   pytest.param(34, id="204", marks=pytest.mark.slow)])
+@pytest.mark.parametrize("count", [pytest.param(2, id="12")])
 def test_dls_converges(count):
-    """DLS from the neutral pose on the interpreter (count targets per leg)."""
+    """DLS from the neutral pose on the interpreter (count targets per leg; the ≥ 200 targets per leg
+    run on the compiled step in test_compiled_dls)."""
     for i, leg in enumerate(HEXAPOD.legs):
         check_dls(leg, interpreted_dls(leg), count, 300 + i)
 
