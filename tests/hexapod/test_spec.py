@@ -97,3 +97,12 @@ def test_a_robot_spec_cannot_claim_another_app(tmp_path):
     path = _spec(tmp_path, "app: hexapod\nname: t\nprimitive: point\nchains: []\n")
     with pytest.raises(SpecError, match="a robot spec is app: cooperative"):
         load_system(path)
+
+
+@pytest.mark.parametrize("name", ["front */ #error", "../leg", "import", 'a"b'])
+def test_hostile_leg_names_are_refused(tmp_path, name):
+    """A leg name names kernels (C symbols, Python attributes): anything but an identifier is refused."""
+    text = f"app: hexapod\nname: h\n{LEG}" + _legs(("a", "b", "c", "d", "e", "f")).replace(
+        "{name: f,", "{name: " + ('"' + name.replace('"', '\\"') + '"') + ",")
+    e = _error(tmp_path, text)
+    assert e.field.startswith("legs[5].name"), (e.field, e.message)

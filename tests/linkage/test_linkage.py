@@ -205,3 +205,16 @@ def test_a_slider_leaving_its_travel_is_reported(tmp_path):
     limits = simulate(kernels(short), short, ANGLES).limits
     assert len(limits) == 1 and "coupler.P" in limits[0] and "[3.5, 5]" in limits[0]
     assert "from 3 to 5" in limits[0]
+
+
+@pytest.mark.parametrize(("old", "new", "field"), [
+    ("name: m", 'name: "m */ __attribute__((constructor)) /*"', "name"),
+    ("crank:", '"../crank":', "bodies.../crank"),
+    ("B: [1, 0]}\n  coupler", 'B: [1, 0], "#error x": [2, 2]}\n  coupler', "bodies.crank.#error x"),
+])
+def test_hostile_names_are_refused_before_they_name_anything(tmp_path, old, new, field):
+    """Names reach C symbols, Python attributes and row labels: a name that is no identifier is
+    refused by the loader, naming the field."""
+    e = _error(tmp_path, (HEAD + BODIES + JOINTS + DRIVER).replace(old, new, 1))
+    assert e.field.startswith(field), (e.field, e.message)
+    assert "letter" in e.message, e.message  # the identifier rule: a letter, then letters, digits, _
