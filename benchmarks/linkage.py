@@ -8,14 +8,16 @@ one run; markdown tables on stdout.
     python benchmarks/linkage.py --quick    # one round, 21 C revolutions
     python benchmarks/linkage.py --no-jax   # gagen only (also what it does when jax is not installed)
 
-A crank step: the crank turns 1° (360 steps, a full revolution from the initial configuration,
-assembled first) and Newton on se(2) starts from the previous configuration until max |F| < 1e-12.
+A driver step: a crank turns 1° (360 steps, a full revolution from the initial configuration,
+assembled first), a slider moves one 1° step of its stroke's phase (s = a sin φ), and Newton on se(2)
+starts from the previous configuration until max |F| < 1e-12.
 
 - C: benchmarks/linkage_bench.c (harness.h), a plain C loop calling the generated
-  ``<name>_newton_step`` kernel (one whole Newton iteration per call: constraints, CasADi's symbolic QR
-  solve, retraction; its ``residual`` is max |F| before the step) until the residual is below the
-  tolerance. The kernels come from ``gagen.frontend.compile_kernels(linkage_kernels(L), name=L.name)``
-  in gagen's cache (``cache_root()/<name>-<key>``: the solver's own module); the harness is linked to
+  ``<name>_newton_step`` kernel (one whole Newton iteration per call: constraints, the structured solve
+  of ``elimination.py``, retraction; its ``residual`` is max |F| before the step) until the residual is
+  below the tolerance. The kernels come from
+  ``gagen.frontend.compile_kernels(linkage_kernels(L), name=L.name)`` in gagen's cache
+  (``cache_root()/<name>-<key>``: the solver's own module); the harness is linked to
   their C compiled with gagen's flags (``programs.gagen_cflags``), built into benchmarks/build/. Its
   configurations after every step are checked against the Python solver's (``simulate``) to 1e-12.
 - Python: ``simulate(kernels(L), L, angles)`` (the solver: ``newton_step`` through the CPython binding,
@@ -24,9 +26,10 @@ assembled first) and Newton on se(2) starts from the previous configuration unti
 - JAX (the peer, the paper's approach): the same Lie-algebra Newton in JAX, float64, written with SE(2)
   poses (angle, translation) per moving body instead of 2D CGA motors (the same rigid motions; the
   cheapest form for JAX): the same residuals (revolute: the difference of the two world points;
-  prismatic: the signed distance of the point from its line), J = ∂F/∂ε for left perturbations
-  exp(ε) · pose by ``jax.jacfwd`` (forward mode, jvp), ΔB = −J⁻¹F (``jnp.linalg.solve``; least squares
-  when the constraints are redundant), pose ← T(Δt) R(Δθ) pose (the same retraction as gagen's). Three
+  prismatic: the signed distance of the point from its line; a slider block's turn: the sine of the
+  relative angle), J = ∂F/∂ε for left perturbations exp(ε) · pose by ``jax.jacfwd`` (forward mode,
+  jvp), ΔB = −J⁻¹F (``jnp.linalg.solve``; least squares when the constraints are redundant),
+  pose ← T(Δt) C(Δθ) pose (the same retraction as gagen's, C the Cayley turn by 2 atan(Δθ/2)). Three
   ways to call it: ``jax.jit`` of one Newton step in a Python loop; ``jax.jit`` of a whole crank step
   (``lax.while_loop``) called per angle; ``jax.jit`` of the whole revolution (``lax.scan`` of crank
   steps, no Python per step). Its body points are checked against the Python solver's to 1e-10.
@@ -56,14 +59,15 @@ sys.path.insert(0, str(BENCH))
 import programs  # noqa: E402 -- benchmarks/ is not a package
 from run import fmt_ns, machine, table  # noqa: E402
 
+from gagen.apps.linkage.demo import driver_path  # noqa: E402
 from gagen.apps.linkage.kernels import identity_motors, linkage_kernels  # noqa: E402
 from gagen.apps.linkage.solver import MAX_ITERATIONS, TOLERANCE, Trajectory, kernels, newton, simulate  # noqa: E402
-from gagen.apps.linkage.spec import GROUND, Linkage, Prismatic, Revolute, load_linkage  # noqa: E402
+from gagen.apps.linkage.spec import GROUND, Linkage, Prismatic, Revolute, Slider, load_linkage  # noqa: E402
 from gagen.codegen.compiler import vector_math_libraries  # noqa: E402
 from gagen.frontend import cache_root, compile_kernels, source_of  # noqa: E402
 
 ROBOTS = programs.ROOT / "gagen" / "apps" / "linkage" / "robots"
-ANGLES = np.radians(np.arange(1, 361))  # crank rotations from the initial configuration: 1° steps
+STEPS = 360  # driver steps per cycle: a crank's 1° steps, a slider's stroke in 1° of its phase
 C_TARGET_NS = 2000  # four-bar step in C
 RATIO_TARGET = 50  # JAX / gagen C per step
 C_AGREEMENT = 1e-12  # C loop vs the Python solver: motors
@@ -118,23 +122,29 @@ def build_c(linkage: Linkage, folder: Path) -> Path:
     return program
 
 
-def run_c(program: Path, R0: np.ndarray, repeats: int) -> tuple[dict[str, float], np.ndarray]:
-    """The C loop's timings and its configurations after every step of a revolution."""
-    header = [R0.size, ANGLES.size, TOLERANCE, MAX_ITERATIONS]
+def driver_values(linkage: Linkage) -> np.ndarray:
+    """The driver's values at the STEPS steps of a cycle after the initial configuration."""
+    return driver_path(linkage, STEPS)[0][1:]
+
+
+def run_c(program: Path, R0: np.ndarray, values: np.ndarray,
+          repeats: int) -> tuple[dict[str, float], np.ndarray]:
+    """The C loop's timings and its configurations after every step of a cycle."""
+    header = [R0.size, values.size, TOLERANCE, MAX_ITERATIONS]
     with tempfile.TemporaryDirectory() as tmp:
         inputs, output = Path(tmp) / "inputs.bin", Path(tmp) / "motors.bin"
-        inputs.write_bytes(np.concatenate([np.asarray(header, dtype=float), R0, ANGLES]).tobytes())
+        inputs.write_bytes(np.concatenate([np.asarray(header, dtype=float), R0, values]).tobytes())
         out = subprocess.run([str(program), str(inputs), str(output), str(repeats)], capture_output=True,
                              text=True, check=True)
-        motors = np.frombuffer(output.read_bytes(), dtype=np.float64).reshape(ANGLES.size, R0.size)
+        motors = np.frombuffer(output.read_bytes(), dtype=np.float64).reshape(values.size, R0.size)
     return json.loads(out.stdout), motors
 
 
 # -- gagen from Python ---------------------------------------------------------------------------------
 
-def python_loop(step: Callable, R0: np.ndarray) -> tuple[Callable[[], None], list[int]]:
-    """A bare Python loop over the bound ``newton_step`` for one revolution, and its calls per run."""
-    thetas = [np.array([a]) for a in ANGLES]
+def python_loop(step: Callable, R0: np.ndarray, values: np.ndarray) -> tuple[Callable[[], None], list[int]]:
+    """A bare Python loop over the bound ``newton_step`` for one cycle, and its calls per run."""
+    thetas = [np.array([a]) for a in values]
     calls = [0]
 
     def revolution() -> None:
@@ -193,20 +203,32 @@ class JaxPeer:
         self.all_body = np.array([table.index(b) for b, pts in linkage.bodies.items() for _ in pts],
                                  dtype=int)
         self.all_x = np.array([xy for pts in linkage.bodies.values() for xy in pts.values()], dtype=float)
-        self.pivot = np.array(linkage.ground[linkage.pivot], dtype=float)
+        slider = [j for j in linkage.active_joints if isinstance(j, Slider)]
+        self.sli_p = np.array([table.index(j.point[0]) for j in slider], dtype=int)
+        self.sli_on = np.array([table.index(j.on) for j in slider], dtype=int)
+        slide = linkage.driver.slide
+        if slide is None:
+            self.pivot = np.array(linkage.ground[linkage.pivot], dtype=float)
+        else:  # the driven block translates by s along its slot (by −s when the block carries it)
+            self.slide = (1.0 if slide.on == GROUND else -1.0) * np.array(slide.direction, dtype=float)
+        self.values = driver_values(linkage)
         self.newton_step = jax.jit(self._newton)
         self.crank_step = jax.jit(self._crank_step)
         self.revolution = jax.jit(lambda q, angles: jax.lax.scan(self._scan_step, q, angles))
         self.positions = jax.jit(jax.vmap(self._positions))
 
     def _table(self, q: Any, theta: Any) -> tuple[Any, Any, Any]:
-        """cos φ, sin φ and t of every body: the ground, the crank (turned by θ about its pivot), the
-        moving bodies."""
+        """cos φ, sin φ and t of every body: the ground, the driven body (a crank turned by θ about its
+        pivot, or a slider moved by s), the moving bodies."""
         jnp = self.jnp
-        c, s = jnp.cos(theta), jnp.sin(theta)
-        px, py = self.pivot
-        crank_t = jnp.stack([px - (c * px - s * py), py - (s * px + c * py)])
-        phi = jnp.concatenate([jnp.zeros(1), theta[None], q[:, 0]])
+        if self.linkage.driver.slide is None:
+            c, s = jnp.cos(theta), jnp.sin(theta)
+            px, py = self.pivot
+            crank_t = jnp.stack([px - (c * px - s * py), py - (s * px + c * py)])
+            driven = theta
+        else:
+            crank_t, driven = theta * self.slide, jnp.zeros_like(theta)
+        phi = jnp.concatenate([jnp.zeros(1), driven[None], q[:, 0]])
         t = jnp.concatenate([jnp.zeros((1, 2)), crank_t[None], q[:, 1:]])
         return jnp.cos(phi), jnp.sin(phi), t
 
@@ -222,20 +244,26 @@ class JaxPeer:
 
     def residual(self, q: Any, theta: Any) -> Any:
         """F: revolute rows a − b (x, y); prismatic rows the signed distance of the point from the line
-        (its normal (−d_y, d_x)); as gagen's constraints (rows grouped by joint kind)."""
+        (its normal (−d_y, d_x)); slider blocks' turn rows sin(φ_on − φ_point); as gagen's constraints
+        (rows grouped by joint kind: the same Newton step)."""
         table = self._table(q, theta)
         rev = self._world(table, self.rev_a, self.rev_xa) - self._world(table, self.rev_b, self.rev_xb)
         x = self._world(table, self.pri_p, self.pri_x) - self._world(table, self.pri_on, self.pri_c)
         d = self._world(table, self.pri_on, self.pri_d, vector=True)
-        return self.jnp.concatenate([rev.reshape(-1), d[:, 0] * x[:, 1] - d[:, 1] * x[:, 0]])
+        c, s, _ = table
+        turn = s[self.sli_on] * c[self.sli_p] - c[self.sli_on] * s[self.sli_p]
+        return self.jnp.concatenate([rev.reshape(-1), d[:, 0] * x[:, 1] - d[:, 1] * x[:, 0], turn])
 
     def _retract(self, q: Any, eps: Any) -> Any:
-        """T(Δt) R(Δθ) · pose per body (eps: (Δθ, Δtx, Δty) per body): φ + Δθ, R(Δθ) t + Δt."""
+        """T(Δt) C(Δθ) · pose per body (eps: (Δθ, Δtx, Δty) per body), C the Cayley turn by
+        α = 2 atan(Δθ/2) as gagen's retraction: φ + α, R(α) t + Δt."""
         jnp = self.jnp
         e = eps.reshape(-1, 3)
-        c, s = jnp.cos(e[:, 0]), jnp.sin(e[:, 0])
+        h = e[:, 0] / 2
+        c, s = (1 - h * h) / (1 + h * h), 2 * h / (1 + h * h)  # cos α, sin α
         tx, ty = q[:, 1], q[:, 2]
-        return jnp.stack([q[:, 0] + e[:, 0], c * tx - s * ty + e[:, 1], s * tx + c * ty + e[:, 2]], axis=1)
+        return jnp.stack([q[:, 0] + 2 * jnp.arctan(h), c * tx - s * ty + e[:, 1], s * tx + c * ty + e[:, 2]],
+                         axis=1)
 
     def _newton(self, q: Any, theta: Any) -> tuple[Any, Any]:
         """One Newton iteration: the next q and max |F| at q."""
@@ -279,8 +307,8 @@ class JaxPeer:
         """One revolution each way: jit(newton step) in a Python loop, jit(crank step) per angle,
         jit(scan) of the whole revolution."""
         q0 = self.start()
-        angles = self.jnp.asarray(ANGLES)
-        thetas = [self.jnp.asarray(a) for a in ANGLES]
+        angles = self.jnp.asarray(self.values)
+        thetas = [self.jnp.asarray(a) for a in self.values]
 
         def newton_loop() -> Any:
             q = q0
@@ -308,10 +336,10 @@ class JaxPeer:
         residual, and how far the crank-step loop's last configuration is from the scan's (the same
         path)."""
         q0 = self.start()
-        last, (qs, r, k) = self.revolution(q0, self.jnp.asarray(ANGLES))
-        points = self.positions(qs, self.jnp.asarray(ANGLES))
+        last, (qs, r, k) = self.revolution(q0, self.jnp.asarray(self.values))
+        points = self.positions(qs, self.jnp.asarray(self.values))
         q = q0
-        for a in ANGLES:
+        for a in self.values:
             q = self.crank_step(q, self.jnp.asarray(a))[0]
         return np.asarray(points), np.asarray(k), np.asarray(r), float(np.max(np.abs(q - last)))
 
@@ -337,7 +365,8 @@ class Mechanism:
         self.kernels = kernels(linkage, self.module)
         self.compile_s = time.perf_counter() - t0
         self.R0 = newton(self.kernels, identity_motors(linkage), 0.0).motors
-        self.reference: Trajectory = simulate(self.kernels, linkage, ANGLES)
+        self.values = driver_values(linkage)
+        self.reference: Trajectory = simulate(self.kernels, linkage, self.values)
         if self.reference.failures:
             raise SystemExit(f"{self.name}: the solver failed: {self.reference.failures[:3]}")
         self.has_step = self.kernels.newton_step is not None
@@ -345,12 +374,12 @@ class Mechanism:
         self.checks: dict[str, Any] = {"halvings": int(np.sum(self.reference.halvings)),
                                        "iterations": float(np.mean(self.reference.iterations))}
         if self.program is not None:
-            c, motors = run_c(self.program, self.R0, 21)
+            c, motors = run_c(self.program, self.R0, self.values, 21)
             self.checks["c_error"] = float(np.max(np.abs(motors - self.reference.motors)))
             if self.checks["c_error"] > C_AGREEMENT or c["unconverged"]:
                 raise SystemExit(f"{self.name}: the C loop's configurations differ from the solver's by "
                                  f"{self.checks['c_error']:.1e} ({c['unconverged']:.0f} unconverged steps)")
-            self.loop, self.loop_calls = python_loop(self.kernels.newton_step.bind(), self.R0)
+            self.loop, self.loop_calls = python_loop(self.kernels.newton_step.bind(), self.R0, self.values)
         self.jax: JaxPeer | None = None
         if with_jax:
             t0 = time.perf_counter()
@@ -368,14 +397,15 @@ class Mechanism:
 
     def time(self, repeats: int, c_repeats: int) -> dict[str, float]:
         """ns per crank step of every row (one round)."""
-        steps = ANGLES.size
+        steps = self.values.size
         out: dict[str, float] = {}
         if self.program is not None:
-            c, _ = run_c(self.program, self.R0, c_repeats)
+            c, _ = run_c(self.program, self.R0, self.values, c_repeats)
             out.update(c_step=c["step_ns"], c_call=c["call_ns"], c_calls=c["calls_per_step"])
             out["py_loop"] = seconds(self.loop, repeats) / steps * 1e9
             out["py_calls"] = self.loop_calls[0] / steps
-        out["simulate"] = seconds(lambda: simulate(self.kernels, self.linkage, ANGLES), repeats) / steps * 1e9
+        solve = lambda: simulate(self.kernels, self.linkage, self.values)  # noqa: E731
+        out["simulate"] = seconds(solve, repeats) / steps * 1e9
         if self.jax is not None:
             for key, run in self.jax_loops.items():
                 out[key] = seconds(run, repeats) / steps * 1e9
@@ -395,8 +425,9 @@ def _ratio(a: float | None, b: float | None) -> str:
 def report(mechs: list[Mechanism], times: dict[str, dict[str, float]], run: dict[str, Any]) -> None:
     print("# Linkage benchmarks\n\n`python benchmarks/linkage.py`\n\n" + machine())
     jax = run["jax"] or f"JAX not installed ({run['jax_why']}): no JAX rows"
-    print(f"- {jax}\n- crank steps: 1° over a full revolution ({ANGLES.size} steps) from the assembled "
-          f"initial configuration, Newton from the previous configuration to max |F| < {TOLERANCE:g}\n"
+    print(f"- {jax}\n- driver steps: a crank's 1° over a full revolution ({STEPS} steps), a slider's "
+          f"stroke s = a sin φ in 1° steps of φ, from the assembled initial configuration, Newton from "
+          f"the previous configuration to max |F| < {TOLERANCE:g}\n"
           f"- C: kernels compiled with gagen's `{' '.join(programs.gagen_cflags())}`, the loop "
           f"`{' '.join(programs.DRIVER_CFLAGS)}`; median of {run['c_repeats']} revolutions\n"
           f"- Python and JAX: median of {run['repeats']} revolutions\n"
@@ -435,7 +466,8 @@ def report(mechs: list[Mechanism], times: dict[str, dict[str, float]], run: dict
                      "target (fastest JAX ÷ C)"], "lrrrrrrrr", rows))
         print("\n- JAX: SE(2) poses (φ, tx, ty) per moving body, the same residuals as gagen's constraints, "
               "J by `jax.jacfwd` (forward mode) of F at left perturbations, `jnp.linalg.solve`, the same "
-              "retraction T(Δt) R(Δθ); float64 (`jax_enable_x64`); compiled before timing\n"
+              "retraction T(Δt) C(Δθ) (C the Cayley turn by 2 atan(Δθ/2)); float64 (`jax_enable_x64`); "
+              "compiled before timing\n"
               "- jit(newton step): one iteration per call, `float(max |F|)` read back each time (a "
               "Python Newton loop); jit(crank step): Newton in `lax.while_loop`; jit(scan): the whole "
               "revolution in one call, `lax.scan` of crank steps\n")

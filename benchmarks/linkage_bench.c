@@ -1,5 +1,5 @@
 /* Times a planar linkage's crank steps in a plain C loop over its generated `<name>_newton_step` kernel
- * (one whole Newton iteration per call: constraints, CasADi's symbolic QR solve, retraction), with
+ * (one whole Newton iteration per call: constraints, the structured solve, retraction), with
  * harness.h. Built once per mechanism by benchmarks/linkage.py with
  *   -DLINKAGE_HEADER='"four_bar.h"' -DLINKAGE_STEP=four_bar_newton_step
  *

@@ -10,38 +10,38 @@ static inline double gagen_sign(double x) { return x < 0 ? -1.0 : (x > 0 ? 1.0 :
 
 
 /* The circle through three points: A \u2227 B \u2227 C.: mul=50 add=30 neg=0 div=0 (flops=80) */
-void formulas_circle_through(const double *restrict A, const double *restrict B, const double *restrict C, double *restrict circle) {
+void formulas_circle_through(const double *restrict in_A, const double *restrict in_B, const double *restrict in_C, double *restrict out_circle) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17, w18, w19, w20;
-  w0 = A[0];
-  w1 = B[1];
+  w0 = in_A[0];
+  w1 = in_B[1];
   w2 = w0 * w1;
-  w3 = A[1];
-  w4 = B[0];
+  w3 = in_A[1];
+  w4 = in_B[0];
   w5 = w3 * w4;
   w2 = w2 - w5;
-  w5 = C[2];
+  w5 = in_C[2];
   w6 = w2 * w5;
-  w7 = B[2];
+  w7 = in_B[2];
   w8 = w3 * w7;
-  w9 = A[2];
+  w9 = in_A[2];
   w10 = w9 * w1;
   w8 = w8 - w10;
-  w10 = C[0];
+  w10 = in_C[0];
   w11 = w8 * w10;
   w6 = w6 + w11;
   w11 = w0 * w7;
   w12 = w9 * w4;
   w11 = w11 - w12;
-  w12 = C[1];
+  w12 = in_C[1];
   w13 = w11 * w12;
   w6 = w6 - w13;
-  circle[0] = w6;
-  w6 = C[3];
+  out_circle[0] = w6;
+  w6 = in_C[3];
   w13 = w2 * w6;
-  w14 = B[3];
+  w14 = in_B[3];
   w15 = w3 * w14;
-  w16 = A[3];
+  w16 = in_A[3];
   w17 = w16 * w1;
   w15 = w15 - w17;
   w17 = w15 * w10;
@@ -51,7 +51,7 @@ void formulas_circle_through(const double *restrict A, const double *restrict B,
   w17 = w17 - w18;
   w18 = w17 * w12;
   w13 = w13 - w18;
-  circle[1] = w13;
+  out_circle[1] = w13;
   w13 = w11 * w6;
   w18 = w9 * w14;
   w19 = w16 * w7;
@@ -60,18 +60,18 @@ void formulas_circle_through(const double *restrict A, const double *restrict B,
   w13 = w13 + w19;
   w19 = w17 * w5;
   w13 = w13 - w19;
-  circle[2] = w13;
+  out_circle[2] = w13;
   w13 = w8 * w6;
   w19 = w18 * w12;
   w13 = w13 + w19;
   w19 = w15 * w5;
   w13 = w13 - w19;
-  circle[3] = w13;
-  w13 = C[4];
+  out_circle[3] = w13;
+  w13 = in_C[4];
   w2 = w2 * w13;
-  w19 = B[4];
+  w19 = in_B[4];
   w3 = w3 * w19;
-  w20 = A[4];
+  w20 = in_A[4];
   w1 = w20 * w1;
   w3 = w3 - w1;
   w1 = w3 * w10;
@@ -81,7 +81,7 @@ void formulas_circle_through(const double *restrict A, const double *restrict B,
   w0 = w0 - w4;
   w4 = w0 * w12;
   w2 = w2 - w4;
-  circle[4] = w2;
+  out_circle[4] = w2;
   w11 = w11 * w13;
   w9 = w9 * w19;
   w7 = w20 * w7;
@@ -90,13 +90,13 @@ void formulas_circle_through(const double *restrict A, const double *restrict B,
   w11 = w11 + w7;
   w7 = w0 * w5;
   w11 = w11 - w7;
-  circle[5] = w11;
+  out_circle[5] = w11;
   w8 = w8 * w13;
   w11 = w9 * w12;
   w8 = w8 + w11;
   w11 = w3 * w5;
   w8 = w8 - w11;
-  circle[6] = w8;
+  out_circle[6] = w8;
   w17 = w17 * w13;
   w16 = w16 * w19;
   w20 = w20 * w14;
@@ -105,35 +105,35 @@ void formulas_circle_through(const double *restrict A, const double *restrict B,
   w17 = w17 + w10;
   w0 = w0 * w6;
   w17 = w17 - w0;
-  circle[7] = w17;
+  out_circle[7] = w17;
   w15 = w15 * w13;
   w12 = w16 * w12;
   w15 = w15 + w12;
   w3 = w3 * w6;
   w15 = w15 - w3;
-  circle[8] = w15;
+  out_circle[8] = w15;
   w18 = w18 * w13;
   w16 = w16 * w5;
   w18 = w18 + w16;
   w9 = w9 * w6;
   w18 = w18 - w9;
-  circle[9] = w18;
+  out_circle[9] = w18;
 }
 
 /* formulas_circle_through_batch: SIMD, in formulas_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void formulas_circle_through_columns_from(long s0, long n, long ld, const double *restrict A, const double *restrict B, const double *restrict C, double *restrict circle) {
-  double A_s[5];
-  double B_s[5];
-  double C_s[5];
-  double circle_s[10];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 5; ++k) A_s[k] = A[k * ld + s];
-    for (long k = 0; k < 5; ++k) B_s[k] = B[k * ld + s];
-    for (long k = 0; k < 5; ++k) C_s[k] = C[k * ld + s];
-    formulas_circle_through(A_s, B_s, C_s, circle_s);
-    for (long k = 0; k < 10; ++k) circle[k * ld + s] = circle_s[k];
+void formulas_circle_through_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_A, const double *restrict in_B, const double *restrict in_C, double *restrict out_circle) {
+  double gagen_in_A[5];
+  double gagen_in_B[5];
+  double gagen_in_C[5];
+  double gagen_out_circle[10];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 5; ++gagen_k) gagen_in_A[gagen_k] = in_A[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 5; ++gagen_k) gagen_in_B[gagen_k] = in_B[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 5; ++gagen_k) gagen_in_C[gagen_k] = in_C[gagen_k * gagen_ld + gagen_s];
+    formulas_circle_through(gagen_in_A, gagen_in_B, gagen_in_C, gagen_out_circle);
+    for (long gagen_k = 0; gagen_k < 10; ++gagen_k) out_circle[gagen_k * gagen_ld + gagen_s] = gagen_out_circle[gagen_k];
   }
 }
 
@@ -150,12 +150,12 @@ void formulas_circle_through_batch_columns_argv(long n, long ld, const double *c
 }
 
 /* Distance of a point from a circle: sqrt(h\xb2 + (\u03c1 \u2212 r)\xb2), h above its plane, \u03c1 from its axis.: mul=40 add=47 neg=1 div=22 fabs=3 if_else_zero=10 lt=7 not=3 sqrt=4 (flops=110) */
-void formulas_circle_distance(const double *restrict X, const double *restrict C, double *restrict d, double *restrict J_d) {
+void formulas_circle_distance(const double *restrict in_X, const double *restrict in_C, double *restrict out_d, double *restrict out_J_d) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17, w18, w19;
-  J_d[4] = 0.0;
-  w0 = X[1];
-  w1 = X[0];
+  out_J_d[4] = 0.0;
+  w0 = in_X[1];
+  w1 = in_X[0];
   w2 = fabs(w1);
   w3 = 1e-300;
   w2 = w2 < w3;
@@ -169,12 +169,12 @@ void formulas_circle_distance(const double *restrict X, const double *restrict C
   w2 = w2 ? w7 : 0.0;
   w1 = w1 + w2;
   w0 = w0 / w1;
-  w2 = C[0];
+  w2 = in_C[0];
   w7 = w2 * w2;
-  w5 = C[1];
+  w5 = in_C[1];
   w8 = w5 * w5;
   w7 = w7 + w8;
-  w8 = C[2];
+  w8 = in_C[2];
   w9 = w8 * w8;
   w7 = w7 + w9;
   w9 = w7 + w7;
@@ -199,12 +199,12 @@ void formulas_circle_distance(const double *restrict X, const double *restrict C
   w9 = w9 + w12;
   w9 = 1.0 / w9;
   w9 = w9 / w10;
-  w10 = C[3];
+  w10 = in_C[3];
   w12 = w8 * w10;
-  w6 = C[5];
+  w6 = in_C[5];
   w4 = w6 * w2;
   w12 = w12 - w4;
-  w4 = C[7];
+  w4 = in_C[7];
   w11 = w4 * w5;
   w12 = w12 - w11;
   w12 = w12 + w12;
@@ -216,10 +216,10 @@ void formulas_circle_distance(const double *restrict X, const double *restrict C
   w11 = w11 + w13;
   w13 = w12 / w11;
   w13 = w13 * w8;
-  w3 = X[3];
+  w3 = in_X[3];
   w3 = w3 / w1;
   w14 = w2 * w10;
-  w15 = C[4];
+  w15 = in_C[4];
   w16 = w15 * w5;
   w14 = w14 + w16;
   w16 = w6 * w8;
@@ -230,7 +230,7 @@ void formulas_circle_distance(const double *restrict X, const double *restrict C
   w16 = w14 / w11;
   w16 = w16 * w2;
   w13 = w13 + w16;
-  w16 = X[2];
+  w16 = in_X[2];
   w16 = w16 / w1;
   w17 = w15 * w2;
   w18 = w5 * w10;
@@ -256,12 +256,12 @@ void formulas_circle_distance(const double *restrict X, const double *restrict C
   w15 = w15 + w6;
   w4 = w4 * w4;
   w15 = w15 + w4;
-  w4 = C[6];
+  w4 = in_C[6];
   w4 = w2 * w4;
-  w6 = C[8];
+  w6 = in_C[8];
   w6 = w5 * w6;
   w4 = w4 + w6;
-  w6 = C[9];
+  w6 = in_C[9];
   w6 = w8 * w6;
   w4 = w4 + w6;
   w4 = w4 + w4;
@@ -274,7 +274,7 @@ void formulas_circle_distance(const double *restrict X, const double *restrict C
   w7 = w15 * w15;
   w17 = w17 + w7;
   w17 = sqrt(w17);
-  d[0] = w17;
+  out_d[0] = w17;
   w16 = w16 / w1;
   w9 = w9 + w9;
   w15 = w15 / w17;
@@ -306,29 +306,29 @@ void formulas_circle_distance(const double *restrict X, const double *restrict C
   w0 = w0 * w12;
   w16 = w16 + w0;
   w16 = -w16;
-  J_d[0] = w16;
+  out_J_d[0] = w16;
   w12 = w12 / w1;
-  J_d[1] = w12;
+  out_J_d[1] = w12;
   w9 = w9 / w1;
-  J_d[2] = w9;
+  out_J_d[2] = w9;
   w14 = w14 / w1;
-  J_d[3] = w14;
+  out_J_d[3] = w14;
 }
 
 /* formulas_circle_distance_batch: SIMD, in formulas_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void formulas_circle_distance_columns_from(long s0, long n, long ld, const double *restrict X, const double *restrict C, double *restrict d, double *restrict J_d) {
-  double X_s[5];
-  double C_s[10];
-  double d_s[1];
-  double J_d_s[5];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 5; ++k) X_s[k] = X[k * ld + s];
-    for (long k = 0; k < 10; ++k) C_s[k] = C[k * ld + s];
-    formulas_circle_distance(X_s, C_s, d_s, J_d_s);
-    for (long k = 0; k < 1; ++k) d[k * ld + s] = d_s[k];
-    for (long k = 0; k < 5; ++k) J_d[k * ld + s] = J_d_s[k];
+void formulas_circle_distance_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_X, const double *restrict in_C, double *restrict out_d, double *restrict out_J_d) {
+  double gagen_in_X[5];
+  double gagen_in_C[10];
+  double gagen_out_d[1];
+  double gagen_out_J_d[5];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 5; ++gagen_k) gagen_in_X[gagen_k] = in_X[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 10; ++gagen_k) gagen_in_C[gagen_k] = in_C[gagen_k * gagen_ld + gagen_s];
+    formulas_circle_distance(gagen_in_X, gagen_in_C, gagen_out_d, gagen_out_J_d);
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) out_d[gagen_k * gagen_ld + gagen_s] = gagen_out_d[gagen_k];
+    for (long gagen_k = 0; gagen_k < 5; ++gagen_k) out_J_d[gagen_k * gagen_ld + gagen_s] = gagen_out_J_d[gagen_k];
   }
 }
 
@@ -345,54 +345,54 @@ void formulas_circle_distance_batch_columns_argv(long n, long ld, const double *
 }
 
 /* The line where two planes meet: their regressive product A \u2228 B.: mul=12 add=6 neg=0 div=0 (flops=18) */
-void formulas_plane_meet(const double *restrict A, const double *restrict B, double *restrict line) {
+void formulas_plane_meet(const double *restrict in_A, const double *restrict in_B, double *restrict out_line) {
   double w0, w1, w2, w3, w4, w5, w6, w7;
-  w0 = A[1];
-  w1 = B[0];
+  w0 = in_A[1];
+  w1 = in_B[0];
   w2 = w0 * w1;
-  w3 = A[0];
-  w4 = B[1];
+  w3 = in_A[0];
+  w4 = in_B[1];
   w5 = w3 * w4;
   w2 = w2 - w5;
-  line[0] = w2;
-  w2 = A[2];
+  out_line[0] = w2;
+  w2 = in_A[2];
   w5 = w2 * w1;
-  w6 = B[2];
+  w6 = in_B[2];
   w7 = w3 * w6;
   w5 = w5 - w7;
-  line[1] = w5;
-  w5 = A[3];
+  out_line[1] = w5;
+  w5 = in_A[3];
   w1 = w5 * w1;
-  w7 = B[3];
+  w7 = in_B[3];
   w3 = w3 * w7;
   w1 = w1 - w3;
-  line[2] = w1;
+  out_line[2] = w1;
   w1 = w2 * w4;
   w3 = w0 * w6;
   w1 = w1 - w3;
-  line[3] = w1;
+  out_line[3] = w1;
   w4 = w5 * w4;
   w0 = w0 * w7;
   w4 = w4 - w0;
-  line[4] = w4;
+  out_line[4] = w4;
   w5 = w5 * w6;
   w2 = w2 * w7;
   w5 = w5 - w2;
-  line[5] = w5;
+  out_line[5] = w5;
 }
 
 /* formulas_plane_meet_batch: SIMD, in formulas_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void formulas_plane_meet_columns_from(long s0, long n, long ld, const double *restrict A, const double *restrict B, double *restrict line) {
-  double A_s[4];
-  double B_s[4];
-  double line_s[6];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 4; ++k) A_s[k] = A[k * ld + s];
-    for (long k = 0; k < 4; ++k) B_s[k] = B[k * ld + s];
-    formulas_plane_meet(A_s, B_s, line_s);
-    for (long k = 0; k < 6; ++k) line[k * ld + s] = line_s[k];
+void formulas_plane_meet_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_A, const double *restrict in_B, double *restrict out_line) {
+  double gagen_in_A[4];
+  double gagen_in_B[4];
+  double gagen_out_line[6];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 4; ++gagen_k) gagen_in_A[gagen_k] = in_A[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 4; ++gagen_k) gagen_in_B[gagen_k] = in_B[gagen_k * gagen_ld + gagen_s];
+    formulas_plane_meet(gagen_in_A, gagen_in_B, gagen_out_line);
+    for (long gagen_k = 0; gagen_k < 6; ++gagen_k) out_line[gagen_k * gagen_ld + gagen_s] = gagen_out_line[gagen_k];
   }
 }
 
@@ -409,45 +409,45 @@ void formulas_plane_meet_batch_columns_argv(long n, long ld, const double *const
 }
 
 /* A PGA motor acting on a point: M X M~.: mul=30 add=24 neg=0 div=0 (flops=54) */
-void formulas_move_point(const double *restrict M, const double *restrict X, double *restrict moved) {
+void formulas_move_point(const double *restrict in_M, const double *restrict in_X, double *restrict out_moved) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14;
-  w0 = X[0];
-  w1 = M[0];
+  w0 = in_X[0];
+  w1 = in_M[0];
   w2 = w1 * w1;
-  w3 = M[3];
+  w3 = in_M[3];
   w4 = w3 * w3;
   w2 = w2 + w4;
-  w4 = M[5];
+  w4 = in_M[5];
   w5 = w4 * w4;
   w2 = w2 + w5;
-  w5 = M[6];
+  w5 = in_M[6];
   w6 = w5 * w5;
   w2 = w2 + w6;
   w6 = w0 * w2;
-  w7 = M[7];
-  w8 = X[3];
+  w7 = in_M[7];
+  w8 = in_X[3];
   w7 = w7 * w8;
   w9 = w7 * w3;
-  w10 = M[4];
+  w10 = in_M[4];
   w10 = w10 * w8;
-  w11 = X[1];
+  w11 = in_X[1];
   w12 = w5 * w11;
   w10 = w10 + w12;
-  w12 = X[2];
+  w12 = in_X[2];
   w13 = w4 * w12;
   w10 = w10 - w13;
   w13 = w10 * w1;
   w9 = w9 + w13;
   w13 = w3 * w12;
-  w14 = M[2];
+  w14 = in_M[2];
   w14 = w14 * w8;
   w13 = w13 - w14;
   w14 = w5 * w0;
   w13 = w13 - w14;
   w14 = w13 * w5;
   w9 = w9 + w14;
-  w14 = M[1];
+  w14 = in_M[1];
   w14 = w14 * w8;
   w0 = w4 * w0;
   w14 = w14 + w0;
@@ -457,7 +457,7 @@ void formulas_move_point(const double *restrict M, const double *restrict X, dou
   w9 = w9 - w0;
   w9 = w9 + w9;
   w6 = w6 + w9;
-  moved[0] = w6;
+  out_moved[0] = w6;
   w11 = w11 * w2;
   w6 = w7 * w4;
   w9 = w13 * w1;
@@ -468,7 +468,7 @@ void formulas_move_point(const double *restrict M, const double *restrict X, dou
   w6 = w6 - w9;
   w6 = w6 + w6;
   w11 = w11 + w6;
-  moved[1] = w11;
+  out_moved[1] = w11;
   w12 = w12 * w2;
   w7 = w7 * w5;
   w10 = w10 * w4;
@@ -479,23 +479,23 @@ void formulas_move_point(const double *restrict M, const double *restrict X, dou
   w7 = w7 - w13;
   w7 = w7 + w7;
   w12 = w12 + w7;
-  moved[2] = w12;
+  out_moved[2] = w12;
   w8 = w8 * w2;
-  moved[3] = w8;
+  out_moved[3] = w8;
 }
 
 /* formulas_move_point_batch: SIMD, in formulas_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void formulas_move_point_columns_from(long s0, long n, long ld, const double *restrict M, const double *restrict X, double *restrict moved) {
-  double M_s[8];
-  double X_s[4];
-  double moved_s[4];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 8; ++k) M_s[k] = M[k * ld + s];
-    for (long k = 0; k < 4; ++k) X_s[k] = X[k * ld + s];
-    formulas_move_point(M_s, X_s, moved_s);
-    for (long k = 0; k < 4; ++k) moved[k * ld + s] = moved_s[k];
+void formulas_move_point_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_M, const double *restrict in_X, double *restrict out_moved) {
+  double gagen_in_M[8];
+  double gagen_in_X[4];
+  double gagen_out_moved[4];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 8; ++gagen_k) gagen_in_M[gagen_k] = in_M[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 4; ++gagen_k) gagen_in_X[gagen_k] = in_X[gagen_k * gagen_ld + gagen_s];
+    formulas_move_point(gagen_in_M, gagen_in_X, gagen_out_moved);
+    for (long gagen_k = 0; gagen_k < 4; ++gagen_k) out_moved[gagen_k * gagen_ld + gagen_s] = gagen_out_moved[gagen_k];
   }
 }
 

@@ -38,13 +38,13 @@ extern "C" {
 #define FORMULAS_CIRCLE_THROUGH_B_SIZE 5
 #define FORMULAS_CIRCLE_THROUGH_C_SIZE 5
 #define FORMULAS_CIRCLE_THROUGH_CIRCLE_SIZE 10
-void formulas_circle_through(const double *GAGEN_RESTRICT A, const double *GAGEN_RESTRICT B, const double *GAGEN_RESTRICT C, double *GAGEN_RESTRICT circle);
-void formulas_circle_through_batch(long n, const double *GAGEN_RESTRICT A, const double *GAGEN_RESTRICT B, const double *GAGEN_RESTRICT C, double *GAGEN_RESTRICT circle);
+void formulas_circle_through(const double *GAGEN_RESTRICT in_A, const double *GAGEN_RESTRICT in_B, const double *GAGEN_RESTRICT in_C, double *GAGEN_RESTRICT out_circle);
+void formulas_circle_through_batch(long gagen_n, const double *GAGEN_RESTRICT in_A, const double *GAGEN_RESTRICT in_B, const double *GAGEN_RESTRICT in_C, double *GAGEN_RESTRICT out_circle);
 void formulas_circle_through_argv(const double *const *arg, double *const *res);
 void formulas_circle_through_batch_argv(long n, const double *const *arg, double *const *res);
-void formulas_circle_through_batch_columns(long n, long ld, const double *GAGEN_RESTRICT A, const double *GAGEN_RESTRICT B, const double *GAGEN_RESTRICT C, double *GAGEN_RESTRICT circle);
+void formulas_circle_through_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_A, const double *GAGEN_RESTRICT in_B, const double *GAGEN_RESTRICT in_C, double *GAGEN_RESTRICT out_circle);
 void formulas_circle_through_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void formulas_circle_through_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT A, const double *GAGEN_RESTRICT B, const double *GAGEN_RESTRICT C, double *GAGEN_RESTRICT circle);
+void formulas_circle_through_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_A, const double *GAGEN_RESTRICT in_B, const double *GAGEN_RESTRICT in_C, double *GAGEN_RESTRICT out_circle);
 
 /* Distance of a point from a circle: sqrt(h\xb2 + (\u03c1 \u2212 r)\xb2), h above its plane, \u03c1 from its axis.
  *   in  X            [5] e0, e1, e2, e3, einf
@@ -56,13 +56,13 @@ void formulas_circle_through_columns_from(long s0, long n, long ld, const double
 #define FORMULAS_CIRCLE_DISTANCE_C_SIZE 10
 #define FORMULAS_CIRCLE_DISTANCE_D_SIZE 1
 #define FORMULAS_CIRCLE_DISTANCE_J_D_SIZE 5
-void formulas_circle_distance(const double *GAGEN_RESTRICT X, const double *GAGEN_RESTRICT C, double *GAGEN_RESTRICT d, double *GAGEN_RESTRICT J_d);
-void formulas_circle_distance_batch(long n, const double *GAGEN_RESTRICT X, const double *GAGEN_RESTRICT C, double *GAGEN_RESTRICT d, double *GAGEN_RESTRICT J_d);
+void formulas_circle_distance(const double *GAGEN_RESTRICT in_X, const double *GAGEN_RESTRICT in_C, double *GAGEN_RESTRICT out_d, double *GAGEN_RESTRICT out_J_d);
+void formulas_circle_distance_batch(long gagen_n, const double *GAGEN_RESTRICT in_X, const double *GAGEN_RESTRICT in_C, double *GAGEN_RESTRICT out_d, double *GAGEN_RESTRICT out_J_d);
 void formulas_circle_distance_argv(const double *const *arg, double *const *res);
 void formulas_circle_distance_batch_argv(long n, const double *const *arg, double *const *res);
-void formulas_circle_distance_batch_columns(long n, long ld, const double *GAGEN_RESTRICT X, const double *GAGEN_RESTRICT C, double *GAGEN_RESTRICT d, double *GAGEN_RESTRICT J_d);
+void formulas_circle_distance_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_X, const double *GAGEN_RESTRICT in_C, double *GAGEN_RESTRICT out_d, double *GAGEN_RESTRICT out_J_d);
 void formulas_circle_distance_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void formulas_circle_distance_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT X, const double *GAGEN_RESTRICT C, double *GAGEN_RESTRICT d, double *GAGEN_RESTRICT J_d);
+void formulas_circle_distance_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_X, const double *GAGEN_RESTRICT in_C, double *GAGEN_RESTRICT out_d, double *GAGEN_RESTRICT out_J_d);
 
 /* The line where two planes meet: their regressive product A \u2228 B.
  *   in  A            [4] e012inf, e013inf, e023inf, e123inf
@@ -72,13 +72,13 @@ void formulas_circle_distance_columns_from(long s0, long n, long ld, const doubl
 #define FORMULAS_PLANE_MEET_A_SIZE 4
 #define FORMULAS_PLANE_MEET_B_SIZE 4
 #define FORMULAS_PLANE_MEET_LINE_SIZE 6
-void formulas_plane_meet(const double *GAGEN_RESTRICT A, const double *GAGEN_RESTRICT B, double *GAGEN_RESTRICT line);
-void formulas_plane_meet_batch(long n, const double *GAGEN_RESTRICT A, const double *GAGEN_RESTRICT B, double *GAGEN_RESTRICT line);
+void formulas_plane_meet(const double *GAGEN_RESTRICT in_A, const double *GAGEN_RESTRICT in_B, double *GAGEN_RESTRICT out_line);
+void formulas_plane_meet_batch(long gagen_n, const double *GAGEN_RESTRICT in_A, const double *GAGEN_RESTRICT in_B, double *GAGEN_RESTRICT out_line);
 void formulas_plane_meet_argv(const double *const *arg, double *const *res);
 void formulas_plane_meet_batch_argv(long n, const double *const *arg, double *const *res);
-void formulas_plane_meet_batch_columns(long n, long ld, const double *GAGEN_RESTRICT A, const double *GAGEN_RESTRICT B, double *GAGEN_RESTRICT line);
+void formulas_plane_meet_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_A, const double *GAGEN_RESTRICT in_B, double *GAGEN_RESTRICT out_line);
 void formulas_plane_meet_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void formulas_plane_meet_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT A, const double *GAGEN_RESTRICT B, double *GAGEN_RESTRICT line);
+void formulas_plane_meet_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_A, const double *GAGEN_RESTRICT in_B, double *GAGEN_RESTRICT out_line);
 
 /* A PGA motor acting on a point: M X M~.
  *   in  M            [8] 1, e01, e02, e12, e03, e13, e23, e0123
@@ -88,13 +88,13 @@ void formulas_plane_meet_columns_from(long s0, long n, long ld, const double *GA
 #define FORMULAS_MOVE_POINT_M_SIZE 8
 #define FORMULAS_MOVE_POINT_X_SIZE 4
 #define FORMULAS_MOVE_POINT_MOVED_SIZE 4
-void formulas_move_point(const double *GAGEN_RESTRICT M, const double *GAGEN_RESTRICT X, double *GAGEN_RESTRICT moved);
-void formulas_move_point_batch(long n, const double *GAGEN_RESTRICT M, const double *GAGEN_RESTRICT X, double *GAGEN_RESTRICT moved);
+void formulas_move_point(const double *GAGEN_RESTRICT in_M, const double *GAGEN_RESTRICT in_X, double *GAGEN_RESTRICT out_moved);
+void formulas_move_point_batch(long gagen_n, const double *GAGEN_RESTRICT in_M, const double *GAGEN_RESTRICT in_X, double *GAGEN_RESTRICT out_moved);
 void formulas_move_point_argv(const double *const *arg, double *const *res);
 void formulas_move_point_batch_argv(long n, const double *const *arg, double *const *res);
-void formulas_move_point_batch_columns(long n, long ld, const double *GAGEN_RESTRICT M, const double *GAGEN_RESTRICT X, double *GAGEN_RESTRICT moved);
+void formulas_move_point_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_M, const double *GAGEN_RESTRICT in_X, double *GAGEN_RESTRICT out_moved);
 void formulas_move_point_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void formulas_move_point_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT M, const double *GAGEN_RESTRICT X, double *GAGEN_RESTRICT moved);
+void formulas_move_point_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_M, const double *GAGEN_RESTRICT in_X, double *GAGEN_RESTRICT out_moved);
 
 #ifdef __cplusplus
 }

@@ -205,7 +205,7 @@ static PyObject *run_formulas_circle_through(Kernel *b, PyObject *const *inputs,
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT A, const double *GAGEN_RESTRICT B, const double *GAGEN_RESTRICT C, double *GAGEN_RESTRICT circle))b->kernel)(in[0], in[1], in[2], res[0]);
+  ((void (*)(const double *GAGEN_RESTRICT in_A, const double *GAGEN_RESTRICT in_B, const double *GAGEN_RESTRICT in_C, double *GAGEN_RESTRICT out_circle))b->kernel)(in[0], in[1], in[2], res[0]);
   return result;
 }
 
@@ -273,7 +273,7 @@ static PyObject *run_formulas_circle_distance(Kernel *b, PyObject *const *inputs
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT X, const double *GAGEN_RESTRICT C, double *GAGEN_RESTRICT d, double *GAGEN_RESTRICT J_d))b->kernel)(in[0], in[1], res[0], res[1]);
+  ((void (*)(const double *GAGEN_RESTRICT in_X, const double *GAGEN_RESTRICT in_C, double *GAGEN_RESTRICT out_d, double *GAGEN_RESTRICT out_J_d))b->kernel)(in[0], in[1], res[0], res[1]);
   return result;
 }
 
@@ -330,7 +330,7 @@ static PyObject *run_formulas_plane_meet(Kernel *b, PyObject *const *inputs, Py_
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT A, const double *GAGEN_RESTRICT B, double *GAGEN_RESTRICT line))b->kernel)(in[0], in[1], res[0]);
+  ((void (*)(const double *GAGEN_RESTRICT in_A, const double *GAGEN_RESTRICT in_B, double *GAGEN_RESTRICT out_line))b->kernel)(in[0], in[1], res[0]);
   return result;
 }
 
@@ -387,7 +387,7 @@ static PyObject *run_formulas_move_point(Kernel *b, PyObject *const *inputs, Py_
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT M, const double *GAGEN_RESTRICT X, double *GAGEN_RESTRICT moved))b->kernel)(in[0], in[1], res[0]);
+  ((void (*)(const double *GAGEN_RESTRICT in_M, const double *GAGEN_RESTRICT in_X, double *GAGEN_RESTRICT out_moved))b->kernel)(in[0], in[1], res[0]);
   return result;
 }
 

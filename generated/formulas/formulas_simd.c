@@ -149,38 +149,38 @@ static inline void gagen_stream_fence(int stream) {
 
 #if GAGEN_SIMD
 /* The circle through three points: A \u2227 B \u2227 C.: GAGEN_W consecutive samples at once */
-static void formulas_circle_through_block(const double *restrict A, const double *restrict B, const double *restrict C, double *restrict circle) {
+static void formulas_circle_through_block(const double *restrict in_A, const double *restrict in_B, const double *restrict in_C, double *restrict out_circle) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20;
-  w0 = GAGEN_GATHER(A, 5, 0);
-  w1 = GAGEN_GATHER(B, 5, 1);
+  w0 = GAGEN_GATHER(in_A, 5, 0);
+  w1 = GAGEN_GATHER(in_B, 5, 1);
   w2 = w0 * w1;
-  w3 = GAGEN_GATHER(A, 5, 1);
-  w4 = GAGEN_GATHER(B, 5, 0);
+  w3 = GAGEN_GATHER(in_A, 5, 1);
+  w4 = GAGEN_GATHER(in_B, 5, 0);
   w5 = w3 * w4;
   w2 = w2 - w5;
-  w5 = GAGEN_GATHER(C, 5, 2);
+  w5 = GAGEN_GATHER(in_C, 5, 2);
   w6 = w2 * w5;
-  w7 = GAGEN_GATHER(B, 5, 2);
+  w7 = GAGEN_GATHER(in_B, 5, 2);
   w8 = w3 * w7;
-  w9 = GAGEN_GATHER(A, 5, 2);
+  w9 = GAGEN_GATHER(in_A, 5, 2);
   w10 = w9 * w1;
   w8 = w8 - w10;
-  w10 = GAGEN_GATHER(C, 5, 0);
+  w10 = GAGEN_GATHER(in_C, 5, 0);
   w11 = w8 * w10;
   w6 = w6 + w11;
   w11 = w0 * w7;
   w12 = w9 * w4;
   w11 = w11 - w12;
-  w12 = GAGEN_GATHER(C, 5, 1);
+  w12 = GAGEN_GATHER(in_C, 5, 1);
   w13 = w11 * w12;
   w6 = w6 - w13;
-  GAGEN_SCATTER(circle, 10, 0, w6);
-  w6 = GAGEN_GATHER(C, 5, 3);
+  GAGEN_SCATTER(out_circle, 10, 0, w6);
+  w6 = GAGEN_GATHER(in_C, 5, 3);
   w13 = w2 * w6;
-  w14 = GAGEN_GATHER(B, 5, 3);
+  w14 = GAGEN_GATHER(in_B, 5, 3);
   w15 = w3 * w14;
-  w16 = GAGEN_GATHER(A, 5, 3);
+  w16 = GAGEN_GATHER(in_A, 5, 3);
   w17 = w16 * w1;
   w15 = w15 - w17;
   w17 = w15 * w10;
@@ -190,7 +190,7 @@ static void formulas_circle_through_block(const double *restrict A, const double
   w17 = w17 - w18;
   w18 = w17 * w12;
   w13 = w13 - w18;
-  GAGEN_SCATTER(circle, 10, 1, w13);
+  GAGEN_SCATTER(out_circle, 10, 1, w13);
   w13 = w11 * w6;
   w18 = w9 * w14;
   w19 = w16 * w7;
@@ -199,18 +199,18 @@ static void formulas_circle_through_block(const double *restrict A, const double
   w13 = w13 + w19;
   w19 = w17 * w5;
   w13 = w13 - w19;
-  GAGEN_SCATTER(circle, 10, 2, w13);
+  GAGEN_SCATTER(out_circle, 10, 2, w13);
   w13 = w8 * w6;
   w19 = w18 * w12;
   w13 = w13 + w19;
   w19 = w15 * w5;
   w13 = w13 - w19;
-  GAGEN_SCATTER(circle, 10, 3, w13);
-  w13 = GAGEN_GATHER(C, 5, 4);
+  GAGEN_SCATTER(out_circle, 10, 3, w13);
+  w13 = GAGEN_GATHER(in_C, 5, 4);
   w2 = w2 * w13;
-  w19 = GAGEN_GATHER(B, 5, 4);
+  w19 = GAGEN_GATHER(in_B, 5, 4);
   w3 = w3 * w19;
-  w20 = GAGEN_GATHER(A, 5, 4);
+  w20 = GAGEN_GATHER(in_A, 5, 4);
   w1 = w20 * w1;
   w3 = w3 - w1;
   w1 = w3 * w10;
@@ -220,7 +220,7 @@ static void formulas_circle_through_block(const double *restrict A, const double
   w0 = w0 - w4;
   w4 = w0 * w12;
   w2 = w2 - w4;
-  GAGEN_SCATTER(circle, 10, 4, w2);
+  GAGEN_SCATTER(out_circle, 10, 4, w2);
   w11 = w11 * w13;
   w9 = w9 * w19;
   w7 = w20 * w7;
@@ -229,13 +229,13 @@ static void formulas_circle_through_block(const double *restrict A, const double
   w11 = w11 + w7;
   w7 = w0 * w5;
   w11 = w11 - w7;
-  GAGEN_SCATTER(circle, 10, 5, w11);
+  GAGEN_SCATTER(out_circle, 10, 5, w11);
   w8 = w8 * w13;
   w11 = w9 * w12;
   w8 = w8 + w11;
   w11 = w3 * w5;
   w8 = w8 - w11;
-  GAGEN_SCATTER(circle, 10, 6, w8);
+  GAGEN_SCATTER(out_circle, 10, 6, w8);
   w17 = w17 * w13;
   w16 = w16 * w19;
   w20 = w20 * w14;
@@ -244,35 +244,35 @@ static void formulas_circle_through_block(const double *restrict A, const double
   w17 = w17 + w10;
   w0 = w0 * w6;
   w17 = w17 - w0;
-  GAGEN_SCATTER(circle, 10, 7, w17);
+  GAGEN_SCATTER(out_circle, 10, 7, w17);
   w15 = w15 * w13;
   w12 = w16 * w12;
   w15 = w15 + w12;
   w3 = w3 * w6;
   w15 = w15 - w3;
-  GAGEN_SCATTER(circle, 10, 8, w15);
+  GAGEN_SCATTER(out_circle, 10, 8, w15);
   w18 = w18 * w13;
   w16 = w16 * w5;
   w18 = w18 + w16;
   w9 = w9 * w6;
   w18 = w18 - w9;
-  GAGEN_SCATTER(circle, 10, 9, w18);
+  GAGEN_SCATTER(out_circle, 10, 9, w18);
 }
 #endif
 
-void formulas_circle_through_batch(long n, const double *restrict A, const double *restrict B, const double *restrict C, double *restrict circle) {
-  long s = 0;
+void formulas_circle_through_batch(long gagen_n, const double *restrict in_A, const double *restrict in_B, const double *restrict in_C, double *restrict out_circle) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 10 * GAGEN_W + 7; o += 8) __builtin_prefetch(circle + 10 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 10 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_circle + 10 * gagen_a + gagen_o, 1, 0);
     }
-    formulas_circle_through_block(A + 5 * s, B + 5 * s, C + 5 * s, circle + 10 * s);
+    formulas_circle_through_block(in_A + 5 * gagen_s, in_B + 5 * gagen_s, in_C + 5 * gagen_s, out_circle + 10 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    formulas_circle_through(A + 5 * s, B + 5 * s, C + 5 * s, circle + 10 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    formulas_circle_through(in_A + 5 * gagen_s, in_B + 5 * gagen_s, in_C + 5 * gagen_s, out_circle + 10 * gagen_s);
   }
 }
 
@@ -282,38 +282,38 @@ void formulas_circle_through_batch(long n, const double *restrict A, const doubl
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void formulas_circle_through_block_columns(long gagen_ld, int gagen_stream, const double *restrict A, const double *restrict B, const double *restrict C, double *restrict circle) {
+static void formulas_circle_through_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_A, const double *restrict in_B, const double *restrict in_C, double *restrict out_circle) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20;
-  w0 = GAGEN_GATHER(A, 5, 0);
-  w1 = GAGEN_GATHER(B, 5, 1);
+  w0 = GAGEN_GATHER(in_A, 5, 0);
+  w1 = GAGEN_GATHER(in_B, 5, 1);
   w2 = w0 * w1;
-  w3 = GAGEN_GATHER(A, 5, 1);
-  w4 = GAGEN_GATHER(B, 5, 0);
+  w3 = GAGEN_GATHER(in_A, 5, 1);
+  w4 = GAGEN_GATHER(in_B, 5, 0);
   w5 = w3 * w4;
   w2 = w2 - w5;
-  w5 = GAGEN_GATHER(C, 5, 2);
+  w5 = GAGEN_GATHER(in_C, 5, 2);
   w6 = w2 * w5;
-  w7 = GAGEN_GATHER(B, 5, 2);
+  w7 = GAGEN_GATHER(in_B, 5, 2);
   w8 = w3 * w7;
-  w9 = GAGEN_GATHER(A, 5, 2);
+  w9 = GAGEN_GATHER(in_A, 5, 2);
   w10 = w9 * w1;
   w8 = w8 - w10;
-  w10 = GAGEN_GATHER(C, 5, 0);
+  w10 = GAGEN_GATHER(in_C, 5, 0);
   w11 = w8 * w10;
   w6 = w6 + w11;
   w11 = w0 * w7;
   w12 = w9 * w4;
   w11 = w11 - w12;
-  w12 = GAGEN_GATHER(C, 5, 1);
+  w12 = GAGEN_GATHER(in_C, 5, 1);
   w13 = w11 * w12;
   w6 = w6 - w13;
-  GAGEN_SCATTER(circle, 10, 0, w6);
-  w6 = GAGEN_GATHER(C, 5, 3);
+  GAGEN_SCATTER(out_circle, 10, 0, w6);
+  w6 = GAGEN_GATHER(in_C, 5, 3);
   w13 = w2 * w6;
-  w14 = GAGEN_GATHER(B, 5, 3);
+  w14 = GAGEN_GATHER(in_B, 5, 3);
   w15 = w3 * w14;
-  w16 = GAGEN_GATHER(A, 5, 3);
+  w16 = GAGEN_GATHER(in_A, 5, 3);
   w17 = w16 * w1;
   w15 = w15 - w17;
   w17 = w15 * w10;
@@ -323,7 +323,7 @@ static void formulas_circle_through_block_columns(long gagen_ld, int gagen_strea
   w17 = w17 - w18;
   w18 = w17 * w12;
   w13 = w13 - w18;
-  GAGEN_SCATTER(circle, 10, 1, w13);
+  GAGEN_SCATTER(out_circle, 10, 1, w13);
   w13 = w11 * w6;
   w18 = w9 * w14;
   w19 = w16 * w7;
@@ -332,18 +332,18 @@ static void formulas_circle_through_block_columns(long gagen_ld, int gagen_strea
   w13 = w13 + w19;
   w19 = w17 * w5;
   w13 = w13 - w19;
-  GAGEN_SCATTER(circle, 10, 2, w13);
+  GAGEN_SCATTER(out_circle, 10, 2, w13);
   w13 = w8 * w6;
   w19 = w18 * w12;
   w13 = w13 + w19;
   w19 = w15 * w5;
   w13 = w13 - w19;
-  GAGEN_SCATTER(circle, 10, 3, w13);
-  w13 = GAGEN_GATHER(C, 5, 4);
+  GAGEN_SCATTER(out_circle, 10, 3, w13);
+  w13 = GAGEN_GATHER(in_C, 5, 4);
   w2 = w2 * w13;
-  w19 = GAGEN_GATHER(B, 5, 4);
+  w19 = GAGEN_GATHER(in_B, 5, 4);
   w3 = w3 * w19;
-  w20 = GAGEN_GATHER(A, 5, 4);
+  w20 = GAGEN_GATHER(in_A, 5, 4);
   w1 = w20 * w1;
   w3 = w3 - w1;
   w1 = w3 * w10;
@@ -353,7 +353,7 @@ static void formulas_circle_through_block_columns(long gagen_ld, int gagen_strea
   w0 = w0 - w4;
   w4 = w0 * w12;
   w2 = w2 - w4;
-  GAGEN_SCATTER(circle, 10, 4, w2);
+  GAGEN_SCATTER(out_circle, 10, 4, w2);
   w11 = w11 * w13;
   w9 = w9 * w19;
   w7 = w20 * w7;
@@ -362,13 +362,13 @@ static void formulas_circle_through_block_columns(long gagen_ld, int gagen_strea
   w11 = w11 + w7;
   w7 = w0 * w5;
   w11 = w11 - w7;
-  GAGEN_SCATTER(circle, 10, 5, w11);
+  GAGEN_SCATTER(out_circle, 10, 5, w11);
   w8 = w8 * w13;
   w11 = w9 * w12;
   w8 = w8 + w11;
   w11 = w3 * w5;
   w8 = w8 - w11;
-  GAGEN_SCATTER(circle, 10, 6, w8);
+  GAGEN_SCATTER(out_circle, 10, 6, w8);
   w17 = w17 * w13;
   w16 = w16 * w19;
   w20 = w20 * w14;
@@ -377,19 +377,19 @@ static void formulas_circle_through_block_columns(long gagen_ld, int gagen_strea
   w17 = w17 + w10;
   w0 = w0 * w6;
   w17 = w17 - w0;
-  GAGEN_SCATTER(circle, 10, 7, w17);
+  GAGEN_SCATTER(out_circle, 10, 7, w17);
   w15 = w15 * w13;
   w12 = w16 * w12;
   w15 = w15 + w12;
   w3 = w3 * w6;
   w15 = w15 - w3;
-  GAGEN_SCATTER(circle, 10, 8, w15);
+  GAGEN_SCATTER(out_circle, 10, 8, w15);
   w18 = w18 * w13;
   w16 = w16 * w5;
   w18 = w18 + w16;
   w9 = w9 * w6;
   w18 = w18 - w9;
-  GAGEN_SCATTER(circle, 10, 9, w18);
+  GAGEN_SCATTER(out_circle, 10, 9, w18);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -397,26 +397,26 @@ static void formulas_circle_through_block_columns(long gagen_ld, int gagen_strea
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void formulas_circle_through_batch_columns(long n, long ld, const double *restrict A, const double *restrict B, const double *restrict C, double *restrict circle) {
-  long s = 0;
+void formulas_circle_through_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_A, const double *restrict in_B, const double *restrict in_C, double *restrict out_circle) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 10L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    formulas_circle_through_block_columns(ld, stream, A + s, B + s, C + s, circle + s);
+  const int gagen_stream = gagen_n * 10L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    formulas_circle_through_block_columns(gagen_ld, gagen_stream, in_A + gagen_s, in_B + gagen_s, in_C + gagen_s, out_circle + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  formulas_circle_through_columns_from(s, n, ld, A, B, C, circle);
+  formulas_circle_through_columns_from(gagen_s, gagen_n, gagen_ld, in_A, in_B, in_C, out_circle);
 }
 
 #if GAGEN_SIMD
 /* Distance of a point from a circle: sqrt(h\xb2 + (\u03c1 \u2212 r)\xb2), h above its plane, \u03c1 from its axis.: GAGEN_W consecutive samples at once */
-static void formulas_circle_distance_block(const double *restrict X, const double *restrict C, double *restrict d, double *restrict J_d) {
+static void formulas_circle_distance_block(const double *restrict in_X, const double *restrict in_C, double *restrict out_d, double *restrict out_J_d) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19;
-  GAGEN_SCATTER(J_d, 5, 4, gagen_v_splat(0.0));
-  w0 = GAGEN_GATHER(X, 5, 1);
-  w1 = GAGEN_GATHER(X, 5, 0);
+  GAGEN_SCATTER(out_J_d, 5, 4, gagen_v_splat(0.0));
+  w0 = GAGEN_GATHER(in_X, 5, 1);
+  w1 = GAGEN_GATHER(in_X, 5, 0);
   w2 = gagen_v_fabs(w1);
   w3 = gagen_v_splat(1e-300);
   w2 = gagen_v_lt(w2, w3);
@@ -430,12 +430,12 @@ static void formulas_circle_distance_block(const double *restrict X, const doubl
   w2 = gagen_v_if_else_zero(w2, w7);
   w1 = w1 + w2;
   w0 = w0 / w1;
-  w2 = GAGEN_GATHER(C, 10, 0);
+  w2 = GAGEN_GATHER(in_C, 10, 0);
   w7 = w2 * w2;
-  w5 = GAGEN_GATHER(C, 10, 1);
+  w5 = GAGEN_GATHER(in_C, 10, 1);
   w8 = w5 * w5;
   w7 = w7 + w8;
-  w8 = GAGEN_GATHER(C, 10, 2);
+  w8 = GAGEN_GATHER(in_C, 10, 2);
   w9 = w8 * w8;
   w7 = w7 + w9;
   w9 = w7 + w7;
@@ -460,12 +460,12 @@ static void formulas_circle_distance_block(const double *restrict X, const doubl
   w9 = w9 + w12;
   w9 = 1.0 / w9;
   w9 = w9 / w10;
-  w10 = GAGEN_GATHER(C, 10, 3);
+  w10 = GAGEN_GATHER(in_C, 10, 3);
   w12 = w8 * w10;
-  w6 = GAGEN_GATHER(C, 10, 5);
+  w6 = GAGEN_GATHER(in_C, 10, 5);
   w4 = w6 * w2;
   w12 = w12 - w4;
-  w4 = GAGEN_GATHER(C, 10, 7);
+  w4 = GAGEN_GATHER(in_C, 10, 7);
   w11 = w4 * w5;
   w12 = w12 - w11;
   w12 = w12 + w12;
@@ -477,10 +477,10 @@ static void formulas_circle_distance_block(const double *restrict X, const doubl
   w11 = w11 + w13;
   w13 = w12 / w11;
   w13 = w13 * w8;
-  w3 = GAGEN_GATHER(X, 5, 3);
+  w3 = GAGEN_GATHER(in_X, 5, 3);
   w3 = w3 / w1;
   w14 = w2 * w10;
-  w15 = GAGEN_GATHER(C, 10, 4);
+  w15 = GAGEN_GATHER(in_C, 10, 4);
   w16 = w15 * w5;
   w14 = w14 + w16;
   w16 = w6 * w8;
@@ -491,7 +491,7 @@ static void formulas_circle_distance_block(const double *restrict X, const doubl
   w16 = w14 / w11;
   w16 = w16 * w2;
   w13 = w13 + w16;
-  w16 = GAGEN_GATHER(X, 5, 2);
+  w16 = GAGEN_GATHER(in_X, 5, 2);
   w16 = w16 / w1;
   w17 = w15 * w2;
   w18 = w5 * w10;
@@ -517,12 +517,12 @@ static void formulas_circle_distance_block(const double *restrict X, const doubl
   w15 = w15 + w6;
   w4 = w4 * w4;
   w15 = w15 + w4;
-  w4 = GAGEN_GATHER(C, 10, 6);
+  w4 = GAGEN_GATHER(in_C, 10, 6);
   w4 = w2 * w4;
-  w6 = GAGEN_GATHER(C, 10, 8);
+  w6 = GAGEN_GATHER(in_C, 10, 8);
   w6 = w5 * w6;
   w4 = w4 + w6;
-  w6 = GAGEN_GATHER(C, 10, 9);
+  w6 = GAGEN_GATHER(in_C, 10, 9);
   w6 = w8 * w6;
   w4 = w4 + w6;
   w4 = w4 + w4;
@@ -535,7 +535,7 @@ static void formulas_circle_distance_block(const double *restrict X, const doubl
   w7 = w15 * w15;
   w17 = w17 + w7;
   w17 = gagen_v_sqrt(w17);
-  GAGEN_SCATTER(d, 1, 0, w17);
+  GAGEN_SCATTER(out_d, 1, 0, w17);
   w16 = w16 / w1;
   w9 = w9 + w9;
   w15 = w15 / w17;
@@ -567,30 +567,30 @@ static void formulas_circle_distance_block(const double *restrict X, const doubl
   w0 = w0 * w12;
   w16 = w16 + w0;
   w16 = -w16;
-  GAGEN_SCATTER(J_d, 5, 0, w16);
+  GAGEN_SCATTER(out_J_d, 5, 0, w16);
   w12 = w12 / w1;
-  GAGEN_SCATTER(J_d, 5, 1, w12);
+  GAGEN_SCATTER(out_J_d, 5, 1, w12);
   w9 = w9 / w1;
-  GAGEN_SCATTER(J_d, 5, 2, w9);
+  GAGEN_SCATTER(out_J_d, 5, 2, w9);
   w14 = w14 / w1;
-  GAGEN_SCATTER(J_d, 5, 3, w14);
+  GAGEN_SCATTER(out_J_d, 5, 3, w14);
 }
 #endif
 
-void formulas_circle_distance_batch(long n, const double *restrict X, const double *restrict C, double *restrict d, double *restrict J_d) {
-  long s = 0;
+void formulas_circle_distance_batch(long gagen_n, const double *restrict in_X, const double *restrict in_C, double *restrict out_d, double *restrict out_J_d) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 1 * GAGEN_W + 7; o += 8) __builtin_prefetch(d + 1 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_d + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 1 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_d + 1 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_d + 5 * gagen_a + gagen_o, 1, 0);
     }
-    formulas_circle_distance_block(X + 5 * s, C + 10 * s, d + 1 * s, J_d + 5 * s);
+    formulas_circle_distance_block(in_X + 5 * gagen_s, in_C + 10 * gagen_s, out_d + 1 * gagen_s, out_J_d + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    formulas_circle_distance(X + 5 * s, C + 10 * s, d + 1 * s, J_d + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    formulas_circle_distance(in_X + 5 * gagen_s, in_C + 10 * gagen_s, out_d + 1 * gagen_s, out_J_d + 5 * gagen_s);
   }
 }
 
@@ -600,12 +600,12 @@ void formulas_circle_distance_batch(long n, const double *restrict X, const doub
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void formulas_circle_distance_block_columns(long gagen_ld, int gagen_stream, const double *restrict X, const double *restrict C, double *restrict d, double *restrict J_d) {
+static void formulas_circle_distance_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_X, const double *restrict in_C, double *restrict out_d, double *restrict out_J_d) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19;
-  GAGEN_SCATTER(J_d, 5, 4, gagen_v_splat(0.0));
-  w0 = GAGEN_GATHER(X, 5, 1);
-  w1 = GAGEN_GATHER(X, 5, 0);
+  GAGEN_SCATTER(out_J_d, 5, 4, gagen_v_splat(0.0));
+  w0 = GAGEN_GATHER(in_X, 5, 1);
+  w1 = GAGEN_GATHER(in_X, 5, 0);
   w2 = gagen_v_fabs(w1);
   w3 = gagen_v_splat(1e-300);
   w2 = gagen_v_lt(w2, w3);
@@ -619,12 +619,12 @@ static void formulas_circle_distance_block_columns(long gagen_ld, int gagen_stre
   w2 = gagen_v_if_else_zero(w2, w7);
   w1 = w1 + w2;
   w0 = w0 / w1;
-  w2 = GAGEN_GATHER(C, 10, 0);
+  w2 = GAGEN_GATHER(in_C, 10, 0);
   w7 = w2 * w2;
-  w5 = GAGEN_GATHER(C, 10, 1);
+  w5 = GAGEN_GATHER(in_C, 10, 1);
   w8 = w5 * w5;
   w7 = w7 + w8;
-  w8 = GAGEN_GATHER(C, 10, 2);
+  w8 = GAGEN_GATHER(in_C, 10, 2);
   w9 = w8 * w8;
   w7 = w7 + w9;
   w9 = w7 + w7;
@@ -649,12 +649,12 @@ static void formulas_circle_distance_block_columns(long gagen_ld, int gagen_stre
   w9 = w9 + w12;
   w9 = 1.0 / w9;
   w9 = w9 / w10;
-  w10 = GAGEN_GATHER(C, 10, 3);
+  w10 = GAGEN_GATHER(in_C, 10, 3);
   w12 = w8 * w10;
-  w6 = GAGEN_GATHER(C, 10, 5);
+  w6 = GAGEN_GATHER(in_C, 10, 5);
   w4 = w6 * w2;
   w12 = w12 - w4;
-  w4 = GAGEN_GATHER(C, 10, 7);
+  w4 = GAGEN_GATHER(in_C, 10, 7);
   w11 = w4 * w5;
   w12 = w12 - w11;
   w12 = w12 + w12;
@@ -666,10 +666,10 @@ static void formulas_circle_distance_block_columns(long gagen_ld, int gagen_stre
   w11 = w11 + w13;
   w13 = w12 / w11;
   w13 = w13 * w8;
-  w3 = GAGEN_GATHER(X, 5, 3);
+  w3 = GAGEN_GATHER(in_X, 5, 3);
   w3 = w3 / w1;
   w14 = w2 * w10;
-  w15 = GAGEN_GATHER(C, 10, 4);
+  w15 = GAGEN_GATHER(in_C, 10, 4);
   w16 = w15 * w5;
   w14 = w14 + w16;
   w16 = w6 * w8;
@@ -680,7 +680,7 @@ static void formulas_circle_distance_block_columns(long gagen_ld, int gagen_stre
   w16 = w14 / w11;
   w16 = w16 * w2;
   w13 = w13 + w16;
-  w16 = GAGEN_GATHER(X, 5, 2);
+  w16 = GAGEN_GATHER(in_X, 5, 2);
   w16 = w16 / w1;
   w17 = w15 * w2;
   w18 = w5 * w10;
@@ -706,12 +706,12 @@ static void formulas_circle_distance_block_columns(long gagen_ld, int gagen_stre
   w15 = w15 + w6;
   w4 = w4 * w4;
   w15 = w15 + w4;
-  w4 = GAGEN_GATHER(C, 10, 6);
+  w4 = GAGEN_GATHER(in_C, 10, 6);
   w4 = w2 * w4;
-  w6 = GAGEN_GATHER(C, 10, 8);
+  w6 = GAGEN_GATHER(in_C, 10, 8);
   w6 = w5 * w6;
   w4 = w4 + w6;
-  w6 = GAGEN_GATHER(C, 10, 9);
+  w6 = GAGEN_GATHER(in_C, 10, 9);
   w6 = w8 * w6;
   w4 = w4 + w6;
   w4 = w4 + w4;
@@ -724,7 +724,7 @@ static void formulas_circle_distance_block_columns(long gagen_ld, int gagen_stre
   w7 = w15 * w15;
   w17 = w17 + w7;
   w17 = gagen_v_sqrt(w17);
-  GAGEN_SCATTER(d, 1, 0, w17);
+  GAGEN_SCATTER(out_d, 1, 0, w17);
   w16 = w16 / w1;
   w9 = w9 + w9;
   w15 = w15 / w17;
@@ -756,13 +756,13 @@ static void formulas_circle_distance_block_columns(long gagen_ld, int gagen_stre
   w0 = w0 * w12;
   w16 = w16 + w0;
   w16 = -w16;
-  GAGEN_SCATTER(J_d, 5, 0, w16);
+  GAGEN_SCATTER(out_J_d, 5, 0, w16);
   w12 = w12 / w1;
-  GAGEN_SCATTER(J_d, 5, 1, w12);
+  GAGEN_SCATTER(out_J_d, 5, 1, w12);
   w9 = w9 / w1;
-  GAGEN_SCATTER(J_d, 5, 2, w9);
+  GAGEN_SCATTER(out_J_d, 5, 2, w9);
   w14 = w14 / w1;
-  GAGEN_SCATTER(J_d, 5, 3, w14);
+  GAGEN_SCATTER(out_J_d, 5, 3, w14);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -770,70 +770,70 @@ static void formulas_circle_distance_block_columns(long gagen_ld, int gagen_stre
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void formulas_circle_distance_batch_columns(long n, long ld, const double *restrict X, const double *restrict C, double *restrict d, double *restrict J_d) {
-  long s = 0;
+void formulas_circle_distance_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_X, const double *restrict in_C, double *restrict out_d, double *restrict out_J_d) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 6L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    formulas_circle_distance_block_columns(ld, stream, X + s, C + s, d + s, J_d + s);
+  const int gagen_stream = gagen_n * 6L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    formulas_circle_distance_block_columns(gagen_ld, gagen_stream, in_X + gagen_s, in_C + gagen_s, out_d + gagen_s, out_J_d + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  formulas_circle_distance_columns_from(s, n, ld, X, C, d, J_d);
+  formulas_circle_distance_columns_from(gagen_s, gagen_n, gagen_ld, in_X, in_C, out_d, out_J_d);
 }
 
 #if GAGEN_SIMD
 /* The line where two planes meet: their regressive product A \u2228 B.: GAGEN_W consecutive samples at once */
-static void formulas_plane_meet_block(const double *restrict A, const double *restrict B, double *restrict line) {
+static void formulas_plane_meet_block(const double *restrict in_A, const double *restrict in_B, double *restrict out_line) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7;
-  w0 = GAGEN_GATHER(A, 4, 1);
-  w1 = GAGEN_GATHER(B, 4, 0);
+  w0 = GAGEN_GATHER(in_A, 4, 1);
+  w1 = GAGEN_GATHER(in_B, 4, 0);
   w2 = w0 * w1;
-  w3 = GAGEN_GATHER(A, 4, 0);
-  w4 = GAGEN_GATHER(B, 4, 1);
+  w3 = GAGEN_GATHER(in_A, 4, 0);
+  w4 = GAGEN_GATHER(in_B, 4, 1);
   w5 = w3 * w4;
   w2 = w2 - w5;
-  GAGEN_SCATTER(line, 6, 0, w2);
-  w2 = GAGEN_GATHER(A, 4, 2);
+  GAGEN_SCATTER(out_line, 6, 0, w2);
+  w2 = GAGEN_GATHER(in_A, 4, 2);
   w5 = w2 * w1;
-  w6 = GAGEN_GATHER(B, 4, 2);
+  w6 = GAGEN_GATHER(in_B, 4, 2);
   w7 = w3 * w6;
   w5 = w5 - w7;
-  GAGEN_SCATTER(line, 6, 1, w5);
-  w5 = GAGEN_GATHER(A, 4, 3);
+  GAGEN_SCATTER(out_line, 6, 1, w5);
+  w5 = GAGEN_GATHER(in_A, 4, 3);
   w1 = w5 * w1;
-  w7 = GAGEN_GATHER(B, 4, 3);
+  w7 = GAGEN_GATHER(in_B, 4, 3);
   w3 = w3 * w7;
   w1 = w1 - w3;
-  GAGEN_SCATTER(line, 6, 2, w1);
+  GAGEN_SCATTER(out_line, 6, 2, w1);
   w1 = w2 * w4;
   w3 = w0 * w6;
   w1 = w1 - w3;
-  GAGEN_SCATTER(line, 6, 3, w1);
+  GAGEN_SCATTER(out_line, 6, 3, w1);
   w4 = w5 * w4;
   w0 = w0 * w7;
   w4 = w4 - w0;
-  GAGEN_SCATTER(line, 6, 4, w4);
+  GAGEN_SCATTER(out_line, 6, 4, w4);
   w5 = w5 * w6;
   w2 = w2 * w7;
   w5 = w5 - w2;
-  GAGEN_SCATTER(line, 6, 5, w5);
+  GAGEN_SCATTER(out_line, 6, 5, w5);
 }
 #endif
 
-void formulas_plane_meet_batch(long n, const double *restrict A, const double *restrict B, double *restrict line) {
-  long s = 0;
+void formulas_plane_meet_batch(long gagen_n, const double *restrict in_A, const double *restrict in_B, double *restrict out_line) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 6 * GAGEN_W + 7; o += 8) __builtin_prefetch(line + 6 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 6 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_line + 6 * gagen_a + gagen_o, 1, 0);
     }
-    formulas_plane_meet_block(A + 4 * s, B + 4 * s, line + 6 * s);
+    formulas_plane_meet_block(in_A + 4 * gagen_s, in_B + 4 * gagen_s, out_line + 6 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    formulas_plane_meet(A + 4 * s, B + 4 * s, line + 6 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    formulas_plane_meet(in_A + 4 * gagen_s, in_B + 4 * gagen_s, out_line + 6 * gagen_s);
   }
 }
 
@@ -843,40 +843,40 @@ void formulas_plane_meet_batch(long n, const double *restrict A, const double *r
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void formulas_plane_meet_block_columns(long gagen_ld, int gagen_stream, const double *restrict A, const double *restrict B, double *restrict line) {
+static void formulas_plane_meet_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_A, const double *restrict in_B, double *restrict out_line) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7;
-  w0 = GAGEN_GATHER(A, 4, 1);
-  w1 = GAGEN_GATHER(B, 4, 0);
+  w0 = GAGEN_GATHER(in_A, 4, 1);
+  w1 = GAGEN_GATHER(in_B, 4, 0);
   w2 = w0 * w1;
-  w3 = GAGEN_GATHER(A, 4, 0);
-  w4 = GAGEN_GATHER(B, 4, 1);
+  w3 = GAGEN_GATHER(in_A, 4, 0);
+  w4 = GAGEN_GATHER(in_B, 4, 1);
   w5 = w3 * w4;
   w2 = w2 - w5;
-  GAGEN_SCATTER(line, 6, 0, w2);
-  w2 = GAGEN_GATHER(A, 4, 2);
+  GAGEN_SCATTER(out_line, 6, 0, w2);
+  w2 = GAGEN_GATHER(in_A, 4, 2);
   w5 = w2 * w1;
-  w6 = GAGEN_GATHER(B, 4, 2);
+  w6 = GAGEN_GATHER(in_B, 4, 2);
   w7 = w3 * w6;
   w5 = w5 - w7;
-  GAGEN_SCATTER(line, 6, 1, w5);
-  w5 = GAGEN_GATHER(A, 4, 3);
+  GAGEN_SCATTER(out_line, 6, 1, w5);
+  w5 = GAGEN_GATHER(in_A, 4, 3);
   w1 = w5 * w1;
-  w7 = GAGEN_GATHER(B, 4, 3);
+  w7 = GAGEN_GATHER(in_B, 4, 3);
   w3 = w3 * w7;
   w1 = w1 - w3;
-  GAGEN_SCATTER(line, 6, 2, w1);
+  GAGEN_SCATTER(out_line, 6, 2, w1);
   w1 = w2 * w4;
   w3 = w0 * w6;
   w1 = w1 - w3;
-  GAGEN_SCATTER(line, 6, 3, w1);
+  GAGEN_SCATTER(out_line, 6, 3, w1);
   w4 = w5 * w4;
   w0 = w0 * w7;
   w4 = w4 - w0;
-  GAGEN_SCATTER(line, 6, 4, w4);
+  GAGEN_SCATTER(out_line, 6, 4, w4);
   w5 = w5 * w6;
   w2 = w2 * w7;
   w5 = w5 - w2;
-  GAGEN_SCATTER(line, 6, 5, w5);
+  GAGEN_SCATTER(out_line, 6, 5, w5);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -884,59 +884,59 @@ static void formulas_plane_meet_block_columns(long gagen_ld, int gagen_stream, c
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void formulas_plane_meet_batch_columns(long n, long ld, const double *restrict A, const double *restrict B, double *restrict line) {
-  long s = 0;
+void formulas_plane_meet_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_A, const double *restrict in_B, double *restrict out_line) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 6L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    formulas_plane_meet_block_columns(ld, stream, A + s, B + s, line + s);
+  const int gagen_stream = gagen_n * 6L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    formulas_plane_meet_block_columns(gagen_ld, gagen_stream, in_A + gagen_s, in_B + gagen_s, out_line + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  formulas_plane_meet_columns_from(s, n, ld, A, B, line);
+  formulas_plane_meet_columns_from(gagen_s, gagen_n, gagen_ld, in_A, in_B, out_line);
 }
 
 #if GAGEN_SIMD
 /* A PGA motor acting on a point: M X M~.: GAGEN_W consecutive samples at once */
-static void formulas_move_point_block(const double *restrict M, const double *restrict X, double *restrict moved) {
+static void formulas_move_point_block(const double *restrict in_M, const double *restrict in_X, double *restrict out_moved) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14;
-  w0 = GAGEN_GATHER(X, 4, 0);
-  w1 = GAGEN_GATHER(M, 8, 0);
+  w0 = GAGEN_GATHER(in_X, 4, 0);
+  w1 = GAGEN_GATHER(in_M, 8, 0);
   w2 = w1 * w1;
-  w3 = GAGEN_GATHER(M, 8, 3);
+  w3 = GAGEN_GATHER(in_M, 8, 3);
   w4 = w3 * w3;
   w2 = w2 + w4;
-  w4 = GAGEN_GATHER(M, 8, 5);
+  w4 = GAGEN_GATHER(in_M, 8, 5);
   w5 = w4 * w4;
   w2 = w2 + w5;
-  w5 = GAGEN_GATHER(M, 8, 6);
+  w5 = GAGEN_GATHER(in_M, 8, 6);
   w6 = w5 * w5;
   w2 = w2 + w6;
   w6 = w0 * w2;
-  w7 = GAGEN_GATHER(M, 8, 7);
-  w8 = GAGEN_GATHER(X, 4, 3);
+  w7 = GAGEN_GATHER(in_M, 8, 7);
+  w8 = GAGEN_GATHER(in_X, 4, 3);
   w7 = w7 * w8;
   w9 = w7 * w3;
-  w10 = GAGEN_GATHER(M, 8, 4);
+  w10 = GAGEN_GATHER(in_M, 8, 4);
   w10 = w10 * w8;
-  w11 = GAGEN_GATHER(X, 4, 1);
+  w11 = GAGEN_GATHER(in_X, 4, 1);
   w12 = w5 * w11;
   w10 = w10 + w12;
-  w12 = GAGEN_GATHER(X, 4, 2);
+  w12 = GAGEN_GATHER(in_X, 4, 2);
   w13 = w4 * w12;
   w10 = w10 - w13;
   w13 = w10 * w1;
   w9 = w9 + w13;
   w13 = w3 * w12;
-  w14 = GAGEN_GATHER(M, 8, 2);
+  w14 = GAGEN_GATHER(in_M, 8, 2);
   w14 = w14 * w8;
   w13 = w13 - w14;
   w14 = w5 * w0;
   w13 = w13 - w14;
   w14 = w13 * w5;
   w9 = w9 + w14;
-  w14 = GAGEN_GATHER(M, 8, 1);
+  w14 = GAGEN_GATHER(in_M, 8, 1);
   w14 = w14 * w8;
   w0 = w4 * w0;
   w14 = w14 + w0;
@@ -946,7 +946,7 @@ static void formulas_move_point_block(const double *restrict M, const double *re
   w9 = w9 - w0;
   w9 = w9 + w9;
   w6 = w6 + w9;
-  GAGEN_SCATTER(moved, 4, 0, w6);
+  GAGEN_SCATTER(out_moved, 4, 0, w6);
   w11 = w11 * w2;
   w6 = w7 * w4;
   w9 = w13 * w1;
@@ -957,7 +957,7 @@ static void formulas_move_point_block(const double *restrict M, const double *re
   w6 = w6 - w9;
   w6 = w6 + w6;
   w11 = w11 + w6;
-  GAGEN_SCATTER(moved, 4, 1, w11);
+  GAGEN_SCATTER(out_moved, 4, 1, w11);
   w12 = w12 * w2;
   w7 = w7 * w5;
   w10 = w10 * w4;
@@ -968,25 +968,25 @@ static void formulas_move_point_block(const double *restrict M, const double *re
   w7 = w7 - w13;
   w7 = w7 + w7;
   w12 = w12 + w7;
-  GAGEN_SCATTER(moved, 4, 2, w12);
+  GAGEN_SCATTER(out_moved, 4, 2, w12);
   w8 = w8 * w2;
-  GAGEN_SCATTER(moved, 4, 3, w8);
+  GAGEN_SCATTER(out_moved, 4, 3, w8);
 }
 #endif
 
-void formulas_move_point_batch(long n, const double *restrict M, const double *restrict X, double *restrict moved) {
-  long s = 0;
+void formulas_move_point_batch(long gagen_n, const double *restrict in_M, const double *restrict in_X, double *restrict out_moved) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 4 * GAGEN_W + 7; o += 8) __builtin_prefetch(moved + 4 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 4 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_moved + 4 * gagen_a + gagen_o, 1, 0);
     }
-    formulas_move_point_block(M + 8 * s, X + 4 * s, moved + 4 * s);
+    formulas_move_point_block(in_M + 8 * gagen_s, in_X + 4 * gagen_s, out_moved + 4 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    formulas_move_point(M + 8 * s, X + 4 * s, moved + 4 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    formulas_move_point(in_M + 8 * gagen_s, in_X + 4 * gagen_s, out_moved + 4 * gagen_s);
   }
 }
 
@@ -996,45 +996,45 @@ void formulas_move_point_batch(long n, const double *restrict M, const double *r
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void formulas_move_point_block_columns(long gagen_ld, int gagen_stream, const double *restrict M, const double *restrict X, double *restrict moved) {
+static void formulas_move_point_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_M, const double *restrict in_X, double *restrict out_moved) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14;
-  w0 = GAGEN_GATHER(X, 4, 0);
-  w1 = GAGEN_GATHER(M, 8, 0);
+  w0 = GAGEN_GATHER(in_X, 4, 0);
+  w1 = GAGEN_GATHER(in_M, 8, 0);
   w2 = w1 * w1;
-  w3 = GAGEN_GATHER(M, 8, 3);
+  w3 = GAGEN_GATHER(in_M, 8, 3);
   w4 = w3 * w3;
   w2 = w2 + w4;
-  w4 = GAGEN_GATHER(M, 8, 5);
+  w4 = GAGEN_GATHER(in_M, 8, 5);
   w5 = w4 * w4;
   w2 = w2 + w5;
-  w5 = GAGEN_GATHER(M, 8, 6);
+  w5 = GAGEN_GATHER(in_M, 8, 6);
   w6 = w5 * w5;
   w2 = w2 + w6;
   w6 = w0 * w2;
-  w7 = GAGEN_GATHER(M, 8, 7);
-  w8 = GAGEN_GATHER(X, 4, 3);
+  w7 = GAGEN_GATHER(in_M, 8, 7);
+  w8 = GAGEN_GATHER(in_X, 4, 3);
   w7 = w7 * w8;
   w9 = w7 * w3;
-  w10 = GAGEN_GATHER(M, 8, 4);
+  w10 = GAGEN_GATHER(in_M, 8, 4);
   w10 = w10 * w8;
-  w11 = GAGEN_GATHER(X, 4, 1);
+  w11 = GAGEN_GATHER(in_X, 4, 1);
   w12 = w5 * w11;
   w10 = w10 + w12;
-  w12 = GAGEN_GATHER(X, 4, 2);
+  w12 = GAGEN_GATHER(in_X, 4, 2);
   w13 = w4 * w12;
   w10 = w10 - w13;
   w13 = w10 * w1;
   w9 = w9 + w13;
   w13 = w3 * w12;
-  w14 = GAGEN_GATHER(M, 8, 2);
+  w14 = GAGEN_GATHER(in_M, 8, 2);
   w14 = w14 * w8;
   w13 = w13 - w14;
   w14 = w5 * w0;
   w13 = w13 - w14;
   w14 = w13 * w5;
   w9 = w9 + w14;
-  w14 = GAGEN_GATHER(M, 8, 1);
+  w14 = GAGEN_GATHER(in_M, 8, 1);
   w14 = w14 * w8;
   w0 = w4 * w0;
   w14 = w14 + w0;
@@ -1044,7 +1044,7 @@ static void formulas_move_point_block_columns(long gagen_ld, int gagen_stream, c
   w9 = w9 - w0;
   w9 = w9 + w9;
   w6 = w6 + w9;
-  GAGEN_SCATTER(moved, 4, 0, w6);
+  GAGEN_SCATTER(out_moved, 4, 0, w6);
   w11 = w11 * w2;
   w6 = w7 * w4;
   w9 = w13 * w1;
@@ -1055,7 +1055,7 @@ static void formulas_move_point_block_columns(long gagen_ld, int gagen_stream, c
   w6 = w6 - w9;
   w6 = w6 + w6;
   w11 = w11 + w6;
-  GAGEN_SCATTER(moved, 4, 1, w11);
+  GAGEN_SCATTER(out_moved, 4, 1, w11);
   w12 = w12 * w2;
   w7 = w7 * w5;
   w10 = w10 * w4;
@@ -1066,9 +1066,9 @@ static void formulas_move_point_block_columns(long gagen_ld, int gagen_stream, c
   w7 = w7 - w13;
   w7 = w7 + w7;
   w12 = w12 + w7;
-  GAGEN_SCATTER(moved, 4, 2, w12);
+  GAGEN_SCATTER(out_moved, 4, 2, w12);
   w8 = w8 * w2;
-  GAGEN_SCATTER(moved, 4, 3, w8);
+  GAGEN_SCATTER(out_moved, 4, 3, w8);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -1076,14 +1076,14 @@ static void formulas_move_point_block_columns(long gagen_ld, int gagen_stream, c
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void formulas_move_point_batch_columns(long n, long ld, const double *restrict M, const double *restrict X, double *restrict moved) {
-  long s = 0;
+void formulas_move_point_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_M, const double *restrict in_X, double *restrict out_moved) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 4L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    formulas_move_point_block_columns(ld, stream, M + s, X + s, moved + s);
+  const int gagen_stream = gagen_n * 4L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    formulas_move_point_block_columns(gagen_ld, gagen_stream, in_M + gagen_s, in_X + gagen_s, out_moved + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  formulas_move_point_columns_from(s, n, ld, M, X, moved);
+  formulas_move_point_columns_from(gagen_s, gagen_n, gagen_ld, in_M, in_X, out_moved);
 }

@@ -15,8 +15,8 @@
  * Operation counts (flops = mul + add + neg + div; calls listed apart):
  *   four_bar_constraints         mul=40 add=62 neg=3 div=0 cos=1 sin=1 (flops=105)
  *   four_bar_positions           mul=40 add=49 neg=0 div=0 cos=1 sin=1 (flops=89)
- *   four_bar_retract             mul=38 add=20 neg=0 div=0 cos=2 sin=2 (flops=58)
- *   four_bar_newton_step         mul=271 add=234 neg=2 div=36 cos=3 fabs=6 fmax=5 sin=3 sqrt=6 (flops=543)
+ *   four_bar_retract             mul=46 add=24 neg=0 div=18 sqrt=2 (flops=88)
+ *   four_bar_newton_step         mul=116 add=101 neg=0 div=24 cos=1 fabs=6 fmax=5 sin=1 sqrt=2 (flops=241)
  */
 #ifndef GAGEN_FOUR_BAR_H
 #define GAGEN_FOUR_BAR_H
@@ -38,13 +38,13 @@ extern "C" {
 #define FOUR_BAR_CONSTRAINTS_THETA_SIZE 1
 #define FOUR_BAR_CONSTRAINTS_F_SIZE 6
 #define FOUR_BAR_CONSTRAINTS_J_SIZE 36
-void four_bar_constraints(const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT F, double *GAGEN_RESTRICT J);
-void four_bar_constraints_batch(long n, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT F, double *GAGEN_RESTRICT J);
+void four_bar_constraints(const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_F, double *GAGEN_RESTRICT out_J);
+void four_bar_constraints_batch(long gagen_n, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_F, double *GAGEN_RESTRICT out_J);
 void four_bar_constraints_argv(const double *const *arg, double *const *res);
 void four_bar_constraints_batch_argv(long n, const double *const *arg, double *const *res);
-void four_bar_constraints_batch_columns(long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT F, double *GAGEN_RESTRICT J);
+void four_bar_constraints_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_F, double *GAGEN_RESTRICT out_J);
 void four_bar_constraints_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void four_bar_constraints_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT F, double *GAGEN_RESTRICT J);
+void four_bar_constraints_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_F, double *GAGEN_RESTRICT out_J);
 
 /* four_bar: every body point in the world
  *   in  R            [8] coupler_1, coupler_e12, coupler_e1inf, coupler_e2inf, rocker_1, rocker_e12,...
@@ -54,15 +54,15 @@ void four_bar_constraints_columns_from(long s0, long n, long ld, const double *G
 #define FOUR_BAR_POSITIONS_R_SIZE 8
 #define FOUR_BAR_POSITIONS_THETA_SIZE 1
 #define FOUR_BAR_POSITIONS_P_SIZE 14
-void four_bar_positions(const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT P);
-void four_bar_positions_batch(long n, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT P);
+void four_bar_positions(const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_P);
+void four_bar_positions_batch(long gagen_n, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_P);
 void four_bar_positions_argv(const double *const *arg, double *const *res);
 void four_bar_positions_batch_argv(long n, const double *const *arg, double *const *res);
-void four_bar_positions_batch_columns(long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT P);
+void four_bar_positions_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_P);
 void four_bar_positions_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void four_bar_positions_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT P);
+void four_bar_positions_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_P);
 
-/* four_bar: the Newton update R \u2190 T(\u0394t) R(\u0394\u03b8) R of every moving body
+/* four_bar: the Newton update R \u2190 T(\u0394t) C(\u0394\u03b8) R of every moving body
  *   in  R            [8] coupler_1, coupler_e12, coupler_e1inf, coupler_e2inf, rocker_1, rocker_e12,...
  *   in  dB           [6] coupler_w, coupler_x, coupler_y, rocker_w, rocker_x, rocker_y
  *   out R_next       [8] coupler_1, coupler_e12, coupler_e1inf, coupler_e2inf, rocker_1, rocker_e12,...
@@ -70,15 +70,15 @@ void four_bar_positions_columns_from(long s0, long n, long ld, const double *GAG
 #define FOUR_BAR_RETRACT_R_SIZE 8
 #define FOUR_BAR_RETRACT_DB_SIZE 6
 #define FOUR_BAR_RETRACT_R_NEXT_SIZE 8
-void four_bar_retract(const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT dB, double *GAGEN_RESTRICT R_next);
-void four_bar_retract_batch(long n, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT dB, double *GAGEN_RESTRICT R_next);
+void four_bar_retract(const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_dB, double *GAGEN_RESTRICT out_R_next);
+void four_bar_retract_batch(long gagen_n, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_dB, double *GAGEN_RESTRICT out_R_next);
 void four_bar_retract_argv(const double *const *arg, double *const *res);
 void four_bar_retract_batch_argv(long n, const double *const *arg, double *const *res);
-void four_bar_retract_batch_columns(long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT dB, double *GAGEN_RESTRICT R_next);
+void four_bar_retract_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_dB, double *GAGEN_RESTRICT out_R_next);
 void four_bar_retract_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void four_bar_retract_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT dB, double *GAGEN_RESTRICT R_next);
+void four_bar_retract_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_dB, double *GAGEN_RESTRICT out_R_next);
 
-/* four_bar: one Newton step at crank angle theta, and max |F| before it
+/* four_bar: one Newton step at the driver's theta, and max |F| before it
  *   in  R            [8] coupler_1, coupler_e12, coupler_e1inf, coupler_e2inf, rocker_1, rocker_e12,...
  *   in  theta        [1] theta
  *   out R_next       [8] coupler_1, coupler_e12, coupler_e1inf, coupler_e2inf, rocker_1, rocker_e12,...
@@ -88,13 +88,13 @@ void four_bar_retract_columns_from(long s0, long n, long ld, const double *GAGEN
 #define FOUR_BAR_NEWTON_STEP_THETA_SIZE 1
 #define FOUR_BAR_NEWTON_STEP_R_NEXT_SIZE 8
 #define FOUR_BAR_NEWTON_STEP_RESIDUAL_SIZE 1
-void four_bar_newton_step(const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT R_next, double *GAGEN_RESTRICT residual);
-void four_bar_newton_step_batch(long n, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT R_next, double *GAGEN_RESTRICT residual);
+void four_bar_newton_step(const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_R_next, double *GAGEN_RESTRICT out_residual);
+void four_bar_newton_step_batch(long gagen_n, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_R_next, double *GAGEN_RESTRICT out_residual);
 void four_bar_newton_step_argv(const double *const *arg, double *const *res);
 void four_bar_newton_step_batch_argv(long n, const double *const *arg, double *const *res);
-void four_bar_newton_step_batch_columns(long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT R_next, double *GAGEN_RESTRICT residual);
+void four_bar_newton_step_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_R_next, double *GAGEN_RESTRICT out_residual);
 void four_bar_newton_step_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void four_bar_newton_step_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT R_next, double *GAGEN_RESTRICT residual);
+void four_bar_newton_step_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_R_next, double *GAGEN_RESTRICT out_residual);
 
 #ifdef __cplusplus
 }

@@ -216,7 +216,7 @@ static PyObject *run_four_bar_constraints(Kernel *b, PyObject *const *inputs, Py
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT F, double *GAGEN_RESTRICT J))b->kernel)(in[0], in[1], res[0], res[1]);
+  ((void (*)(const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_F, double *GAGEN_RESTRICT out_J))b->kernel)(in[0], in[1], res[0], res[1]);
   return result;
 }
 
@@ -273,7 +273,7 @@ static PyObject *run_four_bar_positions(Kernel *b, PyObject *const *inputs, Py_s
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT P))b->kernel)(in[0], in[1], res[0]);
+  ((void (*)(const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_P))b->kernel)(in[0], in[1], res[0]);
   return result;
 }
 
@@ -330,7 +330,7 @@ static PyObject *run_four_bar_retract(Kernel *b, PyObject *const *inputs, Py_ssi
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT dB, double *GAGEN_RESTRICT R_next))b->kernel)(in[0], in[1], res[0]);
+  ((void (*)(const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_dB, double *GAGEN_RESTRICT out_R_next))b->kernel)(in[0], in[1], res[0]);
   return result;
 }
 
@@ -398,7 +398,7 @@ static PyObject *run_four_bar_newton_step(Kernel *b, PyObject *const *inputs, Py
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT R_next, double *GAGEN_RESTRICT residual))b->kernel)(in[0], in[1], res[0], res[1]);
+  ((void (*)(const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_R_next, double *GAGEN_RESTRICT out_residual))b->kernel)(in[0], in[1], res[0], res[1]);
   return result;
 }
 

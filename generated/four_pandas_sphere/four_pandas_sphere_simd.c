@@ -149,20 +149,20 @@ static inline void gagen_stream_fence(int stream) {
 
 #if GAGEN_SIMD
 /* chain arm0: motor and end point: GAGEN_W consecutive samples at once */
-static void four_pandas_sphere_arm0_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void four_pandas_sphere_arm0_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_sin(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_sin(w7);
   w9 = w6 * w8;
@@ -179,7 +179,7 @@ static void four_pandas_sphere_arm0_fk_block(const double *restrict q, double *r
   w16 = w15 * w8;
   w12 = w12 - w16;
   w12 = w12 + w12;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w1 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w12 * w18;
@@ -206,7 +206,7 @@ static void four_pandas_sphere_arm0_fk_block(const double *restrict q, double *r
   w14 = w14 + w14;
   w11 = w14 * w18;
   w13 = w13 - w11;
-  w9 = GAGEN_GATHER(q, 7, 4);
+  w9 = GAGEN_GATHER(in_q, 7, 4);
   w9 = w1 * w9;
   w16 = gagen_v_cos(w9);
   w10 = w13 * w16;
@@ -229,7 +229,7 @@ static void four_pandas_sphere_arm0_fk_block(const double *restrict q, double *r
   w20 = w20 - w12;
   w12 = w20 * w9;
   w23 = w23 - w12;
-  w14 = GAGEN_GATHER(q, 7, 5);
+  w14 = GAGEN_GATHER(in_q, 7, 5);
   w14 = w1 * w14;
   w15 = gagen_v_cos(w14);
   w11 = w23 * w15;
@@ -253,7 +253,7 @@ static void four_pandas_sphere_arm0_fk_block(const double *restrict q, double *r
   w13 = w13 - w21;
   w21 = w13 * w14;
   w26 = w26 - w21;
-  w19 = GAGEN_GATHER(q, 7, 6);
+  w19 = GAGEN_GATHER(in_q, 7, 6);
   w19 = w1 * w19;
   w20 = gagen_v_cos(w19);
   w22 = w26 * w20;
@@ -268,12 +268,12 @@ static void four_pandas_sphere_arm0_fk_block(const double *restrict q, double *r
   w27 = w10 * w19;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w10 = w10 * w20;
   w26 = w26 * w19;
   w10 = w10 - w26;
   w10 = w0 * w10;
-  GAGEN_SCATTER(M, 8, 1, w10);
+  GAGEN_SCATTER(out_M, 8, 1, w10);
   w23 = w23 + w13;
   w23 = w23 + w6;
   w23 = w23 - w24;
@@ -284,12 +284,12 @@ static void four_pandas_sphere_arm0_fk_block(const double *restrict q, double *r
   w21 = w12 * w19;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w12 = w12 * w20;
   w23 = w23 * w19;
   w12 = w12 - w23;
   w0 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w12 = gagen_v_splat(0.384);
   w23 = w18 * w17;
   w23 = w23 + w23;
@@ -435,14 +435,14 @@ static void four_pandas_sphere_arm0_fk_block(const double *restrict q, double *r
   w26 = w20 * w22;
   w11 = w11 - w26;
   w11 = w1 * w11;
-  GAGEN_SCATTER(M, 8, 4, w11);
+  GAGEN_SCATTER(out_M, 8, 4, w11);
   w11 = w29 * w0;
   w26 = w20 * w10;
   w11 = w11 - w26;
   w26 = w17 * w22;
   w11 = w11 - w26;
   w11 = w1 * w11;
-  GAGEN_SCATTER(M, 8, 5, w11);
+  GAGEN_SCATTER(out_M, 8, 5, w11);
   w11 = w20 * w24;
   w26 = w17 * w0;
   w11 = w11 + w26;
@@ -450,43 +450,43 @@ static void four_pandas_sphere_arm0_fk_block(const double *restrict q, double *r
   w11 = w11 + w22;
   w11 = w1 * w11;
   w11 = -w11;
-  GAGEN_SCATTER(M, 8, 6, w11);
+  GAGEN_SCATTER(out_M, 8, 6, w11);
   w24 = w17 * w24;
   w0 = w20 * w0;
   w24 = w24 - w0;
   w10 = w29 * w10;
   w24 = w24 - w10;
   w24 = w1 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w20);
-  GAGEN_SCATTER(P, 5, 2, w17);
-  GAGEN_SCATTER(P, 5, 3, w29);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w20);
+  GAGEN_SCATTER(out_P, 5, 2, w17);
+  GAGEN_SCATTER(out_P, 5, 3, w29);
   w20 = w20 * w20;
   w17 = w17 * w17;
   w20 = w20 + w17;
   w29 = w29 * w29;
   w20 = w20 + w29;
   w1 = w1 * w20;
-  GAGEN_SCATTER(P, 5, 4, w1);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
 }
 #endif
 
-void four_pandas_sphere_arm0_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void four_pandas_sphere_arm0_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    four_pandas_sphere_arm0_fk_block(q + 7 * s, M + 8 * s, P + 5 * s);
+    four_pandas_sphere_arm0_fk_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    four_pandas_sphere_arm0_fk(q + 7 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    four_pandas_sphere_arm0_fk(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -496,20 +496,20 @@ void four_pandas_sphere_arm0_fk_batch(long n, const double *restrict q, double *
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void four_pandas_sphere_arm0_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void four_pandas_sphere_arm0_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_sin(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_sin(w7);
   w9 = w6 * w8;
@@ -526,7 +526,7 @@ static void four_pandas_sphere_arm0_fk_block_columns(long gagen_ld, int gagen_st
   w16 = w15 * w8;
   w12 = w12 - w16;
   w12 = w12 + w12;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w1 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w12 * w18;
@@ -553,7 +553,7 @@ static void four_pandas_sphere_arm0_fk_block_columns(long gagen_ld, int gagen_st
   w14 = w14 + w14;
   w11 = w14 * w18;
   w13 = w13 - w11;
-  w9 = GAGEN_GATHER(q, 7, 4);
+  w9 = GAGEN_GATHER(in_q, 7, 4);
   w9 = w1 * w9;
   w16 = gagen_v_cos(w9);
   w10 = w13 * w16;
@@ -576,7 +576,7 @@ static void four_pandas_sphere_arm0_fk_block_columns(long gagen_ld, int gagen_st
   w20 = w20 - w12;
   w12 = w20 * w9;
   w23 = w23 - w12;
-  w14 = GAGEN_GATHER(q, 7, 5);
+  w14 = GAGEN_GATHER(in_q, 7, 5);
   w14 = w1 * w14;
   w15 = gagen_v_cos(w14);
   w11 = w23 * w15;
@@ -600,7 +600,7 @@ static void four_pandas_sphere_arm0_fk_block_columns(long gagen_ld, int gagen_st
   w13 = w13 - w21;
   w21 = w13 * w14;
   w26 = w26 - w21;
-  w19 = GAGEN_GATHER(q, 7, 6);
+  w19 = GAGEN_GATHER(in_q, 7, 6);
   w19 = w1 * w19;
   w20 = gagen_v_cos(w19);
   w22 = w26 * w20;
@@ -615,12 +615,12 @@ static void four_pandas_sphere_arm0_fk_block_columns(long gagen_ld, int gagen_st
   w27 = w10 * w19;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w10 = w10 * w20;
   w26 = w26 * w19;
   w10 = w10 - w26;
   w10 = w0 * w10;
-  GAGEN_SCATTER(M, 8, 1, w10);
+  GAGEN_SCATTER(out_M, 8, 1, w10);
   w23 = w23 + w13;
   w23 = w23 + w6;
   w23 = w23 - w24;
@@ -631,12 +631,12 @@ static void four_pandas_sphere_arm0_fk_block_columns(long gagen_ld, int gagen_st
   w21 = w12 * w19;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w12 = w12 * w20;
   w23 = w23 * w19;
   w12 = w12 - w23;
   w0 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w12 = gagen_v_splat(0.384);
   w23 = w18 * w17;
   w23 = w23 + w23;
@@ -782,14 +782,14 @@ static void four_pandas_sphere_arm0_fk_block_columns(long gagen_ld, int gagen_st
   w26 = w20 * w22;
   w11 = w11 - w26;
   w11 = w1 * w11;
-  GAGEN_SCATTER(M, 8, 4, w11);
+  GAGEN_SCATTER(out_M, 8, 4, w11);
   w11 = w29 * w0;
   w26 = w20 * w10;
   w11 = w11 - w26;
   w26 = w17 * w22;
   w11 = w11 - w26;
   w11 = w1 * w11;
-  GAGEN_SCATTER(M, 8, 5, w11);
+  GAGEN_SCATTER(out_M, 8, 5, w11);
   w11 = w20 * w24;
   w26 = w17 * w0;
   w11 = w11 + w26;
@@ -797,26 +797,26 @@ static void four_pandas_sphere_arm0_fk_block_columns(long gagen_ld, int gagen_st
   w11 = w11 + w22;
   w11 = w1 * w11;
   w11 = -w11;
-  GAGEN_SCATTER(M, 8, 6, w11);
+  GAGEN_SCATTER(out_M, 8, 6, w11);
   w24 = w17 * w24;
   w0 = w20 * w0;
   w24 = w24 - w0;
   w10 = w29 * w10;
   w24 = w24 - w10;
   w24 = w1 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w20);
-  GAGEN_SCATTER(P, 5, 2, w17);
-  GAGEN_SCATTER(P, 5, 3, w29);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w20);
+  GAGEN_SCATTER(out_P, 5, 2, w17);
+  GAGEN_SCATTER(out_P, 5, 3, w29);
   w20 = w20 * w20;
   w17 = w17 * w17;
   w20 = w20 + w17;
   w29 = w29 * w29;
   w20 = w20 + w29;
   w1 = w1 * w20;
-  GAGEN_SCATTER(P, 5, 4, w1);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -824,21 +824,21 @@ static void four_pandas_sphere_arm0_fk_block_columns(long gagen_ld, int gagen_st
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void four_pandas_sphere_arm0_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void four_pandas_sphere_arm0_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    four_pandas_sphere_arm0_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    four_pandas_sphere_arm0_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  four_pandas_sphere_arm0_fk_columns_from(s, n, ld, q, M, P);
+  four_pandas_sphere_arm0_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain arm0: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void four_pandas_sphere_arm0_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void four_pandas_sphere_arm0_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -846,14 +846,14 @@ static void four_pandas_sphere_arm0_fk_jacobian_block(const double *restrict q, 
   gagen_v w48, w49, w50;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_sin(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_sin(w7);
   w9 = w6 * w8;
@@ -870,7 +870,7 @@ static void four_pandas_sphere_arm0_fk_jacobian_block(const double *restrict q, 
   w16 = w15 * w8;
   w12 = w12 - w16;
   w12 = w12 + w12;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w1 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w12 * w18;
@@ -897,7 +897,7 @@ static void four_pandas_sphere_arm0_fk_jacobian_block(const double *restrict q, 
   w14 = w14 + w14;
   w11 = w14 * w18;
   w13 = w13 - w11;
-  w9 = GAGEN_GATHER(q, 7, 4);
+  w9 = GAGEN_GATHER(in_q, 7, 4);
   w9 = w1 * w9;
   w16 = gagen_v_cos(w9);
   w10 = w13 * w16;
@@ -920,7 +920,7 @@ static void four_pandas_sphere_arm0_fk_jacobian_block(const double *restrict q, 
   w20 = w20 - w12;
   w12 = w20 * w9;
   w23 = w23 - w12;
-  w14 = GAGEN_GATHER(q, 7, 5);
+  w14 = GAGEN_GATHER(in_q, 7, 5);
   w14 = w1 * w14;
   w15 = gagen_v_cos(w14);
   w11 = w23 * w15;
@@ -944,7 +944,7 @@ static void four_pandas_sphere_arm0_fk_jacobian_block(const double *restrict q, 
   w13 = w13 - w21;
   w21 = w13 * w14;
   w26 = w26 - w21;
-  w19 = GAGEN_GATHER(q, 7, 6);
+  w19 = GAGEN_GATHER(in_q, 7, 6);
   w19 = w1 * w19;
   w20 = gagen_v_cos(w19);
   w22 = w26 * w20;
@@ -959,12 +959,12 @@ static void four_pandas_sphere_arm0_fk_jacobian_block(const double *restrict q, 
   w27 = w10 * w19;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w10 = w10 * w20;
   w26 = w26 * w19;
   w10 = w10 - w26;
   w10 = w0 * w10;
-  GAGEN_SCATTER(M, 8, 1, w10);
+  GAGEN_SCATTER(out_M, 8, 1, w10);
   w23 = w23 + w13;
   w23 = w23 + w6;
   w23 = w23 - w24;
@@ -975,12 +975,12 @@ static void four_pandas_sphere_arm0_fk_jacobian_block(const double *restrict q, 
   w21 = w12 * w19;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w12 = w12 * w20;
   w23 = w23 * w19;
   w12 = w12 - w23;
   w0 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w12 = gagen_v_splat(0.384);
   w23 = w18 * w17;
   w23 = w23 + w23;
@@ -1126,14 +1126,14 @@ static void four_pandas_sphere_arm0_fk_jacobian_block(const double *restrict q, 
   w27 = w35 * w22;
   w31 = w31 - w27;
   w31 = w1 * w31;
-  GAGEN_SCATTER(M, 8, 4, w31);
+  GAGEN_SCATTER(out_M, 8, 4, w31);
   w31 = w41 * w0;
   w27 = w35 * w10;
   w31 = w31 - w27;
   w27 = w37 * w22;
   w31 = w31 - w27;
   w31 = w1 * w31;
-  GAGEN_SCATTER(M, 8, 5, w31);
+  GAGEN_SCATTER(out_M, 8, 5, w31);
   w31 = w35 * w24;
   w27 = w37 * w0;
   w31 = w31 + w27;
@@ -1141,49 +1141,49 @@ static void four_pandas_sphere_arm0_fk_jacobian_block(const double *restrict q, 
   w31 = w31 + w22;
   w31 = w1 * w31;
   w31 = -w31;
-  GAGEN_SCATTER(M, 8, 6, w31);
+  GAGEN_SCATTER(out_M, 8, 6, w31);
   w24 = w37 * w24;
   w0 = w35 * w0;
   w24 = w24 - w0;
   w10 = w41 * w10;
   w24 = w24 - w10;
   w24 = w1 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w35);
-  GAGEN_SCATTER(P, 5, 2, w37);
-  GAGEN_SCATTER(P, 5, 3, w41);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w35);
+  GAGEN_SCATTER(out_P, 5, 2, w37);
+  GAGEN_SCATTER(out_P, 5, 3, w41);
   w35 = w35 * w35;
   w37 = w37 * w37;
   w35 = w35 + w37;
   w41 = w41 * w41;
   w35 = w35 + w41;
   w1 = w1 * w35;
-  GAGEN_SCATTER(P, 5, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 0, w24);
   w24 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w24);
-  GAGEN_SCATTER(J_S, 42, 2, w24);
-  GAGEN_SCATTER(J_S, 42, 3, w24);
+  GAGEN_SCATTER(out_J_S, 42, 1, w24);
+  GAGEN_SCATTER(out_J_S, 42, 2, w24);
+  GAGEN_SCATTER(out_J_S, 42, 3, w24);
   w1 = gagen_v_splat((-0.8));
-  GAGEN_SCATTER(J_S, 42, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 5, w24);
-  GAGEN_SCATTER(J_S, 42, 6, w24);
-  GAGEN_SCATTER(J_S, 42, 7, w2);
-  GAGEN_SCATTER(J_S, 42, 8, w11);
+  GAGEN_SCATTER(out_J_S, 42, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 5, w24);
+  GAGEN_SCATTER(out_J_S, 42, 6, w24);
+  GAGEN_SCATTER(out_J_S, 42, 7, w2);
+  GAGEN_SCATTER(out_J_S, 42, 8, w11);
   w39 = w39 * w2;
-  GAGEN_SCATTER(J_S, 42, 9, w39);
+  GAGEN_SCATTER(out_J_S, 42, 9, w39);
   w39 = gagen_v_splat(0.666);
   w39 = w39 * w25;
-  GAGEN_SCATTER(J_S, 42, 10, w39);
+  GAGEN_SCATTER(out_J_S, 42, 10, w39);
   w47 = w47 * w2;
   w47 = -w47;
-  GAGEN_SCATTER(J_S, 42, 11, w47);
-  GAGEN_SCATTER(J_S, 42, 12, w20);
-  GAGEN_SCATTER(J_S, 42, 13, w13);
+  GAGEN_SCATTER(out_J_S, 42, 11, w47);
+  GAGEN_SCATTER(out_J_S, 42, 12, w20);
+  GAGEN_SCATTER(out_J_S, 42, 13, w13);
   w47 = -w48;
-  GAGEN_SCATTER(J_S, 42, 14, w47);
+  GAGEN_SCATTER(out_J_S, 42, 14, w47);
   w47 = gagen_v_splat(0.1665);
   w2 = gagen_v_splat(0.158);
   w39 = w2 * w20;
@@ -1194,7 +1194,7 @@ static void four_pandas_sphere_arm0_fk_jacobian_block(const double *restrict q, 
   w1 = w1 * w11;
   w1 = w8 * w1;
   w24 = w24 - w1;
-  GAGEN_SCATTER(J_S, 42, 15, w24);
+  GAGEN_SCATTER(out_J_S, 42, 15, w24);
   w24 = gagen_v_splat(0.4);
   w1 = w2 * w48;
   w35 = w24 - w1;
@@ -1203,7 +1203,7 @@ static void four_pandas_sphere_arm0_fk_jacobian_block(const double *restrict q, 
   w20 = w20 + w25;
   w20 = -w20;
   w20 = w20 + w20;
-  GAGEN_SCATTER(J_S, 42, 16, w20);
+  GAGEN_SCATTER(out_J_S, 42, 16, w20);
   w35 = w13 * w35;
   w35 = w35 + w35;
   w48 = w48 * w4;
@@ -1211,14 +1211,14 @@ static void four_pandas_sphere_arm0_fk_jacobian_block(const double *restrict q, 
   w8 = w8 * w48;
   w35 = w35 + w8;
   w35 = -w35;
-  GAGEN_SCATTER(J_S, 42, 17, w35);
+  GAGEN_SCATTER(out_J_S, 42, 17, w35);
   w35 = w7 * w4;
   w8 = -w35;
-  GAGEN_SCATTER(J_S, 42, 18, w8);
+  GAGEN_SCATTER(out_J_S, 42, 18, w8);
   w8 = -w9;
-  GAGEN_SCATTER(J_S, 42, 19, w8);
+  GAGEN_SCATTER(out_J_S, 42, 19, w8);
   w8 = -w34;
-  GAGEN_SCATTER(J_S, 42, 20, w8);
+  GAGEN_SCATTER(out_J_S, 42, 20, w8);
   w8 = gagen_v_splat(0.04125);
   w6 = w8 * w6;
   w2 = w2 * w13;
@@ -1232,7 +1232,7 @@ static void four_pandas_sphere_arm0_fk_jacobian_block(const double *restrict q, 
   w2 = -w2;
   w2 = w2 + w2;
   w2 = -w2;
-  GAGEN_SCATTER(J_S, 42, 21, w2);
+  GAGEN_SCATTER(out_J_S, 42, 21, w2);
   w42 = w34 * w42;
   w8 = w8 * w21;
   w8 = w8 - w24;
@@ -1240,98 +1240,98 @@ static void four_pandas_sphere_arm0_fk_jacobian_block(const double *restrict q, 
   w35 = w35 * w8;
   w42 = w42 - w35;
   w42 = w42 + w42;
-  GAGEN_SCATTER(J_S, 42, 22, w42);
+  GAGEN_SCATTER(out_J_S, 42, 22, w42);
   w8 = w9 * w8;
   w6 = w34 * w6;
   w8 = w8 + w6;
   w8 = -w8;
   w8 = w8 + w8;
-  GAGEN_SCATTER(J_S, 42, 23, w8);
-  GAGEN_SCATTER(J_S, 42, 24, w43);
+  GAGEN_SCATTER(out_J_S, 42, 23, w8);
+  GAGEN_SCATTER(out_J_S, 42, 24, w43);
   w8 = -w3;
-  GAGEN_SCATTER(J_S, 42, 25, w8);
-  GAGEN_SCATTER(J_S, 42, 26, w23);
+  GAGEN_SCATTER(out_J_S, 42, 25, w8);
+  GAGEN_SCATTER(out_J_S, 42, 26, w23);
   w17 = w17 - w29;
   w8 = w43 * w17;
   w6 = w3 * w40;
   w8 = w8 - w6;
-  GAGEN_SCATTER(J_S, 42, 27, w8);
+  GAGEN_SCATTER(out_J_S, 42, 27, w8);
   w8 = w23 * w40;
   w49 = w49 - w38;
   w43 = w43 * w49;
   w8 = w8 - w43;
-  GAGEN_SCATTER(J_S, 42, 28, w8);
+  GAGEN_SCATTER(out_J_S, 42, 28, w8);
   w23 = w23 * w17;
   w3 = w3 * w49;
   w23 = w23 - w3;
   w23 = -w23;
-  GAGEN_SCATTER(J_S, 42, 29, w23);
+  GAGEN_SCATTER(out_J_S, 42, 29, w23);
   w44 = w16 * w44;
   w7 = w14 * w7;
   w7 = w7 * w4;
   w44 = w44 - w7;
-  GAGEN_SCATTER(J_S, 42, 30, w44);
+  GAGEN_SCATTER(out_J_S, 42, 30, w44);
   w32 = w16 * w32;
   w9 = w14 * w9;
   w32 = w32 - w9;
-  GAGEN_SCATTER(J_S, 42, 31, w32);
+  GAGEN_SCATTER(out_J_S, 42, 31, w32);
   w14 = w14 * w34;
   w16 = w16 * w12;
   w14 = w14 + w16;
   w16 = -w14;
-  GAGEN_SCATTER(J_S, 42, 32, w16);
+  GAGEN_SCATTER(out_J_S, 42, 32, w16);
   w16 = w44 * w17;
   w12 = w32 * w40;
   w16 = w16 + w12;
-  GAGEN_SCATTER(J_S, 42, 33, w16);
+  GAGEN_SCATTER(out_J_S, 42, 33, w16);
   w40 = w14 * w40;
   w44 = w44 * w49;
   w40 = w40 + w44;
   w40 = -w40;
-  GAGEN_SCATTER(J_S, 42, 34, w40);
+  GAGEN_SCATTER(out_J_S, 42, 34, w40);
   w32 = w32 * w49;
   w14 = w14 * w17;
   w32 = w32 - w14;
   w32 = -w32;
-  GAGEN_SCATTER(J_S, 42, 35, w32);
+  GAGEN_SCATTER(out_J_S, 42, 35, w32);
   w32 = -w46;
-  GAGEN_SCATTER(J_S, 42, 36, w32);
+  GAGEN_SCATTER(out_J_S, 42, 36, w32);
   w33 = w33 + w36;
-  GAGEN_SCATTER(J_S, 42, 37, w33);
+  GAGEN_SCATTER(out_J_S, 42, 37, w33);
   w36 = -w15;
-  GAGEN_SCATTER(J_S, 42, 38, w36);
+  GAGEN_SCATTER(out_J_S, 42, 38, w36);
   w36 = w33 * w45;
   w28 = w28 - w29;
   w29 = w46 * w28;
   w36 = w36 - w29;
-  GAGEN_SCATTER(J_S, 42, 39, w36);
+  GAGEN_SCATTER(out_J_S, 42, 39, w36);
   w46 = w46 * w26;
   w45 = w15 * w45;
   w46 = w46 - w45;
-  GAGEN_SCATTER(J_S, 42, 40, w46);
+  GAGEN_SCATTER(out_J_S, 42, 40, w46);
   w33 = w33 * w26;
   w15 = w15 * w28;
   w33 = w33 - w15;
   w33 = -w33;
-  GAGEN_SCATTER(J_S, 42, 41, w33);
+  GAGEN_SCATTER(out_J_S, 42, 41, w33);
 }
 #endif
 
-void four_pandas_sphere_arm0_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void four_pandas_sphere_arm0_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 42 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 42 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 42 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 42 * gagen_a + gagen_o, 1, 0);
     }
-    four_pandas_sphere_arm0_fk_jacobian_block(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+    four_pandas_sphere_arm0_fk_jacobian_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    four_pandas_sphere_arm0_fk_jacobian(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    four_pandas_sphere_arm0_fk_jacobian(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 }
 
@@ -1341,7 +1341,7 @@ void four_pandas_sphere_arm0_fk_jacobian_batch(long n, const double *restrict q,
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void four_pandas_sphere_arm0_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void four_pandas_sphere_arm0_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -1349,14 +1349,14 @@ static void four_pandas_sphere_arm0_fk_jacobian_block_columns(long gagen_ld, int
   gagen_v w48, w49, w50;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_sin(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_sin(w7);
   w9 = w6 * w8;
@@ -1373,7 +1373,7 @@ static void four_pandas_sphere_arm0_fk_jacobian_block_columns(long gagen_ld, int
   w16 = w15 * w8;
   w12 = w12 - w16;
   w12 = w12 + w12;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w1 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w12 * w18;
@@ -1400,7 +1400,7 @@ static void four_pandas_sphere_arm0_fk_jacobian_block_columns(long gagen_ld, int
   w14 = w14 + w14;
   w11 = w14 * w18;
   w13 = w13 - w11;
-  w9 = GAGEN_GATHER(q, 7, 4);
+  w9 = GAGEN_GATHER(in_q, 7, 4);
   w9 = w1 * w9;
   w16 = gagen_v_cos(w9);
   w10 = w13 * w16;
@@ -1423,7 +1423,7 @@ static void four_pandas_sphere_arm0_fk_jacobian_block_columns(long gagen_ld, int
   w20 = w20 - w12;
   w12 = w20 * w9;
   w23 = w23 - w12;
-  w14 = GAGEN_GATHER(q, 7, 5);
+  w14 = GAGEN_GATHER(in_q, 7, 5);
   w14 = w1 * w14;
   w15 = gagen_v_cos(w14);
   w11 = w23 * w15;
@@ -1447,7 +1447,7 @@ static void four_pandas_sphere_arm0_fk_jacobian_block_columns(long gagen_ld, int
   w13 = w13 - w21;
   w21 = w13 * w14;
   w26 = w26 - w21;
-  w19 = GAGEN_GATHER(q, 7, 6);
+  w19 = GAGEN_GATHER(in_q, 7, 6);
   w19 = w1 * w19;
   w20 = gagen_v_cos(w19);
   w22 = w26 * w20;
@@ -1462,12 +1462,12 @@ static void four_pandas_sphere_arm0_fk_jacobian_block_columns(long gagen_ld, int
   w27 = w10 * w19;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w10 = w10 * w20;
   w26 = w26 * w19;
   w10 = w10 - w26;
   w10 = w0 * w10;
-  GAGEN_SCATTER(M, 8, 1, w10);
+  GAGEN_SCATTER(out_M, 8, 1, w10);
   w23 = w23 + w13;
   w23 = w23 + w6;
   w23 = w23 - w24;
@@ -1478,12 +1478,12 @@ static void four_pandas_sphere_arm0_fk_jacobian_block_columns(long gagen_ld, int
   w21 = w12 * w19;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w12 = w12 * w20;
   w23 = w23 * w19;
   w12 = w12 - w23;
   w0 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w12 = gagen_v_splat(0.384);
   w23 = w18 * w17;
   w23 = w23 + w23;
@@ -1629,14 +1629,14 @@ static void four_pandas_sphere_arm0_fk_jacobian_block_columns(long gagen_ld, int
   w27 = w35 * w22;
   w31 = w31 - w27;
   w31 = w1 * w31;
-  GAGEN_SCATTER(M, 8, 4, w31);
+  GAGEN_SCATTER(out_M, 8, 4, w31);
   w31 = w41 * w0;
   w27 = w35 * w10;
   w31 = w31 - w27;
   w27 = w37 * w22;
   w31 = w31 - w27;
   w31 = w1 * w31;
-  GAGEN_SCATTER(M, 8, 5, w31);
+  GAGEN_SCATTER(out_M, 8, 5, w31);
   w31 = w35 * w24;
   w27 = w37 * w0;
   w31 = w31 + w27;
@@ -1644,49 +1644,49 @@ static void four_pandas_sphere_arm0_fk_jacobian_block_columns(long gagen_ld, int
   w31 = w31 + w22;
   w31 = w1 * w31;
   w31 = -w31;
-  GAGEN_SCATTER(M, 8, 6, w31);
+  GAGEN_SCATTER(out_M, 8, 6, w31);
   w24 = w37 * w24;
   w0 = w35 * w0;
   w24 = w24 - w0;
   w10 = w41 * w10;
   w24 = w24 - w10;
   w24 = w1 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w35);
-  GAGEN_SCATTER(P, 5, 2, w37);
-  GAGEN_SCATTER(P, 5, 3, w41);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w35);
+  GAGEN_SCATTER(out_P, 5, 2, w37);
+  GAGEN_SCATTER(out_P, 5, 3, w41);
   w35 = w35 * w35;
   w37 = w37 * w37;
   w35 = w35 + w37;
   w41 = w41 * w41;
   w35 = w35 + w41;
   w1 = w1 * w35;
-  GAGEN_SCATTER(P, 5, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 0, w24);
   w24 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w24);
-  GAGEN_SCATTER(J_S, 42, 2, w24);
-  GAGEN_SCATTER(J_S, 42, 3, w24);
+  GAGEN_SCATTER(out_J_S, 42, 1, w24);
+  GAGEN_SCATTER(out_J_S, 42, 2, w24);
+  GAGEN_SCATTER(out_J_S, 42, 3, w24);
   w1 = gagen_v_splat((-0.8));
-  GAGEN_SCATTER(J_S, 42, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 5, w24);
-  GAGEN_SCATTER(J_S, 42, 6, w24);
-  GAGEN_SCATTER(J_S, 42, 7, w2);
-  GAGEN_SCATTER(J_S, 42, 8, w11);
+  GAGEN_SCATTER(out_J_S, 42, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 5, w24);
+  GAGEN_SCATTER(out_J_S, 42, 6, w24);
+  GAGEN_SCATTER(out_J_S, 42, 7, w2);
+  GAGEN_SCATTER(out_J_S, 42, 8, w11);
   w39 = w39 * w2;
-  GAGEN_SCATTER(J_S, 42, 9, w39);
+  GAGEN_SCATTER(out_J_S, 42, 9, w39);
   w39 = gagen_v_splat(0.666);
   w39 = w39 * w25;
-  GAGEN_SCATTER(J_S, 42, 10, w39);
+  GAGEN_SCATTER(out_J_S, 42, 10, w39);
   w47 = w47 * w2;
   w47 = -w47;
-  GAGEN_SCATTER(J_S, 42, 11, w47);
-  GAGEN_SCATTER(J_S, 42, 12, w20);
-  GAGEN_SCATTER(J_S, 42, 13, w13);
+  GAGEN_SCATTER(out_J_S, 42, 11, w47);
+  GAGEN_SCATTER(out_J_S, 42, 12, w20);
+  GAGEN_SCATTER(out_J_S, 42, 13, w13);
   w47 = -w48;
-  GAGEN_SCATTER(J_S, 42, 14, w47);
+  GAGEN_SCATTER(out_J_S, 42, 14, w47);
   w47 = gagen_v_splat(0.1665);
   w2 = gagen_v_splat(0.158);
   w39 = w2 * w20;
@@ -1697,7 +1697,7 @@ static void four_pandas_sphere_arm0_fk_jacobian_block_columns(long gagen_ld, int
   w1 = w1 * w11;
   w1 = w8 * w1;
   w24 = w24 - w1;
-  GAGEN_SCATTER(J_S, 42, 15, w24);
+  GAGEN_SCATTER(out_J_S, 42, 15, w24);
   w24 = gagen_v_splat(0.4);
   w1 = w2 * w48;
   w35 = w24 - w1;
@@ -1706,7 +1706,7 @@ static void four_pandas_sphere_arm0_fk_jacobian_block_columns(long gagen_ld, int
   w20 = w20 + w25;
   w20 = -w20;
   w20 = w20 + w20;
-  GAGEN_SCATTER(J_S, 42, 16, w20);
+  GAGEN_SCATTER(out_J_S, 42, 16, w20);
   w35 = w13 * w35;
   w35 = w35 + w35;
   w48 = w48 * w4;
@@ -1714,14 +1714,14 @@ static void four_pandas_sphere_arm0_fk_jacobian_block_columns(long gagen_ld, int
   w8 = w8 * w48;
   w35 = w35 + w8;
   w35 = -w35;
-  GAGEN_SCATTER(J_S, 42, 17, w35);
+  GAGEN_SCATTER(out_J_S, 42, 17, w35);
   w35 = w7 * w4;
   w8 = -w35;
-  GAGEN_SCATTER(J_S, 42, 18, w8);
+  GAGEN_SCATTER(out_J_S, 42, 18, w8);
   w8 = -w9;
-  GAGEN_SCATTER(J_S, 42, 19, w8);
+  GAGEN_SCATTER(out_J_S, 42, 19, w8);
   w8 = -w34;
-  GAGEN_SCATTER(J_S, 42, 20, w8);
+  GAGEN_SCATTER(out_J_S, 42, 20, w8);
   w8 = gagen_v_splat(0.04125);
   w6 = w8 * w6;
   w2 = w2 * w13;
@@ -1735,7 +1735,7 @@ static void four_pandas_sphere_arm0_fk_jacobian_block_columns(long gagen_ld, int
   w2 = -w2;
   w2 = w2 + w2;
   w2 = -w2;
-  GAGEN_SCATTER(J_S, 42, 21, w2);
+  GAGEN_SCATTER(out_J_S, 42, 21, w2);
   w42 = w34 * w42;
   w8 = w8 * w21;
   w8 = w8 - w24;
@@ -1743,80 +1743,80 @@ static void four_pandas_sphere_arm0_fk_jacobian_block_columns(long gagen_ld, int
   w35 = w35 * w8;
   w42 = w42 - w35;
   w42 = w42 + w42;
-  GAGEN_SCATTER(J_S, 42, 22, w42);
+  GAGEN_SCATTER(out_J_S, 42, 22, w42);
   w8 = w9 * w8;
   w6 = w34 * w6;
   w8 = w8 + w6;
   w8 = -w8;
   w8 = w8 + w8;
-  GAGEN_SCATTER(J_S, 42, 23, w8);
-  GAGEN_SCATTER(J_S, 42, 24, w43);
+  GAGEN_SCATTER(out_J_S, 42, 23, w8);
+  GAGEN_SCATTER(out_J_S, 42, 24, w43);
   w8 = -w3;
-  GAGEN_SCATTER(J_S, 42, 25, w8);
-  GAGEN_SCATTER(J_S, 42, 26, w23);
+  GAGEN_SCATTER(out_J_S, 42, 25, w8);
+  GAGEN_SCATTER(out_J_S, 42, 26, w23);
   w17 = w17 - w29;
   w8 = w43 * w17;
   w6 = w3 * w40;
   w8 = w8 - w6;
-  GAGEN_SCATTER(J_S, 42, 27, w8);
+  GAGEN_SCATTER(out_J_S, 42, 27, w8);
   w8 = w23 * w40;
   w49 = w49 - w38;
   w43 = w43 * w49;
   w8 = w8 - w43;
-  GAGEN_SCATTER(J_S, 42, 28, w8);
+  GAGEN_SCATTER(out_J_S, 42, 28, w8);
   w23 = w23 * w17;
   w3 = w3 * w49;
   w23 = w23 - w3;
   w23 = -w23;
-  GAGEN_SCATTER(J_S, 42, 29, w23);
+  GAGEN_SCATTER(out_J_S, 42, 29, w23);
   w44 = w16 * w44;
   w7 = w14 * w7;
   w7 = w7 * w4;
   w44 = w44 - w7;
-  GAGEN_SCATTER(J_S, 42, 30, w44);
+  GAGEN_SCATTER(out_J_S, 42, 30, w44);
   w32 = w16 * w32;
   w9 = w14 * w9;
   w32 = w32 - w9;
-  GAGEN_SCATTER(J_S, 42, 31, w32);
+  GAGEN_SCATTER(out_J_S, 42, 31, w32);
   w14 = w14 * w34;
   w16 = w16 * w12;
   w14 = w14 + w16;
   w16 = -w14;
-  GAGEN_SCATTER(J_S, 42, 32, w16);
+  GAGEN_SCATTER(out_J_S, 42, 32, w16);
   w16 = w44 * w17;
   w12 = w32 * w40;
   w16 = w16 + w12;
-  GAGEN_SCATTER(J_S, 42, 33, w16);
+  GAGEN_SCATTER(out_J_S, 42, 33, w16);
   w40 = w14 * w40;
   w44 = w44 * w49;
   w40 = w40 + w44;
   w40 = -w40;
-  GAGEN_SCATTER(J_S, 42, 34, w40);
+  GAGEN_SCATTER(out_J_S, 42, 34, w40);
   w32 = w32 * w49;
   w14 = w14 * w17;
   w32 = w32 - w14;
   w32 = -w32;
-  GAGEN_SCATTER(J_S, 42, 35, w32);
+  GAGEN_SCATTER(out_J_S, 42, 35, w32);
   w32 = -w46;
-  GAGEN_SCATTER(J_S, 42, 36, w32);
+  GAGEN_SCATTER(out_J_S, 42, 36, w32);
   w33 = w33 + w36;
-  GAGEN_SCATTER(J_S, 42, 37, w33);
+  GAGEN_SCATTER(out_J_S, 42, 37, w33);
   w36 = -w15;
-  GAGEN_SCATTER(J_S, 42, 38, w36);
+  GAGEN_SCATTER(out_J_S, 42, 38, w36);
   w36 = w33 * w45;
   w28 = w28 - w29;
   w29 = w46 * w28;
   w36 = w36 - w29;
-  GAGEN_SCATTER(J_S, 42, 39, w36);
+  GAGEN_SCATTER(out_J_S, 42, 39, w36);
   w46 = w46 * w26;
   w45 = w15 * w45;
   w46 = w46 - w45;
-  GAGEN_SCATTER(J_S, 42, 40, w46);
+  GAGEN_SCATTER(out_J_S, 42, 40, w46);
   w33 = w33 * w26;
   w15 = w15 * w28;
   w33 = w33 - w15;
   w33 = -w33;
-  GAGEN_SCATTER(J_S, 42, 41, w33);
+  GAGEN_SCATTER(out_J_S, 42, 41, w33);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -1824,36 +1824,36 @@ static void four_pandas_sphere_arm0_fk_jacobian_block_columns(long gagen_ld, int
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void four_pandas_sphere_arm0_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void four_pandas_sphere_arm0_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    four_pandas_sphere_arm0_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    four_pandas_sphere_arm0_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  four_pandas_sphere_arm0_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  four_pandas_sphere_arm0_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }
 
 #if GAGEN_SIMD
 /* chain arm1: motor and end point: GAGEN_W consecutive samples at once */
-static void four_pandas_sphere_arm1_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void four_pandas_sphere_arm1_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31;
   w0 = gagen_v_splat(0.08838834764831845);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
   w2 = gagen_v_cos(w2);
   w4 = w3 - w2;
-  w5 = GAGEN_GATHER(q, 7, 1);
+  w5 = GAGEN_GATHER(in_q, 7, 1);
   w5 = w1 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 7, 2);
+  w8 = GAGEN_GATHER(in_q, 7, 2);
   w8 = w1 * w8;
   w9 = gagen_v_sin(w8);
   w10 = w7 * w9;
@@ -1870,7 +1870,7 @@ static void four_pandas_sphere_arm1_fk_block(const double *restrict q, double *r
   w15 = w4 * w8;
   w14 = w14 - w15;
   w14 = w14 + w14;
-  w16 = GAGEN_GATHER(q, 7, 3);
+  w16 = GAGEN_GATHER(in_q, 7, 3);
   w16 = w1 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -1897,7 +1897,7 @@ static void four_pandas_sphere_arm1_fk_block(const double *restrict q, double *r
   w10 = w10 + w10;
   w15 = w10 * w17;
   w7 = w7 + w15;
-  w13 = GAGEN_GATHER(q, 7, 4);
+  w13 = GAGEN_GATHER(in_q, 7, 4);
   w13 = w1 * w13;
   w11 = gagen_v_cos(w13);
   w20 = w7 * w11;
@@ -1920,7 +1920,7 @@ static void four_pandas_sphere_arm1_fk_block(const double *restrict q, double *r
   w19 = w19 - w14;
   w14 = w19 * w13;
   w23 = w23 - w14;
-  w10 = GAGEN_GATHER(q, 7, 5);
+  w10 = GAGEN_GATHER(in_q, 7, 5);
   w10 = w1 * w10;
   w12 = gagen_v_cos(w10);
   w15 = w23 * w12;
@@ -1944,7 +1944,7 @@ static void four_pandas_sphere_arm1_fk_block(const double *restrict q, double *r
   w7 = w7 - w21;
   w21 = w7 * w10;
   w26 = w26 - w21;
-  w18 = GAGEN_GATHER(q, 7, 6);
+  w18 = GAGEN_GATHER(in_q, 7, 6);
   w18 = w1 * w18;
   w19 = gagen_v_cos(w18);
   w22 = w26 * w19;
@@ -1959,12 +1959,12 @@ static void four_pandas_sphere_arm1_fk_block(const double *restrict q, double *r
   w27 = w20 * w18;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w20 = w20 * w19;
   w26 = w26 * w18;
   w20 = w20 - w26;
   w20 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 1, w20);
+  GAGEN_SCATTER(out_M, 8, 1, w20);
   w23 = w23 + w7;
   w23 = w23 + w4;
   w23 = w23 - w24;
@@ -1975,12 +1975,12 @@ static void four_pandas_sphere_arm1_fk_block(const double *restrict q, double *r
   w21 = w14 * w18;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w14 = w14 * w19;
   w23 = w23 * w18;
   w14 = w14 - w23;
   w0 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w14 = gagen_v_splat(0.8);
   w23 = gagen_v_splat(0.316);
   w18 = w6 * w5;
@@ -2126,14 +2126,14 @@ static void four_pandas_sphere_arm1_fk_block(const double *restrict q, double *r
   w31 = w28 * w22;
   w4 = w4 - w31;
   w4 = w1 * w4;
-  GAGEN_SCATTER(M, 8, 4, w4);
+  GAGEN_SCATTER(out_M, 8, 4, w4);
   w4 = w30 * w0;
   w31 = w28 * w20;
   w4 = w4 - w31;
   w31 = w14 * w22;
   w4 = w4 - w31;
   w4 = w1 * w4;
-  GAGEN_SCATTER(M, 8, 5, w4);
+  GAGEN_SCATTER(out_M, 8, 5, w4);
   w4 = w28 * w24;
   w31 = w14 * w0;
   w4 = w4 + w31;
@@ -2141,43 +2141,43 @@ static void four_pandas_sphere_arm1_fk_block(const double *restrict q, double *r
   w4 = w4 + w22;
   w4 = w1 * w4;
   w4 = -w4;
-  GAGEN_SCATTER(M, 8, 6, w4);
+  GAGEN_SCATTER(out_M, 8, 6, w4);
   w24 = w14 * w24;
   w0 = w28 * w0;
   w24 = w24 - w0;
   w20 = w30 * w20;
   w24 = w24 - w20;
   w24 = w1 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w28);
-  GAGEN_SCATTER(P, 5, 2, w14);
-  GAGEN_SCATTER(P, 5, 3, w30);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w28);
+  GAGEN_SCATTER(out_P, 5, 2, w14);
+  GAGEN_SCATTER(out_P, 5, 3, w30);
   w28 = w28 * w28;
   w14 = w14 * w14;
   w28 = w28 + w14;
   w30 = w30 * w30;
   w28 = w28 + w30;
   w1 = w1 * w28;
-  GAGEN_SCATTER(P, 5, 4, w1);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
 }
 #endif
 
-void four_pandas_sphere_arm1_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void four_pandas_sphere_arm1_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    four_pandas_sphere_arm1_fk_block(q + 7 * s, M + 8 * s, P + 5 * s);
+    four_pandas_sphere_arm1_fk_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    four_pandas_sphere_arm1_fk(q + 7 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    four_pandas_sphere_arm1_fk(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -2187,22 +2187,22 @@ void four_pandas_sphere_arm1_fk_batch(long n, const double *restrict q, double *
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void four_pandas_sphere_arm1_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void four_pandas_sphere_arm1_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31;
   w0 = gagen_v_splat(0.08838834764831845);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
   w2 = gagen_v_cos(w2);
   w4 = w3 - w2;
-  w5 = GAGEN_GATHER(q, 7, 1);
+  w5 = GAGEN_GATHER(in_q, 7, 1);
   w5 = w1 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 7, 2);
+  w8 = GAGEN_GATHER(in_q, 7, 2);
   w8 = w1 * w8;
   w9 = gagen_v_sin(w8);
   w10 = w7 * w9;
@@ -2219,7 +2219,7 @@ static void four_pandas_sphere_arm1_fk_block_columns(long gagen_ld, int gagen_st
   w15 = w4 * w8;
   w14 = w14 - w15;
   w14 = w14 + w14;
-  w16 = GAGEN_GATHER(q, 7, 3);
+  w16 = GAGEN_GATHER(in_q, 7, 3);
   w16 = w1 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -2246,7 +2246,7 @@ static void four_pandas_sphere_arm1_fk_block_columns(long gagen_ld, int gagen_st
   w10 = w10 + w10;
   w15 = w10 * w17;
   w7 = w7 + w15;
-  w13 = GAGEN_GATHER(q, 7, 4);
+  w13 = GAGEN_GATHER(in_q, 7, 4);
   w13 = w1 * w13;
   w11 = gagen_v_cos(w13);
   w20 = w7 * w11;
@@ -2269,7 +2269,7 @@ static void four_pandas_sphere_arm1_fk_block_columns(long gagen_ld, int gagen_st
   w19 = w19 - w14;
   w14 = w19 * w13;
   w23 = w23 - w14;
-  w10 = GAGEN_GATHER(q, 7, 5);
+  w10 = GAGEN_GATHER(in_q, 7, 5);
   w10 = w1 * w10;
   w12 = gagen_v_cos(w10);
   w15 = w23 * w12;
@@ -2293,7 +2293,7 @@ static void four_pandas_sphere_arm1_fk_block_columns(long gagen_ld, int gagen_st
   w7 = w7 - w21;
   w21 = w7 * w10;
   w26 = w26 - w21;
-  w18 = GAGEN_GATHER(q, 7, 6);
+  w18 = GAGEN_GATHER(in_q, 7, 6);
   w18 = w1 * w18;
   w19 = gagen_v_cos(w18);
   w22 = w26 * w19;
@@ -2308,12 +2308,12 @@ static void four_pandas_sphere_arm1_fk_block_columns(long gagen_ld, int gagen_st
   w27 = w20 * w18;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w20 = w20 * w19;
   w26 = w26 * w18;
   w20 = w20 - w26;
   w20 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 1, w20);
+  GAGEN_SCATTER(out_M, 8, 1, w20);
   w23 = w23 + w7;
   w23 = w23 + w4;
   w23 = w23 - w24;
@@ -2324,12 +2324,12 @@ static void four_pandas_sphere_arm1_fk_block_columns(long gagen_ld, int gagen_st
   w21 = w14 * w18;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w14 = w14 * w19;
   w23 = w23 * w18;
   w14 = w14 - w23;
   w0 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w14 = gagen_v_splat(0.8);
   w23 = gagen_v_splat(0.316);
   w18 = w6 * w5;
@@ -2475,14 +2475,14 @@ static void four_pandas_sphere_arm1_fk_block_columns(long gagen_ld, int gagen_st
   w31 = w28 * w22;
   w4 = w4 - w31;
   w4 = w1 * w4;
-  GAGEN_SCATTER(M, 8, 4, w4);
+  GAGEN_SCATTER(out_M, 8, 4, w4);
   w4 = w30 * w0;
   w31 = w28 * w20;
   w4 = w4 - w31;
   w31 = w14 * w22;
   w4 = w4 - w31;
   w4 = w1 * w4;
-  GAGEN_SCATTER(M, 8, 5, w4);
+  GAGEN_SCATTER(out_M, 8, 5, w4);
   w4 = w28 * w24;
   w31 = w14 * w0;
   w4 = w4 + w31;
@@ -2490,26 +2490,26 @@ static void four_pandas_sphere_arm1_fk_block_columns(long gagen_ld, int gagen_st
   w4 = w4 + w22;
   w4 = w1 * w4;
   w4 = -w4;
-  GAGEN_SCATTER(M, 8, 6, w4);
+  GAGEN_SCATTER(out_M, 8, 6, w4);
   w24 = w14 * w24;
   w0 = w28 * w0;
   w24 = w24 - w0;
   w20 = w30 * w20;
   w24 = w24 - w20;
   w24 = w1 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w28);
-  GAGEN_SCATTER(P, 5, 2, w14);
-  GAGEN_SCATTER(P, 5, 3, w30);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w28);
+  GAGEN_SCATTER(out_P, 5, 2, w14);
+  GAGEN_SCATTER(out_P, 5, 3, w30);
   w28 = w28 * w28;
   w14 = w14 * w14;
   w28 = w28 + w14;
   w30 = w30 * w30;
   w28 = w28 + w30;
   w1 = w1 * w28;
-  GAGEN_SCATTER(P, 5, 4, w1);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -2517,21 +2517,21 @@ static void four_pandas_sphere_arm1_fk_block_columns(long gagen_ld, int gagen_st
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void four_pandas_sphere_arm1_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void four_pandas_sphere_arm1_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    four_pandas_sphere_arm1_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    four_pandas_sphere_arm1_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  four_pandas_sphere_arm1_fk_columns_from(s, n, ld, q, M, P);
+  four_pandas_sphere_arm1_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain arm1: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void four_pandas_sphere_arm1_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void four_pandas_sphere_arm1_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -2539,16 +2539,16 @@ static void four_pandas_sphere_arm1_fk_jacobian_block(const double *restrict q, 
   gagen_v w48;
   w0 = gagen_v_splat(0.08838834764831845);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
   w2 = gagen_v_cos(w2);
   w4 = w3 - w2;
-  w5 = GAGEN_GATHER(q, 7, 1);
+  w5 = GAGEN_GATHER(in_q, 7, 1);
   w5 = w1 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 7, 2);
+  w8 = GAGEN_GATHER(in_q, 7, 2);
   w8 = w1 * w8;
   w9 = gagen_v_sin(w8);
   w10 = w7 * w9;
@@ -2565,7 +2565,7 @@ static void four_pandas_sphere_arm1_fk_jacobian_block(const double *restrict q, 
   w15 = w4 * w8;
   w14 = w14 - w15;
   w14 = w14 + w14;
-  w16 = GAGEN_GATHER(q, 7, 3);
+  w16 = GAGEN_GATHER(in_q, 7, 3);
   w16 = w1 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -2592,7 +2592,7 @@ static void four_pandas_sphere_arm1_fk_jacobian_block(const double *restrict q, 
   w10 = w10 + w10;
   w15 = w10 * w17;
   w7 = w7 + w15;
-  w13 = GAGEN_GATHER(q, 7, 4);
+  w13 = GAGEN_GATHER(in_q, 7, 4);
   w13 = w1 * w13;
   w11 = gagen_v_cos(w13);
   w20 = w7 * w11;
@@ -2615,7 +2615,7 @@ static void four_pandas_sphere_arm1_fk_jacobian_block(const double *restrict q, 
   w19 = w19 - w14;
   w14 = w19 * w13;
   w23 = w23 - w14;
-  w10 = GAGEN_GATHER(q, 7, 5);
+  w10 = GAGEN_GATHER(in_q, 7, 5);
   w10 = w1 * w10;
   w12 = gagen_v_cos(w10);
   w15 = w23 * w12;
@@ -2639,7 +2639,7 @@ static void four_pandas_sphere_arm1_fk_jacobian_block(const double *restrict q, 
   w7 = w7 - w21;
   w21 = w7 * w10;
   w26 = w26 - w21;
-  w18 = GAGEN_GATHER(q, 7, 6);
+  w18 = GAGEN_GATHER(in_q, 7, 6);
   w18 = w1 * w18;
   w19 = gagen_v_cos(w18);
   w22 = w26 * w19;
@@ -2654,12 +2654,12 @@ static void four_pandas_sphere_arm1_fk_jacobian_block(const double *restrict q, 
   w27 = w20 * w18;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w20 = w20 * w19;
   w26 = w26 * w18;
   w20 = w20 - w26;
   w20 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 1, w20);
+  GAGEN_SCATTER(out_M, 8, 1, w20);
   w23 = w23 + w7;
   w23 = w23 + w4;
   w23 = w23 - w24;
@@ -2670,12 +2670,12 @@ static void four_pandas_sphere_arm1_fk_jacobian_block(const double *restrict q, 
   w21 = w14 * w18;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w14 = w14 * w19;
   w23 = w23 * w18;
   w14 = w14 - w23;
   w0 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w14 = gagen_v_splat(0.8);
   w23 = gagen_v_splat(0.316);
   w18 = w6 * w5;
@@ -2821,14 +2821,14 @@ static void four_pandas_sphere_arm1_fk_jacobian_block(const double *restrict q, 
   w12 = w10 * w22;
   w34 = w34 - w12;
   w34 = w1 * w34;
-  GAGEN_SCATTER(M, 8, 4, w34);
+  GAGEN_SCATTER(out_M, 8, 4, w34);
   w34 = w42 * w0;
   w12 = w10 * w20;
   w34 = w34 - w12;
   w12 = w38 * w22;
   w34 = w34 - w12;
   w34 = w1 * w34;
-  GAGEN_SCATTER(M, 8, 5, w34);
+  GAGEN_SCATTER(out_M, 8, 5, w34);
   w34 = w10 * w24;
   w12 = w38 * w0;
   w34 = w34 + w12;
@@ -2836,49 +2836,49 @@ static void four_pandas_sphere_arm1_fk_jacobian_block(const double *restrict q, 
   w34 = w34 + w22;
   w34 = w1 * w34;
   w34 = -w34;
-  GAGEN_SCATTER(M, 8, 6, w34);
+  GAGEN_SCATTER(out_M, 8, 6, w34);
   w24 = w38 * w24;
   w0 = w10 * w0;
   w24 = w24 - w0;
   w20 = w42 * w20;
   w24 = w24 - w20;
   w24 = w1 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w10);
-  GAGEN_SCATTER(P, 5, 2, w38);
-  GAGEN_SCATTER(P, 5, 3, w42);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w10);
+  GAGEN_SCATTER(out_P, 5, 2, w38);
+  GAGEN_SCATTER(out_P, 5, 3, w42);
   w10 = w10 * w10;
   w38 = w38 * w38;
   w10 = w10 + w38;
   w42 = w42 * w42;
   w10 = w10 + w42;
   w1 = w1 * w10;
-  GAGEN_SCATTER(P, 5, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 0, w24);
   w24 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w24);
-  GAGEN_SCATTER(J_S, 42, 2, w24);
-  GAGEN_SCATTER(J_S, 42, 3, w14);
-  GAGEN_SCATTER(J_S, 42, 4, w24);
-  GAGEN_SCATTER(J_S, 42, 5, w24);
-  GAGEN_SCATTER(J_S, 42, 6, w24);
+  GAGEN_SCATTER(out_J_S, 42, 1, w24);
+  GAGEN_SCATTER(out_J_S, 42, 2, w24);
+  GAGEN_SCATTER(out_J_S, 42, 3, w14);
+  GAGEN_SCATTER(out_J_S, 42, 4, w24);
+  GAGEN_SCATTER(out_J_S, 42, 5, w24);
+  GAGEN_SCATTER(out_J_S, 42, 6, w24);
   w24 = -w3;
-  GAGEN_SCATTER(J_S, 42, 7, w24);
-  GAGEN_SCATTER(J_S, 42, 8, w19);
+  GAGEN_SCATTER(out_J_S, 42, 7, w24);
+  GAGEN_SCATTER(out_J_S, 42, 8, w19);
   w24 = gagen_v_splat(0.666);
   w24 = w24 * w2;
   w24 = -w24;
-  GAGEN_SCATTER(J_S, 42, 9, w24);
+  GAGEN_SCATTER(out_J_S, 42, 9, w24);
   w40 = w40 * w19;
-  GAGEN_SCATTER(J_S, 42, 10, w40);
+  GAGEN_SCATTER(out_J_S, 42, 10, w40);
   w14 = w14 * w19;
   w14 = -w14;
-  GAGEN_SCATTER(J_S, 42, 11, w14);
-  GAGEN_SCATTER(J_S, 42, 12, w6);
-  GAGEN_SCATTER(J_S, 42, 13, w21);
-  GAGEN_SCATTER(J_S, 42, 14, w30);
+  GAGEN_SCATTER(out_J_S, 42, 11, w14);
+  GAGEN_SCATTER(out_J_S, 42, 12, w6);
+  GAGEN_SCATTER(out_J_S, 42, 13, w21);
+  GAGEN_SCATTER(out_J_S, 42, 14, w30);
   w14 = gagen_v_splat(0.1665);
   w19 = gagen_v_splat(0.158);
   w40 = w19 * w6;
@@ -2890,14 +2890,14 @@ static void four_pandas_sphere_arm1_fk_jacobian_block(const double *restrict q, 
   w38 = w6 * w42;
   w2 = w2 + w38;
   w2 = w2 + w2;
-  GAGEN_SCATTER(J_S, 42, 15, w2);
+  GAGEN_SCATTER(out_J_S, 42, 15, w2);
   w24 = w30 * w24;
   w24 = w24 + w24;
   w6 = w6 * w18;
   w6 = w6 * w3;
   w6 = w23 * w6;
   w24 = w24 - w6;
-  GAGEN_SCATTER(J_S, 42, 16, w24);
+  GAGEN_SCATTER(out_J_S, 42, 16, w24);
   w21 = w21 * w18;
   w21 = w21 * w3;
   w23 = w23 * w21;
@@ -2905,13 +2905,13 @@ static void four_pandas_sphere_arm1_fk_jacobian_block(const double *restrict q, 
   w42 = w42 + w42;
   w23 = w23 + w42;
   w23 = -w23;
-  GAGEN_SCATTER(J_S, 42, 17, w23);
+  GAGEN_SCATTER(out_J_S, 42, 17, w23);
   w23 = w8 * w18;
   w42 = -w23;
-  GAGEN_SCATTER(J_S, 42, 18, w42);
-  GAGEN_SCATTER(J_S, 42, 19, w31);
+  GAGEN_SCATTER(out_J_S, 42, 18, w42);
+  GAGEN_SCATTER(out_J_S, 42, 19, w31);
   w42 = -w7;
-  GAGEN_SCATTER(J_S, 42, 20, w42);
+  GAGEN_SCATTER(out_J_S, 42, 20, w42);
   w42 = gagen_v_splat(0.04125);
   w43 = w42 * w43;
   w43 = w43 - w14;
@@ -2924,7 +2924,7 @@ static void four_pandas_sphere_arm1_fk_jacobian_block(const double *restrict q, 
   w40 = w40 - w10;
   w40 = w40 + w40;
   w40 = -w40;
-  GAGEN_SCATTER(J_S, 42, 21, w40);
+  GAGEN_SCATTER(out_J_S, 42, 21, w40);
   w19 = w19 * w30;
   w42 = w42 * w5;
   w19 = w19 + w42;
@@ -2932,96 +2932,96 @@ static void four_pandas_sphere_arm1_fk_jacobian_block(const double *restrict q, 
   w43 = w7 * w43;
   w23 = w23 + w43;
   w23 = w23 + w23;
-  GAGEN_SCATTER(J_S, 42, 22, w23);
+  GAGEN_SCATTER(out_J_S, 42, 22, w23);
   w19 = w31 * w19;
   w26 = w7 * w26;
   w19 = w19 + w26;
   w19 = -w19;
   w19 = w19 + w19;
-  GAGEN_SCATTER(J_S, 42, 23, w19);
-  GAGEN_SCATTER(J_S, 42, 24, w44);
+  GAGEN_SCATTER(out_J_S, 42, 23, w19);
+  GAGEN_SCATTER(out_J_S, 42, 24, w44);
   w19 = -w9;
-  GAGEN_SCATTER(J_S, 42, 25, w19);
-  GAGEN_SCATTER(J_S, 42, 26, w16);
+  GAGEN_SCATTER(out_J_S, 42, 25, w19);
+  GAGEN_SCATTER(out_J_S, 42, 26, w16);
   w25 = w25 - w13;
   w19 = w44 * w25;
   w26 = w9 * w41;
   w19 = w19 - w26;
-  GAGEN_SCATTER(J_S, 42, 27, w19);
+  GAGEN_SCATTER(out_J_S, 42, 27, w19);
   w19 = w16 * w41;
   w39 = w39 + w15;
   w44 = w44 * w39;
   w19 = w19 - w44;
-  GAGEN_SCATTER(J_S, 42, 28, w19);
+  GAGEN_SCATTER(out_J_S, 42, 28, w19);
   w16 = w16 * w25;
   w9 = w9 * w39;
   w16 = w16 - w9;
   w16 = -w16;
-  GAGEN_SCATTER(J_S, 42, 29, w16);
+  GAGEN_SCATTER(out_J_S, 42, 29, w16);
   w45 = w29 * w45;
   w8 = w11 * w8;
   w8 = w8 * w18;
   w45 = w45 - w8;
-  GAGEN_SCATTER(J_S, 42, 30, w45);
+  GAGEN_SCATTER(out_J_S, 42, 30, w45);
   w35 = w29 * w35;
   w31 = w11 * w31;
   w35 = w35 + w31;
-  GAGEN_SCATTER(J_S, 42, 31, w35);
+  GAGEN_SCATTER(out_J_S, 42, 31, w35);
   w29 = w29 * w17;
   w11 = w11 * w7;
   w29 = w29 - w11;
-  GAGEN_SCATTER(J_S, 42, 32, w29);
+  GAGEN_SCATTER(out_J_S, 42, 32, w29);
   w11 = w45 * w25;
   w7 = w35 * w41;
   w11 = w11 + w7;
-  GAGEN_SCATTER(J_S, 42, 33, w11);
+  GAGEN_SCATTER(out_J_S, 42, 33, w11);
   w41 = w29 * w41;
   w45 = w45 * w39;
   w41 = w41 - w45;
-  GAGEN_SCATTER(J_S, 42, 34, w41);
+  GAGEN_SCATTER(out_J_S, 42, 34, w41);
   w35 = w35 * w39;
   w29 = w29 * w25;
   w35 = w35 + w29;
   w35 = -w35;
-  GAGEN_SCATTER(J_S, 42, 35, w35);
+  GAGEN_SCATTER(out_J_S, 42, 35, w35);
   w35 = -w47;
-  GAGEN_SCATTER(J_S, 42, 36, w35);
+  GAGEN_SCATTER(out_J_S, 42, 36, w35);
   w37 = w37 - w32;
-  GAGEN_SCATTER(J_S, 42, 37, w37);
+  GAGEN_SCATTER(out_J_S, 42, 37, w37);
   w32 = -w28;
-  GAGEN_SCATTER(J_S, 42, 38, w32);
+  GAGEN_SCATTER(out_J_S, 42, 38, w32);
   w32 = w37 * w46;
   w36 = w36 - w13;
   w13 = w47 * w36;
   w32 = w32 - w13;
-  GAGEN_SCATTER(J_S, 42, 39, w32);
+  GAGEN_SCATTER(out_J_S, 42, 39, w32);
   w47 = w47 * w27;
   w46 = w28 * w46;
   w47 = w47 - w46;
-  GAGEN_SCATTER(J_S, 42, 40, w47);
+  GAGEN_SCATTER(out_J_S, 42, 40, w47);
   w37 = w37 * w27;
   w28 = w28 * w36;
   w37 = w37 - w28;
   w37 = -w37;
-  GAGEN_SCATTER(J_S, 42, 41, w37);
+  GAGEN_SCATTER(out_J_S, 42, 41, w37);
 }
 #endif
 
-void four_pandas_sphere_arm1_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void four_pandas_sphere_arm1_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 42 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 42 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 42 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 42 * gagen_a + gagen_o, 1, 0);
     }
-    four_pandas_sphere_arm1_fk_jacobian_block(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+    four_pandas_sphere_arm1_fk_jacobian_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    four_pandas_sphere_arm1_fk_jacobian(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    four_pandas_sphere_arm1_fk_jacobian(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 }
 
@@ -3031,7 +3031,7 @@ void four_pandas_sphere_arm1_fk_jacobian_batch(long n, const double *restrict q,
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void four_pandas_sphere_arm1_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void four_pandas_sphere_arm1_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -3039,16 +3039,16 @@ static void four_pandas_sphere_arm1_fk_jacobian_block_columns(long gagen_ld, int
   gagen_v w48;
   w0 = gagen_v_splat(0.08838834764831845);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
   w2 = gagen_v_cos(w2);
   w4 = w3 - w2;
-  w5 = GAGEN_GATHER(q, 7, 1);
+  w5 = GAGEN_GATHER(in_q, 7, 1);
   w5 = w1 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 7, 2);
+  w8 = GAGEN_GATHER(in_q, 7, 2);
   w8 = w1 * w8;
   w9 = gagen_v_sin(w8);
   w10 = w7 * w9;
@@ -3065,7 +3065,7 @@ static void four_pandas_sphere_arm1_fk_jacobian_block_columns(long gagen_ld, int
   w15 = w4 * w8;
   w14 = w14 - w15;
   w14 = w14 + w14;
-  w16 = GAGEN_GATHER(q, 7, 3);
+  w16 = GAGEN_GATHER(in_q, 7, 3);
   w16 = w1 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -3092,7 +3092,7 @@ static void four_pandas_sphere_arm1_fk_jacobian_block_columns(long gagen_ld, int
   w10 = w10 + w10;
   w15 = w10 * w17;
   w7 = w7 + w15;
-  w13 = GAGEN_GATHER(q, 7, 4);
+  w13 = GAGEN_GATHER(in_q, 7, 4);
   w13 = w1 * w13;
   w11 = gagen_v_cos(w13);
   w20 = w7 * w11;
@@ -3115,7 +3115,7 @@ static void four_pandas_sphere_arm1_fk_jacobian_block_columns(long gagen_ld, int
   w19 = w19 - w14;
   w14 = w19 * w13;
   w23 = w23 - w14;
-  w10 = GAGEN_GATHER(q, 7, 5);
+  w10 = GAGEN_GATHER(in_q, 7, 5);
   w10 = w1 * w10;
   w12 = gagen_v_cos(w10);
   w15 = w23 * w12;
@@ -3139,7 +3139,7 @@ static void four_pandas_sphere_arm1_fk_jacobian_block_columns(long gagen_ld, int
   w7 = w7 - w21;
   w21 = w7 * w10;
   w26 = w26 - w21;
-  w18 = GAGEN_GATHER(q, 7, 6);
+  w18 = GAGEN_GATHER(in_q, 7, 6);
   w18 = w1 * w18;
   w19 = gagen_v_cos(w18);
   w22 = w26 * w19;
@@ -3154,12 +3154,12 @@ static void four_pandas_sphere_arm1_fk_jacobian_block_columns(long gagen_ld, int
   w27 = w20 * w18;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w20 = w20 * w19;
   w26 = w26 * w18;
   w20 = w20 - w26;
   w20 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 1, w20);
+  GAGEN_SCATTER(out_M, 8, 1, w20);
   w23 = w23 + w7;
   w23 = w23 + w4;
   w23 = w23 - w24;
@@ -3170,12 +3170,12 @@ static void four_pandas_sphere_arm1_fk_jacobian_block_columns(long gagen_ld, int
   w21 = w14 * w18;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w14 = w14 * w19;
   w23 = w23 * w18;
   w14 = w14 - w23;
   w0 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w14 = gagen_v_splat(0.8);
   w23 = gagen_v_splat(0.316);
   w18 = w6 * w5;
@@ -3321,14 +3321,14 @@ static void four_pandas_sphere_arm1_fk_jacobian_block_columns(long gagen_ld, int
   w12 = w10 * w22;
   w34 = w34 - w12;
   w34 = w1 * w34;
-  GAGEN_SCATTER(M, 8, 4, w34);
+  GAGEN_SCATTER(out_M, 8, 4, w34);
   w34 = w42 * w0;
   w12 = w10 * w20;
   w34 = w34 - w12;
   w12 = w38 * w22;
   w34 = w34 - w12;
   w34 = w1 * w34;
-  GAGEN_SCATTER(M, 8, 5, w34);
+  GAGEN_SCATTER(out_M, 8, 5, w34);
   w34 = w10 * w24;
   w12 = w38 * w0;
   w34 = w34 + w12;
@@ -3336,49 +3336,49 @@ static void four_pandas_sphere_arm1_fk_jacobian_block_columns(long gagen_ld, int
   w34 = w34 + w22;
   w34 = w1 * w34;
   w34 = -w34;
-  GAGEN_SCATTER(M, 8, 6, w34);
+  GAGEN_SCATTER(out_M, 8, 6, w34);
   w24 = w38 * w24;
   w0 = w10 * w0;
   w24 = w24 - w0;
   w20 = w42 * w20;
   w24 = w24 - w20;
   w24 = w1 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w10);
-  GAGEN_SCATTER(P, 5, 2, w38);
-  GAGEN_SCATTER(P, 5, 3, w42);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w10);
+  GAGEN_SCATTER(out_P, 5, 2, w38);
+  GAGEN_SCATTER(out_P, 5, 3, w42);
   w10 = w10 * w10;
   w38 = w38 * w38;
   w10 = w10 + w38;
   w42 = w42 * w42;
   w10 = w10 + w42;
   w1 = w1 * w10;
-  GAGEN_SCATTER(P, 5, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 0, w24);
   w24 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w24);
-  GAGEN_SCATTER(J_S, 42, 2, w24);
-  GAGEN_SCATTER(J_S, 42, 3, w14);
-  GAGEN_SCATTER(J_S, 42, 4, w24);
-  GAGEN_SCATTER(J_S, 42, 5, w24);
-  GAGEN_SCATTER(J_S, 42, 6, w24);
+  GAGEN_SCATTER(out_J_S, 42, 1, w24);
+  GAGEN_SCATTER(out_J_S, 42, 2, w24);
+  GAGEN_SCATTER(out_J_S, 42, 3, w14);
+  GAGEN_SCATTER(out_J_S, 42, 4, w24);
+  GAGEN_SCATTER(out_J_S, 42, 5, w24);
+  GAGEN_SCATTER(out_J_S, 42, 6, w24);
   w24 = -w3;
-  GAGEN_SCATTER(J_S, 42, 7, w24);
-  GAGEN_SCATTER(J_S, 42, 8, w19);
+  GAGEN_SCATTER(out_J_S, 42, 7, w24);
+  GAGEN_SCATTER(out_J_S, 42, 8, w19);
   w24 = gagen_v_splat(0.666);
   w24 = w24 * w2;
   w24 = -w24;
-  GAGEN_SCATTER(J_S, 42, 9, w24);
+  GAGEN_SCATTER(out_J_S, 42, 9, w24);
   w40 = w40 * w19;
-  GAGEN_SCATTER(J_S, 42, 10, w40);
+  GAGEN_SCATTER(out_J_S, 42, 10, w40);
   w14 = w14 * w19;
   w14 = -w14;
-  GAGEN_SCATTER(J_S, 42, 11, w14);
-  GAGEN_SCATTER(J_S, 42, 12, w6);
-  GAGEN_SCATTER(J_S, 42, 13, w21);
-  GAGEN_SCATTER(J_S, 42, 14, w30);
+  GAGEN_SCATTER(out_J_S, 42, 11, w14);
+  GAGEN_SCATTER(out_J_S, 42, 12, w6);
+  GAGEN_SCATTER(out_J_S, 42, 13, w21);
+  GAGEN_SCATTER(out_J_S, 42, 14, w30);
   w14 = gagen_v_splat(0.1665);
   w19 = gagen_v_splat(0.158);
   w40 = w19 * w6;
@@ -3390,14 +3390,14 @@ static void four_pandas_sphere_arm1_fk_jacobian_block_columns(long gagen_ld, int
   w38 = w6 * w42;
   w2 = w2 + w38;
   w2 = w2 + w2;
-  GAGEN_SCATTER(J_S, 42, 15, w2);
+  GAGEN_SCATTER(out_J_S, 42, 15, w2);
   w24 = w30 * w24;
   w24 = w24 + w24;
   w6 = w6 * w18;
   w6 = w6 * w3;
   w6 = w23 * w6;
   w24 = w24 - w6;
-  GAGEN_SCATTER(J_S, 42, 16, w24);
+  GAGEN_SCATTER(out_J_S, 42, 16, w24);
   w21 = w21 * w18;
   w21 = w21 * w3;
   w23 = w23 * w21;
@@ -3405,13 +3405,13 @@ static void four_pandas_sphere_arm1_fk_jacobian_block_columns(long gagen_ld, int
   w42 = w42 + w42;
   w23 = w23 + w42;
   w23 = -w23;
-  GAGEN_SCATTER(J_S, 42, 17, w23);
+  GAGEN_SCATTER(out_J_S, 42, 17, w23);
   w23 = w8 * w18;
   w42 = -w23;
-  GAGEN_SCATTER(J_S, 42, 18, w42);
-  GAGEN_SCATTER(J_S, 42, 19, w31);
+  GAGEN_SCATTER(out_J_S, 42, 18, w42);
+  GAGEN_SCATTER(out_J_S, 42, 19, w31);
   w42 = -w7;
-  GAGEN_SCATTER(J_S, 42, 20, w42);
+  GAGEN_SCATTER(out_J_S, 42, 20, w42);
   w42 = gagen_v_splat(0.04125);
   w43 = w42 * w43;
   w43 = w43 - w14;
@@ -3424,7 +3424,7 @@ static void four_pandas_sphere_arm1_fk_jacobian_block_columns(long gagen_ld, int
   w40 = w40 - w10;
   w40 = w40 + w40;
   w40 = -w40;
-  GAGEN_SCATTER(J_S, 42, 21, w40);
+  GAGEN_SCATTER(out_J_S, 42, 21, w40);
   w19 = w19 * w30;
   w42 = w42 * w5;
   w19 = w19 + w42;
@@ -3432,78 +3432,78 @@ static void four_pandas_sphere_arm1_fk_jacobian_block_columns(long gagen_ld, int
   w43 = w7 * w43;
   w23 = w23 + w43;
   w23 = w23 + w23;
-  GAGEN_SCATTER(J_S, 42, 22, w23);
+  GAGEN_SCATTER(out_J_S, 42, 22, w23);
   w19 = w31 * w19;
   w26 = w7 * w26;
   w19 = w19 + w26;
   w19 = -w19;
   w19 = w19 + w19;
-  GAGEN_SCATTER(J_S, 42, 23, w19);
-  GAGEN_SCATTER(J_S, 42, 24, w44);
+  GAGEN_SCATTER(out_J_S, 42, 23, w19);
+  GAGEN_SCATTER(out_J_S, 42, 24, w44);
   w19 = -w9;
-  GAGEN_SCATTER(J_S, 42, 25, w19);
-  GAGEN_SCATTER(J_S, 42, 26, w16);
+  GAGEN_SCATTER(out_J_S, 42, 25, w19);
+  GAGEN_SCATTER(out_J_S, 42, 26, w16);
   w25 = w25 - w13;
   w19 = w44 * w25;
   w26 = w9 * w41;
   w19 = w19 - w26;
-  GAGEN_SCATTER(J_S, 42, 27, w19);
+  GAGEN_SCATTER(out_J_S, 42, 27, w19);
   w19 = w16 * w41;
   w39 = w39 + w15;
   w44 = w44 * w39;
   w19 = w19 - w44;
-  GAGEN_SCATTER(J_S, 42, 28, w19);
+  GAGEN_SCATTER(out_J_S, 42, 28, w19);
   w16 = w16 * w25;
   w9 = w9 * w39;
   w16 = w16 - w9;
   w16 = -w16;
-  GAGEN_SCATTER(J_S, 42, 29, w16);
+  GAGEN_SCATTER(out_J_S, 42, 29, w16);
   w45 = w29 * w45;
   w8 = w11 * w8;
   w8 = w8 * w18;
   w45 = w45 - w8;
-  GAGEN_SCATTER(J_S, 42, 30, w45);
+  GAGEN_SCATTER(out_J_S, 42, 30, w45);
   w35 = w29 * w35;
   w31 = w11 * w31;
   w35 = w35 + w31;
-  GAGEN_SCATTER(J_S, 42, 31, w35);
+  GAGEN_SCATTER(out_J_S, 42, 31, w35);
   w29 = w29 * w17;
   w11 = w11 * w7;
   w29 = w29 - w11;
-  GAGEN_SCATTER(J_S, 42, 32, w29);
+  GAGEN_SCATTER(out_J_S, 42, 32, w29);
   w11 = w45 * w25;
   w7 = w35 * w41;
   w11 = w11 + w7;
-  GAGEN_SCATTER(J_S, 42, 33, w11);
+  GAGEN_SCATTER(out_J_S, 42, 33, w11);
   w41 = w29 * w41;
   w45 = w45 * w39;
   w41 = w41 - w45;
-  GAGEN_SCATTER(J_S, 42, 34, w41);
+  GAGEN_SCATTER(out_J_S, 42, 34, w41);
   w35 = w35 * w39;
   w29 = w29 * w25;
   w35 = w35 + w29;
   w35 = -w35;
-  GAGEN_SCATTER(J_S, 42, 35, w35);
+  GAGEN_SCATTER(out_J_S, 42, 35, w35);
   w35 = -w47;
-  GAGEN_SCATTER(J_S, 42, 36, w35);
+  GAGEN_SCATTER(out_J_S, 42, 36, w35);
   w37 = w37 - w32;
-  GAGEN_SCATTER(J_S, 42, 37, w37);
+  GAGEN_SCATTER(out_J_S, 42, 37, w37);
   w32 = -w28;
-  GAGEN_SCATTER(J_S, 42, 38, w32);
+  GAGEN_SCATTER(out_J_S, 42, 38, w32);
   w32 = w37 * w46;
   w36 = w36 - w13;
   w13 = w47 * w36;
   w32 = w32 - w13;
-  GAGEN_SCATTER(J_S, 42, 39, w32);
+  GAGEN_SCATTER(out_J_S, 42, 39, w32);
   w47 = w47 * w27;
   w46 = w28 * w46;
   w47 = w47 - w46;
-  GAGEN_SCATTER(J_S, 42, 40, w47);
+  GAGEN_SCATTER(out_J_S, 42, 40, w47);
   w37 = w37 * w27;
   w28 = w28 * w36;
   w37 = w37 - w28;
   w37 = -w37;
-  GAGEN_SCATTER(J_S, 42, 41, w37);
+  GAGEN_SCATTER(out_J_S, 42, 41, w37);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -3511,34 +3511,34 @@ static void four_pandas_sphere_arm1_fk_jacobian_block_columns(long gagen_ld, int
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void four_pandas_sphere_arm1_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void four_pandas_sphere_arm1_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    four_pandas_sphere_arm1_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    four_pandas_sphere_arm1_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  four_pandas_sphere_arm1_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  four_pandas_sphere_arm1_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }
 
 #if GAGEN_SIMD
 /* chain arm2: motor and end point: GAGEN_W consecutive samples at once */
-static void four_pandas_sphere_arm2_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void four_pandas_sphere_arm2_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_sin(w7);
   w9 = w6 * w8;
@@ -3555,7 +3555,7 @@ static void four_pandas_sphere_arm2_fk_block(const double *restrict q, double *r
   w16 = w15 * w7;
   w12 = w12 - w16;
   w12 = w12 + w12;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w1 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w12 * w18;
@@ -3581,7 +3581,7 @@ static void four_pandas_sphere_arm2_fk_block(const double *restrict q, double *r
   w14 = w14 + w14;
   w16 = w14 * w18;
   w10 = w10 - w16;
-  w9 = GAGEN_GATHER(q, 7, 4);
+  w9 = GAGEN_GATHER(in_q, 7, 4);
   w9 = w1 * w9;
   w11 = gagen_v_cos(w9);
   w20 = w10 * w11;
@@ -3604,7 +3604,7 @@ static void four_pandas_sphere_arm2_fk_block(const double *restrict q, double *r
   w6 = w6 - w12;
   w12 = w6 * w9;
   w23 = w23 - w12;
-  w14 = GAGEN_GATHER(q, 7, 5);
+  w14 = GAGEN_GATHER(in_q, 7, 5);
   w14 = w1 * w14;
   w13 = gagen_v_cos(w14);
   w16 = w23 * w13;
@@ -3628,7 +3628,7 @@ static void four_pandas_sphere_arm2_fk_block(const double *restrict q, double *r
   w10 = w10 - w21;
   w21 = w10 * w14;
   w26 = w26 - w21;
-  w19 = GAGEN_GATHER(q, 7, 6);
+  w19 = GAGEN_GATHER(in_q, 7, 6);
   w19 = w1 * w19;
   w6 = gagen_v_cos(w19);
   w22 = w26 * w6;
@@ -3643,12 +3643,12 @@ static void four_pandas_sphere_arm2_fk_block(const double *restrict q, double *r
   w27 = w20 * w19;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w20 = w20 * w6;
   w26 = w26 * w19;
   w20 = w20 - w26;
   w20 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 1, w20);
+  GAGEN_SCATTER(out_M, 8, 1, w20);
   w23 = w23 + w10;
   w23 = w23 + w15;
   w23 = w23 - w24;
@@ -3659,12 +3659,12 @@ static void four_pandas_sphere_arm2_fk_block(const double *restrict q, double *r
   w21 = w12 * w19;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w12 = w12 * w6;
   w23 = w23 * w19;
   w12 = w12 - w23;
   w0 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w12 = gagen_v_splat(0.0825);
   w23 = w7 * w7;
   w19 = w8 * w8;
@@ -3811,14 +3811,14 @@ static void four_pandas_sphere_arm2_fk_block(const double *restrict q, double *r
   w9 = w12 * w22;
   w17 = w17 - w9;
   w17 = w1 * w17;
-  GAGEN_SCATTER(M, 8, 4, w17);
+  GAGEN_SCATTER(out_M, 8, 4, w17);
   w17 = w26 * w0;
   w9 = w12 * w20;
   w17 = w17 - w9;
   w9 = w16 * w22;
   w17 = w17 - w9;
   w17 = w1 * w17;
-  GAGEN_SCATTER(M, 8, 5, w17);
+  GAGEN_SCATTER(out_M, 8, 5, w17);
   w17 = w12 * w24;
   w9 = w16 * w0;
   w17 = w17 + w9;
@@ -3826,43 +3826,43 @@ static void four_pandas_sphere_arm2_fk_block(const double *restrict q, double *r
   w17 = w17 + w22;
   w17 = w1 * w17;
   w17 = -w17;
-  GAGEN_SCATTER(M, 8, 6, w17);
+  GAGEN_SCATTER(out_M, 8, 6, w17);
   w24 = w16 * w24;
   w0 = w12 * w0;
   w24 = w24 - w0;
   w20 = w26 * w20;
   w24 = w24 - w20;
   w24 = w1 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w12);
-  GAGEN_SCATTER(P, 5, 2, w16);
-  GAGEN_SCATTER(P, 5, 3, w26);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w12);
+  GAGEN_SCATTER(out_P, 5, 2, w16);
+  GAGEN_SCATTER(out_P, 5, 3, w26);
   w12 = w12 * w12;
   w16 = w16 * w16;
   w12 = w12 + w16;
   w26 = w26 * w26;
   w12 = w12 + w26;
   w1 = w1 * w12;
-  GAGEN_SCATTER(P, 5, 4, w1);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
 }
 #endif
 
-void four_pandas_sphere_arm2_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void four_pandas_sphere_arm2_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    four_pandas_sphere_arm2_fk_block(q + 7 * s, M + 8 * s, P + 5 * s);
+    four_pandas_sphere_arm2_fk_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    four_pandas_sphere_arm2_fk(q + 7 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    four_pandas_sphere_arm2_fk(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -3872,20 +3872,20 @@ void four_pandas_sphere_arm2_fk_batch(long n, const double *restrict q, double *
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void four_pandas_sphere_arm2_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void four_pandas_sphere_arm2_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_sin(w7);
   w9 = w6 * w8;
@@ -3902,7 +3902,7 @@ static void four_pandas_sphere_arm2_fk_block_columns(long gagen_ld, int gagen_st
   w16 = w15 * w7;
   w12 = w12 - w16;
   w12 = w12 + w12;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w1 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w12 * w18;
@@ -3928,7 +3928,7 @@ static void four_pandas_sphere_arm2_fk_block_columns(long gagen_ld, int gagen_st
   w14 = w14 + w14;
   w16 = w14 * w18;
   w10 = w10 - w16;
-  w9 = GAGEN_GATHER(q, 7, 4);
+  w9 = GAGEN_GATHER(in_q, 7, 4);
   w9 = w1 * w9;
   w11 = gagen_v_cos(w9);
   w20 = w10 * w11;
@@ -3951,7 +3951,7 @@ static void four_pandas_sphere_arm2_fk_block_columns(long gagen_ld, int gagen_st
   w6 = w6 - w12;
   w12 = w6 * w9;
   w23 = w23 - w12;
-  w14 = GAGEN_GATHER(q, 7, 5);
+  w14 = GAGEN_GATHER(in_q, 7, 5);
   w14 = w1 * w14;
   w13 = gagen_v_cos(w14);
   w16 = w23 * w13;
@@ -3975,7 +3975,7 @@ static void four_pandas_sphere_arm2_fk_block_columns(long gagen_ld, int gagen_st
   w10 = w10 - w21;
   w21 = w10 * w14;
   w26 = w26 - w21;
-  w19 = GAGEN_GATHER(q, 7, 6);
+  w19 = GAGEN_GATHER(in_q, 7, 6);
   w19 = w1 * w19;
   w6 = gagen_v_cos(w19);
   w22 = w26 * w6;
@@ -3990,12 +3990,12 @@ static void four_pandas_sphere_arm2_fk_block_columns(long gagen_ld, int gagen_st
   w27 = w20 * w19;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w20 = w20 * w6;
   w26 = w26 * w19;
   w20 = w20 - w26;
   w20 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 1, w20);
+  GAGEN_SCATTER(out_M, 8, 1, w20);
   w23 = w23 + w10;
   w23 = w23 + w15;
   w23 = w23 - w24;
@@ -4006,12 +4006,12 @@ static void four_pandas_sphere_arm2_fk_block_columns(long gagen_ld, int gagen_st
   w21 = w12 * w19;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w12 = w12 * w6;
   w23 = w23 * w19;
   w12 = w12 - w23;
   w0 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w12 = gagen_v_splat(0.0825);
   w23 = w7 * w7;
   w19 = w8 * w8;
@@ -4158,14 +4158,14 @@ static void four_pandas_sphere_arm2_fk_block_columns(long gagen_ld, int gagen_st
   w9 = w12 * w22;
   w17 = w17 - w9;
   w17 = w1 * w17;
-  GAGEN_SCATTER(M, 8, 4, w17);
+  GAGEN_SCATTER(out_M, 8, 4, w17);
   w17 = w26 * w0;
   w9 = w12 * w20;
   w17 = w17 - w9;
   w9 = w16 * w22;
   w17 = w17 - w9;
   w17 = w1 * w17;
-  GAGEN_SCATTER(M, 8, 5, w17);
+  GAGEN_SCATTER(out_M, 8, 5, w17);
   w17 = w12 * w24;
   w9 = w16 * w0;
   w17 = w17 + w9;
@@ -4173,26 +4173,26 @@ static void four_pandas_sphere_arm2_fk_block_columns(long gagen_ld, int gagen_st
   w17 = w17 + w22;
   w17 = w1 * w17;
   w17 = -w17;
-  GAGEN_SCATTER(M, 8, 6, w17);
+  GAGEN_SCATTER(out_M, 8, 6, w17);
   w24 = w16 * w24;
   w0 = w12 * w0;
   w24 = w24 - w0;
   w20 = w26 * w20;
   w24 = w24 - w20;
   w24 = w1 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w12);
-  GAGEN_SCATTER(P, 5, 2, w16);
-  GAGEN_SCATTER(P, 5, 3, w26);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w12);
+  GAGEN_SCATTER(out_P, 5, 2, w16);
+  GAGEN_SCATTER(out_P, 5, 3, w26);
   w12 = w12 * w12;
   w16 = w16 * w16;
   w12 = w12 + w16;
   w26 = w26 * w26;
   w12 = w12 + w26;
   w1 = w1 * w12;
-  GAGEN_SCATTER(P, 5, 4, w1);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -4200,35 +4200,35 @@ static void four_pandas_sphere_arm2_fk_block_columns(long gagen_ld, int gagen_st
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void four_pandas_sphere_arm2_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void four_pandas_sphere_arm2_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    four_pandas_sphere_arm2_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    four_pandas_sphere_arm2_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  four_pandas_sphere_arm2_fk_columns_from(s, n, ld, q, M, P);
+  four_pandas_sphere_arm2_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain arm2: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void four_pandas_sphere_arm2_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void four_pandas_sphere_arm2_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   gagen_v w36, w37, w38, w39, w40, w41, w42, w43, w44, w45, w46, w47;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_sin(w7);
   w9 = w6 * w8;
@@ -4245,7 +4245,7 @@ static void four_pandas_sphere_arm2_fk_jacobian_block(const double *restrict q, 
   w16 = w15 * w7;
   w12 = w12 - w16;
   w12 = w12 + w12;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w1 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w12 * w18;
@@ -4271,7 +4271,7 @@ static void four_pandas_sphere_arm2_fk_jacobian_block(const double *restrict q, 
   w14 = w14 + w14;
   w16 = w14 * w18;
   w10 = w10 - w16;
-  w9 = GAGEN_GATHER(q, 7, 4);
+  w9 = GAGEN_GATHER(in_q, 7, 4);
   w9 = w1 * w9;
   w11 = gagen_v_cos(w9);
   w20 = w10 * w11;
@@ -4294,7 +4294,7 @@ static void four_pandas_sphere_arm2_fk_jacobian_block(const double *restrict q, 
   w6 = w6 - w12;
   w12 = w6 * w9;
   w23 = w23 - w12;
-  w14 = GAGEN_GATHER(q, 7, 5);
+  w14 = GAGEN_GATHER(in_q, 7, 5);
   w14 = w1 * w14;
   w13 = gagen_v_cos(w14);
   w16 = w23 * w13;
@@ -4318,7 +4318,7 @@ static void four_pandas_sphere_arm2_fk_jacobian_block(const double *restrict q, 
   w10 = w10 - w21;
   w21 = w10 * w14;
   w26 = w26 - w21;
-  w19 = GAGEN_GATHER(q, 7, 6);
+  w19 = GAGEN_GATHER(in_q, 7, 6);
   w19 = w1 * w19;
   w6 = gagen_v_cos(w19);
   w22 = w26 * w6;
@@ -4333,12 +4333,12 @@ static void four_pandas_sphere_arm2_fk_jacobian_block(const double *restrict q, 
   w27 = w20 * w19;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w20 = w20 * w6;
   w26 = w26 * w19;
   w20 = w20 - w26;
   w20 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 1, w20);
+  GAGEN_SCATTER(out_M, 8, 1, w20);
   w23 = w23 + w10;
   w23 = w23 + w15;
   w23 = w23 - w24;
@@ -4349,12 +4349,12 @@ static void four_pandas_sphere_arm2_fk_jacobian_block(const double *restrict q, 
   w21 = w12 * w19;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w12 = w12 * w6;
   w23 = w23 * w19;
   w12 = w12 - w23;
   w0 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w12 = gagen_v_splat(0.0825);
   w23 = w7 * w7;
   w19 = w8 * w8;
@@ -4501,14 +4501,14 @@ static void four_pandas_sphere_arm2_fk_jacobian_block(const double *restrict q, 
   w13 = w27 * w22;
   w38 = w38 - w13;
   w38 = w1 * w38;
-  GAGEN_SCATTER(M, 8, 4, w38);
+  GAGEN_SCATTER(out_M, 8, 4, w38);
   w38 = w41 * w0;
   w13 = w27 * w20;
   w38 = w38 - w13;
   w13 = w34 * w22;
   w38 = w38 - w13;
   w38 = w1 * w38;
-  GAGEN_SCATTER(M, 8, 5, w38);
+  GAGEN_SCATTER(out_M, 8, 5, w38);
   w38 = w27 * w24;
   w13 = w34 * w0;
   w38 = w38 + w13;
@@ -4516,52 +4516,52 @@ static void four_pandas_sphere_arm2_fk_jacobian_block(const double *restrict q, 
   w38 = w38 + w22;
   w38 = w1 * w38;
   w38 = -w38;
-  GAGEN_SCATTER(M, 8, 6, w38);
+  GAGEN_SCATTER(out_M, 8, 6, w38);
   w24 = w34 * w24;
   w0 = w27 * w0;
   w24 = w24 - w0;
   w20 = w41 * w20;
   w24 = w24 - w20;
   w24 = w1 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w27);
-  GAGEN_SCATTER(P, 5, 2, w34);
-  GAGEN_SCATTER(P, 5, 3, w41);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w27);
+  GAGEN_SCATTER(out_P, 5, 2, w34);
+  GAGEN_SCATTER(out_P, 5, 3, w41);
   w27 = w27 * w27;
   w34 = w34 * w34;
   w27 = w27 + w34;
   w41 = w41 * w41;
   w27 = w27 + w41;
   w1 = w1 * w27;
-  GAGEN_SCATTER(P, 5, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 0, w24);
   w24 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w24);
-  GAGEN_SCATTER(J_S, 42, 2, w24);
-  GAGEN_SCATTER(J_S, 42, 3, w24);
-  GAGEN_SCATTER(J_S, 42, 4, w23);
-  GAGEN_SCATTER(J_S, 42, 5, w24);
-  GAGEN_SCATTER(J_S, 42, 6, w24);
+  GAGEN_SCATTER(out_J_S, 42, 1, w24);
+  GAGEN_SCATTER(out_J_S, 42, 2, w24);
+  GAGEN_SCATTER(out_J_S, 42, 3, w24);
+  GAGEN_SCATTER(out_J_S, 42, 4, w23);
+  GAGEN_SCATTER(out_J_S, 42, 5, w24);
+  GAGEN_SCATTER(out_J_S, 42, 6, w24);
   w24 = -w2;
-  GAGEN_SCATTER(J_S, 42, 7, w24);
+  GAGEN_SCATTER(out_J_S, 42, 7, w24);
   w24 = -w25;
-  GAGEN_SCATTER(J_S, 42, 8, w24);
+  GAGEN_SCATTER(out_J_S, 42, 8, w24);
   w39 = w39 * w2;
   w39 = -w39;
-  GAGEN_SCATTER(J_S, 42, 9, w39);
+  GAGEN_SCATTER(out_J_S, 42, 9, w39);
   w39 = gagen_v_splat(0.666);
   w39 = w39 * w21;
   w39 = -w39;
-  GAGEN_SCATTER(J_S, 42, 10, w39);
+  GAGEN_SCATTER(out_J_S, 42, 10, w39);
   w2 = w23 * w2;
   w2 = -w2;
-  GAGEN_SCATTER(J_S, 42, 11, w2);
-  GAGEN_SCATTER(J_S, 42, 12, w19);
+  GAGEN_SCATTER(out_J_S, 42, 11, w2);
+  GAGEN_SCATTER(out_J_S, 42, 12, w19);
   w2 = -w36;
-  GAGEN_SCATTER(J_S, 42, 13, w2);
-  GAGEN_SCATTER(J_S, 42, 14, w10);
+  GAGEN_SCATTER(out_J_S, 42, 13, w2);
+  GAGEN_SCATTER(out_J_S, 42, 14, w10);
   w2 = gagen_v_splat(0.1665);
   w39 = gagen_v_splat(0.158);
   w21 = w39 * w19;
@@ -4573,7 +4573,7 @@ static void four_pandas_sphere_arm2_fk_jacobian_block(const double *restrict q, 
   w27 = w35 * w27;
   w1 = w1 - w27;
   w1 = -w1;
-  GAGEN_SCATTER(J_S, 42, 15, w1);
+  GAGEN_SCATTER(out_J_S, 42, 15, w1);
   w1 = gagen_v_splat(0.4);
   w27 = w39 * w10;
   w1 = w1 - w27;
@@ -4581,7 +4581,7 @@ static void four_pandas_sphere_arm2_fk_jacobian_block(const double *restrict q, 
   w24 = w10 * w24;
   w19 = w19 + w24;
   w19 = w19 + w19;
-  GAGEN_SCATTER(J_S, 42, 16, w19);
+  GAGEN_SCATTER(out_J_S, 42, 16, w19);
   w19 = w36 * w1;
   w19 = -w19;
   w19 = w19 + w19;
@@ -4589,12 +4589,12 @@ static void four_pandas_sphere_arm2_fk_jacobian_block(const double *restrict q, 
   w10 = w10 * w25;
   w35 = w35 * w10;
   w19 = w19 - w35;
-  GAGEN_SCATTER(J_S, 42, 17, w19);
+  GAGEN_SCATTER(out_J_S, 42, 17, w19);
   w19 = w7 * w5;
   w35 = -w19;
-  GAGEN_SCATTER(J_S, 42, 18, w35);
-  GAGEN_SCATTER(J_S, 42, 19, w9);
-  GAGEN_SCATTER(J_S, 42, 20, w32);
+  GAGEN_SCATTER(out_J_S, 42, 18, w35);
+  GAGEN_SCATTER(out_J_S, 42, 19, w9);
+  GAGEN_SCATTER(out_J_S, 42, 20, w32);
   w39 = w39 * w36;
   w36 = gagen_v_splat(0.04125);
   w16 = w36 * w16;
@@ -4607,7 +4607,7 @@ static void four_pandas_sphere_arm2_fk_jacobian_block(const double *restrict q, 
   w16 = w16 + w21;
   w16 = w16 + w16;
   w16 = -w16;
-  GAGEN_SCATTER(J_S, 42, 21, w16);
+  GAGEN_SCATTER(out_J_S, 42, 21, w16);
   w36 = w36 * w6;
   w1 = w1 - w36;
   w19 = w19 * w1;
@@ -4615,96 +4615,96 @@ static void four_pandas_sphere_arm2_fk_jacobian_block(const double *restrict q, 
   w19 = w19 + w42;
   w19 = -w19;
   w19 = w19 + w19;
-  GAGEN_SCATTER(J_S, 42, 22, w19);
+  GAGEN_SCATTER(out_J_S, 42, 22, w19);
   w1 = w9 * w1;
   w39 = w32 * w39;
   w1 = w1 - w39;
   w1 = w1 + w1;
-  GAGEN_SCATTER(J_S, 42, 23, w1);
-  GAGEN_SCATTER(J_S, 42, 24, w43);
-  GAGEN_SCATTER(J_S, 42, 25, w28);
-  GAGEN_SCATTER(J_S, 42, 26, w26);
+  GAGEN_SCATTER(out_J_S, 42, 23, w1);
+  GAGEN_SCATTER(out_J_S, 42, 24, w43);
+  GAGEN_SCATTER(out_J_S, 42, 25, w28);
+  GAGEN_SCATTER(out_J_S, 42, 26, w26);
   w15 = w15 + w37;
   w1 = w43 * w15;
   w39 = w28 * w40;
   w1 = w1 + w39;
-  GAGEN_SCATTER(J_S, 42, 27, w1);
+  GAGEN_SCATTER(out_J_S, 42, 27, w1);
   w1 = w26 * w40;
   w12 = w12 - w23;
   w12 = w12 + w3;
   w43 = w43 * w12;
   w1 = w1 - w43;
-  GAGEN_SCATTER(J_S, 42, 28, w1);
+  GAGEN_SCATTER(out_J_S, 42, 28, w1);
   w28 = w28 * w12;
   w26 = w26 * w15;
   w28 = w28 + w26;
   w28 = -w28;
-  GAGEN_SCATTER(J_S, 42, 29, w28);
+  GAGEN_SCATTER(out_J_S, 42, 29, w28);
   w44 = w11 * w44;
   w7 = w31 * w7;
   w7 = w7 * w5;
   w44 = w44 - w7;
-  GAGEN_SCATTER(J_S, 42, 30, w44);
+  GAGEN_SCATTER(out_J_S, 42, 30, w44);
   w9 = w31 * w9;
   w17 = w11 * w17;
   w9 = w9 - w17;
-  GAGEN_SCATTER(J_S, 42, 31, w9);
+  GAGEN_SCATTER(out_J_S, 42, 31, w9);
   w31 = w31 * w32;
   w11 = w11 * w18;
   w31 = w31 + w11;
-  GAGEN_SCATTER(J_S, 42, 32, w31);
+  GAGEN_SCATTER(out_J_S, 42, 32, w31);
   w11 = w44 * w15;
   w18 = w9 * w40;
   w11 = w11 + w18;
-  GAGEN_SCATTER(J_S, 42, 33, w11);
+  GAGEN_SCATTER(out_J_S, 42, 33, w11);
   w40 = w31 * w40;
   w44 = w44 * w12;
   w40 = w40 - w44;
-  GAGEN_SCATTER(J_S, 42, 34, w40);
+  GAGEN_SCATTER(out_J_S, 42, 34, w40);
   w9 = w9 * w12;
   w31 = w31 * w15;
   w9 = w9 + w31;
   w9 = -w9;
-  GAGEN_SCATTER(J_S, 42, 35, w9);
+  GAGEN_SCATTER(out_J_S, 42, 35, w9);
   w9 = -w46;
-  GAGEN_SCATTER(J_S, 42, 36, w9);
+  GAGEN_SCATTER(out_J_S, 42, 36, w9);
   w8 = w8 + w14;
   w14 = -w8;
-  GAGEN_SCATTER(J_S, 42, 37, w14);
+  GAGEN_SCATTER(out_J_S, 42, 37, w14);
   w14 = -w30;
-  GAGEN_SCATTER(J_S, 42, 38, w14);
+  GAGEN_SCATTER(out_J_S, 42, 38, w14);
   w33 = w33 + w37;
   w37 = w46 * w33;
   w14 = w8 * w45;
   w37 = w37 + w14;
   w37 = -w37;
-  GAGEN_SCATTER(J_S, 42, 39, w37);
+  GAGEN_SCATTER(out_J_S, 42, 39, w37);
   w46 = w46 * w29;
   w45 = w30 * w45;
   w46 = w46 - w45;
-  GAGEN_SCATTER(J_S, 42, 40, w46);
+  GAGEN_SCATTER(out_J_S, 42, 40, w46);
   w8 = w8 * w29;
   w30 = w30 * w33;
   w8 = w8 + w30;
-  GAGEN_SCATTER(J_S, 42, 41, w8);
+  GAGEN_SCATTER(out_J_S, 42, 41, w8);
 }
 #endif
 
-void four_pandas_sphere_arm2_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void four_pandas_sphere_arm2_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 42 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 42 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 42 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 42 * gagen_a + gagen_o, 1, 0);
     }
-    four_pandas_sphere_arm2_fk_jacobian_block(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+    four_pandas_sphere_arm2_fk_jacobian_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    four_pandas_sphere_arm2_fk_jacobian(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    four_pandas_sphere_arm2_fk_jacobian(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 }
 
@@ -4714,21 +4714,21 @@ void four_pandas_sphere_arm2_fk_jacobian_batch(long n, const double *restrict q,
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void four_pandas_sphere_arm2_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void four_pandas_sphere_arm2_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   gagen_v w36, w37, w38, w39, w40, w41, w42, w43, w44, w45, w46, w47;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_sin(w7);
   w9 = w6 * w8;
@@ -4745,7 +4745,7 @@ static void four_pandas_sphere_arm2_fk_jacobian_block_columns(long gagen_ld, int
   w16 = w15 * w7;
   w12 = w12 - w16;
   w12 = w12 + w12;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w1 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w12 * w18;
@@ -4771,7 +4771,7 @@ static void four_pandas_sphere_arm2_fk_jacobian_block_columns(long gagen_ld, int
   w14 = w14 + w14;
   w16 = w14 * w18;
   w10 = w10 - w16;
-  w9 = GAGEN_GATHER(q, 7, 4);
+  w9 = GAGEN_GATHER(in_q, 7, 4);
   w9 = w1 * w9;
   w11 = gagen_v_cos(w9);
   w20 = w10 * w11;
@@ -4794,7 +4794,7 @@ static void four_pandas_sphere_arm2_fk_jacobian_block_columns(long gagen_ld, int
   w6 = w6 - w12;
   w12 = w6 * w9;
   w23 = w23 - w12;
-  w14 = GAGEN_GATHER(q, 7, 5);
+  w14 = GAGEN_GATHER(in_q, 7, 5);
   w14 = w1 * w14;
   w13 = gagen_v_cos(w14);
   w16 = w23 * w13;
@@ -4818,7 +4818,7 @@ static void four_pandas_sphere_arm2_fk_jacobian_block_columns(long gagen_ld, int
   w10 = w10 - w21;
   w21 = w10 * w14;
   w26 = w26 - w21;
-  w19 = GAGEN_GATHER(q, 7, 6);
+  w19 = GAGEN_GATHER(in_q, 7, 6);
   w19 = w1 * w19;
   w6 = gagen_v_cos(w19);
   w22 = w26 * w6;
@@ -4833,12 +4833,12 @@ static void four_pandas_sphere_arm2_fk_jacobian_block_columns(long gagen_ld, int
   w27 = w20 * w19;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w20 = w20 * w6;
   w26 = w26 * w19;
   w20 = w20 - w26;
   w20 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 1, w20);
+  GAGEN_SCATTER(out_M, 8, 1, w20);
   w23 = w23 + w10;
   w23 = w23 + w15;
   w23 = w23 - w24;
@@ -4849,12 +4849,12 @@ static void four_pandas_sphere_arm2_fk_jacobian_block_columns(long gagen_ld, int
   w21 = w12 * w19;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w12 = w12 * w6;
   w23 = w23 * w19;
   w12 = w12 - w23;
   w0 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w12 = gagen_v_splat(0.0825);
   w23 = w7 * w7;
   w19 = w8 * w8;
@@ -5001,14 +5001,14 @@ static void four_pandas_sphere_arm2_fk_jacobian_block_columns(long gagen_ld, int
   w13 = w27 * w22;
   w38 = w38 - w13;
   w38 = w1 * w38;
-  GAGEN_SCATTER(M, 8, 4, w38);
+  GAGEN_SCATTER(out_M, 8, 4, w38);
   w38 = w41 * w0;
   w13 = w27 * w20;
   w38 = w38 - w13;
   w13 = w34 * w22;
   w38 = w38 - w13;
   w38 = w1 * w38;
-  GAGEN_SCATTER(M, 8, 5, w38);
+  GAGEN_SCATTER(out_M, 8, 5, w38);
   w38 = w27 * w24;
   w13 = w34 * w0;
   w38 = w38 + w13;
@@ -5016,52 +5016,52 @@ static void four_pandas_sphere_arm2_fk_jacobian_block_columns(long gagen_ld, int
   w38 = w38 + w22;
   w38 = w1 * w38;
   w38 = -w38;
-  GAGEN_SCATTER(M, 8, 6, w38);
+  GAGEN_SCATTER(out_M, 8, 6, w38);
   w24 = w34 * w24;
   w0 = w27 * w0;
   w24 = w24 - w0;
   w20 = w41 * w20;
   w24 = w24 - w20;
   w24 = w1 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w27);
-  GAGEN_SCATTER(P, 5, 2, w34);
-  GAGEN_SCATTER(P, 5, 3, w41);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w27);
+  GAGEN_SCATTER(out_P, 5, 2, w34);
+  GAGEN_SCATTER(out_P, 5, 3, w41);
   w27 = w27 * w27;
   w34 = w34 * w34;
   w27 = w27 + w34;
   w41 = w41 * w41;
   w27 = w27 + w41;
   w1 = w1 * w27;
-  GAGEN_SCATTER(P, 5, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 0, w24);
   w24 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w24);
-  GAGEN_SCATTER(J_S, 42, 2, w24);
-  GAGEN_SCATTER(J_S, 42, 3, w24);
-  GAGEN_SCATTER(J_S, 42, 4, w23);
-  GAGEN_SCATTER(J_S, 42, 5, w24);
-  GAGEN_SCATTER(J_S, 42, 6, w24);
+  GAGEN_SCATTER(out_J_S, 42, 1, w24);
+  GAGEN_SCATTER(out_J_S, 42, 2, w24);
+  GAGEN_SCATTER(out_J_S, 42, 3, w24);
+  GAGEN_SCATTER(out_J_S, 42, 4, w23);
+  GAGEN_SCATTER(out_J_S, 42, 5, w24);
+  GAGEN_SCATTER(out_J_S, 42, 6, w24);
   w24 = -w2;
-  GAGEN_SCATTER(J_S, 42, 7, w24);
+  GAGEN_SCATTER(out_J_S, 42, 7, w24);
   w24 = -w25;
-  GAGEN_SCATTER(J_S, 42, 8, w24);
+  GAGEN_SCATTER(out_J_S, 42, 8, w24);
   w39 = w39 * w2;
   w39 = -w39;
-  GAGEN_SCATTER(J_S, 42, 9, w39);
+  GAGEN_SCATTER(out_J_S, 42, 9, w39);
   w39 = gagen_v_splat(0.666);
   w39 = w39 * w21;
   w39 = -w39;
-  GAGEN_SCATTER(J_S, 42, 10, w39);
+  GAGEN_SCATTER(out_J_S, 42, 10, w39);
   w2 = w23 * w2;
   w2 = -w2;
-  GAGEN_SCATTER(J_S, 42, 11, w2);
-  GAGEN_SCATTER(J_S, 42, 12, w19);
+  GAGEN_SCATTER(out_J_S, 42, 11, w2);
+  GAGEN_SCATTER(out_J_S, 42, 12, w19);
   w2 = -w36;
-  GAGEN_SCATTER(J_S, 42, 13, w2);
-  GAGEN_SCATTER(J_S, 42, 14, w10);
+  GAGEN_SCATTER(out_J_S, 42, 13, w2);
+  GAGEN_SCATTER(out_J_S, 42, 14, w10);
   w2 = gagen_v_splat(0.1665);
   w39 = gagen_v_splat(0.158);
   w21 = w39 * w19;
@@ -5073,7 +5073,7 @@ static void four_pandas_sphere_arm2_fk_jacobian_block_columns(long gagen_ld, int
   w27 = w35 * w27;
   w1 = w1 - w27;
   w1 = -w1;
-  GAGEN_SCATTER(J_S, 42, 15, w1);
+  GAGEN_SCATTER(out_J_S, 42, 15, w1);
   w1 = gagen_v_splat(0.4);
   w27 = w39 * w10;
   w1 = w1 - w27;
@@ -5081,7 +5081,7 @@ static void four_pandas_sphere_arm2_fk_jacobian_block_columns(long gagen_ld, int
   w24 = w10 * w24;
   w19 = w19 + w24;
   w19 = w19 + w19;
-  GAGEN_SCATTER(J_S, 42, 16, w19);
+  GAGEN_SCATTER(out_J_S, 42, 16, w19);
   w19 = w36 * w1;
   w19 = -w19;
   w19 = w19 + w19;
@@ -5089,12 +5089,12 @@ static void four_pandas_sphere_arm2_fk_jacobian_block_columns(long gagen_ld, int
   w10 = w10 * w25;
   w35 = w35 * w10;
   w19 = w19 - w35;
-  GAGEN_SCATTER(J_S, 42, 17, w19);
+  GAGEN_SCATTER(out_J_S, 42, 17, w19);
   w19 = w7 * w5;
   w35 = -w19;
-  GAGEN_SCATTER(J_S, 42, 18, w35);
-  GAGEN_SCATTER(J_S, 42, 19, w9);
-  GAGEN_SCATTER(J_S, 42, 20, w32);
+  GAGEN_SCATTER(out_J_S, 42, 18, w35);
+  GAGEN_SCATTER(out_J_S, 42, 19, w9);
+  GAGEN_SCATTER(out_J_S, 42, 20, w32);
   w39 = w39 * w36;
   w36 = gagen_v_splat(0.04125);
   w16 = w36 * w16;
@@ -5107,7 +5107,7 @@ static void four_pandas_sphere_arm2_fk_jacobian_block_columns(long gagen_ld, int
   w16 = w16 + w21;
   w16 = w16 + w16;
   w16 = -w16;
-  GAGEN_SCATTER(J_S, 42, 21, w16);
+  GAGEN_SCATTER(out_J_S, 42, 21, w16);
   w36 = w36 * w6;
   w1 = w1 - w36;
   w19 = w19 * w1;
@@ -5115,78 +5115,78 @@ static void four_pandas_sphere_arm2_fk_jacobian_block_columns(long gagen_ld, int
   w19 = w19 + w42;
   w19 = -w19;
   w19 = w19 + w19;
-  GAGEN_SCATTER(J_S, 42, 22, w19);
+  GAGEN_SCATTER(out_J_S, 42, 22, w19);
   w1 = w9 * w1;
   w39 = w32 * w39;
   w1 = w1 - w39;
   w1 = w1 + w1;
-  GAGEN_SCATTER(J_S, 42, 23, w1);
-  GAGEN_SCATTER(J_S, 42, 24, w43);
-  GAGEN_SCATTER(J_S, 42, 25, w28);
-  GAGEN_SCATTER(J_S, 42, 26, w26);
+  GAGEN_SCATTER(out_J_S, 42, 23, w1);
+  GAGEN_SCATTER(out_J_S, 42, 24, w43);
+  GAGEN_SCATTER(out_J_S, 42, 25, w28);
+  GAGEN_SCATTER(out_J_S, 42, 26, w26);
   w15 = w15 + w37;
   w1 = w43 * w15;
   w39 = w28 * w40;
   w1 = w1 + w39;
-  GAGEN_SCATTER(J_S, 42, 27, w1);
+  GAGEN_SCATTER(out_J_S, 42, 27, w1);
   w1 = w26 * w40;
   w12 = w12 - w23;
   w12 = w12 + w3;
   w43 = w43 * w12;
   w1 = w1 - w43;
-  GAGEN_SCATTER(J_S, 42, 28, w1);
+  GAGEN_SCATTER(out_J_S, 42, 28, w1);
   w28 = w28 * w12;
   w26 = w26 * w15;
   w28 = w28 + w26;
   w28 = -w28;
-  GAGEN_SCATTER(J_S, 42, 29, w28);
+  GAGEN_SCATTER(out_J_S, 42, 29, w28);
   w44 = w11 * w44;
   w7 = w31 * w7;
   w7 = w7 * w5;
   w44 = w44 - w7;
-  GAGEN_SCATTER(J_S, 42, 30, w44);
+  GAGEN_SCATTER(out_J_S, 42, 30, w44);
   w9 = w31 * w9;
   w17 = w11 * w17;
   w9 = w9 - w17;
-  GAGEN_SCATTER(J_S, 42, 31, w9);
+  GAGEN_SCATTER(out_J_S, 42, 31, w9);
   w31 = w31 * w32;
   w11 = w11 * w18;
   w31 = w31 + w11;
-  GAGEN_SCATTER(J_S, 42, 32, w31);
+  GAGEN_SCATTER(out_J_S, 42, 32, w31);
   w11 = w44 * w15;
   w18 = w9 * w40;
   w11 = w11 + w18;
-  GAGEN_SCATTER(J_S, 42, 33, w11);
+  GAGEN_SCATTER(out_J_S, 42, 33, w11);
   w40 = w31 * w40;
   w44 = w44 * w12;
   w40 = w40 - w44;
-  GAGEN_SCATTER(J_S, 42, 34, w40);
+  GAGEN_SCATTER(out_J_S, 42, 34, w40);
   w9 = w9 * w12;
   w31 = w31 * w15;
   w9 = w9 + w31;
   w9 = -w9;
-  GAGEN_SCATTER(J_S, 42, 35, w9);
+  GAGEN_SCATTER(out_J_S, 42, 35, w9);
   w9 = -w46;
-  GAGEN_SCATTER(J_S, 42, 36, w9);
+  GAGEN_SCATTER(out_J_S, 42, 36, w9);
   w8 = w8 + w14;
   w14 = -w8;
-  GAGEN_SCATTER(J_S, 42, 37, w14);
+  GAGEN_SCATTER(out_J_S, 42, 37, w14);
   w14 = -w30;
-  GAGEN_SCATTER(J_S, 42, 38, w14);
+  GAGEN_SCATTER(out_J_S, 42, 38, w14);
   w33 = w33 + w37;
   w37 = w46 * w33;
   w14 = w8 * w45;
   w37 = w37 + w14;
   w37 = -w37;
-  GAGEN_SCATTER(J_S, 42, 39, w37);
+  GAGEN_SCATTER(out_J_S, 42, 39, w37);
   w46 = w46 * w29;
   w45 = w30 * w45;
   w46 = w46 - w45;
-  GAGEN_SCATTER(J_S, 42, 40, w46);
+  GAGEN_SCATTER(out_J_S, 42, 40, w46);
   w8 = w8 * w29;
   w30 = w30 * w33;
   w8 = w8 + w30;
-  GAGEN_SCATTER(J_S, 42, 41, w8);
+  GAGEN_SCATTER(out_J_S, 42, 41, w8);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -5194,36 +5194,36 @@ static void four_pandas_sphere_arm2_fk_jacobian_block_columns(long gagen_ld, int
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void four_pandas_sphere_arm2_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void four_pandas_sphere_arm2_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    four_pandas_sphere_arm2_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    four_pandas_sphere_arm2_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  four_pandas_sphere_arm2_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  four_pandas_sphere_arm2_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }
 
 #if GAGEN_SIMD
 /* chain arm3: motor and end point: GAGEN_W consecutive samples at once */
-static void four_pandas_sphere_arm3_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void four_pandas_sphere_arm3_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31;
   w0 = gagen_v_splat(0.08838834764831845);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
   w2 = gagen_v_cos(w2);
   w4 = w3 - w2;
-  w5 = GAGEN_GATHER(q, 7, 1);
+  w5 = GAGEN_GATHER(in_q, 7, 1);
   w5 = w1 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 7, 2);
+  w8 = GAGEN_GATHER(in_q, 7, 2);
   w8 = w1 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -5240,7 +5240,7 @@ static void four_pandas_sphere_arm3_fk_block(const double *restrict q, double *r
   w15 = w11 * w9;
   w14 = w14 - w15;
   w14 = w14 + w14;
-  w16 = GAGEN_GATHER(q, 7, 3);
+  w16 = GAGEN_GATHER(in_q, 7, 3);
   w16 = w1 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -5266,7 +5266,7 @@ static void four_pandas_sphere_arm3_fk_block(const double *restrict q, double *r
   w10 = w10 + w10;
   w15 = w10 * w17;
   w12 = w12 + w15;
-  w13 = GAGEN_GATHER(q, 7, 4);
+  w13 = GAGEN_GATHER(in_q, 7, 4);
   w13 = w1 * w13;
   w4 = gagen_v_cos(w13);
   w20 = w12 * w4;
@@ -5289,7 +5289,7 @@ static void four_pandas_sphere_arm3_fk_block(const double *restrict q, double *r
   w19 = w19 - w14;
   w14 = w19 * w13;
   w23 = w23 - w14;
-  w10 = GAGEN_GATHER(q, 7, 5);
+  w10 = GAGEN_GATHER(in_q, 7, 5);
   w10 = w1 * w10;
   w7 = gagen_v_cos(w10);
   w15 = w23 * w7;
@@ -5313,7 +5313,7 @@ static void four_pandas_sphere_arm3_fk_block(const double *restrict q, double *r
   w12 = w12 - w21;
   w21 = w12 * w10;
   w26 = w26 - w21;
-  w18 = GAGEN_GATHER(q, 7, 6);
+  w18 = GAGEN_GATHER(in_q, 7, 6);
   w18 = w1 * w18;
   w19 = gagen_v_cos(w18);
   w22 = w26 * w19;
@@ -5328,12 +5328,12 @@ static void four_pandas_sphere_arm3_fk_block(const double *restrict q, double *r
   w27 = w20 * w18;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w20 = w20 * w19;
   w26 = w26 * w18;
   w20 = w20 - w26;
   w20 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 1, w20);
+  GAGEN_SCATTER(out_M, 8, 1, w20);
   w23 = w23 + w12;
   w23 = w23 + w11;
   w23 = w23 - w24;
@@ -5344,12 +5344,12 @@ static void four_pandas_sphere_arm3_fk_block(const double *restrict q, double *r
   w21 = w14 * w18;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w14 = w14 * w19;
   w23 = w23 * w18;
   w14 = w14 - w23;
   w0 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w14 = gagen_v_splat(0.0825);
   w23 = w9 * w9;
   w18 = w8 * w8;
@@ -5496,14 +5496,14 @@ static void four_pandas_sphere_arm3_fk_block(const double *restrict q, double *r
   w8 = w11 * w22;
   w16 = w16 - w8;
   w16 = w1 * w16;
-  GAGEN_SCATTER(M, 8, 4, w16);
+  GAGEN_SCATTER(out_M, 8, 4, w16);
   w16 = w26 * w0;
   w8 = w11 * w20;
   w16 = w16 - w8;
   w8 = w15 * w22;
   w16 = w16 - w8;
   w16 = w1 * w16;
-  GAGEN_SCATTER(M, 8, 5, w16);
+  GAGEN_SCATTER(out_M, 8, 5, w16);
   w16 = w11 * w24;
   w8 = w15 * w0;
   w16 = w16 + w8;
@@ -5511,43 +5511,43 @@ static void four_pandas_sphere_arm3_fk_block(const double *restrict q, double *r
   w16 = w16 + w22;
   w16 = w1 * w16;
   w16 = -w16;
-  GAGEN_SCATTER(M, 8, 6, w16);
+  GAGEN_SCATTER(out_M, 8, 6, w16);
   w24 = w15 * w24;
   w0 = w11 * w0;
   w24 = w24 - w0;
   w20 = w26 * w20;
   w24 = w24 - w20;
   w24 = w1 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w11);
-  GAGEN_SCATTER(P, 5, 2, w15);
-  GAGEN_SCATTER(P, 5, 3, w26);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w11);
+  GAGEN_SCATTER(out_P, 5, 2, w15);
+  GAGEN_SCATTER(out_P, 5, 3, w26);
   w11 = w11 * w11;
   w15 = w15 * w15;
   w11 = w11 + w15;
   w26 = w26 * w26;
   w11 = w11 + w26;
   w1 = w1 * w11;
-  GAGEN_SCATTER(P, 5, 4, w1);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
 }
 #endif
 
-void four_pandas_sphere_arm3_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void four_pandas_sphere_arm3_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    four_pandas_sphere_arm3_fk_block(q + 7 * s, M + 8 * s, P + 5 * s);
+    four_pandas_sphere_arm3_fk_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    four_pandas_sphere_arm3_fk(q + 7 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    four_pandas_sphere_arm3_fk(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -5557,22 +5557,22 @@ void four_pandas_sphere_arm3_fk_batch(long n, const double *restrict q, double *
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void four_pandas_sphere_arm3_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void four_pandas_sphere_arm3_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31;
   w0 = gagen_v_splat(0.08838834764831845);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
   w2 = gagen_v_cos(w2);
   w4 = w3 - w2;
-  w5 = GAGEN_GATHER(q, 7, 1);
+  w5 = GAGEN_GATHER(in_q, 7, 1);
   w5 = w1 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 7, 2);
+  w8 = GAGEN_GATHER(in_q, 7, 2);
   w8 = w1 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -5589,7 +5589,7 @@ static void four_pandas_sphere_arm3_fk_block_columns(long gagen_ld, int gagen_st
   w15 = w11 * w9;
   w14 = w14 - w15;
   w14 = w14 + w14;
-  w16 = GAGEN_GATHER(q, 7, 3);
+  w16 = GAGEN_GATHER(in_q, 7, 3);
   w16 = w1 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -5615,7 +5615,7 @@ static void four_pandas_sphere_arm3_fk_block_columns(long gagen_ld, int gagen_st
   w10 = w10 + w10;
   w15 = w10 * w17;
   w12 = w12 + w15;
-  w13 = GAGEN_GATHER(q, 7, 4);
+  w13 = GAGEN_GATHER(in_q, 7, 4);
   w13 = w1 * w13;
   w4 = gagen_v_cos(w13);
   w20 = w12 * w4;
@@ -5638,7 +5638,7 @@ static void four_pandas_sphere_arm3_fk_block_columns(long gagen_ld, int gagen_st
   w19 = w19 - w14;
   w14 = w19 * w13;
   w23 = w23 - w14;
-  w10 = GAGEN_GATHER(q, 7, 5);
+  w10 = GAGEN_GATHER(in_q, 7, 5);
   w10 = w1 * w10;
   w7 = gagen_v_cos(w10);
   w15 = w23 * w7;
@@ -5662,7 +5662,7 @@ static void four_pandas_sphere_arm3_fk_block_columns(long gagen_ld, int gagen_st
   w12 = w12 - w21;
   w21 = w12 * w10;
   w26 = w26 - w21;
-  w18 = GAGEN_GATHER(q, 7, 6);
+  w18 = GAGEN_GATHER(in_q, 7, 6);
   w18 = w1 * w18;
   w19 = gagen_v_cos(w18);
   w22 = w26 * w19;
@@ -5677,12 +5677,12 @@ static void four_pandas_sphere_arm3_fk_block_columns(long gagen_ld, int gagen_st
   w27 = w20 * w18;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w20 = w20 * w19;
   w26 = w26 * w18;
   w20 = w20 - w26;
   w20 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 1, w20);
+  GAGEN_SCATTER(out_M, 8, 1, w20);
   w23 = w23 + w12;
   w23 = w23 + w11;
   w23 = w23 - w24;
@@ -5693,12 +5693,12 @@ static void four_pandas_sphere_arm3_fk_block_columns(long gagen_ld, int gagen_st
   w21 = w14 * w18;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w14 = w14 * w19;
   w23 = w23 * w18;
   w14 = w14 - w23;
   w0 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w14 = gagen_v_splat(0.0825);
   w23 = w9 * w9;
   w18 = w8 * w8;
@@ -5845,14 +5845,14 @@ static void four_pandas_sphere_arm3_fk_block_columns(long gagen_ld, int gagen_st
   w8 = w11 * w22;
   w16 = w16 - w8;
   w16 = w1 * w16;
-  GAGEN_SCATTER(M, 8, 4, w16);
+  GAGEN_SCATTER(out_M, 8, 4, w16);
   w16 = w26 * w0;
   w8 = w11 * w20;
   w16 = w16 - w8;
   w8 = w15 * w22;
   w16 = w16 - w8;
   w16 = w1 * w16;
-  GAGEN_SCATTER(M, 8, 5, w16);
+  GAGEN_SCATTER(out_M, 8, 5, w16);
   w16 = w11 * w24;
   w8 = w15 * w0;
   w16 = w16 + w8;
@@ -5860,26 +5860,26 @@ static void four_pandas_sphere_arm3_fk_block_columns(long gagen_ld, int gagen_st
   w16 = w16 + w22;
   w16 = w1 * w16;
   w16 = -w16;
-  GAGEN_SCATTER(M, 8, 6, w16);
+  GAGEN_SCATTER(out_M, 8, 6, w16);
   w24 = w15 * w24;
   w0 = w11 * w0;
   w24 = w24 - w0;
   w20 = w26 * w20;
   w24 = w24 - w20;
   w24 = w1 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w11);
-  GAGEN_SCATTER(P, 5, 2, w15);
-  GAGEN_SCATTER(P, 5, 3, w26);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w11);
+  GAGEN_SCATTER(out_P, 5, 2, w15);
+  GAGEN_SCATTER(out_P, 5, 3, w26);
   w11 = w11 * w11;
   w15 = w15 * w15;
   w11 = w11 + w15;
   w26 = w26 * w26;
   w11 = w11 + w26;
   w1 = w1 * w11;
-  GAGEN_SCATTER(P, 5, 4, w1);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -5887,21 +5887,21 @@ static void four_pandas_sphere_arm3_fk_block_columns(long gagen_ld, int gagen_st
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void four_pandas_sphere_arm3_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void four_pandas_sphere_arm3_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    four_pandas_sphere_arm3_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    four_pandas_sphere_arm3_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  four_pandas_sphere_arm3_fk_columns_from(s, n, ld, q, M, P);
+  four_pandas_sphere_arm3_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain arm3: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void four_pandas_sphere_arm3_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void four_pandas_sphere_arm3_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -5909,16 +5909,16 @@ static void four_pandas_sphere_arm3_fk_jacobian_block(const double *restrict q, 
   gagen_v w48, w49, w50;
   w0 = gagen_v_splat(0.08838834764831845);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
   w2 = gagen_v_cos(w2);
   w4 = w3 - w2;
-  w5 = GAGEN_GATHER(q, 7, 1);
+  w5 = GAGEN_GATHER(in_q, 7, 1);
   w5 = w1 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 7, 2);
+  w8 = GAGEN_GATHER(in_q, 7, 2);
   w8 = w1 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -5935,7 +5935,7 @@ static void four_pandas_sphere_arm3_fk_jacobian_block(const double *restrict q, 
   w15 = w11 * w9;
   w14 = w14 - w15;
   w14 = w14 + w14;
-  w16 = GAGEN_GATHER(q, 7, 3);
+  w16 = GAGEN_GATHER(in_q, 7, 3);
   w16 = w1 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -5961,7 +5961,7 @@ static void four_pandas_sphere_arm3_fk_jacobian_block(const double *restrict q, 
   w10 = w10 + w10;
   w15 = w10 * w17;
   w12 = w12 + w15;
-  w13 = GAGEN_GATHER(q, 7, 4);
+  w13 = GAGEN_GATHER(in_q, 7, 4);
   w13 = w1 * w13;
   w4 = gagen_v_cos(w13);
   w20 = w12 * w4;
@@ -5984,7 +5984,7 @@ static void four_pandas_sphere_arm3_fk_jacobian_block(const double *restrict q, 
   w19 = w19 - w14;
   w14 = w19 * w13;
   w23 = w23 - w14;
-  w10 = GAGEN_GATHER(q, 7, 5);
+  w10 = GAGEN_GATHER(in_q, 7, 5);
   w10 = w1 * w10;
   w7 = gagen_v_cos(w10);
   w15 = w23 * w7;
@@ -6008,7 +6008,7 @@ static void four_pandas_sphere_arm3_fk_jacobian_block(const double *restrict q, 
   w12 = w12 - w21;
   w21 = w12 * w10;
   w26 = w26 - w21;
-  w18 = GAGEN_GATHER(q, 7, 6);
+  w18 = GAGEN_GATHER(in_q, 7, 6);
   w18 = w1 * w18;
   w19 = gagen_v_cos(w18);
   w22 = w26 * w19;
@@ -6023,12 +6023,12 @@ static void four_pandas_sphere_arm3_fk_jacobian_block(const double *restrict q, 
   w27 = w20 * w18;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w20 = w20 * w19;
   w26 = w26 * w18;
   w20 = w20 - w26;
   w20 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 1, w20);
+  GAGEN_SCATTER(out_M, 8, 1, w20);
   w23 = w23 + w12;
   w23 = w23 + w11;
   w23 = w23 - w24;
@@ -6039,12 +6039,12 @@ static void four_pandas_sphere_arm3_fk_jacobian_block(const double *restrict q, 
   w21 = w14 * w18;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w14 = w14 * w19;
   w23 = w23 * w18;
   w14 = w14 - w23;
   w0 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w14 = gagen_v_splat(0.0825);
   w23 = w9 * w9;
   w18 = w8 * w8;
@@ -6191,14 +6191,14 @@ static void four_pandas_sphere_arm3_fk_jacobian_block(const double *restrict q, 
   w30 = w27 * w22;
   w39 = w39 - w30;
   w39 = w1 * w39;
-  GAGEN_SCATTER(M, 8, 4, w39);
+  GAGEN_SCATTER(out_M, 8, 4, w39);
   w39 = w42 * w0;
   w30 = w27 * w20;
   w39 = w39 - w30;
   w30 = w34 * w22;
   w39 = w39 - w30;
   w39 = w1 * w39;
-  GAGEN_SCATTER(M, 8, 5, w39);
+  GAGEN_SCATTER(out_M, 8, 5, w39);
   w39 = w27 * w24;
   w30 = w34 * w0;
   w39 = w39 + w30;
@@ -6206,52 +6206,52 @@ static void four_pandas_sphere_arm3_fk_jacobian_block(const double *restrict q, 
   w39 = w39 + w22;
   w39 = w1 * w39;
   w39 = -w39;
-  GAGEN_SCATTER(M, 8, 6, w39);
+  GAGEN_SCATTER(out_M, 8, 6, w39);
   w24 = w34 * w24;
   w0 = w27 * w0;
   w24 = w24 - w0;
   w20 = w42 * w20;
   w24 = w24 - w20;
   w24 = w1 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w27);
-  GAGEN_SCATTER(P, 5, 2, w34);
-  GAGEN_SCATTER(P, 5, 3, w42);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w27);
+  GAGEN_SCATTER(out_P, 5, 2, w34);
+  GAGEN_SCATTER(out_P, 5, 3, w42);
   w27 = w27 * w27;
   w34 = w34 * w34;
   w27 = w27 + w34;
   w42 = w42 * w42;
   w27 = w27 + w42;
   w1 = w1 * w27;
-  GAGEN_SCATTER(P, 5, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 0, w24);
   w24 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w24);
-  GAGEN_SCATTER(J_S, 42, 2, w24);
+  GAGEN_SCATTER(out_J_S, 42, 1, w24);
+  GAGEN_SCATTER(out_J_S, 42, 2, w24);
   w1 = gagen_v_splat((-0.8));
-  GAGEN_SCATTER(J_S, 42, 3, w1);
-  GAGEN_SCATTER(J_S, 42, 4, w24);
-  GAGEN_SCATTER(J_S, 42, 5, w24);
-  GAGEN_SCATTER(J_S, 42, 6, w24);
-  GAGEN_SCATTER(J_S, 42, 7, w3);
+  GAGEN_SCATTER(out_J_S, 42, 3, w1);
+  GAGEN_SCATTER(out_J_S, 42, 4, w24);
+  GAGEN_SCATTER(out_J_S, 42, 5, w24);
+  GAGEN_SCATTER(out_J_S, 42, 6, w24);
+  GAGEN_SCATTER(out_J_S, 42, 7, w3);
   w24 = -w21;
-  GAGEN_SCATTER(J_S, 42, 8, w24);
+  GAGEN_SCATTER(out_J_S, 42, 8, w24);
   w24 = gagen_v_splat(0.666);
   w24 = w24 * w2;
-  GAGEN_SCATTER(J_S, 42, 9, w24);
+  GAGEN_SCATTER(out_J_S, 42, 9, w24);
   w40 = w40 * w21;
   w40 = -w40;
-  GAGEN_SCATTER(J_S, 42, 10, w40);
+  GAGEN_SCATTER(out_J_S, 42, 10, w40);
   w21 = w35 * w21;
   w21 = -w21;
-  GAGEN_SCATTER(J_S, 42, 11, w21);
-  GAGEN_SCATTER(J_S, 42, 12, w18);
+  GAGEN_SCATTER(out_J_S, 42, 11, w21);
+  GAGEN_SCATTER(out_J_S, 42, 12, w18);
   w21 = -w37;
-  GAGEN_SCATTER(J_S, 42, 13, w21);
+  GAGEN_SCATTER(out_J_S, 42, 13, w21);
   w21 = -w26;
-  GAGEN_SCATTER(J_S, 42, 14, w21);
+  GAGEN_SCATTER(out_J_S, 42, 14, w21);
   w21 = gagen_v_splat(0.4);
   w40 = gagen_v_splat(0.158);
   w24 = w40 * w37;
@@ -6264,7 +6264,7 @@ static void four_pandas_sphere_arm3_fk_jacobian_block(const double *restrict q, 
   w24 = w24 + w42;
   w24 = w24 + w24;
   w24 = -w24;
-  GAGEN_SCATTER(J_S, 42, 15, w24);
+  GAGEN_SCATTER(out_J_S, 42, 15, w24);
   w27 = w26 * w27;
   w27 = w27 + w27;
   w18 = w18 * w6;
@@ -6272,7 +6272,7 @@ static void four_pandas_sphere_arm3_fk_jacobian_block(const double *restrict q, 
   w18 = w36 * w18;
   w27 = w27 - w18;
   w27 = -w27;
-  GAGEN_SCATTER(J_S, 42, 16, w27);
+  GAGEN_SCATTER(out_J_S, 42, 16, w27);
   w27 = w26 * w21;
   w27 = -w27;
   w27 = w27 + w27;
@@ -6280,13 +6280,13 @@ static void four_pandas_sphere_arm3_fk_jacobian_block(const double *restrict q, 
   w37 = w37 * w3;
   w36 = w36 * w37;
   w27 = w27 - w36;
-  GAGEN_SCATTER(J_S, 42, 17, w27);
+  GAGEN_SCATTER(out_J_S, 42, 17, w27);
   w27 = w9 * w6;
   w36 = -w27;
-  GAGEN_SCATTER(J_S, 42, 18, w36);
+  GAGEN_SCATTER(out_J_S, 42, 18, w36);
   w36 = -w32;
-  GAGEN_SCATTER(J_S, 42, 19, w36);
-  GAGEN_SCATTER(J_S, 42, 20, w23);
+  GAGEN_SCATTER(out_J_S, 42, 19, w36);
+  GAGEN_SCATTER(out_J_S, 42, 20, w23);
   w36 = gagen_v_splat(0.04125);
   w25 = w36 * w25;
   w21 = w21 - w25;
@@ -6299,7 +6299,7 @@ static void four_pandas_sphere_arm3_fk_jacobian_block(const double *restrict q, 
   w25 = -w25;
   w25 = w25 + w25;
   w25 = -w25;
-  GAGEN_SCATTER(J_S, 42, 21, w25);
+  GAGEN_SCATTER(out_J_S, 42, 21, w25);
   w36 = w36 * w19;
   w40 = w40 * w26;
   w36 = w36 + w40;
@@ -6308,98 +6308,98 @@ static void four_pandas_sphere_arm3_fk_jacobian_block(const double *restrict q, 
   w27 = w27 + w43;
   w27 = -w27;
   w27 = w27 + w27;
-  GAGEN_SCATTER(J_S, 42, 22, w27);
+  GAGEN_SCATTER(out_J_S, 42, 22, w27);
   w21 = w23 * w21;
   w36 = w32 * w36;
   w21 = w21 - w36;
   w21 = w21 + w21;
-  GAGEN_SCATTER(J_S, 42, 23, w21);
-  GAGEN_SCATTER(J_S, 42, 24, w44);
-  GAGEN_SCATTER(J_S, 42, 25, w28);
-  GAGEN_SCATTER(J_S, 42, 26, w8);
+  GAGEN_SCATTER(out_J_S, 42, 23, w21);
+  GAGEN_SCATTER(out_J_S, 42, 24, w44);
+  GAGEN_SCATTER(out_J_S, 42, 25, w28);
+  GAGEN_SCATTER(out_J_S, 42, 26, w8);
   w11 = w11 - w35;
   w11 = w11 + w38;
   w21 = w44 * w11;
   w36 = w28 * w41;
   w21 = w21 + w36;
-  GAGEN_SCATTER(J_S, 42, 27, w21);
+  GAGEN_SCATTER(out_J_S, 42, 27, w21);
   w21 = w8 * w41;
   w12 = w12 - w14;
   w44 = w44 * w12;
   w21 = w21 - w44;
-  GAGEN_SCATTER(J_S, 42, 28, w21);
+  GAGEN_SCATTER(out_J_S, 42, 28, w21);
   w28 = w28 * w12;
   w8 = w8 * w11;
   w28 = w28 + w8;
   w28 = -w28;
-  GAGEN_SCATTER(J_S, 42, 29, w28);
+  GAGEN_SCATTER(out_J_S, 42, 29, w28);
   w45 = w4 * w45;
   w9 = w31 * w9;
   w9 = w9 * w6;
   w45 = w45 - w9;
-  GAGEN_SCATTER(J_S, 42, 30, w45);
+  GAGEN_SCATTER(out_J_S, 42, 30, w45);
   w16 = w4 * w16;
   w32 = w31 * w32;
   w16 = w16 + w32;
   w32 = -w16;
-  GAGEN_SCATTER(J_S, 42, 31, w32);
+  GAGEN_SCATTER(out_J_S, 42, 31, w32);
   w31 = w31 * w23;
   w4 = w4 * w49;
   w31 = w31 - w4;
-  GAGEN_SCATTER(J_S, 42, 32, w31);
+  GAGEN_SCATTER(out_J_S, 42, 32, w31);
   w4 = w45 * w11;
   w49 = w16 * w41;
   w4 = w4 - w49;
-  GAGEN_SCATTER(J_S, 42, 33, w4);
+  GAGEN_SCATTER(out_J_S, 42, 33, w4);
   w41 = w31 * w41;
   w45 = w45 * w12;
   w41 = w41 - w45;
-  GAGEN_SCATTER(J_S, 42, 34, w41);
+  GAGEN_SCATTER(out_J_S, 42, 34, w41);
   w31 = w31 * w11;
   w16 = w16 * w12;
   w31 = w31 - w16;
   w31 = -w31;
-  GAGEN_SCATTER(J_S, 42, 35, w31);
+  GAGEN_SCATTER(out_J_S, 42, 35, w31);
   w31 = -w47;
-  GAGEN_SCATTER(J_S, 42, 36, w31);
+  GAGEN_SCATTER(out_J_S, 42, 36, w31);
   w15 = w15 + w10;
   w10 = -w15;
-  GAGEN_SCATTER(J_S, 42, 37, w10);
+  GAGEN_SCATTER(out_J_S, 42, 37, w10);
   w10 = -w7;
-  GAGEN_SCATTER(J_S, 42, 38, w10);
+  GAGEN_SCATTER(out_J_S, 42, 38, w10);
   w33 = w33 - w35;
   w33 = w33 + w38;
   w38 = w47 * w33;
   w35 = w15 * w46;
   w38 = w38 + w35;
   w38 = -w38;
-  GAGEN_SCATTER(J_S, 42, 39, w38);
+  GAGEN_SCATTER(out_J_S, 42, 39, w38);
   w47 = w47 * w29;
   w46 = w7 * w46;
   w47 = w47 - w46;
-  GAGEN_SCATTER(J_S, 42, 40, w47);
+  GAGEN_SCATTER(out_J_S, 42, 40, w47);
   w15 = w15 * w29;
   w7 = w7 * w33;
   w15 = w15 + w7;
-  GAGEN_SCATTER(J_S, 42, 41, w15);
+  GAGEN_SCATTER(out_J_S, 42, 41, w15);
 }
 #endif
 
-void four_pandas_sphere_arm3_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void four_pandas_sphere_arm3_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 42 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 42 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 42 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 42 * gagen_a + gagen_o, 1, 0);
     }
-    four_pandas_sphere_arm3_fk_jacobian_block(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+    four_pandas_sphere_arm3_fk_jacobian_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    four_pandas_sphere_arm3_fk_jacobian(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    four_pandas_sphere_arm3_fk_jacobian(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 }
 
@@ -6409,7 +6409,7 @@ void four_pandas_sphere_arm3_fk_jacobian_batch(long n, const double *restrict q,
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void four_pandas_sphere_arm3_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void four_pandas_sphere_arm3_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -6417,16 +6417,16 @@ static void four_pandas_sphere_arm3_fk_jacobian_block_columns(long gagen_ld, int
   gagen_v w48, w49, w50;
   w0 = gagen_v_splat(0.08838834764831845);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
   w2 = gagen_v_cos(w2);
   w4 = w3 - w2;
-  w5 = GAGEN_GATHER(q, 7, 1);
+  w5 = GAGEN_GATHER(in_q, 7, 1);
   w5 = w1 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 7, 2);
+  w8 = GAGEN_GATHER(in_q, 7, 2);
   w8 = w1 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -6443,7 +6443,7 @@ static void four_pandas_sphere_arm3_fk_jacobian_block_columns(long gagen_ld, int
   w15 = w11 * w9;
   w14 = w14 - w15;
   w14 = w14 + w14;
-  w16 = GAGEN_GATHER(q, 7, 3);
+  w16 = GAGEN_GATHER(in_q, 7, 3);
   w16 = w1 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -6469,7 +6469,7 @@ static void four_pandas_sphere_arm3_fk_jacobian_block_columns(long gagen_ld, int
   w10 = w10 + w10;
   w15 = w10 * w17;
   w12 = w12 + w15;
-  w13 = GAGEN_GATHER(q, 7, 4);
+  w13 = GAGEN_GATHER(in_q, 7, 4);
   w13 = w1 * w13;
   w4 = gagen_v_cos(w13);
   w20 = w12 * w4;
@@ -6492,7 +6492,7 @@ static void four_pandas_sphere_arm3_fk_jacobian_block_columns(long gagen_ld, int
   w19 = w19 - w14;
   w14 = w19 * w13;
   w23 = w23 - w14;
-  w10 = GAGEN_GATHER(q, 7, 5);
+  w10 = GAGEN_GATHER(in_q, 7, 5);
   w10 = w1 * w10;
   w7 = gagen_v_cos(w10);
   w15 = w23 * w7;
@@ -6516,7 +6516,7 @@ static void four_pandas_sphere_arm3_fk_jacobian_block_columns(long gagen_ld, int
   w12 = w12 - w21;
   w21 = w12 * w10;
   w26 = w26 - w21;
-  w18 = GAGEN_GATHER(q, 7, 6);
+  w18 = GAGEN_GATHER(in_q, 7, 6);
   w18 = w1 * w18;
   w19 = gagen_v_cos(w18);
   w22 = w26 * w19;
@@ -6531,12 +6531,12 @@ static void four_pandas_sphere_arm3_fk_jacobian_block_columns(long gagen_ld, int
   w27 = w20 * w18;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w20 = w20 * w19;
   w26 = w26 * w18;
   w20 = w20 - w26;
   w20 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 1, w20);
+  GAGEN_SCATTER(out_M, 8, 1, w20);
   w23 = w23 + w12;
   w23 = w23 + w11;
   w23 = w23 - w24;
@@ -6547,12 +6547,12 @@ static void four_pandas_sphere_arm3_fk_jacobian_block_columns(long gagen_ld, int
   w21 = w14 * w18;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w14 = w14 * w19;
   w23 = w23 * w18;
   w14 = w14 - w23;
   w0 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w14 = gagen_v_splat(0.0825);
   w23 = w9 * w9;
   w18 = w8 * w8;
@@ -6699,14 +6699,14 @@ static void four_pandas_sphere_arm3_fk_jacobian_block_columns(long gagen_ld, int
   w30 = w27 * w22;
   w39 = w39 - w30;
   w39 = w1 * w39;
-  GAGEN_SCATTER(M, 8, 4, w39);
+  GAGEN_SCATTER(out_M, 8, 4, w39);
   w39 = w42 * w0;
   w30 = w27 * w20;
   w39 = w39 - w30;
   w30 = w34 * w22;
   w39 = w39 - w30;
   w39 = w1 * w39;
-  GAGEN_SCATTER(M, 8, 5, w39);
+  GAGEN_SCATTER(out_M, 8, 5, w39);
   w39 = w27 * w24;
   w30 = w34 * w0;
   w39 = w39 + w30;
@@ -6714,52 +6714,52 @@ static void four_pandas_sphere_arm3_fk_jacobian_block_columns(long gagen_ld, int
   w39 = w39 + w22;
   w39 = w1 * w39;
   w39 = -w39;
-  GAGEN_SCATTER(M, 8, 6, w39);
+  GAGEN_SCATTER(out_M, 8, 6, w39);
   w24 = w34 * w24;
   w0 = w27 * w0;
   w24 = w24 - w0;
   w20 = w42 * w20;
   w24 = w24 - w20;
   w24 = w1 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w27);
-  GAGEN_SCATTER(P, 5, 2, w34);
-  GAGEN_SCATTER(P, 5, 3, w42);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w27);
+  GAGEN_SCATTER(out_P, 5, 2, w34);
+  GAGEN_SCATTER(out_P, 5, 3, w42);
   w27 = w27 * w27;
   w34 = w34 * w34;
   w27 = w27 + w34;
   w42 = w42 * w42;
   w27 = w27 + w42;
   w1 = w1 * w27;
-  GAGEN_SCATTER(P, 5, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 0, w24);
   w24 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w24);
-  GAGEN_SCATTER(J_S, 42, 2, w24);
+  GAGEN_SCATTER(out_J_S, 42, 1, w24);
+  GAGEN_SCATTER(out_J_S, 42, 2, w24);
   w1 = gagen_v_splat((-0.8));
-  GAGEN_SCATTER(J_S, 42, 3, w1);
-  GAGEN_SCATTER(J_S, 42, 4, w24);
-  GAGEN_SCATTER(J_S, 42, 5, w24);
-  GAGEN_SCATTER(J_S, 42, 6, w24);
-  GAGEN_SCATTER(J_S, 42, 7, w3);
+  GAGEN_SCATTER(out_J_S, 42, 3, w1);
+  GAGEN_SCATTER(out_J_S, 42, 4, w24);
+  GAGEN_SCATTER(out_J_S, 42, 5, w24);
+  GAGEN_SCATTER(out_J_S, 42, 6, w24);
+  GAGEN_SCATTER(out_J_S, 42, 7, w3);
   w24 = -w21;
-  GAGEN_SCATTER(J_S, 42, 8, w24);
+  GAGEN_SCATTER(out_J_S, 42, 8, w24);
   w24 = gagen_v_splat(0.666);
   w24 = w24 * w2;
-  GAGEN_SCATTER(J_S, 42, 9, w24);
+  GAGEN_SCATTER(out_J_S, 42, 9, w24);
   w40 = w40 * w21;
   w40 = -w40;
-  GAGEN_SCATTER(J_S, 42, 10, w40);
+  GAGEN_SCATTER(out_J_S, 42, 10, w40);
   w21 = w35 * w21;
   w21 = -w21;
-  GAGEN_SCATTER(J_S, 42, 11, w21);
-  GAGEN_SCATTER(J_S, 42, 12, w18);
+  GAGEN_SCATTER(out_J_S, 42, 11, w21);
+  GAGEN_SCATTER(out_J_S, 42, 12, w18);
   w21 = -w37;
-  GAGEN_SCATTER(J_S, 42, 13, w21);
+  GAGEN_SCATTER(out_J_S, 42, 13, w21);
   w21 = -w26;
-  GAGEN_SCATTER(J_S, 42, 14, w21);
+  GAGEN_SCATTER(out_J_S, 42, 14, w21);
   w21 = gagen_v_splat(0.4);
   w40 = gagen_v_splat(0.158);
   w24 = w40 * w37;
@@ -6772,7 +6772,7 @@ static void four_pandas_sphere_arm3_fk_jacobian_block_columns(long gagen_ld, int
   w24 = w24 + w42;
   w24 = w24 + w24;
   w24 = -w24;
-  GAGEN_SCATTER(J_S, 42, 15, w24);
+  GAGEN_SCATTER(out_J_S, 42, 15, w24);
   w27 = w26 * w27;
   w27 = w27 + w27;
   w18 = w18 * w6;
@@ -6780,7 +6780,7 @@ static void four_pandas_sphere_arm3_fk_jacobian_block_columns(long gagen_ld, int
   w18 = w36 * w18;
   w27 = w27 - w18;
   w27 = -w27;
-  GAGEN_SCATTER(J_S, 42, 16, w27);
+  GAGEN_SCATTER(out_J_S, 42, 16, w27);
   w27 = w26 * w21;
   w27 = -w27;
   w27 = w27 + w27;
@@ -6788,13 +6788,13 @@ static void four_pandas_sphere_arm3_fk_jacobian_block_columns(long gagen_ld, int
   w37 = w37 * w3;
   w36 = w36 * w37;
   w27 = w27 - w36;
-  GAGEN_SCATTER(J_S, 42, 17, w27);
+  GAGEN_SCATTER(out_J_S, 42, 17, w27);
   w27 = w9 * w6;
   w36 = -w27;
-  GAGEN_SCATTER(J_S, 42, 18, w36);
+  GAGEN_SCATTER(out_J_S, 42, 18, w36);
   w36 = -w32;
-  GAGEN_SCATTER(J_S, 42, 19, w36);
-  GAGEN_SCATTER(J_S, 42, 20, w23);
+  GAGEN_SCATTER(out_J_S, 42, 19, w36);
+  GAGEN_SCATTER(out_J_S, 42, 20, w23);
   w36 = gagen_v_splat(0.04125);
   w25 = w36 * w25;
   w21 = w21 - w25;
@@ -6807,7 +6807,7 @@ static void four_pandas_sphere_arm3_fk_jacobian_block_columns(long gagen_ld, int
   w25 = -w25;
   w25 = w25 + w25;
   w25 = -w25;
-  GAGEN_SCATTER(J_S, 42, 21, w25);
+  GAGEN_SCATTER(out_J_S, 42, 21, w25);
   w36 = w36 * w19;
   w40 = w40 * w26;
   w36 = w36 + w40;
@@ -6816,80 +6816,80 @@ static void four_pandas_sphere_arm3_fk_jacobian_block_columns(long gagen_ld, int
   w27 = w27 + w43;
   w27 = -w27;
   w27 = w27 + w27;
-  GAGEN_SCATTER(J_S, 42, 22, w27);
+  GAGEN_SCATTER(out_J_S, 42, 22, w27);
   w21 = w23 * w21;
   w36 = w32 * w36;
   w21 = w21 - w36;
   w21 = w21 + w21;
-  GAGEN_SCATTER(J_S, 42, 23, w21);
-  GAGEN_SCATTER(J_S, 42, 24, w44);
-  GAGEN_SCATTER(J_S, 42, 25, w28);
-  GAGEN_SCATTER(J_S, 42, 26, w8);
+  GAGEN_SCATTER(out_J_S, 42, 23, w21);
+  GAGEN_SCATTER(out_J_S, 42, 24, w44);
+  GAGEN_SCATTER(out_J_S, 42, 25, w28);
+  GAGEN_SCATTER(out_J_S, 42, 26, w8);
   w11 = w11 - w35;
   w11 = w11 + w38;
   w21 = w44 * w11;
   w36 = w28 * w41;
   w21 = w21 + w36;
-  GAGEN_SCATTER(J_S, 42, 27, w21);
+  GAGEN_SCATTER(out_J_S, 42, 27, w21);
   w21 = w8 * w41;
   w12 = w12 - w14;
   w44 = w44 * w12;
   w21 = w21 - w44;
-  GAGEN_SCATTER(J_S, 42, 28, w21);
+  GAGEN_SCATTER(out_J_S, 42, 28, w21);
   w28 = w28 * w12;
   w8 = w8 * w11;
   w28 = w28 + w8;
   w28 = -w28;
-  GAGEN_SCATTER(J_S, 42, 29, w28);
+  GAGEN_SCATTER(out_J_S, 42, 29, w28);
   w45 = w4 * w45;
   w9 = w31 * w9;
   w9 = w9 * w6;
   w45 = w45 - w9;
-  GAGEN_SCATTER(J_S, 42, 30, w45);
+  GAGEN_SCATTER(out_J_S, 42, 30, w45);
   w16 = w4 * w16;
   w32 = w31 * w32;
   w16 = w16 + w32;
   w32 = -w16;
-  GAGEN_SCATTER(J_S, 42, 31, w32);
+  GAGEN_SCATTER(out_J_S, 42, 31, w32);
   w31 = w31 * w23;
   w4 = w4 * w49;
   w31 = w31 - w4;
-  GAGEN_SCATTER(J_S, 42, 32, w31);
+  GAGEN_SCATTER(out_J_S, 42, 32, w31);
   w4 = w45 * w11;
   w49 = w16 * w41;
   w4 = w4 - w49;
-  GAGEN_SCATTER(J_S, 42, 33, w4);
+  GAGEN_SCATTER(out_J_S, 42, 33, w4);
   w41 = w31 * w41;
   w45 = w45 * w12;
   w41 = w41 - w45;
-  GAGEN_SCATTER(J_S, 42, 34, w41);
+  GAGEN_SCATTER(out_J_S, 42, 34, w41);
   w31 = w31 * w11;
   w16 = w16 * w12;
   w31 = w31 - w16;
   w31 = -w31;
-  GAGEN_SCATTER(J_S, 42, 35, w31);
+  GAGEN_SCATTER(out_J_S, 42, 35, w31);
   w31 = -w47;
-  GAGEN_SCATTER(J_S, 42, 36, w31);
+  GAGEN_SCATTER(out_J_S, 42, 36, w31);
   w15 = w15 + w10;
   w10 = -w15;
-  GAGEN_SCATTER(J_S, 42, 37, w10);
+  GAGEN_SCATTER(out_J_S, 42, 37, w10);
   w10 = -w7;
-  GAGEN_SCATTER(J_S, 42, 38, w10);
+  GAGEN_SCATTER(out_J_S, 42, 38, w10);
   w33 = w33 - w35;
   w33 = w33 + w38;
   w38 = w47 * w33;
   w35 = w15 * w46;
   w38 = w38 + w35;
   w38 = -w38;
-  GAGEN_SCATTER(J_S, 42, 39, w38);
+  GAGEN_SCATTER(out_J_S, 42, 39, w38);
   w47 = w47 * w29;
   w46 = w7 * w46;
   w47 = w47 - w46;
-  GAGEN_SCATTER(J_S, 42, 40, w47);
+  GAGEN_SCATTER(out_J_S, 42, 40, w47);
   w15 = w15 * w29;
   w7 = w7 * w33;
   w15 = w15 + w7;
-  GAGEN_SCATTER(J_S, 42, 41, w15);
+  GAGEN_SCATTER(out_J_S, 42, 41, w15);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -6897,14 +6897,14 @@ static void four_pandas_sphere_arm3_fk_jacobian_block_columns(long gagen_ld, int
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void four_pandas_sphere_arm3_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void four_pandas_sphere_arm3_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    four_pandas_sphere_arm3_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    four_pandas_sphere_arm3_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  four_pandas_sphere_arm3_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  four_pandas_sphere_arm3_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }

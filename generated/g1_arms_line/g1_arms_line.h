@@ -42,13 +42,13 @@ extern "C" {
 #define G1_ARMS_LINE_LEFT_HAND_FK_Q_SIZE 10
 #define G1_ARMS_LINE_LEFT_HAND_FK_M_SIZE 8
 #define G1_ARMS_LINE_LEFT_HAND_FK_P_SIZE 5
-void g1_arms_line_left_hand_fk(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
-void g1_arms_line_left_hand_fk_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void g1_arms_line_left_hand_fk(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
+void g1_arms_line_left_hand_fk_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void g1_arms_line_left_hand_fk_argv(const double *const *arg, double *const *res);
 void g1_arms_line_left_hand_fk_batch_argv(long n, const double *const *arg, double *const *res);
-void g1_arms_line_left_hand_fk_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void g1_arms_line_left_hand_fk_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void g1_arms_line_left_hand_fk_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void g1_arms_line_left_hand_fk_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void g1_arms_line_left_hand_fk_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 
 /* chain left_hand: motor, end point and spatial (geometric) Jacobian
  *   in  q            [10] g1/waist_yaw_joint, g1/waist_roll_joint, g1/waist_pitch_joint,...
@@ -60,13 +60,13 @@ void g1_arms_line_left_hand_fk_columns_from(long s0, long n, long ld, const doub
 #define G1_ARMS_LINE_LEFT_HAND_FK_JACOBIAN_M_SIZE 8
 #define G1_ARMS_LINE_LEFT_HAND_FK_JACOBIAN_P_SIZE 5
 #define G1_ARMS_LINE_LEFT_HAND_FK_JACOBIAN_J_S_SIZE 60
-void g1_arms_line_left_hand_fk_jacobian(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
-void g1_arms_line_left_hand_fk_jacobian_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void g1_arms_line_left_hand_fk_jacobian(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
+void g1_arms_line_left_hand_fk_jacobian_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void g1_arms_line_left_hand_fk_jacobian_argv(const double *const *arg, double *const *res);
 void g1_arms_line_left_hand_fk_jacobian_batch_argv(long n, const double *const *arg, double *const *res);
-void g1_arms_line_left_hand_fk_jacobian_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void g1_arms_line_left_hand_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void g1_arms_line_left_hand_fk_jacobian_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void g1_arms_line_left_hand_fk_jacobian_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void g1_arms_line_left_hand_fk_jacobian_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 
 /* chain left_hand: motor, end point, every Jacobian and the tool z-axis line
  *   in  q            [10] g1/waist_yaw_joint, g1/waist_roll_joint, g1/waist_pitch_joint,...
@@ -88,13 +88,13 @@ void g1_arms_line_left_hand_fk_jacobian_columns_from(long s0, long n, long ld, c
 #define G1_ARMS_LINE_LEFT_HAND_JACOBIANS_J_P_SIZE 50
 #define G1_ARMS_LINE_LEFT_HAND_JACOBIANS_L_SIZE 6
 #define G1_ARMS_LINE_LEFT_HAND_JACOBIANS_J_L_SIZE 60
-void g1_arms_line_left_hand_jacobians(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
-void g1_arms_line_left_hand_jacobians_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void g1_arms_line_left_hand_jacobians(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
+void g1_arms_line_left_hand_jacobians_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void g1_arms_line_left_hand_jacobians_argv(const double *const *arg, double *const *res);
 void g1_arms_line_left_hand_jacobians_batch_argv(long n, const double *const *arg, double *const *res);
-void g1_arms_line_left_hand_jacobians_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void g1_arms_line_left_hand_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void g1_arms_line_left_hand_jacobians_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void g1_arms_line_left_hand_jacobians_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void g1_arms_line_left_hand_jacobians_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 
 /* chain right_hand: motor and end point
  *   in  q            [10] g1/waist_yaw_joint, g1/waist_roll_joint, g1/waist_pitch_joint,...
@@ -104,13 +104,13 @@ void g1_arms_line_left_hand_jacobians_columns_from(long s0, long n, long ld, con
 #define G1_ARMS_LINE_RIGHT_HAND_FK_Q_SIZE 10
 #define G1_ARMS_LINE_RIGHT_HAND_FK_M_SIZE 8
 #define G1_ARMS_LINE_RIGHT_HAND_FK_P_SIZE 5
-void g1_arms_line_right_hand_fk(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
-void g1_arms_line_right_hand_fk_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void g1_arms_line_right_hand_fk(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
+void g1_arms_line_right_hand_fk_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void g1_arms_line_right_hand_fk_argv(const double *const *arg, double *const *res);
 void g1_arms_line_right_hand_fk_batch_argv(long n, const double *const *arg, double *const *res);
-void g1_arms_line_right_hand_fk_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void g1_arms_line_right_hand_fk_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void g1_arms_line_right_hand_fk_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void g1_arms_line_right_hand_fk_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void g1_arms_line_right_hand_fk_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 
 /* chain right_hand: motor, end point and spatial (geometric) Jacobian
  *   in  q            [10] g1/waist_yaw_joint, g1/waist_roll_joint, g1/waist_pitch_joint,...
@@ -122,13 +122,13 @@ void g1_arms_line_right_hand_fk_columns_from(long s0, long n, long ld, const dou
 #define G1_ARMS_LINE_RIGHT_HAND_FK_JACOBIAN_M_SIZE 8
 #define G1_ARMS_LINE_RIGHT_HAND_FK_JACOBIAN_P_SIZE 5
 #define G1_ARMS_LINE_RIGHT_HAND_FK_JACOBIAN_J_S_SIZE 60
-void g1_arms_line_right_hand_fk_jacobian(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
-void g1_arms_line_right_hand_fk_jacobian_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void g1_arms_line_right_hand_fk_jacobian(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
+void g1_arms_line_right_hand_fk_jacobian_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void g1_arms_line_right_hand_fk_jacobian_argv(const double *const *arg, double *const *res);
 void g1_arms_line_right_hand_fk_jacobian_batch_argv(long n, const double *const *arg, double *const *res);
-void g1_arms_line_right_hand_fk_jacobian_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void g1_arms_line_right_hand_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void g1_arms_line_right_hand_fk_jacobian_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void g1_arms_line_right_hand_fk_jacobian_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void g1_arms_line_right_hand_fk_jacobian_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 
 /* chain right_hand: motor, end point, every Jacobian and the tool z-axis line
  *   in  q            [10] g1/waist_yaw_joint, g1/waist_roll_joint, g1/waist_pitch_joint,...
@@ -150,13 +150,13 @@ void g1_arms_line_right_hand_fk_jacobian_columns_from(long s0, long n, long ld, 
 #define G1_ARMS_LINE_RIGHT_HAND_JACOBIANS_J_P_SIZE 50
 #define G1_ARMS_LINE_RIGHT_HAND_JACOBIANS_L_SIZE 6
 #define G1_ARMS_LINE_RIGHT_HAND_JACOBIANS_J_L_SIZE 60
-void g1_arms_line_right_hand_jacobians(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
-void g1_arms_line_right_hand_jacobians_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void g1_arms_line_right_hand_jacobians(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
+void g1_arms_line_right_hand_jacobians_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void g1_arms_line_right_hand_jacobians_argv(const double *const *arg, double *const *res);
 void g1_arms_line_right_hand_jacobians_batch_argv(long n, const double *const *arg, double *const *res);
-void g1_arms_line_right_hand_jacobians_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void g1_arms_line_right_hand_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void g1_arms_line_right_hand_jacobians_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void g1_arms_line_right_hand_jacobians_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void g1_arms_line_right_hand_jacobians_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 
 /* the cooperative line X_c(q) and J_c
  *   in  q            [17] g1/waist_yaw_joint, g1/waist_roll_joint, g1/waist_pitch_joint,...
@@ -166,13 +166,13 @@ void g1_arms_line_right_hand_jacobians_columns_from(long s0, long n, long ld, co
 #define G1_ARMS_LINE_PRIMITIVE_Q_SIZE 17
 #define G1_ARMS_LINE_PRIMITIVE_X_C_SIZE 6
 #define G1_ARMS_LINE_PRIMITIVE_J_C_SIZE 102
-void g1_arms_line_primitive(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT X_c, double *GAGEN_RESTRICT J_c);
-void g1_arms_line_primitive_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT X_c, double *GAGEN_RESTRICT J_c);
+void g1_arms_line_primitive(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_X_c, double *GAGEN_RESTRICT out_J_c);
+void g1_arms_line_primitive_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_X_c, double *GAGEN_RESTRICT out_J_c);
 void g1_arms_line_primitive_argv(const double *const *arg, double *const *res);
 void g1_arms_line_primitive_batch_argv(long n, const double *const *arg, double *const *res);
-void g1_arms_line_primitive_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT X_c, double *GAGEN_RESTRICT J_c);
+void g1_arms_line_primitive_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_X_c, double *GAGEN_RESTRICT out_J_c);
 void g1_arms_line_primitive_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void g1_arms_line_primitive_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT X_c, double *GAGEN_RESTRICT J_c);
+void g1_arms_line_primitive_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_X_c, double *GAGEN_RESTRICT out_J_c);
 
 /* V_Sc(q), its conditioning and J_G,Sc
  *   in  q            [17] g1/waist_yaw_joint, g1/waist_roll_joint, g1/waist_pitch_joint,...
@@ -184,13 +184,13 @@ void g1_arms_line_primitive_columns_from(long s0, long n, long ld, const double 
 #define G1_ARMS_LINE_SIMILARITY_V_SC_SIZE 12
 #define G1_ARMS_LINE_SIMILARITY_CONDITIONING_SIZE 1
 #define G1_ARMS_LINE_SIMILARITY_J_G_SIZE 119
-void g1_arms_line_similarity(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT V_Sc, double *GAGEN_RESTRICT conditioning, double *GAGEN_RESTRICT J_G);
-void g1_arms_line_similarity_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT V_Sc, double *GAGEN_RESTRICT conditioning, double *GAGEN_RESTRICT J_G);
+void g1_arms_line_similarity(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_V_Sc, double *GAGEN_RESTRICT out_conditioning, double *GAGEN_RESTRICT out_J_G);
+void g1_arms_line_similarity_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_V_Sc, double *GAGEN_RESTRICT out_conditioning, double *GAGEN_RESTRICT out_J_G);
 void g1_arms_line_similarity_argv(const double *const *arg, double *const *res);
 void g1_arms_line_similarity_batch_argv(long n, const double *const *arg, double *const *res);
-void g1_arms_line_similarity_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT V_Sc, double *GAGEN_RESTRICT conditioning, double *GAGEN_RESTRICT J_G);
+void g1_arms_line_similarity_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_V_Sc, double *GAGEN_RESTRICT out_conditioning, double *GAGEN_RESTRICT out_J_G);
 void g1_arms_line_similarity_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void g1_arms_line_similarity_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT V_Sc, double *GAGEN_RESTRICT conditioning, double *GAGEN_RESTRICT J_G);
+void g1_arms_line_similarity_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_V_Sc, double *GAGEN_RESTRICT out_conditioning, double *GAGEN_RESTRICT out_J_G);
 
 /* J_A,Sc = dV_Sc/dq, log V_Sc and J_B = d log V_Sc/dq
  *   in  q            [17] g1/waist_yaw_joint, g1/waist_roll_joint, g1/waist_pitch_joint,...
@@ -202,13 +202,13 @@ void g1_arms_line_similarity_columns_from(long s0, long n, long ld, const double
 #define G1_ARMS_LINE_SIMILARITY_JACOBIANS_J_A_SIZE 204
 #define G1_ARMS_LINE_SIMILARITY_JACOBIANS_LOG_V_SIZE 7
 #define G1_ARMS_LINE_SIMILARITY_JACOBIANS_J_B_SIZE 119
-void g1_arms_line_similarity_jacobians(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT log_V, double *GAGEN_RESTRICT J_B);
-void g1_arms_line_similarity_jacobians_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT log_V, double *GAGEN_RESTRICT J_B);
+void g1_arms_line_similarity_jacobians(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_log_V, double *GAGEN_RESTRICT out_J_B);
+void g1_arms_line_similarity_jacobians_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_log_V, double *GAGEN_RESTRICT out_J_B);
 void g1_arms_line_similarity_jacobians_argv(const double *const *arg, double *const *res);
 void g1_arms_line_similarity_jacobians_batch_argv(long n, const double *const *arg, double *const *res);
-void g1_arms_line_similarity_jacobians_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT log_V, double *GAGEN_RESTRICT J_B);
+void g1_arms_line_similarity_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_log_V, double *GAGEN_RESTRICT out_J_B);
 void g1_arms_line_similarity_jacobians_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void g1_arms_line_similarity_jacobians_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT log_V, double *GAGEN_RESTRICT J_B);
+void g1_arms_line_similarity_jacobians_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_log_V, double *GAGEN_RESTRICT out_J_B);
 
 /* task error e = log(V_Sc~ V_Sd) and J_Be
  *   in  q            [17] g1/waist_yaw_joint, g1/waist_roll_joint, g1/waist_pitch_joint,...
@@ -220,13 +220,13 @@ void g1_arms_line_similarity_jacobians_columns_from(long s0, long n, long ld, co
 #define G1_ARMS_LINE_TASK_V_SD_SIZE 12
 #define G1_ARMS_LINE_TASK_E_SIZE 7
 #define G1_ARMS_LINE_TASK_J_BE_SIZE 119
-void g1_arms_line_task(const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT V_Sd, double *GAGEN_RESTRICT e, double *GAGEN_RESTRICT J_Be);
-void g1_arms_line_task_batch(long n, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT V_Sd, double *GAGEN_RESTRICT e, double *GAGEN_RESTRICT J_Be);
+void g1_arms_line_task(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
+void g1_arms_line_task_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 void g1_arms_line_task_argv(const double *const *arg, double *const *res);
 void g1_arms_line_task_batch_argv(long n, const double *const *arg, double *const *res);
-void g1_arms_line_task_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT V_Sd, double *GAGEN_RESTRICT e, double *GAGEN_RESTRICT J_Be);
+void g1_arms_line_task_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 void g1_arms_line_task_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void g1_arms_line_task_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT V_Sd, double *GAGEN_RESTRICT e, double *GAGEN_RESTRICT J_Be);
+void g1_arms_line_task_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 
 #ifdef __cplusplus
 }

@@ -149,7 +149,7 @@ static inline void gagen_stream_fence(int stream) {
 
 #if GAGEN_SIMD
 /* chain left_hand: motor and end point: GAGEN_W consecutive samples at once */
-static void g1_arms_line_left_hand_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void g1_arms_line_left_hand_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -159,14 +159,14 @@ static void g1_arms_line_left_hand_fk_block(const double *restrict q, double *re
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(0.9902640743722195);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -197,7 +197,7 @@ static void g1_arms_line_left_hand_fk_block(const double *restrict q, double *re
   w7 = w7 + w11;
   w11 = w21 * w7;
   w14 = w14 - w11;
-  w11 = GAGEN_GATHER(q, 10, 3);
+  w11 = GAGEN_GATHER(in_q, 10, 3);
   w11 = w2 * w11;
   w22 = gagen_v_cos(w11);
   w23 = w14 * w22;
@@ -234,7 +234,7 @@ static void g1_arms_line_left_hand_fk_block(const double *restrict q, double *re
   w20 = w25 - w1;
   w20 = w16 * w20;
   w18 = w18 + w20;
-  w20 = GAGEN_GATHER(q, 10, 4);
+  w20 = GAGEN_GATHER(in_q, 10, 4);
   w20 = w2 * w20;
   w15 = gagen_v_cos(w20);
   w7 = w18 * w15;
@@ -245,7 +245,7 @@ static void g1_arms_line_left_hand_fk_block(const double *restrict q, double *re
   w20 = gagen_v_sin(w20);
   w1 = w23 * w20;
   w7 = w7 + w1;
-  w1 = GAGEN_GATHER(q, 10, 5);
+  w1 = GAGEN_GATHER(in_q, 10, 5);
   w1 = w2 * w1;
   w25 = gagen_v_cos(w1);
   w21 = w7 * w25;
@@ -267,7 +267,7 @@ static void g1_arms_line_left_hand_fk_block(const double *restrict q, double *re
   w1 = gagen_v_sin(w1);
   w0 = w24 * w1;
   w21 = w21 + w0;
-  w0 = GAGEN_GATHER(q, 10, 6);
+  w0 = GAGEN_GATHER(in_q, 10, 6);
   w0 = w2 * w0;
   w14 = gagen_v_cos(w0);
   w13 = w21 * w14;
@@ -283,7 +283,7 @@ static void g1_arms_line_left_hand_fk_block(const double *restrict q, double *re
   w0 = gagen_v_sin(w0);
   w18 = w19 * w0;
   w13 = w13 - w18;
-  w18 = GAGEN_GATHER(q, 10, 7);
+  w18 = GAGEN_GATHER(in_q, 10, 7);
   w18 = w2 * w18;
   w17 = gagen_v_cos(w18);
   w12 = w13 * w17;
@@ -299,7 +299,7 @@ static void g1_arms_line_left_hand_fk_block(const double *restrict q, double *re
   w18 = gagen_v_sin(w18);
   w7 = w16 * w18;
   w12 = w12 + w7;
-  w7 = GAGEN_GATHER(q, 10, 8);
+  w7 = GAGEN_GATHER(in_q, 10, 8);
   w7 = w2 * w7;
   w10 = gagen_v_cos(w7);
   w26 = w12 * w10;
@@ -315,7 +315,7 @@ static void g1_arms_line_left_hand_fk_block(const double *restrict q, double *re
   w7 = gagen_v_sin(w7);
   w23 = w19 * w7;
   w26 = w26 - w23;
-  w23 = GAGEN_GATHER(q, 10, 9);
+  w23 = GAGEN_GATHER(in_q, 10, 9);
   w23 = w2 * w23;
   w27 = gagen_v_cos(w23);
   w28 = w26 * w27;
@@ -331,11 +331,11 @@ static void g1_arms_line_left_hand_fk_block(const double *restrict q, double *re
   w23 = gagen_v_sin(w23);
   w13 = w21 * w23;
   w28 = w28 + w13;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w21 = w21 * w27;
   w26 = w26 * w23;
   w21 = w21 - w26;
-  GAGEN_SCATTER(M, 8, 1, w21);
+  GAGEN_SCATTER(out_M, 8, 1, w21);
   w12 = w12 * w7;
   w19 = w19 * w10;
   w12 = w12 + w19;
@@ -345,11 +345,11 @@ static void g1_arms_line_left_hand_fk_block(const double *restrict q, double *re
   w16 = w16 - w24;
   w24 = w16 * w23;
   w19 = w19 + w24;
-  GAGEN_SCATTER(M, 8, 2, w19);
+  GAGEN_SCATTER(out_M, 8, 2, w19);
   w16 = w16 * w27;
   w12 = w12 * w23;
   w16 = w16 - w12;
-  GAGEN_SCATTER(M, 8, 3, w16);
+  GAGEN_SCATTER(out_M, 8, 3, w16);
   w12 = gagen_v_splat(0.0039563);
   w24 = w9 * w9;
   w26 = w8 * w8;
@@ -746,14 +746,14 @@ static void g1_arms_line_left_hand_fk_block(const double *restrict q, double *re
   w58 = w32 * w28;
   w39 = w39 - w58;
   w39 = w2 * w39;
-  GAGEN_SCATTER(M, 8, 4, w39);
+  GAGEN_SCATTER(out_M, 8, 4, w39);
   w39 = w26 * w16;
   w58 = w32 * w21;
   w39 = w39 - w58;
   w58 = w3 * w28;
   w39 = w39 - w58;
   w39 = w2 * w39;
-  GAGEN_SCATTER(M, 8, 5, w39);
+  GAGEN_SCATTER(out_M, 8, 5, w39);
   w39 = w32 * w19;
   w58 = w3 * w16;
   w39 = w39 + w58;
@@ -761,43 +761,43 @@ static void g1_arms_line_left_hand_fk_block(const double *restrict q, double *re
   w39 = w39 + w28;
   w39 = w2 * w39;
   w39 = -w39;
-  GAGEN_SCATTER(M, 8, 6, w39);
+  GAGEN_SCATTER(out_M, 8, 6, w39);
   w19 = w3 * w19;
   w16 = w32 * w16;
   w19 = w19 - w16;
   w21 = w26 * w21;
   w19 = w19 - w21;
   w19 = w2 * w19;
-  GAGEN_SCATTER(M, 8, 7, w19);
+  GAGEN_SCATTER(out_M, 8, 7, w19);
   w19 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w19);
-  GAGEN_SCATTER(P, 5, 1, w32);
-  GAGEN_SCATTER(P, 5, 2, w3);
-  GAGEN_SCATTER(P, 5, 3, w26);
+  GAGEN_SCATTER(out_P, 5, 0, w19);
+  GAGEN_SCATTER(out_P, 5, 1, w32);
+  GAGEN_SCATTER(out_P, 5, 2, w3);
+  GAGEN_SCATTER(out_P, 5, 3, w26);
   w32 = w32 * w32;
   w3 = w3 * w3;
   w32 = w32 + w3;
   w26 = w26 * w26;
   w32 = w32 + w26;
   w2 = w2 * w32;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #endif
 
-void g1_arms_line_left_hand_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void g1_arms_line_left_hand_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    g1_arms_line_left_hand_fk_block(q + 10 * s, M + 8 * s, P + 5 * s);
+    g1_arms_line_left_hand_fk_block(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    g1_arms_line_left_hand_fk(q + 10 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    g1_arms_line_left_hand_fk(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -807,7 +807,7 @@ void g1_arms_line_left_hand_fk_batch(long n, const double *restrict q, double *r
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void g1_arms_line_left_hand_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void g1_arms_line_left_hand_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -817,14 +817,14 @@ static void g1_arms_line_left_hand_fk_block_columns(long gagen_ld, int gagen_str
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(0.9902640743722195);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -855,7 +855,7 @@ static void g1_arms_line_left_hand_fk_block_columns(long gagen_ld, int gagen_str
   w7 = w7 + w11;
   w11 = w21 * w7;
   w14 = w14 - w11;
-  w11 = GAGEN_GATHER(q, 10, 3);
+  w11 = GAGEN_GATHER(in_q, 10, 3);
   w11 = w2 * w11;
   w22 = gagen_v_cos(w11);
   w23 = w14 * w22;
@@ -892,7 +892,7 @@ static void g1_arms_line_left_hand_fk_block_columns(long gagen_ld, int gagen_str
   w20 = w25 - w1;
   w20 = w16 * w20;
   w18 = w18 + w20;
-  w20 = GAGEN_GATHER(q, 10, 4);
+  w20 = GAGEN_GATHER(in_q, 10, 4);
   w20 = w2 * w20;
   w15 = gagen_v_cos(w20);
   w7 = w18 * w15;
@@ -903,7 +903,7 @@ static void g1_arms_line_left_hand_fk_block_columns(long gagen_ld, int gagen_str
   w20 = gagen_v_sin(w20);
   w1 = w23 * w20;
   w7 = w7 + w1;
-  w1 = GAGEN_GATHER(q, 10, 5);
+  w1 = GAGEN_GATHER(in_q, 10, 5);
   w1 = w2 * w1;
   w25 = gagen_v_cos(w1);
   w21 = w7 * w25;
@@ -925,7 +925,7 @@ static void g1_arms_line_left_hand_fk_block_columns(long gagen_ld, int gagen_str
   w1 = gagen_v_sin(w1);
   w0 = w24 * w1;
   w21 = w21 + w0;
-  w0 = GAGEN_GATHER(q, 10, 6);
+  w0 = GAGEN_GATHER(in_q, 10, 6);
   w0 = w2 * w0;
   w14 = gagen_v_cos(w0);
   w13 = w21 * w14;
@@ -941,7 +941,7 @@ static void g1_arms_line_left_hand_fk_block_columns(long gagen_ld, int gagen_str
   w0 = gagen_v_sin(w0);
   w18 = w19 * w0;
   w13 = w13 - w18;
-  w18 = GAGEN_GATHER(q, 10, 7);
+  w18 = GAGEN_GATHER(in_q, 10, 7);
   w18 = w2 * w18;
   w17 = gagen_v_cos(w18);
   w12 = w13 * w17;
@@ -957,7 +957,7 @@ static void g1_arms_line_left_hand_fk_block_columns(long gagen_ld, int gagen_str
   w18 = gagen_v_sin(w18);
   w7 = w16 * w18;
   w12 = w12 + w7;
-  w7 = GAGEN_GATHER(q, 10, 8);
+  w7 = GAGEN_GATHER(in_q, 10, 8);
   w7 = w2 * w7;
   w10 = gagen_v_cos(w7);
   w26 = w12 * w10;
@@ -973,7 +973,7 @@ static void g1_arms_line_left_hand_fk_block_columns(long gagen_ld, int gagen_str
   w7 = gagen_v_sin(w7);
   w23 = w19 * w7;
   w26 = w26 - w23;
-  w23 = GAGEN_GATHER(q, 10, 9);
+  w23 = GAGEN_GATHER(in_q, 10, 9);
   w23 = w2 * w23;
   w27 = gagen_v_cos(w23);
   w28 = w26 * w27;
@@ -989,11 +989,11 @@ static void g1_arms_line_left_hand_fk_block_columns(long gagen_ld, int gagen_str
   w23 = gagen_v_sin(w23);
   w13 = w21 * w23;
   w28 = w28 + w13;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w21 = w21 * w27;
   w26 = w26 * w23;
   w21 = w21 - w26;
-  GAGEN_SCATTER(M, 8, 1, w21);
+  GAGEN_SCATTER(out_M, 8, 1, w21);
   w12 = w12 * w7;
   w19 = w19 * w10;
   w12 = w12 + w19;
@@ -1003,11 +1003,11 @@ static void g1_arms_line_left_hand_fk_block_columns(long gagen_ld, int gagen_str
   w16 = w16 - w24;
   w24 = w16 * w23;
   w19 = w19 + w24;
-  GAGEN_SCATTER(M, 8, 2, w19);
+  GAGEN_SCATTER(out_M, 8, 2, w19);
   w16 = w16 * w27;
   w12 = w12 * w23;
   w16 = w16 - w12;
-  GAGEN_SCATTER(M, 8, 3, w16);
+  GAGEN_SCATTER(out_M, 8, 3, w16);
   w12 = gagen_v_splat(0.0039563);
   w24 = w9 * w9;
   w26 = w8 * w8;
@@ -1404,14 +1404,14 @@ static void g1_arms_line_left_hand_fk_block_columns(long gagen_ld, int gagen_str
   w58 = w32 * w28;
   w39 = w39 - w58;
   w39 = w2 * w39;
-  GAGEN_SCATTER(M, 8, 4, w39);
+  GAGEN_SCATTER(out_M, 8, 4, w39);
   w39 = w26 * w16;
   w58 = w32 * w21;
   w39 = w39 - w58;
   w58 = w3 * w28;
   w39 = w39 - w58;
   w39 = w2 * w39;
-  GAGEN_SCATTER(M, 8, 5, w39);
+  GAGEN_SCATTER(out_M, 8, 5, w39);
   w39 = w32 * w19;
   w58 = w3 * w16;
   w39 = w39 + w58;
@@ -1419,26 +1419,26 @@ static void g1_arms_line_left_hand_fk_block_columns(long gagen_ld, int gagen_str
   w39 = w39 + w28;
   w39 = w2 * w39;
   w39 = -w39;
-  GAGEN_SCATTER(M, 8, 6, w39);
+  GAGEN_SCATTER(out_M, 8, 6, w39);
   w19 = w3 * w19;
   w16 = w32 * w16;
   w19 = w19 - w16;
   w21 = w26 * w21;
   w19 = w19 - w21;
   w19 = w2 * w19;
-  GAGEN_SCATTER(M, 8, 7, w19);
+  GAGEN_SCATTER(out_M, 8, 7, w19);
   w19 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w19);
-  GAGEN_SCATTER(P, 5, 1, w32);
-  GAGEN_SCATTER(P, 5, 2, w3);
-  GAGEN_SCATTER(P, 5, 3, w26);
+  GAGEN_SCATTER(out_P, 5, 0, w19);
+  GAGEN_SCATTER(out_P, 5, 1, w32);
+  GAGEN_SCATTER(out_P, 5, 2, w3);
+  GAGEN_SCATTER(out_P, 5, 3, w26);
   w32 = w32 * w32;
   w3 = w3 * w3;
   w32 = w32 + w3;
   w26 = w26 * w26;
   w32 = w32 + w26;
   w2 = w2 * w32;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -1446,21 +1446,21 @@ static void g1_arms_line_left_hand_fk_block_columns(long gagen_ld, int gagen_str
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void g1_arms_line_left_hand_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void g1_arms_line_left_hand_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    g1_arms_line_left_hand_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    g1_arms_line_left_hand_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  g1_arms_line_left_hand_fk_columns_from(s, n, ld, q, M, P);
+  g1_arms_line_left_hand_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain left_hand: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -1473,14 +1473,14 @@ static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, d
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(0.9902640743722195);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -1511,7 +1511,7 @@ static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, d
   w7 = w7 + w11;
   w11 = w21 * w7;
   w14 = w14 - w11;
-  w11 = GAGEN_GATHER(q, 10, 3);
+  w11 = GAGEN_GATHER(in_q, 10, 3);
   w11 = w2 * w11;
   w22 = gagen_v_cos(w11);
   w23 = w14 * w22;
@@ -1548,7 +1548,7 @@ static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, d
   w20 = w25 - w1;
   w20 = w16 * w20;
   w18 = w18 + w20;
-  w20 = GAGEN_GATHER(q, 10, 4);
+  w20 = GAGEN_GATHER(in_q, 10, 4);
   w20 = w2 * w20;
   w15 = gagen_v_cos(w20);
   w7 = w18 * w15;
@@ -1559,7 +1559,7 @@ static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, d
   w20 = gagen_v_sin(w20);
   w1 = w23 * w20;
   w7 = w7 + w1;
-  w1 = GAGEN_GATHER(q, 10, 5);
+  w1 = GAGEN_GATHER(in_q, 10, 5);
   w1 = w2 * w1;
   w25 = gagen_v_cos(w1);
   w21 = w7 * w25;
@@ -1581,7 +1581,7 @@ static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, d
   w1 = gagen_v_sin(w1);
   w0 = w24 * w1;
   w21 = w21 + w0;
-  w0 = GAGEN_GATHER(q, 10, 6);
+  w0 = GAGEN_GATHER(in_q, 10, 6);
   w0 = w2 * w0;
   w14 = gagen_v_cos(w0);
   w13 = w21 * w14;
@@ -1597,7 +1597,7 @@ static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, d
   w0 = gagen_v_sin(w0);
   w18 = w19 * w0;
   w13 = w13 - w18;
-  w18 = GAGEN_GATHER(q, 10, 7);
+  w18 = GAGEN_GATHER(in_q, 10, 7);
   w18 = w2 * w18;
   w17 = gagen_v_cos(w18);
   w12 = w13 * w17;
@@ -1613,7 +1613,7 @@ static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, d
   w18 = gagen_v_sin(w18);
   w7 = w16 * w18;
   w12 = w12 + w7;
-  w7 = GAGEN_GATHER(q, 10, 8);
+  w7 = GAGEN_GATHER(in_q, 10, 8);
   w7 = w2 * w7;
   w10 = gagen_v_cos(w7);
   w26 = w12 * w10;
@@ -1629,7 +1629,7 @@ static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, d
   w7 = gagen_v_sin(w7);
   w23 = w19 * w7;
   w26 = w26 - w23;
-  w23 = GAGEN_GATHER(q, 10, 9);
+  w23 = GAGEN_GATHER(in_q, 10, 9);
   w23 = w2 * w23;
   w27 = gagen_v_cos(w23);
   w28 = w26 * w27;
@@ -1645,11 +1645,11 @@ static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, d
   w23 = gagen_v_sin(w23);
   w13 = w21 * w23;
   w28 = w28 + w13;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w21 = w21 * w27;
   w26 = w26 * w23;
   w21 = w21 - w26;
-  GAGEN_SCATTER(M, 8, 1, w21);
+  GAGEN_SCATTER(out_M, 8, 1, w21);
   w12 = w12 * w7;
   w19 = w19 * w10;
   w12 = w12 + w19;
@@ -1659,11 +1659,11 @@ static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, d
   w16 = w16 - w24;
   w24 = w16 * w23;
   w19 = w19 + w24;
-  GAGEN_SCATTER(M, 8, 2, w19);
+  GAGEN_SCATTER(out_M, 8, 2, w19);
   w16 = w16 * w27;
   w12 = w12 * w23;
   w16 = w16 - w12;
-  GAGEN_SCATTER(M, 8, 3, w16);
+  GAGEN_SCATTER(out_M, 8, 3, w16);
   w12 = gagen_v_splat(0.0039563);
   w24 = w9 * w9;
   w26 = w8 * w8;
@@ -2060,14 +2060,14 @@ static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, d
   w14 = w7 * w28;
   w78 = w78 - w14;
   w78 = w2 * w78;
-  GAGEN_SCATTER(M, 8, 4, w78);
+  GAGEN_SCATTER(out_M, 8, 4, w78);
   w78 = w97 * w16;
   w14 = w7 * w21;
   w78 = w78 - w14;
   w14 = w74 * w28;
   w78 = w78 - w14;
   w78 = w2 * w78;
-  GAGEN_SCATTER(M, 8, 5, w78);
+  GAGEN_SCATTER(out_M, 8, 5, w78);
   w78 = w7 * w19;
   w14 = w74 * w16;
   w78 = w78 + w14;
@@ -2075,49 +2075,49 @@ static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, d
   w78 = w78 + w28;
   w78 = w2 * w78;
   w78 = -w78;
-  GAGEN_SCATTER(M, 8, 6, w78);
+  GAGEN_SCATTER(out_M, 8, 6, w78);
   w19 = w74 * w19;
   w16 = w7 * w16;
   w19 = w19 - w16;
   w21 = w97 * w21;
   w19 = w19 - w21;
   w19 = w2 * w19;
-  GAGEN_SCATTER(M, 8, 7, w19);
+  GAGEN_SCATTER(out_M, 8, 7, w19);
   w19 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w19);
-  GAGEN_SCATTER(P, 5, 1, w7);
-  GAGEN_SCATTER(P, 5, 2, w74);
-  GAGEN_SCATTER(P, 5, 3, w97);
+  GAGEN_SCATTER(out_P, 5, 0, w19);
+  GAGEN_SCATTER(out_P, 5, 1, w7);
+  GAGEN_SCATTER(out_P, 5, 2, w74);
+  GAGEN_SCATTER(out_P, 5, 3, w97);
   w7 = w7 * w7;
   w74 = w74 * w74;
   w7 = w7 + w74;
   w97 = w97 * w97;
   w7 = w7 + w97;
   w2 = w2 * w7;
-  GAGEN_SCATTER(P, 5, 4, w2);
-  GAGEN_SCATTER(J_S, 60, 0, w19);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
+  GAGEN_SCATTER(out_J_S, 60, 0, w19);
   w19 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 60, 1, w19);
-  GAGEN_SCATTER(J_S, 60, 2, w19);
-  GAGEN_SCATTER(J_S, 60, 3, w19);
-  GAGEN_SCATTER(J_S, 60, 4, w19);
-  GAGEN_SCATTER(J_S, 60, 5, w19);
-  GAGEN_SCATTER(J_S, 60, 6, w19);
+  GAGEN_SCATTER(out_J_S, 60, 1, w19);
+  GAGEN_SCATTER(out_J_S, 60, 2, w19);
+  GAGEN_SCATTER(out_J_S, 60, 3, w19);
+  GAGEN_SCATTER(out_J_S, 60, 4, w19);
+  GAGEN_SCATTER(out_J_S, 60, 5, w19);
+  GAGEN_SCATTER(out_J_S, 60, 6, w19);
   w13 = -w13;
-  GAGEN_SCATTER(J_S, 60, 7, w13);
-  GAGEN_SCATTER(J_S, 60, 8, w4);
+  GAGEN_SCATTER(out_J_S, 60, 7, w13);
+  GAGEN_SCATTER(out_J_S, 60, 8, w4);
   w13 = gagen_v_splat(0.07);
   w13 = w13 * w26;
   w13 = -w13;
-  GAGEN_SCATTER(J_S, 60, 9, w13);
+  GAGEN_SCATTER(out_J_S, 60, 9, w13);
   w79 = w79 * w4;
-  GAGEN_SCATTER(J_S, 60, 10, w79);
-  GAGEN_SCATTER(J_S, 60, 11, w19);
-  GAGEN_SCATTER(J_S, 60, 12, w30);
+  GAGEN_SCATTER(out_J_S, 60, 10, w79);
+  GAGEN_SCATTER(out_J_S, 60, 11, w19);
+  GAGEN_SCATTER(out_J_S, 60, 12, w30);
   w19 = -w5;
-  GAGEN_SCATTER(J_S, 60, 13, w19);
+  GAGEN_SCATTER(out_J_S, 60, 13, w19);
   w19 = -w31;
-  GAGEN_SCATTER(J_S, 60, 14, w19);
+  GAGEN_SCATTER(out_J_S, 60, 14, w19);
   w19 = gagen_v_splat(0.0175);
   w79 = gagen_v_splat(0.0095);
   w6 = w79 * w6;
@@ -2130,7 +2130,7 @@ static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, d
   w6 = w6 + w33;
   w6 = -w6;
   w6 = w6 + w6;
-  GAGEN_SCATTER(J_S, 60, 15, w6);
+  GAGEN_SCATTER(out_J_S, 60, 15, w6);
   w6 = gagen_v_splat(0.00198175);
   w6 = w6 * w4;
   w79 = w79 * w94;
@@ -2139,23 +2139,23 @@ static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, d
   w19 = w31 * w19;
   w30 = w30 - w19;
   w30 = w30 + w30;
-  GAGEN_SCATTER(J_S, 60, 16, w30);
+  GAGEN_SCATTER(out_J_S, 60, 16, w30);
   w31 = w31 * w60;
   w5 = w5 * w6;
   w31 = w31 + w5;
   w31 = -w31;
   w31 = w31 + w31;
-  GAGEN_SCATTER(J_S, 60, 17, w31);
+  GAGEN_SCATTER(out_J_S, 60, 17, w31);
   w31 = gagen_v_splat(1.9224917487388276);
   w31 = w31 * w8;
   w39 = w39 * w82;
   w31 = w31 - w39;
   w42 = w42 * w84;
   w31 = w31 + w42;
-  GAGEN_SCATTER(J_S, 60, 18, w31);
+  GAGEN_SCATTER(out_J_S, 60, 18, w31);
   w42 = -w40;
-  GAGEN_SCATTER(J_S, 60, 19, w42);
-  GAGEN_SCATTER(J_S, 60, 20, w37);
+  GAGEN_SCATTER(out_J_S, 60, 19, w42);
+  GAGEN_SCATTER(out_J_S, 60, 20, w37);
   w3 = w3 - w56;
   w42 = w31 * w3;
   w12 = w12 * w82;
@@ -2167,22 +2167,22 @@ static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, d
   w80 = w80 + w35;
   w35 = w40 * w80;
   w42 = w42 - w35;
-  GAGEN_SCATTER(J_S, 60, 21, w42);
+  GAGEN_SCATTER(out_J_S, 60, 21, w42);
   w80 = w37 * w80;
   w32 = w32 - w18;
   w31 = w31 * w32;
   w80 = w80 - w31;
-  GAGEN_SCATTER(J_S, 60, 22, w80);
+  GAGEN_SCATTER(out_J_S, 60, 22, w80);
   w37 = w37 * w3;
   w40 = w40 * w32;
   w37 = w37 - w40;
   w37 = -w37;
-  GAGEN_SCATTER(J_S, 60, 23, w37);
+  GAGEN_SCATTER(out_J_S, 60, 23, w37);
   w37 = -w87;
-  GAGEN_SCATTER(J_S, 60, 24, w37);
+  GAGEN_SCATTER(out_J_S, 60, 24, w37);
   w37 = -w51;
-  GAGEN_SCATTER(J_S, 60, 25, w37);
-  GAGEN_SCATTER(J_S, 60, 26, w1);
+  GAGEN_SCATTER(out_J_S, 60, 25, w37);
+  GAGEN_SCATTER(out_J_S, 60, 26, w1);
   w43 = w43 - w56;
   w43 = w43 - w54;
   w37 = w87 * w43;
@@ -2190,22 +2190,22 @@ static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, d
   w40 = w51 * w81;
   w37 = w37 + w40;
   w37 = -w37;
-  GAGEN_SCATTER(J_S, 60, 27, w37);
+  GAGEN_SCATTER(out_J_S, 60, 27, w37);
   w81 = w1 * w81;
   w38 = w38 - w18;
   w38 = w38 - w75;
   w87 = w87 * w38;
   w81 = w81 + w87;
-  GAGEN_SCATTER(J_S, 60, 28, w81);
+  GAGEN_SCATTER(out_J_S, 60, 28, w81);
   w1 = w1 * w43;
   w51 = w51 * w38;
   w1 = w1 - w51;
   w1 = -w1;
-  GAGEN_SCATTER(J_S, 60, 29, w1);
-  GAGEN_SCATTER(J_S, 60, 30, w89);
+  GAGEN_SCATTER(out_J_S, 60, 29, w1);
+  GAGEN_SCATTER(out_J_S, 60, 30, w89);
   w1 = -w20;
-  GAGEN_SCATTER(J_S, 60, 31, w1);
-  GAGEN_SCATTER(J_S, 60, 32, w45);
+  GAGEN_SCATTER(out_J_S, 60, 31, w1);
+  GAGEN_SCATTER(out_J_S, 60, 32, w45);
   w57 = w57 - w56;
   w57 = w57 - w54;
   w1 = gagen_v_splat(0.1032);
@@ -2217,7 +2217,7 @@ static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, d
   w90 = w90 - w38;
   w38 = w20 * w90;
   w51 = w51 - w38;
-  GAGEN_SCATTER(J_S, 60, 33, w51);
+  GAGEN_SCATTER(out_J_S, 60, 33, w51);
   w90 = w45 * w90;
   w44 = w44 - w18;
   w44 = w44 - w75;
@@ -2225,15 +2225,15 @@ static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, d
   w44 = w44 - w1;
   w89 = w89 * w44;
   w90 = w90 - w89;
-  GAGEN_SCATTER(J_S, 60, 34, w90);
+  GAGEN_SCATTER(out_J_S, 60, 34, w90);
   w45 = w45 * w57;
   w20 = w20 * w44;
   w45 = w45 - w20;
   w45 = -w45;
-  GAGEN_SCATTER(J_S, 60, 35, w45);
-  GAGEN_SCATTER(J_S, 60, 36, w93);
-  GAGEN_SCATTER(J_S, 60, 37, w66);
-  GAGEN_SCATTER(J_S, 60, 38, w25);
+  GAGEN_SCATTER(out_J_S, 60, 35, w45);
+  GAGEN_SCATTER(out_J_S, 60, 36, w93);
+  GAGEN_SCATTER(out_J_S, 60, 37, w66);
+  GAGEN_SCATTER(out_J_S, 60, 38, w25);
   w45 = w36 - w56;
   w45 = w45 - w54;
   w45 = w45 - w77;
@@ -2242,22 +2242,22 @@ static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, d
   w44 = w44 - w99;
   w57 = w66 * w44;
   w20 = w20 + w57;
-  GAGEN_SCATTER(J_S, 60, 39, w20);
+  GAGEN_SCATTER(out_J_S, 60, 39, w20);
   w44 = w25 * w44;
   w20 = w58 - w18;
   w20 = w20 - w75;
   w20 = w20 - w76;
   w93 = w93 * w20;
   w44 = w44 - w93;
-  GAGEN_SCATTER(J_S, 60, 40, w44);
+  GAGEN_SCATTER(out_J_S, 60, 40, w44);
   w66 = w66 * w20;
   w25 = w25 * w45;
   w66 = w66 + w25;
   w66 = -w66;
-  GAGEN_SCATTER(J_S, 60, 41, w66);
-  GAGEN_SCATTER(J_S, 60, 42, w92);
-  GAGEN_SCATTER(J_S, 60, 43, w47);
-  GAGEN_SCATTER(J_S, 60, 44, w49);
+  GAGEN_SCATTER(out_J_S, 60, 41, w66);
+  GAGEN_SCATTER(out_J_S, 60, 42, w92);
+  GAGEN_SCATTER(out_J_S, 60, 43, w47);
+  GAGEN_SCATTER(out_J_S, 60, 44, w49);
   w66 = gagen_v_splat(0.1);
   w0 = w66 * w0;
   w36 = w36 + w0;
@@ -2275,7 +2275,7 @@ static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, d
   w85 = w85 - w91;
   w88 = w47 * w85;
   w70 = w70 + w88;
-  GAGEN_SCATTER(J_S, 60, 45, w70);
+  GAGEN_SCATTER(out_J_S, 60, 45, w70);
   w85 = w49 * w85;
   w66 = w66 * w49;
   w58 = w58 + w66;
@@ -2286,15 +2286,15 @@ static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, d
   w58 = w58 - w68;
   w65 = w92 * w58;
   w85 = w85 - w65;
-  GAGEN_SCATTER(J_S, 60, 46, w85);
+  GAGEN_SCATTER(out_J_S, 60, 46, w85);
   w58 = w47 * w58;
   w36 = w49 * w36;
   w58 = w58 + w36;
   w58 = -w58;
-  GAGEN_SCATTER(J_S, 60, 47, w58);
-  GAGEN_SCATTER(J_S, 60, 48, w98);
-  GAGEN_SCATTER(J_S, 60, 49, w23);
-  GAGEN_SCATTER(J_S, 60, 50, w73);
+  GAGEN_SCATTER(out_J_S, 60, 47, w58);
+  GAGEN_SCATTER(out_J_S, 60, 48, w98);
+  GAGEN_SCATTER(out_J_S, 60, 49, w23);
+  GAGEN_SCATTER(out_J_S, 60, 50, w73);
   w64 = w64 - w56;
   w64 = w64 - w54;
   w64 = w64 - w77;
@@ -2304,7 +2304,7 @@ static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, d
   w83 = w83 - w91;
   w36 = w23 * w83;
   w58 = w58 + w36;
-  GAGEN_SCATTER(J_S, 60, 51, w58);
+  GAGEN_SCATTER(out_J_S, 60, 51, w58);
   w83 = w73 * w83;
   w61 = w61 - w18;
   w61 = w61 - w75;
@@ -2312,24 +2312,24 @@ static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, d
   w61 = w61 - w68;
   w98 = w98 * w61;
   w83 = w83 - w98;
-  GAGEN_SCATTER(J_S, 60, 52, w83);
+  GAGEN_SCATTER(out_J_S, 60, 52, w83);
   w23 = w23 * w61;
   w73 = w73 * w64;
   w23 = w23 + w73;
   w23 = -w23;
-  GAGEN_SCATTER(J_S, 60, 53, w23);
+  GAGEN_SCATTER(out_J_S, 60, 53, w23);
   w92 = w72 * w92;
   w95 = w10 * w95;
   w92 = w92 + w95;
-  GAGEN_SCATTER(J_S, 60, 54, w92);
+  GAGEN_SCATTER(out_J_S, 60, 54, w92);
   w47 = w72 * w47;
   w69 = w10 * w69;
   w47 = w47 - w69;
-  GAGEN_SCATTER(J_S, 60, 55, w47);
+  GAGEN_SCATTER(out_J_S, 60, 55, w47);
   w72 = w72 * w49;
   w10 = w10 * w62;
   w72 = w72 + w10;
-  GAGEN_SCATTER(J_S, 60, 56, w72);
+  GAGEN_SCATTER(out_J_S, 60, 56, w72);
   w63 = w63 - w56;
   w63 = w63 - w54;
   w63 = w63 - w77;
@@ -2339,7 +2339,7 @@ static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, d
   w96 = w96 - w91;
   w91 = w47 * w96;
   w77 = w77 + w91;
-  GAGEN_SCATTER(J_S, 60, 57, w77);
+  GAGEN_SCATTER(out_J_S, 60, 57, w77);
   w96 = w72 * w96;
   w71 = w71 - w18;
   w71 = w71 - w75;
@@ -2347,30 +2347,30 @@ static void g1_arms_line_left_hand_fk_jacobian_block(const double *restrict q, d
   w71 = w71 - w68;
   w92 = w92 * w71;
   w96 = w96 - w92;
-  GAGEN_SCATTER(J_S, 60, 58, w96);
+  GAGEN_SCATTER(out_J_S, 60, 58, w96);
   w47 = w47 * w71;
   w72 = w72 * w63;
   w47 = w47 + w72;
   w47 = -w47;
-  GAGEN_SCATTER(J_S, 60, 59, w47);
+  GAGEN_SCATTER(out_J_S, 60, 59, w47);
 }
 #endif
 
-void g1_arms_line_left_hand_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void g1_arms_line_left_hand_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 60 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 60 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 60 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 60 * gagen_a + gagen_o, 1, 0);
     }
-    g1_arms_line_left_hand_fk_jacobian_block(q + 10 * s, M + 8 * s, P + 5 * s, J_S + 60 * s);
+    g1_arms_line_left_hand_fk_jacobian_block(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 60 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    g1_arms_line_left_hand_fk_jacobian(q + 10 * s, M + 8 * s, P + 5 * s, J_S + 60 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    g1_arms_line_left_hand_fk_jacobian(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 60 * gagen_s);
   }
 }
 
@@ -2380,7 +2380,7 @@ void g1_arms_line_left_hand_fk_jacobian_batch(long n, const double *restrict q, 
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -2393,14 +2393,14 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(0.9902640743722195);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -2431,7 +2431,7 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
   w7 = w7 + w11;
   w11 = w21 * w7;
   w14 = w14 - w11;
-  w11 = GAGEN_GATHER(q, 10, 3);
+  w11 = GAGEN_GATHER(in_q, 10, 3);
   w11 = w2 * w11;
   w22 = gagen_v_cos(w11);
   w23 = w14 * w22;
@@ -2468,7 +2468,7 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
   w20 = w25 - w1;
   w20 = w16 * w20;
   w18 = w18 + w20;
-  w20 = GAGEN_GATHER(q, 10, 4);
+  w20 = GAGEN_GATHER(in_q, 10, 4);
   w20 = w2 * w20;
   w15 = gagen_v_cos(w20);
   w7 = w18 * w15;
@@ -2479,7 +2479,7 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
   w20 = gagen_v_sin(w20);
   w1 = w23 * w20;
   w7 = w7 + w1;
-  w1 = GAGEN_GATHER(q, 10, 5);
+  w1 = GAGEN_GATHER(in_q, 10, 5);
   w1 = w2 * w1;
   w25 = gagen_v_cos(w1);
   w21 = w7 * w25;
@@ -2501,7 +2501,7 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
   w1 = gagen_v_sin(w1);
   w0 = w24 * w1;
   w21 = w21 + w0;
-  w0 = GAGEN_GATHER(q, 10, 6);
+  w0 = GAGEN_GATHER(in_q, 10, 6);
   w0 = w2 * w0;
   w14 = gagen_v_cos(w0);
   w13 = w21 * w14;
@@ -2517,7 +2517,7 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
   w0 = gagen_v_sin(w0);
   w18 = w19 * w0;
   w13 = w13 - w18;
-  w18 = GAGEN_GATHER(q, 10, 7);
+  w18 = GAGEN_GATHER(in_q, 10, 7);
   w18 = w2 * w18;
   w17 = gagen_v_cos(w18);
   w12 = w13 * w17;
@@ -2533,7 +2533,7 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
   w18 = gagen_v_sin(w18);
   w7 = w16 * w18;
   w12 = w12 + w7;
-  w7 = GAGEN_GATHER(q, 10, 8);
+  w7 = GAGEN_GATHER(in_q, 10, 8);
   w7 = w2 * w7;
   w10 = gagen_v_cos(w7);
   w26 = w12 * w10;
@@ -2549,7 +2549,7 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
   w7 = gagen_v_sin(w7);
   w23 = w19 * w7;
   w26 = w26 - w23;
-  w23 = GAGEN_GATHER(q, 10, 9);
+  w23 = GAGEN_GATHER(in_q, 10, 9);
   w23 = w2 * w23;
   w27 = gagen_v_cos(w23);
   w28 = w26 * w27;
@@ -2565,11 +2565,11 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
   w23 = gagen_v_sin(w23);
   w13 = w21 * w23;
   w28 = w28 + w13;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w21 = w21 * w27;
   w26 = w26 * w23;
   w21 = w21 - w26;
-  GAGEN_SCATTER(M, 8, 1, w21);
+  GAGEN_SCATTER(out_M, 8, 1, w21);
   w12 = w12 * w7;
   w19 = w19 * w10;
   w12 = w12 + w19;
@@ -2579,11 +2579,11 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
   w16 = w16 - w24;
   w24 = w16 * w23;
   w19 = w19 + w24;
-  GAGEN_SCATTER(M, 8, 2, w19);
+  GAGEN_SCATTER(out_M, 8, 2, w19);
   w16 = w16 * w27;
   w12 = w12 * w23;
   w16 = w16 - w12;
-  GAGEN_SCATTER(M, 8, 3, w16);
+  GAGEN_SCATTER(out_M, 8, 3, w16);
   w12 = gagen_v_splat(0.0039563);
   w24 = w9 * w9;
   w26 = w8 * w8;
@@ -2980,14 +2980,14 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
   w14 = w7 * w28;
   w78 = w78 - w14;
   w78 = w2 * w78;
-  GAGEN_SCATTER(M, 8, 4, w78);
+  GAGEN_SCATTER(out_M, 8, 4, w78);
   w78 = w97 * w16;
   w14 = w7 * w21;
   w78 = w78 - w14;
   w14 = w74 * w28;
   w78 = w78 - w14;
   w78 = w2 * w78;
-  GAGEN_SCATTER(M, 8, 5, w78);
+  GAGEN_SCATTER(out_M, 8, 5, w78);
   w78 = w7 * w19;
   w14 = w74 * w16;
   w78 = w78 + w14;
@@ -2995,49 +2995,49 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
   w78 = w78 + w28;
   w78 = w2 * w78;
   w78 = -w78;
-  GAGEN_SCATTER(M, 8, 6, w78);
+  GAGEN_SCATTER(out_M, 8, 6, w78);
   w19 = w74 * w19;
   w16 = w7 * w16;
   w19 = w19 - w16;
   w21 = w97 * w21;
   w19 = w19 - w21;
   w19 = w2 * w19;
-  GAGEN_SCATTER(M, 8, 7, w19);
+  GAGEN_SCATTER(out_M, 8, 7, w19);
   w19 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w19);
-  GAGEN_SCATTER(P, 5, 1, w7);
-  GAGEN_SCATTER(P, 5, 2, w74);
-  GAGEN_SCATTER(P, 5, 3, w97);
+  GAGEN_SCATTER(out_P, 5, 0, w19);
+  GAGEN_SCATTER(out_P, 5, 1, w7);
+  GAGEN_SCATTER(out_P, 5, 2, w74);
+  GAGEN_SCATTER(out_P, 5, 3, w97);
   w7 = w7 * w7;
   w74 = w74 * w74;
   w7 = w7 + w74;
   w97 = w97 * w97;
   w7 = w7 + w97;
   w2 = w2 * w7;
-  GAGEN_SCATTER(P, 5, 4, w2);
-  GAGEN_SCATTER(J_S, 60, 0, w19);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
+  GAGEN_SCATTER(out_J_S, 60, 0, w19);
   w19 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 60, 1, w19);
-  GAGEN_SCATTER(J_S, 60, 2, w19);
-  GAGEN_SCATTER(J_S, 60, 3, w19);
-  GAGEN_SCATTER(J_S, 60, 4, w19);
-  GAGEN_SCATTER(J_S, 60, 5, w19);
-  GAGEN_SCATTER(J_S, 60, 6, w19);
+  GAGEN_SCATTER(out_J_S, 60, 1, w19);
+  GAGEN_SCATTER(out_J_S, 60, 2, w19);
+  GAGEN_SCATTER(out_J_S, 60, 3, w19);
+  GAGEN_SCATTER(out_J_S, 60, 4, w19);
+  GAGEN_SCATTER(out_J_S, 60, 5, w19);
+  GAGEN_SCATTER(out_J_S, 60, 6, w19);
   w13 = -w13;
-  GAGEN_SCATTER(J_S, 60, 7, w13);
-  GAGEN_SCATTER(J_S, 60, 8, w4);
+  GAGEN_SCATTER(out_J_S, 60, 7, w13);
+  GAGEN_SCATTER(out_J_S, 60, 8, w4);
   w13 = gagen_v_splat(0.07);
   w13 = w13 * w26;
   w13 = -w13;
-  GAGEN_SCATTER(J_S, 60, 9, w13);
+  GAGEN_SCATTER(out_J_S, 60, 9, w13);
   w79 = w79 * w4;
-  GAGEN_SCATTER(J_S, 60, 10, w79);
-  GAGEN_SCATTER(J_S, 60, 11, w19);
-  GAGEN_SCATTER(J_S, 60, 12, w30);
+  GAGEN_SCATTER(out_J_S, 60, 10, w79);
+  GAGEN_SCATTER(out_J_S, 60, 11, w19);
+  GAGEN_SCATTER(out_J_S, 60, 12, w30);
   w19 = -w5;
-  GAGEN_SCATTER(J_S, 60, 13, w19);
+  GAGEN_SCATTER(out_J_S, 60, 13, w19);
   w19 = -w31;
-  GAGEN_SCATTER(J_S, 60, 14, w19);
+  GAGEN_SCATTER(out_J_S, 60, 14, w19);
   w19 = gagen_v_splat(0.0175);
   w79 = gagen_v_splat(0.0095);
   w6 = w79 * w6;
@@ -3050,7 +3050,7 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
   w6 = w6 + w33;
   w6 = -w6;
   w6 = w6 + w6;
-  GAGEN_SCATTER(J_S, 60, 15, w6);
+  GAGEN_SCATTER(out_J_S, 60, 15, w6);
   w6 = gagen_v_splat(0.00198175);
   w6 = w6 * w4;
   w79 = w79 * w94;
@@ -3059,23 +3059,23 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
   w19 = w31 * w19;
   w30 = w30 - w19;
   w30 = w30 + w30;
-  GAGEN_SCATTER(J_S, 60, 16, w30);
+  GAGEN_SCATTER(out_J_S, 60, 16, w30);
   w31 = w31 * w60;
   w5 = w5 * w6;
   w31 = w31 + w5;
   w31 = -w31;
   w31 = w31 + w31;
-  GAGEN_SCATTER(J_S, 60, 17, w31);
+  GAGEN_SCATTER(out_J_S, 60, 17, w31);
   w31 = gagen_v_splat(1.9224917487388276);
   w31 = w31 * w8;
   w39 = w39 * w82;
   w31 = w31 - w39;
   w42 = w42 * w84;
   w31 = w31 + w42;
-  GAGEN_SCATTER(J_S, 60, 18, w31);
+  GAGEN_SCATTER(out_J_S, 60, 18, w31);
   w42 = -w40;
-  GAGEN_SCATTER(J_S, 60, 19, w42);
-  GAGEN_SCATTER(J_S, 60, 20, w37);
+  GAGEN_SCATTER(out_J_S, 60, 19, w42);
+  GAGEN_SCATTER(out_J_S, 60, 20, w37);
   w3 = w3 - w56;
   w42 = w31 * w3;
   w12 = w12 * w82;
@@ -3087,22 +3087,22 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
   w80 = w80 + w35;
   w35 = w40 * w80;
   w42 = w42 - w35;
-  GAGEN_SCATTER(J_S, 60, 21, w42);
+  GAGEN_SCATTER(out_J_S, 60, 21, w42);
   w80 = w37 * w80;
   w32 = w32 - w18;
   w31 = w31 * w32;
   w80 = w80 - w31;
-  GAGEN_SCATTER(J_S, 60, 22, w80);
+  GAGEN_SCATTER(out_J_S, 60, 22, w80);
   w37 = w37 * w3;
   w40 = w40 * w32;
   w37 = w37 - w40;
   w37 = -w37;
-  GAGEN_SCATTER(J_S, 60, 23, w37);
+  GAGEN_SCATTER(out_J_S, 60, 23, w37);
   w37 = -w87;
-  GAGEN_SCATTER(J_S, 60, 24, w37);
+  GAGEN_SCATTER(out_J_S, 60, 24, w37);
   w37 = -w51;
-  GAGEN_SCATTER(J_S, 60, 25, w37);
-  GAGEN_SCATTER(J_S, 60, 26, w1);
+  GAGEN_SCATTER(out_J_S, 60, 25, w37);
+  GAGEN_SCATTER(out_J_S, 60, 26, w1);
   w43 = w43 - w56;
   w43 = w43 - w54;
   w37 = w87 * w43;
@@ -3110,22 +3110,22 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
   w40 = w51 * w81;
   w37 = w37 + w40;
   w37 = -w37;
-  GAGEN_SCATTER(J_S, 60, 27, w37);
+  GAGEN_SCATTER(out_J_S, 60, 27, w37);
   w81 = w1 * w81;
   w38 = w38 - w18;
   w38 = w38 - w75;
   w87 = w87 * w38;
   w81 = w81 + w87;
-  GAGEN_SCATTER(J_S, 60, 28, w81);
+  GAGEN_SCATTER(out_J_S, 60, 28, w81);
   w1 = w1 * w43;
   w51 = w51 * w38;
   w1 = w1 - w51;
   w1 = -w1;
-  GAGEN_SCATTER(J_S, 60, 29, w1);
-  GAGEN_SCATTER(J_S, 60, 30, w89);
+  GAGEN_SCATTER(out_J_S, 60, 29, w1);
+  GAGEN_SCATTER(out_J_S, 60, 30, w89);
   w1 = -w20;
-  GAGEN_SCATTER(J_S, 60, 31, w1);
-  GAGEN_SCATTER(J_S, 60, 32, w45);
+  GAGEN_SCATTER(out_J_S, 60, 31, w1);
+  GAGEN_SCATTER(out_J_S, 60, 32, w45);
   w57 = w57 - w56;
   w57 = w57 - w54;
   w1 = gagen_v_splat(0.1032);
@@ -3137,7 +3137,7 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
   w90 = w90 - w38;
   w38 = w20 * w90;
   w51 = w51 - w38;
-  GAGEN_SCATTER(J_S, 60, 33, w51);
+  GAGEN_SCATTER(out_J_S, 60, 33, w51);
   w90 = w45 * w90;
   w44 = w44 - w18;
   w44 = w44 - w75;
@@ -3145,15 +3145,15 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
   w44 = w44 - w1;
   w89 = w89 * w44;
   w90 = w90 - w89;
-  GAGEN_SCATTER(J_S, 60, 34, w90);
+  GAGEN_SCATTER(out_J_S, 60, 34, w90);
   w45 = w45 * w57;
   w20 = w20 * w44;
   w45 = w45 - w20;
   w45 = -w45;
-  GAGEN_SCATTER(J_S, 60, 35, w45);
-  GAGEN_SCATTER(J_S, 60, 36, w93);
-  GAGEN_SCATTER(J_S, 60, 37, w66);
-  GAGEN_SCATTER(J_S, 60, 38, w25);
+  GAGEN_SCATTER(out_J_S, 60, 35, w45);
+  GAGEN_SCATTER(out_J_S, 60, 36, w93);
+  GAGEN_SCATTER(out_J_S, 60, 37, w66);
+  GAGEN_SCATTER(out_J_S, 60, 38, w25);
   w45 = w36 - w56;
   w45 = w45 - w54;
   w45 = w45 - w77;
@@ -3162,22 +3162,22 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
   w44 = w44 - w99;
   w57 = w66 * w44;
   w20 = w20 + w57;
-  GAGEN_SCATTER(J_S, 60, 39, w20);
+  GAGEN_SCATTER(out_J_S, 60, 39, w20);
   w44 = w25 * w44;
   w20 = w58 - w18;
   w20 = w20 - w75;
   w20 = w20 - w76;
   w93 = w93 * w20;
   w44 = w44 - w93;
-  GAGEN_SCATTER(J_S, 60, 40, w44);
+  GAGEN_SCATTER(out_J_S, 60, 40, w44);
   w66 = w66 * w20;
   w25 = w25 * w45;
   w66 = w66 + w25;
   w66 = -w66;
-  GAGEN_SCATTER(J_S, 60, 41, w66);
-  GAGEN_SCATTER(J_S, 60, 42, w92);
-  GAGEN_SCATTER(J_S, 60, 43, w47);
-  GAGEN_SCATTER(J_S, 60, 44, w49);
+  GAGEN_SCATTER(out_J_S, 60, 41, w66);
+  GAGEN_SCATTER(out_J_S, 60, 42, w92);
+  GAGEN_SCATTER(out_J_S, 60, 43, w47);
+  GAGEN_SCATTER(out_J_S, 60, 44, w49);
   w66 = gagen_v_splat(0.1);
   w0 = w66 * w0;
   w36 = w36 + w0;
@@ -3195,7 +3195,7 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
   w85 = w85 - w91;
   w88 = w47 * w85;
   w70 = w70 + w88;
-  GAGEN_SCATTER(J_S, 60, 45, w70);
+  GAGEN_SCATTER(out_J_S, 60, 45, w70);
   w85 = w49 * w85;
   w66 = w66 * w49;
   w58 = w58 + w66;
@@ -3206,15 +3206,15 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
   w58 = w58 - w68;
   w65 = w92 * w58;
   w85 = w85 - w65;
-  GAGEN_SCATTER(J_S, 60, 46, w85);
+  GAGEN_SCATTER(out_J_S, 60, 46, w85);
   w58 = w47 * w58;
   w36 = w49 * w36;
   w58 = w58 + w36;
   w58 = -w58;
-  GAGEN_SCATTER(J_S, 60, 47, w58);
-  GAGEN_SCATTER(J_S, 60, 48, w98);
-  GAGEN_SCATTER(J_S, 60, 49, w23);
-  GAGEN_SCATTER(J_S, 60, 50, w73);
+  GAGEN_SCATTER(out_J_S, 60, 47, w58);
+  GAGEN_SCATTER(out_J_S, 60, 48, w98);
+  GAGEN_SCATTER(out_J_S, 60, 49, w23);
+  GAGEN_SCATTER(out_J_S, 60, 50, w73);
   w64 = w64 - w56;
   w64 = w64 - w54;
   w64 = w64 - w77;
@@ -3224,7 +3224,7 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
   w83 = w83 - w91;
   w36 = w23 * w83;
   w58 = w58 + w36;
-  GAGEN_SCATTER(J_S, 60, 51, w58);
+  GAGEN_SCATTER(out_J_S, 60, 51, w58);
   w83 = w73 * w83;
   w61 = w61 - w18;
   w61 = w61 - w75;
@@ -3232,24 +3232,24 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
   w61 = w61 - w68;
   w98 = w98 * w61;
   w83 = w83 - w98;
-  GAGEN_SCATTER(J_S, 60, 52, w83);
+  GAGEN_SCATTER(out_J_S, 60, 52, w83);
   w23 = w23 * w61;
   w73 = w73 * w64;
   w23 = w23 + w73;
   w23 = -w23;
-  GAGEN_SCATTER(J_S, 60, 53, w23);
+  GAGEN_SCATTER(out_J_S, 60, 53, w23);
   w92 = w72 * w92;
   w95 = w10 * w95;
   w92 = w92 + w95;
-  GAGEN_SCATTER(J_S, 60, 54, w92);
+  GAGEN_SCATTER(out_J_S, 60, 54, w92);
   w47 = w72 * w47;
   w69 = w10 * w69;
   w47 = w47 - w69;
-  GAGEN_SCATTER(J_S, 60, 55, w47);
+  GAGEN_SCATTER(out_J_S, 60, 55, w47);
   w72 = w72 * w49;
   w10 = w10 * w62;
   w72 = w72 + w10;
-  GAGEN_SCATTER(J_S, 60, 56, w72);
+  GAGEN_SCATTER(out_J_S, 60, 56, w72);
   w63 = w63 - w56;
   w63 = w63 - w54;
   w63 = w63 - w77;
@@ -3259,7 +3259,7 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
   w96 = w96 - w91;
   w91 = w47 * w96;
   w77 = w77 + w91;
-  GAGEN_SCATTER(J_S, 60, 57, w77);
+  GAGEN_SCATTER(out_J_S, 60, 57, w77);
   w96 = w72 * w96;
   w71 = w71 - w18;
   w71 = w71 - w75;
@@ -3267,12 +3267,12 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
   w71 = w71 - w68;
   w92 = w92 * w71;
   w96 = w96 - w92;
-  GAGEN_SCATTER(J_S, 60, 58, w96);
+  GAGEN_SCATTER(out_J_S, 60, 58, w96);
   w47 = w47 * w71;
   w72 = w72 * w63;
   w47 = w47 + w72;
   w47 = -w47;
-  GAGEN_SCATTER(J_S, 60, 59, w47);
+  GAGEN_SCATTER(out_J_S, 60, 59, w47);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -3280,21 +3280,21 @@ static void g1_arms_line_left_hand_fk_jacobian_block_columns(long gagen_ld, int 
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void g1_arms_line_left_hand_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void g1_arms_line_left_hand_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 73L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    g1_arms_line_left_hand_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 73L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    g1_arms_line_left_hand_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  g1_arms_line_left_hand_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  g1_arms_line_left_hand_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }
 
 #if GAGEN_SIMD
 /* chain right_hand: motor and end point: GAGEN_W consecutive samples at once */
-static void g1_arms_line_right_hand_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void g1_arms_line_right_hand_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -3304,14 +3304,14 @@ static void g1_arms_line_right_hand_fk_block(const double *restrict q, double *r
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(0.9902640743722195);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -3342,7 +3342,7 @@ static void g1_arms_line_right_hand_fk_block(const double *restrict q, double *r
   w7 = w7 + w11;
   w11 = w16 * w7;
   w14 = w14 - w11;
-  w11 = GAGEN_GATHER(q, 10, 3);
+  w11 = GAGEN_GATHER(in_q, 10, 3);
   w11 = w2 * w11;
   w21 = gagen_v_cos(w11);
   w22 = w14 * w21;
@@ -3379,7 +3379,7 @@ static void g1_arms_line_right_hand_fk_block(const double *restrict q, double *r
   w26 = w26 - w15;
   w15 = w25 * w26;
   w24 = w24 + w15;
-  w15 = GAGEN_GATHER(q, 10, 4);
+  w15 = GAGEN_GATHER(in_q, 10, 4);
   w15 = w2 * w15;
   w7 = gagen_v_cos(w15);
   w1 = w24 * w7;
@@ -3390,7 +3390,7 @@ static void g1_arms_line_right_hand_fk_block(const double *restrict q, double *r
   w15 = gagen_v_sin(w15);
   w26 = w17 * w15;
   w1 = w1 + w26;
-  w26 = GAGEN_GATHER(q, 10, 5);
+  w26 = GAGEN_GATHER(in_q, 10, 5);
   w26 = w2 * w26;
   w22 = gagen_v_cos(w26);
   w18 = w1 * w22;
@@ -3412,7 +3412,7 @@ static void g1_arms_line_right_hand_fk_block(const double *restrict q, double *r
   w26 = gagen_v_sin(w26);
   w25 = w23 * w26;
   w18 = w18 + w25;
-  w25 = GAGEN_GATHER(q, 10, 6);
+  w25 = GAGEN_GATHER(in_q, 10, 6);
   w25 = w2 * w25;
   w20 = gagen_v_cos(w25);
   w14 = w18 * w20;
@@ -3428,7 +3428,7 @@ static void g1_arms_line_right_hand_fk_block(const double *restrict q, double *r
   w25 = gagen_v_sin(w25);
   w24 = w13 * w25;
   w14 = w14 - w24;
-  w24 = GAGEN_GATHER(q, 10, 7);
+  w24 = GAGEN_GATHER(in_q, 10, 7);
   w24 = w2 * w24;
   w16 = gagen_v_cos(w24);
   w19 = w14 * w16;
@@ -3444,7 +3444,7 @@ static void g1_arms_line_right_hand_fk_block(const double *restrict q, double *r
   w24 = gagen_v_sin(w24);
   w1 = w0 * w24;
   w19 = w19 + w1;
-  w1 = GAGEN_GATHER(q, 10, 8);
+  w1 = GAGEN_GATHER(in_q, 10, 8);
   w1 = w2 * w1;
   w12 = gagen_v_cos(w1);
   w10 = w19 * w12;
@@ -3460,7 +3460,7 @@ static void g1_arms_line_right_hand_fk_block(const double *restrict q, double *r
   w1 = gagen_v_sin(w1);
   w17 = w13 * w1;
   w10 = w10 - w17;
-  w17 = GAGEN_GATHER(q, 10, 9);
+  w17 = GAGEN_GATHER(in_q, 10, 9);
   w17 = w2 * w17;
   w27 = gagen_v_cos(w17);
   w28 = w10 * w27;
@@ -3476,11 +3476,11 @@ static void g1_arms_line_right_hand_fk_block(const double *restrict q, double *r
   w17 = gagen_v_sin(w17);
   w14 = w18 * w17;
   w28 = w28 + w14;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w18 = w18 * w27;
   w10 = w10 * w17;
   w18 = w18 - w10;
-  GAGEN_SCATTER(M, 8, 1, w18);
+  GAGEN_SCATTER(out_M, 8, 1, w18);
   w19 = w19 * w1;
   w13 = w13 * w12;
   w19 = w19 + w13;
@@ -3490,11 +3490,11 @@ static void g1_arms_line_right_hand_fk_block(const double *restrict q, double *r
   w0 = w0 - w23;
   w23 = w0 * w17;
   w13 = w13 + w23;
-  GAGEN_SCATTER(M, 8, 2, w13);
+  GAGEN_SCATTER(out_M, 8, 2, w13);
   w0 = w0 * w27;
   w19 = w19 * w17;
   w0 = w0 - w19;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w19 = gagen_v_splat(0.0039563);
   w23 = w9 * w9;
   w10 = w8 * w8;
@@ -3890,14 +3890,14 @@ static void g1_arms_line_right_hand_fk_block(const double *restrict q, double *r
   w1 = w32 * w28;
   w15 = w15 - w1;
   w15 = w2 * w15;
-  GAGEN_SCATTER(M, 8, 4, w15);
+  GAGEN_SCATTER(out_M, 8, 4, w15);
   w15 = w10 * w0;
   w1 = w32 * w18;
   w15 = w15 - w1;
   w1 = w3 * w28;
   w15 = w15 - w1;
   w15 = w2 * w15;
-  GAGEN_SCATTER(M, 8, 5, w15);
+  GAGEN_SCATTER(out_M, 8, 5, w15);
   w15 = w32 * w13;
   w1 = w3 * w0;
   w15 = w15 + w1;
@@ -3905,43 +3905,43 @@ static void g1_arms_line_right_hand_fk_block(const double *restrict q, double *r
   w15 = w15 + w28;
   w15 = w2 * w15;
   w15 = -w15;
-  GAGEN_SCATTER(M, 8, 6, w15);
+  GAGEN_SCATTER(out_M, 8, 6, w15);
   w13 = w3 * w13;
   w0 = w32 * w0;
   w13 = w13 - w0;
   w18 = w10 * w18;
   w13 = w13 - w18;
   w13 = w2 * w13;
-  GAGEN_SCATTER(M, 8, 7, w13);
+  GAGEN_SCATTER(out_M, 8, 7, w13);
   w13 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w13);
-  GAGEN_SCATTER(P, 5, 1, w32);
-  GAGEN_SCATTER(P, 5, 2, w3);
-  GAGEN_SCATTER(P, 5, 3, w10);
+  GAGEN_SCATTER(out_P, 5, 0, w13);
+  GAGEN_SCATTER(out_P, 5, 1, w32);
+  GAGEN_SCATTER(out_P, 5, 2, w3);
+  GAGEN_SCATTER(out_P, 5, 3, w10);
   w32 = w32 * w32;
   w3 = w3 * w3;
   w32 = w32 + w3;
   w10 = w10 * w10;
   w32 = w32 + w10;
   w2 = w2 * w32;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #endif
 
-void g1_arms_line_right_hand_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void g1_arms_line_right_hand_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    g1_arms_line_right_hand_fk_block(q + 10 * s, M + 8 * s, P + 5 * s);
+    g1_arms_line_right_hand_fk_block(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    g1_arms_line_right_hand_fk(q + 10 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    g1_arms_line_right_hand_fk(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -3951,7 +3951,7 @@ void g1_arms_line_right_hand_fk_batch(long n, const double *restrict q, double *
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void g1_arms_line_right_hand_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void g1_arms_line_right_hand_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -3961,14 +3961,14 @@ static void g1_arms_line_right_hand_fk_block_columns(long gagen_ld, int gagen_st
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(0.9902640743722195);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -3999,7 +3999,7 @@ static void g1_arms_line_right_hand_fk_block_columns(long gagen_ld, int gagen_st
   w7 = w7 + w11;
   w11 = w16 * w7;
   w14 = w14 - w11;
-  w11 = GAGEN_GATHER(q, 10, 3);
+  w11 = GAGEN_GATHER(in_q, 10, 3);
   w11 = w2 * w11;
   w21 = gagen_v_cos(w11);
   w22 = w14 * w21;
@@ -4036,7 +4036,7 @@ static void g1_arms_line_right_hand_fk_block_columns(long gagen_ld, int gagen_st
   w26 = w26 - w15;
   w15 = w25 * w26;
   w24 = w24 + w15;
-  w15 = GAGEN_GATHER(q, 10, 4);
+  w15 = GAGEN_GATHER(in_q, 10, 4);
   w15 = w2 * w15;
   w7 = gagen_v_cos(w15);
   w1 = w24 * w7;
@@ -4047,7 +4047,7 @@ static void g1_arms_line_right_hand_fk_block_columns(long gagen_ld, int gagen_st
   w15 = gagen_v_sin(w15);
   w26 = w17 * w15;
   w1 = w1 + w26;
-  w26 = GAGEN_GATHER(q, 10, 5);
+  w26 = GAGEN_GATHER(in_q, 10, 5);
   w26 = w2 * w26;
   w22 = gagen_v_cos(w26);
   w18 = w1 * w22;
@@ -4069,7 +4069,7 @@ static void g1_arms_line_right_hand_fk_block_columns(long gagen_ld, int gagen_st
   w26 = gagen_v_sin(w26);
   w25 = w23 * w26;
   w18 = w18 + w25;
-  w25 = GAGEN_GATHER(q, 10, 6);
+  w25 = GAGEN_GATHER(in_q, 10, 6);
   w25 = w2 * w25;
   w20 = gagen_v_cos(w25);
   w14 = w18 * w20;
@@ -4085,7 +4085,7 @@ static void g1_arms_line_right_hand_fk_block_columns(long gagen_ld, int gagen_st
   w25 = gagen_v_sin(w25);
   w24 = w13 * w25;
   w14 = w14 - w24;
-  w24 = GAGEN_GATHER(q, 10, 7);
+  w24 = GAGEN_GATHER(in_q, 10, 7);
   w24 = w2 * w24;
   w16 = gagen_v_cos(w24);
   w19 = w14 * w16;
@@ -4101,7 +4101,7 @@ static void g1_arms_line_right_hand_fk_block_columns(long gagen_ld, int gagen_st
   w24 = gagen_v_sin(w24);
   w1 = w0 * w24;
   w19 = w19 + w1;
-  w1 = GAGEN_GATHER(q, 10, 8);
+  w1 = GAGEN_GATHER(in_q, 10, 8);
   w1 = w2 * w1;
   w12 = gagen_v_cos(w1);
   w10 = w19 * w12;
@@ -4117,7 +4117,7 @@ static void g1_arms_line_right_hand_fk_block_columns(long gagen_ld, int gagen_st
   w1 = gagen_v_sin(w1);
   w17 = w13 * w1;
   w10 = w10 - w17;
-  w17 = GAGEN_GATHER(q, 10, 9);
+  w17 = GAGEN_GATHER(in_q, 10, 9);
   w17 = w2 * w17;
   w27 = gagen_v_cos(w17);
   w28 = w10 * w27;
@@ -4133,11 +4133,11 @@ static void g1_arms_line_right_hand_fk_block_columns(long gagen_ld, int gagen_st
   w17 = gagen_v_sin(w17);
   w14 = w18 * w17;
   w28 = w28 + w14;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w18 = w18 * w27;
   w10 = w10 * w17;
   w18 = w18 - w10;
-  GAGEN_SCATTER(M, 8, 1, w18);
+  GAGEN_SCATTER(out_M, 8, 1, w18);
   w19 = w19 * w1;
   w13 = w13 * w12;
   w19 = w19 + w13;
@@ -4147,11 +4147,11 @@ static void g1_arms_line_right_hand_fk_block_columns(long gagen_ld, int gagen_st
   w0 = w0 - w23;
   w23 = w0 * w17;
   w13 = w13 + w23;
-  GAGEN_SCATTER(M, 8, 2, w13);
+  GAGEN_SCATTER(out_M, 8, 2, w13);
   w0 = w0 * w27;
   w19 = w19 * w17;
   w0 = w0 - w19;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w19 = gagen_v_splat(0.0039563);
   w23 = w9 * w9;
   w10 = w8 * w8;
@@ -4547,14 +4547,14 @@ static void g1_arms_line_right_hand_fk_block_columns(long gagen_ld, int gagen_st
   w1 = w32 * w28;
   w15 = w15 - w1;
   w15 = w2 * w15;
-  GAGEN_SCATTER(M, 8, 4, w15);
+  GAGEN_SCATTER(out_M, 8, 4, w15);
   w15 = w10 * w0;
   w1 = w32 * w18;
   w15 = w15 - w1;
   w1 = w3 * w28;
   w15 = w15 - w1;
   w15 = w2 * w15;
-  GAGEN_SCATTER(M, 8, 5, w15);
+  GAGEN_SCATTER(out_M, 8, 5, w15);
   w15 = w32 * w13;
   w1 = w3 * w0;
   w15 = w15 + w1;
@@ -4562,26 +4562,26 @@ static void g1_arms_line_right_hand_fk_block_columns(long gagen_ld, int gagen_st
   w15 = w15 + w28;
   w15 = w2 * w15;
   w15 = -w15;
-  GAGEN_SCATTER(M, 8, 6, w15);
+  GAGEN_SCATTER(out_M, 8, 6, w15);
   w13 = w3 * w13;
   w0 = w32 * w0;
   w13 = w13 - w0;
   w18 = w10 * w18;
   w13 = w13 - w18;
   w13 = w2 * w13;
-  GAGEN_SCATTER(M, 8, 7, w13);
+  GAGEN_SCATTER(out_M, 8, 7, w13);
   w13 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w13);
-  GAGEN_SCATTER(P, 5, 1, w32);
-  GAGEN_SCATTER(P, 5, 2, w3);
-  GAGEN_SCATTER(P, 5, 3, w10);
+  GAGEN_SCATTER(out_P, 5, 0, w13);
+  GAGEN_SCATTER(out_P, 5, 1, w32);
+  GAGEN_SCATTER(out_P, 5, 2, w3);
+  GAGEN_SCATTER(out_P, 5, 3, w10);
   w32 = w32 * w32;
   w3 = w3 * w3;
   w32 = w32 + w3;
   w10 = w10 * w10;
   w32 = w32 + w10;
   w2 = w2 * w32;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -4589,21 +4589,21 @@ static void g1_arms_line_right_hand_fk_block_columns(long gagen_ld, int gagen_st
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void g1_arms_line_right_hand_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void g1_arms_line_right_hand_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    g1_arms_line_right_hand_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    g1_arms_line_right_hand_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  g1_arms_line_right_hand_fk_columns_from(s, n, ld, q, M, P);
+  g1_arms_line_right_hand_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain right_hand: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -4616,14 +4616,14 @@ static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, 
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(0.9902640743722195);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -4654,7 +4654,7 @@ static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, 
   w7 = w7 + w11;
   w11 = w16 * w7;
   w14 = w14 - w11;
-  w11 = GAGEN_GATHER(q, 10, 3);
+  w11 = GAGEN_GATHER(in_q, 10, 3);
   w11 = w2 * w11;
   w21 = gagen_v_cos(w11);
   w22 = w14 * w21;
@@ -4691,7 +4691,7 @@ static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, 
   w26 = w26 - w15;
   w15 = w25 * w26;
   w24 = w24 + w15;
-  w15 = GAGEN_GATHER(q, 10, 4);
+  w15 = GAGEN_GATHER(in_q, 10, 4);
   w15 = w2 * w15;
   w7 = gagen_v_cos(w15);
   w1 = w24 * w7;
@@ -4702,7 +4702,7 @@ static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, 
   w15 = gagen_v_sin(w15);
   w26 = w17 * w15;
   w1 = w1 + w26;
-  w26 = GAGEN_GATHER(q, 10, 5);
+  w26 = GAGEN_GATHER(in_q, 10, 5);
   w26 = w2 * w26;
   w22 = gagen_v_cos(w26);
   w18 = w1 * w22;
@@ -4724,7 +4724,7 @@ static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, 
   w26 = gagen_v_sin(w26);
   w25 = w23 * w26;
   w18 = w18 + w25;
-  w25 = GAGEN_GATHER(q, 10, 6);
+  w25 = GAGEN_GATHER(in_q, 10, 6);
   w25 = w2 * w25;
   w20 = gagen_v_cos(w25);
   w14 = w18 * w20;
@@ -4740,7 +4740,7 @@ static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, 
   w25 = gagen_v_sin(w25);
   w24 = w13 * w25;
   w14 = w14 - w24;
-  w24 = GAGEN_GATHER(q, 10, 7);
+  w24 = GAGEN_GATHER(in_q, 10, 7);
   w24 = w2 * w24;
   w16 = gagen_v_cos(w24);
   w19 = w14 * w16;
@@ -4756,7 +4756,7 @@ static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, 
   w24 = gagen_v_sin(w24);
   w1 = w0 * w24;
   w19 = w19 + w1;
-  w1 = GAGEN_GATHER(q, 10, 8);
+  w1 = GAGEN_GATHER(in_q, 10, 8);
   w1 = w2 * w1;
   w12 = gagen_v_cos(w1);
   w10 = w19 * w12;
@@ -4772,7 +4772,7 @@ static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, 
   w1 = gagen_v_sin(w1);
   w17 = w13 * w1;
   w10 = w10 - w17;
-  w17 = GAGEN_GATHER(q, 10, 9);
+  w17 = GAGEN_GATHER(in_q, 10, 9);
   w17 = w2 * w17;
   w27 = gagen_v_cos(w17);
   w28 = w10 * w27;
@@ -4788,11 +4788,11 @@ static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, 
   w17 = gagen_v_sin(w17);
   w14 = w18 * w17;
   w28 = w28 + w14;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w18 = w18 * w27;
   w10 = w10 * w17;
   w18 = w18 - w10;
-  GAGEN_SCATTER(M, 8, 1, w18);
+  GAGEN_SCATTER(out_M, 8, 1, w18);
   w19 = w19 * w1;
   w13 = w13 * w12;
   w19 = w19 + w13;
@@ -4802,11 +4802,11 @@ static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, 
   w0 = w0 - w23;
   w23 = w0 * w17;
   w13 = w13 + w23;
-  GAGEN_SCATTER(M, 8, 2, w13);
+  GAGEN_SCATTER(out_M, 8, 2, w13);
   w0 = w0 * w27;
   w19 = w19 * w17;
   w0 = w0 - w19;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w19 = gagen_v_splat(0.0039563);
   w23 = w9 * w9;
   w10 = w8 * w8;
@@ -5202,14 +5202,14 @@ static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, 
   w55 = w1 * w28;
   w79 = w79 - w55;
   w79 = w2 * w79;
-  GAGEN_SCATTER(M, 8, 4, w79);
+  GAGEN_SCATTER(out_M, 8, 4, w79);
   w79 = w97 * w0;
   w55 = w1 * w18;
   w79 = w79 - w55;
   w55 = w70 * w28;
   w79 = w79 - w55;
   w79 = w2 * w79;
-  GAGEN_SCATTER(M, 8, 5, w79);
+  GAGEN_SCATTER(out_M, 8, 5, w79);
   w79 = w1 * w13;
   w55 = w70 * w0;
   w79 = w79 + w55;
@@ -5217,49 +5217,49 @@ static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, 
   w79 = w79 + w28;
   w79 = w2 * w79;
   w79 = -w79;
-  GAGEN_SCATTER(M, 8, 6, w79);
+  GAGEN_SCATTER(out_M, 8, 6, w79);
   w13 = w70 * w13;
   w0 = w1 * w0;
   w13 = w13 - w0;
   w18 = w97 * w18;
   w13 = w13 - w18;
   w13 = w2 * w13;
-  GAGEN_SCATTER(M, 8, 7, w13);
+  GAGEN_SCATTER(out_M, 8, 7, w13);
   w13 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w13);
-  GAGEN_SCATTER(P, 5, 1, w1);
-  GAGEN_SCATTER(P, 5, 2, w70);
-  GAGEN_SCATTER(P, 5, 3, w97);
+  GAGEN_SCATTER(out_P, 5, 0, w13);
+  GAGEN_SCATTER(out_P, 5, 1, w1);
+  GAGEN_SCATTER(out_P, 5, 2, w70);
+  GAGEN_SCATTER(out_P, 5, 3, w97);
   w1 = w1 * w1;
   w70 = w70 * w70;
   w1 = w1 + w70;
   w97 = w97 * w97;
   w1 = w1 + w97;
   w2 = w2 * w1;
-  GAGEN_SCATTER(P, 5, 4, w2);
-  GAGEN_SCATTER(J_S, 60, 0, w13);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
+  GAGEN_SCATTER(out_J_S, 60, 0, w13);
   w13 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 60, 1, w13);
-  GAGEN_SCATTER(J_S, 60, 2, w13);
-  GAGEN_SCATTER(J_S, 60, 3, w13);
-  GAGEN_SCATTER(J_S, 60, 4, w13);
-  GAGEN_SCATTER(J_S, 60, 5, w13);
-  GAGEN_SCATTER(J_S, 60, 6, w13);
+  GAGEN_SCATTER(out_J_S, 60, 1, w13);
+  GAGEN_SCATTER(out_J_S, 60, 2, w13);
+  GAGEN_SCATTER(out_J_S, 60, 3, w13);
+  GAGEN_SCATTER(out_J_S, 60, 4, w13);
+  GAGEN_SCATTER(out_J_S, 60, 5, w13);
+  GAGEN_SCATTER(out_J_S, 60, 6, w13);
   w14 = -w14;
-  GAGEN_SCATTER(J_S, 60, 7, w14);
-  GAGEN_SCATTER(J_S, 60, 8, w4);
+  GAGEN_SCATTER(out_J_S, 60, 7, w14);
+  GAGEN_SCATTER(out_J_S, 60, 8, w4);
   w14 = gagen_v_splat(0.07);
   w14 = w14 * w10;
   w14 = -w14;
-  GAGEN_SCATTER(J_S, 60, 9, w14);
+  GAGEN_SCATTER(out_J_S, 60, 9, w14);
   w80 = w80 * w4;
-  GAGEN_SCATTER(J_S, 60, 10, w80);
-  GAGEN_SCATTER(J_S, 60, 11, w13);
-  GAGEN_SCATTER(J_S, 60, 12, w30);
+  GAGEN_SCATTER(out_J_S, 60, 10, w80);
+  GAGEN_SCATTER(out_J_S, 60, 11, w13);
+  GAGEN_SCATTER(out_J_S, 60, 12, w30);
   w13 = -w5;
-  GAGEN_SCATTER(J_S, 60, 13, w13);
+  GAGEN_SCATTER(out_J_S, 60, 13, w13);
   w13 = -w36;
-  GAGEN_SCATTER(J_S, 60, 14, w13);
+  GAGEN_SCATTER(out_J_S, 60, 14, w13);
   w13 = gagen_v_splat(0.0175);
   w80 = gagen_v_splat(0.0095);
   w6 = w80 * w6;
@@ -5272,7 +5272,7 @@ static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, 
   w6 = w6 + w33;
   w6 = -w6;
   w6 = w6 + w6;
-  GAGEN_SCATTER(J_S, 60, 15, w6);
+  GAGEN_SCATTER(out_J_S, 60, 15, w6);
   w6 = gagen_v_splat(0.00198175);
   w6 = w6 * w4;
   w80 = w80 * w102;
@@ -5281,23 +5281,23 @@ static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, 
   w13 = w36 * w13;
   w30 = w30 - w13;
   w30 = w30 + w30;
-  GAGEN_SCATTER(J_S, 60, 16, w30);
+  GAGEN_SCATTER(out_J_S, 60, 16, w30);
   w36 = w36 * w38;
   w5 = w5 * w6;
   w36 = w36 + w5;
   w36 = -w36;
   w36 = w36 + w36;
-  GAGEN_SCATTER(J_S, 60, 17, w36);
+  GAGEN_SCATTER(out_J_S, 60, 17, w36);
   w36 = gagen_v_splat(1.9224917487388276);
   w36 = w36 * w8;
   w52 = w52 * w83;
   w36 = w36 + w52;
   w53 = w53 * w85;
   w36 = w36 - w53;
-  GAGEN_SCATTER(J_S, 60, 18, w36);
-  GAGEN_SCATTER(J_S, 60, 19, w29);
+  GAGEN_SCATTER(out_J_S, 60, 18, w36);
+  GAGEN_SCATTER(out_J_S, 60, 19, w29);
   w53 = -w35;
-  GAGEN_SCATTER(J_S, 60, 20, w53);
+  GAGEN_SCATTER(out_J_S, 60, 20, w53);
   w3 = w3 - w71;
   w3 = w3 - w72;
   w53 = w36 * w3;
@@ -5310,23 +5310,23 @@ static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, 
   w81 = w81 - w34;
   w34 = w29 * w81;
   w53 = w53 + w34;
-  GAGEN_SCATTER(J_S, 60, 21, w53);
+  GAGEN_SCATTER(out_J_S, 60, 21, w53);
   w81 = w35 * w81;
   w32 = w32 - w16;
   w32 = w32 + w24;
   w36 = w36 * w32;
   w81 = w81 + w36;
   w81 = -w81;
-  GAGEN_SCATTER(J_S, 60, 22, w81);
+  GAGEN_SCATTER(out_J_S, 60, 22, w81);
   w29 = w29 * w32;
   w35 = w35 * w3;
   w29 = w29 - w35;
   w29 = -w29;
-  GAGEN_SCATTER(J_S, 60, 23, w29);
-  GAGEN_SCATTER(J_S, 60, 24, w86);
+  GAGEN_SCATTER(out_J_S, 60, 23, w29);
+  GAGEN_SCATTER(out_J_S, 60, 24, w86);
   w29 = -w43;
-  GAGEN_SCATTER(J_S, 60, 25, w29);
-  GAGEN_SCATTER(J_S, 60, 26, w26);
+  GAGEN_SCATTER(out_J_S, 60, 25, w29);
+  GAGEN_SCATTER(out_J_S, 60, 26, w26);
   w3 = w3 + w74;
   w3 = w3 - w46;
   w29 = w86 * w3;
@@ -5334,22 +5334,22 @@ static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, 
   w82 = w82 - w84;
   w35 = w43 * w82;
   w29 = w29 - w35;
-  GAGEN_SCATTER(J_S, 60, 27, w29);
+  GAGEN_SCATTER(out_J_S, 60, 27, w29);
   w29 = w26 * w82;
   w32 = w32 + w73;
   w32 = w32 - w75;
   w86 = w86 * w32;
   w29 = w29 - w86;
-  GAGEN_SCATTER(J_S, 60, 28, w29);
+  GAGEN_SCATTER(out_J_S, 60, 28, w29);
   w26 = w26 * w3;
   w43 = w43 * w32;
   w26 = w26 - w43;
   w26 = -w26;
-  GAGEN_SCATTER(J_S, 60, 29, w26);
-  GAGEN_SCATTER(J_S, 60, 30, w90);
+  GAGEN_SCATTER(out_J_S, 60, 29, w26);
+  GAGEN_SCATTER(out_J_S, 60, 30, w90);
   w26 = -w15;
-  GAGEN_SCATTER(J_S, 60, 31, w26);
-  GAGEN_SCATTER(J_S, 60, 32, w39);
+  GAGEN_SCATTER(out_J_S, 60, 31, w26);
+  GAGEN_SCATTER(out_J_S, 60, 32, w39);
   w3 = w3 - w54;
   w26 = gagen_v_splat(0.1032);
   w43 = w26 * w15;
@@ -5360,22 +5360,22 @@ static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, 
   w82 = w82 - w29;
   w29 = w15 * w82;
   w43 = w43 - w29;
-  GAGEN_SCATTER(J_S, 60, 33, w43);
+  GAGEN_SCATTER(out_J_S, 60, 33, w43);
   w82 = w39 * w82;
   w32 = w32 - w76;
   w26 = w26 * w39;
   w32 = w32 - w26;
   w90 = w90 * w32;
   w82 = w82 - w90;
-  GAGEN_SCATTER(J_S, 60, 34, w82);
+  GAGEN_SCATTER(out_J_S, 60, 34, w82);
   w39 = w39 * w3;
   w15 = w15 * w32;
   w39 = w39 - w15;
   w39 = -w39;
-  GAGEN_SCATTER(J_S, 60, 35, w39);
-  GAGEN_SCATTER(J_S, 60, 36, w95);
-  GAGEN_SCATTER(J_S, 60, 37, w61);
-  GAGEN_SCATTER(J_S, 60, 38, w22);
+  GAGEN_SCATTER(out_J_S, 60, 35, w39);
+  GAGEN_SCATTER(out_J_S, 60, 36, w95);
+  GAGEN_SCATTER(out_J_S, 60, 37, w61);
+  GAGEN_SCATTER(out_J_S, 60, 38, w22);
   w39 = w47 - w71;
   w39 = w39 - w72;
   w39 = w39 + w74;
@@ -5389,7 +5389,7 @@ static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, 
   w32 = w32 - w100;
   w3 = w61 * w32;
   w15 = w15 + w3;
-  GAGEN_SCATTER(J_S, 60, 39, w15);
+  GAGEN_SCATTER(out_J_S, 60, 39, w15);
   w32 = w22 * w32;
   w15 = w37 - w16;
   w15 = w15 + w24;
@@ -5399,15 +5399,15 @@ static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, 
   w15 = w15 - w77;
   w95 = w95 * w15;
   w32 = w32 - w95;
-  GAGEN_SCATTER(J_S, 60, 40, w32);
+  GAGEN_SCATTER(out_J_S, 60, 40, w32);
   w61 = w61 * w15;
   w22 = w22 * w39;
   w61 = w61 + w22;
   w61 = -w61;
-  GAGEN_SCATTER(J_S, 60, 41, w61);
-  GAGEN_SCATTER(J_S, 60, 42, w92);
-  GAGEN_SCATTER(J_S, 60, 43, w50);
-  GAGEN_SCATTER(J_S, 60, 44, w40);
+  GAGEN_SCATTER(out_J_S, 60, 41, w61);
+  GAGEN_SCATTER(out_J_S, 60, 42, w92);
+  GAGEN_SCATTER(out_J_S, 60, 43, w50);
+  GAGEN_SCATTER(out_J_S, 60, 44, w40);
   w61 = gagen_v_splat(0.1);
   w25 = w61 * w25;
   w47 = w47 + w25;
@@ -5430,7 +5430,7 @@ static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, 
   w91 = w91 - w88;
   w62 = w50 * w91;
   w65 = w65 + w62;
-  GAGEN_SCATTER(J_S, 60, 45, w65);
+  GAGEN_SCATTER(out_J_S, 60, 45, w65);
   w91 = w40 * w91;
   w61 = w61 * w40;
   w37 = w37 + w61;
@@ -5444,15 +5444,15 @@ static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, 
   w37 = w37 - w63;
   w61 = w92 * w37;
   w91 = w91 - w61;
-  GAGEN_SCATTER(J_S, 60, 46, w91);
+  GAGEN_SCATTER(out_J_S, 60, 46, w91);
   w37 = w50 * w37;
   w47 = w40 * w47;
   w37 = w37 + w47;
   w37 = -w37;
-  GAGEN_SCATTER(J_S, 60, 47, w37);
-  GAGEN_SCATTER(J_S, 60, 48, w98);
-  GAGEN_SCATTER(J_S, 60, 49, w17);
-  GAGEN_SCATTER(J_S, 60, 50, w68);
+  GAGEN_SCATTER(out_J_S, 60, 47, w37);
+  GAGEN_SCATTER(out_J_S, 60, 48, w98);
+  GAGEN_SCATTER(out_J_S, 60, 49, w17);
+  GAGEN_SCATTER(out_J_S, 60, 50, w68);
   w59 = w59 - w71;
   w59 = w59 - w72;
   w59 = w59 + w74;
@@ -5468,7 +5468,7 @@ static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, 
   w89 = w89 - w88;
   w47 = w17 * w89;
   w37 = w37 + w47;
-  GAGEN_SCATTER(J_S, 60, 51, w37);
+  GAGEN_SCATTER(out_J_S, 60, 51, w37);
   w89 = w68 * w89;
   w56 = w56 - w16;
   w56 = w56 + w24;
@@ -5480,24 +5480,24 @@ static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, 
   w56 = w56 - w63;
   w98 = w98 * w56;
   w89 = w89 - w98;
-  GAGEN_SCATTER(J_S, 60, 52, w89);
+  GAGEN_SCATTER(out_J_S, 60, 52, w89);
   w17 = w17 * w56;
   w68 = w68 * w59;
   w17 = w17 + w68;
   w17 = -w17;
-  GAGEN_SCATTER(J_S, 60, 53, w17);
+  GAGEN_SCATTER(out_J_S, 60, 53, w17);
   w92 = w67 * w92;
   w94 = w12 * w94;
   w92 = w92 + w94;
-  GAGEN_SCATTER(J_S, 60, 54, w92);
+  GAGEN_SCATTER(out_J_S, 60, 54, w92);
   w50 = w67 * w50;
   w64 = w12 * w64;
   w50 = w50 - w64;
-  GAGEN_SCATTER(J_S, 60, 55, w50);
+  GAGEN_SCATTER(out_J_S, 60, 55, w50);
   w67 = w67 * w40;
   w12 = w12 * w57;
   w67 = w67 + w12;
-  GAGEN_SCATTER(J_S, 60, 56, w67);
+  GAGEN_SCATTER(out_J_S, 60, 56, w67);
   w58 = w58 - w71;
   w58 = w58 - w72;
   w58 = w58 + w74;
@@ -5513,7 +5513,7 @@ static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, 
   w96 = w96 - w88;
   w88 = w50 * w96;
   w78 = w78 + w88;
-  GAGEN_SCATTER(J_S, 60, 57, w78);
+  GAGEN_SCATTER(out_J_S, 60, 57, w78);
   w96 = w67 * w96;
   w66 = w66 - w16;
   w66 = w66 + w24;
@@ -5525,30 +5525,30 @@ static void g1_arms_line_right_hand_fk_jacobian_block(const double *restrict q, 
   w66 = w66 - w63;
   w92 = w92 * w66;
   w96 = w96 - w92;
-  GAGEN_SCATTER(J_S, 60, 58, w96);
+  GAGEN_SCATTER(out_J_S, 60, 58, w96);
   w50 = w50 * w66;
   w67 = w67 * w58;
   w50 = w50 + w67;
   w50 = -w50;
-  GAGEN_SCATTER(J_S, 60, 59, w50);
+  GAGEN_SCATTER(out_J_S, 60, 59, w50);
 }
 #endif
 
-void g1_arms_line_right_hand_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void g1_arms_line_right_hand_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 60 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 60 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 60 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 60 * gagen_a + gagen_o, 1, 0);
     }
-    g1_arms_line_right_hand_fk_jacobian_block(q + 10 * s, M + 8 * s, P + 5 * s, J_S + 60 * s);
+    g1_arms_line_right_hand_fk_jacobian_block(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 60 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    g1_arms_line_right_hand_fk_jacobian(q + 10 * s, M + 8 * s, P + 5 * s, J_S + 60 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    g1_arms_line_right_hand_fk_jacobian(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 60 * gagen_s);
   }
 }
 
@@ -5558,7 +5558,7 @@ void g1_arms_line_right_hand_fk_jacobian_batch(long n, const double *restrict q,
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -5571,14 +5571,14 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(0.9902640743722195);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -5609,7 +5609,7 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
   w7 = w7 + w11;
   w11 = w16 * w7;
   w14 = w14 - w11;
-  w11 = GAGEN_GATHER(q, 10, 3);
+  w11 = GAGEN_GATHER(in_q, 10, 3);
   w11 = w2 * w11;
   w21 = gagen_v_cos(w11);
   w22 = w14 * w21;
@@ -5646,7 +5646,7 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
   w26 = w26 - w15;
   w15 = w25 * w26;
   w24 = w24 + w15;
-  w15 = GAGEN_GATHER(q, 10, 4);
+  w15 = GAGEN_GATHER(in_q, 10, 4);
   w15 = w2 * w15;
   w7 = gagen_v_cos(w15);
   w1 = w24 * w7;
@@ -5657,7 +5657,7 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
   w15 = gagen_v_sin(w15);
   w26 = w17 * w15;
   w1 = w1 + w26;
-  w26 = GAGEN_GATHER(q, 10, 5);
+  w26 = GAGEN_GATHER(in_q, 10, 5);
   w26 = w2 * w26;
   w22 = gagen_v_cos(w26);
   w18 = w1 * w22;
@@ -5679,7 +5679,7 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
   w26 = gagen_v_sin(w26);
   w25 = w23 * w26;
   w18 = w18 + w25;
-  w25 = GAGEN_GATHER(q, 10, 6);
+  w25 = GAGEN_GATHER(in_q, 10, 6);
   w25 = w2 * w25;
   w20 = gagen_v_cos(w25);
   w14 = w18 * w20;
@@ -5695,7 +5695,7 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
   w25 = gagen_v_sin(w25);
   w24 = w13 * w25;
   w14 = w14 - w24;
-  w24 = GAGEN_GATHER(q, 10, 7);
+  w24 = GAGEN_GATHER(in_q, 10, 7);
   w24 = w2 * w24;
   w16 = gagen_v_cos(w24);
   w19 = w14 * w16;
@@ -5711,7 +5711,7 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
   w24 = gagen_v_sin(w24);
   w1 = w0 * w24;
   w19 = w19 + w1;
-  w1 = GAGEN_GATHER(q, 10, 8);
+  w1 = GAGEN_GATHER(in_q, 10, 8);
   w1 = w2 * w1;
   w12 = gagen_v_cos(w1);
   w10 = w19 * w12;
@@ -5727,7 +5727,7 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
   w1 = gagen_v_sin(w1);
   w17 = w13 * w1;
   w10 = w10 - w17;
-  w17 = GAGEN_GATHER(q, 10, 9);
+  w17 = GAGEN_GATHER(in_q, 10, 9);
   w17 = w2 * w17;
   w27 = gagen_v_cos(w17);
   w28 = w10 * w27;
@@ -5743,11 +5743,11 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
   w17 = gagen_v_sin(w17);
   w14 = w18 * w17;
   w28 = w28 + w14;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w18 = w18 * w27;
   w10 = w10 * w17;
   w18 = w18 - w10;
-  GAGEN_SCATTER(M, 8, 1, w18);
+  GAGEN_SCATTER(out_M, 8, 1, w18);
   w19 = w19 * w1;
   w13 = w13 * w12;
   w19 = w19 + w13;
@@ -5757,11 +5757,11 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
   w0 = w0 - w23;
   w23 = w0 * w17;
   w13 = w13 + w23;
-  GAGEN_SCATTER(M, 8, 2, w13);
+  GAGEN_SCATTER(out_M, 8, 2, w13);
   w0 = w0 * w27;
   w19 = w19 * w17;
   w0 = w0 - w19;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w19 = gagen_v_splat(0.0039563);
   w23 = w9 * w9;
   w10 = w8 * w8;
@@ -6157,14 +6157,14 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
   w55 = w1 * w28;
   w79 = w79 - w55;
   w79 = w2 * w79;
-  GAGEN_SCATTER(M, 8, 4, w79);
+  GAGEN_SCATTER(out_M, 8, 4, w79);
   w79 = w97 * w0;
   w55 = w1 * w18;
   w79 = w79 - w55;
   w55 = w70 * w28;
   w79 = w79 - w55;
   w79 = w2 * w79;
-  GAGEN_SCATTER(M, 8, 5, w79);
+  GAGEN_SCATTER(out_M, 8, 5, w79);
   w79 = w1 * w13;
   w55 = w70 * w0;
   w79 = w79 + w55;
@@ -6172,49 +6172,49 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
   w79 = w79 + w28;
   w79 = w2 * w79;
   w79 = -w79;
-  GAGEN_SCATTER(M, 8, 6, w79);
+  GAGEN_SCATTER(out_M, 8, 6, w79);
   w13 = w70 * w13;
   w0 = w1 * w0;
   w13 = w13 - w0;
   w18 = w97 * w18;
   w13 = w13 - w18;
   w13 = w2 * w13;
-  GAGEN_SCATTER(M, 8, 7, w13);
+  GAGEN_SCATTER(out_M, 8, 7, w13);
   w13 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w13);
-  GAGEN_SCATTER(P, 5, 1, w1);
-  GAGEN_SCATTER(P, 5, 2, w70);
-  GAGEN_SCATTER(P, 5, 3, w97);
+  GAGEN_SCATTER(out_P, 5, 0, w13);
+  GAGEN_SCATTER(out_P, 5, 1, w1);
+  GAGEN_SCATTER(out_P, 5, 2, w70);
+  GAGEN_SCATTER(out_P, 5, 3, w97);
   w1 = w1 * w1;
   w70 = w70 * w70;
   w1 = w1 + w70;
   w97 = w97 * w97;
   w1 = w1 + w97;
   w2 = w2 * w1;
-  GAGEN_SCATTER(P, 5, 4, w2);
-  GAGEN_SCATTER(J_S, 60, 0, w13);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
+  GAGEN_SCATTER(out_J_S, 60, 0, w13);
   w13 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 60, 1, w13);
-  GAGEN_SCATTER(J_S, 60, 2, w13);
-  GAGEN_SCATTER(J_S, 60, 3, w13);
-  GAGEN_SCATTER(J_S, 60, 4, w13);
-  GAGEN_SCATTER(J_S, 60, 5, w13);
-  GAGEN_SCATTER(J_S, 60, 6, w13);
+  GAGEN_SCATTER(out_J_S, 60, 1, w13);
+  GAGEN_SCATTER(out_J_S, 60, 2, w13);
+  GAGEN_SCATTER(out_J_S, 60, 3, w13);
+  GAGEN_SCATTER(out_J_S, 60, 4, w13);
+  GAGEN_SCATTER(out_J_S, 60, 5, w13);
+  GAGEN_SCATTER(out_J_S, 60, 6, w13);
   w14 = -w14;
-  GAGEN_SCATTER(J_S, 60, 7, w14);
-  GAGEN_SCATTER(J_S, 60, 8, w4);
+  GAGEN_SCATTER(out_J_S, 60, 7, w14);
+  GAGEN_SCATTER(out_J_S, 60, 8, w4);
   w14 = gagen_v_splat(0.07);
   w14 = w14 * w10;
   w14 = -w14;
-  GAGEN_SCATTER(J_S, 60, 9, w14);
+  GAGEN_SCATTER(out_J_S, 60, 9, w14);
   w80 = w80 * w4;
-  GAGEN_SCATTER(J_S, 60, 10, w80);
-  GAGEN_SCATTER(J_S, 60, 11, w13);
-  GAGEN_SCATTER(J_S, 60, 12, w30);
+  GAGEN_SCATTER(out_J_S, 60, 10, w80);
+  GAGEN_SCATTER(out_J_S, 60, 11, w13);
+  GAGEN_SCATTER(out_J_S, 60, 12, w30);
   w13 = -w5;
-  GAGEN_SCATTER(J_S, 60, 13, w13);
+  GAGEN_SCATTER(out_J_S, 60, 13, w13);
   w13 = -w36;
-  GAGEN_SCATTER(J_S, 60, 14, w13);
+  GAGEN_SCATTER(out_J_S, 60, 14, w13);
   w13 = gagen_v_splat(0.0175);
   w80 = gagen_v_splat(0.0095);
   w6 = w80 * w6;
@@ -6227,7 +6227,7 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
   w6 = w6 + w33;
   w6 = -w6;
   w6 = w6 + w6;
-  GAGEN_SCATTER(J_S, 60, 15, w6);
+  GAGEN_SCATTER(out_J_S, 60, 15, w6);
   w6 = gagen_v_splat(0.00198175);
   w6 = w6 * w4;
   w80 = w80 * w102;
@@ -6236,23 +6236,23 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
   w13 = w36 * w13;
   w30 = w30 - w13;
   w30 = w30 + w30;
-  GAGEN_SCATTER(J_S, 60, 16, w30);
+  GAGEN_SCATTER(out_J_S, 60, 16, w30);
   w36 = w36 * w38;
   w5 = w5 * w6;
   w36 = w36 + w5;
   w36 = -w36;
   w36 = w36 + w36;
-  GAGEN_SCATTER(J_S, 60, 17, w36);
+  GAGEN_SCATTER(out_J_S, 60, 17, w36);
   w36 = gagen_v_splat(1.9224917487388276);
   w36 = w36 * w8;
   w52 = w52 * w83;
   w36 = w36 + w52;
   w53 = w53 * w85;
   w36 = w36 - w53;
-  GAGEN_SCATTER(J_S, 60, 18, w36);
-  GAGEN_SCATTER(J_S, 60, 19, w29);
+  GAGEN_SCATTER(out_J_S, 60, 18, w36);
+  GAGEN_SCATTER(out_J_S, 60, 19, w29);
   w53 = -w35;
-  GAGEN_SCATTER(J_S, 60, 20, w53);
+  GAGEN_SCATTER(out_J_S, 60, 20, w53);
   w3 = w3 - w71;
   w3 = w3 - w72;
   w53 = w36 * w3;
@@ -6265,23 +6265,23 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
   w81 = w81 - w34;
   w34 = w29 * w81;
   w53 = w53 + w34;
-  GAGEN_SCATTER(J_S, 60, 21, w53);
+  GAGEN_SCATTER(out_J_S, 60, 21, w53);
   w81 = w35 * w81;
   w32 = w32 - w16;
   w32 = w32 + w24;
   w36 = w36 * w32;
   w81 = w81 + w36;
   w81 = -w81;
-  GAGEN_SCATTER(J_S, 60, 22, w81);
+  GAGEN_SCATTER(out_J_S, 60, 22, w81);
   w29 = w29 * w32;
   w35 = w35 * w3;
   w29 = w29 - w35;
   w29 = -w29;
-  GAGEN_SCATTER(J_S, 60, 23, w29);
-  GAGEN_SCATTER(J_S, 60, 24, w86);
+  GAGEN_SCATTER(out_J_S, 60, 23, w29);
+  GAGEN_SCATTER(out_J_S, 60, 24, w86);
   w29 = -w43;
-  GAGEN_SCATTER(J_S, 60, 25, w29);
-  GAGEN_SCATTER(J_S, 60, 26, w26);
+  GAGEN_SCATTER(out_J_S, 60, 25, w29);
+  GAGEN_SCATTER(out_J_S, 60, 26, w26);
   w3 = w3 + w74;
   w3 = w3 - w46;
   w29 = w86 * w3;
@@ -6289,22 +6289,22 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
   w82 = w82 - w84;
   w35 = w43 * w82;
   w29 = w29 - w35;
-  GAGEN_SCATTER(J_S, 60, 27, w29);
+  GAGEN_SCATTER(out_J_S, 60, 27, w29);
   w29 = w26 * w82;
   w32 = w32 + w73;
   w32 = w32 - w75;
   w86 = w86 * w32;
   w29 = w29 - w86;
-  GAGEN_SCATTER(J_S, 60, 28, w29);
+  GAGEN_SCATTER(out_J_S, 60, 28, w29);
   w26 = w26 * w3;
   w43 = w43 * w32;
   w26 = w26 - w43;
   w26 = -w26;
-  GAGEN_SCATTER(J_S, 60, 29, w26);
-  GAGEN_SCATTER(J_S, 60, 30, w90);
+  GAGEN_SCATTER(out_J_S, 60, 29, w26);
+  GAGEN_SCATTER(out_J_S, 60, 30, w90);
   w26 = -w15;
-  GAGEN_SCATTER(J_S, 60, 31, w26);
-  GAGEN_SCATTER(J_S, 60, 32, w39);
+  GAGEN_SCATTER(out_J_S, 60, 31, w26);
+  GAGEN_SCATTER(out_J_S, 60, 32, w39);
   w3 = w3 - w54;
   w26 = gagen_v_splat(0.1032);
   w43 = w26 * w15;
@@ -6315,22 +6315,22 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
   w82 = w82 - w29;
   w29 = w15 * w82;
   w43 = w43 - w29;
-  GAGEN_SCATTER(J_S, 60, 33, w43);
+  GAGEN_SCATTER(out_J_S, 60, 33, w43);
   w82 = w39 * w82;
   w32 = w32 - w76;
   w26 = w26 * w39;
   w32 = w32 - w26;
   w90 = w90 * w32;
   w82 = w82 - w90;
-  GAGEN_SCATTER(J_S, 60, 34, w82);
+  GAGEN_SCATTER(out_J_S, 60, 34, w82);
   w39 = w39 * w3;
   w15 = w15 * w32;
   w39 = w39 - w15;
   w39 = -w39;
-  GAGEN_SCATTER(J_S, 60, 35, w39);
-  GAGEN_SCATTER(J_S, 60, 36, w95);
-  GAGEN_SCATTER(J_S, 60, 37, w61);
-  GAGEN_SCATTER(J_S, 60, 38, w22);
+  GAGEN_SCATTER(out_J_S, 60, 35, w39);
+  GAGEN_SCATTER(out_J_S, 60, 36, w95);
+  GAGEN_SCATTER(out_J_S, 60, 37, w61);
+  GAGEN_SCATTER(out_J_S, 60, 38, w22);
   w39 = w47 - w71;
   w39 = w39 - w72;
   w39 = w39 + w74;
@@ -6344,7 +6344,7 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
   w32 = w32 - w100;
   w3 = w61 * w32;
   w15 = w15 + w3;
-  GAGEN_SCATTER(J_S, 60, 39, w15);
+  GAGEN_SCATTER(out_J_S, 60, 39, w15);
   w32 = w22 * w32;
   w15 = w37 - w16;
   w15 = w15 + w24;
@@ -6354,15 +6354,15 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
   w15 = w15 - w77;
   w95 = w95 * w15;
   w32 = w32 - w95;
-  GAGEN_SCATTER(J_S, 60, 40, w32);
+  GAGEN_SCATTER(out_J_S, 60, 40, w32);
   w61 = w61 * w15;
   w22 = w22 * w39;
   w61 = w61 + w22;
   w61 = -w61;
-  GAGEN_SCATTER(J_S, 60, 41, w61);
-  GAGEN_SCATTER(J_S, 60, 42, w92);
-  GAGEN_SCATTER(J_S, 60, 43, w50);
-  GAGEN_SCATTER(J_S, 60, 44, w40);
+  GAGEN_SCATTER(out_J_S, 60, 41, w61);
+  GAGEN_SCATTER(out_J_S, 60, 42, w92);
+  GAGEN_SCATTER(out_J_S, 60, 43, w50);
+  GAGEN_SCATTER(out_J_S, 60, 44, w40);
   w61 = gagen_v_splat(0.1);
   w25 = w61 * w25;
   w47 = w47 + w25;
@@ -6385,7 +6385,7 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
   w91 = w91 - w88;
   w62 = w50 * w91;
   w65 = w65 + w62;
-  GAGEN_SCATTER(J_S, 60, 45, w65);
+  GAGEN_SCATTER(out_J_S, 60, 45, w65);
   w91 = w40 * w91;
   w61 = w61 * w40;
   w37 = w37 + w61;
@@ -6399,15 +6399,15 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
   w37 = w37 - w63;
   w61 = w92 * w37;
   w91 = w91 - w61;
-  GAGEN_SCATTER(J_S, 60, 46, w91);
+  GAGEN_SCATTER(out_J_S, 60, 46, w91);
   w37 = w50 * w37;
   w47 = w40 * w47;
   w37 = w37 + w47;
   w37 = -w37;
-  GAGEN_SCATTER(J_S, 60, 47, w37);
-  GAGEN_SCATTER(J_S, 60, 48, w98);
-  GAGEN_SCATTER(J_S, 60, 49, w17);
-  GAGEN_SCATTER(J_S, 60, 50, w68);
+  GAGEN_SCATTER(out_J_S, 60, 47, w37);
+  GAGEN_SCATTER(out_J_S, 60, 48, w98);
+  GAGEN_SCATTER(out_J_S, 60, 49, w17);
+  GAGEN_SCATTER(out_J_S, 60, 50, w68);
   w59 = w59 - w71;
   w59 = w59 - w72;
   w59 = w59 + w74;
@@ -6423,7 +6423,7 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
   w89 = w89 - w88;
   w47 = w17 * w89;
   w37 = w37 + w47;
-  GAGEN_SCATTER(J_S, 60, 51, w37);
+  GAGEN_SCATTER(out_J_S, 60, 51, w37);
   w89 = w68 * w89;
   w56 = w56 - w16;
   w56 = w56 + w24;
@@ -6435,24 +6435,24 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
   w56 = w56 - w63;
   w98 = w98 * w56;
   w89 = w89 - w98;
-  GAGEN_SCATTER(J_S, 60, 52, w89);
+  GAGEN_SCATTER(out_J_S, 60, 52, w89);
   w17 = w17 * w56;
   w68 = w68 * w59;
   w17 = w17 + w68;
   w17 = -w17;
-  GAGEN_SCATTER(J_S, 60, 53, w17);
+  GAGEN_SCATTER(out_J_S, 60, 53, w17);
   w92 = w67 * w92;
   w94 = w12 * w94;
   w92 = w92 + w94;
-  GAGEN_SCATTER(J_S, 60, 54, w92);
+  GAGEN_SCATTER(out_J_S, 60, 54, w92);
   w50 = w67 * w50;
   w64 = w12 * w64;
   w50 = w50 - w64;
-  GAGEN_SCATTER(J_S, 60, 55, w50);
+  GAGEN_SCATTER(out_J_S, 60, 55, w50);
   w67 = w67 * w40;
   w12 = w12 * w57;
   w67 = w67 + w12;
-  GAGEN_SCATTER(J_S, 60, 56, w67);
+  GAGEN_SCATTER(out_J_S, 60, 56, w67);
   w58 = w58 - w71;
   w58 = w58 - w72;
   w58 = w58 + w74;
@@ -6468,7 +6468,7 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
   w96 = w96 - w88;
   w88 = w50 * w96;
   w78 = w78 + w88;
-  GAGEN_SCATTER(J_S, 60, 57, w78);
+  GAGEN_SCATTER(out_J_S, 60, 57, w78);
   w96 = w67 * w96;
   w66 = w66 - w16;
   w66 = w66 + w24;
@@ -6480,12 +6480,12 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
   w66 = w66 - w63;
   w92 = w92 * w66;
   w96 = w96 - w92;
-  GAGEN_SCATTER(J_S, 60, 58, w96);
+  GAGEN_SCATTER(out_J_S, 60, 58, w96);
   w50 = w50 * w66;
   w67 = w67 * w58;
   w50 = w50 + w67;
   w50 = -w50;
-  GAGEN_SCATTER(J_S, 60, 59, w50);
+  GAGEN_SCATTER(out_J_S, 60, 59, w50);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -6493,14 +6493,14 @@ static void g1_arms_line_right_hand_fk_jacobian_block_columns(long gagen_ld, int
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void g1_arms_line_right_hand_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void g1_arms_line_right_hand_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 73L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    g1_arms_line_right_hand_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 73L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    g1_arms_line_right_hand_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  g1_arms_line_right_hand_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  g1_arms_line_right_hand_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }

@@ -149,7 +149,7 @@ static inline void gagen_stream_fence(int stream) {
 
 #if GAGEN_SIMD
 /* chain left_hand: motor and end point: GAGEN_W consecutive samples at once */
-static void g1_torso_circle_left_hand_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void g1_torso_circle_left_hand_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -159,14 +159,14 @@ static void g1_torso_circle_left_hand_fk_block(const double *restrict q, double 
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(0.9902640743722195);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -197,7 +197,7 @@ static void g1_torso_circle_left_hand_fk_block(const double *restrict q, double 
   w7 = w7 + w11;
   w11 = w21 * w7;
   w14 = w14 - w11;
-  w11 = GAGEN_GATHER(q, 10, 3);
+  w11 = GAGEN_GATHER(in_q, 10, 3);
   w11 = w2 * w11;
   w22 = gagen_v_cos(w11);
   w23 = w14 * w22;
@@ -234,7 +234,7 @@ static void g1_torso_circle_left_hand_fk_block(const double *restrict q, double 
   w20 = w25 - w1;
   w20 = w16 * w20;
   w18 = w18 + w20;
-  w20 = GAGEN_GATHER(q, 10, 4);
+  w20 = GAGEN_GATHER(in_q, 10, 4);
   w20 = w2 * w20;
   w15 = gagen_v_cos(w20);
   w7 = w18 * w15;
@@ -245,7 +245,7 @@ static void g1_torso_circle_left_hand_fk_block(const double *restrict q, double 
   w20 = gagen_v_sin(w20);
   w1 = w23 * w20;
   w7 = w7 + w1;
-  w1 = GAGEN_GATHER(q, 10, 5);
+  w1 = GAGEN_GATHER(in_q, 10, 5);
   w1 = w2 * w1;
   w25 = gagen_v_cos(w1);
   w21 = w7 * w25;
@@ -267,7 +267,7 @@ static void g1_torso_circle_left_hand_fk_block(const double *restrict q, double 
   w1 = gagen_v_sin(w1);
   w0 = w24 * w1;
   w21 = w21 + w0;
-  w0 = GAGEN_GATHER(q, 10, 6);
+  w0 = GAGEN_GATHER(in_q, 10, 6);
   w0 = w2 * w0;
   w14 = gagen_v_cos(w0);
   w13 = w21 * w14;
@@ -283,7 +283,7 @@ static void g1_torso_circle_left_hand_fk_block(const double *restrict q, double 
   w0 = gagen_v_sin(w0);
   w18 = w19 * w0;
   w13 = w13 - w18;
-  w18 = GAGEN_GATHER(q, 10, 7);
+  w18 = GAGEN_GATHER(in_q, 10, 7);
   w18 = w2 * w18;
   w17 = gagen_v_cos(w18);
   w12 = w13 * w17;
@@ -299,7 +299,7 @@ static void g1_torso_circle_left_hand_fk_block(const double *restrict q, double 
   w18 = gagen_v_sin(w18);
   w7 = w16 * w18;
   w12 = w12 + w7;
-  w7 = GAGEN_GATHER(q, 10, 8);
+  w7 = GAGEN_GATHER(in_q, 10, 8);
   w7 = w2 * w7;
   w10 = gagen_v_cos(w7);
   w26 = w12 * w10;
@@ -315,7 +315,7 @@ static void g1_torso_circle_left_hand_fk_block(const double *restrict q, double 
   w7 = gagen_v_sin(w7);
   w23 = w19 * w7;
   w26 = w26 - w23;
-  w23 = GAGEN_GATHER(q, 10, 9);
+  w23 = GAGEN_GATHER(in_q, 10, 9);
   w23 = w2 * w23;
   w27 = gagen_v_cos(w23);
   w28 = w26 * w27;
@@ -331,11 +331,11 @@ static void g1_torso_circle_left_hand_fk_block(const double *restrict q, double 
   w23 = gagen_v_sin(w23);
   w13 = w21 * w23;
   w28 = w28 + w13;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w21 = w21 * w27;
   w26 = w26 * w23;
   w21 = w21 - w26;
-  GAGEN_SCATTER(M, 8, 1, w21);
+  GAGEN_SCATTER(out_M, 8, 1, w21);
   w12 = w12 * w7;
   w19 = w19 * w10;
   w12 = w12 + w19;
@@ -345,11 +345,11 @@ static void g1_torso_circle_left_hand_fk_block(const double *restrict q, double 
   w16 = w16 - w24;
   w24 = w16 * w23;
   w19 = w19 + w24;
-  GAGEN_SCATTER(M, 8, 2, w19);
+  GAGEN_SCATTER(out_M, 8, 2, w19);
   w16 = w16 * w27;
   w12 = w12 * w23;
   w16 = w16 - w12;
-  GAGEN_SCATTER(M, 8, 3, w16);
+  GAGEN_SCATTER(out_M, 8, 3, w16);
   w12 = gagen_v_splat(0.0039563);
   w24 = w9 * w9;
   w26 = w8 * w8;
@@ -746,14 +746,14 @@ static void g1_torso_circle_left_hand_fk_block(const double *restrict q, double 
   w58 = w32 * w28;
   w39 = w39 - w58;
   w39 = w2 * w39;
-  GAGEN_SCATTER(M, 8, 4, w39);
+  GAGEN_SCATTER(out_M, 8, 4, w39);
   w39 = w26 * w16;
   w58 = w32 * w21;
   w39 = w39 - w58;
   w58 = w3 * w28;
   w39 = w39 - w58;
   w39 = w2 * w39;
-  GAGEN_SCATTER(M, 8, 5, w39);
+  GAGEN_SCATTER(out_M, 8, 5, w39);
   w39 = w32 * w19;
   w58 = w3 * w16;
   w39 = w39 + w58;
@@ -761,43 +761,43 @@ static void g1_torso_circle_left_hand_fk_block(const double *restrict q, double 
   w39 = w39 + w28;
   w39 = w2 * w39;
   w39 = -w39;
-  GAGEN_SCATTER(M, 8, 6, w39);
+  GAGEN_SCATTER(out_M, 8, 6, w39);
   w19 = w3 * w19;
   w16 = w32 * w16;
   w19 = w19 - w16;
   w21 = w26 * w21;
   w19 = w19 - w21;
   w19 = w2 * w19;
-  GAGEN_SCATTER(M, 8, 7, w19);
+  GAGEN_SCATTER(out_M, 8, 7, w19);
   w19 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w19);
-  GAGEN_SCATTER(P, 5, 1, w32);
-  GAGEN_SCATTER(P, 5, 2, w3);
-  GAGEN_SCATTER(P, 5, 3, w26);
+  GAGEN_SCATTER(out_P, 5, 0, w19);
+  GAGEN_SCATTER(out_P, 5, 1, w32);
+  GAGEN_SCATTER(out_P, 5, 2, w3);
+  GAGEN_SCATTER(out_P, 5, 3, w26);
   w32 = w32 * w32;
   w3 = w3 * w3;
   w32 = w32 + w3;
   w26 = w26 * w26;
   w32 = w32 + w26;
   w2 = w2 * w32;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #endif
 
-void g1_torso_circle_left_hand_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void g1_torso_circle_left_hand_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    g1_torso_circle_left_hand_fk_block(q + 10 * s, M + 8 * s, P + 5 * s);
+    g1_torso_circle_left_hand_fk_block(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    g1_torso_circle_left_hand_fk(q + 10 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    g1_torso_circle_left_hand_fk(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -807,7 +807,7 @@ void g1_torso_circle_left_hand_fk_batch(long n, const double *restrict q, double
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void g1_torso_circle_left_hand_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void g1_torso_circle_left_hand_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -817,14 +817,14 @@ static void g1_torso_circle_left_hand_fk_block_columns(long gagen_ld, int gagen_
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(0.9902640743722195);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -855,7 +855,7 @@ static void g1_torso_circle_left_hand_fk_block_columns(long gagen_ld, int gagen_
   w7 = w7 + w11;
   w11 = w21 * w7;
   w14 = w14 - w11;
-  w11 = GAGEN_GATHER(q, 10, 3);
+  w11 = GAGEN_GATHER(in_q, 10, 3);
   w11 = w2 * w11;
   w22 = gagen_v_cos(w11);
   w23 = w14 * w22;
@@ -892,7 +892,7 @@ static void g1_torso_circle_left_hand_fk_block_columns(long gagen_ld, int gagen_
   w20 = w25 - w1;
   w20 = w16 * w20;
   w18 = w18 + w20;
-  w20 = GAGEN_GATHER(q, 10, 4);
+  w20 = GAGEN_GATHER(in_q, 10, 4);
   w20 = w2 * w20;
   w15 = gagen_v_cos(w20);
   w7 = w18 * w15;
@@ -903,7 +903,7 @@ static void g1_torso_circle_left_hand_fk_block_columns(long gagen_ld, int gagen_
   w20 = gagen_v_sin(w20);
   w1 = w23 * w20;
   w7 = w7 + w1;
-  w1 = GAGEN_GATHER(q, 10, 5);
+  w1 = GAGEN_GATHER(in_q, 10, 5);
   w1 = w2 * w1;
   w25 = gagen_v_cos(w1);
   w21 = w7 * w25;
@@ -925,7 +925,7 @@ static void g1_torso_circle_left_hand_fk_block_columns(long gagen_ld, int gagen_
   w1 = gagen_v_sin(w1);
   w0 = w24 * w1;
   w21 = w21 + w0;
-  w0 = GAGEN_GATHER(q, 10, 6);
+  w0 = GAGEN_GATHER(in_q, 10, 6);
   w0 = w2 * w0;
   w14 = gagen_v_cos(w0);
   w13 = w21 * w14;
@@ -941,7 +941,7 @@ static void g1_torso_circle_left_hand_fk_block_columns(long gagen_ld, int gagen_
   w0 = gagen_v_sin(w0);
   w18 = w19 * w0;
   w13 = w13 - w18;
-  w18 = GAGEN_GATHER(q, 10, 7);
+  w18 = GAGEN_GATHER(in_q, 10, 7);
   w18 = w2 * w18;
   w17 = gagen_v_cos(w18);
   w12 = w13 * w17;
@@ -957,7 +957,7 @@ static void g1_torso_circle_left_hand_fk_block_columns(long gagen_ld, int gagen_
   w18 = gagen_v_sin(w18);
   w7 = w16 * w18;
   w12 = w12 + w7;
-  w7 = GAGEN_GATHER(q, 10, 8);
+  w7 = GAGEN_GATHER(in_q, 10, 8);
   w7 = w2 * w7;
   w10 = gagen_v_cos(w7);
   w26 = w12 * w10;
@@ -973,7 +973,7 @@ static void g1_torso_circle_left_hand_fk_block_columns(long gagen_ld, int gagen_
   w7 = gagen_v_sin(w7);
   w23 = w19 * w7;
   w26 = w26 - w23;
-  w23 = GAGEN_GATHER(q, 10, 9);
+  w23 = GAGEN_GATHER(in_q, 10, 9);
   w23 = w2 * w23;
   w27 = gagen_v_cos(w23);
   w28 = w26 * w27;
@@ -989,11 +989,11 @@ static void g1_torso_circle_left_hand_fk_block_columns(long gagen_ld, int gagen_
   w23 = gagen_v_sin(w23);
   w13 = w21 * w23;
   w28 = w28 + w13;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w21 = w21 * w27;
   w26 = w26 * w23;
   w21 = w21 - w26;
-  GAGEN_SCATTER(M, 8, 1, w21);
+  GAGEN_SCATTER(out_M, 8, 1, w21);
   w12 = w12 * w7;
   w19 = w19 * w10;
   w12 = w12 + w19;
@@ -1003,11 +1003,11 @@ static void g1_torso_circle_left_hand_fk_block_columns(long gagen_ld, int gagen_
   w16 = w16 - w24;
   w24 = w16 * w23;
   w19 = w19 + w24;
-  GAGEN_SCATTER(M, 8, 2, w19);
+  GAGEN_SCATTER(out_M, 8, 2, w19);
   w16 = w16 * w27;
   w12 = w12 * w23;
   w16 = w16 - w12;
-  GAGEN_SCATTER(M, 8, 3, w16);
+  GAGEN_SCATTER(out_M, 8, 3, w16);
   w12 = gagen_v_splat(0.0039563);
   w24 = w9 * w9;
   w26 = w8 * w8;
@@ -1404,14 +1404,14 @@ static void g1_torso_circle_left_hand_fk_block_columns(long gagen_ld, int gagen_
   w58 = w32 * w28;
   w39 = w39 - w58;
   w39 = w2 * w39;
-  GAGEN_SCATTER(M, 8, 4, w39);
+  GAGEN_SCATTER(out_M, 8, 4, w39);
   w39 = w26 * w16;
   w58 = w32 * w21;
   w39 = w39 - w58;
   w58 = w3 * w28;
   w39 = w39 - w58;
   w39 = w2 * w39;
-  GAGEN_SCATTER(M, 8, 5, w39);
+  GAGEN_SCATTER(out_M, 8, 5, w39);
   w39 = w32 * w19;
   w58 = w3 * w16;
   w39 = w39 + w58;
@@ -1419,26 +1419,26 @@ static void g1_torso_circle_left_hand_fk_block_columns(long gagen_ld, int gagen_
   w39 = w39 + w28;
   w39 = w2 * w39;
   w39 = -w39;
-  GAGEN_SCATTER(M, 8, 6, w39);
+  GAGEN_SCATTER(out_M, 8, 6, w39);
   w19 = w3 * w19;
   w16 = w32 * w16;
   w19 = w19 - w16;
   w21 = w26 * w21;
   w19 = w19 - w21;
   w19 = w2 * w19;
-  GAGEN_SCATTER(M, 8, 7, w19);
+  GAGEN_SCATTER(out_M, 8, 7, w19);
   w19 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w19);
-  GAGEN_SCATTER(P, 5, 1, w32);
-  GAGEN_SCATTER(P, 5, 2, w3);
-  GAGEN_SCATTER(P, 5, 3, w26);
+  GAGEN_SCATTER(out_P, 5, 0, w19);
+  GAGEN_SCATTER(out_P, 5, 1, w32);
+  GAGEN_SCATTER(out_P, 5, 2, w3);
+  GAGEN_SCATTER(out_P, 5, 3, w26);
   w32 = w32 * w32;
   w3 = w3 * w3;
   w32 = w32 + w3;
   w26 = w26 * w26;
   w32 = w32 + w26;
   w2 = w2 * w32;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -1446,21 +1446,21 @@ static void g1_torso_circle_left_hand_fk_block_columns(long gagen_ld, int gagen_
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void g1_torso_circle_left_hand_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void g1_torso_circle_left_hand_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    g1_torso_circle_left_hand_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    g1_torso_circle_left_hand_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  g1_torso_circle_left_hand_fk_columns_from(s, n, ld, q, M, P);
+  g1_torso_circle_left_hand_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain left_hand: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -1473,14 +1473,14 @@ static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(0.9902640743722195);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -1511,7 +1511,7 @@ static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q
   w7 = w7 + w11;
   w11 = w21 * w7;
   w14 = w14 - w11;
-  w11 = GAGEN_GATHER(q, 10, 3);
+  w11 = GAGEN_GATHER(in_q, 10, 3);
   w11 = w2 * w11;
   w22 = gagen_v_cos(w11);
   w23 = w14 * w22;
@@ -1548,7 +1548,7 @@ static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q
   w20 = w25 - w1;
   w20 = w16 * w20;
   w18 = w18 + w20;
-  w20 = GAGEN_GATHER(q, 10, 4);
+  w20 = GAGEN_GATHER(in_q, 10, 4);
   w20 = w2 * w20;
   w15 = gagen_v_cos(w20);
   w7 = w18 * w15;
@@ -1559,7 +1559,7 @@ static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q
   w20 = gagen_v_sin(w20);
   w1 = w23 * w20;
   w7 = w7 + w1;
-  w1 = GAGEN_GATHER(q, 10, 5);
+  w1 = GAGEN_GATHER(in_q, 10, 5);
   w1 = w2 * w1;
   w25 = gagen_v_cos(w1);
   w21 = w7 * w25;
@@ -1581,7 +1581,7 @@ static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q
   w1 = gagen_v_sin(w1);
   w0 = w24 * w1;
   w21 = w21 + w0;
-  w0 = GAGEN_GATHER(q, 10, 6);
+  w0 = GAGEN_GATHER(in_q, 10, 6);
   w0 = w2 * w0;
   w14 = gagen_v_cos(w0);
   w13 = w21 * w14;
@@ -1597,7 +1597,7 @@ static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q
   w0 = gagen_v_sin(w0);
   w18 = w19 * w0;
   w13 = w13 - w18;
-  w18 = GAGEN_GATHER(q, 10, 7);
+  w18 = GAGEN_GATHER(in_q, 10, 7);
   w18 = w2 * w18;
   w17 = gagen_v_cos(w18);
   w12 = w13 * w17;
@@ -1613,7 +1613,7 @@ static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q
   w18 = gagen_v_sin(w18);
   w7 = w16 * w18;
   w12 = w12 + w7;
-  w7 = GAGEN_GATHER(q, 10, 8);
+  w7 = GAGEN_GATHER(in_q, 10, 8);
   w7 = w2 * w7;
   w10 = gagen_v_cos(w7);
   w26 = w12 * w10;
@@ -1629,7 +1629,7 @@ static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q
   w7 = gagen_v_sin(w7);
   w23 = w19 * w7;
   w26 = w26 - w23;
-  w23 = GAGEN_GATHER(q, 10, 9);
+  w23 = GAGEN_GATHER(in_q, 10, 9);
   w23 = w2 * w23;
   w27 = gagen_v_cos(w23);
   w28 = w26 * w27;
@@ -1645,11 +1645,11 @@ static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q
   w23 = gagen_v_sin(w23);
   w13 = w21 * w23;
   w28 = w28 + w13;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w21 = w21 * w27;
   w26 = w26 * w23;
   w21 = w21 - w26;
-  GAGEN_SCATTER(M, 8, 1, w21);
+  GAGEN_SCATTER(out_M, 8, 1, w21);
   w12 = w12 * w7;
   w19 = w19 * w10;
   w12 = w12 + w19;
@@ -1659,11 +1659,11 @@ static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q
   w16 = w16 - w24;
   w24 = w16 * w23;
   w19 = w19 + w24;
-  GAGEN_SCATTER(M, 8, 2, w19);
+  GAGEN_SCATTER(out_M, 8, 2, w19);
   w16 = w16 * w27;
   w12 = w12 * w23;
   w16 = w16 - w12;
-  GAGEN_SCATTER(M, 8, 3, w16);
+  GAGEN_SCATTER(out_M, 8, 3, w16);
   w12 = gagen_v_splat(0.0039563);
   w24 = w9 * w9;
   w26 = w8 * w8;
@@ -2060,14 +2060,14 @@ static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q
   w14 = w7 * w28;
   w78 = w78 - w14;
   w78 = w2 * w78;
-  GAGEN_SCATTER(M, 8, 4, w78);
+  GAGEN_SCATTER(out_M, 8, 4, w78);
   w78 = w97 * w16;
   w14 = w7 * w21;
   w78 = w78 - w14;
   w14 = w74 * w28;
   w78 = w78 - w14;
   w78 = w2 * w78;
-  GAGEN_SCATTER(M, 8, 5, w78);
+  GAGEN_SCATTER(out_M, 8, 5, w78);
   w78 = w7 * w19;
   w14 = w74 * w16;
   w78 = w78 + w14;
@@ -2075,49 +2075,49 @@ static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q
   w78 = w78 + w28;
   w78 = w2 * w78;
   w78 = -w78;
-  GAGEN_SCATTER(M, 8, 6, w78);
+  GAGEN_SCATTER(out_M, 8, 6, w78);
   w19 = w74 * w19;
   w16 = w7 * w16;
   w19 = w19 - w16;
   w21 = w97 * w21;
   w19 = w19 - w21;
   w19 = w2 * w19;
-  GAGEN_SCATTER(M, 8, 7, w19);
+  GAGEN_SCATTER(out_M, 8, 7, w19);
   w19 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w19);
-  GAGEN_SCATTER(P, 5, 1, w7);
-  GAGEN_SCATTER(P, 5, 2, w74);
-  GAGEN_SCATTER(P, 5, 3, w97);
+  GAGEN_SCATTER(out_P, 5, 0, w19);
+  GAGEN_SCATTER(out_P, 5, 1, w7);
+  GAGEN_SCATTER(out_P, 5, 2, w74);
+  GAGEN_SCATTER(out_P, 5, 3, w97);
   w7 = w7 * w7;
   w74 = w74 * w74;
   w7 = w7 + w74;
   w97 = w97 * w97;
   w7 = w7 + w97;
   w2 = w2 * w7;
-  GAGEN_SCATTER(P, 5, 4, w2);
-  GAGEN_SCATTER(J_S, 60, 0, w19);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
+  GAGEN_SCATTER(out_J_S, 60, 0, w19);
   w19 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 60, 1, w19);
-  GAGEN_SCATTER(J_S, 60, 2, w19);
-  GAGEN_SCATTER(J_S, 60, 3, w19);
-  GAGEN_SCATTER(J_S, 60, 4, w19);
-  GAGEN_SCATTER(J_S, 60, 5, w19);
-  GAGEN_SCATTER(J_S, 60, 6, w19);
+  GAGEN_SCATTER(out_J_S, 60, 1, w19);
+  GAGEN_SCATTER(out_J_S, 60, 2, w19);
+  GAGEN_SCATTER(out_J_S, 60, 3, w19);
+  GAGEN_SCATTER(out_J_S, 60, 4, w19);
+  GAGEN_SCATTER(out_J_S, 60, 5, w19);
+  GAGEN_SCATTER(out_J_S, 60, 6, w19);
   w13 = -w13;
-  GAGEN_SCATTER(J_S, 60, 7, w13);
-  GAGEN_SCATTER(J_S, 60, 8, w4);
+  GAGEN_SCATTER(out_J_S, 60, 7, w13);
+  GAGEN_SCATTER(out_J_S, 60, 8, w4);
   w13 = gagen_v_splat(0.07);
   w13 = w13 * w26;
   w13 = -w13;
-  GAGEN_SCATTER(J_S, 60, 9, w13);
+  GAGEN_SCATTER(out_J_S, 60, 9, w13);
   w79 = w79 * w4;
-  GAGEN_SCATTER(J_S, 60, 10, w79);
-  GAGEN_SCATTER(J_S, 60, 11, w19);
-  GAGEN_SCATTER(J_S, 60, 12, w30);
+  GAGEN_SCATTER(out_J_S, 60, 10, w79);
+  GAGEN_SCATTER(out_J_S, 60, 11, w19);
+  GAGEN_SCATTER(out_J_S, 60, 12, w30);
   w19 = -w5;
-  GAGEN_SCATTER(J_S, 60, 13, w19);
+  GAGEN_SCATTER(out_J_S, 60, 13, w19);
   w19 = -w31;
-  GAGEN_SCATTER(J_S, 60, 14, w19);
+  GAGEN_SCATTER(out_J_S, 60, 14, w19);
   w19 = gagen_v_splat(0.0175);
   w79 = gagen_v_splat(0.0095);
   w6 = w79 * w6;
@@ -2130,7 +2130,7 @@ static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q
   w6 = w6 + w33;
   w6 = -w6;
   w6 = w6 + w6;
-  GAGEN_SCATTER(J_S, 60, 15, w6);
+  GAGEN_SCATTER(out_J_S, 60, 15, w6);
   w6 = gagen_v_splat(0.00198175);
   w6 = w6 * w4;
   w79 = w79 * w94;
@@ -2139,23 +2139,23 @@ static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q
   w19 = w31 * w19;
   w30 = w30 - w19;
   w30 = w30 + w30;
-  GAGEN_SCATTER(J_S, 60, 16, w30);
+  GAGEN_SCATTER(out_J_S, 60, 16, w30);
   w31 = w31 * w60;
   w5 = w5 * w6;
   w31 = w31 + w5;
   w31 = -w31;
   w31 = w31 + w31;
-  GAGEN_SCATTER(J_S, 60, 17, w31);
+  GAGEN_SCATTER(out_J_S, 60, 17, w31);
   w31 = gagen_v_splat(1.9224917487388276);
   w31 = w31 * w8;
   w39 = w39 * w82;
   w31 = w31 - w39;
   w42 = w42 * w84;
   w31 = w31 + w42;
-  GAGEN_SCATTER(J_S, 60, 18, w31);
+  GAGEN_SCATTER(out_J_S, 60, 18, w31);
   w42 = -w40;
-  GAGEN_SCATTER(J_S, 60, 19, w42);
-  GAGEN_SCATTER(J_S, 60, 20, w37);
+  GAGEN_SCATTER(out_J_S, 60, 19, w42);
+  GAGEN_SCATTER(out_J_S, 60, 20, w37);
   w3 = w3 - w56;
   w42 = w31 * w3;
   w12 = w12 * w82;
@@ -2167,22 +2167,22 @@ static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q
   w80 = w80 + w35;
   w35 = w40 * w80;
   w42 = w42 - w35;
-  GAGEN_SCATTER(J_S, 60, 21, w42);
+  GAGEN_SCATTER(out_J_S, 60, 21, w42);
   w80 = w37 * w80;
   w32 = w32 - w18;
   w31 = w31 * w32;
   w80 = w80 - w31;
-  GAGEN_SCATTER(J_S, 60, 22, w80);
+  GAGEN_SCATTER(out_J_S, 60, 22, w80);
   w37 = w37 * w3;
   w40 = w40 * w32;
   w37 = w37 - w40;
   w37 = -w37;
-  GAGEN_SCATTER(J_S, 60, 23, w37);
+  GAGEN_SCATTER(out_J_S, 60, 23, w37);
   w37 = -w87;
-  GAGEN_SCATTER(J_S, 60, 24, w37);
+  GAGEN_SCATTER(out_J_S, 60, 24, w37);
   w37 = -w51;
-  GAGEN_SCATTER(J_S, 60, 25, w37);
-  GAGEN_SCATTER(J_S, 60, 26, w1);
+  GAGEN_SCATTER(out_J_S, 60, 25, w37);
+  GAGEN_SCATTER(out_J_S, 60, 26, w1);
   w43 = w43 - w56;
   w43 = w43 - w54;
   w37 = w87 * w43;
@@ -2190,22 +2190,22 @@ static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q
   w40 = w51 * w81;
   w37 = w37 + w40;
   w37 = -w37;
-  GAGEN_SCATTER(J_S, 60, 27, w37);
+  GAGEN_SCATTER(out_J_S, 60, 27, w37);
   w81 = w1 * w81;
   w38 = w38 - w18;
   w38 = w38 - w75;
   w87 = w87 * w38;
   w81 = w81 + w87;
-  GAGEN_SCATTER(J_S, 60, 28, w81);
+  GAGEN_SCATTER(out_J_S, 60, 28, w81);
   w1 = w1 * w43;
   w51 = w51 * w38;
   w1 = w1 - w51;
   w1 = -w1;
-  GAGEN_SCATTER(J_S, 60, 29, w1);
-  GAGEN_SCATTER(J_S, 60, 30, w89);
+  GAGEN_SCATTER(out_J_S, 60, 29, w1);
+  GAGEN_SCATTER(out_J_S, 60, 30, w89);
   w1 = -w20;
-  GAGEN_SCATTER(J_S, 60, 31, w1);
-  GAGEN_SCATTER(J_S, 60, 32, w45);
+  GAGEN_SCATTER(out_J_S, 60, 31, w1);
+  GAGEN_SCATTER(out_J_S, 60, 32, w45);
   w57 = w57 - w56;
   w57 = w57 - w54;
   w1 = gagen_v_splat(0.1032);
@@ -2217,7 +2217,7 @@ static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q
   w90 = w90 - w38;
   w38 = w20 * w90;
   w51 = w51 - w38;
-  GAGEN_SCATTER(J_S, 60, 33, w51);
+  GAGEN_SCATTER(out_J_S, 60, 33, w51);
   w90 = w45 * w90;
   w44 = w44 - w18;
   w44 = w44 - w75;
@@ -2225,15 +2225,15 @@ static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q
   w44 = w44 - w1;
   w89 = w89 * w44;
   w90 = w90 - w89;
-  GAGEN_SCATTER(J_S, 60, 34, w90);
+  GAGEN_SCATTER(out_J_S, 60, 34, w90);
   w45 = w45 * w57;
   w20 = w20 * w44;
   w45 = w45 - w20;
   w45 = -w45;
-  GAGEN_SCATTER(J_S, 60, 35, w45);
-  GAGEN_SCATTER(J_S, 60, 36, w93);
-  GAGEN_SCATTER(J_S, 60, 37, w66);
-  GAGEN_SCATTER(J_S, 60, 38, w25);
+  GAGEN_SCATTER(out_J_S, 60, 35, w45);
+  GAGEN_SCATTER(out_J_S, 60, 36, w93);
+  GAGEN_SCATTER(out_J_S, 60, 37, w66);
+  GAGEN_SCATTER(out_J_S, 60, 38, w25);
   w45 = w36 - w56;
   w45 = w45 - w54;
   w45 = w45 - w77;
@@ -2242,22 +2242,22 @@ static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q
   w44 = w44 - w99;
   w57 = w66 * w44;
   w20 = w20 + w57;
-  GAGEN_SCATTER(J_S, 60, 39, w20);
+  GAGEN_SCATTER(out_J_S, 60, 39, w20);
   w44 = w25 * w44;
   w20 = w58 - w18;
   w20 = w20 - w75;
   w20 = w20 - w76;
   w93 = w93 * w20;
   w44 = w44 - w93;
-  GAGEN_SCATTER(J_S, 60, 40, w44);
+  GAGEN_SCATTER(out_J_S, 60, 40, w44);
   w66 = w66 * w20;
   w25 = w25 * w45;
   w66 = w66 + w25;
   w66 = -w66;
-  GAGEN_SCATTER(J_S, 60, 41, w66);
-  GAGEN_SCATTER(J_S, 60, 42, w92);
-  GAGEN_SCATTER(J_S, 60, 43, w47);
-  GAGEN_SCATTER(J_S, 60, 44, w49);
+  GAGEN_SCATTER(out_J_S, 60, 41, w66);
+  GAGEN_SCATTER(out_J_S, 60, 42, w92);
+  GAGEN_SCATTER(out_J_S, 60, 43, w47);
+  GAGEN_SCATTER(out_J_S, 60, 44, w49);
   w66 = gagen_v_splat(0.1);
   w0 = w66 * w0;
   w36 = w36 + w0;
@@ -2275,7 +2275,7 @@ static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q
   w85 = w85 - w91;
   w88 = w47 * w85;
   w70 = w70 + w88;
-  GAGEN_SCATTER(J_S, 60, 45, w70);
+  GAGEN_SCATTER(out_J_S, 60, 45, w70);
   w85 = w49 * w85;
   w66 = w66 * w49;
   w58 = w58 + w66;
@@ -2286,15 +2286,15 @@ static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q
   w58 = w58 - w68;
   w65 = w92 * w58;
   w85 = w85 - w65;
-  GAGEN_SCATTER(J_S, 60, 46, w85);
+  GAGEN_SCATTER(out_J_S, 60, 46, w85);
   w58 = w47 * w58;
   w36 = w49 * w36;
   w58 = w58 + w36;
   w58 = -w58;
-  GAGEN_SCATTER(J_S, 60, 47, w58);
-  GAGEN_SCATTER(J_S, 60, 48, w98);
-  GAGEN_SCATTER(J_S, 60, 49, w23);
-  GAGEN_SCATTER(J_S, 60, 50, w73);
+  GAGEN_SCATTER(out_J_S, 60, 47, w58);
+  GAGEN_SCATTER(out_J_S, 60, 48, w98);
+  GAGEN_SCATTER(out_J_S, 60, 49, w23);
+  GAGEN_SCATTER(out_J_S, 60, 50, w73);
   w64 = w64 - w56;
   w64 = w64 - w54;
   w64 = w64 - w77;
@@ -2304,7 +2304,7 @@ static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q
   w83 = w83 - w91;
   w36 = w23 * w83;
   w58 = w58 + w36;
-  GAGEN_SCATTER(J_S, 60, 51, w58);
+  GAGEN_SCATTER(out_J_S, 60, 51, w58);
   w83 = w73 * w83;
   w61 = w61 - w18;
   w61 = w61 - w75;
@@ -2312,24 +2312,24 @@ static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q
   w61 = w61 - w68;
   w98 = w98 * w61;
   w83 = w83 - w98;
-  GAGEN_SCATTER(J_S, 60, 52, w83);
+  GAGEN_SCATTER(out_J_S, 60, 52, w83);
   w23 = w23 * w61;
   w73 = w73 * w64;
   w23 = w23 + w73;
   w23 = -w23;
-  GAGEN_SCATTER(J_S, 60, 53, w23);
+  GAGEN_SCATTER(out_J_S, 60, 53, w23);
   w92 = w72 * w92;
   w95 = w10 * w95;
   w92 = w92 + w95;
-  GAGEN_SCATTER(J_S, 60, 54, w92);
+  GAGEN_SCATTER(out_J_S, 60, 54, w92);
   w47 = w72 * w47;
   w69 = w10 * w69;
   w47 = w47 - w69;
-  GAGEN_SCATTER(J_S, 60, 55, w47);
+  GAGEN_SCATTER(out_J_S, 60, 55, w47);
   w72 = w72 * w49;
   w10 = w10 * w62;
   w72 = w72 + w10;
-  GAGEN_SCATTER(J_S, 60, 56, w72);
+  GAGEN_SCATTER(out_J_S, 60, 56, w72);
   w63 = w63 - w56;
   w63 = w63 - w54;
   w63 = w63 - w77;
@@ -2339,7 +2339,7 @@ static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q
   w96 = w96 - w91;
   w91 = w47 * w96;
   w77 = w77 + w91;
-  GAGEN_SCATTER(J_S, 60, 57, w77);
+  GAGEN_SCATTER(out_J_S, 60, 57, w77);
   w96 = w72 * w96;
   w71 = w71 - w18;
   w71 = w71 - w75;
@@ -2347,30 +2347,30 @@ static void g1_torso_circle_left_hand_fk_jacobian_block(const double *restrict q
   w71 = w71 - w68;
   w92 = w92 * w71;
   w96 = w96 - w92;
-  GAGEN_SCATTER(J_S, 60, 58, w96);
+  GAGEN_SCATTER(out_J_S, 60, 58, w96);
   w47 = w47 * w71;
   w72 = w72 * w63;
   w47 = w47 + w72;
   w47 = -w47;
-  GAGEN_SCATTER(J_S, 60, 59, w47);
+  GAGEN_SCATTER(out_J_S, 60, 59, w47);
 }
 #endif
 
-void g1_torso_circle_left_hand_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void g1_torso_circle_left_hand_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 60 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 60 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 60 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 60 * gagen_a + gagen_o, 1, 0);
     }
-    g1_torso_circle_left_hand_fk_jacobian_block(q + 10 * s, M + 8 * s, P + 5 * s, J_S + 60 * s);
+    g1_torso_circle_left_hand_fk_jacobian_block(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 60 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    g1_torso_circle_left_hand_fk_jacobian(q + 10 * s, M + 8 * s, P + 5 * s, J_S + 60 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    g1_torso_circle_left_hand_fk_jacobian(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 60 * gagen_s);
   }
 }
 
@@ -2380,7 +2380,7 @@ void g1_torso_circle_left_hand_fk_jacobian_batch(long n, const double *restrict 
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -2393,14 +2393,14 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(0.9902640743722195);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -2431,7 +2431,7 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
   w7 = w7 + w11;
   w11 = w21 * w7;
   w14 = w14 - w11;
-  w11 = GAGEN_GATHER(q, 10, 3);
+  w11 = GAGEN_GATHER(in_q, 10, 3);
   w11 = w2 * w11;
   w22 = gagen_v_cos(w11);
   w23 = w14 * w22;
@@ -2468,7 +2468,7 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
   w20 = w25 - w1;
   w20 = w16 * w20;
   w18 = w18 + w20;
-  w20 = GAGEN_GATHER(q, 10, 4);
+  w20 = GAGEN_GATHER(in_q, 10, 4);
   w20 = w2 * w20;
   w15 = gagen_v_cos(w20);
   w7 = w18 * w15;
@@ -2479,7 +2479,7 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
   w20 = gagen_v_sin(w20);
   w1 = w23 * w20;
   w7 = w7 + w1;
-  w1 = GAGEN_GATHER(q, 10, 5);
+  w1 = GAGEN_GATHER(in_q, 10, 5);
   w1 = w2 * w1;
   w25 = gagen_v_cos(w1);
   w21 = w7 * w25;
@@ -2501,7 +2501,7 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
   w1 = gagen_v_sin(w1);
   w0 = w24 * w1;
   w21 = w21 + w0;
-  w0 = GAGEN_GATHER(q, 10, 6);
+  w0 = GAGEN_GATHER(in_q, 10, 6);
   w0 = w2 * w0;
   w14 = gagen_v_cos(w0);
   w13 = w21 * w14;
@@ -2517,7 +2517,7 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
   w0 = gagen_v_sin(w0);
   w18 = w19 * w0;
   w13 = w13 - w18;
-  w18 = GAGEN_GATHER(q, 10, 7);
+  w18 = GAGEN_GATHER(in_q, 10, 7);
   w18 = w2 * w18;
   w17 = gagen_v_cos(w18);
   w12 = w13 * w17;
@@ -2533,7 +2533,7 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
   w18 = gagen_v_sin(w18);
   w7 = w16 * w18;
   w12 = w12 + w7;
-  w7 = GAGEN_GATHER(q, 10, 8);
+  w7 = GAGEN_GATHER(in_q, 10, 8);
   w7 = w2 * w7;
   w10 = gagen_v_cos(w7);
   w26 = w12 * w10;
@@ -2549,7 +2549,7 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
   w7 = gagen_v_sin(w7);
   w23 = w19 * w7;
   w26 = w26 - w23;
-  w23 = GAGEN_GATHER(q, 10, 9);
+  w23 = GAGEN_GATHER(in_q, 10, 9);
   w23 = w2 * w23;
   w27 = gagen_v_cos(w23);
   w28 = w26 * w27;
@@ -2565,11 +2565,11 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
   w23 = gagen_v_sin(w23);
   w13 = w21 * w23;
   w28 = w28 + w13;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w21 = w21 * w27;
   w26 = w26 * w23;
   w21 = w21 - w26;
-  GAGEN_SCATTER(M, 8, 1, w21);
+  GAGEN_SCATTER(out_M, 8, 1, w21);
   w12 = w12 * w7;
   w19 = w19 * w10;
   w12 = w12 + w19;
@@ -2579,11 +2579,11 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
   w16 = w16 - w24;
   w24 = w16 * w23;
   w19 = w19 + w24;
-  GAGEN_SCATTER(M, 8, 2, w19);
+  GAGEN_SCATTER(out_M, 8, 2, w19);
   w16 = w16 * w27;
   w12 = w12 * w23;
   w16 = w16 - w12;
-  GAGEN_SCATTER(M, 8, 3, w16);
+  GAGEN_SCATTER(out_M, 8, 3, w16);
   w12 = gagen_v_splat(0.0039563);
   w24 = w9 * w9;
   w26 = w8 * w8;
@@ -2980,14 +2980,14 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
   w14 = w7 * w28;
   w78 = w78 - w14;
   w78 = w2 * w78;
-  GAGEN_SCATTER(M, 8, 4, w78);
+  GAGEN_SCATTER(out_M, 8, 4, w78);
   w78 = w97 * w16;
   w14 = w7 * w21;
   w78 = w78 - w14;
   w14 = w74 * w28;
   w78 = w78 - w14;
   w78 = w2 * w78;
-  GAGEN_SCATTER(M, 8, 5, w78);
+  GAGEN_SCATTER(out_M, 8, 5, w78);
   w78 = w7 * w19;
   w14 = w74 * w16;
   w78 = w78 + w14;
@@ -2995,49 +2995,49 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
   w78 = w78 + w28;
   w78 = w2 * w78;
   w78 = -w78;
-  GAGEN_SCATTER(M, 8, 6, w78);
+  GAGEN_SCATTER(out_M, 8, 6, w78);
   w19 = w74 * w19;
   w16 = w7 * w16;
   w19 = w19 - w16;
   w21 = w97 * w21;
   w19 = w19 - w21;
   w19 = w2 * w19;
-  GAGEN_SCATTER(M, 8, 7, w19);
+  GAGEN_SCATTER(out_M, 8, 7, w19);
   w19 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w19);
-  GAGEN_SCATTER(P, 5, 1, w7);
-  GAGEN_SCATTER(P, 5, 2, w74);
-  GAGEN_SCATTER(P, 5, 3, w97);
+  GAGEN_SCATTER(out_P, 5, 0, w19);
+  GAGEN_SCATTER(out_P, 5, 1, w7);
+  GAGEN_SCATTER(out_P, 5, 2, w74);
+  GAGEN_SCATTER(out_P, 5, 3, w97);
   w7 = w7 * w7;
   w74 = w74 * w74;
   w7 = w7 + w74;
   w97 = w97 * w97;
   w7 = w7 + w97;
   w2 = w2 * w7;
-  GAGEN_SCATTER(P, 5, 4, w2);
-  GAGEN_SCATTER(J_S, 60, 0, w19);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
+  GAGEN_SCATTER(out_J_S, 60, 0, w19);
   w19 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 60, 1, w19);
-  GAGEN_SCATTER(J_S, 60, 2, w19);
-  GAGEN_SCATTER(J_S, 60, 3, w19);
-  GAGEN_SCATTER(J_S, 60, 4, w19);
-  GAGEN_SCATTER(J_S, 60, 5, w19);
-  GAGEN_SCATTER(J_S, 60, 6, w19);
+  GAGEN_SCATTER(out_J_S, 60, 1, w19);
+  GAGEN_SCATTER(out_J_S, 60, 2, w19);
+  GAGEN_SCATTER(out_J_S, 60, 3, w19);
+  GAGEN_SCATTER(out_J_S, 60, 4, w19);
+  GAGEN_SCATTER(out_J_S, 60, 5, w19);
+  GAGEN_SCATTER(out_J_S, 60, 6, w19);
   w13 = -w13;
-  GAGEN_SCATTER(J_S, 60, 7, w13);
-  GAGEN_SCATTER(J_S, 60, 8, w4);
+  GAGEN_SCATTER(out_J_S, 60, 7, w13);
+  GAGEN_SCATTER(out_J_S, 60, 8, w4);
   w13 = gagen_v_splat(0.07);
   w13 = w13 * w26;
   w13 = -w13;
-  GAGEN_SCATTER(J_S, 60, 9, w13);
+  GAGEN_SCATTER(out_J_S, 60, 9, w13);
   w79 = w79 * w4;
-  GAGEN_SCATTER(J_S, 60, 10, w79);
-  GAGEN_SCATTER(J_S, 60, 11, w19);
-  GAGEN_SCATTER(J_S, 60, 12, w30);
+  GAGEN_SCATTER(out_J_S, 60, 10, w79);
+  GAGEN_SCATTER(out_J_S, 60, 11, w19);
+  GAGEN_SCATTER(out_J_S, 60, 12, w30);
   w19 = -w5;
-  GAGEN_SCATTER(J_S, 60, 13, w19);
+  GAGEN_SCATTER(out_J_S, 60, 13, w19);
   w19 = -w31;
-  GAGEN_SCATTER(J_S, 60, 14, w19);
+  GAGEN_SCATTER(out_J_S, 60, 14, w19);
   w19 = gagen_v_splat(0.0175);
   w79 = gagen_v_splat(0.0095);
   w6 = w79 * w6;
@@ -3050,7 +3050,7 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
   w6 = w6 + w33;
   w6 = -w6;
   w6 = w6 + w6;
-  GAGEN_SCATTER(J_S, 60, 15, w6);
+  GAGEN_SCATTER(out_J_S, 60, 15, w6);
   w6 = gagen_v_splat(0.00198175);
   w6 = w6 * w4;
   w79 = w79 * w94;
@@ -3059,23 +3059,23 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
   w19 = w31 * w19;
   w30 = w30 - w19;
   w30 = w30 + w30;
-  GAGEN_SCATTER(J_S, 60, 16, w30);
+  GAGEN_SCATTER(out_J_S, 60, 16, w30);
   w31 = w31 * w60;
   w5 = w5 * w6;
   w31 = w31 + w5;
   w31 = -w31;
   w31 = w31 + w31;
-  GAGEN_SCATTER(J_S, 60, 17, w31);
+  GAGEN_SCATTER(out_J_S, 60, 17, w31);
   w31 = gagen_v_splat(1.9224917487388276);
   w31 = w31 * w8;
   w39 = w39 * w82;
   w31 = w31 - w39;
   w42 = w42 * w84;
   w31 = w31 + w42;
-  GAGEN_SCATTER(J_S, 60, 18, w31);
+  GAGEN_SCATTER(out_J_S, 60, 18, w31);
   w42 = -w40;
-  GAGEN_SCATTER(J_S, 60, 19, w42);
-  GAGEN_SCATTER(J_S, 60, 20, w37);
+  GAGEN_SCATTER(out_J_S, 60, 19, w42);
+  GAGEN_SCATTER(out_J_S, 60, 20, w37);
   w3 = w3 - w56;
   w42 = w31 * w3;
   w12 = w12 * w82;
@@ -3087,22 +3087,22 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
   w80 = w80 + w35;
   w35 = w40 * w80;
   w42 = w42 - w35;
-  GAGEN_SCATTER(J_S, 60, 21, w42);
+  GAGEN_SCATTER(out_J_S, 60, 21, w42);
   w80 = w37 * w80;
   w32 = w32 - w18;
   w31 = w31 * w32;
   w80 = w80 - w31;
-  GAGEN_SCATTER(J_S, 60, 22, w80);
+  GAGEN_SCATTER(out_J_S, 60, 22, w80);
   w37 = w37 * w3;
   w40 = w40 * w32;
   w37 = w37 - w40;
   w37 = -w37;
-  GAGEN_SCATTER(J_S, 60, 23, w37);
+  GAGEN_SCATTER(out_J_S, 60, 23, w37);
   w37 = -w87;
-  GAGEN_SCATTER(J_S, 60, 24, w37);
+  GAGEN_SCATTER(out_J_S, 60, 24, w37);
   w37 = -w51;
-  GAGEN_SCATTER(J_S, 60, 25, w37);
-  GAGEN_SCATTER(J_S, 60, 26, w1);
+  GAGEN_SCATTER(out_J_S, 60, 25, w37);
+  GAGEN_SCATTER(out_J_S, 60, 26, w1);
   w43 = w43 - w56;
   w43 = w43 - w54;
   w37 = w87 * w43;
@@ -3110,22 +3110,22 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
   w40 = w51 * w81;
   w37 = w37 + w40;
   w37 = -w37;
-  GAGEN_SCATTER(J_S, 60, 27, w37);
+  GAGEN_SCATTER(out_J_S, 60, 27, w37);
   w81 = w1 * w81;
   w38 = w38 - w18;
   w38 = w38 - w75;
   w87 = w87 * w38;
   w81 = w81 + w87;
-  GAGEN_SCATTER(J_S, 60, 28, w81);
+  GAGEN_SCATTER(out_J_S, 60, 28, w81);
   w1 = w1 * w43;
   w51 = w51 * w38;
   w1 = w1 - w51;
   w1 = -w1;
-  GAGEN_SCATTER(J_S, 60, 29, w1);
-  GAGEN_SCATTER(J_S, 60, 30, w89);
+  GAGEN_SCATTER(out_J_S, 60, 29, w1);
+  GAGEN_SCATTER(out_J_S, 60, 30, w89);
   w1 = -w20;
-  GAGEN_SCATTER(J_S, 60, 31, w1);
-  GAGEN_SCATTER(J_S, 60, 32, w45);
+  GAGEN_SCATTER(out_J_S, 60, 31, w1);
+  GAGEN_SCATTER(out_J_S, 60, 32, w45);
   w57 = w57 - w56;
   w57 = w57 - w54;
   w1 = gagen_v_splat(0.1032);
@@ -3137,7 +3137,7 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
   w90 = w90 - w38;
   w38 = w20 * w90;
   w51 = w51 - w38;
-  GAGEN_SCATTER(J_S, 60, 33, w51);
+  GAGEN_SCATTER(out_J_S, 60, 33, w51);
   w90 = w45 * w90;
   w44 = w44 - w18;
   w44 = w44 - w75;
@@ -3145,15 +3145,15 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
   w44 = w44 - w1;
   w89 = w89 * w44;
   w90 = w90 - w89;
-  GAGEN_SCATTER(J_S, 60, 34, w90);
+  GAGEN_SCATTER(out_J_S, 60, 34, w90);
   w45 = w45 * w57;
   w20 = w20 * w44;
   w45 = w45 - w20;
   w45 = -w45;
-  GAGEN_SCATTER(J_S, 60, 35, w45);
-  GAGEN_SCATTER(J_S, 60, 36, w93);
-  GAGEN_SCATTER(J_S, 60, 37, w66);
-  GAGEN_SCATTER(J_S, 60, 38, w25);
+  GAGEN_SCATTER(out_J_S, 60, 35, w45);
+  GAGEN_SCATTER(out_J_S, 60, 36, w93);
+  GAGEN_SCATTER(out_J_S, 60, 37, w66);
+  GAGEN_SCATTER(out_J_S, 60, 38, w25);
   w45 = w36 - w56;
   w45 = w45 - w54;
   w45 = w45 - w77;
@@ -3162,22 +3162,22 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
   w44 = w44 - w99;
   w57 = w66 * w44;
   w20 = w20 + w57;
-  GAGEN_SCATTER(J_S, 60, 39, w20);
+  GAGEN_SCATTER(out_J_S, 60, 39, w20);
   w44 = w25 * w44;
   w20 = w58 - w18;
   w20 = w20 - w75;
   w20 = w20 - w76;
   w93 = w93 * w20;
   w44 = w44 - w93;
-  GAGEN_SCATTER(J_S, 60, 40, w44);
+  GAGEN_SCATTER(out_J_S, 60, 40, w44);
   w66 = w66 * w20;
   w25 = w25 * w45;
   w66 = w66 + w25;
   w66 = -w66;
-  GAGEN_SCATTER(J_S, 60, 41, w66);
-  GAGEN_SCATTER(J_S, 60, 42, w92);
-  GAGEN_SCATTER(J_S, 60, 43, w47);
-  GAGEN_SCATTER(J_S, 60, 44, w49);
+  GAGEN_SCATTER(out_J_S, 60, 41, w66);
+  GAGEN_SCATTER(out_J_S, 60, 42, w92);
+  GAGEN_SCATTER(out_J_S, 60, 43, w47);
+  GAGEN_SCATTER(out_J_S, 60, 44, w49);
   w66 = gagen_v_splat(0.1);
   w0 = w66 * w0;
   w36 = w36 + w0;
@@ -3195,7 +3195,7 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
   w85 = w85 - w91;
   w88 = w47 * w85;
   w70 = w70 + w88;
-  GAGEN_SCATTER(J_S, 60, 45, w70);
+  GAGEN_SCATTER(out_J_S, 60, 45, w70);
   w85 = w49 * w85;
   w66 = w66 * w49;
   w58 = w58 + w66;
@@ -3206,15 +3206,15 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
   w58 = w58 - w68;
   w65 = w92 * w58;
   w85 = w85 - w65;
-  GAGEN_SCATTER(J_S, 60, 46, w85);
+  GAGEN_SCATTER(out_J_S, 60, 46, w85);
   w58 = w47 * w58;
   w36 = w49 * w36;
   w58 = w58 + w36;
   w58 = -w58;
-  GAGEN_SCATTER(J_S, 60, 47, w58);
-  GAGEN_SCATTER(J_S, 60, 48, w98);
-  GAGEN_SCATTER(J_S, 60, 49, w23);
-  GAGEN_SCATTER(J_S, 60, 50, w73);
+  GAGEN_SCATTER(out_J_S, 60, 47, w58);
+  GAGEN_SCATTER(out_J_S, 60, 48, w98);
+  GAGEN_SCATTER(out_J_S, 60, 49, w23);
+  GAGEN_SCATTER(out_J_S, 60, 50, w73);
   w64 = w64 - w56;
   w64 = w64 - w54;
   w64 = w64 - w77;
@@ -3224,7 +3224,7 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
   w83 = w83 - w91;
   w36 = w23 * w83;
   w58 = w58 + w36;
-  GAGEN_SCATTER(J_S, 60, 51, w58);
+  GAGEN_SCATTER(out_J_S, 60, 51, w58);
   w83 = w73 * w83;
   w61 = w61 - w18;
   w61 = w61 - w75;
@@ -3232,24 +3232,24 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
   w61 = w61 - w68;
   w98 = w98 * w61;
   w83 = w83 - w98;
-  GAGEN_SCATTER(J_S, 60, 52, w83);
+  GAGEN_SCATTER(out_J_S, 60, 52, w83);
   w23 = w23 * w61;
   w73 = w73 * w64;
   w23 = w23 + w73;
   w23 = -w23;
-  GAGEN_SCATTER(J_S, 60, 53, w23);
+  GAGEN_SCATTER(out_J_S, 60, 53, w23);
   w92 = w72 * w92;
   w95 = w10 * w95;
   w92 = w92 + w95;
-  GAGEN_SCATTER(J_S, 60, 54, w92);
+  GAGEN_SCATTER(out_J_S, 60, 54, w92);
   w47 = w72 * w47;
   w69 = w10 * w69;
   w47 = w47 - w69;
-  GAGEN_SCATTER(J_S, 60, 55, w47);
+  GAGEN_SCATTER(out_J_S, 60, 55, w47);
   w72 = w72 * w49;
   w10 = w10 * w62;
   w72 = w72 + w10;
-  GAGEN_SCATTER(J_S, 60, 56, w72);
+  GAGEN_SCATTER(out_J_S, 60, 56, w72);
   w63 = w63 - w56;
   w63 = w63 - w54;
   w63 = w63 - w77;
@@ -3259,7 +3259,7 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
   w96 = w96 - w91;
   w91 = w47 * w96;
   w77 = w77 + w91;
-  GAGEN_SCATTER(J_S, 60, 57, w77);
+  GAGEN_SCATTER(out_J_S, 60, 57, w77);
   w96 = w72 * w96;
   w71 = w71 - w18;
   w71 = w71 - w75;
@@ -3267,12 +3267,12 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
   w71 = w71 - w68;
   w92 = w92 * w71;
   w96 = w96 - w92;
-  GAGEN_SCATTER(J_S, 60, 58, w96);
+  GAGEN_SCATTER(out_J_S, 60, 58, w96);
   w47 = w47 * w71;
   w72 = w72 * w63;
   w47 = w47 + w72;
   w47 = -w47;
-  GAGEN_SCATTER(J_S, 60, 59, w47);
+  GAGEN_SCATTER(out_J_S, 60, 59, w47);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -3280,32 +3280,32 @@ static void g1_torso_circle_left_hand_fk_jacobian_block_columns(long gagen_ld, i
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void g1_torso_circle_left_hand_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void g1_torso_circle_left_hand_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 73L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    g1_torso_circle_left_hand_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 73L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    g1_torso_circle_left_hand_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  g1_torso_circle_left_hand_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  g1_torso_circle_left_hand_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }
 
 #if GAGEN_SIMD
 /* chain torso: motor and end point: GAGEN_W consecutive samples at once */
-static void g1_torso_circle_torso_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void g1_torso_circle_torso_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(q, 3, 0);
+  w1 = GAGEN_GATHER(in_q, 3, 0);
   w1 = w0 * w1;
   w2 = gagen_v_cos(w1);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w0 * w3;
   w4 = gagen_v_cos(w3);
   w5 = w2 * w4;
-  w6 = GAGEN_GATHER(q, 3, 2);
+  w6 = GAGEN_GATHER(in_q, 3, 2);
   w6 = w0 * w6;
   w7 = gagen_v_cos(w6);
   w8 = w5 * w7;
@@ -3315,22 +3315,22 @@ static void g1_torso_circle_torso_fk_block(const double *restrict q, double *res
   w6 = gagen_v_sin(w6);
   w10 = w9 * w6;
   w8 = w8 - w10;
-  GAGEN_SCATTER(M, 8, 0, w8);
+  GAGEN_SCATTER(out_M, 8, 0, w8);
   w10 = w1 * w4;
   w11 = w10 * w7;
   w12 = w2 * w3;
   w13 = w12 * w6;
   w11 = w11 + w13;
   w13 = -w11;
-  GAGEN_SCATTER(M, 8, 1, w13);
+  GAGEN_SCATTER(out_M, 8, 1, w13);
   w5 = w5 * w6;
   w9 = w9 * w7;
   w5 = w5 + w9;
-  GAGEN_SCATTER(M, 8, 2, w5);
+  GAGEN_SCATTER(out_M, 8, 2, w5);
   w10 = w10 * w6;
   w12 = w12 * w7;
   w10 = w10 - w12;
-  GAGEN_SCATTER(M, 8, 3, w10);
+  GAGEN_SCATTER(out_M, 8, 3, w10);
   w12 = gagen_v_splat(0.0175);
   w9 = gagen_v_splat(0.0095);
   w13 = w4 * w4;
@@ -3399,7 +3399,7 @@ static void g1_torso_circle_torso_fk_block(const double *restrict q, double *res
   w21 = w21 + w14;
   w21 = w0 * w21;
   w9 = w9 - w21;
-  GAGEN_SCATTER(M, 8, 4, w9);
+  GAGEN_SCATTER(out_M, 8, 4, w9);
   w9 = w19 * w8;
   w21 = w4 * w11;
   w9 = w9 - w21;
@@ -3407,7 +3407,7 @@ static void g1_torso_circle_torso_fk_block(const double *restrict q, double *res
   w21 = w12 * w10;
   w9 = w9 - w21;
   w9 = -w9;
-  GAGEN_SCATTER(M, 8, 5, w9);
+  GAGEN_SCATTER(out_M, 8, 5, w9);
   w8 = w12 * w8;
   w9 = w4 * w5;
   w21 = w19 * w10;
@@ -3415,18 +3415,18 @@ static void g1_torso_circle_torso_fk_block(const double *restrict q, double *res
   w9 = w0 * w9;
   w8 = w8 + w9;
   w8 = -w8;
-  GAGEN_SCATTER(M, 8, 6, w8);
+  GAGEN_SCATTER(out_M, 8, 6, w8);
   w12 = w12 * w11;
   w5 = w19 * w5;
   w10 = w4 * w10;
   w5 = w5 - w10;
   w5 = w0 * w5;
   w12 = w12 + w5;
-  GAGEN_SCATTER(M, 8, 7, w12);
+  GAGEN_SCATTER(out_M, 8, 7, w12);
   w12 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w12);
-  GAGEN_SCATTER(P, 5, 1, w4);
-  GAGEN_SCATTER(P, 5, 2, w19);
+  GAGEN_SCATTER(out_P, 5, 0, w12);
+  GAGEN_SCATTER(out_P, 5, 1, w4);
+  GAGEN_SCATTER(out_P, 5, 2, w19);
   w12 = gagen_v_splat(0.035);
   w1 = w1 * w13;
   w12 = w12 + w1;
@@ -3434,31 +3434,31 @@ static void g1_torso_circle_torso_fk_block(const double *restrict q, double *res
   w12 = w12 - w16;
   w20 = w20 * w6;
   w12 = w12 + w20;
-  GAGEN_SCATTER(P, 5, 3, w12);
+  GAGEN_SCATTER(out_P, 5, 3, w12);
   w4 = w4 * w4;
   w19 = w19 * w19;
   w4 = w4 + w19;
   w12 = w12 * w12;
   w4 = w4 + w12;
   w0 = w0 * w4;
-  GAGEN_SCATTER(P, 5, 4, w0);
+  GAGEN_SCATTER(out_P, 5, 4, w0);
 }
 #endif
 
-void g1_torso_circle_torso_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void g1_torso_circle_torso_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    g1_torso_circle_torso_fk_block(q + 3 * s, M + 8 * s, P + 5 * s);
+    g1_torso_circle_torso_fk_block(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    g1_torso_circle_torso_fk(q + 3 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    g1_torso_circle_torso_fk(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -3468,18 +3468,18 @@ void g1_torso_circle_torso_fk_batch(long n, const double *restrict q, double *re
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void g1_torso_circle_torso_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void g1_torso_circle_torso_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(q, 3, 0);
+  w1 = GAGEN_GATHER(in_q, 3, 0);
   w1 = w0 * w1;
   w2 = gagen_v_cos(w1);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w0 * w3;
   w4 = gagen_v_cos(w3);
   w5 = w2 * w4;
-  w6 = GAGEN_GATHER(q, 3, 2);
+  w6 = GAGEN_GATHER(in_q, 3, 2);
   w6 = w0 * w6;
   w7 = gagen_v_cos(w6);
   w8 = w5 * w7;
@@ -3489,22 +3489,22 @@ static void g1_torso_circle_torso_fk_block_columns(long gagen_ld, int gagen_stre
   w6 = gagen_v_sin(w6);
   w10 = w9 * w6;
   w8 = w8 - w10;
-  GAGEN_SCATTER(M, 8, 0, w8);
+  GAGEN_SCATTER(out_M, 8, 0, w8);
   w10 = w1 * w4;
   w11 = w10 * w7;
   w12 = w2 * w3;
   w13 = w12 * w6;
   w11 = w11 + w13;
   w13 = -w11;
-  GAGEN_SCATTER(M, 8, 1, w13);
+  GAGEN_SCATTER(out_M, 8, 1, w13);
   w5 = w5 * w6;
   w9 = w9 * w7;
   w5 = w5 + w9;
-  GAGEN_SCATTER(M, 8, 2, w5);
+  GAGEN_SCATTER(out_M, 8, 2, w5);
   w10 = w10 * w6;
   w12 = w12 * w7;
   w10 = w10 - w12;
-  GAGEN_SCATTER(M, 8, 3, w10);
+  GAGEN_SCATTER(out_M, 8, 3, w10);
   w12 = gagen_v_splat(0.0175);
   w9 = gagen_v_splat(0.0095);
   w13 = w4 * w4;
@@ -3573,7 +3573,7 @@ static void g1_torso_circle_torso_fk_block_columns(long gagen_ld, int gagen_stre
   w21 = w21 + w14;
   w21 = w0 * w21;
   w9 = w9 - w21;
-  GAGEN_SCATTER(M, 8, 4, w9);
+  GAGEN_SCATTER(out_M, 8, 4, w9);
   w9 = w19 * w8;
   w21 = w4 * w11;
   w9 = w9 - w21;
@@ -3581,7 +3581,7 @@ static void g1_torso_circle_torso_fk_block_columns(long gagen_ld, int gagen_stre
   w21 = w12 * w10;
   w9 = w9 - w21;
   w9 = -w9;
-  GAGEN_SCATTER(M, 8, 5, w9);
+  GAGEN_SCATTER(out_M, 8, 5, w9);
   w8 = w12 * w8;
   w9 = w4 * w5;
   w21 = w19 * w10;
@@ -3589,18 +3589,18 @@ static void g1_torso_circle_torso_fk_block_columns(long gagen_ld, int gagen_stre
   w9 = w0 * w9;
   w8 = w8 + w9;
   w8 = -w8;
-  GAGEN_SCATTER(M, 8, 6, w8);
+  GAGEN_SCATTER(out_M, 8, 6, w8);
   w12 = w12 * w11;
   w5 = w19 * w5;
   w10 = w4 * w10;
   w5 = w5 - w10;
   w5 = w0 * w5;
   w12 = w12 + w5;
-  GAGEN_SCATTER(M, 8, 7, w12);
+  GAGEN_SCATTER(out_M, 8, 7, w12);
   w12 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w12);
-  GAGEN_SCATTER(P, 5, 1, w4);
-  GAGEN_SCATTER(P, 5, 2, w19);
+  GAGEN_SCATTER(out_P, 5, 0, w12);
+  GAGEN_SCATTER(out_P, 5, 1, w4);
+  GAGEN_SCATTER(out_P, 5, 2, w19);
   w12 = gagen_v_splat(0.035);
   w1 = w1 * w13;
   w12 = w12 + w1;
@@ -3608,14 +3608,14 @@ static void g1_torso_circle_torso_fk_block_columns(long gagen_ld, int gagen_stre
   w12 = w12 - w16;
   w20 = w20 * w6;
   w12 = w12 + w20;
-  GAGEN_SCATTER(P, 5, 3, w12);
+  GAGEN_SCATTER(out_P, 5, 3, w12);
   w4 = w4 * w4;
   w19 = w19 * w19;
   w4 = w4 + w19;
   w12 = w12 * w12;
   w4 = w4 + w12;
   w0 = w0 * w4;
-  GAGEN_SCATTER(P, 5, 4, w0);
+  GAGEN_SCATTER(out_P, 5, 4, w0);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -3623,33 +3623,33 @@ static void g1_torso_circle_torso_fk_block_columns(long gagen_ld, int gagen_stre
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void g1_torso_circle_torso_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void g1_torso_circle_torso_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    g1_torso_circle_torso_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    g1_torso_circle_torso_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  g1_torso_circle_torso_fk_columns_from(s, n, ld, q, M, P);
+  g1_torso_circle_torso_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain torso: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void g1_torso_circle_torso_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void g1_torso_circle_torso_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27;
   w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(q, 3, 0);
+  w1 = GAGEN_GATHER(in_q, 3, 0);
   w1 = w0 * w1;
   w2 = gagen_v_cos(w1);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w0 * w3;
   w4 = gagen_v_cos(w3);
   w5 = w2 * w4;
-  w6 = GAGEN_GATHER(q, 3, 2);
+  w6 = GAGEN_GATHER(in_q, 3, 2);
   w6 = w0 * w6;
   w7 = gagen_v_cos(w6);
   w8 = w5 * w7;
@@ -3659,22 +3659,22 @@ static void g1_torso_circle_torso_fk_jacobian_block(const double *restrict q, do
   w6 = gagen_v_sin(w6);
   w10 = w9 * w6;
   w8 = w8 - w10;
-  GAGEN_SCATTER(M, 8, 0, w8);
+  GAGEN_SCATTER(out_M, 8, 0, w8);
   w10 = w1 * w4;
   w11 = w10 * w7;
   w12 = w2 * w3;
   w13 = w12 * w6;
   w11 = w11 + w13;
   w13 = -w11;
-  GAGEN_SCATTER(M, 8, 1, w13);
+  GAGEN_SCATTER(out_M, 8, 1, w13);
   w5 = w5 * w6;
   w9 = w9 * w7;
   w5 = w5 + w9;
-  GAGEN_SCATTER(M, 8, 2, w5);
+  GAGEN_SCATTER(out_M, 8, 2, w5);
   w10 = w10 * w6;
   w12 = w12 * w7;
   w10 = w10 - w12;
-  GAGEN_SCATTER(M, 8, 3, w10);
+  GAGEN_SCATTER(out_M, 8, 3, w10);
   w12 = gagen_v_splat(0.0175);
   w9 = gagen_v_splat(0.0095);
   w13 = w4 * w4;
@@ -3743,7 +3743,7 @@ static void g1_torso_circle_torso_fk_jacobian_block(const double *restrict q, do
   w24 = w24 + w25;
   w24 = w0 * w24;
   w17 = w17 - w24;
-  GAGEN_SCATTER(M, 8, 4, w17);
+  GAGEN_SCATTER(out_M, 8, 4, w17);
   w17 = w21 * w8;
   w24 = w27 * w11;
   w17 = w17 - w24;
@@ -3751,7 +3751,7 @@ static void g1_torso_circle_torso_fk_jacobian_block(const double *restrict q, do
   w24 = w14 * w10;
   w17 = w17 - w24;
   w17 = -w17;
-  GAGEN_SCATTER(M, 8, 5, w17);
+  GAGEN_SCATTER(out_M, 8, 5, w17);
   w8 = w14 * w8;
   w17 = w27 * w5;
   w24 = w21 * w10;
@@ -3759,18 +3759,18 @@ static void g1_torso_circle_torso_fk_jacobian_block(const double *restrict q, do
   w17 = w0 * w17;
   w8 = w8 + w17;
   w8 = -w8;
-  GAGEN_SCATTER(M, 8, 6, w8);
+  GAGEN_SCATTER(out_M, 8, 6, w8);
   w14 = w14 * w11;
   w5 = w21 * w5;
   w10 = w27 * w10;
   w5 = w5 - w10;
   w5 = w0 * w5;
   w14 = w14 + w5;
-  GAGEN_SCATTER(M, 8, 7, w14);
+  GAGEN_SCATTER(out_M, 8, 7, w14);
   w14 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w14);
-  GAGEN_SCATTER(P, 5, 1, w27);
-  GAGEN_SCATTER(P, 5, 2, w21);
+  GAGEN_SCATTER(out_P, 5, 0, w14);
+  GAGEN_SCATTER(out_P, 5, 1, w27);
+  GAGEN_SCATTER(out_P, 5, 2, w21);
   w5 = gagen_v_splat(0.035);
   w1 = w1 * w13;
   w1 = w5 + w1;
@@ -3778,39 +3778,39 @@ static void g1_torso_circle_torso_fk_jacobian_block(const double *restrict q, do
   w1 = w1 - w18;
   w23 = w23 * w6;
   w1 = w1 + w23;
-  GAGEN_SCATTER(P, 5, 3, w1);
+  GAGEN_SCATTER(out_P, 5, 3, w1);
   w27 = w27 * w27;
   w21 = w21 * w21;
   w27 = w27 + w21;
   w1 = w1 * w1;
   w27 = w27 + w1;
   w0 = w0 * w27;
-  GAGEN_SCATTER(P, 5, 4, w0);
-  GAGEN_SCATTER(J_S, 18, 0, w14);
+  GAGEN_SCATTER(out_P, 5, 4, w0);
+  GAGEN_SCATTER(out_J_S, 18, 0, w14);
   w14 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 18, 1, w14);
-  GAGEN_SCATTER(J_S, 18, 2, w14);
-  GAGEN_SCATTER(J_S, 18, 3, w14);
-  GAGEN_SCATTER(J_S, 18, 4, w14);
-  GAGEN_SCATTER(J_S, 18, 5, w14);
-  GAGEN_SCATTER(J_S, 18, 6, w14);
+  GAGEN_SCATTER(out_J_S, 18, 1, w14);
+  GAGEN_SCATTER(out_J_S, 18, 2, w14);
+  GAGEN_SCATTER(out_J_S, 18, 3, w14);
+  GAGEN_SCATTER(out_J_S, 18, 4, w14);
+  GAGEN_SCATTER(out_J_S, 18, 5, w14);
+  GAGEN_SCATTER(out_J_S, 18, 6, w14);
   w0 = -w20;
-  GAGEN_SCATTER(J_S, 18, 7, w0);
-  GAGEN_SCATTER(J_S, 18, 8, w2);
+  GAGEN_SCATTER(out_J_S, 18, 7, w0);
+  GAGEN_SCATTER(out_J_S, 18, 8, w2);
   w0 = gagen_v_splat(0.07);
   w0 = w0 * w19;
   w0 = -w0;
-  GAGEN_SCATTER(J_S, 18, 9, w0);
+  GAGEN_SCATTER(out_J_S, 18, 9, w0);
   w5 = w5 * w2;
-  GAGEN_SCATTER(J_S, 18, 10, w5);
-  GAGEN_SCATTER(J_S, 18, 11, w14);
-  GAGEN_SCATTER(J_S, 18, 12, w4);
+  GAGEN_SCATTER(out_J_S, 18, 10, w5);
+  GAGEN_SCATTER(out_J_S, 18, 11, w14);
+  GAGEN_SCATTER(out_J_S, 18, 12, w4);
   w14 = w13 * w2;
   w5 = -w14;
-  GAGEN_SCATTER(J_S, 18, 13, w5);
+  GAGEN_SCATTER(out_J_S, 18, 13, w5);
   w13 = w13 * w20;
   w20 = -w13;
-  GAGEN_SCATTER(J_S, 18, 14, w20);
+  GAGEN_SCATTER(out_J_S, 18, 14, w20);
   w20 = w14 * w12;
   w15 = w15 * w19;
   w22 = w9 * w22;
@@ -3819,7 +3819,7 @@ static void g1_torso_circle_torso_fk_jacobian_block(const double *restrict q, do
   w20 = w20 + w22;
   w20 = -w20;
   w20 = w20 + w20;
-  GAGEN_SCATTER(J_S, 18, 15, w20);
+  GAGEN_SCATTER(out_J_S, 18, 15, w20);
   w20 = gagen_v_splat(0.00198175);
   w20 = w20 * w2;
   w9 = w9 * w26;
@@ -3828,31 +3828,31 @@ static void g1_torso_circle_torso_fk_jacobian_block(const double *restrict q, do
   w12 = w13 * w12;
   w4 = w4 - w12;
   w4 = w4 + w4;
-  GAGEN_SCATTER(J_S, 18, 16, w4);
+  GAGEN_SCATTER(out_J_S, 18, 16, w4);
   w13 = w13 * w15;
   w14 = w14 * w20;
   w13 = w13 + w14;
   w13 = -w13;
   w13 = w13 + w13;
-  GAGEN_SCATTER(J_S, 18, 17, w13);
+  GAGEN_SCATTER(out_J_S, 18, 17, w13);
 }
 #endif
 
-void g1_torso_circle_torso_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void g1_torso_circle_torso_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 18 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 18 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 18 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 18 * gagen_a + gagen_o, 1, 0);
     }
-    g1_torso_circle_torso_fk_jacobian_block(q + 3 * s, M + 8 * s, P + 5 * s, J_S + 18 * s);
+    g1_torso_circle_torso_fk_jacobian_block(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 18 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    g1_torso_circle_torso_fk_jacobian(q + 3 * s, M + 8 * s, P + 5 * s, J_S + 18 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    g1_torso_circle_torso_fk_jacobian(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 18 * gagen_s);
   }
 }
 
@@ -3862,19 +3862,19 @@ void g1_torso_circle_torso_fk_jacobian_batch(long n, const double *restrict q, d
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void g1_torso_circle_torso_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void g1_torso_circle_torso_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27;
   w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(q, 3, 0);
+  w1 = GAGEN_GATHER(in_q, 3, 0);
   w1 = w0 * w1;
   w2 = gagen_v_cos(w1);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w0 * w3;
   w4 = gagen_v_cos(w3);
   w5 = w2 * w4;
-  w6 = GAGEN_GATHER(q, 3, 2);
+  w6 = GAGEN_GATHER(in_q, 3, 2);
   w6 = w0 * w6;
   w7 = gagen_v_cos(w6);
   w8 = w5 * w7;
@@ -3884,22 +3884,22 @@ static void g1_torso_circle_torso_fk_jacobian_block_columns(long gagen_ld, int g
   w6 = gagen_v_sin(w6);
   w10 = w9 * w6;
   w8 = w8 - w10;
-  GAGEN_SCATTER(M, 8, 0, w8);
+  GAGEN_SCATTER(out_M, 8, 0, w8);
   w10 = w1 * w4;
   w11 = w10 * w7;
   w12 = w2 * w3;
   w13 = w12 * w6;
   w11 = w11 + w13;
   w13 = -w11;
-  GAGEN_SCATTER(M, 8, 1, w13);
+  GAGEN_SCATTER(out_M, 8, 1, w13);
   w5 = w5 * w6;
   w9 = w9 * w7;
   w5 = w5 + w9;
-  GAGEN_SCATTER(M, 8, 2, w5);
+  GAGEN_SCATTER(out_M, 8, 2, w5);
   w10 = w10 * w6;
   w12 = w12 * w7;
   w10 = w10 - w12;
-  GAGEN_SCATTER(M, 8, 3, w10);
+  GAGEN_SCATTER(out_M, 8, 3, w10);
   w12 = gagen_v_splat(0.0175);
   w9 = gagen_v_splat(0.0095);
   w13 = w4 * w4;
@@ -3968,7 +3968,7 @@ static void g1_torso_circle_torso_fk_jacobian_block_columns(long gagen_ld, int g
   w24 = w24 + w25;
   w24 = w0 * w24;
   w17 = w17 - w24;
-  GAGEN_SCATTER(M, 8, 4, w17);
+  GAGEN_SCATTER(out_M, 8, 4, w17);
   w17 = w21 * w8;
   w24 = w27 * w11;
   w17 = w17 - w24;
@@ -3976,7 +3976,7 @@ static void g1_torso_circle_torso_fk_jacobian_block_columns(long gagen_ld, int g
   w24 = w14 * w10;
   w17 = w17 - w24;
   w17 = -w17;
-  GAGEN_SCATTER(M, 8, 5, w17);
+  GAGEN_SCATTER(out_M, 8, 5, w17);
   w8 = w14 * w8;
   w17 = w27 * w5;
   w24 = w21 * w10;
@@ -3984,18 +3984,18 @@ static void g1_torso_circle_torso_fk_jacobian_block_columns(long gagen_ld, int g
   w17 = w0 * w17;
   w8 = w8 + w17;
   w8 = -w8;
-  GAGEN_SCATTER(M, 8, 6, w8);
+  GAGEN_SCATTER(out_M, 8, 6, w8);
   w14 = w14 * w11;
   w5 = w21 * w5;
   w10 = w27 * w10;
   w5 = w5 - w10;
   w5 = w0 * w5;
   w14 = w14 + w5;
-  GAGEN_SCATTER(M, 8, 7, w14);
+  GAGEN_SCATTER(out_M, 8, 7, w14);
   w14 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w14);
-  GAGEN_SCATTER(P, 5, 1, w27);
-  GAGEN_SCATTER(P, 5, 2, w21);
+  GAGEN_SCATTER(out_P, 5, 0, w14);
+  GAGEN_SCATTER(out_P, 5, 1, w27);
+  GAGEN_SCATTER(out_P, 5, 2, w21);
   w5 = gagen_v_splat(0.035);
   w1 = w1 * w13;
   w1 = w5 + w1;
@@ -4003,39 +4003,39 @@ static void g1_torso_circle_torso_fk_jacobian_block_columns(long gagen_ld, int g
   w1 = w1 - w18;
   w23 = w23 * w6;
   w1 = w1 + w23;
-  GAGEN_SCATTER(P, 5, 3, w1);
+  GAGEN_SCATTER(out_P, 5, 3, w1);
   w27 = w27 * w27;
   w21 = w21 * w21;
   w27 = w27 + w21;
   w1 = w1 * w1;
   w27 = w27 + w1;
   w0 = w0 * w27;
-  GAGEN_SCATTER(P, 5, 4, w0);
-  GAGEN_SCATTER(J_S, 18, 0, w14);
+  GAGEN_SCATTER(out_P, 5, 4, w0);
+  GAGEN_SCATTER(out_J_S, 18, 0, w14);
   w14 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 18, 1, w14);
-  GAGEN_SCATTER(J_S, 18, 2, w14);
-  GAGEN_SCATTER(J_S, 18, 3, w14);
-  GAGEN_SCATTER(J_S, 18, 4, w14);
-  GAGEN_SCATTER(J_S, 18, 5, w14);
-  GAGEN_SCATTER(J_S, 18, 6, w14);
+  GAGEN_SCATTER(out_J_S, 18, 1, w14);
+  GAGEN_SCATTER(out_J_S, 18, 2, w14);
+  GAGEN_SCATTER(out_J_S, 18, 3, w14);
+  GAGEN_SCATTER(out_J_S, 18, 4, w14);
+  GAGEN_SCATTER(out_J_S, 18, 5, w14);
+  GAGEN_SCATTER(out_J_S, 18, 6, w14);
   w0 = -w20;
-  GAGEN_SCATTER(J_S, 18, 7, w0);
-  GAGEN_SCATTER(J_S, 18, 8, w2);
+  GAGEN_SCATTER(out_J_S, 18, 7, w0);
+  GAGEN_SCATTER(out_J_S, 18, 8, w2);
   w0 = gagen_v_splat(0.07);
   w0 = w0 * w19;
   w0 = -w0;
-  GAGEN_SCATTER(J_S, 18, 9, w0);
+  GAGEN_SCATTER(out_J_S, 18, 9, w0);
   w5 = w5 * w2;
-  GAGEN_SCATTER(J_S, 18, 10, w5);
-  GAGEN_SCATTER(J_S, 18, 11, w14);
-  GAGEN_SCATTER(J_S, 18, 12, w4);
+  GAGEN_SCATTER(out_J_S, 18, 10, w5);
+  GAGEN_SCATTER(out_J_S, 18, 11, w14);
+  GAGEN_SCATTER(out_J_S, 18, 12, w4);
   w14 = w13 * w2;
   w5 = -w14;
-  GAGEN_SCATTER(J_S, 18, 13, w5);
+  GAGEN_SCATTER(out_J_S, 18, 13, w5);
   w13 = w13 * w20;
   w20 = -w13;
-  GAGEN_SCATTER(J_S, 18, 14, w20);
+  GAGEN_SCATTER(out_J_S, 18, 14, w20);
   w20 = w14 * w12;
   w15 = w15 * w19;
   w22 = w9 * w22;
@@ -4044,7 +4044,7 @@ static void g1_torso_circle_torso_fk_jacobian_block_columns(long gagen_ld, int g
   w20 = w20 + w22;
   w20 = -w20;
   w20 = w20 + w20;
-  GAGEN_SCATTER(J_S, 18, 15, w20);
+  GAGEN_SCATTER(out_J_S, 18, 15, w20);
   w20 = gagen_v_splat(0.00198175);
   w20 = w20 * w2;
   w9 = w9 * w26;
@@ -4053,13 +4053,13 @@ static void g1_torso_circle_torso_fk_jacobian_block_columns(long gagen_ld, int g
   w12 = w13 * w12;
   w4 = w4 - w12;
   w4 = w4 + w4;
-  GAGEN_SCATTER(J_S, 18, 16, w4);
+  GAGEN_SCATTER(out_J_S, 18, 16, w4);
   w13 = w13 * w15;
   w14 = w14 * w20;
   w13 = w13 + w14;
   w13 = -w13;
   w13 = w13 + w13;
-  GAGEN_SCATTER(J_S, 18, 17, w13);
+  GAGEN_SCATTER(out_J_S, 18, 17, w13);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -4067,21 +4067,21 @@ static void g1_torso_circle_torso_fk_jacobian_block_columns(long gagen_ld, int g
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void g1_torso_circle_torso_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void g1_torso_circle_torso_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 31L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    g1_torso_circle_torso_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 31L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    g1_torso_circle_torso_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  g1_torso_circle_torso_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  g1_torso_circle_torso_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }
 
 #if GAGEN_SIMD
 /* chain torso: motor, end point, every Jacobian and the tool z-axis line: GAGEN_W consecutive samples at once */
-static void g1_torso_circle_torso_jacobians_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S, double *restrict J_b, double *restrict J_A, double *restrict J_P, double *restrict L, double *restrict J_L) {
+static void g1_torso_circle_torso_jacobians_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S, double *restrict out_J_b, double *restrict out_J_A, double *restrict out_J_P, double *restrict out_L, double *restrict out_J_L) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -4089,14 +4089,14 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   gagen_v w48, w49, w50, w51, w52, w53, w54, w55, w56, w57, w58, w59;
   gagen_v w60, w61, w62;
   w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(q, 3, 0);
+  w1 = GAGEN_GATHER(in_q, 3, 0);
   w1 = w0 * w1;
   w2 = gagen_v_cos(w1);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w0 * w3;
   w4 = gagen_v_cos(w3);
   w5 = w2 * w4;
-  w6 = GAGEN_GATHER(q, 3, 2);
+  w6 = GAGEN_GATHER(in_q, 3, 2);
   w6 = w0 * w6;
   w7 = gagen_v_cos(w6);
   w8 = w5 * w7;
@@ -4106,22 +4106,22 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w6 = gagen_v_sin(w6);
   w10 = w9 * w6;
   w8 = w8 - w10;
-  GAGEN_SCATTER(M, 8, 0, w8);
+  GAGEN_SCATTER(out_M, 8, 0, w8);
   w10 = w1 * w4;
   w11 = w10 * w7;
   w12 = w2 * w3;
   w13 = w12 * w6;
   w11 = w11 + w13;
   w13 = -w11;
-  GAGEN_SCATTER(M, 8, 1, w13);
+  GAGEN_SCATTER(out_M, 8, 1, w13);
   w5 = w5 * w6;
   w9 = w9 * w7;
   w5 = w5 + w9;
-  GAGEN_SCATTER(M, 8, 2, w5);
+  GAGEN_SCATTER(out_M, 8, 2, w5);
   w10 = w10 * w6;
   w12 = w12 * w7;
   w10 = w10 - w12;
-  GAGEN_SCATTER(M, 8, 3, w10);
+  GAGEN_SCATTER(out_M, 8, 3, w10);
   w12 = gagen_v_splat(0.0175);
   w9 = gagen_v_splat(0.0095);
   w13 = w4 * w4;
@@ -4190,7 +4190,7 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w25 = w25 + w26;
   w26 = w0 * w25;
   w26 = w18 - w26;
-  GAGEN_SCATTER(M, 8, 4, w26);
+  GAGEN_SCATTER(out_M, 8, 4, w26);
   w7 = w22 * w8;
   w3 = w28 * w11;
   w7 = w7 - w3;
@@ -4198,7 +4198,7 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w29 = w15 * w10;
   w3 = w3 - w29;
   w30 = -w3;
-  GAGEN_SCATTER(M, 8, 5, w30);
+  GAGEN_SCATTER(out_M, 8, 5, w30);
   w30 = w15 * w8;
   w31 = w28 * w5;
   w32 = w22 * w10;
@@ -4206,18 +4206,18 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w32 = w0 * w31;
   w32 = w30 + w32;
   w33 = -w32;
-  GAGEN_SCATTER(M, 8, 6, w33);
+  GAGEN_SCATTER(out_M, 8, 6, w33);
   w15 = w15 * w11;
   w33 = w22 * w5;
   w34 = w28 * w10;
   w33 = w33 - w34;
   w34 = w0 * w33;
   w34 = w15 + w34;
-  GAGEN_SCATTER(M, 8, 7, w34);
+  GAGEN_SCATTER(out_M, 8, 7, w34);
   w35 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w35);
-  GAGEN_SCATTER(P, 5, 1, w28);
-  GAGEN_SCATTER(P, 5, 2, w22);
+  GAGEN_SCATTER(out_P, 5, 0, w35);
+  GAGEN_SCATTER(out_P, 5, 1, w28);
+  GAGEN_SCATTER(out_P, 5, 2, w22);
   w36 = gagen_v_splat(0.035);
   w1 = w1 * w13;
   w1 = w36 + w1;
@@ -4225,39 +4225,39 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w1 = w1 - w19;
   w6 = w24 * w6;
   w1 = w1 + w6;
-  GAGEN_SCATTER(P, 5, 3, w1);
+  GAGEN_SCATTER(out_P, 5, 3, w1);
   w6 = w28 * w28;
   w19 = w22 * w22;
   w6 = w6 + w19;
   w19 = w1 * w1;
   w6 = w6 + w19;
   w6 = w0 * w6;
-  GAGEN_SCATTER(P, 5, 4, w6);
-  GAGEN_SCATTER(J_S, 18, 0, w35);
+  GAGEN_SCATTER(out_P, 5, 4, w6);
+  GAGEN_SCATTER(out_J_S, 18, 0, w35);
   w35 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 18, 1, w35);
-  GAGEN_SCATTER(J_S, 18, 2, w35);
-  GAGEN_SCATTER(J_S, 18, 3, w35);
-  GAGEN_SCATTER(J_S, 18, 4, w35);
-  GAGEN_SCATTER(J_S, 18, 5, w35);
-  GAGEN_SCATTER(J_S, 18, 6, w35);
+  GAGEN_SCATTER(out_J_S, 18, 1, w35);
+  GAGEN_SCATTER(out_J_S, 18, 2, w35);
+  GAGEN_SCATTER(out_J_S, 18, 3, w35);
+  GAGEN_SCATTER(out_J_S, 18, 4, w35);
+  GAGEN_SCATTER(out_J_S, 18, 5, w35);
+  GAGEN_SCATTER(out_J_S, 18, 6, w35);
   w6 = -w21;
-  GAGEN_SCATTER(J_S, 18, 7, w6);
-  GAGEN_SCATTER(J_S, 18, 8, w2);
+  GAGEN_SCATTER(out_J_S, 18, 7, w6);
+  GAGEN_SCATTER(out_J_S, 18, 8, w2);
   w6 = gagen_v_splat(0.07);
   w6 = w6 * w20;
   w19 = -w6;
-  GAGEN_SCATTER(J_S, 18, 9, w19);
+  GAGEN_SCATTER(out_J_S, 18, 9, w19);
   w19 = w36 * w2;
-  GAGEN_SCATTER(J_S, 18, 10, w19);
-  GAGEN_SCATTER(J_S, 18, 11, w35);
-  GAGEN_SCATTER(J_S, 18, 12, w4);
+  GAGEN_SCATTER(out_J_S, 18, 10, w19);
+  GAGEN_SCATTER(out_J_S, 18, 11, w35);
+  GAGEN_SCATTER(out_J_S, 18, 12, w4);
   w17 = w13 * w2;
   w37 = -w17;
-  GAGEN_SCATTER(J_S, 18, 13, w37);
+  GAGEN_SCATTER(out_J_S, 18, 13, w37);
   w37 = w13 * w21;
   w38 = -w37;
-  GAGEN_SCATTER(J_S, 18, 14, w38);
+  GAGEN_SCATTER(out_J_S, 18, 14, w38);
   w38 = w17 * w14;
   w16 = w16 * w20;
   w23 = w9 * w23;
@@ -4266,7 +4266,7 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w38 = w38 + w23;
   w38 = -w38;
   w38 = w38 + w38;
-  GAGEN_SCATTER(J_S, 18, 15, w38);
+  GAGEN_SCATTER(out_J_S, 18, 15, w38);
   w23 = gagen_v_splat(0.00198175);
   w23 = w23 * w2;
   w9 = w9 * w27;
@@ -4275,13 +4275,13 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w14 = w37 * w14;
   w9 = w9 - w14;
   w9 = w9 + w9;
-  GAGEN_SCATTER(J_S, 18, 16, w9);
+  GAGEN_SCATTER(out_J_S, 18, 16, w9);
   w37 = w37 * w16;
   w17 = w17 * w23;
   w37 = w37 + w17;
   w37 = -w37;
   w37 = w37 + w37;
-  GAGEN_SCATTER(J_S, 18, 17, w37);
+  GAGEN_SCATTER(out_J_S, 18, 17, w37);
   w17 = w11 * w11;
   w23 = w8 * w8;
   w17 = w17 + w23;
@@ -4289,18 +4289,18 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w17 = w17 - w23;
   w23 = w5 * w5;
   w17 = w17 - w23;
-  GAGEN_SCATTER(J_b, 18, 0, w17);
+  GAGEN_SCATTER(out_J_b, 18, 0, w17);
   w23 = w8 * w10;
   w16 = w11 * w5;
   w14 = w23 - w16;
   w14 = w14 + w14;
-  GAGEN_SCATTER(J_b, 18, 1, w14);
+  GAGEN_SCATTER(out_J_b, 18, 1, w14);
   w14 = w11 * w10;
   w27 = w8 * w5;
   w20 = w14 + w27;
   w20 = -w20;
   w20 = w20 + w20;
-  GAGEN_SCATTER(J_b, 18, 2, w20);
+  GAGEN_SCATTER(out_J_b, 18, 2, w20);
   w20 = w5 * w34;
   w39 = w11 * w26;
   w40 = w8 * w3;
@@ -4309,7 +4309,7 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w41 = w41 + w42;
   w41 = w20 - w41;
   w41 = w41 + w41;
-  GAGEN_SCATTER(J_b, 18, 3, w41);
+  GAGEN_SCATTER(out_J_b, 18, 3, w41);
   w41 = w11 * w3;
   w43 = w10 * w34;
   w44 = w41 + w43;
@@ -4318,7 +4318,7 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w46 = w5 * w32;
   w44 = w44 + w46;
   w44 = w44 + w44;
-  GAGEN_SCATTER(J_b, 18, 4, w44);
+  GAGEN_SCATTER(out_J_b, 18, 4, w44);
   w44 = w11 * w32;
   w47 = w5 * w3;
   w44 = w44 - w47;
@@ -4327,7 +4327,7 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w47 = w10 * w26;
   w44 = w44 - w47;
   w44 = w44 + w44;
-  GAGEN_SCATTER(J_b, 18, 5, w44);
+  GAGEN_SCATTER(out_J_b, 18, 5, w44);
   w47 = w5 * w2;
   w48 = w10 * w21;
   w47 = w47 + w48;
@@ -4347,7 +4347,7 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w51 = w51 - w52;
   w52 = w51 * w10;
   w48 = w48 + w52;
-  GAGEN_SCATTER(J_b, 18, 6, w48);
+  GAGEN_SCATTER(out_J_b, 18, 6, w48);
   w48 = w49 * w5;
   w52 = w47 * w10;
   w48 = w48 + w52;
@@ -4355,7 +4355,7 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w48 = w48 - w52;
   w52 = w50 * w11;
   w48 = w48 + w52;
-  GAGEN_SCATTER(J_b, 18, 7, w48);
+  GAGEN_SCATTER(out_J_b, 18, 7, w48);
   w48 = w49 * w10;
   w52 = w51 * w11;
   w48 = w48 + w52;
@@ -4363,7 +4363,7 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w48 = w48 + w52;
   w52 = w47 * w5;
   w48 = w48 - w52;
-  GAGEN_SCATTER(J_b, 18, 8, w48);
+  GAGEN_SCATTER(out_J_b, 18, 8, w48);
   w48 = w49 * w26;
   w52 = w47 * w3;
   w48 = w48 - w52;
@@ -4399,7 +4399,7 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w55 = w55 + w56;
   w56 = w55 * w10;
   w48 = w48 - w56;
-  GAGEN_SCATTER(J_b, 18, 9, w48);
+  GAGEN_SCATTER(out_J_b, 18, 9, w48);
   w48 = w52 * w11;
   w56 = w49 * w3;
   w57 = w51 * w34;
@@ -4415,7 +4415,7 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w48 = w48 - w56;
   w56 = w54 * w10;
   w48 = w48 - w56;
-  GAGEN_SCATTER(J_b, 18, 10, w48);
+  GAGEN_SCATTER(out_J_b, 18, 10, w48);
   w53 = w53 * w10;
   w48 = w49 * w32;
   w52 = w52 * w5;
@@ -4431,7 +4431,7 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w53 = w53 + w54;
   w55 = w55 * w11;
   w53 = w53 + w55;
-  GAGEN_SCATTER(J_b, 18, 11, w53);
+  GAGEN_SCATTER(out_J_b, 18, 11, w53);
   w53 = w11 * w4;
   w55 = w10 * w13;
   w54 = w55 * w21;
@@ -4463,7 +4463,7 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w57 = w57 - w55;
   w55 = w57 * w10;
   w48 = w48 - w55;
-  GAGEN_SCATTER(J_b, 18, 12, w48);
+  GAGEN_SCATTER(out_J_b, 18, 12, w48);
   w48 = w52 * w10;
   w55 = w53 * w5;
   w48 = w48 - w55;
@@ -4471,7 +4471,7 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w48 = w48 + w55;
   w55 = w54 * w11;
   w48 = w48 + w55;
-  GAGEN_SCATTER(J_b, 18, 13, w48);
+  GAGEN_SCATTER(out_J_b, 18, 13, w48);
   w48 = w54 * w8;
   w55 = w53 * w10;
   w56 = w57 * w11;
@@ -4479,7 +4479,7 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w48 = w48 - w55;
   w55 = w52 * w5;
   w48 = w48 - w55;
-  GAGEN_SCATTER(J_b, 18, 14, w48);
+  GAGEN_SCATTER(out_J_b, 18, 14, w48);
   w48 = w8 * w38;
   w55 = w3 * w4;
   w48 = w48 - w55;
@@ -4543,7 +4543,7 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w61 = w61 + w60;
   w60 = w61 * w10;
   w58 = w58 - w60;
-  GAGEN_SCATTER(J_b, 18, 15, w58);
+  GAGEN_SCATTER(out_J_b, 18, 15, w58);
   w58 = w53 * w3;
   w60 = w57 * w34;
   w58 = w58 + w60;
@@ -4559,7 +4559,7 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w58 = w58 - w60;
   w60 = w56 * w10;
   w58 = w58 - w60;
-  GAGEN_SCATTER(J_b, 18, 16, w58);
+  GAGEN_SCATTER(out_J_b, 18, 16, w58);
   w58 = w53 * w32;
   w60 = w48 * w5;
   w58 = w58 + w60;
@@ -4575,44 +4575,44 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w58 = w58 + w60;
   w60 = w61 * w11;
   w58 = w58 + w60;
-  GAGEN_SCATTER(J_b, 18, 17, w58);
+  GAGEN_SCATTER(out_J_b, 18, 17, w58);
   w58 = w0 * w11;
   w58 = -w58;
-  GAGEN_SCATTER(J_A, 24, 0, w58);
+  GAGEN_SCATTER(out_J_A, 24, 0, w58);
   w58 = w0 * w8;
   w58 = -w58;
-  GAGEN_SCATTER(J_A, 24, 1, w58);
+  GAGEN_SCATTER(out_J_A, 24, 1, w58);
   w58 = w0 * w10;
   w58 = -w58;
-  GAGEN_SCATTER(J_A, 24, 2, w58);
+  GAGEN_SCATTER(out_J_A, 24, 2, w58);
   w58 = w0 * w5;
-  GAGEN_SCATTER(J_A, 24, 3, w58);
+  GAGEN_SCATTER(out_J_A, 24, 3, w58);
   w7 = w24 * w7;
   w29 = w0 * w29;
   w7 = w7 - w29;
-  GAGEN_SCATTER(J_A, 24, 4, w7);
+  GAGEN_SCATTER(out_J_A, 24, 4, w7);
   w18 = w0 * w18;
   w25 = w24 * w25;
   w18 = w18 - w25;
-  GAGEN_SCATTER(J_A, 24, 5, w18);
+  GAGEN_SCATTER(out_J_A, 24, 5, w18);
   w33 = w24 * w33;
   w15 = w0 * w15;
   w33 = w33 + w15;
-  GAGEN_SCATTER(J_A, 24, 6, w33);
+  GAGEN_SCATTER(out_J_A, 24, 6, w33);
   w24 = w24 * w31;
   w30 = w0 * w30;
   w24 = w24 + w30;
-  GAGEN_SCATTER(J_A, 24, 7, w24);
+  GAGEN_SCATTER(out_J_A, 24, 7, w24);
   w49 = w0 * w49;
-  GAGEN_SCATTER(J_A, 24, 8, w49);
+  GAGEN_SCATTER(out_J_A, 24, 8, w49);
   w47 = w0 * w47;
   w47 = -w47;
-  GAGEN_SCATTER(J_A, 24, 9, w47);
+  GAGEN_SCATTER(out_J_A, 24, 9, w47);
   w51 = w0 * w51;
-  GAGEN_SCATTER(J_A, 24, 10, w51);
+  GAGEN_SCATTER(out_J_A, 24, 10, w51);
   w50 = w0 * w50;
   w50 = -w50;
-  GAGEN_SCATTER(J_A, 24, 11, w50);
+  GAGEN_SCATTER(out_J_A, 24, 11, w50);
   w50 = w2 * w34;
   w51 = w21 * w32;
   w50 = w50 - w51;
@@ -4622,7 +4622,7 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w51 = w51 - w47;
   w51 = w12 * w51;
   w50 = w50 + w51;
-  GAGEN_SCATTER(J_A, 24, 12, w50);
+  GAGEN_SCATTER(out_J_A, 24, 12, w50);
   w34 = w21 * w34;
   w32 = w2 * w32;
   w34 = w34 + w32;
@@ -4632,7 +4632,7 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w11 = w11 + w8;
   w11 = w12 * w11;
   w34 = w34 - w11;
-  GAGEN_SCATTER(J_A, 24, 13, w34);
+  GAGEN_SCATTER(out_J_A, 24, 13, w34);
   w34 = w21 * w5;
   w11 = w2 * w10;
   w34 = w34 - w11;
@@ -4642,7 +4642,7 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w11 = w11 + w8;
   w11 = w0 * w11;
   w34 = w34 - w11;
-  GAGEN_SCATTER(J_A, 24, 14, w34);
+  GAGEN_SCATTER(out_J_A, 24, 14, w34);
   w10 = w21 * w10;
   w5 = w2 * w5;
   w10 = w10 + w5;
@@ -4652,118 +4652,118 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w26 = w26 - w3;
   w26 = w0 * w26;
   w12 = w12 - w26;
-  GAGEN_SCATTER(J_A, 24, 15, w12);
+  GAGEN_SCATTER(out_J_A, 24, 15, w12);
   w53 = w0 * w53;
   w53 = -w53;
-  GAGEN_SCATTER(J_A, 24, 16, w53);
+  GAGEN_SCATTER(out_J_A, 24, 16, w53);
   w52 = w0 * w52;
   w52 = -w52;
-  GAGEN_SCATTER(J_A, 24, 17, w52);
+  GAGEN_SCATTER(out_J_A, 24, 17, w52);
   w57 = w0 * w57;
   w57 = -w57;
-  GAGEN_SCATTER(J_A, 24, 18, w57);
+  GAGEN_SCATTER(out_J_A, 24, 18, w57);
   w54 = w0 * w54;
   w54 = -w54;
-  GAGEN_SCATTER(J_A, 24, 19, w54);
+  GAGEN_SCATTER(out_J_A, 24, 19, w54);
   w48 = w0 * w48;
   w48 = -w48;
-  GAGEN_SCATTER(J_A, 24, 20, w48);
+  GAGEN_SCATTER(out_J_A, 24, 20, w48);
   w59 = w0 * w59;
   w59 = -w59;
-  GAGEN_SCATTER(J_A, 24, 21, w59);
+  GAGEN_SCATTER(out_J_A, 24, 21, w59);
   w56 = w0 * w56;
   w56 = -w56;
-  GAGEN_SCATTER(J_A, 24, 22, w56);
+  GAGEN_SCATTER(out_J_A, 24, 22, w56);
   w0 = w0 * w61;
-  GAGEN_SCATTER(J_A, 24, 23, w0);
-  GAGEN_SCATTER(J_P, 15, 0, w35);
+  GAGEN_SCATTER(out_J_A, 24, 23, w0);
+  GAGEN_SCATTER(out_J_P, 15, 0, w35);
   w0 = -w22;
-  GAGEN_SCATTER(J_P, 15, 1, w0);
-  GAGEN_SCATTER(J_P, 15, 2, w28);
-  GAGEN_SCATTER(J_P, 15, 3, w35);
-  GAGEN_SCATTER(J_P, 15, 4, w35);
-  GAGEN_SCATTER(J_P, 15, 5, w35);
+  GAGEN_SCATTER(out_J_P, 15, 1, w0);
+  GAGEN_SCATTER(out_J_P, 15, 2, w28);
+  GAGEN_SCATTER(out_J_P, 15, 3, w35);
+  GAGEN_SCATTER(out_J_P, 15, 4, w35);
+  GAGEN_SCATTER(out_J_P, 15, 5, w35);
   w0 = w1 * w21;
   w0 = w0 - w6;
-  GAGEN_SCATTER(J_P, 15, 6, w0);
+  GAGEN_SCATTER(out_J_P, 15, 6, w0);
   w0 = w1 * w2;
   w19 = w19 - w0;
-  GAGEN_SCATTER(J_P, 15, 7, w19);
+  GAGEN_SCATTER(out_J_P, 15, 7, w19);
   w19 = w22 * w2;
   w0 = w28 * w21;
   w19 = w19 - w0;
-  GAGEN_SCATTER(J_P, 15, 8, w19);
+  GAGEN_SCATTER(out_J_P, 15, 8, w19);
   w19 = w36 * w19;
-  GAGEN_SCATTER(J_P, 15, 9, w19);
-  GAGEN_SCATTER(J_P, 15, 10, w35);
+  GAGEN_SCATTER(out_J_P, 15, 9, w19);
+  GAGEN_SCATTER(out_J_P, 15, 10, w35);
   w19 = w1 * w13;
   w0 = w19 * w2;
   w0 = w0 + w38;
   w6 = w22 * w4;
   w0 = w0 - w6;
-  GAGEN_SCATTER(J_P, 15, 11, w0);
+  GAGEN_SCATTER(out_J_P, 15, 11, w0);
   w0 = w28 * w4;
   w0 = w0 + w9;
   w19 = w19 * w21;
   w0 = w0 + w19;
-  GAGEN_SCATTER(J_P, 15, 12, w0);
+  GAGEN_SCATTER(out_J_P, 15, 12, w0);
   w0 = w22 * w13;
   w0 = w0 * w21;
   w0 = w37 - w0;
   w19 = w28 * w13;
   w19 = w19 * w2;
   w0 = w0 - w19;
-  GAGEN_SCATTER(J_P, 15, 13, w0);
+  GAGEN_SCATTER(out_J_P, 15, 13, w0);
   w28 = w28 * w38;
   w22 = w22 * w9;
   w28 = w28 + w22;
   w1 = w1 * w37;
   w28 = w28 + w1;
-  GAGEN_SCATTER(J_P, 15, 14, w28);
-  GAGEN_SCATTER(L, 6, 0, w17);
+  GAGEN_SCATTER(out_J_P, 15, 14, w28);
+  GAGEN_SCATTER(out_L, 6, 0, w17);
   w16 = w16 + w23;
   w16 = -w16;
   w16 = w16 + w16;
-  GAGEN_SCATTER(L, 6, 1, w16);
+  GAGEN_SCATTER(out_L, 6, 1, w16);
   w27 = w27 - w14;
   w27 = w27 + w27;
-  GAGEN_SCATTER(L, 6, 2, w27);
+  GAGEN_SCATTER(out_L, 6, 2, w27);
   w39 = w39 + w42;
   w40 = w40 - w39;
   w40 = w40 - w20;
   w40 = w40 + w40;
-  GAGEN_SCATTER(L, 6, 3, w40);
+  GAGEN_SCATTER(out_L, 6, 3, w40);
   w41 = w41 + w45;
   w41 = w41 - w43;
   w41 = w41 + w46;
   w41 = w41 + w41;
-  GAGEN_SCATTER(L, 6, 4, w41);
-  GAGEN_SCATTER(L, 6, 5, w44);
-  GAGEN_SCATTER(J_L, 18, 0, w35);
+  GAGEN_SCATTER(out_L, 6, 4, w41);
+  GAGEN_SCATTER(out_L, 6, 5, w44);
+  GAGEN_SCATTER(out_J_L, 18, 0, w35);
   w46 = -w27;
-  GAGEN_SCATTER(J_L, 18, 1, w46);
-  GAGEN_SCATTER(J_L, 18, 2, w16);
+  GAGEN_SCATTER(out_J_L, 18, 1, w46);
+  GAGEN_SCATTER(out_J_L, 18, 2, w16);
   w46 = -w41;
-  GAGEN_SCATTER(J_L, 18, 3, w46);
-  GAGEN_SCATTER(J_L, 18, 4, w40);
-  GAGEN_SCATTER(J_L, 18, 5, w35);
+  GAGEN_SCATTER(out_J_L, 18, 3, w46);
+  GAGEN_SCATTER(out_J_L, 18, 4, w40);
+  GAGEN_SCATTER(out_J_L, 18, 5, w35);
   w35 = w16 * w2;
   w46 = w27 * w21;
   w35 = w35 + w46;
   w35 = -w35;
-  GAGEN_SCATTER(J_L, 18, 6, w35);
+  GAGEN_SCATTER(out_J_L, 18, 6, w35);
   w35 = w17 * w2;
-  GAGEN_SCATTER(J_L, 18, 7, w35);
+  GAGEN_SCATTER(out_J_L, 18, 7, w35);
   w46 = w17 * w21;
-  GAGEN_SCATTER(J_L, 18, 8, w46);
+  GAGEN_SCATTER(out_J_L, 18, 8, w46);
   w43 = w44 * w21;
   w35 = w36 * w35;
   w43 = w43 + w35;
-  GAGEN_SCATTER(J_L, 18, 9, w43);
+  GAGEN_SCATTER(out_J_L, 18, 9, w43);
   w46 = w36 * w46;
   w43 = w44 * w2;
   w46 = w46 - w43;
-  GAGEN_SCATTER(J_L, 18, 10, w46);
+  GAGEN_SCATTER(out_J_L, 18, 10, w46);
   w46 = w41 * w2;
   w43 = w16 * w21;
   w35 = w27 * w2;
@@ -4772,24 +4772,24 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w46 = w46 + w36;
   w36 = w40 * w21;
   w46 = w46 - w36;
-  GAGEN_SCATTER(J_L, 18, 11, w46);
+  GAGEN_SCATTER(out_J_L, 18, 11, w46);
   w46 = w27 * w13;
   w46 = w46 * w2;
   w36 = w16 * w13;
   w36 = w36 * w21;
   w46 = w46 - w36;
   w46 = -w46;
-  GAGEN_SCATTER(J_L, 18, 12, w46);
+  GAGEN_SCATTER(out_J_L, 18, 12, w46);
   w46 = w17 * w13;
   w36 = w46 * w21;
   w43 = w27 * w4;
   w36 = w36 + w43;
   w36 = -w36;
-  GAGEN_SCATTER(J_L, 18, 13, w36);
+  GAGEN_SCATTER(out_J_L, 18, 13, w36);
   w46 = w46 * w2;
   w36 = w16 * w4;
   w46 = w46 + w36;
-  GAGEN_SCATTER(J_L, 18, 14, w46);
+  GAGEN_SCATTER(out_J_L, 18, 14, w46);
   w46 = w17 * w9;
   w36 = w16 * w37;
   w46 = w46 + w36;
@@ -4798,7 +4798,7 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w46 = w46 + w36;
   w36 = w41 * w4;
   w46 = w46 - w36;
-  GAGEN_SCATTER(J_L, 18, 15, w46);
+  GAGEN_SCATTER(out_J_L, 18, 15, w46);
   w37 = w27 * w37;
   w4 = w40 * w4;
   w37 = w37 + w4;
@@ -4806,7 +4806,7 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w37 = w37 - w17;
   w44 = w44 * w21;
   w37 = w37 + w44;
-  GAGEN_SCATTER(J_L, 18, 16, w37);
+  GAGEN_SCATTER(out_J_L, 18, 16, w37);
   w41 = w41 * w13;
   w41 = w41 * w21;
   w16 = w16 * w38;
@@ -4817,30 +4817,30 @@ static void g1_torso_circle_torso_jacobians_block(const double *restrict q, doub
   w40 = w40 * w2;
   w41 = w41 + w40;
   w41 = -w41;
-  GAGEN_SCATTER(J_L, 18, 17, w41);
+  GAGEN_SCATTER(out_J_L, 18, 17, w41);
 }
 #endif
 
-void g1_torso_circle_torso_jacobians_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S, double *restrict J_b, double *restrict J_A, double *restrict J_P, double *restrict L, double *restrict J_L) {
-  long s = 0;
+void g1_torso_circle_torso_jacobians_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S, double *restrict out_J_b, double *restrict out_J_A, double *restrict out_J_P, double *restrict out_L, double *restrict out_J_L) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 18 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 18 * a + o, 1, 0);
-      for (int o = 0; o < 18 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_b + 18 * a + o, 1, 0);
-      for (int o = 0; o < 24 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_A + 24 * a + o, 1, 0);
-      for (int o = 0; o < 15 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_P + 15 * a + o, 1, 0);
-      for (int o = 0; o < 6 * GAGEN_W + 7; o += 8) __builtin_prefetch(L + 6 * a + o, 1, 0);
-      for (int o = 0; o < 18 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_L + 18 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 18 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 18 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 18 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_b + 18 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 24 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_A + 24 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 15 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_P + 15 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 6 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_L + 6 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 18 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_L + 18 * gagen_a + gagen_o, 1, 0);
     }
-    g1_torso_circle_torso_jacobians_block(q + 3 * s, M + 8 * s, P + 5 * s, J_S + 18 * s, J_b + 18 * s, J_A + 24 * s, J_P + 15 * s, L + 6 * s, J_L + 18 * s);
+    g1_torso_circle_torso_jacobians_block(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 18 * gagen_s, out_J_b + 18 * gagen_s, out_J_A + 24 * gagen_s, out_J_P + 15 * gagen_s, out_L + 6 * gagen_s, out_J_L + 18 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    g1_torso_circle_torso_jacobians(q + 3 * s, M + 8 * s, P + 5 * s, J_S + 18 * s, J_b + 18 * s, J_A + 24 * s, J_P + 15 * s, L + 6 * s, J_L + 18 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    g1_torso_circle_torso_jacobians(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 18 * gagen_s, out_J_b + 18 * gagen_s, out_J_A + 24 * gagen_s, out_J_P + 15 * gagen_s, out_L + 6 * gagen_s, out_J_L + 18 * gagen_s);
   }
 }
 
@@ -4850,7 +4850,7 @@ void g1_torso_circle_torso_jacobians_batch(long n, const double *restrict q, dou
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S, double *restrict J_b, double *restrict J_A, double *restrict J_P, double *restrict L, double *restrict J_L) {
+static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S, double *restrict out_J_b, double *restrict out_J_A, double *restrict out_J_P, double *restrict out_L, double *restrict out_J_L) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -4858,14 +4858,14 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   gagen_v w48, w49, w50, w51, w52, w53, w54, w55, w56, w57, w58, w59;
   gagen_v w60, w61, w62;
   w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(q, 3, 0);
+  w1 = GAGEN_GATHER(in_q, 3, 0);
   w1 = w0 * w1;
   w2 = gagen_v_cos(w1);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w0 * w3;
   w4 = gagen_v_cos(w3);
   w5 = w2 * w4;
-  w6 = GAGEN_GATHER(q, 3, 2);
+  w6 = GAGEN_GATHER(in_q, 3, 2);
   w6 = w0 * w6;
   w7 = gagen_v_cos(w6);
   w8 = w5 * w7;
@@ -4875,22 +4875,22 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w6 = gagen_v_sin(w6);
   w10 = w9 * w6;
   w8 = w8 - w10;
-  GAGEN_SCATTER(M, 8, 0, w8);
+  GAGEN_SCATTER(out_M, 8, 0, w8);
   w10 = w1 * w4;
   w11 = w10 * w7;
   w12 = w2 * w3;
   w13 = w12 * w6;
   w11 = w11 + w13;
   w13 = -w11;
-  GAGEN_SCATTER(M, 8, 1, w13);
+  GAGEN_SCATTER(out_M, 8, 1, w13);
   w5 = w5 * w6;
   w9 = w9 * w7;
   w5 = w5 + w9;
-  GAGEN_SCATTER(M, 8, 2, w5);
+  GAGEN_SCATTER(out_M, 8, 2, w5);
   w10 = w10 * w6;
   w12 = w12 * w7;
   w10 = w10 - w12;
-  GAGEN_SCATTER(M, 8, 3, w10);
+  GAGEN_SCATTER(out_M, 8, 3, w10);
   w12 = gagen_v_splat(0.0175);
   w9 = gagen_v_splat(0.0095);
   w13 = w4 * w4;
@@ -4959,7 +4959,7 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w25 = w25 + w26;
   w26 = w0 * w25;
   w26 = w18 - w26;
-  GAGEN_SCATTER(M, 8, 4, w26);
+  GAGEN_SCATTER(out_M, 8, 4, w26);
   w7 = w22 * w8;
   w3 = w28 * w11;
   w7 = w7 - w3;
@@ -4967,7 +4967,7 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w29 = w15 * w10;
   w3 = w3 - w29;
   w30 = -w3;
-  GAGEN_SCATTER(M, 8, 5, w30);
+  GAGEN_SCATTER(out_M, 8, 5, w30);
   w30 = w15 * w8;
   w31 = w28 * w5;
   w32 = w22 * w10;
@@ -4975,18 +4975,18 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w32 = w0 * w31;
   w32 = w30 + w32;
   w33 = -w32;
-  GAGEN_SCATTER(M, 8, 6, w33);
+  GAGEN_SCATTER(out_M, 8, 6, w33);
   w15 = w15 * w11;
   w33 = w22 * w5;
   w34 = w28 * w10;
   w33 = w33 - w34;
   w34 = w0 * w33;
   w34 = w15 + w34;
-  GAGEN_SCATTER(M, 8, 7, w34);
+  GAGEN_SCATTER(out_M, 8, 7, w34);
   w35 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w35);
-  GAGEN_SCATTER(P, 5, 1, w28);
-  GAGEN_SCATTER(P, 5, 2, w22);
+  GAGEN_SCATTER(out_P, 5, 0, w35);
+  GAGEN_SCATTER(out_P, 5, 1, w28);
+  GAGEN_SCATTER(out_P, 5, 2, w22);
   w36 = gagen_v_splat(0.035);
   w1 = w1 * w13;
   w1 = w36 + w1;
@@ -4994,39 +4994,39 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w1 = w1 - w19;
   w6 = w24 * w6;
   w1 = w1 + w6;
-  GAGEN_SCATTER(P, 5, 3, w1);
+  GAGEN_SCATTER(out_P, 5, 3, w1);
   w6 = w28 * w28;
   w19 = w22 * w22;
   w6 = w6 + w19;
   w19 = w1 * w1;
   w6 = w6 + w19;
   w6 = w0 * w6;
-  GAGEN_SCATTER(P, 5, 4, w6);
-  GAGEN_SCATTER(J_S, 18, 0, w35);
+  GAGEN_SCATTER(out_P, 5, 4, w6);
+  GAGEN_SCATTER(out_J_S, 18, 0, w35);
   w35 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 18, 1, w35);
-  GAGEN_SCATTER(J_S, 18, 2, w35);
-  GAGEN_SCATTER(J_S, 18, 3, w35);
-  GAGEN_SCATTER(J_S, 18, 4, w35);
-  GAGEN_SCATTER(J_S, 18, 5, w35);
-  GAGEN_SCATTER(J_S, 18, 6, w35);
+  GAGEN_SCATTER(out_J_S, 18, 1, w35);
+  GAGEN_SCATTER(out_J_S, 18, 2, w35);
+  GAGEN_SCATTER(out_J_S, 18, 3, w35);
+  GAGEN_SCATTER(out_J_S, 18, 4, w35);
+  GAGEN_SCATTER(out_J_S, 18, 5, w35);
+  GAGEN_SCATTER(out_J_S, 18, 6, w35);
   w6 = -w21;
-  GAGEN_SCATTER(J_S, 18, 7, w6);
-  GAGEN_SCATTER(J_S, 18, 8, w2);
+  GAGEN_SCATTER(out_J_S, 18, 7, w6);
+  GAGEN_SCATTER(out_J_S, 18, 8, w2);
   w6 = gagen_v_splat(0.07);
   w6 = w6 * w20;
   w19 = -w6;
-  GAGEN_SCATTER(J_S, 18, 9, w19);
+  GAGEN_SCATTER(out_J_S, 18, 9, w19);
   w19 = w36 * w2;
-  GAGEN_SCATTER(J_S, 18, 10, w19);
-  GAGEN_SCATTER(J_S, 18, 11, w35);
-  GAGEN_SCATTER(J_S, 18, 12, w4);
+  GAGEN_SCATTER(out_J_S, 18, 10, w19);
+  GAGEN_SCATTER(out_J_S, 18, 11, w35);
+  GAGEN_SCATTER(out_J_S, 18, 12, w4);
   w17 = w13 * w2;
   w37 = -w17;
-  GAGEN_SCATTER(J_S, 18, 13, w37);
+  GAGEN_SCATTER(out_J_S, 18, 13, w37);
   w37 = w13 * w21;
   w38 = -w37;
-  GAGEN_SCATTER(J_S, 18, 14, w38);
+  GAGEN_SCATTER(out_J_S, 18, 14, w38);
   w38 = w17 * w14;
   w16 = w16 * w20;
   w23 = w9 * w23;
@@ -5035,7 +5035,7 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w38 = w38 + w23;
   w38 = -w38;
   w38 = w38 + w38;
-  GAGEN_SCATTER(J_S, 18, 15, w38);
+  GAGEN_SCATTER(out_J_S, 18, 15, w38);
   w23 = gagen_v_splat(0.00198175);
   w23 = w23 * w2;
   w9 = w9 * w27;
@@ -5044,13 +5044,13 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w14 = w37 * w14;
   w9 = w9 - w14;
   w9 = w9 + w9;
-  GAGEN_SCATTER(J_S, 18, 16, w9);
+  GAGEN_SCATTER(out_J_S, 18, 16, w9);
   w37 = w37 * w16;
   w17 = w17 * w23;
   w37 = w37 + w17;
   w37 = -w37;
   w37 = w37 + w37;
-  GAGEN_SCATTER(J_S, 18, 17, w37);
+  GAGEN_SCATTER(out_J_S, 18, 17, w37);
   w17 = w11 * w11;
   w23 = w8 * w8;
   w17 = w17 + w23;
@@ -5058,18 +5058,18 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w17 = w17 - w23;
   w23 = w5 * w5;
   w17 = w17 - w23;
-  GAGEN_SCATTER(J_b, 18, 0, w17);
+  GAGEN_SCATTER(out_J_b, 18, 0, w17);
   w23 = w8 * w10;
   w16 = w11 * w5;
   w14 = w23 - w16;
   w14 = w14 + w14;
-  GAGEN_SCATTER(J_b, 18, 1, w14);
+  GAGEN_SCATTER(out_J_b, 18, 1, w14);
   w14 = w11 * w10;
   w27 = w8 * w5;
   w20 = w14 + w27;
   w20 = -w20;
   w20 = w20 + w20;
-  GAGEN_SCATTER(J_b, 18, 2, w20);
+  GAGEN_SCATTER(out_J_b, 18, 2, w20);
   w20 = w5 * w34;
   w39 = w11 * w26;
   w40 = w8 * w3;
@@ -5078,7 +5078,7 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w41 = w41 + w42;
   w41 = w20 - w41;
   w41 = w41 + w41;
-  GAGEN_SCATTER(J_b, 18, 3, w41);
+  GAGEN_SCATTER(out_J_b, 18, 3, w41);
   w41 = w11 * w3;
   w43 = w10 * w34;
   w44 = w41 + w43;
@@ -5087,7 +5087,7 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w46 = w5 * w32;
   w44 = w44 + w46;
   w44 = w44 + w44;
-  GAGEN_SCATTER(J_b, 18, 4, w44);
+  GAGEN_SCATTER(out_J_b, 18, 4, w44);
   w44 = w11 * w32;
   w47 = w5 * w3;
   w44 = w44 - w47;
@@ -5096,7 +5096,7 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w47 = w10 * w26;
   w44 = w44 - w47;
   w44 = w44 + w44;
-  GAGEN_SCATTER(J_b, 18, 5, w44);
+  GAGEN_SCATTER(out_J_b, 18, 5, w44);
   w47 = w5 * w2;
   w48 = w10 * w21;
   w47 = w47 + w48;
@@ -5116,7 +5116,7 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w51 = w51 - w52;
   w52 = w51 * w10;
   w48 = w48 + w52;
-  GAGEN_SCATTER(J_b, 18, 6, w48);
+  GAGEN_SCATTER(out_J_b, 18, 6, w48);
   w48 = w49 * w5;
   w52 = w47 * w10;
   w48 = w48 + w52;
@@ -5124,7 +5124,7 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w48 = w48 - w52;
   w52 = w50 * w11;
   w48 = w48 + w52;
-  GAGEN_SCATTER(J_b, 18, 7, w48);
+  GAGEN_SCATTER(out_J_b, 18, 7, w48);
   w48 = w49 * w10;
   w52 = w51 * w11;
   w48 = w48 + w52;
@@ -5132,7 +5132,7 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w48 = w48 + w52;
   w52 = w47 * w5;
   w48 = w48 - w52;
-  GAGEN_SCATTER(J_b, 18, 8, w48);
+  GAGEN_SCATTER(out_J_b, 18, 8, w48);
   w48 = w49 * w26;
   w52 = w47 * w3;
   w48 = w48 - w52;
@@ -5168,7 +5168,7 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w55 = w55 + w56;
   w56 = w55 * w10;
   w48 = w48 - w56;
-  GAGEN_SCATTER(J_b, 18, 9, w48);
+  GAGEN_SCATTER(out_J_b, 18, 9, w48);
   w48 = w52 * w11;
   w56 = w49 * w3;
   w57 = w51 * w34;
@@ -5184,7 +5184,7 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w48 = w48 - w56;
   w56 = w54 * w10;
   w48 = w48 - w56;
-  GAGEN_SCATTER(J_b, 18, 10, w48);
+  GAGEN_SCATTER(out_J_b, 18, 10, w48);
   w53 = w53 * w10;
   w48 = w49 * w32;
   w52 = w52 * w5;
@@ -5200,7 +5200,7 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w53 = w53 + w54;
   w55 = w55 * w11;
   w53 = w53 + w55;
-  GAGEN_SCATTER(J_b, 18, 11, w53);
+  GAGEN_SCATTER(out_J_b, 18, 11, w53);
   w53 = w11 * w4;
   w55 = w10 * w13;
   w54 = w55 * w21;
@@ -5232,7 +5232,7 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w57 = w57 - w55;
   w55 = w57 * w10;
   w48 = w48 - w55;
-  GAGEN_SCATTER(J_b, 18, 12, w48);
+  GAGEN_SCATTER(out_J_b, 18, 12, w48);
   w48 = w52 * w10;
   w55 = w53 * w5;
   w48 = w48 - w55;
@@ -5240,7 +5240,7 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w48 = w48 + w55;
   w55 = w54 * w11;
   w48 = w48 + w55;
-  GAGEN_SCATTER(J_b, 18, 13, w48);
+  GAGEN_SCATTER(out_J_b, 18, 13, w48);
   w48 = w54 * w8;
   w55 = w53 * w10;
   w56 = w57 * w11;
@@ -5248,7 +5248,7 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w48 = w48 - w55;
   w55 = w52 * w5;
   w48 = w48 - w55;
-  GAGEN_SCATTER(J_b, 18, 14, w48);
+  GAGEN_SCATTER(out_J_b, 18, 14, w48);
   w48 = w8 * w38;
   w55 = w3 * w4;
   w48 = w48 - w55;
@@ -5312,7 +5312,7 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w61 = w61 + w60;
   w60 = w61 * w10;
   w58 = w58 - w60;
-  GAGEN_SCATTER(J_b, 18, 15, w58);
+  GAGEN_SCATTER(out_J_b, 18, 15, w58);
   w58 = w53 * w3;
   w60 = w57 * w34;
   w58 = w58 + w60;
@@ -5328,7 +5328,7 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w58 = w58 - w60;
   w60 = w56 * w10;
   w58 = w58 - w60;
-  GAGEN_SCATTER(J_b, 18, 16, w58);
+  GAGEN_SCATTER(out_J_b, 18, 16, w58);
   w58 = w53 * w32;
   w60 = w48 * w5;
   w58 = w58 + w60;
@@ -5344,44 +5344,44 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w58 = w58 + w60;
   w60 = w61 * w11;
   w58 = w58 + w60;
-  GAGEN_SCATTER(J_b, 18, 17, w58);
+  GAGEN_SCATTER(out_J_b, 18, 17, w58);
   w58 = w0 * w11;
   w58 = -w58;
-  GAGEN_SCATTER(J_A, 24, 0, w58);
+  GAGEN_SCATTER(out_J_A, 24, 0, w58);
   w58 = w0 * w8;
   w58 = -w58;
-  GAGEN_SCATTER(J_A, 24, 1, w58);
+  GAGEN_SCATTER(out_J_A, 24, 1, w58);
   w58 = w0 * w10;
   w58 = -w58;
-  GAGEN_SCATTER(J_A, 24, 2, w58);
+  GAGEN_SCATTER(out_J_A, 24, 2, w58);
   w58 = w0 * w5;
-  GAGEN_SCATTER(J_A, 24, 3, w58);
+  GAGEN_SCATTER(out_J_A, 24, 3, w58);
   w7 = w24 * w7;
   w29 = w0 * w29;
   w7 = w7 - w29;
-  GAGEN_SCATTER(J_A, 24, 4, w7);
+  GAGEN_SCATTER(out_J_A, 24, 4, w7);
   w18 = w0 * w18;
   w25 = w24 * w25;
   w18 = w18 - w25;
-  GAGEN_SCATTER(J_A, 24, 5, w18);
+  GAGEN_SCATTER(out_J_A, 24, 5, w18);
   w33 = w24 * w33;
   w15 = w0 * w15;
   w33 = w33 + w15;
-  GAGEN_SCATTER(J_A, 24, 6, w33);
+  GAGEN_SCATTER(out_J_A, 24, 6, w33);
   w24 = w24 * w31;
   w30 = w0 * w30;
   w24 = w24 + w30;
-  GAGEN_SCATTER(J_A, 24, 7, w24);
+  GAGEN_SCATTER(out_J_A, 24, 7, w24);
   w49 = w0 * w49;
-  GAGEN_SCATTER(J_A, 24, 8, w49);
+  GAGEN_SCATTER(out_J_A, 24, 8, w49);
   w47 = w0 * w47;
   w47 = -w47;
-  GAGEN_SCATTER(J_A, 24, 9, w47);
+  GAGEN_SCATTER(out_J_A, 24, 9, w47);
   w51 = w0 * w51;
-  GAGEN_SCATTER(J_A, 24, 10, w51);
+  GAGEN_SCATTER(out_J_A, 24, 10, w51);
   w50 = w0 * w50;
   w50 = -w50;
-  GAGEN_SCATTER(J_A, 24, 11, w50);
+  GAGEN_SCATTER(out_J_A, 24, 11, w50);
   w50 = w2 * w34;
   w51 = w21 * w32;
   w50 = w50 - w51;
@@ -5391,7 +5391,7 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w51 = w51 - w47;
   w51 = w12 * w51;
   w50 = w50 + w51;
-  GAGEN_SCATTER(J_A, 24, 12, w50);
+  GAGEN_SCATTER(out_J_A, 24, 12, w50);
   w34 = w21 * w34;
   w32 = w2 * w32;
   w34 = w34 + w32;
@@ -5401,7 +5401,7 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w11 = w11 + w8;
   w11 = w12 * w11;
   w34 = w34 - w11;
-  GAGEN_SCATTER(J_A, 24, 13, w34);
+  GAGEN_SCATTER(out_J_A, 24, 13, w34);
   w34 = w21 * w5;
   w11 = w2 * w10;
   w34 = w34 - w11;
@@ -5411,7 +5411,7 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w11 = w11 + w8;
   w11 = w0 * w11;
   w34 = w34 - w11;
-  GAGEN_SCATTER(J_A, 24, 14, w34);
+  GAGEN_SCATTER(out_J_A, 24, 14, w34);
   w10 = w21 * w10;
   w5 = w2 * w5;
   w10 = w10 + w5;
@@ -5421,118 +5421,118 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w26 = w26 - w3;
   w26 = w0 * w26;
   w12 = w12 - w26;
-  GAGEN_SCATTER(J_A, 24, 15, w12);
+  GAGEN_SCATTER(out_J_A, 24, 15, w12);
   w53 = w0 * w53;
   w53 = -w53;
-  GAGEN_SCATTER(J_A, 24, 16, w53);
+  GAGEN_SCATTER(out_J_A, 24, 16, w53);
   w52 = w0 * w52;
   w52 = -w52;
-  GAGEN_SCATTER(J_A, 24, 17, w52);
+  GAGEN_SCATTER(out_J_A, 24, 17, w52);
   w57 = w0 * w57;
   w57 = -w57;
-  GAGEN_SCATTER(J_A, 24, 18, w57);
+  GAGEN_SCATTER(out_J_A, 24, 18, w57);
   w54 = w0 * w54;
   w54 = -w54;
-  GAGEN_SCATTER(J_A, 24, 19, w54);
+  GAGEN_SCATTER(out_J_A, 24, 19, w54);
   w48 = w0 * w48;
   w48 = -w48;
-  GAGEN_SCATTER(J_A, 24, 20, w48);
+  GAGEN_SCATTER(out_J_A, 24, 20, w48);
   w59 = w0 * w59;
   w59 = -w59;
-  GAGEN_SCATTER(J_A, 24, 21, w59);
+  GAGEN_SCATTER(out_J_A, 24, 21, w59);
   w56 = w0 * w56;
   w56 = -w56;
-  GAGEN_SCATTER(J_A, 24, 22, w56);
+  GAGEN_SCATTER(out_J_A, 24, 22, w56);
   w0 = w0 * w61;
-  GAGEN_SCATTER(J_A, 24, 23, w0);
-  GAGEN_SCATTER(J_P, 15, 0, w35);
+  GAGEN_SCATTER(out_J_A, 24, 23, w0);
+  GAGEN_SCATTER(out_J_P, 15, 0, w35);
   w0 = -w22;
-  GAGEN_SCATTER(J_P, 15, 1, w0);
-  GAGEN_SCATTER(J_P, 15, 2, w28);
-  GAGEN_SCATTER(J_P, 15, 3, w35);
-  GAGEN_SCATTER(J_P, 15, 4, w35);
-  GAGEN_SCATTER(J_P, 15, 5, w35);
+  GAGEN_SCATTER(out_J_P, 15, 1, w0);
+  GAGEN_SCATTER(out_J_P, 15, 2, w28);
+  GAGEN_SCATTER(out_J_P, 15, 3, w35);
+  GAGEN_SCATTER(out_J_P, 15, 4, w35);
+  GAGEN_SCATTER(out_J_P, 15, 5, w35);
   w0 = w1 * w21;
   w0 = w0 - w6;
-  GAGEN_SCATTER(J_P, 15, 6, w0);
+  GAGEN_SCATTER(out_J_P, 15, 6, w0);
   w0 = w1 * w2;
   w19 = w19 - w0;
-  GAGEN_SCATTER(J_P, 15, 7, w19);
+  GAGEN_SCATTER(out_J_P, 15, 7, w19);
   w19 = w22 * w2;
   w0 = w28 * w21;
   w19 = w19 - w0;
-  GAGEN_SCATTER(J_P, 15, 8, w19);
+  GAGEN_SCATTER(out_J_P, 15, 8, w19);
   w19 = w36 * w19;
-  GAGEN_SCATTER(J_P, 15, 9, w19);
-  GAGEN_SCATTER(J_P, 15, 10, w35);
+  GAGEN_SCATTER(out_J_P, 15, 9, w19);
+  GAGEN_SCATTER(out_J_P, 15, 10, w35);
   w19 = w1 * w13;
   w0 = w19 * w2;
   w0 = w0 + w38;
   w6 = w22 * w4;
   w0 = w0 - w6;
-  GAGEN_SCATTER(J_P, 15, 11, w0);
+  GAGEN_SCATTER(out_J_P, 15, 11, w0);
   w0 = w28 * w4;
   w0 = w0 + w9;
   w19 = w19 * w21;
   w0 = w0 + w19;
-  GAGEN_SCATTER(J_P, 15, 12, w0);
+  GAGEN_SCATTER(out_J_P, 15, 12, w0);
   w0 = w22 * w13;
   w0 = w0 * w21;
   w0 = w37 - w0;
   w19 = w28 * w13;
   w19 = w19 * w2;
   w0 = w0 - w19;
-  GAGEN_SCATTER(J_P, 15, 13, w0);
+  GAGEN_SCATTER(out_J_P, 15, 13, w0);
   w28 = w28 * w38;
   w22 = w22 * w9;
   w28 = w28 + w22;
   w1 = w1 * w37;
   w28 = w28 + w1;
-  GAGEN_SCATTER(J_P, 15, 14, w28);
-  GAGEN_SCATTER(L, 6, 0, w17);
+  GAGEN_SCATTER(out_J_P, 15, 14, w28);
+  GAGEN_SCATTER(out_L, 6, 0, w17);
   w16 = w16 + w23;
   w16 = -w16;
   w16 = w16 + w16;
-  GAGEN_SCATTER(L, 6, 1, w16);
+  GAGEN_SCATTER(out_L, 6, 1, w16);
   w27 = w27 - w14;
   w27 = w27 + w27;
-  GAGEN_SCATTER(L, 6, 2, w27);
+  GAGEN_SCATTER(out_L, 6, 2, w27);
   w39 = w39 + w42;
   w40 = w40 - w39;
   w40 = w40 - w20;
   w40 = w40 + w40;
-  GAGEN_SCATTER(L, 6, 3, w40);
+  GAGEN_SCATTER(out_L, 6, 3, w40);
   w41 = w41 + w45;
   w41 = w41 - w43;
   w41 = w41 + w46;
   w41 = w41 + w41;
-  GAGEN_SCATTER(L, 6, 4, w41);
-  GAGEN_SCATTER(L, 6, 5, w44);
-  GAGEN_SCATTER(J_L, 18, 0, w35);
+  GAGEN_SCATTER(out_L, 6, 4, w41);
+  GAGEN_SCATTER(out_L, 6, 5, w44);
+  GAGEN_SCATTER(out_J_L, 18, 0, w35);
   w46 = -w27;
-  GAGEN_SCATTER(J_L, 18, 1, w46);
-  GAGEN_SCATTER(J_L, 18, 2, w16);
+  GAGEN_SCATTER(out_J_L, 18, 1, w46);
+  GAGEN_SCATTER(out_J_L, 18, 2, w16);
   w46 = -w41;
-  GAGEN_SCATTER(J_L, 18, 3, w46);
-  GAGEN_SCATTER(J_L, 18, 4, w40);
-  GAGEN_SCATTER(J_L, 18, 5, w35);
+  GAGEN_SCATTER(out_J_L, 18, 3, w46);
+  GAGEN_SCATTER(out_J_L, 18, 4, w40);
+  GAGEN_SCATTER(out_J_L, 18, 5, w35);
   w35 = w16 * w2;
   w46 = w27 * w21;
   w35 = w35 + w46;
   w35 = -w35;
-  GAGEN_SCATTER(J_L, 18, 6, w35);
+  GAGEN_SCATTER(out_J_L, 18, 6, w35);
   w35 = w17 * w2;
-  GAGEN_SCATTER(J_L, 18, 7, w35);
+  GAGEN_SCATTER(out_J_L, 18, 7, w35);
   w46 = w17 * w21;
-  GAGEN_SCATTER(J_L, 18, 8, w46);
+  GAGEN_SCATTER(out_J_L, 18, 8, w46);
   w43 = w44 * w21;
   w35 = w36 * w35;
   w43 = w43 + w35;
-  GAGEN_SCATTER(J_L, 18, 9, w43);
+  GAGEN_SCATTER(out_J_L, 18, 9, w43);
   w46 = w36 * w46;
   w43 = w44 * w2;
   w46 = w46 - w43;
-  GAGEN_SCATTER(J_L, 18, 10, w46);
+  GAGEN_SCATTER(out_J_L, 18, 10, w46);
   w46 = w41 * w2;
   w43 = w16 * w21;
   w35 = w27 * w2;
@@ -5541,24 +5541,24 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w46 = w46 + w36;
   w36 = w40 * w21;
   w46 = w46 - w36;
-  GAGEN_SCATTER(J_L, 18, 11, w46);
+  GAGEN_SCATTER(out_J_L, 18, 11, w46);
   w46 = w27 * w13;
   w46 = w46 * w2;
   w36 = w16 * w13;
   w36 = w36 * w21;
   w46 = w46 - w36;
   w46 = -w46;
-  GAGEN_SCATTER(J_L, 18, 12, w46);
+  GAGEN_SCATTER(out_J_L, 18, 12, w46);
   w46 = w17 * w13;
   w36 = w46 * w21;
   w43 = w27 * w4;
   w36 = w36 + w43;
   w36 = -w36;
-  GAGEN_SCATTER(J_L, 18, 13, w36);
+  GAGEN_SCATTER(out_J_L, 18, 13, w36);
   w46 = w46 * w2;
   w36 = w16 * w4;
   w46 = w46 + w36;
-  GAGEN_SCATTER(J_L, 18, 14, w46);
+  GAGEN_SCATTER(out_J_L, 18, 14, w46);
   w46 = w17 * w9;
   w36 = w16 * w37;
   w46 = w46 + w36;
@@ -5567,7 +5567,7 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w46 = w46 + w36;
   w36 = w41 * w4;
   w46 = w46 - w36;
-  GAGEN_SCATTER(J_L, 18, 15, w46);
+  GAGEN_SCATTER(out_J_L, 18, 15, w46);
   w37 = w27 * w37;
   w4 = w40 * w4;
   w37 = w37 + w4;
@@ -5575,7 +5575,7 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w37 = w37 - w17;
   w44 = w44 * w21;
   w37 = w37 + w44;
-  GAGEN_SCATTER(J_L, 18, 16, w37);
+  GAGEN_SCATTER(out_J_L, 18, 16, w37);
   w41 = w41 * w13;
   w41 = w41 * w21;
   w16 = w16 * w38;
@@ -5586,7 +5586,7 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
   w40 = w40 * w2;
   w41 = w41 + w40;
   w41 = -w41;
-  GAGEN_SCATTER(J_L, 18, 17, w41);
+  GAGEN_SCATTER(out_J_L, 18, 17, w41);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -5594,21 +5594,21 @@ static void g1_torso_circle_torso_jacobians_block_columns(long gagen_ld, int gag
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void g1_torso_circle_torso_jacobians_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S, double *restrict J_b, double *restrict J_A, double *restrict J_P, double *restrict L, double *restrict J_L) {
-  long s = 0;
+void g1_torso_circle_torso_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S, double *restrict out_J_b, double *restrict out_J_A, double *restrict out_J_P, double *restrict out_L, double *restrict out_J_L) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 112L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    g1_torso_circle_torso_jacobians_block_columns(ld, stream, q + s, M + s, P + s, J_S + s, J_b + s, J_A + s, J_P + s, L + s, J_L + s);
+  const int gagen_stream = gagen_n * 112L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    g1_torso_circle_torso_jacobians_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s, out_J_b + gagen_s, out_J_A + gagen_s, out_J_P + gagen_s, out_L + gagen_s, out_J_L + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  g1_torso_circle_torso_jacobians_columns_from(s, n, ld, q, M, P, J_S, J_b, J_A, J_P, L, J_L);
+  g1_torso_circle_torso_jacobians_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S, out_J_b, out_J_A, out_J_P, out_L, out_J_L);
 }
 
 #if GAGEN_SIMD
 /* chain right_hand: motor and end point: GAGEN_W consecutive samples at once */
-static void g1_torso_circle_right_hand_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void g1_torso_circle_right_hand_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -5618,14 +5618,14 @@ static void g1_torso_circle_right_hand_fk_block(const double *restrict q, double
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(0.9902640743722195);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -5656,7 +5656,7 @@ static void g1_torso_circle_right_hand_fk_block(const double *restrict q, double
   w7 = w7 + w11;
   w11 = w16 * w7;
   w14 = w14 - w11;
-  w11 = GAGEN_GATHER(q, 10, 3);
+  w11 = GAGEN_GATHER(in_q, 10, 3);
   w11 = w2 * w11;
   w21 = gagen_v_cos(w11);
   w22 = w14 * w21;
@@ -5693,7 +5693,7 @@ static void g1_torso_circle_right_hand_fk_block(const double *restrict q, double
   w26 = w26 - w15;
   w15 = w25 * w26;
   w24 = w24 + w15;
-  w15 = GAGEN_GATHER(q, 10, 4);
+  w15 = GAGEN_GATHER(in_q, 10, 4);
   w15 = w2 * w15;
   w7 = gagen_v_cos(w15);
   w1 = w24 * w7;
@@ -5704,7 +5704,7 @@ static void g1_torso_circle_right_hand_fk_block(const double *restrict q, double
   w15 = gagen_v_sin(w15);
   w26 = w17 * w15;
   w1 = w1 + w26;
-  w26 = GAGEN_GATHER(q, 10, 5);
+  w26 = GAGEN_GATHER(in_q, 10, 5);
   w26 = w2 * w26;
   w22 = gagen_v_cos(w26);
   w18 = w1 * w22;
@@ -5726,7 +5726,7 @@ static void g1_torso_circle_right_hand_fk_block(const double *restrict q, double
   w26 = gagen_v_sin(w26);
   w25 = w23 * w26;
   w18 = w18 + w25;
-  w25 = GAGEN_GATHER(q, 10, 6);
+  w25 = GAGEN_GATHER(in_q, 10, 6);
   w25 = w2 * w25;
   w20 = gagen_v_cos(w25);
   w14 = w18 * w20;
@@ -5742,7 +5742,7 @@ static void g1_torso_circle_right_hand_fk_block(const double *restrict q, double
   w25 = gagen_v_sin(w25);
   w24 = w13 * w25;
   w14 = w14 - w24;
-  w24 = GAGEN_GATHER(q, 10, 7);
+  w24 = GAGEN_GATHER(in_q, 10, 7);
   w24 = w2 * w24;
   w16 = gagen_v_cos(w24);
   w19 = w14 * w16;
@@ -5758,7 +5758,7 @@ static void g1_torso_circle_right_hand_fk_block(const double *restrict q, double
   w24 = gagen_v_sin(w24);
   w1 = w0 * w24;
   w19 = w19 + w1;
-  w1 = GAGEN_GATHER(q, 10, 8);
+  w1 = GAGEN_GATHER(in_q, 10, 8);
   w1 = w2 * w1;
   w12 = gagen_v_cos(w1);
   w10 = w19 * w12;
@@ -5774,7 +5774,7 @@ static void g1_torso_circle_right_hand_fk_block(const double *restrict q, double
   w1 = gagen_v_sin(w1);
   w17 = w13 * w1;
   w10 = w10 - w17;
-  w17 = GAGEN_GATHER(q, 10, 9);
+  w17 = GAGEN_GATHER(in_q, 10, 9);
   w17 = w2 * w17;
   w27 = gagen_v_cos(w17);
   w28 = w10 * w27;
@@ -5790,11 +5790,11 @@ static void g1_torso_circle_right_hand_fk_block(const double *restrict q, double
   w17 = gagen_v_sin(w17);
   w14 = w18 * w17;
   w28 = w28 + w14;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w18 = w18 * w27;
   w10 = w10 * w17;
   w18 = w18 - w10;
-  GAGEN_SCATTER(M, 8, 1, w18);
+  GAGEN_SCATTER(out_M, 8, 1, w18);
   w19 = w19 * w1;
   w13 = w13 * w12;
   w19 = w19 + w13;
@@ -5804,11 +5804,11 @@ static void g1_torso_circle_right_hand_fk_block(const double *restrict q, double
   w0 = w0 - w23;
   w23 = w0 * w17;
   w13 = w13 + w23;
-  GAGEN_SCATTER(M, 8, 2, w13);
+  GAGEN_SCATTER(out_M, 8, 2, w13);
   w0 = w0 * w27;
   w19 = w19 * w17;
   w0 = w0 - w19;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w19 = gagen_v_splat(0.0039563);
   w23 = w9 * w9;
   w10 = w8 * w8;
@@ -6204,14 +6204,14 @@ static void g1_torso_circle_right_hand_fk_block(const double *restrict q, double
   w1 = w32 * w28;
   w15 = w15 - w1;
   w15 = w2 * w15;
-  GAGEN_SCATTER(M, 8, 4, w15);
+  GAGEN_SCATTER(out_M, 8, 4, w15);
   w15 = w10 * w0;
   w1 = w32 * w18;
   w15 = w15 - w1;
   w1 = w3 * w28;
   w15 = w15 - w1;
   w15 = w2 * w15;
-  GAGEN_SCATTER(M, 8, 5, w15);
+  GAGEN_SCATTER(out_M, 8, 5, w15);
   w15 = w32 * w13;
   w1 = w3 * w0;
   w15 = w15 + w1;
@@ -6219,43 +6219,43 @@ static void g1_torso_circle_right_hand_fk_block(const double *restrict q, double
   w15 = w15 + w28;
   w15 = w2 * w15;
   w15 = -w15;
-  GAGEN_SCATTER(M, 8, 6, w15);
+  GAGEN_SCATTER(out_M, 8, 6, w15);
   w13 = w3 * w13;
   w0 = w32 * w0;
   w13 = w13 - w0;
   w18 = w10 * w18;
   w13 = w13 - w18;
   w13 = w2 * w13;
-  GAGEN_SCATTER(M, 8, 7, w13);
+  GAGEN_SCATTER(out_M, 8, 7, w13);
   w13 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w13);
-  GAGEN_SCATTER(P, 5, 1, w32);
-  GAGEN_SCATTER(P, 5, 2, w3);
-  GAGEN_SCATTER(P, 5, 3, w10);
+  GAGEN_SCATTER(out_P, 5, 0, w13);
+  GAGEN_SCATTER(out_P, 5, 1, w32);
+  GAGEN_SCATTER(out_P, 5, 2, w3);
+  GAGEN_SCATTER(out_P, 5, 3, w10);
   w32 = w32 * w32;
   w3 = w3 * w3;
   w32 = w32 + w3;
   w10 = w10 * w10;
   w32 = w32 + w10;
   w2 = w2 * w32;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #endif
 
-void g1_torso_circle_right_hand_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void g1_torso_circle_right_hand_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    g1_torso_circle_right_hand_fk_block(q + 10 * s, M + 8 * s, P + 5 * s);
+    g1_torso_circle_right_hand_fk_block(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    g1_torso_circle_right_hand_fk(q + 10 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    g1_torso_circle_right_hand_fk(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -6265,7 +6265,7 @@ void g1_torso_circle_right_hand_fk_batch(long n, const double *restrict q, doubl
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void g1_torso_circle_right_hand_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void g1_torso_circle_right_hand_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -6275,14 +6275,14 @@ static void g1_torso_circle_right_hand_fk_block_columns(long gagen_ld, int gagen
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(0.9902640743722195);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -6313,7 +6313,7 @@ static void g1_torso_circle_right_hand_fk_block_columns(long gagen_ld, int gagen
   w7 = w7 + w11;
   w11 = w16 * w7;
   w14 = w14 - w11;
-  w11 = GAGEN_GATHER(q, 10, 3);
+  w11 = GAGEN_GATHER(in_q, 10, 3);
   w11 = w2 * w11;
   w21 = gagen_v_cos(w11);
   w22 = w14 * w21;
@@ -6350,7 +6350,7 @@ static void g1_torso_circle_right_hand_fk_block_columns(long gagen_ld, int gagen
   w26 = w26 - w15;
   w15 = w25 * w26;
   w24 = w24 + w15;
-  w15 = GAGEN_GATHER(q, 10, 4);
+  w15 = GAGEN_GATHER(in_q, 10, 4);
   w15 = w2 * w15;
   w7 = gagen_v_cos(w15);
   w1 = w24 * w7;
@@ -6361,7 +6361,7 @@ static void g1_torso_circle_right_hand_fk_block_columns(long gagen_ld, int gagen
   w15 = gagen_v_sin(w15);
   w26 = w17 * w15;
   w1 = w1 + w26;
-  w26 = GAGEN_GATHER(q, 10, 5);
+  w26 = GAGEN_GATHER(in_q, 10, 5);
   w26 = w2 * w26;
   w22 = gagen_v_cos(w26);
   w18 = w1 * w22;
@@ -6383,7 +6383,7 @@ static void g1_torso_circle_right_hand_fk_block_columns(long gagen_ld, int gagen
   w26 = gagen_v_sin(w26);
   w25 = w23 * w26;
   w18 = w18 + w25;
-  w25 = GAGEN_GATHER(q, 10, 6);
+  w25 = GAGEN_GATHER(in_q, 10, 6);
   w25 = w2 * w25;
   w20 = gagen_v_cos(w25);
   w14 = w18 * w20;
@@ -6399,7 +6399,7 @@ static void g1_torso_circle_right_hand_fk_block_columns(long gagen_ld, int gagen
   w25 = gagen_v_sin(w25);
   w24 = w13 * w25;
   w14 = w14 - w24;
-  w24 = GAGEN_GATHER(q, 10, 7);
+  w24 = GAGEN_GATHER(in_q, 10, 7);
   w24 = w2 * w24;
   w16 = gagen_v_cos(w24);
   w19 = w14 * w16;
@@ -6415,7 +6415,7 @@ static void g1_torso_circle_right_hand_fk_block_columns(long gagen_ld, int gagen
   w24 = gagen_v_sin(w24);
   w1 = w0 * w24;
   w19 = w19 + w1;
-  w1 = GAGEN_GATHER(q, 10, 8);
+  w1 = GAGEN_GATHER(in_q, 10, 8);
   w1 = w2 * w1;
   w12 = gagen_v_cos(w1);
   w10 = w19 * w12;
@@ -6431,7 +6431,7 @@ static void g1_torso_circle_right_hand_fk_block_columns(long gagen_ld, int gagen
   w1 = gagen_v_sin(w1);
   w17 = w13 * w1;
   w10 = w10 - w17;
-  w17 = GAGEN_GATHER(q, 10, 9);
+  w17 = GAGEN_GATHER(in_q, 10, 9);
   w17 = w2 * w17;
   w27 = gagen_v_cos(w17);
   w28 = w10 * w27;
@@ -6447,11 +6447,11 @@ static void g1_torso_circle_right_hand_fk_block_columns(long gagen_ld, int gagen
   w17 = gagen_v_sin(w17);
   w14 = w18 * w17;
   w28 = w28 + w14;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w18 = w18 * w27;
   w10 = w10 * w17;
   w18 = w18 - w10;
-  GAGEN_SCATTER(M, 8, 1, w18);
+  GAGEN_SCATTER(out_M, 8, 1, w18);
   w19 = w19 * w1;
   w13 = w13 * w12;
   w19 = w19 + w13;
@@ -6461,11 +6461,11 @@ static void g1_torso_circle_right_hand_fk_block_columns(long gagen_ld, int gagen
   w0 = w0 - w23;
   w23 = w0 * w17;
   w13 = w13 + w23;
-  GAGEN_SCATTER(M, 8, 2, w13);
+  GAGEN_SCATTER(out_M, 8, 2, w13);
   w0 = w0 * w27;
   w19 = w19 * w17;
   w0 = w0 - w19;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w19 = gagen_v_splat(0.0039563);
   w23 = w9 * w9;
   w10 = w8 * w8;
@@ -6861,14 +6861,14 @@ static void g1_torso_circle_right_hand_fk_block_columns(long gagen_ld, int gagen
   w1 = w32 * w28;
   w15 = w15 - w1;
   w15 = w2 * w15;
-  GAGEN_SCATTER(M, 8, 4, w15);
+  GAGEN_SCATTER(out_M, 8, 4, w15);
   w15 = w10 * w0;
   w1 = w32 * w18;
   w15 = w15 - w1;
   w1 = w3 * w28;
   w15 = w15 - w1;
   w15 = w2 * w15;
-  GAGEN_SCATTER(M, 8, 5, w15);
+  GAGEN_SCATTER(out_M, 8, 5, w15);
   w15 = w32 * w13;
   w1 = w3 * w0;
   w15 = w15 + w1;
@@ -6876,26 +6876,26 @@ static void g1_torso_circle_right_hand_fk_block_columns(long gagen_ld, int gagen
   w15 = w15 + w28;
   w15 = w2 * w15;
   w15 = -w15;
-  GAGEN_SCATTER(M, 8, 6, w15);
+  GAGEN_SCATTER(out_M, 8, 6, w15);
   w13 = w3 * w13;
   w0 = w32 * w0;
   w13 = w13 - w0;
   w18 = w10 * w18;
   w13 = w13 - w18;
   w13 = w2 * w13;
-  GAGEN_SCATTER(M, 8, 7, w13);
+  GAGEN_SCATTER(out_M, 8, 7, w13);
   w13 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w13);
-  GAGEN_SCATTER(P, 5, 1, w32);
-  GAGEN_SCATTER(P, 5, 2, w3);
-  GAGEN_SCATTER(P, 5, 3, w10);
+  GAGEN_SCATTER(out_P, 5, 0, w13);
+  GAGEN_SCATTER(out_P, 5, 1, w32);
+  GAGEN_SCATTER(out_P, 5, 2, w3);
+  GAGEN_SCATTER(out_P, 5, 3, w10);
   w32 = w32 * w32;
   w3 = w3 * w3;
   w32 = w32 + w3;
   w10 = w10 * w10;
   w32 = w32 + w10;
   w2 = w2 * w32;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -6903,21 +6903,21 @@ static void g1_torso_circle_right_hand_fk_block_columns(long gagen_ld, int gagen
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void g1_torso_circle_right_hand_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void g1_torso_circle_right_hand_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    g1_torso_circle_right_hand_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    g1_torso_circle_right_hand_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  g1_torso_circle_right_hand_fk_columns_from(s, n, ld, q, M, P);
+  g1_torso_circle_right_hand_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain right_hand: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -6930,14 +6930,14 @@ static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict 
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(0.9902640743722195);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -6968,7 +6968,7 @@ static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict 
   w7 = w7 + w11;
   w11 = w16 * w7;
   w14 = w14 - w11;
-  w11 = GAGEN_GATHER(q, 10, 3);
+  w11 = GAGEN_GATHER(in_q, 10, 3);
   w11 = w2 * w11;
   w21 = gagen_v_cos(w11);
   w22 = w14 * w21;
@@ -7005,7 +7005,7 @@ static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict 
   w26 = w26 - w15;
   w15 = w25 * w26;
   w24 = w24 + w15;
-  w15 = GAGEN_GATHER(q, 10, 4);
+  w15 = GAGEN_GATHER(in_q, 10, 4);
   w15 = w2 * w15;
   w7 = gagen_v_cos(w15);
   w1 = w24 * w7;
@@ -7016,7 +7016,7 @@ static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict 
   w15 = gagen_v_sin(w15);
   w26 = w17 * w15;
   w1 = w1 + w26;
-  w26 = GAGEN_GATHER(q, 10, 5);
+  w26 = GAGEN_GATHER(in_q, 10, 5);
   w26 = w2 * w26;
   w22 = gagen_v_cos(w26);
   w18 = w1 * w22;
@@ -7038,7 +7038,7 @@ static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict 
   w26 = gagen_v_sin(w26);
   w25 = w23 * w26;
   w18 = w18 + w25;
-  w25 = GAGEN_GATHER(q, 10, 6);
+  w25 = GAGEN_GATHER(in_q, 10, 6);
   w25 = w2 * w25;
   w20 = gagen_v_cos(w25);
   w14 = w18 * w20;
@@ -7054,7 +7054,7 @@ static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict 
   w25 = gagen_v_sin(w25);
   w24 = w13 * w25;
   w14 = w14 - w24;
-  w24 = GAGEN_GATHER(q, 10, 7);
+  w24 = GAGEN_GATHER(in_q, 10, 7);
   w24 = w2 * w24;
   w16 = gagen_v_cos(w24);
   w19 = w14 * w16;
@@ -7070,7 +7070,7 @@ static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict 
   w24 = gagen_v_sin(w24);
   w1 = w0 * w24;
   w19 = w19 + w1;
-  w1 = GAGEN_GATHER(q, 10, 8);
+  w1 = GAGEN_GATHER(in_q, 10, 8);
   w1 = w2 * w1;
   w12 = gagen_v_cos(w1);
   w10 = w19 * w12;
@@ -7086,7 +7086,7 @@ static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict 
   w1 = gagen_v_sin(w1);
   w17 = w13 * w1;
   w10 = w10 - w17;
-  w17 = GAGEN_GATHER(q, 10, 9);
+  w17 = GAGEN_GATHER(in_q, 10, 9);
   w17 = w2 * w17;
   w27 = gagen_v_cos(w17);
   w28 = w10 * w27;
@@ -7102,11 +7102,11 @@ static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict 
   w17 = gagen_v_sin(w17);
   w14 = w18 * w17;
   w28 = w28 + w14;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w18 = w18 * w27;
   w10 = w10 * w17;
   w18 = w18 - w10;
-  GAGEN_SCATTER(M, 8, 1, w18);
+  GAGEN_SCATTER(out_M, 8, 1, w18);
   w19 = w19 * w1;
   w13 = w13 * w12;
   w19 = w19 + w13;
@@ -7116,11 +7116,11 @@ static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict 
   w0 = w0 - w23;
   w23 = w0 * w17;
   w13 = w13 + w23;
-  GAGEN_SCATTER(M, 8, 2, w13);
+  GAGEN_SCATTER(out_M, 8, 2, w13);
   w0 = w0 * w27;
   w19 = w19 * w17;
   w0 = w0 - w19;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w19 = gagen_v_splat(0.0039563);
   w23 = w9 * w9;
   w10 = w8 * w8;
@@ -7516,14 +7516,14 @@ static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict 
   w55 = w1 * w28;
   w79 = w79 - w55;
   w79 = w2 * w79;
-  GAGEN_SCATTER(M, 8, 4, w79);
+  GAGEN_SCATTER(out_M, 8, 4, w79);
   w79 = w97 * w0;
   w55 = w1 * w18;
   w79 = w79 - w55;
   w55 = w70 * w28;
   w79 = w79 - w55;
   w79 = w2 * w79;
-  GAGEN_SCATTER(M, 8, 5, w79);
+  GAGEN_SCATTER(out_M, 8, 5, w79);
   w79 = w1 * w13;
   w55 = w70 * w0;
   w79 = w79 + w55;
@@ -7531,49 +7531,49 @@ static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict 
   w79 = w79 + w28;
   w79 = w2 * w79;
   w79 = -w79;
-  GAGEN_SCATTER(M, 8, 6, w79);
+  GAGEN_SCATTER(out_M, 8, 6, w79);
   w13 = w70 * w13;
   w0 = w1 * w0;
   w13 = w13 - w0;
   w18 = w97 * w18;
   w13 = w13 - w18;
   w13 = w2 * w13;
-  GAGEN_SCATTER(M, 8, 7, w13);
+  GAGEN_SCATTER(out_M, 8, 7, w13);
   w13 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w13);
-  GAGEN_SCATTER(P, 5, 1, w1);
-  GAGEN_SCATTER(P, 5, 2, w70);
-  GAGEN_SCATTER(P, 5, 3, w97);
+  GAGEN_SCATTER(out_P, 5, 0, w13);
+  GAGEN_SCATTER(out_P, 5, 1, w1);
+  GAGEN_SCATTER(out_P, 5, 2, w70);
+  GAGEN_SCATTER(out_P, 5, 3, w97);
   w1 = w1 * w1;
   w70 = w70 * w70;
   w1 = w1 + w70;
   w97 = w97 * w97;
   w1 = w1 + w97;
   w2 = w2 * w1;
-  GAGEN_SCATTER(P, 5, 4, w2);
-  GAGEN_SCATTER(J_S, 60, 0, w13);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
+  GAGEN_SCATTER(out_J_S, 60, 0, w13);
   w13 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 60, 1, w13);
-  GAGEN_SCATTER(J_S, 60, 2, w13);
-  GAGEN_SCATTER(J_S, 60, 3, w13);
-  GAGEN_SCATTER(J_S, 60, 4, w13);
-  GAGEN_SCATTER(J_S, 60, 5, w13);
-  GAGEN_SCATTER(J_S, 60, 6, w13);
+  GAGEN_SCATTER(out_J_S, 60, 1, w13);
+  GAGEN_SCATTER(out_J_S, 60, 2, w13);
+  GAGEN_SCATTER(out_J_S, 60, 3, w13);
+  GAGEN_SCATTER(out_J_S, 60, 4, w13);
+  GAGEN_SCATTER(out_J_S, 60, 5, w13);
+  GAGEN_SCATTER(out_J_S, 60, 6, w13);
   w14 = -w14;
-  GAGEN_SCATTER(J_S, 60, 7, w14);
-  GAGEN_SCATTER(J_S, 60, 8, w4);
+  GAGEN_SCATTER(out_J_S, 60, 7, w14);
+  GAGEN_SCATTER(out_J_S, 60, 8, w4);
   w14 = gagen_v_splat(0.07);
   w14 = w14 * w10;
   w14 = -w14;
-  GAGEN_SCATTER(J_S, 60, 9, w14);
+  GAGEN_SCATTER(out_J_S, 60, 9, w14);
   w80 = w80 * w4;
-  GAGEN_SCATTER(J_S, 60, 10, w80);
-  GAGEN_SCATTER(J_S, 60, 11, w13);
-  GAGEN_SCATTER(J_S, 60, 12, w30);
+  GAGEN_SCATTER(out_J_S, 60, 10, w80);
+  GAGEN_SCATTER(out_J_S, 60, 11, w13);
+  GAGEN_SCATTER(out_J_S, 60, 12, w30);
   w13 = -w5;
-  GAGEN_SCATTER(J_S, 60, 13, w13);
+  GAGEN_SCATTER(out_J_S, 60, 13, w13);
   w13 = -w36;
-  GAGEN_SCATTER(J_S, 60, 14, w13);
+  GAGEN_SCATTER(out_J_S, 60, 14, w13);
   w13 = gagen_v_splat(0.0175);
   w80 = gagen_v_splat(0.0095);
   w6 = w80 * w6;
@@ -7586,7 +7586,7 @@ static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict 
   w6 = w6 + w33;
   w6 = -w6;
   w6 = w6 + w6;
-  GAGEN_SCATTER(J_S, 60, 15, w6);
+  GAGEN_SCATTER(out_J_S, 60, 15, w6);
   w6 = gagen_v_splat(0.00198175);
   w6 = w6 * w4;
   w80 = w80 * w102;
@@ -7595,23 +7595,23 @@ static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict 
   w13 = w36 * w13;
   w30 = w30 - w13;
   w30 = w30 + w30;
-  GAGEN_SCATTER(J_S, 60, 16, w30);
+  GAGEN_SCATTER(out_J_S, 60, 16, w30);
   w36 = w36 * w38;
   w5 = w5 * w6;
   w36 = w36 + w5;
   w36 = -w36;
   w36 = w36 + w36;
-  GAGEN_SCATTER(J_S, 60, 17, w36);
+  GAGEN_SCATTER(out_J_S, 60, 17, w36);
   w36 = gagen_v_splat(1.9224917487388276);
   w36 = w36 * w8;
   w52 = w52 * w83;
   w36 = w36 + w52;
   w53 = w53 * w85;
   w36 = w36 - w53;
-  GAGEN_SCATTER(J_S, 60, 18, w36);
-  GAGEN_SCATTER(J_S, 60, 19, w29);
+  GAGEN_SCATTER(out_J_S, 60, 18, w36);
+  GAGEN_SCATTER(out_J_S, 60, 19, w29);
   w53 = -w35;
-  GAGEN_SCATTER(J_S, 60, 20, w53);
+  GAGEN_SCATTER(out_J_S, 60, 20, w53);
   w3 = w3 - w71;
   w3 = w3 - w72;
   w53 = w36 * w3;
@@ -7624,23 +7624,23 @@ static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict 
   w81 = w81 - w34;
   w34 = w29 * w81;
   w53 = w53 + w34;
-  GAGEN_SCATTER(J_S, 60, 21, w53);
+  GAGEN_SCATTER(out_J_S, 60, 21, w53);
   w81 = w35 * w81;
   w32 = w32 - w16;
   w32 = w32 + w24;
   w36 = w36 * w32;
   w81 = w81 + w36;
   w81 = -w81;
-  GAGEN_SCATTER(J_S, 60, 22, w81);
+  GAGEN_SCATTER(out_J_S, 60, 22, w81);
   w29 = w29 * w32;
   w35 = w35 * w3;
   w29 = w29 - w35;
   w29 = -w29;
-  GAGEN_SCATTER(J_S, 60, 23, w29);
-  GAGEN_SCATTER(J_S, 60, 24, w86);
+  GAGEN_SCATTER(out_J_S, 60, 23, w29);
+  GAGEN_SCATTER(out_J_S, 60, 24, w86);
   w29 = -w43;
-  GAGEN_SCATTER(J_S, 60, 25, w29);
-  GAGEN_SCATTER(J_S, 60, 26, w26);
+  GAGEN_SCATTER(out_J_S, 60, 25, w29);
+  GAGEN_SCATTER(out_J_S, 60, 26, w26);
   w3 = w3 + w74;
   w3 = w3 - w46;
   w29 = w86 * w3;
@@ -7648,22 +7648,22 @@ static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict 
   w82 = w82 - w84;
   w35 = w43 * w82;
   w29 = w29 - w35;
-  GAGEN_SCATTER(J_S, 60, 27, w29);
+  GAGEN_SCATTER(out_J_S, 60, 27, w29);
   w29 = w26 * w82;
   w32 = w32 + w73;
   w32 = w32 - w75;
   w86 = w86 * w32;
   w29 = w29 - w86;
-  GAGEN_SCATTER(J_S, 60, 28, w29);
+  GAGEN_SCATTER(out_J_S, 60, 28, w29);
   w26 = w26 * w3;
   w43 = w43 * w32;
   w26 = w26 - w43;
   w26 = -w26;
-  GAGEN_SCATTER(J_S, 60, 29, w26);
-  GAGEN_SCATTER(J_S, 60, 30, w90);
+  GAGEN_SCATTER(out_J_S, 60, 29, w26);
+  GAGEN_SCATTER(out_J_S, 60, 30, w90);
   w26 = -w15;
-  GAGEN_SCATTER(J_S, 60, 31, w26);
-  GAGEN_SCATTER(J_S, 60, 32, w39);
+  GAGEN_SCATTER(out_J_S, 60, 31, w26);
+  GAGEN_SCATTER(out_J_S, 60, 32, w39);
   w3 = w3 - w54;
   w26 = gagen_v_splat(0.1032);
   w43 = w26 * w15;
@@ -7674,22 +7674,22 @@ static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict 
   w82 = w82 - w29;
   w29 = w15 * w82;
   w43 = w43 - w29;
-  GAGEN_SCATTER(J_S, 60, 33, w43);
+  GAGEN_SCATTER(out_J_S, 60, 33, w43);
   w82 = w39 * w82;
   w32 = w32 - w76;
   w26 = w26 * w39;
   w32 = w32 - w26;
   w90 = w90 * w32;
   w82 = w82 - w90;
-  GAGEN_SCATTER(J_S, 60, 34, w82);
+  GAGEN_SCATTER(out_J_S, 60, 34, w82);
   w39 = w39 * w3;
   w15 = w15 * w32;
   w39 = w39 - w15;
   w39 = -w39;
-  GAGEN_SCATTER(J_S, 60, 35, w39);
-  GAGEN_SCATTER(J_S, 60, 36, w95);
-  GAGEN_SCATTER(J_S, 60, 37, w61);
-  GAGEN_SCATTER(J_S, 60, 38, w22);
+  GAGEN_SCATTER(out_J_S, 60, 35, w39);
+  GAGEN_SCATTER(out_J_S, 60, 36, w95);
+  GAGEN_SCATTER(out_J_S, 60, 37, w61);
+  GAGEN_SCATTER(out_J_S, 60, 38, w22);
   w39 = w47 - w71;
   w39 = w39 - w72;
   w39 = w39 + w74;
@@ -7703,7 +7703,7 @@ static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict 
   w32 = w32 - w100;
   w3 = w61 * w32;
   w15 = w15 + w3;
-  GAGEN_SCATTER(J_S, 60, 39, w15);
+  GAGEN_SCATTER(out_J_S, 60, 39, w15);
   w32 = w22 * w32;
   w15 = w37 - w16;
   w15 = w15 + w24;
@@ -7713,15 +7713,15 @@ static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict 
   w15 = w15 - w77;
   w95 = w95 * w15;
   w32 = w32 - w95;
-  GAGEN_SCATTER(J_S, 60, 40, w32);
+  GAGEN_SCATTER(out_J_S, 60, 40, w32);
   w61 = w61 * w15;
   w22 = w22 * w39;
   w61 = w61 + w22;
   w61 = -w61;
-  GAGEN_SCATTER(J_S, 60, 41, w61);
-  GAGEN_SCATTER(J_S, 60, 42, w92);
-  GAGEN_SCATTER(J_S, 60, 43, w50);
-  GAGEN_SCATTER(J_S, 60, 44, w40);
+  GAGEN_SCATTER(out_J_S, 60, 41, w61);
+  GAGEN_SCATTER(out_J_S, 60, 42, w92);
+  GAGEN_SCATTER(out_J_S, 60, 43, w50);
+  GAGEN_SCATTER(out_J_S, 60, 44, w40);
   w61 = gagen_v_splat(0.1);
   w25 = w61 * w25;
   w47 = w47 + w25;
@@ -7744,7 +7744,7 @@ static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict 
   w91 = w91 - w88;
   w62 = w50 * w91;
   w65 = w65 + w62;
-  GAGEN_SCATTER(J_S, 60, 45, w65);
+  GAGEN_SCATTER(out_J_S, 60, 45, w65);
   w91 = w40 * w91;
   w61 = w61 * w40;
   w37 = w37 + w61;
@@ -7758,15 +7758,15 @@ static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict 
   w37 = w37 - w63;
   w61 = w92 * w37;
   w91 = w91 - w61;
-  GAGEN_SCATTER(J_S, 60, 46, w91);
+  GAGEN_SCATTER(out_J_S, 60, 46, w91);
   w37 = w50 * w37;
   w47 = w40 * w47;
   w37 = w37 + w47;
   w37 = -w37;
-  GAGEN_SCATTER(J_S, 60, 47, w37);
-  GAGEN_SCATTER(J_S, 60, 48, w98);
-  GAGEN_SCATTER(J_S, 60, 49, w17);
-  GAGEN_SCATTER(J_S, 60, 50, w68);
+  GAGEN_SCATTER(out_J_S, 60, 47, w37);
+  GAGEN_SCATTER(out_J_S, 60, 48, w98);
+  GAGEN_SCATTER(out_J_S, 60, 49, w17);
+  GAGEN_SCATTER(out_J_S, 60, 50, w68);
   w59 = w59 - w71;
   w59 = w59 - w72;
   w59 = w59 + w74;
@@ -7782,7 +7782,7 @@ static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict 
   w89 = w89 - w88;
   w47 = w17 * w89;
   w37 = w37 + w47;
-  GAGEN_SCATTER(J_S, 60, 51, w37);
+  GAGEN_SCATTER(out_J_S, 60, 51, w37);
   w89 = w68 * w89;
   w56 = w56 - w16;
   w56 = w56 + w24;
@@ -7794,24 +7794,24 @@ static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict 
   w56 = w56 - w63;
   w98 = w98 * w56;
   w89 = w89 - w98;
-  GAGEN_SCATTER(J_S, 60, 52, w89);
+  GAGEN_SCATTER(out_J_S, 60, 52, w89);
   w17 = w17 * w56;
   w68 = w68 * w59;
   w17 = w17 + w68;
   w17 = -w17;
-  GAGEN_SCATTER(J_S, 60, 53, w17);
+  GAGEN_SCATTER(out_J_S, 60, 53, w17);
   w92 = w67 * w92;
   w94 = w12 * w94;
   w92 = w92 + w94;
-  GAGEN_SCATTER(J_S, 60, 54, w92);
+  GAGEN_SCATTER(out_J_S, 60, 54, w92);
   w50 = w67 * w50;
   w64 = w12 * w64;
   w50 = w50 - w64;
-  GAGEN_SCATTER(J_S, 60, 55, w50);
+  GAGEN_SCATTER(out_J_S, 60, 55, w50);
   w67 = w67 * w40;
   w12 = w12 * w57;
   w67 = w67 + w12;
-  GAGEN_SCATTER(J_S, 60, 56, w67);
+  GAGEN_SCATTER(out_J_S, 60, 56, w67);
   w58 = w58 - w71;
   w58 = w58 - w72;
   w58 = w58 + w74;
@@ -7827,7 +7827,7 @@ static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict 
   w96 = w96 - w88;
   w88 = w50 * w96;
   w78 = w78 + w88;
-  GAGEN_SCATTER(J_S, 60, 57, w78);
+  GAGEN_SCATTER(out_J_S, 60, 57, w78);
   w96 = w67 * w96;
   w66 = w66 - w16;
   w66 = w66 + w24;
@@ -7839,30 +7839,30 @@ static void g1_torso_circle_right_hand_fk_jacobian_block(const double *restrict 
   w66 = w66 - w63;
   w92 = w92 * w66;
   w96 = w96 - w92;
-  GAGEN_SCATTER(J_S, 60, 58, w96);
+  GAGEN_SCATTER(out_J_S, 60, 58, w96);
   w50 = w50 * w66;
   w67 = w67 * w58;
   w50 = w50 + w67;
   w50 = -w50;
-  GAGEN_SCATTER(J_S, 60, 59, w50);
+  GAGEN_SCATTER(out_J_S, 60, 59, w50);
 }
 #endif
 
-void g1_torso_circle_right_hand_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void g1_torso_circle_right_hand_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 60 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 60 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 60 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 60 * gagen_a + gagen_o, 1, 0);
     }
-    g1_torso_circle_right_hand_fk_jacobian_block(q + 10 * s, M + 8 * s, P + 5 * s, J_S + 60 * s);
+    g1_torso_circle_right_hand_fk_jacobian_block(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 60 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    g1_torso_circle_right_hand_fk_jacobian(q + 10 * s, M + 8 * s, P + 5 * s, J_S + 60 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    g1_torso_circle_right_hand_fk_jacobian(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 60 * gagen_s);
   }
 }
 
@@ -7872,7 +7872,7 @@ void g1_torso_circle_right_hand_fk_jacobian_batch(long n, const double *restrict
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -7885,14 +7885,14 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(0.9902640743722195);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -7923,7 +7923,7 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
   w7 = w7 + w11;
   w11 = w16 * w7;
   w14 = w14 - w11;
-  w11 = GAGEN_GATHER(q, 10, 3);
+  w11 = GAGEN_GATHER(in_q, 10, 3);
   w11 = w2 * w11;
   w21 = gagen_v_cos(w11);
   w22 = w14 * w21;
@@ -7960,7 +7960,7 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
   w26 = w26 - w15;
   w15 = w25 * w26;
   w24 = w24 + w15;
-  w15 = GAGEN_GATHER(q, 10, 4);
+  w15 = GAGEN_GATHER(in_q, 10, 4);
   w15 = w2 * w15;
   w7 = gagen_v_cos(w15);
   w1 = w24 * w7;
@@ -7971,7 +7971,7 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
   w15 = gagen_v_sin(w15);
   w26 = w17 * w15;
   w1 = w1 + w26;
-  w26 = GAGEN_GATHER(q, 10, 5);
+  w26 = GAGEN_GATHER(in_q, 10, 5);
   w26 = w2 * w26;
   w22 = gagen_v_cos(w26);
   w18 = w1 * w22;
@@ -7993,7 +7993,7 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
   w26 = gagen_v_sin(w26);
   w25 = w23 * w26;
   w18 = w18 + w25;
-  w25 = GAGEN_GATHER(q, 10, 6);
+  w25 = GAGEN_GATHER(in_q, 10, 6);
   w25 = w2 * w25;
   w20 = gagen_v_cos(w25);
   w14 = w18 * w20;
@@ -8009,7 +8009,7 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
   w25 = gagen_v_sin(w25);
   w24 = w13 * w25;
   w14 = w14 - w24;
-  w24 = GAGEN_GATHER(q, 10, 7);
+  w24 = GAGEN_GATHER(in_q, 10, 7);
   w24 = w2 * w24;
   w16 = gagen_v_cos(w24);
   w19 = w14 * w16;
@@ -8025,7 +8025,7 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
   w24 = gagen_v_sin(w24);
   w1 = w0 * w24;
   w19 = w19 + w1;
-  w1 = GAGEN_GATHER(q, 10, 8);
+  w1 = GAGEN_GATHER(in_q, 10, 8);
   w1 = w2 * w1;
   w12 = gagen_v_cos(w1);
   w10 = w19 * w12;
@@ -8041,7 +8041,7 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
   w1 = gagen_v_sin(w1);
   w17 = w13 * w1;
   w10 = w10 - w17;
-  w17 = GAGEN_GATHER(q, 10, 9);
+  w17 = GAGEN_GATHER(in_q, 10, 9);
   w17 = w2 * w17;
   w27 = gagen_v_cos(w17);
   w28 = w10 * w27;
@@ -8057,11 +8057,11 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
   w17 = gagen_v_sin(w17);
   w14 = w18 * w17;
   w28 = w28 + w14;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w18 = w18 * w27;
   w10 = w10 * w17;
   w18 = w18 - w10;
-  GAGEN_SCATTER(M, 8, 1, w18);
+  GAGEN_SCATTER(out_M, 8, 1, w18);
   w19 = w19 * w1;
   w13 = w13 * w12;
   w19 = w19 + w13;
@@ -8071,11 +8071,11 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
   w0 = w0 - w23;
   w23 = w0 * w17;
   w13 = w13 + w23;
-  GAGEN_SCATTER(M, 8, 2, w13);
+  GAGEN_SCATTER(out_M, 8, 2, w13);
   w0 = w0 * w27;
   w19 = w19 * w17;
   w0 = w0 - w19;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w19 = gagen_v_splat(0.0039563);
   w23 = w9 * w9;
   w10 = w8 * w8;
@@ -8471,14 +8471,14 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
   w55 = w1 * w28;
   w79 = w79 - w55;
   w79 = w2 * w79;
-  GAGEN_SCATTER(M, 8, 4, w79);
+  GAGEN_SCATTER(out_M, 8, 4, w79);
   w79 = w97 * w0;
   w55 = w1 * w18;
   w79 = w79 - w55;
   w55 = w70 * w28;
   w79 = w79 - w55;
   w79 = w2 * w79;
-  GAGEN_SCATTER(M, 8, 5, w79);
+  GAGEN_SCATTER(out_M, 8, 5, w79);
   w79 = w1 * w13;
   w55 = w70 * w0;
   w79 = w79 + w55;
@@ -8486,49 +8486,49 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
   w79 = w79 + w28;
   w79 = w2 * w79;
   w79 = -w79;
-  GAGEN_SCATTER(M, 8, 6, w79);
+  GAGEN_SCATTER(out_M, 8, 6, w79);
   w13 = w70 * w13;
   w0 = w1 * w0;
   w13 = w13 - w0;
   w18 = w97 * w18;
   w13 = w13 - w18;
   w13 = w2 * w13;
-  GAGEN_SCATTER(M, 8, 7, w13);
+  GAGEN_SCATTER(out_M, 8, 7, w13);
   w13 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w13);
-  GAGEN_SCATTER(P, 5, 1, w1);
-  GAGEN_SCATTER(P, 5, 2, w70);
-  GAGEN_SCATTER(P, 5, 3, w97);
+  GAGEN_SCATTER(out_P, 5, 0, w13);
+  GAGEN_SCATTER(out_P, 5, 1, w1);
+  GAGEN_SCATTER(out_P, 5, 2, w70);
+  GAGEN_SCATTER(out_P, 5, 3, w97);
   w1 = w1 * w1;
   w70 = w70 * w70;
   w1 = w1 + w70;
   w97 = w97 * w97;
   w1 = w1 + w97;
   w2 = w2 * w1;
-  GAGEN_SCATTER(P, 5, 4, w2);
-  GAGEN_SCATTER(J_S, 60, 0, w13);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
+  GAGEN_SCATTER(out_J_S, 60, 0, w13);
   w13 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 60, 1, w13);
-  GAGEN_SCATTER(J_S, 60, 2, w13);
-  GAGEN_SCATTER(J_S, 60, 3, w13);
-  GAGEN_SCATTER(J_S, 60, 4, w13);
-  GAGEN_SCATTER(J_S, 60, 5, w13);
-  GAGEN_SCATTER(J_S, 60, 6, w13);
+  GAGEN_SCATTER(out_J_S, 60, 1, w13);
+  GAGEN_SCATTER(out_J_S, 60, 2, w13);
+  GAGEN_SCATTER(out_J_S, 60, 3, w13);
+  GAGEN_SCATTER(out_J_S, 60, 4, w13);
+  GAGEN_SCATTER(out_J_S, 60, 5, w13);
+  GAGEN_SCATTER(out_J_S, 60, 6, w13);
   w14 = -w14;
-  GAGEN_SCATTER(J_S, 60, 7, w14);
-  GAGEN_SCATTER(J_S, 60, 8, w4);
+  GAGEN_SCATTER(out_J_S, 60, 7, w14);
+  GAGEN_SCATTER(out_J_S, 60, 8, w4);
   w14 = gagen_v_splat(0.07);
   w14 = w14 * w10;
   w14 = -w14;
-  GAGEN_SCATTER(J_S, 60, 9, w14);
+  GAGEN_SCATTER(out_J_S, 60, 9, w14);
   w80 = w80 * w4;
-  GAGEN_SCATTER(J_S, 60, 10, w80);
-  GAGEN_SCATTER(J_S, 60, 11, w13);
-  GAGEN_SCATTER(J_S, 60, 12, w30);
+  GAGEN_SCATTER(out_J_S, 60, 10, w80);
+  GAGEN_SCATTER(out_J_S, 60, 11, w13);
+  GAGEN_SCATTER(out_J_S, 60, 12, w30);
   w13 = -w5;
-  GAGEN_SCATTER(J_S, 60, 13, w13);
+  GAGEN_SCATTER(out_J_S, 60, 13, w13);
   w13 = -w36;
-  GAGEN_SCATTER(J_S, 60, 14, w13);
+  GAGEN_SCATTER(out_J_S, 60, 14, w13);
   w13 = gagen_v_splat(0.0175);
   w80 = gagen_v_splat(0.0095);
   w6 = w80 * w6;
@@ -8541,7 +8541,7 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
   w6 = w6 + w33;
   w6 = -w6;
   w6 = w6 + w6;
-  GAGEN_SCATTER(J_S, 60, 15, w6);
+  GAGEN_SCATTER(out_J_S, 60, 15, w6);
   w6 = gagen_v_splat(0.00198175);
   w6 = w6 * w4;
   w80 = w80 * w102;
@@ -8550,23 +8550,23 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
   w13 = w36 * w13;
   w30 = w30 - w13;
   w30 = w30 + w30;
-  GAGEN_SCATTER(J_S, 60, 16, w30);
+  GAGEN_SCATTER(out_J_S, 60, 16, w30);
   w36 = w36 * w38;
   w5 = w5 * w6;
   w36 = w36 + w5;
   w36 = -w36;
   w36 = w36 + w36;
-  GAGEN_SCATTER(J_S, 60, 17, w36);
+  GAGEN_SCATTER(out_J_S, 60, 17, w36);
   w36 = gagen_v_splat(1.9224917487388276);
   w36 = w36 * w8;
   w52 = w52 * w83;
   w36 = w36 + w52;
   w53 = w53 * w85;
   w36 = w36 - w53;
-  GAGEN_SCATTER(J_S, 60, 18, w36);
-  GAGEN_SCATTER(J_S, 60, 19, w29);
+  GAGEN_SCATTER(out_J_S, 60, 18, w36);
+  GAGEN_SCATTER(out_J_S, 60, 19, w29);
   w53 = -w35;
-  GAGEN_SCATTER(J_S, 60, 20, w53);
+  GAGEN_SCATTER(out_J_S, 60, 20, w53);
   w3 = w3 - w71;
   w3 = w3 - w72;
   w53 = w36 * w3;
@@ -8579,23 +8579,23 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
   w81 = w81 - w34;
   w34 = w29 * w81;
   w53 = w53 + w34;
-  GAGEN_SCATTER(J_S, 60, 21, w53);
+  GAGEN_SCATTER(out_J_S, 60, 21, w53);
   w81 = w35 * w81;
   w32 = w32 - w16;
   w32 = w32 + w24;
   w36 = w36 * w32;
   w81 = w81 + w36;
   w81 = -w81;
-  GAGEN_SCATTER(J_S, 60, 22, w81);
+  GAGEN_SCATTER(out_J_S, 60, 22, w81);
   w29 = w29 * w32;
   w35 = w35 * w3;
   w29 = w29 - w35;
   w29 = -w29;
-  GAGEN_SCATTER(J_S, 60, 23, w29);
-  GAGEN_SCATTER(J_S, 60, 24, w86);
+  GAGEN_SCATTER(out_J_S, 60, 23, w29);
+  GAGEN_SCATTER(out_J_S, 60, 24, w86);
   w29 = -w43;
-  GAGEN_SCATTER(J_S, 60, 25, w29);
-  GAGEN_SCATTER(J_S, 60, 26, w26);
+  GAGEN_SCATTER(out_J_S, 60, 25, w29);
+  GAGEN_SCATTER(out_J_S, 60, 26, w26);
   w3 = w3 + w74;
   w3 = w3 - w46;
   w29 = w86 * w3;
@@ -8603,22 +8603,22 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
   w82 = w82 - w84;
   w35 = w43 * w82;
   w29 = w29 - w35;
-  GAGEN_SCATTER(J_S, 60, 27, w29);
+  GAGEN_SCATTER(out_J_S, 60, 27, w29);
   w29 = w26 * w82;
   w32 = w32 + w73;
   w32 = w32 - w75;
   w86 = w86 * w32;
   w29 = w29 - w86;
-  GAGEN_SCATTER(J_S, 60, 28, w29);
+  GAGEN_SCATTER(out_J_S, 60, 28, w29);
   w26 = w26 * w3;
   w43 = w43 * w32;
   w26 = w26 - w43;
   w26 = -w26;
-  GAGEN_SCATTER(J_S, 60, 29, w26);
-  GAGEN_SCATTER(J_S, 60, 30, w90);
+  GAGEN_SCATTER(out_J_S, 60, 29, w26);
+  GAGEN_SCATTER(out_J_S, 60, 30, w90);
   w26 = -w15;
-  GAGEN_SCATTER(J_S, 60, 31, w26);
-  GAGEN_SCATTER(J_S, 60, 32, w39);
+  GAGEN_SCATTER(out_J_S, 60, 31, w26);
+  GAGEN_SCATTER(out_J_S, 60, 32, w39);
   w3 = w3 - w54;
   w26 = gagen_v_splat(0.1032);
   w43 = w26 * w15;
@@ -8629,22 +8629,22 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
   w82 = w82 - w29;
   w29 = w15 * w82;
   w43 = w43 - w29;
-  GAGEN_SCATTER(J_S, 60, 33, w43);
+  GAGEN_SCATTER(out_J_S, 60, 33, w43);
   w82 = w39 * w82;
   w32 = w32 - w76;
   w26 = w26 * w39;
   w32 = w32 - w26;
   w90 = w90 * w32;
   w82 = w82 - w90;
-  GAGEN_SCATTER(J_S, 60, 34, w82);
+  GAGEN_SCATTER(out_J_S, 60, 34, w82);
   w39 = w39 * w3;
   w15 = w15 * w32;
   w39 = w39 - w15;
   w39 = -w39;
-  GAGEN_SCATTER(J_S, 60, 35, w39);
-  GAGEN_SCATTER(J_S, 60, 36, w95);
-  GAGEN_SCATTER(J_S, 60, 37, w61);
-  GAGEN_SCATTER(J_S, 60, 38, w22);
+  GAGEN_SCATTER(out_J_S, 60, 35, w39);
+  GAGEN_SCATTER(out_J_S, 60, 36, w95);
+  GAGEN_SCATTER(out_J_S, 60, 37, w61);
+  GAGEN_SCATTER(out_J_S, 60, 38, w22);
   w39 = w47 - w71;
   w39 = w39 - w72;
   w39 = w39 + w74;
@@ -8658,7 +8658,7 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
   w32 = w32 - w100;
   w3 = w61 * w32;
   w15 = w15 + w3;
-  GAGEN_SCATTER(J_S, 60, 39, w15);
+  GAGEN_SCATTER(out_J_S, 60, 39, w15);
   w32 = w22 * w32;
   w15 = w37 - w16;
   w15 = w15 + w24;
@@ -8668,15 +8668,15 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
   w15 = w15 - w77;
   w95 = w95 * w15;
   w32 = w32 - w95;
-  GAGEN_SCATTER(J_S, 60, 40, w32);
+  GAGEN_SCATTER(out_J_S, 60, 40, w32);
   w61 = w61 * w15;
   w22 = w22 * w39;
   w61 = w61 + w22;
   w61 = -w61;
-  GAGEN_SCATTER(J_S, 60, 41, w61);
-  GAGEN_SCATTER(J_S, 60, 42, w92);
-  GAGEN_SCATTER(J_S, 60, 43, w50);
-  GAGEN_SCATTER(J_S, 60, 44, w40);
+  GAGEN_SCATTER(out_J_S, 60, 41, w61);
+  GAGEN_SCATTER(out_J_S, 60, 42, w92);
+  GAGEN_SCATTER(out_J_S, 60, 43, w50);
+  GAGEN_SCATTER(out_J_S, 60, 44, w40);
   w61 = gagen_v_splat(0.1);
   w25 = w61 * w25;
   w47 = w47 + w25;
@@ -8699,7 +8699,7 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
   w91 = w91 - w88;
   w62 = w50 * w91;
   w65 = w65 + w62;
-  GAGEN_SCATTER(J_S, 60, 45, w65);
+  GAGEN_SCATTER(out_J_S, 60, 45, w65);
   w91 = w40 * w91;
   w61 = w61 * w40;
   w37 = w37 + w61;
@@ -8713,15 +8713,15 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
   w37 = w37 - w63;
   w61 = w92 * w37;
   w91 = w91 - w61;
-  GAGEN_SCATTER(J_S, 60, 46, w91);
+  GAGEN_SCATTER(out_J_S, 60, 46, w91);
   w37 = w50 * w37;
   w47 = w40 * w47;
   w37 = w37 + w47;
   w37 = -w37;
-  GAGEN_SCATTER(J_S, 60, 47, w37);
-  GAGEN_SCATTER(J_S, 60, 48, w98);
-  GAGEN_SCATTER(J_S, 60, 49, w17);
-  GAGEN_SCATTER(J_S, 60, 50, w68);
+  GAGEN_SCATTER(out_J_S, 60, 47, w37);
+  GAGEN_SCATTER(out_J_S, 60, 48, w98);
+  GAGEN_SCATTER(out_J_S, 60, 49, w17);
+  GAGEN_SCATTER(out_J_S, 60, 50, w68);
   w59 = w59 - w71;
   w59 = w59 - w72;
   w59 = w59 + w74;
@@ -8737,7 +8737,7 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
   w89 = w89 - w88;
   w47 = w17 * w89;
   w37 = w37 + w47;
-  GAGEN_SCATTER(J_S, 60, 51, w37);
+  GAGEN_SCATTER(out_J_S, 60, 51, w37);
   w89 = w68 * w89;
   w56 = w56 - w16;
   w56 = w56 + w24;
@@ -8749,24 +8749,24 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
   w56 = w56 - w63;
   w98 = w98 * w56;
   w89 = w89 - w98;
-  GAGEN_SCATTER(J_S, 60, 52, w89);
+  GAGEN_SCATTER(out_J_S, 60, 52, w89);
   w17 = w17 * w56;
   w68 = w68 * w59;
   w17 = w17 + w68;
   w17 = -w17;
-  GAGEN_SCATTER(J_S, 60, 53, w17);
+  GAGEN_SCATTER(out_J_S, 60, 53, w17);
   w92 = w67 * w92;
   w94 = w12 * w94;
   w92 = w92 + w94;
-  GAGEN_SCATTER(J_S, 60, 54, w92);
+  GAGEN_SCATTER(out_J_S, 60, 54, w92);
   w50 = w67 * w50;
   w64 = w12 * w64;
   w50 = w50 - w64;
-  GAGEN_SCATTER(J_S, 60, 55, w50);
+  GAGEN_SCATTER(out_J_S, 60, 55, w50);
   w67 = w67 * w40;
   w12 = w12 * w57;
   w67 = w67 + w12;
-  GAGEN_SCATTER(J_S, 60, 56, w67);
+  GAGEN_SCATTER(out_J_S, 60, 56, w67);
   w58 = w58 - w71;
   w58 = w58 - w72;
   w58 = w58 + w74;
@@ -8782,7 +8782,7 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
   w96 = w96 - w88;
   w88 = w50 * w96;
   w78 = w78 + w88;
-  GAGEN_SCATTER(J_S, 60, 57, w78);
+  GAGEN_SCATTER(out_J_S, 60, 57, w78);
   w96 = w67 * w96;
   w66 = w66 - w16;
   w66 = w66 + w24;
@@ -8794,12 +8794,12 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
   w66 = w66 - w63;
   w92 = w92 * w66;
   w96 = w96 - w92;
-  GAGEN_SCATTER(J_S, 60, 58, w96);
+  GAGEN_SCATTER(out_J_S, 60, 58, w96);
   w50 = w50 * w66;
   w67 = w67 * w58;
   w50 = w50 + w67;
   w50 = -w50;
-  GAGEN_SCATTER(J_S, 60, 59, w50);
+  GAGEN_SCATTER(out_J_S, 60, 59, w50);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -8807,14 +8807,14 @@ static void g1_torso_circle_right_hand_fk_jacobian_block_columns(long gagen_ld, 
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void g1_torso_circle_right_hand_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void g1_torso_circle_right_hand_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 73L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    g1_torso_circle_right_hand_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 73L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    g1_torso_circle_right_hand_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  g1_torso_circle_right_hand_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  g1_torso_circle_right_hand_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }

@@ -10,19 +10,19 @@ static inline double gagen_sign(double x) { return x < 0 ? -1.0 : (x > 0 ? 1.0 :
 
 
 /* leg front_left in PGA3D: FK motor, toe point and position, point and spatial Jacobians: mul=57 add=48 neg=5 div=0 cos=3 sin=3 (flops=110) */
-void hexapod_front_left_fk_pga(const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+void hexapod_front_left_fk_pga(const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17, w18, w19;
   w0 = 0.2617993877991494;
   w1 = 0.5;
-  w2 = q[0];
+  w2 = in_q[0];
   w2 = w1 * w2;
   w0 = w0 + w2;
   w2 = cos(w0);
-  w3 = q[1];
+  w3 = in_q[1];
   w3 = w1 * w3;
   w4 = cos(w3);
-  w5 = q[2];
+  w5 = in_q[2];
   w1 = w1 * w5;
   w5 = cos(w1);
   w6 = w4 * w5;
@@ -31,7 +31,7 @@ void hexapod_front_left_fk_pga(const double *restrict q, double *restrict M, dou
   w7 = w3 * w1;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  M[0] = w9;
+  out_M[0] = w9;
   w10 = 0.076961524227;
   w10 = w10 * w7;
   w7 = 0.276961524227;
@@ -43,16 +43,16 @@ void hexapod_front_left_fk_pga(const double *restrict q, double *restrict M, dou
   w8 = w0 * w8;
   w11 = w6 * w8;
   w7 = w7 - w11;
-  M[1] = w7;
+  out_M[1] = w7;
   w10 = w0 * w10;
   w7 = 0.103923048454;
   w11 = w7 * w8;
   w10 = w10 + w11;
   w9 = w6 * w9;
   w10 = w10 - w9;
-  M[2] = w10;
+  out_M[2] = w10;
   w8 = -w8;
-  M[3] = w8;
+  out_M[3] = w8;
   w8 = 0.123038475773;
   w10 = w3 * w5;
   w8 = w8 * w10;
@@ -65,16 +65,16 @@ void hexapod_front_left_fk_pga(const double *restrict q, double *restrict M, dou
   w10 = w0 * w11;
   w12 = w6 * w10;
   w9 = w9 - w12;
-  M[4] = w9;
+  out_M[4] = w9;
   w11 = w2 * w11;
-  M[5] = w11;
-  M[6] = w10;
+  out_M[5] = w11;
+  out_M[6] = w10;
   w6 = w6 * w11;
   w8 = w0 * w8;
   w6 = w6 - w8;
   w7 = w7 * w10;
   w6 = w6 - w7;
-  M[7] = w6;
+  out_M[7] = w6;
   w6 = 0.8;
   w7 = w3 * w3;
   w10 = w7 * w1;
@@ -92,7 +92,7 @@ void hexapod_front_left_fk_pga(const double *restrict q, double *restrict M, dou
   w13 = w13 + w13;
   w10 = w10 - w13;
   w13 = -w10;
-  toe[0] = w13;
+  out_toe[0] = w13;
   w13 = 0.06;
   w2 = w0 * w2;
   w14 = 0.45;
@@ -107,7 +107,7 @@ void hexapod_front_left_fk_pga(const double *restrict q, double *restrict M, dou
   w15 = w2 * w5;
   w15 = w15 + w15;
   w16 = w13 + w15;
-  toe[1] = w16;
+  out_toe[1] = w16;
   w17 = 0.553923048454;
   w17 = w17 - w9;
   w17 = w17 - w1;
@@ -117,25 +117,25 @@ void hexapod_front_left_fk_pga(const double *restrict q, double *restrict M, dou
   w12 = w12 + w12;
   w17 = w17 - w12;
   w5 = -w17;
-  toe[2] = w5;
+  out_toe[2] = w5;
   w5 = 1.0;
-  toe[3] = w5;
-  p[0] = w17;
-  p[1] = w16;
-  p[2] = w10;
+  out_toe[3] = w5;
+  out_p[0] = w17;
+  out_p[1] = w16;
+  out_p[2] = w10;
   w15 = -w15;
-  J[0] = w15;
+  out_J[0] = w15;
   w14 = w14 - w12;
-  J[1] = w14;
+  out_J[1] = w14;
   w14 = 0.0;
-  J[2] = w14;
+  out_J[2] = w14;
   w12 = w0 + w0;
   w12 = w5 - w12;
   w15 = w12 * w10;
-  J[3] = w15;
+  out_J[3] = w15;
   w10 = w2 * w10;
   w10 = w10 + w10;
-  J[4] = w10;
+  out_J[4] = w10;
   w1 = 0.153923048454;
   w9 = 0.12;
   w9 = w9 * w2;
@@ -148,19 +148,19 @@ void hexapod_front_left_fk_pga(const double *restrict q, double *restrict M, dou
   w16 = w2 * w16;
   w16 = w16 + w16;
   w18 = w18 - w16;
-  J[5] = w18;
+  out_J[5] = w18;
   w11 = w8 * w11;
   w15 = w15 + w11;
   w0 = w0 * w3;
   w0 = w0 * w4;
   w0 = w6 * w0;
   w15 = w15 - w0;
-  J[6] = w15;
+  out_J[6] = w15;
   w3 = w2 * w3;
   w3 = w3 * w4;
   w6 = w6 * w3;
   w10 = w6 + w10;
-  J[7] = w10;
+  out_J[7] = w10;
   w10 = 0.353923048454;
   w10 = w10 + w9;
   w17 = w10 - w17;
@@ -168,52 +168,52 @@ void hexapod_front_left_fk_pga(const double *restrict q, double *restrict M, dou
   w17 = w17 - w8;
   w17 = w17 - w19;
   w17 = w17 - w16;
-  J[8] = w17;
-  S[0] = w13;
+  out_J[8] = w17;
+  out_S[0] = w13;
   w13 = (-0.103923048454);
-  S[1] = w13;
-  S[2] = w14;
-  S[3] = w14;
-  S[4] = w14;
-  S[5] = w5;
-  S[6] = w14;
-  S[7] = w14;
+  out_S[1] = w13;
+  out_S[2] = w14;
+  out_S[3] = w14;
+  out_S[4] = w14;
+  out_S[5] = w5;
+  out_S[6] = w14;
+  out_S[7] = w14;
   w1 = w1 - w19;
-  S[8] = w1;
+  out_S[8] = w1;
   w2 = w2 + w2;
   w2 = -w2;
-  S[9] = w2;
-  S[10] = w12;
-  S[11] = w14;
+  out_S[9] = w2;
+  out_S[10] = w12;
+  out_S[11] = w14;
   w11 = w11 - w0;
-  S[12] = w11;
-  S[13] = w6;
+  out_S[12] = w11;
+  out_S[13] = w6;
   w10 = w10 - w8;
   w10 = w10 - w19;
-  S[14] = w10;
-  S[15] = w2;
-  S[16] = w12;
-  S[17] = w14;
+  out_S[14] = w10;
+  out_S[15] = w2;
+  out_S[16] = w12;
+  out_S[17] = w14;
 }
 
 /* hexapod_front_left_fk_pga_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_front_left_fk_pga_columns_from(long s0, long n, long ld, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  double q_s[3];
-  double M_s[8];
-  double toe_s[4];
-  double p_s[3];
-  double J_s[9];
-  double S_s[18];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 3; ++k) q_s[k] = q[k * ld + s];
-    hexapod_front_left_fk_pga(q_s, M_s, toe_s, p_s, J_s, S_s);
-    for (long k = 0; k < 8; ++k) M[k * ld + s] = M_s[k];
-    for (long k = 0; k < 4; ++k) toe[k * ld + s] = toe_s[k];
-    for (long k = 0; k < 3; ++k) p[k * ld + s] = p_s[k];
-    for (long k = 0; k < 9; ++k) J[k * ld + s] = J_s[k];
-    for (long k = 0; k < 18; ++k) S[k * ld + s] = S_s[k];
+void hexapod_front_left_fk_pga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  double gagen_in_q[3];
+  double gagen_out_M[8];
+  double gagen_out_toe[4];
+  double gagen_out_p[3];
+  double gagen_out_J[9];
+  double gagen_out_S[18];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_q[gagen_k] = in_q[gagen_k * gagen_ld + gagen_s];
+    hexapod_front_left_fk_pga(gagen_in_q, gagen_out_M, gagen_out_toe, gagen_out_p, gagen_out_J, gagen_out_S);
+    for (long gagen_k = 0; gagen_k < 8; ++gagen_k) out_M[gagen_k * gagen_ld + gagen_s] = gagen_out_M[gagen_k];
+    for (long gagen_k = 0; gagen_k < 4; ++gagen_k) out_toe[gagen_k * gagen_ld + gagen_s] = gagen_out_toe[gagen_k];
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_p[gagen_k * gagen_ld + gagen_s] = gagen_out_p[gagen_k];
+    for (long gagen_k = 0; gagen_k < 9; ++gagen_k) out_J[gagen_k * gagen_ld + gagen_s] = gagen_out_J[gagen_k];
+    for (long gagen_k = 0; gagen_k < 18; ++gagen_k) out_S[gagen_k * gagen_ld + gagen_s] = gagen_out_S[gagen_k];
   }
 }
 
@@ -230,20 +230,20 @@ void hexapod_front_left_fk_pga_batch_columns_argv(long n, long ld, const double 
 }
 
 /* leg front_left in CGA3D: FK motor, toe point and position, point and spatial Jacobians: mul=69 add=63 neg=3 div=0 cos=3 sin=3 (flops=135) */
-void hexapod_front_left_fk_cga(const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+void hexapod_front_left_fk_cga(const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   double w24, w25;
   w0 = 0.2617993877991494;
   w1 = 0.5;
-  w2 = q[0];
+  w2 = in_q[0];
   w2 = w1 * w2;
   w0 = w0 + w2;
   w2 = cos(w0);
-  w3 = q[1];
+  w3 = in_q[1];
   w3 = w1 * w3;
   w4 = cos(w3);
-  w5 = q[2];
+  w5 = in_q[2];
   w1 = w1 * w5;
   w5 = cos(w1);
   w6 = w4 * w5;
@@ -252,18 +252,18 @@ void hexapod_front_left_fk_cga(const double *restrict q, double *restrict M, dou
   w7 = w3 * w1;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  M[0] = w9;
+  out_M[0] = w9;
   w0 = sin(w0);
   w8 = w0 * w8;
   w10 = -w8;
-  M[1] = w10;
+  out_M[1] = w10;
   w10 = w4 * w1;
   w11 = w3 * w5;
   w12 = w10 + w11;
   w13 = w2 * w12;
-  M[2] = w13;
+  out_M[2] = w13;
   w12 = w0 * w12;
-  M[3] = w12;
+  out_M[3] = w12;
   w14 = 0.076961524227;
   w14 = w14 * w7;
   w7 = 0.276961524227;
@@ -273,14 +273,14 @@ void hexapod_front_left_fk_cga(const double *restrict q, double *restrict M, dou
   w6 = 0.03;
   w15 = w6 * w8;
   w7 = w7 - w15;
-  M[4] = w7;
+  out_M[4] = w7;
   w14 = w0 * w14;
   w7 = 0.103923048454;
   w8 = w7 * w8;
   w14 = w14 + w8;
   w9 = w6 * w9;
   w14 = w14 - w9;
-  M[5] = w14;
+  out_M[5] = w14;
   w14 = 0.123038475773;
   w14 = w14 * w11;
   w11 = 0.07696152422699999;
@@ -289,15 +289,15 @@ void hexapod_front_left_fk_cga(const double *restrict q, double *restrict M, dou
   w11 = w2 * w14;
   w10 = w6 * w12;
   w11 = w11 - w10;
-  M[6] = w11;
+  out_M[6] = w11;
   w6 = w6 * w13;
   w14 = w0 * w14;
   w6 = w6 - w14;
   w7 = w7 * w12;
   w6 = w6 - w7;
-  M[7] = w6;
+  out_M[7] = w6;
   w6 = 1.0;
-  toe[0] = w6;
+  out_toe[0] = w6;
   w7 = 0.553923048454;
   w12 = w3 * w3;
   w14 = 0.4;
@@ -322,13 +322,13 @@ void hexapod_front_left_fk_cga(const double *restrict q, double *restrict M, dou
   w7 = w7 + w21;
   w7 = w7 - w11;
   w7 = w7 - w20;
-  toe[1] = w7;
+  out_toe[1] = w7;
   w22 = 0.06;
   w0 = w0 * w2;
   w16 = w0 * w16;
   w16 = w16 + w16;
   w2 = w22 + w16;
-  toe[2] = w2;
+  out_toe[2] = w2;
   w10 = w18 * w10;
   w10 = w10 + w10;
   w23 = w12 * w1;
@@ -338,7 +338,7 @@ void hexapod_front_left_fk_cga(const double *restrict q, double *restrict M, dou
   w1 = w1 * w5;
   w1 = w14 * w1;
   w10 = w10 - w1;
-  toe[3] = w10;
+  out_toe[3] = w10;
   w1 = 0.1552153718042862;
   w5 = 0.0615692193816;
   w23 = w5 * w13;
@@ -376,25 +376,25 @@ void hexapod_front_left_fk_cga(const double *restrict q, double *restrict M, dou
   w23 = 0.1231384387632;
   w23 = w23 * w19;
   w1 = w1 - w23;
-  toe[4] = w1;
-  p[0] = w7;
-  p[1] = w2;
-  p[2] = w10;
+  out_toe[4] = w1;
+  out_p[0] = w7;
+  out_p[1] = w2;
+  out_p[2] = w10;
   w16 = -w16;
-  J[0] = w16;
+  out_J[0] = w16;
   w15 = w15 + w21;
   w15 = w15 - w11;
   w15 = w15 - w20;
-  J[1] = w15;
+  out_J[1] = w15;
   w15 = 0.0;
-  J[2] = w15;
+  out_J[2] = w15;
   w20 = w8 + w8;
   w20 = w6 - w20;
   w11 = w20 * w10;
-  J[3] = w11;
+  out_J[3] = w11;
   w10 = w0 * w10;
   w10 = w10 + w10;
-  J[4] = w10;
+  out_J[4] = w10;
   w21 = 0.153923048454;
   w24 = w24 * w0;
   w21 = w21 + w24;
@@ -405,19 +405,19 @@ void hexapod_front_left_fk_cga(const double *restrict q, double *restrict M, dou
   w2 = w0 * w2;
   w2 = w2 + w2;
   w16 = w16 - w2;
-  J[5] = w16;
+  out_J[5] = w16;
   w18 = w14 * w18;
   w11 = w11 + w18;
   w8 = w8 * w3;
   w8 = w8 * w4;
   w8 = w17 * w8;
   w11 = w11 - w8;
-  J[6] = w11;
+  out_J[6] = w11;
   w3 = w0 * w3;
   w3 = w3 * w4;
   w17 = w17 * w3;
   w10 = w17 + w10;
-  J[7] = w10;
+  out_J[7] = w10;
   w10 = 0.353923048454;
   w10 = w10 + w24;
   w7 = w10 - w7;
@@ -425,52 +425,52 @@ void hexapod_front_left_fk_cga(const double *restrict q, double *restrict M, dou
   w7 = w7 - w14;
   w7 = w7 - w25;
   w7 = w7 - w2;
-  J[8] = w7;
-  S[0] = w22;
+  out_J[8] = w7;
+  out_S[0] = w22;
   w22 = (-0.103923048454);
-  S[1] = w22;
-  S[2] = w15;
-  S[3] = w15;
-  S[4] = w15;
-  S[5] = w6;
-  S[6] = w15;
-  S[7] = w15;
+  out_S[1] = w22;
+  out_S[2] = w15;
+  out_S[3] = w15;
+  out_S[4] = w15;
+  out_S[5] = w6;
+  out_S[6] = w15;
+  out_S[7] = w15;
   w21 = w21 - w25;
-  S[8] = w21;
+  out_S[8] = w21;
   w0 = w0 + w0;
   w0 = -w0;
-  S[9] = w0;
-  S[10] = w20;
-  S[11] = w15;
+  out_S[9] = w0;
+  out_S[10] = w20;
+  out_S[11] = w15;
   w18 = w18 - w8;
-  S[12] = w18;
-  S[13] = w17;
+  out_S[12] = w18;
+  out_S[13] = w17;
   w10 = w10 - w14;
   w10 = w10 - w25;
-  S[14] = w10;
-  S[15] = w0;
-  S[16] = w20;
-  S[17] = w15;
+  out_S[14] = w10;
+  out_S[15] = w0;
+  out_S[16] = w20;
+  out_S[17] = w15;
 }
 
 /* hexapod_front_left_fk_cga_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_front_left_fk_cga_columns_from(long s0, long n, long ld, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  double q_s[3];
-  double M_s[8];
-  double toe_s[5];
-  double p_s[3];
-  double J_s[9];
-  double S_s[18];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 3; ++k) q_s[k] = q[k * ld + s];
-    hexapod_front_left_fk_cga(q_s, M_s, toe_s, p_s, J_s, S_s);
-    for (long k = 0; k < 8; ++k) M[k * ld + s] = M_s[k];
-    for (long k = 0; k < 5; ++k) toe[k * ld + s] = toe_s[k];
-    for (long k = 0; k < 3; ++k) p[k * ld + s] = p_s[k];
-    for (long k = 0; k < 9; ++k) J[k * ld + s] = J_s[k];
-    for (long k = 0; k < 18; ++k) S[k * ld + s] = S_s[k];
+void hexapod_front_left_fk_cga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  double gagen_in_q[3];
+  double gagen_out_M[8];
+  double gagen_out_toe[5];
+  double gagen_out_p[3];
+  double gagen_out_J[9];
+  double gagen_out_S[18];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_q[gagen_k] = in_q[gagen_k * gagen_ld + gagen_s];
+    hexapod_front_left_fk_cga(gagen_in_q, gagen_out_M, gagen_out_toe, gagen_out_p, gagen_out_J, gagen_out_S);
+    for (long gagen_k = 0; gagen_k < 8; ++gagen_k) out_M[gagen_k * gagen_ld + gagen_s] = gagen_out_M[gagen_k];
+    for (long gagen_k = 0; gagen_k < 5; ++gagen_k) out_toe[gagen_k * gagen_ld + gagen_s] = gagen_out_toe[gagen_k];
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_p[gagen_k * gagen_ld + gagen_s] = gagen_out_p[gagen_k];
+    for (long gagen_k = 0; gagen_k < 9; ++gagen_k) out_J[gagen_k * gagen_ld + gagen_s] = gagen_out_J[gagen_k];
+    for (long gagen_k = 0; gagen_k < 18; ++gagen_k) out_S[gagen_k * gagen_ld + gagen_s] = gagen_out_S[gagen_k];
   }
 }
 
@@ -487,15 +487,15 @@ void hexapod_front_left_fk_cga_batch_columns_argv(long n, long ld, const double 
 }
 
 /* leg front_left: analytic IK of a body-frame toe target, knee up and down, with reachability: mul=13 add=14 neg=3 div=0 atan2=4 if_else_zero=5 lt=4 not=4 sqrt=3 (flops=30) */
-void hexapod_front_left_ik(const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
+void hexapod_front_left_ik(const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
   double w0, w1, w2, w3, w4, w5, w6, w7;
   w0 = 0.8660254037844387;
-  w1 = target[1];
+  w1 = in_target[1];
   w2 = w0 * w1;
   w3 = 6.632658891371746e-14;
   w2 = w2 - w3;
   w3 = 0.49999999999999994;
-  w4 = target[0];
+  w4 = in_target[0];
   w5 = w3 * w4;
   w2 = w2 - w5;
   w3 = w3 * w1;
@@ -504,8 +504,8 @@ void hexapod_front_left_ik(const double *restrict target, double *restrict q_up,
   w0 = 0.11999999999988513;
   w3 = w3 - w0;
   w0 = atan2(w2, w3);
-  q_up[0] = w0;
-  w4 = target[2];
+  out_q_up[0] = w0;
+  w4 = in_target[2];
   w1 = -w4;
   w3 = w3 * w3;
   w2 = w2 * w2;
@@ -531,19 +531,19 @@ void hexapod_front_left_ik(const double *restrict target, double *restrict q_up,
   w2 = w2 * w3;
   w5 = atan2(w5, w2);
   w2 = w1 - w5;
-  q_up[1] = w2;
+  out_q_up[1] = w2;
   w2 = 12.499999999999998;
   w6 = w2 * w6;
   w2 = w2 * w3;
   w7 = 1.0;
   w2 = w2 - w7;
   w6 = atan2(w6, w2);
-  q_up[2] = w6;
-  q_down[0] = w0;
+  out_q_up[2] = w6;
+  out_q_down[0] = w0;
   w1 = w1 + w5;
-  q_down[1] = w1;
+  out_q_down[1] = w1;
   w6 = -w6;
-  q_down[2] = w6;
+  out_q_down[2] = w6;
   w6 = 1e-09;
   w1 = w3 < w4;
   w3 = sqrt(w3);
@@ -560,26 +560,26 @@ void hexapod_front_left_ik(const double *restrict target, double *restrict q_up,
   w6 = w6 < w4;
   w6 = !w6;
   w6 = w6 ? w7 : 0.0;
-  reach[0] = w6;
-  excess[0] = w4;
+  out_reach[0] = w6;
+  out_excess[0] = w4;
 }
 
 /* hexapod_front_left_ik_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_front_left_ik_columns_from(long s0, long n, long ld, const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
-  double target_s[3];
-  double q_up_s[3];
-  double q_down_s[3];
-  double reach_s[1];
-  double excess_s[1];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 3; ++k) target_s[k] = target[k * ld + s];
-    hexapod_front_left_ik(target_s, q_up_s, q_down_s, reach_s, excess_s);
-    for (long k = 0; k < 3; ++k) q_up[k * ld + s] = q_up_s[k];
-    for (long k = 0; k < 3; ++k) q_down[k * ld + s] = q_down_s[k];
-    for (long k = 0; k < 1; ++k) reach[k * ld + s] = reach_s[k];
-    for (long k = 0; k < 1; ++k) excess[k * ld + s] = excess_s[k];
+void hexapod_front_left_ik_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
+  double gagen_in_target[3];
+  double gagen_out_q_up[3];
+  double gagen_out_q_down[3];
+  double gagen_out_reach[1];
+  double gagen_out_excess[1];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_target[gagen_k] = in_target[gagen_k * gagen_ld + gagen_s];
+    hexapod_front_left_ik(gagen_in_target, gagen_out_q_up, gagen_out_q_down, gagen_out_reach, gagen_out_excess);
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_q_up[gagen_k * gagen_ld + gagen_s] = gagen_out_q_up[gagen_k];
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_q_down[gagen_k * gagen_ld + gagen_s] = gagen_out_q_down[gagen_k];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) out_reach[gagen_k * gagen_ld + gagen_s] = gagen_out_reach[gagen_k];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) out_excess[gagen_k * gagen_ld + gagen_s] = gagen_out_excess[gagen_k];
   }
 }
 
@@ -596,22 +596,22 @@ void hexapod_front_left_ik_batch_columns_argv(long n, long ld, const double *con
 }
 
 /* leg front_left: one damped least-squares IK step towards a body-frame toe target: mul=95 add=82 neg=0 div=3 cos=3 sin=3 sqrt=1 (flops=180) */
-void hexapod_front_left_dls(const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
+void hexapod_front_left_dls(const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   double w24, w25, w26, w27, w28, w29, w30, w31, w32, w33;
-  w0 = q[0];
+  w0 = in_q[0];
   w1 = 0.45;
   w2 = 0.4;
   w3 = 0.5;
-  w4 = q[2];
+  w4 = in_q[2];
   w5 = w3 * w4;
   w6 = sin(w5);
   w7 = w6 * w6;
   w7 = w2 * w7;
   w1 = w1 - w7;
   w8 = 0.8;
-  w9 = q[1];
+  w9 = in_q[1];
   w10 = w3 * w9;
   w11 = sin(w10);
   w10 = cos(w10);
@@ -708,12 +708,12 @@ void hexapod_front_left_dls(const double *restrict q, const double *restrict tar
   w10 = w33 * w33;
   w11 = w24 * w24;
   w10 = w10 + w11;
-  w11 = damping[0];
+  w11 = in_damping[0];
   w11 = w11 * w11;
   w10 = w10 + w11;
   w12 = w18 * w10;
   w8 = w8 - w12;
-  w12 = target[0];
+  w12 = in_target[0];
   w12 = w12 + w7;
   w12 = w12 + w13;
   w12 = w12 + w16;
@@ -733,7 +733,7 @@ void hexapod_front_left_dls(const double *restrict q, const double *restrict tar
   w13 = w10 * w26;
   w19 = w14 * w14;
   w13 = w13 - w19;
-  w19 = target[1];
+  w19 = in_target[1];
   w19 = w19 - w29;
   w19 = w19 - w31;
   w13 = w13 * w19;
@@ -741,7 +741,7 @@ void hexapod_front_left_dls(const double *restrict q, const double *restrict tar
   w13 = w14 * w18;
   w31 = w26 * w32;
   w13 = w13 - w31;
-  w31 = target[2];
+  w31 = in_target[2];
   w31 = w31 + w6;
   w31 = w31 + w15;
   w31 = w31 - w22;
@@ -779,7 +779,7 @@ void hexapod_front_left_dls(const double *restrict q, const double *restrict tar
   w30 = w30 * w10;
   w30 = w30 + w30;
   w0 = w0 - w30;
-  q_next[0] = w0;
+  out_q_next[0] = w0;
   w20 = w20 * w10;
   w9 = w9 + w20;
   w32 = w32 * w12;
@@ -796,39 +796,39 @@ void hexapod_front_left_dls(const double *restrict q, const double *restrict tar
   w23 = w23 * w27;
   w23 = w23 + w23;
   w9 = w9 + w23;
-  q_next[1] = w9;
+  out_q_next[1] = w9;
   w2 = w2 * w10;
   w4 = w4 + w2;
   w21 = w21 * w27;
   w4 = w4 + w21;
   w24 = w24 * w32;
   w4 = w4 + w24;
-  q_next[2] = w4;
+  out_q_next[2] = w4;
   w12 = w12 * w12;
   w19 = w19 * w19;
   w12 = w12 + w19;
   w31 = w31 * w31;
   w12 = w12 + w31;
   w12 = sqrt(w12);
-  error[0] = w12;
+  out_error[0] = w12;
 }
 
 /* hexapod_front_left_dls_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_front_left_dls_columns_from(long s0, long n, long ld, const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
-  double q_s[3];
-  double target_s[3];
-  double damping_s[1];
-  double q_next_s[3];
-  double error_s[1];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 3; ++k) q_s[k] = q[k * ld + s];
-    for (long k = 0; k < 3; ++k) target_s[k] = target[k * ld + s];
-    for (long k = 0; k < 1; ++k) damping_s[k] = damping[k * ld + s];
-    hexapod_front_left_dls(q_s, target_s, damping_s, q_next_s, error_s);
-    for (long k = 0; k < 3; ++k) q_next[k * ld + s] = q_next_s[k];
-    for (long k = 0; k < 1; ++k) error[k * ld + s] = error_s[k];
+void hexapod_front_left_dls_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
+  double gagen_in_q[3];
+  double gagen_in_target[3];
+  double gagen_in_damping[1];
+  double gagen_out_q_next[3];
+  double gagen_out_error[1];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_q[gagen_k] = in_q[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_target[gagen_k] = in_target[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) gagen_in_damping[gagen_k] = in_damping[gagen_k * gagen_ld + gagen_s];
+    hexapod_front_left_dls(gagen_in_q, gagen_in_target, gagen_in_damping, gagen_out_q_next, gagen_out_error);
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_q_next[gagen_k * gagen_ld + gagen_s] = gagen_out_q_next[gagen_k];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) out_error[gagen_k * gagen_ld + gagen_s] = gagen_out_error[gagen_k];
   }
 }
 
@@ -845,19 +845,19 @@ void hexapod_front_left_dls_batch_columns_argv(long n, long ld, const double *co
 }
 
 /* leg middle_left in PGA3D: FK motor, toe point and position, point and spatial Jacobians: mul=54 add=39 neg=5 div=0 cos=3 sin=3 (flops=98) */
-void hexapod_middle_left_fk_pga(const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+void hexapod_middle_left_fk_pga(const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17, w18;
   w0 = 0.7853981633974483;
   w1 = 0.5;
-  w2 = q[0];
+  w2 = in_q[0];
   w2 = w1 * w2;
   w0 = w0 + w2;
   w2 = cos(w0);
-  w3 = q[1];
+  w3 = in_q[1];
   w3 = w1 * w3;
   w4 = cos(w3);
-  w5 = q[2];
+  w5 = in_q[2];
   w1 = w1 * w5;
   w5 = cos(w1);
   w6 = w4 * w5;
@@ -866,7 +866,7 @@ void hexapod_middle_left_fk_pga(const double *restrict q, double *restrict M, do
   w7 = w3 * w1;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  M[0] = w9;
+  out_M[0] = w9;
   w10 = 0.02500000000000001;
   w10 = w10 * w7;
   w7 = 0.225;
@@ -878,13 +878,13 @@ void hexapod_middle_left_fk_pga(const double *restrict q, double *restrict M, do
   w8 = w0 * w8;
   w11 = w6 * w8;
   w7 = w7 - w11;
-  M[1] = w7;
+  out_M[1] = w7;
   w10 = w0 * w10;
   w9 = w6 * w9;
   w10 = w10 - w9;
-  M[2] = w10;
+  out_M[2] = w10;
   w8 = -w8;
-  M[3] = w8;
+  out_M[3] = w8;
   w8 = 0.175;
   w10 = w3 * w5;
   w8 = w8 * w10;
@@ -897,14 +897,14 @@ void hexapod_middle_left_fk_pga(const double *restrict q, double *restrict M, do
   w10 = w0 * w7;
   w11 = w6 * w10;
   w9 = w9 - w11;
-  M[4] = w9;
+  out_M[4] = w9;
   w7 = w2 * w7;
-  M[5] = w7;
-  M[6] = w10;
+  out_M[5] = w7;
+  out_M[6] = w10;
   w6 = w6 * w7;
   w8 = w0 * w8;
   w6 = w6 - w8;
-  M[7] = w6;
+  out_M[7] = w6;
   w6 = 0.8;
   w8 = w3 * w3;
   w7 = w8 * w1;
@@ -922,7 +922,7 @@ void hexapod_middle_left_fk_pga(const double *restrict q, double *restrict M, do
   w13 = w13 + w13;
   w7 = w7 - w13;
   w13 = -w7;
-  toe[0] = w13;
+  out_toe[0] = w13;
   w13 = 0.12;
   w2 = w0 * w2;
   w14 = 0.45;
@@ -937,31 +937,31 @@ void hexapod_middle_left_fk_pga(const double *restrict q, double *restrict M, do
   w5 = w2 * w1;
   w5 = w5 + w5;
   w11 = w13 + w5;
-  toe[1] = w11;
+  out_toe[1] = w11;
   w0 = w0 * w0;
   w1 = w0 * w1;
   w12 = w12 + w1;
   w12 = w12 + w12;
   w14 = w14 - w12;
   w12 = -w14;
-  toe[2] = w12;
+  out_toe[2] = w12;
   w12 = 1.0;
-  toe[3] = w12;
-  p[0] = w14;
-  p[1] = w11;
-  p[2] = w7;
+  out_toe[3] = w12;
+  out_p[0] = w14;
+  out_p[1] = w11;
+  out_p[2] = w7;
   w5 = -w5;
-  J[0] = w5;
-  J[1] = w14;
+  out_J[0] = w5;
+  out_J[1] = w14;
   w5 = 0.0;
-  J[2] = w5;
+  out_J[2] = w5;
   w1 = w0 + w0;
   w1 = w12 - w1;
   w15 = w1 * w7;
-  J[3] = w15;
+  out_J[3] = w15;
   w7 = w2 * w7;
   w7 = w7 + w7;
-  J[4] = w7;
+  out_J[4] = w7;
   w16 = 0.05;
   w17 = 0.24;
   w17 = w17 * w2;
@@ -971,68 +971,68 @@ void hexapod_middle_left_fk_pga(const double *restrict q, double *restrict M, do
   w11 = w2 * w11;
   w11 = w11 + w11;
   w18 = w18 - w11;
-  J[5] = w18;
+  out_J[5] = w18;
   w9 = w10 * w9;
   w15 = w15 + w9;
   w0 = w0 * w3;
   w0 = w0 * w4;
   w0 = w6 * w0;
   w15 = w15 - w0;
-  J[6] = w15;
+  out_J[6] = w15;
   w3 = w2 * w3;
   w3 = w3 * w4;
   w6 = w6 * w3;
   w7 = w6 + w7;
-  J[7] = w7;
+  out_J[7] = w7;
   w7 = 0.25;
   w7 = w7 + w17;
   w14 = w7 - w14;
   w10 = w10 * w8;
   w14 = w14 - w10;
   w14 = w14 - w11;
-  J[8] = w14;
-  S[0] = w13;
-  S[1] = w5;
-  S[2] = w5;
-  S[3] = w5;
-  S[4] = w5;
-  S[5] = w12;
-  S[6] = w5;
-  S[7] = w5;
-  S[8] = w16;
+  out_J[8] = w14;
+  out_S[0] = w13;
+  out_S[1] = w5;
+  out_S[2] = w5;
+  out_S[3] = w5;
+  out_S[4] = w5;
+  out_S[5] = w12;
+  out_S[6] = w5;
+  out_S[7] = w5;
+  out_S[8] = w16;
   w2 = w2 + w2;
   w2 = -w2;
-  S[9] = w2;
-  S[10] = w1;
-  S[11] = w5;
+  out_S[9] = w2;
+  out_S[10] = w1;
+  out_S[11] = w5;
   w9 = w9 - w0;
-  S[12] = w9;
-  S[13] = w6;
+  out_S[12] = w9;
+  out_S[13] = w6;
   w7 = w7 - w10;
-  S[14] = w7;
-  S[15] = w2;
-  S[16] = w1;
-  S[17] = w5;
+  out_S[14] = w7;
+  out_S[15] = w2;
+  out_S[16] = w1;
+  out_S[17] = w5;
 }
 
 /* hexapod_middle_left_fk_pga_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_middle_left_fk_pga_columns_from(long s0, long n, long ld, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  double q_s[3];
-  double M_s[8];
-  double toe_s[4];
-  double p_s[3];
-  double J_s[9];
-  double S_s[18];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 3; ++k) q_s[k] = q[k * ld + s];
-    hexapod_middle_left_fk_pga(q_s, M_s, toe_s, p_s, J_s, S_s);
-    for (long k = 0; k < 8; ++k) M[k * ld + s] = M_s[k];
-    for (long k = 0; k < 4; ++k) toe[k * ld + s] = toe_s[k];
-    for (long k = 0; k < 3; ++k) p[k * ld + s] = p_s[k];
-    for (long k = 0; k < 9; ++k) J[k * ld + s] = J_s[k];
-    for (long k = 0; k < 18; ++k) S[k * ld + s] = S_s[k];
+void hexapod_middle_left_fk_pga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  double gagen_in_q[3];
+  double gagen_out_M[8];
+  double gagen_out_toe[4];
+  double gagen_out_p[3];
+  double gagen_out_J[9];
+  double gagen_out_S[18];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_q[gagen_k] = in_q[gagen_k * gagen_ld + gagen_s];
+    hexapod_middle_left_fk_pga(gagen_in_q, gagen_out_M, gagen_out_toe, gagen_out_p, gagen_out_J, gagen_out_S);
+    for (long gagen_k = 0; gagen_k < 8; ++gagen_k) out_M[gagen_k * gagen_ld + gagen_s] = gagen_out_M[gagen_k];
+    for (long gagen_k = 0; gagen_k < 4; ++gagen_k) out_toe[gagen_k * gagen_ld + gagen_s] = gagen_out_toe[gagen_k];
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_p[gagen_k * gagen_ld + gagen_s] = gagen_out_p[gagen_k];
+    for (long gagen_k = 0; gagen_k < 9; ++gagen_k) out_J[gagen_k * gagen_ld + gagen_s] = gagen_out_J[gagen_k];
+    for (long gagen_k = 0; gagen_k < 18; ++gagen_k) out_S[gagen_k * gagen_ld + gagen_s] = gagen_out_S[gagen_k];
   }
 }
 
@@ -1049,19 +1049,19 @@ void hexapod_middle_left_fk_pga_batch_columns_argv(long n, long ld, const double
 }
 
 /* leg middle_left in CGA3D: FK motor, toe point and position, point and spatial Jacobians: mul=62 add=50 neg=3 div=0 cos=3 sin=3 (flops=115) */
-void hexapod_middle_left_fk_cga(const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+void hexapod_middle_left_fk_cga(const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17, w18, w19, w20;
   w0 = 0.7853981633974483;
   w1 = 0.5;
-  w2 = q[0];
+  w2 = in_q[0];
   w2 = w1 * w2;
   w0 = w0 + w2;
   w2 = cos(w0);
-  w3 = q[1];
+  w3 = in_q[1];
   w3 = w1 * w3;
   w4 = cos(w3);
-  w5 = q[2];
+  w5 = in_q[2];
   w1 = w1 * w5;
   w5 = cos(w1);
   w6 = w4 * w5;
@@ -1070,18 +1070,18 @@ void hexapod_middle_left_fk_cga(const double *restrict q, double *restrict M, do
   w7 = w3 * w1;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  M[0] = w9;
+  out_M[0] = w9;
   w0 = sin(w0);
   w8 = w0 * w8;
   w10 = -w8;
-  M[1] = w10;
+  out_M[1] = w10;
   w10 = w4 * w1;
   w11 = w3 * w5;
   w12 = w10 + w11;
   w13 = w2 * w12;
-  M[2] = w13;
+  out_M[2] = w13;
   w12 = w0 * w12;
-  M[3] = w12;
+  out_M[3] = w12;
   w14 = 0.02500000000000001;
   w14 = w14 * w7;
   w7 = 0.225;
@@ -1091,11 +1091,11 @@ void hexapod_middle_left_fk_cga(const double *restrict q, double *restrict M, do
   w6 = 0.06;
   w8 = w6 * w8;
   w7 = w7 - w8;
-  M[4] = w7;
+  out_M[4] = w7;
   w14 = w0 * w14;
   w9 = w6 * w9;
   w14 = w14 - w9;
-  M[5] = w14;
+  out_M[5] = w14;
   w14 = 0.175;
   w14 = w14 * w11;
   w11 = 0.024999999999999994;
@@ -1104,13 +1104,13 @@ void hexapod_middle_left_fk_cga(const double *restrict q, double *restrict M, do
   w11 = w2 * w14;
   w12 = w6 * w12;
   w11 = w11 - w12;
-  M[6] = w11;
+  out_M[6] = w11;
   w6 = w6 * w13;
   w14 = w0 * w14;
   w6 = w6 - w14;
-  M[7] = w6;
+  out_M[7] = w6;
   w6 = 1.0;
-  toe[0] = w6;
+  out_toe[0] = w6;
   w14 = 0.45;
   w13 = w3 * w3;
   w11 = 0.4;
@@ -1134,13 +1134,13 @@ void hexapod_middle_left_fk_cga(const double *restrict q, double *restrict M, do
   w14 = w14 + w20;
   w14 = w14 - w10;
   w14 = w14 - w19;
-  toe[1] = w14;
+  out_toe[1] = w14;
   w19 = 0.12;
   w0 = w0 * w2;
   w15 = w0 * w15;
   w15 = w15 + w15;
   w2 = w19 + w15;
-  toe[2] = w2;
+  out_toe[2] = w2;
   w9 = w17 * w9;
   w9 = w9 + w9;
   w10 = w13 * w1;
@@ -1150,7 +1150,7 @@ void hexapod_middle_left_fk_cga(const double *restrict q, double *restrict M, do
   w1 = w1 * w5;
   w1 = w11 * w1;
   w9 = w9 - w1;
-  toe[3] = w9;
+  out_toe[3] = w9;
   w1 = 0.10845;
   w5 = 0.020000000000000004;
   w5 = w5 * w12;
@@ -1177,22 +1177,22 @@ void hexapod_middle_left_fk_cga(const double *restrict q, double *restrict M, do
   w5 = 0.04000000000000001;
   w5 = w5 * w18;
   w1 = w1 - w5;
-  toe[4] = w1;
-  p[0] = w14;
-  p[1] = w2;
-  p[2] = w9;
+  out_toe[4] = w1;
+  out_p[0] = w14;
+  out_p[1] = w2;
+  out_p[2] = w9;
   w15 = -w15;
-  J[0] = w15;
-  J[1] = w14;
+  out_J[0] = w15;
+  out_J[1] = w14;
   w15 = 0.0;
-  J[2] = w15;
+  out_J[2] = w15;
   w1 = w8 + w8;
   w1 = w6 - w1;
   w5 = w1 * w9;
-  J[3] = w5;
+  out_J[3] = w5;
   w9 = w0 * w9;
   w9 = w9 + w9;
-  J[4] = w9;
+  out_J[4] = w9;
   w18 = 0.05;
   w20 = w20 * w0;
   w18 = w18 + w20;
@@ -1201,68 +1201,68 @@ void hexapod_middle_left_fk_cga(const double *restrict q, double *restrict M, do
   w2 = w0 * w2;
   w2 = w2 + w2;
   w12 = w12 - w2;
-  J[5] = w12;
+  out_J[5] = w12;
   w17 = w11 * w17;
   w5 = w5 + w17;
   w8 = w8 * w3;
   w8 = w8 * w4;
   w8 = w16 * w8;
   w5 = w5 - w8;
-  J[6] = w5;
+  out_J[6] = w5;
   w3 = w0 * w3;
   w3 = w3 * w4;
   w16 = w16 * w3;
   w9 = w16 + w9;
-  J[7] = w9;
+  out_J[7] = w9;
   w9 = 0.25;
   w9 = w9 + w20;
   w14 = w9 - w14;
   w11 = w11 * w13;
   w14 = w14 - w11;
   w14 = w14 - w2;
-  J[8] = w14;
-  S[0] = w19;
-  S[1] = w15;
-  S[2] = w15;
-  S[3] = w15;
-  S[4] = w15;
-  S[5] = w6;
-  S[6] = w15;
-  S[7] = w15;
-  S[8] = w18;
+  out_J[8] = w14;
+  out_S[0] = w19;
+  out_S[1] = w15;
+  out_S[2] = w15;
+  out_S[3] = w15;
+  out_S[4] = w15;
+  out_S[5] = w6;
+  out_S[6] = w15;
+  out_S[7] = w15;
+  out_S[8] = w18;
   w0 = w0 + w0;
   w0 = -w0;
-  S[9] = w0;
-  S[10] = w1;
-  S[11] = w15;
+  out_S[9] = w0;
+  out_S[10] = w1;
+  out_S[11] = w15;
   w17 = w17 - w8;
-  S[12] = w17;
-  S[13] = w16;
+  out_S[12] = w17;
+  out_S[13] = w16;
   w9 = w9 - w11;
-  S[14] = w9;
-  S[15] = w0;
-  S[16] = w1;
-  S[17] = w15;
+  out_S[14] = w9;
+  out_S[15] = w0;
+  out_S[16] = w1;
+  out_S[17] = w15;
 }
 
 /* hexapod_middle_left_fk_cga_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_middle_left_fk_cga_columns_from(long s0, long n, long ld, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  double q_s[3];
-  double M_s[8];
-  double toe_s[5];
-  double p_s[3];
-  double J_s[9];
-  double S_s[18];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 3; ++k) q_s[k] = q[k * ld + s];
-    hexapod_middle_left_fk_cga(q_s, M_s, toe_s, p_s, J_s, S_s);
-    for (long k = 0; k < 8; ++k) M[k * ld + s] = M_s[k];
-    for (long k = 0; k < 5; ++k) toe[k * ld + s] = toe_s[k];
-    for (long k = 0; k < 3; ++k) p[k * ld + s] = p_s[k];
-    for (long k = 0; k < 9; ++k) J[k * ld + s] = J_s[k];
-    for (long k = 0; k < 18; ++k) S[k * ld + s] = S_s[k];
+void hexapod_middle_left_fk_cga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  double gagen_in_q[3];
+  double gagen_out_M[8];
+  double gagen_out_toe[5];
+  double gagen_out_p[3];
+  double gagen_out_J[9];
+  double gagen_out_S[18];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_q[gagen_k] = in_q[gagen_k * gagen_ld + gagen_s];
+    hexapod_middle_left_fk_cga(gagen_in_q, gagen_out_M, gagen_out_toe, gagen_out_p, gagen_out_J, gagen_out_S);
+    for (long gagen_k = 0; gagen_k < 8; ++gagen_k) out_M[gagen_k * gagen_ld + gagen_s] = gagen_out_M[gagen_k];
+    for (long gagen_k = 0; gagen_k < 5; ++gagen_k) out_toe[gagen_k * gagen_ld + gagen_s] = gagen_out_toe[gagen_k];
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_p[gagen_k * gagen_ld + gagen_s] = gagen_out_p[gagen_k];
+    for (long gagen_k = 0; gagen_k < 9; ++gagen_k) out_J[gagen_k * gagen_ld + gagen_s] = gagen_out_J[gagen_k];
+    for (long gagen_k = 0; gagen_k < 18; ++gagen_k) out_S[gagen_k * gagen_ld + gagen_s] = gagen_out_S[gagen_k];
   }
 }
 
@@ -1279,16 +1279,16 @@ void hexapod_middle_left_fk_cga_batch_columns_argv(long n, long ld, const double
 }
 
 /* leg middle_left: analytic IK of a body-frame toe target, knee up and down, with reachability: mul=9 add=11 neg=4 div=0 atan2=4 if_else_zero=5 lt=4 not=4 sqrt=3 (flops=24) */
-void hexapod_middle_left_ik(const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
+void hexapod_middle_left_ik(const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
   double w0, w1, w2, w3, w4, w5, w6, w7;
-  w0 = target[0];
+  w0 = in_target[0];
   w1 = -w0;
-  w2 = target[1];
+  w2 = in_target[1];
   w3 = 0.12;
   w2 = w2 - w3;
   w1 = atan2(w1, w2);
-  q_up[0] = w1;
-  w3 = target[2];
+  out_q_up[0] = w1;
+  w3 = in_target[2];
   w4 = -w3;
   w2 = w2 * w2;
   w0 = w0 * w0;
@@ -1314,19 +1314,19 @@ void hexapod_middle_left_ik(const double *restrict target, double *restrict q_up
   w0 = w0 * w2;
   w5 = atan2(w5, w0);
   w0 = w4 - w5;
-  q_up[1] = w0;
+  out_q_up[1] = w0;
   w0 = 12.499999999999998;
   w6 = w0 * w6;
   w0 = w0 * w2;
   w7 = 1.0;
   w0 = w0 - w7;
   w6 = atan2(w6, w0);
-  q_up[2] = w6;
-  q_down[0] = w1;
+  out_q_up[2] = w6;
+  out_q_down[0] = w1;
   w4 = w4 + w5;
-  q_down[1] = w4;
+  out_q_down[1] = w4;
   w6 = -w6;
-  q_down[2] = w6;
+  out_q_down[2] = w6;
   w6 = 1e-09;
   w4 = w2 < w3;
   w2 = sqrt(w2);
@@ -1343,26 +1343,26 @@ void hexapod_middle_left_ik(const double *restrict target, double *restrict q_up
   w6 = w6 < w3;
   w6 = !w6;
   w6 = w6 ? w7 : 0.0;
-  reach[0] = w6;
-  excess[0] = w3;
+  out_reach[0] = w6;
+  out_excess[0] = w3;
 }
 
 /* hexapod_middle_left_ik_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_middle_left_ik_columns_from(long s0, long n, long ld, const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
-  double target_s[3];
-  double q_up_s[3];
-  double q_down_s[3];
-  double reach_s[1];
-  double excess_s[1];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 3; ++k) target_s[k] = target[k * ld + s];
-    hexapod_middle_left_ik(target_s, q_up_s, q_down_s, reach_s, excess_s);
-    for (long k = 0; k < 3; ++k) q_up[k * ld + s] = q_up_s[k];
-    for (long k = 0; k < 3; ++k) q_down[k * ld + s] = q_down_s[k];
-    for (long k = 0; k < 1; ++k) reach[k * ld + s] = reach_s[k];
-    for (long k = 0; k < 1; ++k) excess[k * ld + s] = excess_s[k];
+void hexapod_middle_left_ik_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
+  double gagen_in_target[3];
+  double gagen_out_q_up[3];
+  double gagen_out_q_down[3];
+  double gagen_out_reach[1];
+  double gagen_out_excess[1];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_target[gagen_k] = in_target[gagen_k * gagen_ld + gagen_s];
+    hexapod_middle_left_ik(gagen_in_target, gagen_out_q_up, gagen_out_q_down, gagen_out_reach, gagen_out_excess);
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_q_up[gagen_k * gagen_ld + gagen_s] = gagen_out_q_up[gagen_k];
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_q_down[gagen_k * gagen_ld + gagen_s] = gagen_out_q_down[gagen_k];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) out_reach[gagen_k * gagen_ld + gagen_s] = gagen_out_reach[gagen_k];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) out_excess[gagen_k * gagen_ld + gagen_s] = gagen_out_excess[gagen_k];
   }
 }
 
@@ -1379,22 +1379,22 @@ void hexapod_middle_left_ik_batch_columns_argv(long n, long ld, const double *co
 }
 
 /* leg middle_left: one damped least-squares IK step towards a body-frame toe target: mul=94 add=77 neg=0 div=3 cos=3 sin=3 sqrt=1 (flops=174) */
-void hexapod_middle_left_dls(const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
+void hexapod_middle_left_dls(const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   double w24, w25, w26, w27, w28, w29, w30, w31, w32;
-  w0 = q[0];
+  w0 = in_q[0];
   w1 = 0.45;
   w2 = 0.4;
   w3 = 0.5;
-  w4 = q[2];
+  w4 = in_q[2];
   w5 = w3 * w4;
   w6 = sin(w5);
   w7 = w6 * w6;
   w7 = w2 * w7;
   w8 = w1 - w7;
   w9 = 0.8;
-  w10 = q[1];
+  w10 = in_q[1];
   w11 = w3 * w10;
   w12 = sin(w11);
   w11 = cos(w11);
@@ -1483,12 +1483,12 @@ void hexapod_middle_left_dls(const double *restrict q, const double *restrict ta
   w11 = w32 * w32;
   w12 = w25 * w25;
   w11 = w11 + w12;
-  w12 = damping[0];
+  w12 = in_damping[0];
   w12 = w12 * w12;
   w11 = w11 + w12;
   w13 = w19 * w11;
   w9 = w9 - w13;
-  w13 = target[0];
+  w13 = in_target[0];
   w13 = w13 + w7;
   w13 = w13 + w14;
   w13 = w13 + w17;
@@ -1508,7 +1508,7 @@ void hexapod_middle_left_dls(const double *restrict q, const double *restrict ta
   w14 = w11 * w27;
   w20 = w28 * w28;
   w14 = w14 - w20;
-  w20 = target[1];
+  w20 = in_target[1];
   w20 = w20 - w15;
   w20 = w20 - w30;
   w14 = w14 * w20;
@@ -1516,7 +1516,7 @@ void hexapod_middle_left_dls(const double *restrict q, const double *restrict ta
   w14 = w28 * w19;
   w30 = w27 * w31;
   w14 = w14 - w30;
-  w30 = target[2];
+  w30 = in_target[2];
   w30 = w30 + w6;
   w30 = w30 + w16;
   w30 = w30 - w23;
@@ -1554,7 +1554,7 @@ void hexapod_middle_left_dls(const double *restrict q, const double *restrict ta
   w29 = w29 * w11;
   w29 = w29 + w29;
   w0 = w0 - w29;
-  q_next[0] = w0;
+  out_q_next[0] = w0;
   w21 = w21 * w11;
   w10 = w10 + w21;
   w31 = w31 * w13;
@@ -1571,39 +1571,39 @@ void hexapod_middle_left_dls(const double *restrict q, const double *restrict ta
   w24 = w24 * w1;
   w24 = w24 + w24;
   w10 = w10 + w24;
-  q_next[1] = w10;
+  out_q_next[1] = w10;
   w2 = w2 * w11;
   w4 = w4 + w2;
   w22 = w22 * w1;
   w4 = w4 + w22;
   w25 = w25 * w31;
   w4 = w4 + w25;
-  q_next[2] = w4;
+  out_q_next[2] = w4;
   w13 = w13 * w13;
   w20 = w20 * w20;
   w13 = w13 + w20;
   w30 = w30 * w30;
   w13 = w13 + w30;
   w13 = sqrt(w13);
-  error[0] = w13;
+  out_error[0] = w13;
 }
 
 /* hexapod_middle_left_dls_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_middle_left_dls_columns_from(long s0, long n, long ld, const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
-  double q_s[3];
-  double target_s[3];
-  double damping_s[1];
-  double q_next_s[3];
-  double error_s[1];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 3; ++k) q_s[k] = q[k * ld + s];
-    for (long k = 0; k < 3; ++k) target_s[k] = target[k * ld + s];
-    for (long k = 0; k < 1; ++k) damping_s[k] = damping[k * ld + s];
-    hexapod_middle_left_dls(q_s, target_s, damping_s, q_next_s, error_s);
-    for (long k = 0; k < 3; ++k) q_next[k * ld + s] = q_next_s[k];
-    for (long k = 0; k < 1; ++k) error[k * ld + s] = error_s[k];
+void hexapod_middle_left_dls_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
+  double gagen_in_q[3];
+  double gagen_in_target[3];
+  double gagen_in_damping[1];
+  double gagen_out_q_next[3];
+  double gagen_out_error[1];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_q[gagen_k] = in_q[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_target[gagen_k] = in_target[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) gagen_in_damping[gagen_k] = in_damping[gagen_k * gagen_ld + gagen_s];
+    hexapod_middle_left_dls(gagen_in_q, gagen_in_target, gagen_in_damping, gagen_out_q_next, gagen_out_error);
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_q_next[gagen_k * gagen_ld + gagen_s] = gagen_out_q_next[gagen_k];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) out_error[gagen_k * gagen_ld + gagen_s] = gagen_out_error[gagen_k];
   }
 }
 
@@ -1620,19 +1620,19 @@ void hexapod_middle_left_dls_batch_columns_argv(long n, long ld, const double *c
 }
 
 /* leg rear_left in PGA3D: FK motor, toe point and position, point and spatial Jacobians: mul=57 add=47 neg=7 div=0 cos=3 sin=3 (flops=111) */
-void hexapod_rear_left_fk_pga(const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+void hexapod_rear_left_fk_pga(const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17, w18, w19, w20, w21;
   w0 = 1.3089969389957472;
   w1 = 0.5;
-  w2 = q[0];
+  w2 = in_q[0];
   w2 = w1 * w2;
   w0 = w0 + w2;
   w2 = cos(w0);
-  w3 = q[1];
+  w3 = in_q[1];
   w3 = w1 * w3;
   w4 = cos(w3);
-  w5 = q[2];
+  w5 = in_q[2];
   w1 = w1 * w5;
   w5 = cos(w1);
   w6 = w4 * w5;
@@ -1641,7 +1641,7 @@ void hexapod_rear_left_fk_pga(const double *restrict q, double *restrict M, doub
   w7 = w3 * w1;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  M[0] = w9;
+  out_M[0] = w9;
   w10 = 0.17303847577300002;
   w10 = w10 * w6;
   w6 = 0.02696152422699999;
@@ -1654,7 +1654,7 @@ void hexapod_rear_left_fk_pga(const double *restrict q, double *restrict M, doub
   w11 = w7 * w8;
   w6 = w6 + w11;
   w6 = -w6;
-  M[1] = w6;
+  out_M[1] = w6;
   w10 = w0 * w10;
   w9 = w7 * w9;
   w10 = w10 + w9;
@@ -1662,9 +1662,9 @@ void hexapod_rear_left_fk_pga(const double *restrict q, double *restrict M, doub
   w6 = w9 * w8;
   w10 = w10 + w6;
   w10 = -w10;
-  M[2] = w10;
+  out_M[2] = w10;
   w8 = -w8;
-  M[3] = w8;
+  out_M[3] = w8;
   w8 = 0.026961524227000003;
   w10 = w4 * w1;
   w8 = w8 * w10;
@@ -1677,16 +1677,16 @@ void hexapod_rear_left_fk_pga(const double *restrict q, double *restrict M, doub
   w11 = w0 * w10;
   w12 = w7 * w11;
   w6 = w6 - w12;
-  M[4] = w6;
+  out_M[4] = w6;
   w10 = w2 * w10;
-  M[5] = w10;
-  M[6] = w11;
+  out_M[5] = w10;
+  out_M[6] = w11;
   w7 = w7 * w10;
   w11 = w9 * w11;
   w7 = w7 + w11;
   w8 = w0 * w8;
   w7 = w7 - w8;
-  M[7] = w7;
+  out_M[7] = w7;
   w7 = 0.8;
   w8 = w3 * w3;
   w11 = w8 * w1;
@@ -1704,7 +1704,7 @@ void hexapod_rear_left_fk_pga(const double *restrict q, double *restrict M, doub
   w14 = w14 + w14;
   w11 = w11 - w14;
   w14 = -w11;
-  toe[0] = w14;
+  out_toe[0] = w14;
   w14 = 0.06;
   w2 = w0 * w2;
   w15 = 0.45;
@@ -1719,7 +1719,7 @@ void hexapod_rear_left_fk_pga(const double *restrict q, double *restrict M, doub
   w16 = w2 * w5;
   w16 = w16 + w16;
   w17 = w14 + w16;
-  toe[1] = w17;
+  out_toe[1] = w17;
   w18 = 0.34607695154600004;
   w18 = w18 - w12;
   w18 = w18 - w1;
@@ -1729,25 +1729,25 @@ void hexapod_rear_left_fk_pga(const double *restrict q, double *restrict M, doub
   w13 = w13 + w13;
   w18 = w18 - w13;
   w5 = -w18;
-  toe[2] = w5;
+  out_toe[2] = w5;
   w5 = 1.0;
-  toe[3] = w5;
-  p[0] = w18;
-  p[1] = w17;
-  p[2] = w11;
+  out_toe[3] = w5;
+  out_p[0] = w18;
+  out_p[1] = w17;
+  out_p[2] = w11;
   w16 = -w16;
-  J[0] = w16;
+  out_J[0] = w16;
   w15 = w15 - w13;
-  J[1] = w15;
+  out_J[1] = w15;
   w15 = 0.0;
-  J[2] = w15;
+  out_J[2] = w15;
   w13 = w0 + w0;
   w13 = w5 - w13;
   w16 = w13 * w11;
-  J[3] = w16;
+  out_J[3] = w16;
   w11 = w2 * w11;
   w11 = w11 + w11;
-  J[4] = w11;
+  out_J[4] = w11;
   w1 = 0.12;
   w1 = w1 * w2;
   w12 = 0.207846096908;
@@ -1760,19 +1760,19 @@ void hexapod_rear_left_fk_pga(const double *restrict q, double *restrict M, doub
   w17 = w2 * w17;
   w17 = w17 + w17;
   w20 = w20 - w17;
-  J[5] = w20;
+  out_J[5] = w20;
   w6 = w10 * w6;
   w16 = w16 + w6;
   w0 = w0 * w3;
   w0 = w0 * w4;
   w0 = w7 * w0;
   w16 = w16 - w0;
-  J[6] = w16;
+  out_J[6] = w16;
   w3 = w2 * w3;
   w3 = w3 * w4;
   w7 = w7 * w3;
   w11 = w7 + w11;
-  J[7] = w11;
+  out_J[7] = w11;
   w11 = 0.146076951546;
   w11 = w11 + w1;
   w11 = w11 + w12;
@@ -1780,50 +1780,50 @@ void hexapod_rear_left_fk_pga(const double *restrict q, double *restrict M, doub
   w10 = w10 * w8;
   w18 = w18 - w10;
   w18 = w18 - w17;
-  J[8] = w18;
-  S[0] = w14;
-  S[1] = w9;
-  S[2] = w15;
-  S[3] = w15;
-  S[4] = w15;
-  S[5] = w5;
-  S[6] = w15;
-  S[7] = w15;
+  out_J[8] = w18;
+  out_S[0] = w14;
+  out_S[1] = w9;
+  out_S[2] = w15;
+  out_S[3] = w15;
+  out_S[4] = w15;
+  out_S[5] = w5;
+  out_S[6] = w15;
+  out_S[7] = w15;
   w19 = w19 - w21;
-  S[8] = w19;
+  out_S[8] = w19;
   w2 = w2 + w2;
   w2 = -w2;
-  S[9] = w2;
-  S[10] = w13;
-  S[11] = w15;
+  out_S[9] = w2;
+  out_S[10] = w13;
+  out_S[11] = w15;
   w6 = w6 - w0;
-  S[12] = w6;
-  S[13] = w7;
+  out_S[12] = w6;
+  out_S[13] = w7;
   w11 = w11 - w10;
-  S[14] = w11;
-  S[15] = w2;
-  S[16] = w13;
-  S[17] = w15;
+  out_S[14] = w11;
+  out_S[15] = w2;
+  out_S[16] = w13;
+  out_S[17] = w15;
 }
 
 /* hexapod_rear_left_fk_pga_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_rear_left_fk_pga_columns_from(long s0, long n, long ld, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  double q_s[3];
-  double M_s[8];
-  double toe_s[4];
-  double p_s[3];
-  double J_s[9];
-  double S_s[18];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 3; ++k) q_s[k] = q[k * ld + s];
-    hexapod_rear_left_fk_pga(q_s, M_s, toe_s, p_s, J_s, S_s);
-    for (long k = 0; k < 8; ++k) M[k * ld + s] = M_s[k];
-    for (long k = 0; k < 4; ++k) toe[k * ld + s] = toe_s[k];
-    for (long k = 0; k < 3; ++k) p[k * ld + s] = p_s[k];
-    for (long k = 0; k < 9; ++k) J[k * ld + s] = J_s[k];
-    for (long k = 0; k < 18; ++k) S[k * ld + s] = S_s[k];
+void hexapod_rear_left_fk_pga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  double gagen_in_q[3];
+  double gagen_out_M[8];
+  double gagen_out_toe[4];
+  double gagen_out_p[3];
+  double gagen_out_J[9];
+  double gagen_out_S[18];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_q[gagen_k] = in_q[gagen_k * gagen_ld + gagen_s];
+    hexapod_rear_left_fk_pga(gagen_in_q, gagen_out_M, gagen_out_toe, gagen_out_p, gagen_out_J, gagen_out_S);
+    for (long gagen_k = 0; gagen_k < 8; ++gagen_k) out_M[gagen_k * gagen_ld + gagen_s] = gagen_out_M[gagen_k];
+    for (long gagen_k = 0; gagen_k < 4; ++gagen_k) out_toe[gagen_k * gagen_ld + gagen_s] = gagen_out_toe[gagen_k];
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_p[gagen_k * gagen_ld + gagen_s] = gagen_out_p[gagen_k];
+    for (long gagen_k = 0; gagen_k < 9; ++gagen_k) out_J[gagen_k * gagen_ld + gagen_s] = gagen_out_J[gagen_k];
+    for (long gagen_k = 0; gagen_k < 18; ++gagen_k) out_S[gagen_k * gagen_ld + gagen_s] = gagen_out_S[gagen_k];
   }
 }
 
@@ -1840,20 +1840,20 @@ void hexapod_rear_left_fk_pga_batch_columns_argv(long n, long ld, const double *
 }
 
 /* leg rear_left in CGA3D: FK motor, toe point and position, point and spatial Jacobians: mul=69 add=62 neg=5 div=0 cos=3 sin=3 (flops=136) */
-void hexapod_rear_left_fk_cga(const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+void hexapod_rear_left_fk_cga(const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   double w24, w25, w26;
   w0 = 1.3089969389957472;
   w1 = 0.5;
-  w2 = q[0];
+  w2 = in_q[0];
   w2 = w1 * w2;
   w0 = w0 + w2;
   w2 = cos(w0);
-  w3 = q[1];
+  w3 = in_q[1];
   w3 = w1 * w3;
   w4 = cos(w3);
-  w5 = q[2];
+  w5 = in_q[2];
   w1 = w1 * w5;
   w5 = cos(w1);
   w6 = w4 * w5;
@@ -1862,18 +1862,18 @@ void hexapod_rear_left_fk_cga(const double *restrict q, double *restrict M, doub
   w7 = w3 * w1;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  M[0] = w9;
+  out_M[0] = w9;
   w0 = sin(w0);
   w8 = w0 * w8;
   w10 = -w8;
-  M[1] = w10;
+  out_M[1] = w10;
   w10 = w4 * w1;
   w11 = w3 * w5;
   w12 = w10 + w11;
   w13 = w2 * w12;
-  M[2] = w13;
+  out_M[2] = w13;
   w12 = w0 * w12;
-  M[3] = w12;
+  out_M[3] = w12;
   w14 = 0.17303847577300002;
   w14 = w14 * w6;
   w6 = 0.02696152422699999;
@@ -1884,7 +1884,7 @@ void hexapod_rear_left_fk_cga(const double *restrict q, double *restrict M, doub
   w15 = w7 * w8;
   w6 = w6 + w15;
   w6 = -w6;
-  M[4] = w6;
+  out_M[4] = w6;
   w14 = w0 * w14;
   w9 = w7 * w9;
   w14 = w14 + w9;
@@ -1892,7 +1892,7 @@ void hexapod_rear_left_fk_cga(const double *restrict q, double *restrict M, doub
   w8 = w9 * w8;
   w14 = w14 + w8;
   w14 = -w14;
-  M[5] = w14;
+  out_M[5] = w14;
   w14 = 0.026961524227000003;
   w14 = w14 * w10;
   w10 = 0.226961524227;
@@ -1901,15 +1901,15 @@ void hexapod_rear_left_fk_cga(const double *restrict q, double *restrict M, doub
   w10 = w2 * w14;
   w11 = w7 * w12;
   w10 = w10 - w11;
-  M[6] = w10;
+  out_M[6] = w10;
   w7 = w7 * w13;
   w12 = w9 * w12;
   w7 = w7 + w12;
   w14 = w0 * w14;
   w7 = w7 - w14;
-  M[7] = w7;
+  out_M[7] = w7;
   w7 = 1.0;
-  toe[0] = w7;
+  out_toe[0] = w7;
   w14 = 0.34607695154600004;
   w12 = w3 * w3;
   w13 = 0.4;
@@ -1934,13 +1934,13 @@ void hexapod_rear_left_fk_cga(const double *restrict q, double *restrict M, doub
   w14 = w14 + w22;
   w14 = w14 - w11;
   w14 = w14 - w21;
-  toe[1] = w14;
+  out_toe[1] = w14;
   w23 = 0.06;
   w0 = w0 * w2;
   w17 = w0 * w17;
   w17 = w17 + w17;
   w2 = w23 + w17;
-  toe[2] = w2;
+  out_toe[2] = w2;
   w8 = w19 * w8;
   w8 = w8 + w8;
   w24 = w12 * w1;
@@ -1950,7 +1950,7 @@ void hexapod_rear_left_fk_cga(const double *restrict q, double *restrict M, doub
   w1 = w1 * w5;
   w1 = w13 * w1;
   w8 = w8 - w1;
-  toe[3] = w8;
+  out_toe[3] = w8;
   w1 = 0.06168462819568622;
   w5 = 0.0431384387632;
   w5 = w5 * w20;
@@ -1988,25 +1988,25 @@ void hexapod_rear_left_fk_cga(const double *restrict q, double *restrict M, doub
   w5 = 0.058430780618400006;
   w5 = w5 * w10;
   w1 = w1 - w5;
-  toe[4] = w1;
-  p[0] = w14;
-  p[1] = w2;
-  p[2] = w8;
+  out_toe[4] = w1;
+  out_p[0] = w14;
+  out_p[1] = w2;
+  out_p[2] = w8;
   w17 = -w17;
-  J[0] = w17;
+  out_J[0] = w17;
   w16 = w16 + w22;
   w16 = w16 - w11;
   w16 = w16 - w21;
-  J[1] = w16;
+  out_J[1] = w16;
   w16 = 0.0;
-  J[2] = w16;
+  out_J[2] = w16;
   w21 = w15 + w15;
   w21 = w7 - w21;
   w11 = w21 * w8;
-  J[3] = w11;
+  out_J[3] = w11;
   w8 = w0 * w8;
   w8 = w8 + w8;
-  J[4] = w8;
+  out_J[4] = w8;
   w25 = w25 * w0;
   w26 = w26 * w15;
   w22 = w25 + w26;
@@ -2017,19 +2017,19 @@ void hexapod_rear_left_fk_cga(const double *restrict q, double *restrict M, doub
   w2 = w0 * w2;
   w2 = w2 + w2;
   w17 = w17 - w2;
-  J[5] = w17;
+  out_J[5] = w17;
   w19 = w13 * w19;
   w11 = w11 + w19;
   w15 = w15 * w3;
   w15 = w15 * w4;
   w15 = w18 * w15;
   w11 = w11 - w15;
-  J[6] = w11;
+  out_J[6] = w11;
   w3 = w0 * w3;
   w3 = w3 * w4;
   w18 = w18 * w3;
   w8 = w18 + w8;
-  J[7] = w8;
+  out_J[7] = w8;
   w8 = 0.146076951546;
   w8 = w8 + w25;
   w8 = w8 + w26;
@@ -2037,50 +2037,50 @@ void hexapod_rear_left_fk_cga(const double *restrict q, double *restrict M, doub
   w13 = w13 * w12;
   w14 = w14 - w13;
   w14 = w14 - w2;
-  J[8] = w14;
-  S[0] = w23;
-  S[1] = w9;
-  S[2] = w16;
-  S[3] = w16;
-  S[4] = w16;
-  S[5] = w7;
-  S[6] = w16;
-  S[7] = w16;
+  out_J[8] = w14;
+  out_S[0] = w23;
+  out_S[1] = w9;
+  out_S[2] = w16;
+  out_S[3] = w16;
+  out_S[4] = w16;
+  out_S[5] = w7;
+  out_S[6] = w16;
+  out_S[7] = w16;
   w22 = w22 - w1;
-  S[8] = w22;
+  out_S[8] = w22;
   w0 = w0 + w0;
   w0 = -w0;
-  S[9] = w0;
-  S[10] = w21;
-  S[11] = w16;
+  out_S[9] = w0;
+  out_S[10] = w21;
+  out_S[11] = w16;
   w19 = w19 - w15;
-  S[12] = w19;
-  S[13] = w18;
+  out_S[12] = w19;
+  out_S[13] = w18;
   w8 = w8 - w13;
-  S[14] = w8;
-  S[15] = w0;
-  S[16] = w21;
-  S[17] = w16;
+  out_S[14] = w8;
+  out_S[15] = w0;
+  out_S[16] = w21;
+  out_S[17] = w16;
 }
 
 /* hexapod_rear_left_fk_cga_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_rear_left_fk_cga_columns_from(long s0, long n, long ld, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  double q_s[3];
-  double M_s[8];
-  double toe_s[5];
-  double p_s[3];
-  double J_s[9];
-  double S_s[18];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 3; ++k) q_s[k] = q[k * ld + s];
-    hexapod_rear_left_fk_cga(q_s, M_s, toe_s, p_s, J_s, S_s);
-    for (long k = 0; k < 8; ++k) M[k * ld + s] = M_s[k];
-    for (long k = 0; k < 5; ++k) toe[k * ld + s] = toe_s[k];
-    for (long k = 0; k < 3; ++k) p[k * ld + s] = p_s[k];
-    for (long k = 0; k < 9; ++k) J[k * ld + s] = J_s[k];
-    for (long k = 0; k < 18; ++k) S[k * ld + s] = S_s[k];
+void hexapod_rear_left_fk_cga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  double gagen_in_q[3];
+  double gagen_out_M[8];
+  double gagen_out_toe[5];
+  double gagen_out_p[3];
+  double gagen_out_J[9];
+  double gagen_out_S[18];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_q[gagen_k] = in_q[gagen_k * gagen_ld + gagen_s];
+    hexapod_rear_left_fk_cga(gagen_in_q, gagen_out_M, gagen_out_toe, gagen_out_p, gagen_out_J, gagen_out_S);
+    for (long gagen_k = 0; gagen_k < 8; ++gagen_k) out_M[gagen_k * gagen_ld + gagen_s] = gagen_out_M[gagen_k];
+    for (long gagen_k = 0; gagen_k < 5; ++gagen_k) out_toe[gagen_k * gagen_ld + gagen_s] = gagen_out_toe[gagen_k];
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_p[gagen_k * gagen_ld + gagen_s] = gagen_out_p[gagen_k];
+    for (long gagen_k = 0; gagen_k < 9; ++gagen_k) out_J[gagen_k * gagen_ld + gagen_s] = gagen_out_J[gagen_k];
+    for (long gagen_k = 0; gagen_k < 18; ++gagen_k) out_S[gagen_k * gagen_ld + gagen_s] = gagen_out_S[gagen_k];
   }
 }
 
@@ -2097,15 +2097,15 @@ void hexapod_rear_left_fk_cga_batch_columns_argv(long n, long ld, const double *
 }
 
 /* leg rear_left: analytic IK of a body-frame toe target, knee up and down, with reachability: mul=13 add=14 neg=3 div=0 atan2=4 if_else_zero=5 lt=4 not=4 sqrt=3 (flops=30) */
-void hexapod_rear_left_ik(const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
+void hexapod_rear_left_ik(const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
   double w0, w1, w2, w3, w4, w5, w6, w7;
   w0 = 6.632658891371746e-14;
   w1 = 0.8660254037844387;
-  w2 = target[1];
+  w2 = in_target[1];
   w3 = w1 * w2;
   w0 = w0 - w3;
   w3 = 0.49999999999999994;
-  w4 = target[0];
+  w4 = in_target[0];
   w5 = w3 * w4;
   w0 = w0 - w5;
   w3 = w3 * w2;
@@ -2114,8 +2114,8 @@ void hexapod_rear_left_ik(const double *restrict target, double *restrict q_up, 
   w1 = w1 * w4;
   w3 = w3 - w1;
   w1 = atan2(w0, w3);
-  q_up[0] = w1;
-  w4 = target[2];
+  out_q_up[0] = w1;
+  w4 = in_target[2];
   w2 = -w4;
   w3 = w3 * w3;
   w0 = w0 * w0;
@@ -2141,19 +2141,19 @@ void hexapod_rear_left_ik(const double *restrict target, double *restrict q_up, 
   w0 = w0 * w3;
   w5 = atan2(w5, w0);
   w0 = w2 - w5;
-  q_up[1] = w0;
+  out_q_up[1] = w0;
   w0 = 12.499999999999998;
   w6 = w0 * w6;
   w0 = w0 * w3;
   w7 = 1.0;
   w0 = w0 - w7;
   w6 = atan2(w6, w0);
-  q_up[2] = w6;
-  q_down[0] = w1;
+  out_q_up[2] = w6;
+  out_q_down[0] = w1;
   w2 = w2 + w5;
-  q_down[1] = w2;
+  out_q_down[1] = w2;
   w6 = -w6;
-  q_down[2] = w6;
+  out_q_down[2] = w6;
   w6 = 1e-09;
   w2 = w3 < w4;
   w3 = sqrt(w3);
@@ -2170,26 +2170,26 @@ void hexapod_rear_left_ik(const double *restrict target, double *restrict q_up, 
   w6 = w6 < w4;
   w6 = !w6;
   w6 = w6 ? w7 : 0.0;
-  reach[0] = w6;
-  excess[0] = w4;
+  out_reach[0] = w6;
+  out_excess[0] = w4;
 }
 
 /* hexapod_rear_left_ik_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_rear_left_ik_columns_from(long s0, long n, long ld, const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
-  double target_s[3];
-  double q_up_s[3];
-  double q_down_s[3];
-  double reach_s[1];
-  double excess_s[1];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 3; ++k) target_s[k] = target[k * ld + s];
-    hexapod_rear_left_ik(target_s, q_up_s, q_down_s, reach_s, excess_s);
-    for (long k = 0; k < 3; ++k) q_up[k * ld + s] = q_up_s[k];
-    for (long k = 0; k < 3; ++k) q_down[k * ld + s] = q_down_s[k];
-    for (long k = 0; k < 1; ++k) reach[k * ld + s] = reach_s[k];
-    for (long k = 0; k < 1; ++k) excess[k * ld + s] = excess_s[k];
+void hexapod_rear_left_ik_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
+  double gagen_in_target[3];
+  double gagen_out_q_up[3];
+  double gagen_out_q_down[3];
+  double gagen_out_reach[1];
+  double gagen_out_excess[1];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_target[gagen_k] = in_target[gagen_k * gagen_ld + gagen_s];
+    hexapod_rear_left_ik(gagen_in_target, gagen_out_q_up, gagen_out_q_down, gagen_out_reach, gagen_out_excess);
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_q_up[gagen_k * gagen_ld + gagen_s] = gagen_out_q_up[gagen_k];
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_q_down[gagen_k * gagen_ld + gagen_s] = gagen_out_q_down[gagen_k];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) out_reach[gagen_k * gagen_ld + gagen_s] = gagen_out_reach[gagen_k];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) out_excess[gagen_k * gagen_ld + gagen_s] = gagen_out_excess[gagen_k];
   }
 }
 
@@ -2206,22 +2206,22 @@ void hexapod_rear_left_ik_batch_columns_argv(long n, long ld, const double *cons
 }
 
 /* leg rear_left: one damped least-squares IK step towards a body-frame toe target: mul=95 add=82 neg=0 div=3 cos=3 sin=3 sqrt=1 (flops=180) */
-void hexapod_rear_left_dls(const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
+void hexapod_rear_left_dls(const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   double w24, w25, w26, w27, w28, w29, w30, w31, w32;
-  w0 = q[0];
+  w0 = in_q[0];
   w1 = 0.45;
   w2 = 0.4;
   w3 = 0.5;
-  w4 = q[2];
+  w4 = in_q[2];
   w5 = w3 * w4;
   w6 = sin(w5);
   w7 = w6 * w6;
   w7 = w2 * w7;
   w1 = w1 - w7;
   w8 = 0.8;
-  w9 = q[1];
+  w9 = in_q[1];
   w10 = w3 * w9;
   w11 = sin(w10);
   w10 = cos(w10);
@@ -2318,12 +2318,12 @@ void hexapod_rear_left_dls(const double *restrict q, const double *restrict targ
   w10 = w25 * w25;
   w11 = w24 * w24;
   w10 = w10 + w11;
-  w11 = damping[0];
+  w11 = in_damping[0];
   w11 = w11 * w11;
   w10 = w10 + w11;
   w12 = w18 * w10;
   w8 = w8 - w12;
-  w12 = target[0];
+  w12 = in_target[0];
   w12 = w12 + w7;
   w12 = w12 + w13;
   w12 = w12 + w16;
@@ -2343,7 +2343,7 @@ void hexapod_rear_left_dls(const double *restrict q, const double *restrict targ
   w13 = w10 * w27;
   w19 = w29 * w29;
   w13 = w13 - w19;
-  w19 = target[1];
+  w19 = in_target[1];
   w19 = w19 - w14;
   w19 = w19 - w31;
   w13 = w13 * w19;
@@ -2351,7 +2351,7 @@ void hexapod_rear_left_dls(const double *restrict q, const double *restrict targ
   w13 = w29 * w18;
   w31 = w27 * w32;
   w13 = w13 - w31;
-  w31 = target[2];
+  w31 = in_target[2];
   w31 = w31 + w6;
   w31 = w31 + w15;
   w31 = w31 - w22;
@@ -2389,7 +2389,7 @@ void hexapod_rear_left_dls(const double *restrict q, const double *restrict targ
   w30 = w30 * w10;
   w30 = w30 + w30;
   w0 = w0 - w30;
-  q_next[0] = w0;
+  out_q_next[0] = w0;
   w20 = w20 * w10;
   w9 = w9 + w20;
   w32 = w32 * w12;
@@ -2406,39 +2406,39 @@ void hexapod_rear_left_dls(const double *restrict q, const double *restrict targ
   w23 = w23 * w28;
   w23 = w23 + w23;
   w9 = w9 + w23;
-  q_next[1] = w9;
+  out_q_next[1] = w9;
   w2 = w2 * w10;
   w4 = w4 + w2;
   w21 = w21 * w28;
   w4 = w4 + w21;
   w24 = w24 * w32;
   w4 = w4 + w24;
-  q_next[2] = w4;
+  out_q_next[2] = w4;
   w12 = w12 * w12;
   w19 = w19 * w19;
   w12 = w12 + w19;
   w31 = w31 * w31;
   w12 = w12 + w31;
   w12 = sqrt(w12);
-  error[0] = w12;
+  out_error[0] = w12;
 }
 
 /* hexapod_rear_left_dls_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_rear_left_dls_columns_from(long s0, long n, long ld, const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
-  double q_s[3];
-  double target_s[3];
-  double damping_s[1];
-  double q_next_s[3];
-  double error_s[1];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 3; ++k) q_s[k] = q[k * ld + s];
-    for (long k = 0; k < 3; ++k) target_s[k] = target[k * ld + s];
-    for (long k = 0; k < 1; ++k) damping_s[k] = damping[k * ld + s];
-    hexapod_rear_left_dls(q_s, target_s, damping_s, q_next_s, error_s);
-    for (long k = 0; k < 3; ++k) q_next[k * ld + s] = q_next_s[k];
-    for (long k = 0; k < 1; ++k) error[k * ld + s] = error_s[k];
+void hexapod_rear_left_dls_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
+  double gagen_in_q[3];
+  double gagen_in_target[3];
+  double gagen_in_damping[1];
+  double gagen_out_q_next[3];
+  double gagen_out_error[1];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_q[gagen_k] = in_q[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_target[gagen_k] = in_target[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) gagen_in_damping[gagen_k] = in_damping[gagen_k * gagen_ld + gagen_s];
+    hexapod_rear_left_dls(gagen_in_q, gagen_in_target, gagen_in_damping, gagen_out_q_next, gagen_out_error);
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_q_next[gagen_k * gagen_ld + gagen_s] = gagen_out_q_next[gagen_k];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) out_error[gagen_k * gagen_ld + gagen_s] = gagen_out_error[gagen_k];
   }
 }
 
@@ -2455,19 +2455,19 @@ void hexapod_rear_left_dls_batch_columns_argv(long n, long ld, const double *con
 }
 
 /* leg rear_right in PGA3D: FK motor, toe point and position, point and spatial Jacobians: mul=57 add=49 neg=5 div=0 cos=3 sin=3 (flops=111) */
-void hexapod_rear_right_fk_pga(const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+void hexapod_rear_right_fk_pga(const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17, w18, w19;
   w0 = 0.5;
-  w1 = q[0];
+  w1 = in_q[0];
   w1 = w0 * w1;
   w2 = 1.3089969389957472;
   w1 = w1 - w2;
   w2 = cos(w1);
-  w3 = q[1];
+  w3 = in_q[1];
   w3 = w0 * w3;
   w4 = cos(w3);
-  w5 = q[2];
+  w5 = in_q[2];
   w0 = w0 * w5;
   w5 = cos(w0);
   w6 = w4 * w5;
@@ -2476,7 +2476,7 @@ void hexapod_rear_right_fk_pga(const double *restrict q, double *restrict M, dou
   w7 = w3 * w0;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  M[0] = w9;
+  out_M[0] = w9;
   w10 = 0.03;
   w1 = sin(w1);
   w8 = w1 * w8;
@@ -2488,16 +2488,16 @@ void hexapod_rear_right_fk_pga(const double *restrict q, double *restrict M, dou
   w12 = w12 + w6;
   w6 = w2 * w12;
   w11 = w11 - w6;
-  M[1] = w11;
+  out_M[1] = w11;
   w9 = w10 * w9;
   w12 = w1 * w12;
   w9 = w9 - w12;
   w12 = 0.103923048454;
   w11 = w12 * w8;
   w9 = w9 - w11;
-  M[2] = w9;
+  out_M[2] = w9;
   w8 = -w8;
-  M[3] = w8;
+  out_M[3] = w8;
   w8 = 0.026961524227000003;
   w9 = w4 * w0;
   w8 = w8 * w9;
@@ -2510,16 +2510,16 @@ void hexapod_rear_right_fk_pga(const double *restrict q, double *restrict M, dou
   w6 = w1 * w9;
   w7 = w10 * w6;
   w11 = w11 + w7;
-  M[4] = w11;
+  out_M[4] = w11;
   w9 = w2 * w9;
-  M[5] = w9;
-  M[6] = w6;
+  out_M[5] = w9;
+  out_M[6] = w6;
   w6 = w12 * w6;
   w8 = w1 * w8;
   w6 = w6 - w8;
   w10 = w10 * w9;
   w6 = w6 - w10;
-  M[7] = w6;
+  out_M[7] = w6;
   w6 = 0.8;
   w10 = w3 * w3;
   w9 = w10 * w0;
@@ -2537,7 +2537,7 @@ void hexapod_rear_right_fk_pga(const double *restrict q, double *restrict M, dou
   w14 = w14 + w14;
   w9 = w9 - w14;
   w14 = -w9;
-  toe[0] = w14;
+  out_toe[0] = w14;
   w2 = w1 * w2;
   w14 = 0.45;
   w14 = w14 - w7;
@@ -2552,7 +2552,7 @@ void hexapod_rear_right_fk_pga(const double *restrict q, double *restrict M, dou
   w15 = w15 + w15;
   w16 = 0.06;
   w16 = w15 - w16;
-  toe[1] = w16;
+  out_toe[1] = w16;
   w17 = 0.34607695154600004;
   w17 = w17 - w7;
   w17 = w17 - w0;
@@ -2562,25 +2562,25 @@ void hexapod_rear_right_fk_pga(const double *restrict q, double *restrict M, dou
   w13 = w13 + w13;
   w17 = w17 - w13;
   w5 = -w17;
-  toe[2] = w5;
+  out_toe[2] = w5;
   w5 = 1.0;
-  toe[3] = w5;
-  p[0] = w17;
-  p[1] = w16;
-  p[2] = w9;
+  out_toe[3] = w5;
+  out_p[0] = w17;
+  out_p[1] = w16;
+  out_p[2] = w9;
   w15 = -w15;
-  J[0] = w15;
+  out_J[0] = w15;
   w14 = w14 - w13;
-  J[1] = w14;
+  out_J[1] = w14;
   w14 = 0.0;
-  J[2] = w14;
+  out_J[2] = w14;
   w13 = w1 + w1;
   w13 = w5 - w13;
   w15 = w13 * w9;
-  J[3] = w15;
+  out_J[3] = w15;
   w9 = w2 * w9;
   w9 = w9 + w9;
-  J[4] = w9;
+  out_J[4] = w9;
   w0 = 0.207846096908;
   w0 = w0 * w1;
   w17 = w13 * w17;
@@ -2593,19 +2593,19 @@ void hexapod_rear_right_fk_pga(const double *restrict q, double *restrict M, dou
   w16 = w2 * w16;
   w16 = w16 + w16;
   w7 = w7 - w16;
-  J[5] = w7;
+  out_J[5] = w7;
   w11 = w8 * w11;
   w15 = w15 + w11;
   w1 = w1 * w3;
   w1 = w1 * w4;
   w1 = w6 * w1;
   w15 = w15 - w1;
-  J[6] = w15;
+  out_J[6] = w15;
   w3 = w2 * w3;
   w3 = w3 * w4;
   w6 = w6 * w3;
   w9 = w6 + w9;
-  J[7] = w9;
+  out_J[7] = w9;
   w9 = 0.146076951546;
   w9 = w9 + w0;
   w17 = w9 - w17;
@@ -2613,53 +2613,53 @@ void hexapod_rear_right_fk_pga(const double *restrict q, double *restrict M, dou
   w17 = w17 - w8;
   w17 = w17 - w19;
   w17 = w17 - w16;
-  J[8] = w17;
+  out_J[8] = w17;
   w17 = (-0.06);
-  S[0] = w17;
-  S[1] = w12;
-  S[2] = w14;
-  S[3] = w14;
-  S[4] = w14;
-  S[5] = w5;
-  S[6] = w14;
-  S[7] = w14;
+  out_S[0] = w17;
+  out_S[1] = w12;
+  out_S[2] = w14;
+  out_S[3] = w14;
+  out_S[4] = w14;
+  out_S[5] = w5;
+  out_S[6] = w14;
+  out_S[7] = w14;
   w0 = w0 - w18;
   w0 = w0 - w19;
-  S[8] = w0;
+  out_S[8] = w0;
   w2 = w2 + w2;
   w2 = -w2;
-  S[9] = w2;
-  S[10] = w13;
-  S[11] = w14;
+  out_S[9] = w2;
+  out_S[10] = w13;
+  out_S[11] = w14;
   w11 = w11 - w1;
-  S[12] = w11;
-  S[13] = w6;
+  out_S[12] = w11;
+  out_S[13] = w6;
   w9 = w9 - w8;
   w9 = w9 - w19;
-  S[14] = w9;
-  S[15] = w2;
-  S[16] = w13;
-  S[17] = w14;
+  out_S[14] = w9;
+  out_S[15] = w2;
+  out_S[16] = w13;
+  out_S[17] = w14;
 }
 
 /* hexapod_rear_right_fk_pga_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_rear_right_fk_pga_columns_from(long s0, long n, long ld, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  double q_s[3];
-  double M_s[8];
-  double toe_s[4];
-  double p_s[3];
-  double J_s[9];
-  double S_s[18];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 3; ++k) q_s[k] = q[k * ld + s];
-    hexapod_rear_right_fk_pga(q_s, M_s, toe_s, p_s, J_s, S_s);
-    for (long k = 0; k < 8; ++k) M[k * ld + s] = M_s[k];
-    for (long k = 0; k < 4; ++k) toe[k * ld + s] = toe_s[k];
-    for (long k = 0; k < 3; ++k) p[k * ld + s] = p_s[k];
-    for (long k = 0; k < 9; ++k) J[k * ld + s] = J_s[k];
-    for (long k = 0; k < 18; ++k) S[k * ld + s] = S_s[k];
+void hexapod_rear_right_fk_pga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  double gagen_in_q[3];
+  double gagen_out_M[8];
+  double gagen_out_toe[4];
+  double gagen_out_p[3];
+  double gagen_out_J[9];
+  double gagen_out_S[18];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_q[gagen_k] = in_q[gagen_k * gagen_ld + gagen_s];
+    hexapod_rear_right_fk_pga(gagen_in_q, gagen_out_M, gagen_out_toe, gagen_out_p, gagen_out_J, gagen_out_S);
+    for (long gagen_k = 0; gagen_k < 8; ++gagen_k) out_M[gagen_k * gagen_ld + gagen_s] = gagen_out_M[gagen_k];
+    for (long gagen_k = 0; gagen_k < 4; ++gagen_k) out_toe[gagen_k * gagen_ld + gagen_s] = gagen_out_toe[gagen_k];
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_p[gagen_k * gagen_ld + gagen_s] = gagen_out_p[gagen_k];
+    for (long gagen_k = 0; gagen_k < 9; ++gagen_k) out_J[gagen_k * gagen_ld + gagen_s] = gagen_out_J[gagen_k];
+    for (long gagen_k = 0; gagen_k < 18; ++gagen_k) out_S[gagen_k * gagen_ld + gagen_s] = gagen_out_S[gagen_k];
   }
 }
 
@@ -2676,20 +2676,20 @@ void hexapod_rear_right_fk_pga_batch_columns_argv(long n, long ld, const double 
 }
 
 /* leg rear_right in CGA3D: FK motor, toe point and position, point and spatial Jacobians: mul=69 add=64 neg=3 div=0 cos=3 sin=3 (flops=136) */
-void hexapod_rear_right_fk_cga(const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+void hexapod_rear_right_fk_cga(const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   double w24, w25;
   w0 = 0.5;
-  w1 = q[0];
+  w1 = in_q[0];
   w1 = w0 * w1;
   w2 = 1.3089969389957472;
   w1 = w1 - w2;
   w2 = cos(w1);
-  w3 = q[1];
+  w3 = in_q[1];
   w3 = w0 * w3;
   w4 = cos(w3);
-  w5 = q[2];
+  w5 = in_q[2];
   w0 = w0 * w5;
   w5 = cos(w0);
   w6 = w4 * w5;
@@ -2698,18 +2698,18 @@ void hexapod_rear_right_fk_cga(const double *restrict q, double *restrict M, dou
   w7 = w3 * w0;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  M[0] = w9;
+  out_M[0] = w9;
   w1 = sin(w1);
   w8 = w1 * w8;
   w10 = -w8;
-  M[1] = w10;
+  out_M[1] = w10;
   w10 = w4 * w0;
   w11 = w3 * w5;
   w12 = w10 + w11;
   w13 = w2 * w12;
-  M[2] = w13;
+  out_M[2] = w13;
   w12 = w1 * w12;
-  M[3] = w12;
+  out_M[3] = w12;
   w14 = 0.03;
   w15 = w14 * w8;
   w16 = 0.17303847577300002;
@@ -2719,14 +2719,14 @@ void hexapod_rear_right_fk_cga(const double *restrict q, double *restrict M, dou
   w16 = w16 + w6;
   w6 = w2 * w16;
   w15 = w15 - w6;
-  M[4] = w15;
+  out_M[4] = w15;
   w9 = w14 * w9;
   w16 = w1 * w16;
   w9 = w9 - w16;
   w16 = 0.103923048454;
   w8 = w16 * w8;
   w9 = w9 - w8;
-  M[5] = w9;
+  out_M[5] = w9;
   w9 = 0.026961524227000003;
   w9 = w9 * w10;
   w10 = 0.226961524227;
@@ -2735,15 +2735,15 @@ void hexapod_rear_right_fk_cga(const double *restrict q, double *restrict M, dou
   w10 = w2 * w9;
   w11 = w14 * w12;
   w10 = w10 + w11;
-  M[6] = w10;
+  out_M[6] = w10;
   w12 = w16 * w12;
   w9 = w1 * w9;
   w12 = w12 - w9;
   w14 = w14 * w13;
   w12 = w12 - w14;
-  M[7] = w12;
+  out_M[7] = w12;
   w12 = 1.0;
-  toe[0] = w12;
+  out_toe[0] = w12;
   w14 = 0.34607695154600004;
   w13 = w3 * w3;
   w9 = 0.4;
@@ -2768,13 +2768,13 @@ void hexapod_rear_right_fk_cga(const double *restrict q, double *restrict M, dou
   w14 = w14 + w22;
   w14 = w14 - w11;
   w14 = w14 - w21;
-  toe[1] = w14;
+  out_toe[1] = w14;
   w1 = w1 * w2;
   w17 = w1 * w17;
   w17 = w17 + w17;
   w2 = 0.06;
   w2 = w17 - w2;
-  toe[2] = w2;
+  out_toe[2] = w2;
   w8 = w19 * w8;
   w8 = w8 + w8;
   w23 = w13 * w0;
@@ -2784,7 +2784,7 @@ void hexapod_rear_right_fk_cga(const double *restrict q, double *restrict M, dou
   w0 = w0 * w5;
   w0 = w9 * w0;
   w8 = w8 - w0;
-  toe[3] = w8;
+  out_toe[3] = w8;
   w0 = 0.06168462819568622;
   w5 = 0.0431384387632;
   w5 = w5 * w20;
@@ -2822,25 +2822,25 @@ void hexapod_rear_right_fk_cga(const double *restrict q, double *restrict M, dou
   w5 = 0.058430780618400006;
   w5 = w5 * w10;
   w0 = w0 - w5;
-  toe[4] = w0;
-  p[0] = w14;
-  p[1] = w2;
-  p[2] = w8;
+  out_toe[4] = w0;
+  out_p[0] = w14;
+  out_p[1] = w2;
+  out_p[2] = w8;
   w17 = -w17;
-  J[0] = w17;
+  out_J[0] = w17;
   w7 = w7 + w22;
   w7 = w7 - w11;
   w7 = w7 - w21;
-  J[1] = w7;
+  out_J[1] = w7;
   w7 = 0.0;
-  J[2] = w7;
+  out_J[2] = w7;
   w21 = w6 + w6;
   w21 = w12 - w21;
   w11 = w21 * w8;
-  J[3] = w11;
+  out_J[3] = w11;
   w8 = w1 * w8;
   w8 = w8 + w8;
-  J[4] = w8;
+  out_J[4] = w8;
   w25 = w25 * w6;
   w14 = w21 * w14;
   w22 = w25 - w14;
@@ -2851,19 +2851,19 @@ void hexapod_rear_right_fk_cga(const double *restrict q, double *restrict M, dou
   w2 = w1 * w2;
   w2 = w2 + w2;
   w22 = w22 - w2;
-  J[5] = w22;
+  out_J[5] = w22;
   w19 = w9 * w19;
   w11 = w11 + w19;
   w6 = w6 * w3;
   w6 = w6 * w4;
   w6 = w18 * w6;
   w11 = w11 - w6;
-  J[6] = w11;
+  out_J[6] = w11;
   w3 = w1 * w3;
   w3 = w3 * w4;
   w18 = w18 * w3;
   w8 = w18 + w8;
-  J[7] = w8;
+  out_J[7] = w8;
   w8 = 0.146076951546;
   w8 = w8 + w25;
   w14 = w8 - w14;
@@ -2871,53 +2871,53 @@ void hexapod_rear_right_fk_cga(const double *restrict q, double *restrict M, dou
   w14 = w14 - w9;
   w14 = w14 - w24;
   w14 = w14 - w2;
-  J[8] = w14;
+  out_J[8] = w14;
   w14 = (-0.06);
-  S[0] = w14;
-  S[1] = w16;
-  S[2] = w7;
-  S[3] = w7;
-  S[4] = w7;
-  S[5] = w12;
-  S[6] = w7;
-  S[7] = w7;
+  out_S[0] = w14;
+  out_S[1] = w16;
+  out_S[2] = w7;
+  out_S[3] = w7;
+  out_S[4] = w7;
+  out_S[5] = w12;
+  out_S[6] = w7;
+  out_S[7] = w7;
   w25 = w25 - w17;
   w25 = w25 - w24;
-  S[8] = w25;
+  out_S[8] = w25;
   w1 = w1 + w1;
   w1 = -w1;
-  S[9] = w1;
-  S[10] = w21;
-  S[11] = w7;
+  out_S[9] = w1;
+  out_S[10] = w21;
+  out_S[11] = w7;
   w19 = w19 - w6;
-  S[12] = w19;
-  S[13] = w18;
+  out_S[12] = w19;
+  out_S[13] = w18;
   w8 = w8 - w9;
   w8 = w8 - w24;
-  S[14] = w8;
-  S[15] = w1;
-  S[16] = w21;
-  S[17] = w7;
+  out_S[14] = w8;
+  out_S[15] = w1;
+  out_S[16] = w21;
+  out_S[17] = w7;
 }
 
 /* hexapod_rear_right_fk_cga_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_rear_right_fk_cga_columns_from(long s0, long n, long ld, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  double q_s[3];
-  double M_s[8];
-  double toe_s[5];
-  double p_s[3];
-  double J_s[9];
-  double S_s[18];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 3; ++k) q_s[k] = q[k * ld + s];
-    hexapod_rear_right_fk_cga(q_s, M_s, toe_s, p_s, J_s, S_s);
-    for (long k = 0; k < 8; ++k) M[k * ld + s] = M_s[k];
-    for (long k = 0; k < 5; ++k) toe[k * ld + s] = toe_s[k];
-    for (long k = 0; k < 3; ++k) p[k * ld + s] = p_s[k];
-    for (long k = 0; k < 9; ++k) J[k * ld + s] = J_s[k];
-    for (long k = 0; k < 18; ++k) S[k * ld + s] = S_s[k];
+void hexapod_rear_right_fk_cga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  double gagen_in_q[3];
+  double gagen_out_M[8];
+  double gagen_out_toe[5];
+  double gagen_out_p[3];
+  double gagen_out_J[9];
+  double gagen_out_S[18];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_q[gagen_k] = in_q[gagen_k * gagen_ld + gagen_s];
+    hexapod_rear_right_fk_cga(gagen_in_q, gagen_out_M, gagen_out_toe, gagen_out_p, gagen_out_J, gagen_out_S);
+    for (long gagen_k = 0; gagen_k < 8; ++gagen_k) out_M[gagen_k * gagen_ld + gagen_s] = gagen_out_M[gagen_k];
+    for (long gagen_k = 0; gagen_k < 5; ++gagen_k) out_toe[gagen_k * gagen_ld + gagen_s] = gagen_out_toe[gagen_k];
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_p[gagen_k * gagen_ld + gagen_s] = gagen_out_p[gagen_k];
+    for (long gagen_k = 0; gagen_k < 9; ++gagen_k) out_J[gagen_k * gagen_ld + gagen_s] = gagen_out_J[gagen_k];
+    for (long gagen_k = 0; gagen_k < 18; ++gagen_k) out_S[gagen_k * gagen_ld + gagen_s] = gagen_out_S[gagen_k];
   }
 }
 
@@ -2934,15 +2934,15 @@ void hexapod_rear_right_fk_cga_batch_columns_argv(long n, long ld, const double 
 }
 
 /* leg rear_right: analytic IK of a body-frame toe target, knee up and down, with reachability: mul=13 add=14 neg=4 div=0 atan2=4 if_else_zero=5 lt=4 not=4 sqrt=3 (flops=31) */
-void hexapod_rear_right_ik(const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
+void hexapod_rear_right_ik(const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
   double w0, w1, w2, w3, w4, w5, w6, w7;
   w0 = 0.49999999999999994;
-  w1 = target[0];
+  w1 = in_target[0];
   w2 = w0 * w1;
   w3 = 6.632658891371746e-14;
   w2 = w2 - w3;
   w3 = 0.8660254037844387;
-  w4 = target[1];
+  w4 = in_target[1];
   w5 = w3 * w4;
   w2 = w2 - w5;
   w5 = 0.11999999999988513;
@@ -2952,8 +2952,8 @@ void hexapod_rear_right_ik(const double *restrict target, double *restrict q_up,
   w5 = w5 + w3;
   w3 = -w5;
   w3 = atan2(w2, w3);
-  q_up[0] = w3;
-  w1 = target[2];
+  out_q_up[0] = w3;
+  w1 = in_target[2];
   w0 = -w1;
   w5 = w5 * w5;
   w2 = w2 * w2;
@@ -2979,19 +2979,19 @@ void hexapod_rear_right_ik(const double *restrict target, double *restrict q_up,
   w2 = w2 * w5;
   w4 = atan2(w4, w2);
   w2 = w0 - w4;
-  q_up[1] = w2;
+  out_q_up[1] = w2;
   w2 = 12.499999999999998;
   w6 = w2 * w6;
   w2 = w2 * w5;
   w7 = 1.0;
   w2 = w2 - w7;
   w6 = atan2(w6, w2);
-  q_up[2] = w6;
-  q_down[0] = w3;
+  out_q_up[2] = w6;
+  out_q_down[0] = w3;
   w0 = w0 + w4;
-  q_down[1] = w0;
+  out_q_down[1] = w0;
   w6 = -w6;
-  q_down[2] = w6;
+  out_q_down[2] = w6;
   w6 = 1e-09;
   w0 = w5 < w1;
   w5 = sqrt(w5);
@@ -3008,26 +3008,26 @@ void hexapod_rear_right_ik(const double *restrict target, double *restrict q_up,
   w6 = w6 < w1;
   w6 = !w6;
   w6 = w6 ? w7 : 0.0;
-  reach[0] = w6;
-  excess[0] = w1;
+  out_reach[0] = w6;
+  out_excess[0] = w1;
 }
 
 /* hexapod_rear_right_ik_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_rear_right_ik_columns_from(long s0, long n, long ld, const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
-  double target_s[3];
-  double q_up_s[3];
-  double q_down_s[3];
-  double reach_s[1];
-  double excess_s[1];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 3; ++k) target_s[k] = target[k * ld + s];
-    hexapod_rear_right_ik(target_s, q_up_s, q_down_s, reach_s, excess_s);
-    for (long k = 0; k < 3; ++k) q_up[k * ld + s] = q_up_s[k];
-    for (long k = 0; k < 3; ++k) q_down[k * ld + s] = q_down_s[k];
-    for (long k = 0; k < 1; ++k) reach[k * ld + s] = reach_s[k];
-    for (long k = 0; k < 1; ++k) excess[k * ld + s] = excess_s[k];
+void hexapod_rear_right_ik_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
+  double gagen_in_target[3];
+  double gagen_out_q_up[3];
+  double gagen_out_q_down[3];
+  double gagen_out_reach[1];
+  double gagen_out_excess[1];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_target[gagen_k] = in_target[gagen_k * gagen_ld + gagen_s];
+    hexapod_rear_right_ik(gagen_in_target, gagen_out_q_up, gagen_out_q_down, gagen_out_reach, gagen_out_excess);
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_q_up[gagen_k * gagen_ld + gagen_s] = gagen_out_q_up[gagen_k];
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_q_down[gagen_k * gagen_ld + gagen_s] = gagen_out_q_down[gagen_k];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) out_reach[gagen_k * gagen_ld + gagen_s] = gagen_out_reach[gagen_k];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) out_excess[gagen_k * gagen_ld + gagen_s] = gagen_out_excess[gagen_k];
   }
 }
 
@@ -3044,22 +3044,22 @@ void hexapod_rear_right_ik_batch_columns_argv(long n, long ld, const double *con
 }
 
 /* leg rear_right: one damped least-squares IK step towards a body-frame toe target: mul=95 add=82 neg=0 div=3 cos=3 sin=3 sqrt=1 (flops=180) */
-void hexapod_rear_right_dls(const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
+void hexapod_rear_right_dls(const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   double w24, w25, w26, w27, w28, w29, w30, w31, w32;
-  w0 = q[0];
+  w0 = in_q[0];
   w1 = 0.45;
   w2 = 0.4;
   w3 = 0.5;
-  w4 = q[2];
+  w4 = in_q[2];
   w5 = w3 * w4;
   w6 = sin(w5);
   w7 = w6 * w6;
   w7 = w2 * w7;
   w1 = w1 - w7;
   w8 = 0.8;
-  w9 = q[1];
+  w9 = in_q[1];
   w10 = w3 * w9;
   w11 = sin(w10);
   w10 = cos(w10);
@@ -3156,12 +3156,12 @@ void hexapod_rear_right_dls(const double *restrict q, const double *restrict tar
   w10 = w25 * w25;
   w11 = w24 * w24;
   w10 = w10 + w11;
-  w11 = damping[0];
+  w11 = in_damping[0];
   w11 = w11 * w11;
   w10 = w10 + w11;
   w12 = w18 * w10;
   w8 = w8 - w12;
-  w12 = target[0];
+  w12 = in_target[0];
   w12 = w12 + w7;
   w12 = w12 + w13;
   w12 = w12 + w16;
@@ -3181,7 +3181,7 @@ void hexapod_rear_right_dls(const double *restrict q, const double *restrict tar
   w13 = w10 * w26;
   w19 = w14 * w14;
   w13 = w13 - w19;
-  w19 = target[1];
+  w19 = in_target[1];
   w19 = w19 + w31;
   w19 = w19 - w30;
   w13 = w13 * w19;
@@ -3189,7 +3189,7 @@ void hexapod_rear_right_dls(const double *restrict q, const double *restrict tar
   w13 = w14 * w18;
   w30 = w26 * w32;
   w13 = w13 - w30;
-  w30 = target[2];
+  w30 = in_target[2];
   w30 = w30 + w6;
   w30 = w30 + w15;
   w30 = w30 - w22;
@@ -3227,7 +3227,7 @@ void hexapod_rear_right_dls(const double *restrict q, const double *restrict tar
   w29 = w29 * w10;
   w29 = w29 + w29;
   w0 = w0 - w29;
-  q_next[0] = w0;
+  out_q_next[0] = w0;
   w20 = w20 * w10;
   w9 = w9 + w20;
   w32 = w32 * w12;
@@ -3244,39 +3244,39 @@ void hexapod_rear_right_dls(const double *restrict q, const double *restrict tar
   w23 = w23 * w27;
   w23 = w23 + w23;
   w9 = w9 + w23;
-  q_next[1] = w9;
+  out_q_next[1] = w9;
   w2 = w2 * w10;
   w4 = w4 + w2;
   w21 = w21 * w27;
   w4 = w4 + w21;
   w24 = w24 * w32;
   w4 = w4 + w24;
-  q_next[2] = w4;
+  out_q_next[2] = w4;
   w12 = w12 * w12;
   w19 = w19 * w19;
   w12 = w12 + w19;
   w30 = w30 * w30;
   w12 = w12 + w30;
   w12 = sqrt(w12);
-  error[0] = w12;
+  out_error[0] = w12;
 }
 
 /* hexapod_rear_right_dls_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_rear_right_dls_columns_from(long s0, long n, long ld, const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
-  double q_s[3];
-  double target_s[3];
-  double damping_s[1];
-  double q_next_s[3];
-  double error_s[1];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 3; ++k) q_s[k] = q[k * ld + s];
-    for (long k = 0; k < 3; ++k) target_s[k] = target[k * ld + s];
-    for (long k = 0; k < 1; ++k) damping_s[k] = damping[k * ld + s];
-    hexapod_rear_right_dls(q_s, target_s, damping_s, q_next_s, error_s);
-    for (long k = 0; k < 3; ++k) q_next[k * ld + s] = q_next_s[k];
-    for (long k = 0; k < 1; ++k) error[k * ld + s] = error_s[k];
+void hexapod_rear_right_dls_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
+  double gagen_in_q[3];
+  double gagen_in_target[3];
+  double gagen_in_damping[1];
+  double gagen_out_q_next[3];
+  double gagen_out_error[1];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_q[gagen_k] = in_q[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_target[gagen_k] = in_target[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) gagen_in_damping[gagen_k] = in_damping[gagen_k * gagen_ld + gagen_s];
+    hexapod_rear_right_dls(gagen_in_q, gagen_in_target, gagen_in_damping, gagen_out_q_next, gagen_out_error);
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_q_next[gagen_k * gagen_ld + gagen_s] = gagen_out_q_next[gagen_k];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) out_error[gagen_k * gagen_ld + gagen_s] = gagen_out_error[gagen_k];
   }
 }
 
@@ -3293,19 +3293,19 @@ void hexapod_rear_right_dls_batch_columns_argv(long n, long ld, const double *co
 }
 
 /* leg middle_right in PGA3D: FK motor, toe point and position, point and spatial Jacobians: mul=54 add=41 neg=6 div=0 cos=3 sin=3 (flops=101) */
-void hexapod_middle_right_fk_pga(const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+void hexapod_middle_right_fk_pga(const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17;
   w0 = 0.5;
-  w1 = q[0];
+  w1 = in_q[0];
   w1 = w0 * w1;
   w2 = 0.7853981633974483;
   w1 = w1 - w2;
   w2 = cos(w1);
-  w3 = q[1];
+  w3 = in_q[1];
   w3 = w0 * w3;
   w4 = cos(w3);
-  w5 = q[2];
+  w5 = in_q[2];
   w0 = w0 * w5;
   w5 = cos(w0);
   w6 = w4 * w5;
@@ -3314,7 +3314,7 @@ void hexapod_middle_right_fk_pga(const double *restrict q, double *restrict M, d
   w7 = w3 * w0;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  M[0] = w9;
+  out_M[0] = w9;
   w10 = 0.02500000000000001;
   w10 = w10 * w7;
   w7 = 0.225;
@@ -3326,13 +3326,13 @@ void hexapod_middle_right_fk_pga(const double *restrict q, double *restrict M, d
   w8 = w1 * w8;
   w11 = w6 * w8;
   w7 = w7 + w11;
-  M[1] = w7;
+  out_M[1] = w7;
   w10 = w1 * w10;
   w9 = w6 * w9;
   w10 = w10 + w9;
-  M[2] = w10;
+  out_M[2] = w10;
   w8 = -w8;
-  M[3] = w8;
+  out_M[3] = w8;
   w8 = 0.175;
   w10 = w3 * w5;
   w8 = w8 * w10;
@@ -3345,15 +3345,15 @@ void hexapod_middle_right_fk_pga(const double *restrict q, double *restrict M, d
   w10 = w1 * w7;
   w11 = w6 * w10;
   w9 = w9 + w11;
-  M[4] = w9;
+  out_M[4] = w9;
   w7 = w2 * w7;
-  M[5] = w7;
-  M[6] = w10;
+  out_M[5] = w7;
+  out_M[6] = w10;
   w8 = w1 * w8;
   w6 = w6 * w7;
   w8 = w8 + w6;
   w8 = -w8;
-  M[7] = w8;
+  out_M[7] = w8;
   w8 = 0.8;
   w6 = w3 * w3;
   w7 = w6 * w0;
@@ -3371,7 +3371,7 @@ void hexapod_middle_right_fk_pga(const double *restrict q, double *restrict M, d
   w13 = w13 + w13;
   w7 = w7 - w13;
   w13 = -w7;
-  toe[0] = w13;
+  out_toe[0] = w13;
   w2 = w1 * w2;
   w13 = 0.45;
   w13 = w13 - w11;
@@ -3386,31 +3386,31 @@ void hexapod_middle_right_fk_pga(const double *restrict q, double *restrict M, d
   w5 = w5 + w5;
   w11 = 0.12;
   w11 = w5 - w11;
-  toe[1] = w11;
+  out_toe[1] = w11;
   w1 = w1 * w1;
   w0 = w1 * w0;
   w12 = w12 + w0;
   w12 = w12 + w12;
   w13 = w13 - w12;
   w12 = -w13;
-  toe[2] = w12;
+  out_toe[2] = w12;
   w12 = 1.0;
-  toe[3] = w12;
-  p[0] = w13;
-  p[1] = w11;
-  p[2] = w7;
+  out_toe[3] = w12;
+  out_p[0] = w13;
+  out_p[1] = w11;
+  out_p[2] = w7;
   w5 = -w5;
-  J[0] = w5;
-  J[1] = w13;
+  out_J[0] = w5;
+  out_J[1] = w13;
   w5 = 0.0;
-  J[2] = w5;
+  out_J[2] = w5;
   w0 = w1 + w1;
   w0 = w12 - w0;
   w14 = w0 * w7;
-  J[3] = w14;
+  out_J[3] = w14;
   w7 = w2 * w7;
   w7 = w7 + w7;
-  J[4] = w7;
+  out_J[4] = w7;
   w15 = 0.05;
   w13 = w0 * w13;
   w16 = w15 - w13;
@@ -3420,71 +3420,71 @@ void hexapod_middle_right_fk_pga(const double *restrict q, double *restrict M, d
   w11 = w2 * w11;
   w11 = w11 + w11;
   w16 = w16 - w11;
-  J[5] = w16;
+  out_J[5] = w16;
   w9 = w10 * w9;
   w14 = w14 + w9;
   w1 = w1 * w3;
   w1 = w1 * w4;
   w1 = w8 * w1;
   w14 = w14 - w1;
-  J[6] = w14;
+  out_J[6] = w14;
   w3 = w2 * w3;
   w3 = w3 * w4;
   w8 = w8 * w3;
   w7 = w8 + w7;
-  J[7] = w7;
+  out_J[7] = w7;
   w7 = 0.25;
   w13 = w7 - w13;
   w10 = w10 * w6;
   w13 = w13 - w10;
   w13 = w13 - w17;
   w13 = w13 - w11;
-  J[8] = w13;
+  out_J[8] = w13;
   w13 = (-0.12);
-  S[0] = w13;
-  S[1] = w5;
-  S[2] = w5;
-  S[3] = w5;
-  S[4] = w5;
-  S[5] = w12;
-  S[6] = w5;
-  S[7] = w5;
+  out_S[0] = w13;
+  out_S[1] = w5;
+  out_S[2] = w5;
+  out_S[3] = w5;
+  out_S[4] = w5;
+  out_S[5] = w12;
+  out_S[6] = w5;
+  out_S[7] = w5;
   w15 = w15 - w17;
-  S[8] = w15;
+  out_S[8] = w15;
   w2 = w2 + w2;
   w2 = -w2;
-  S[9] = w2;
-  S[10] = w0;
-  S[11] = w5;
+  out_S[9] = w2;
+  out_S[10] = w0;
+  out_S[11] = w5;
   w9 = w9 - w1;
-  S[12] = w9;
-  S[13] = w8;
+  out_S[12] = w9;
+  out_S[13] = w8;
   w7 = w7 - w10;
   w7 = w7 - w17;
-  S[14] = w7;
-  S[15] = w2;
-  S[16] = w0;
-  S[17] = w5;
+  out_S[14] = w7;
+  out_S[15] = w2;
+  out_S[16] = w0;
+  out_S[17] = w5;
 }
 
 /* hexapod_middle_right_fk_pga_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_middle_right_fk_pga_columns_from(long s0, long n, long ld, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  double q_s[3];
-  double M_s[8];
-  double toe_s[4];
-  double p_s[3];
-  double J_s[9];
-  double S_s[18];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 3; ++k) q_s[k] = q[k * ld + s];
-    hexapod_middle_right_fk_pga(q_s, M_s, toe_s, p_s, J_s, S_s);
-    for (long k = 0; k < 8; ++k) M[k * ld + s] = M_s[k];
-    for (long k = 0; k < 4; ++k) toe[k * ld + s] = toe_s[k];
-    for (long k = 0; k < 3; ++k) p[k * ld + s] = p_s[k];
-    for (long k = 0; k < 9; ++k) J[k * ld + s] = J_s[k];
-    for (long k = 0; k < 18; ++k) S[k * ld + s] = S_s[k];
+void hexapod_middle_right_fk_pga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  double gagen_in_q[3];
+  double gagen_out_M[8];
+  double gagen_out_toe[4];
+  double gagen_out_p[3];
+  double gagen_out_J[9];
+  double gagen_out_S[18];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_q[gagen_k] = in_q[gagen_k * gagen_ld + gagen_s];
+    hexapod_middle_right_fk_pga(gagen_in_q, gagen_out_M, gagen_out_toe, gagen_out_p, gagen_out_J, gagen_out_S);
+    for (long gagen_k = 0; gagen_k < 8; ++gagen_k) out_M[gagen_k * gagen_ld + gagen_s] = gagen_out_M[gagen_k];
+    for (long gagen_k = 0; gagen_k < 4; ++gagen_k) out_toe[gagen_k * gagen_ld + gagen_s] = gagen_out_toe[gagen_k];
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_p[gagen_k * gagen_ld + gagen_s] = gagen_out_p[gagen_k];
+    for (long gagen_k = 0; gagen_k < 9; ++gagen_k) out_J[gagen_k * gagen_ld + gagen_s] = gagen_out_J[gagen_k];
+    for (long gagen_k = 0; gagen_k < 18; ++gagen_k) out_S[gagen_k * gagen_ld + gagen_s] = gagen_out_S[gagen_k];
   }
 }
 
@@ -3501,19 +3501,19 @@ void hexapod_middle_right_fk_pga_batch_columns_argv(long n, long ld, const doubl
 }
 
 /* leg middle_right in CGA3D: FK motor, toe point and position, point and spatial Jacobians: mul=62 add=52 neg=4 div=0 cos=3 sin=3 (flops=118) */
-void hexapod_middle_right_fk_cga(const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+void hexapod_middle_right_fk_cga(const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17, w18, w19, w20;
   w0 = 0.5;
-  w1 = q[0];
+  w1 = in_q[0];
   w1 = w0 * w1;
   w2 = 0.7853981633974483;
   w1 = w1 - w2;
   w2 = cos(w1);
-  w3 = q[1];
+  w3 = in_q[1];
   w3 = w0 * w3;
   w4 = cos(w3);
-  w5 = q[2];
+  w5 = in_q[2];
   w0 = w0 * w5;
   w5 = cos(w0);
   w6 = w4 * w5;
@@ -3522,18 +3522,18 @@ void hexapod_middle_right_fk_cga(const double *restrict q, double *restrict M, d
   w7 = w3 * w0;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  M[0] = w9;
+  out_M[0] = w9;
   w1 = sin(w1);
   w8 = w1 * w8;
   w10 = -w8;
-  M[1] = w10;
+  out_M[1] = w10;
   w10 = w4 * w0;
   w11 = w3 * w5;
   w12 = w10 + w11;
   w13 = w2 * w12;
-  M[2] = w13;
+  out_M[2] = w13;
   w12 = w1 * w12;
-  M[3] = w12;
+  out_M[3] = w12;
   w14 = 0.02500000000000001;
   w14 = w14 * w7;
   w7 = 0.225;
@@ -3543,11 +3543,11 @@ void hexapod_middle_right_fk_cga(const double *restrict q, double *restrict M, d
   w6 = 0.06;
   w8 = w6 * w8;
   w7 = w7 + w8;
-  M[4] = w7;
+  out_M[4] = w7;
   w14 = w1 * w14;
   w9 = w6 * w9;
   w14 = w14 + w9;
-  M[5] = w14;
+  out_M[5] = w14;
   w14 = 0.175;
   w14 = w14 * w11;
   w11 = 0.024999999999999994;
@@ -3556,14 +3556,14 @@ void hexapod_middle_right_fk_cga(const double *restrict q, double *restrict M, d
   w11 = w2 * w14;
   w12 = w6 * w12;
   w11 = w11 + w12;
-  M[6] = w11;
+  out_M[6] = w11;
   w14 = w1 * w14;
   w6 = w6 * w13;
   w14 = w14 + w6;
   w14 = -w14;
-  M[7] = w14;
+  out_M[7] = w14;
   w14 = 1.0;
-  toe[0] = w14;
+  out_toe[0] = w14;
   w6 = 0.45;
   w13 = w3 * w3;
   w11 = 0.4;
@@ -3587,13 +3587,13 @@ void hexapod_middle_right_fk_cga(const double *restrict q, double *restrict M, d
   w6 = w6 + w20;
   w6 = w6 - w10;
   w6 = w6 - w19;
-  toe[1] = w6;
+  out_toe[1] = w6;
   w1 = w1 * w2;
   w15 = w1 * w15;
   w15 = w15 + w15;
   w2 = 0.12;
   w2 = w15 - w2;
-  toe[2] = w2;
+  out_toe[2] = w2;
   w9 = w17 * w9;
   w9 = w9 + w9;
   w19 = w13 * w0;
@@ -3603,7 +3603,7 @@ void hexapod_middle_right_fk_cga(const double *restrict q, double *restrict M, d
   w0 = w0 * w5;
   w0 = w11 * w0;
   w9 = w9 - w0;
-  toe[3] = w9;
+  out_toe[3] = w9;
   w0 = 0.10845;
   w5 = 0.020000000000000004;
   w5 = w5 * w12;
@@ -3630,22 +3630,22 @@ void hexapod_middle_right_fk_cga(const double *restrict q, double *restrict M, d
   w5 = 0.04000000000000001;
   w5 = w5 * w18;
   w0 = w0 - w5;
-  toe[4] = w0;
-  p[0] = w6;
-  p[1] = w2;
-  p[2] = w9;
+  out_toe[4] = w0;
+  out_p[0] = w6;
+  out_p[1] = w2;
+  out_p[2] = w9;
   w15 = -w15;
-  J[0] = w15;
-  J[1] = w6;
+  out_J[0] = w15;
+  out_J[1] = w6;
   w15 = 0.0;
-  J[2] = w15;
+  out_J[2] = w15;
   w0 = w8 + w8;
   w0 = w14 - w0;
   w5 = w0 * w9;
-  J[3] = w5;
+  out_J[3] = w5;
   w9 = w1 * w9;
   w9 = w9 + w9;
-  J[4] = w9;
+  out_J[4] = w9;
   w18 = 0.05;
   w6 = w0 * w6;
   w12 = w18 - w6;
@@ -3654,71 +3654,71 @@ void hexapod_middle_right_fk_cga(const double *restrict q, double *restrict M, d
   w2 = w1 * w2;
   w2 = w2 + w2;
   w12 = w12 - w2;
-  J[5] = w12;
+  out_J[5] = w12;
   w17 = w11 * w17;
   w5 = w5 + w17;
   w8 = w8 * w3;
   w8 = w8 * w4;
   w8 = w16 * w8;
   w5 = w5 - w8;
-  J[6] = w5;
+  out_J[6] = w5;
   w3 = w1 * w3;
   w3 = w3 * w4;
   w16 = w16 * w3;
   w9 = w16 + w9;
-  J[7] = w9;
+  out_J[7] = w9;
   w9 = 0.25;
   w6 = w9 - w6;
   w11 = w11 * w13;
   w6 = w6 - w11;
   w6 = w6 - w10;
   w6 = w6 - w2;
-  J[8] = w6;
+  out_J[8] = w6;
   w6 = (-0.12);
-  S[0] = w6;
-  S[1] = w15;
-  S[2] = w15;
-  S[3] = w15;
-  S[4] = w15;
-  S[5] = w14;
-  S[6] = w15;
-  S[7] = w15;
+  out_S[0] = w6;
+  out_S[1] = w15;
+  out_S[2] = w15;
+  out_S[3] = w15;
+  out_S[4] = w15;
+  out_S[5] = w14;
+  out_S[6] = w15;
+  out_S[7] = w15;
   w18 = w18 - w10;
-  S[8] = w18;
+  out_S[8] = w18;
   w1 = w1 + w1;
   w1 = -w1;
-  S[9] = w1;
-  S[10] = w0;
-  S[11] = w15;
+  out_S[9] = w1;
+  out_S[10] = w0;
+  out_S[11] = w15;
   w17 = w17 - w8;
-  S[12] = w17;
-  S[13] = w16;
+  out_S[12] = w17;
+  out_S[13] = w16;
   w9 = w9 - w11;
   w9 = w9 - w10;
-  S[14] = w9;
-  S[15] = w1;
-  S[16] = w0;
-  S[17] = w15;
+  out_S[14] = w9;
+  out_S[15] = w1;
+  out_S[16] = w0;
+  out_S[17] = w15;
 }
 
 /* hexapod_middle_right_fk_cga_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_middle_right_fk_cga_columns_from(long s0, long n, long ld, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  double q_s[3];
-  double M_s[8];
-  double toe_s[5];
-  double p_s[3];
-  double J_s[9];
-  double S_s[18];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 3; ++k) q_s[k] = q[k * ld + s];
-    hexapod_middle_right_fk_cga(q_s, M_s, toe_s, p_s, J_s, S_s);
-    for (long k = 0; k < 8; ++k) M[k * ld + s] = M_s[k];
-    for (long k = 0; k < 5; ++k) toe[k * ld + s] = toe_s[k];
-    for (long k = 0; k < 3; ++k) p[k * ld + s] = p_s[k];
-    for (long k = 0; k < 9; ++k) J[k * ld + s] = J_s[k];
-    for (long k = 0; k < 18; ++k) S[k * ld + s] = S_s[k];
+void hexapod_middle_right_fk_cga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  double gagen_in_q[3];
+  double gagen_out_M[8];
+  double gagen_out_toe[5];
+  double gagen_out_p[3];
+  double gagen_out_J[9];
+  double gagen_out_S[18];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_q[gagen_k] = in_q[gagen_k * gagen_ld + gagen_s];
+    hexapod_middle_right_fk_cga(gagen_in_q, gagen_out_M, gagen_out_toe, gagen_out_p, gagen_out_J, gagen_out_S);
+    for (long gagen_k = 0; gagen_k < 8; ++gagen_k) out_M[gagen_k * gagen_ld + gagen_s] = gagen_out_M[gagen_k];
+    for (long gagen_k = 0; gagen_k < 5; ++gagen_k) out_toe[gagen_k * gagen_ld + gagen_s] = gagen_out_toe[gagen_k];
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_p[gagen_k * gagen_ld + gagen_s] = gagen_out_p[gagen_k];
+    for (long gagen_k = 0; gagen_k < 9; ++gagen_k) out_J[gagen_k * gagen_ld + gagen_s] = gagen_out_J[gagen_k];
+    for (long gagen_k = 0; gagen_k < 18; ++gagen_k) out_S[gagen_k * gagen_ld + gagen_s] = gagen_out_S[gagen_k];
   }
 }
 
@@ -3735,16 +3735,16 @@ void hexapod_middle_right_fk_cga_batch_columns_argv(long n, long ld, const doubl
 }
 
 /* leg middle_right: analytic IK of a body-frame toe target, knee up and down, with reachability: mul=9 add=11 neg=4 div=0 atan2=4 if_else_zero=5 lt=4 not=4 sqrt=3 (flops=24) */
-void hexapod_middle_right_ik(const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
+void hexapod_middle_right_ik(const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
   double w0, w1, w2, w3, w4, w5, w6, w7;
-  w0 = target[0];
-  w1 = target[1];
+  w0 = in_target[0];
+  w1 = in_target[1];
   w2 = 0.12;
   w1 = w1 + w2;
   w2 = -w1;
   w2 = atan2(w0, w2);
-  q_up[0] = w2;
-  w3 = target[2];
+  out_q_up[0] = w2;
+  w3 = in_target[2];
   w4 = -w3;
   w1 = w1 * w1;
   w0 = w0 * w0;
@@ -3770,19 +3770,19 @@ void hexapod_middle_right_ik(const double *restrict target, double *restrict q_u
   w0 = w0 * w1;
   w5 = atan2(w5, w0);
   w0 = w4 - w5;
-  q_up[1] = w0;
+  out_q_up[1] = w0;
   w0 = 12.499999999999998;
   w6 = w0 * w6;
   w0 = w0 * w1;
   w7 = 1.0;
   w0 = w0 - w7;
   w6 = atan2(w6, w0);
-  q_up[2] = w6;
-  q_down[0] = w2;
+  out_q_up[2] = w6;
+  out_q_down[0] = w2;
   w4 = w4 + w5;
-  q_down[1] = w4;
+  out_q_down[1] = w4;
   w6 = -w6;
-  q_down[2] = w6;
+  out_q_down[2] = w6;
   w6 = 1e-09;
   w4 = w1 < w3;
   w1 = sqrt(w1);
@@ -3799,26 +3799,26 @@ void hexapod_middle_right_ik(const double *restrict target, double *restrict q_u
   w6 = w6 < w3;
   w6 = !w6;
   w6 = w6 ? w7 : 0.0;
-  reach[0] = w6;
-  excess[0] = w3;
+  out_reach[0] = w6;
+  out_excess[0] = w3;
 }
 
 /* hexapod_middle_right_ik_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_middle_right_ik_columns_from(long s0, long n, long ld, const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
-  double target_s[3];
-  double q_up_s[3];
-  double q_down_s[3];
-  double reach_s[1];
-  double excess_s[1];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 3; ++k) target_s[k] = target[k * ld + s];
-    hexapod_middle_right_ik(target_s, q_up_s, q_down_s, reach_s, excess_s);
-    for (long k = 0; k < 3; ++k) q_up[k * ld + s] = q_up_s[k];
-    for (long k = 0; k < 3; ++k) q_down[k * ld + s] = q_down_s[k];
-    for (long k = 0; k < 1; ++k) reach[k * ld + s] = reach_s[k];
-    for (long k = 0; k < 1; ++k) excess[k * ld + s] = excess_s[k];
+void hexapod_middle_right_ik_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
+  double gagen_in_target[3];
+  double gagen_out_q_up[3];
+  double gagen_out_q_down[3];
+  double gagen_out_reach[1];
+  double gagen_out_excess[1];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_target[gagen_k] = in_target[gagen_k * gagen_ld + gagen_s];
+    hexapod_middle_right_ik(gagen_in_target, gagen_out_q_up, gagen_out_q_down, gagen_out_reach, gagen_out_excess);
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_q_up[gagen_k * gagen_ld + gagen_s] = gagen_out_q_up[gagen_k];
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_q_down[gagen_k * gagen_ld + gagen_s] = gagen_out_q_down[gagen_k];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) out_reach[gagen_k * gagen_ld + gagen_s] = gagen_out_reach[gagen_k];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) out_excess[gagen_k * gagen_ld + gagen_s] = gagen_out_excess[gagen_k];
   }
 }
 
@@ -3835,22 +3835,22 @@ void hexapod_middle_right_ik_batch_columns_argv(long n, long ld, const double *c
 }
 
 /* leg middle_right: one damped least-squares IK step towards a body-frame toe target: mul=94 add=77 neg=0 div=3 cos=3 sin=3 sqrt=1 (flops=174) */
-void hexapod_middle_right_dls(const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
+void hexapod_middle_right_dls(const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   double w24, w25, w26, w27, w28, w29, w30, w31, w32;
-  w0 = q[0];
+  w0 = in_q[0];
   w1 = 0.45;
   w2 = 0.4;
   w3 = 0.5;
-  w4 = q[2];
+  w4 = in_q[2];
   w5 = w3 * w4;
   w6 = sin(w5);
   w7 = w6 * w6;
   w7 = w2 * w7;
   w8 = w1 - w7;
   w9 = 0.8;
-  w10 = q[1];
+  w10 = in_q[1];
   w11 = w3 * w10;
   w12 = sin(w11);
   w11 = cos(w11);
@@ -3939,12 +3939,12 @@ void hexapod_middle_right_dls(const double *restrict q, const double *restrict t
   w11 = w32 * w32;
   w12 = w25 * w25;
   w11 = w11 + w12;
-  w12 = damping[0];
+  w12 = in_damping[0];
   w12 = w12 * w12;
   w11 = w11 + w12;
   w13 = w19 * w11;
   w9 = w9 - w13;
-  w13 = target[0];
+  w13 = in_target[0];
   w13 = w13 + w7;
   w13 = w13 + w14;
   w13 = w13 + w17;
@@ -3964,7 +3964,7 @@ void hexapod_middle_right_dls(const double *restrict q, const double *restrict t
   w14 = w11 * w26;
   w20 = w15 * w15;
   w14 = w14 - w20;
-  w20 = target[1];
+  w20 = in_target[1];
   w20 = w20 + w30;
   w20 = w20 - w29;
   w14 = w14 * w20;
@@ -3972,7 +3972,7 @@ void hexapod_middle_right_dls(const double *restrict q, const double *restrict t
   w14 = w15 * w19;
   w29 = w26 * w31;
   w14 = w14 - w29;
-  w29 = target[2];
+  w29 = in_target[2];
   w29 = w29 + w6;
   w29 = w29 + w16;
   w29 = w29 - w23;
@@ -4010,7 +4010,7 @@ void hexapod_middle_right_dls(const double *restrict q, const double *restrict t
   w28 = w28 * w11;
   w28 = w28 + w28;
   w0 = w0 - w28;
-  q_next[0] = w0;
+  out_q_next[0] = w0;
   w21 = w21 * w11;
   w10 = w10 + w21;
   w31 = w31 * w13;
@@ -4027,39 +4027,39 @@ void hexapod_middle_right_dls(const double *restrict q, const double *restrict t
   w24 = w24 * w1;
   w24 = w24 + w24;
   w10 = w10 + w24;
-  q_next[1] = w10;
+  out_q_next[1] = w10;
   w2 = w2 * w11;
   w4 = w4 + w2;
   w22 = w22 * w1;
   w4 = w4 + w22;
   w25 = w25 * w31;
   w4 = w4 + w25;
-  q_next[2] = w4;
+  out_q_next[2] = w4;
   w13 = w13 * w13;
   w20 = w20 * w20;
   w13 = w13 + w20;
   w29 = w29 * w29;
   w13 = w13 + w29;
   w13 = sqrt(w13);
-  error[0] = w13;
+  out_error[0] = w13;
 }
 
 /* hexapod_middle_right_dls_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_middle_right_dls_columns_from(long s0, long n, long ld, const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
-  double q_s[3];
-  double target_s[3];
-  double damping_s[1];
-  double q_next_s[3];
-  double error_s[1];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 3; ++k) q_s[k] = q[k * ld + s];
-    for (long k = 0; k < 3; ++k) target_s[k] = target[k * ld + s];
-    for (long k = 0; k < 1; ++k) damping_s[k] = damping[k * ld + s];
-    hexapod_middle_right_dls(q_s, target_s, damping_s, q_next_s, error_s);
-    for (long k = 0; k < 3; ++k) q_next[k * ld + s] = q_next_s[k];
-    for (long k = 0; k < 1; ++k) error[k * ld + s] = error_s[k];
+void hexapod_middle_right_dls_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
+  double gagen_in_q[3];
+  double gagen_in_target[3];
+  double gagen_in_damping[1];
+  double gagen_out_q_next[3];
+  double gagen_out_error[1];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_q[gagen_k] = in_q[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_target[gagen_k] = in_target[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) gagen_in_damping[gagen_k] = in_damping[gagen_k * gagen_ld + gagen_s];
+    hexapod_middle_right_dls(gagen_in_q, gagen_in_target, gagen_in_damping, gagen_out_q_next, gagen_out_error);
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_q_next[gagen_k * gagen_ld + gagen_s] = gagen_out_q_next[gagen_k];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) out_error[gagen_k * gagen_ld + gagen_s] = gagen_out_error[gagen_k];
   }
 }
 
@@ -4076,19 +4076,19 @@ void hexapod_middle_right_dls_batch_columns_argv(long n, long ld, const double *
 }
 
 /* leg front_right in PGA3D: FK motor, toe point and position, point and spatial Jacobians: mul=57 add=50 neg=6 div=0 cos=3 sin=3 (flops=113) */
-void hexapod_front_right_fk_pga(const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+void hexapod_front_right_fk_pga(const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17, w18;
   w0 = 0.5;
-  w1 = q[0];
+  w1 = in_q[0];
   w1 = w0 * w1;
   w2 = 0.2617993877991494;
   w1 = w1 - w2;
   w2 = cos(w1);
-  w3 = q[1];
+  w3 = in_q[1];
   w3 = w0 * w3;
   w4 = cos(w3);
-  w5 = q[2];
+  w5 = in_q[2];
   w0 = w0 * w5;
   w5 = cos(w0);
   w6 = w4 * w5;
@@ -4097,7 +4097,7 @@ void hexapod_front_right_fk_pga(const double *restrict q, double *restrict M, do
   w7 = w3 * w0;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  M[0] = w9;
+  out_M[0] = w9;
   w10 = 0.076961524227;
   w10 = w10 * w7;
   w7 = 0.276961524227;
@@ -4109,16 +4109,16 @@ void hexapod_front_right_fk_pga(const double *restrict q, double *restrict M, do
   w8 = w1 * w8;
   w11 = w6 * w8;
   w7 = w7 + w11;
-  M[1] = w7;
+  out_M[1] = w7;
   w10 = w1 * w10;
   w9 = w6 * w9;
   w10 = w10 + w9;
   w9 = 0.103923048454;
   w7 = w9 * w8;
   w10 = w10 + w7;
-  M[2] = w10;
+  out_M[2] = w10;
   w8 = -w8;
-  M[3] = w8;
+  out_M[3] = w8;
   w8 = 0.123038475773;
   w10 = w3 * w5;
   w8 = w8 * w10;
@@ -4131,17 +4131,17 @@ void hexapod_front_right_fk_pga(const double *restrict q, double *restrict M, do
   w10 = w1 * w11;
   w12 = w6 * w10;
   w7 = w7 + w12;
-  M[4] = w7;
+  out_M[4] = w7;
   w11 = w2 * w11;
-  M[5] = w11;
-  M[6] = w10;
+  out_M[5] = w11;
+  out_M[6] = w10;
   w8 = w1 * w8;
   w6 = w6 * w11;
   w8 = w8 + w6;
   w9 = w9 * w10;
   w8 = w8 + w9;
   w8 = -w8;
-  M[7] = w8;
+  out_M[7] = w8;
   w8 = 0.8;
   w9 = w3 * w3;
   w10 = w9 * w0;
@@ -4159,7 +4159,7 @@ void hexapod_front_right_fk_pga(const double *restrict q, double *restrict M, do
   w13 = w13 + w13;
   w10 = w10 - w13;
   w13 = -w10;
-  toe[0] = w13;
+  out_toe[0] = w13;
   w2 = w1 * w2;
   w13 = 0.45;
   w13 = w13 - w7;
@@ -4174,7 +4174,7 @@ void hexapod_front_right_fk_pga(const double *restrict q, double *restrict M, do
   w14 = w14 + w14;
   w15 = 0.06;
   w15 = w14 - w15;
-  toe[1] = w15;
+  out_toe[1] = w15;
   w16 = 0.553923048454;
   w16 = w16 - w7;
   w16 = w16 - w0;
@@ -4184,25 +4184,25 @@ void hexapod_front_right_fk_pga(const double *restrict q, double *restrict M, do
   w12 = w12 + w12;
   w16 = w16 - w12;
   w5 = -w16;
-  toe[2] = w5;
+  out_toe[2] = w5;
   w5 = 1.0;
-  toe[3] = w5;
-  p[0] = w16;
-  p[1] = w15;
-  p[2] = w10;
+  out_toe[3] = w5;
+  out_p[0] = w16;
+  out_p[1] = w15;
+  out_p[2] = w10;
   w14 = -w14;
-  J[0] = w14;
+  out_J[0] = w14;
   w13 = w13 - w12;
-  J[1] = w13;
+  out_J[1] = w13;
   w13 = 0.0;
-  J[2] = w13;
+  out_J[2] = w13;
   w12 = w1 + w1;
   w12 = w5 - w12;
   w14 = w12 * w10;
-  J[3] = w14;
+  out_J[3] = w14;
   w10 = w2 * w10;
   w10 = w10 + w10;
-  J[4] = w10;
+  out_J[4] = w10;
   w0 = 0.153923048454;
   w16 = w12 * w16;
   w7 = w0 - w16;
@@ -4215,19 +4215,19 @@ void hexapod_front_right_fk_pga(const double *restrict q, double *restrict M, do
   w15 = w2 * w15;
   w15 = w15 + w15;
   w7 = w7 - w15;
-  J[5] = w7;
+  out_J[5] = w7;
   w11 = w6 * w11;
   w14 = w14 + w11;
   w1 = w1 * w3;
   w1 = w1 * w4;
   w1 = w8 * w1;
   w14 = w14 - w1;
-  J[6] = w14;
+  out_J[6] = w14;
   w3 = w2 * w3;
   w3 = w3 * w4;
   w8 = w8 * w3;
   w10 = w8 + w10;
-  J[7] = w10;
+  out_J[7] = w10;
   w10 = 0.353923048454;
   w16 = w10 - w16;
   w6 = w6 * w9;
@@ -4235,55 +4235,55 @@ void hexapod_front_right_fk_pga(const double *restrict q, double *restrict M, do
   w16 = w16 - w17;
   w16 = w16 - w18;
   w16 = w16 - w15;
-  J[8] = w16;
+  out_J[8] = w16;
   w16 = (-0.06);
-  S[0] = w16;
+  out_S[0] = w16;
   w16 = (-0.103923048454);
-  S[1] = w16;
-  S[2] = w13;
-  S[3] = w13;
-  S[4] = w13;
-  S[5] = w5;
-  S[6] = w13;
-  S[7] = w13;
+  out_S[1] = w16;
+  out_S[2] = w13;
+  out_S[3] = w13;
+  out_S[4] = w13;
+  out_S[5] = w5;
+  out_S[6] = w13;
+  out_S[7] = w13;
   w0 = w0 - w17;
   w0 = w0 - w18;
-  S[8] = w0;
+  out_S[8] = w0;
   w2 = w2 + w2;
   w2 = -w2;
-  S[9] = w2;
-  S[10] = w12;
-  S[11] = w13;
+  out_S[9] = w2;
+  out_S[10] = w12;
+  out_S[11] = w13;
   w11 = w11 - w1;
-  S[12] = w11;
-  S[13] = w8;
+  out_S[12] = w11;
+  out_S[13] = w8;
   w10 = w10 - w6;
   w10 = w10 - w17;
   w10 = w10 - w18;
-  S[14] = w10;
-  S[15] = w2;
-  S[16] = w12;
-  S[17] = w13;
+  out_S[14] = w10;
+  out_S[15] = w2;
+  out_S[16] = w12;
+  out_S[17] = w13;
 }
 
 /* hexapod_front_right_fk_pga_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_front_right_fk_pga_columns_from(long s0, long n, long ld, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  double q_s[3];
-  double M_s[8];
-  double toe_s[4];
-  double p_s[3];
-  double J_s[9];
-  double S_s[18];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 3; ++k) q_s[k] = q[k * ld + s];
-    hexapod_front_right_fk_pga(q_s, M_s, toe_s, p_s, J_s, S_s);
-    for (long k = 0; k < 8; ++k) M[k * ld + s] = M_s[k];
-    for (long k = 0; k < 4; ++k) toe[k * ld + s] = toe_s[k];
-    for (long k = 0; k < 3; ++k) p[k * ld + s] = p_s[k];
-    for (long k = 0; k < 9; ++k) J[k * ld + s] = J_s[k];
-    for (long k = 0; k < 18; ++k) S[k * ld + s] = S_s[k];
+void hexapod_front_right_fk_pga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  double gagen_in_q[3];
+  double gagen_out_M[8];
+  double gagen_out_toe[4];
+  double gagen_out_p[3];
+  double gagen_out_J[9];
+  double gagen_out_S[18];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_q[gagen_k] = in_q[gagen_k * gagen_ld + gagen_s];
+    hexapod_front_right_fk_pga(gagen_in_q, gagen_out_M, gagen_out_toe, gagen_out_p, gagen_out_J, gagen_out_S);
+    for (long gagen_k = 0; gagen_k < 8; ++gagen_k) out_M[gagen_k * gagen_ld + gagen_s] = gagen_out_M[gagen_k];
+    for (long gagen_k = 0; gagen_k < 4; ++gagen_k) out_toe[gagen_k * gagen_ld + gagen_s] = gagen_out_toe[gagen_k];
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_p[gagen_k * gagen_ld + gagen_s] = gagen_out_p[gagen_k];
+    for (long gagen_k = 0; gagen_k < 9; ++gagen_k) out_J[gagen_k * gagen_ld + gagen_s] = gagen_out_J[gagen_k];
+    for (long gagen_k = 0; gagen_k < 18; ++gagen_k) out_S[gagen_k * gagen_ld + gagen_s] = gagen_out_S[gagen_k];
   }
 }
 
@@ -4300,20 +4300,20 @@ void hexapod_front_right_fk_pga_batch_columns_argv(long n, long ld, const double
 }
 
 /* leg front_right in CGA3D: FK motor, toe point and position, point and spatial Jacobians: mul=69 add=65 neg=4 div=0 cos=3 sin=3 (flops=138) */
-void hexapod_front_right_fk_cga(const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+void hexapod_front_right_fk_cga(const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   double w24;
   w0 = 0.5;
-  w1 = q[0];
+  w1 = in_q[0];
   w1 = w0 * w1;
   w2 = 0.2617993877991494;
   w1 = w1 - w2;
   w2 = cos(w1);
-  w3 = q[1];
+  w3 = in_q[1];
   w3 = w0 * w3;
   w4 = cos(w3);
-  w5 = q[2];
+  w5 = in_q[2];
   w0 = w0 * w5;
   w5 = cos(w0);
   w6 = w4 * w5;
@@ -4322,18 +4322,18 @@ void hexapod_front_right_fk_cga(const double *restrict q, double *restrict M, do
   w7 = w3 * w0;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  M[0] = w9;
+  out_M[0] = w9;
   w1 = sin(w1);
   w8 = w1 * w8;
   w10 = -w8;
-  M[1] = w10;
+  out_M[1] = w10;
   w10 = w4 * w0;
   w11 = w3 * w5;
   w12 = w10 + w11;
   w13 = w2 * w12;
-  M[2] = w13;
+  out_M[2] = w13;
   w12 = w1 * w12;
-  M[3] = w12;
+  out_M[3] = w12;
   w14 = 0.076961524227;
   w14 = w14 * w7;
   w7 = 0.276961524227;
@@ -4343,14 +4343,14 @@ void hexapod_front_right_fk_cga(const double *restrict q, double *restrict M, do
   w6 = 0.03;
   w15 = w6 * w8;
   w7 = w7 + w15;
-  M[4] = w7;
+  out_M[4] = w7;
   w14 = w1 * w14;
   w9 = w6 * w9;
   w14 = w14 + w9;
   w9 = 0.103923048454;
   w8 = w9 * w8;
   w14 = w14 + w8;
-  M[5] = w14;
+  out_M[5] = w14;
   w14 = 0.123038475773;
   w14 = w14 * w11;
   w11 = 0.07696152422699999;
@@ -4359,16 +4359,16 @@ void hexapod_front_right_fk_cga(const double *restrict q, double *restrict M, do
   w11 = w2 * w14;
   w10 = w6 * w12;
   w11 = w11 + w10;
-  M[6] = w11;
+  out_M[6] = w11;
   w14 = w1 * w14;
   w6 = w6 * w13;
   w14 = w14 + w6;
   w9 = w9 * w12;
   w14 = w14 + w9;
   w14 = -w14;
-  M[7] = w14;
+  out_M[7] = w14;
   w14 = 1.0;
-  toe[0] = w14;
+  out_toe[0] = w14;
   w9 = 0.553923048454;
   w12 = w3 * w3;
   w6 = 0.4;
@@ -4393,13 +4393,13 @@ void hexapod_front_right_fk_cga(const double *restrict q, double *restrict M, do
   w9 = w9 + w21;
   w9 = w9 - w11;
   w9 = w9 - w20;
-  toe[1] = w9;
+  out_toe[1] = w9;
   w1 = w1 * w2;
   w16 = w1 * w16;
   w16 = w16 + w16;
   w2 = 0.06;
   w2 = w16 - w2;
-  toe[2] = w2;
+  out_toe[2] = w2;
   w10 = w18 * w10;
   w10 = w10 + w10;
   w22 = w12 * w0;
@@ -4409,7 +4409,7 @@ void hexapod_front_right_fk_cga(const double *restrict q, double *restrict M, do
   w0 = w0 * w5;
   w0 = w6 * w0;
   w10 = w10 - w0;
-  toe[3] = w10;
+  out_toe[3] = w10;
   w0 = 0.1552153718042862;
   w5 = 0.0615692193816;
   w22 = w5 * w13;
@@ -4447,25 +4447,25 @@ void hexapod_front_right_fk_cga(const double *restrict q, double *restrict M, do
   w22 = 0.1231384387632;
   w22 = w22 * w19;
   w0 = w0 - w22;
-  toe[4] = w0;
-  p[0] = w9;
-  p[1] = w2;
-  p[2] = w10;
+  out_toe[4] = w0;
+  out_p[0] = w9;
+  out_p[1] = w2;
+  out_p[2] = w10;
   w16 = -w16;
-  J[0] = w16;
+  out_J[0] = w16;
   w15 = w15 + w21;
   w15 = w15 - w11;
   w15 = w15 - w20;
-  J[1] = w15;
+  out_J[1] = w15;
   w15 = 0.0;
-  J[2] = w15;
+  out_J[2] = w15;
   w20 = w7 + w7;
   w20 = w14 - w20;
   w11 = w20 * w10;
-  J[3] = w11;
+  out_J[3] = w11;
   w10 = w1 * w10;
   w10 = w10 + w10;
-  J[4] = w10;
+  out_J[4] = w10;
   w21 = 0.153923048454;
   w9 = w20 * w9;
   w16 = w21 - w9;
@@ -4476,19 +4476,19 @@ void hexapod_front_right_fk_cga(const double *restrict q, double *restrict M, do
   w2 = w1 * w2;
   w2 = w2 + w2;
   w16 = w16 - w2;
-  J[5] = w16;
+  out_J[5] = w16;
   w18 = w6 * w18;
   w11 = w11 + w18;
   w7 = w7 * w3;
   w7 = w7 * w4;
   w7 = w17 * w7;
   w11 = w11 - w7;
-  J[6] = w11;
+  out_J[6] = w11;
   w3 = w1 * w3;
   w3 = w3 * w4;
   w17 = w17 * w3;
   w10 = w17 + w10;
-  J[7] = w10;
+  out_J[7] = w10;
   w10 = 0.353923048454;
   w9 = w10 - w9;
   w6 = w6 * w12;
@@ -4496,55 +4496,55 @@ void hexapod_front_right_fk_cga(const double *restrict q, double *restrict M, do
   w9 = w9 - w23;
   w9 = w9 - w24;
   w9 = w9 - w2;
-  J[8] = w9;
+  out_J[8] = w9;
   w9 = (-0.06);
-  S[0] = w9;
+  out_S[0] = w9;
   w9 = (-0.103923048454);
-  S[1] = w9;
-  S[2] = w15;
-  S[3] = w15;
-  S[4] = w15;
-  S[5] = w14;
-  S[6] = w15;
-  S[7] = w15;
+  out_S[1] = w9;
+  out_S[2] = w15;
+  out_S[3] = w15;
+  out_S[4] = w15;
+  out_S[5] = w14;
+  out_S[6] = w15;
+  out_S[7] = w15;
   w21 = w21 - w23;
   w21 = w21 - w24;
-  S[8] = w21;
+  out_S[8] = w21;
   w1 = w1 + w1;
   w1 = -w1;
-  S[9] = w1;
-  S[10] = w20;
-  S[11] = w15;
+  out_S[9] = w1;
+  out_S[10] = w20;
+  out_S[11] = w15;
   w18 = w18 - w7;
-  S[12] = w18;
-  S[13] = w17;
+  out_S[12] = w18;
+  out_S[13] = w17;
   w10 = w10 - w6;
   w10 = w10 - w23;
   w10 = w10 - w24;
-  S[14] = w10;
-  S[15] = w1;
-  S[16] = w20;
-  S[17] = w15;
+  out_S[14] = w10;
+  out_S[15] = w1;
+  out_S[16] = w20;
+  out_S[17] = w15;
 }
 
 /* hexapod_front_right_fk_cga_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_front_right_fk_cga_columns_from(long s0, long n, long ld, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  double q_s[3];
-  double M_s[8];
-  double toe_s[5];
-  double p_s[3];
-  double J_s[9];
-  double S_s[18];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 3; ++k) q_s[k] = q[k * ld + s];
-    hexapod_front_right_fk_cga(q_s, M_s, toe_s, p_s, J_s, S_s);
-    for (long k = 0; k < 8; ++k) M[k * ld + s] = M_s[k];
-    for (long k = 0; k < 5; ++k) toe[k * ld + s] = toe_s[k];
-    for (long k = 0; k < 3; ++k) p[k * ld + s] = p_s[k];
-    for (long k = 0; k < 9; ++k) J[k * ld + s] = J_s[k];
-    for (long k = 0; k < 18; ++k) S[k * ld + s] = S_s[k];
+void hexapod_front_right_fk_cga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  double gagen_in_q[3];
+  double gagen_out_M[8];
+  double gagen_out_toe[5];
+  double gagen_out_p[3];
+  double gagen_out_J[9];
+  double gagen_out_S[18];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_q[gagen_k] = in_q[gagen_k * gagen_ld + gagen_s];
+    hexapod_front_right_fk_cga(gagen_in_q, gagen_out_M, gagen_out_toe, gagen_out_p, gagen_out_J, gagen_out_S);
+    for (long gagen_k = 0; gagen_k < 8; ++gagen_k) out_M[gagen_k * gagen_ld + gagen_s] = gagen_out_M[gagen_k];
+    for (long gagen_k = 0; gagen_k < 5; ++gagen_k) out_toe[gagen_k * gagen_ld + gagen_s] = gagen_out_toe[gagen_k];
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_p[gagen_k * gagen_ld + gagen_s] = gagen_out_p[gagen_k];
+    for (long gagen_k = 0; gagen_k < 9; ++gagen_k) out_J[gagen_k * gagen_ld + gagen_s] = gagen_out_J[gagen_k];
+    for (long gagen_k = 0; gagen_k < 18; ++gagen_k) out_S[gagen_k * gagen_ld + gagen_s] = gagen_out_S[gagen_k];
   }
 }
 
@@ -4561,15 +4561,15 @@ void hexapod_front_right_fk_cga_batch_columns_argv(long n, long ld, const double
 }
 
 /* leg front_right: analytic IK of a body-frame toe target, knee up and down, with reachability: mul=13 add=14 neg=3 div=0 atan2=4 if_else_zero=5 lt=4 not=4 sqrt=3 (flops=30) */
-void hexapod_front_right_ik(const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
+void hexapod_front_right_ik(const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
   double w0, w1, w2, w3, w4, w5, w6, w7;
   w0 = 6.632658891371746e-14;
   w1 = 0.8660254037844387;
-  w2 = target[1];
+  w2 = in_target[1];
   w3 = w1 * w2;
   w0 = w0 + w3;
   w3 = 0.49999999999999994;
-  w4 = target[0];
+  w4 = in_target[0];
   w5 = w3 * w4;
   w0 = w0 + w5;
   w1 = w1 * w4;
@@ -4578,8 +4578,8 @@ void hexapod_front_right_ik(const double *restrict target, double *restrict q_up
   w3 = w3 * w2;
   w1 = w1 - w3;
   w3 = atan2(w0, w1);
-  q_up[0] = w3;
-  w2 = target[2];
+  out_q_up[0] = w3;
+  w2 = in_target[2];
   w4 = -w2;
   w1 = w1 * w1;
   w0 = w0 * w0;
@@ -4605,19 +4605,19 @@ void hexapod_front_right_ik(const double *restrict target, double *restrict q_up
   w0 = w0 * w1;
   w5 = atan2(w5, w0);
   w0 = w4 - w5;
-  q_up[1] = w0;
+  out_q_up[1] = w0;
   w0 = 12.499999999999998;
   w6 = w0 * w6;
   w0 = w0 * w1;
   w7 = 1.0;
   w0 = w0 - w7;
   w6 = atan2(w6, w0);
-  q_up[2] = w6;
-  q_down[0] = w3;
+  out_q_up[2] = w6;
+  out_q_down[0] = w3;
   w4 = w4 + w5;
-  q_down[1] = w4;
+  out_q_down[1] = w4;
   w6 = -w6;
-  q_down[2] = w6;
+  out_q_down[2] = w6;
   w6 = 1e-09;
   w4 = w1 < w2;
   w1 = sqrt(w1);
@@ -4634,26 +4634,26 @@ void hexapod_front_right_ik(const double *restrict target, double *restrict q_up
   w6 = w6 < w2;
   w6 = !w6;
   w6 = w6 ? w7 : 0.0;
-  reach[0] = w6;
-  excess[0] = w2;
+  out_reach[0] = w6;
+  out_excess[0] = w2;
 }
 
 /* hexapod_front_right_ik_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_front_right_ik_columns_from(long s0, long n, long ld, const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
-  double target_s[3];
-  double q_up_s[3];
-  double q_down_s[3];
-  double reach_s[1];
-  double excess_s[1];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 3; ++k) target_s[k] = target[k * ld + s];
-    hexapod_front_right_ik(target_s, q_up_s, q_down_s, reach_s, excess_s);
-    for (long k = 0; k < 3; ++k) q_up[k * ld + s] = q_up_s[k];
-    for (long k = 0; k < 3; ++k) q_down[k * ld + s] = q_down_s[k];
-    for (long k = 0; k < 1; ++k) reach[k * ld + s] = reach_s[k];
-    for (long k = 0; k < 1; ++k) excess[k * ld + s] = excess_s[k];
+void hexapod_front_right_ik_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
+  double gagen_in_target[3];
+  double gagen_out_q_up[3];
+  double gagen_out_q_down[3];
+  double gagen_out_reach[1];
+  double gagen_out_excess[1];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_target[gagen_k] = in_target[gagen_k * gagen_ld + gagen_s];
+    hexapod_front_right_ik(gagen_in_target, gagen_out_q_up, gagen_out_q_down, gagen_out_reach, gagen_out_excess);
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_q_up[gagen_k * gagen_ld + gagen_s] = gagen_out_q_up[gagen_k];
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_q_down[gagen_k * gagen_ld + gagen_s] = gagen_out_q_down[gagen_k];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) out_reach[gagen_k * gagen_ld + gagen_s] = gagen_out_reach[gagen_k];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) out_excess[gagen_k * gagen_ld + gagen_s] = gagen_out_excess[gagen_k];
   }
 }
 
@@ -4670,22 +4670,22 @@ void hexapod_front_right_ik_batch_columns_argv(long n, long ld, const double *co
 }
 
 /* leg front_right: one damped least-squares IK step towards a body-frame toe target: mul=95 add=82 neg=0 div=3 cos=3 sin=3 sqrt=1 (flops=180) */
-void hexapod_front_right_dls(const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
+void hexapod_front_right_dls(const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   double w24, w25, w26, w27, w28, w29, w30, w31, w32, w33;
-  w0 = q[0];
+  w0 = in_q[0];
   w1 = 0.45;
   w2 = 0.4;
   w3 = 0.5;
-  w4 = q[2];
+  w4 = in_q[2];
   w5 = w3 * w4;
   w6 = sin(w5);
   w7 = w6 * w6;
   w7 = w2 * w7;
   w1 = w1 - w7;
   w8 = 0.8;
-  w9 = q[1];
+  w9 = in_q[1];
   w10 = w3 * w9;
   w11 = sin(w10);
   w10 = cos(w10);
@@ -4782,12 +4782,12 @@ void hexapod_front_right_dls(const double *restrict q, const double *restrict ta
   w10 = w33 * w33;
   w11 = w24 * w24;
   w10 = w10 + w11;
-  w11 = damping[0];
+  w11 = in_damping[0];
   w11 = w11 * w11;
   w10 = w10 + w11;
   w12 = w18 * w10;
   w8 = w8 - w12;
-  w12 = target[0];
+  w12 = in_target[0];
   w12 = w12 + w7;
   w12 = w12 + w13;
   w12 = w12 + w16;
@@ -4807,7 +4807,7 @@ void hexapod_front_right_dls(const double *restrict q, const double *restrict ta
   w13 = w10 * w25;
   w19 = w28 * w28;
   w13 = w13 - w19;
-  w19 = target[1];
+  w19 = in_target[1];
   w19 = w19 + w31;
   w19 = w19 - w30;
   w13 = w13 * w19;
@@ -4815,7 +4815,7 @@ void hexapod_front_right_dls(const double *restrict q, const double *restrict ta
   w13 = w28 * w18;
   w30 = w25 * w32;
   w13 = w13 - w30;
-  w30 = target[2];
+  w30 = in_target[2];
   w30 = w30 + w6;
   w30 = w30 + w15;
   w30 = w30 - w22;
@@ -4853,7 +4853,7 @@ void hexapod_front_right_dls(const double *restrict q, const double *restrict ta
   w29 = w29 * w10;
   w29 = w29 + w29;
   w0 = w0 - w29;
-  q_next[0] = w0;
+  out_q_next[0] = w0;
   w20 = w20 * w10;
   w9 = w9 + w20;
   w32 = w32 * w12;
@@ -4870,39 +4870,39 @@ void hexapod_front_right_dls(const double *restrict q, const double *restrict ta
   w23 = w23 * w26;
   w23 = w23 + w23;
   w9 = w9 + w23;
-  q_next[1] = w9;
+  out_q_next[1] = w9;
   w2 = w2 * w10;
   w4 = w4 + w2;
   w21 = w21 * w26;
   w4 = w4 + w21;
   w24 = w24 * w32;
   w4 = w4 + w24;
-  q_next[2] = w4;
+  out_q_next[2] = w4;
   w12 = w12 * w12;
   w19 = w19 * w19;
   w12 = w12 + w19;
   w30 = w30 * w30;
   w12 = w12 + w30;
   w12 = sqrt(w12);
-  error[0] = w12;
+  out_error[0] = w12;
 }
 
 /* hexapod_front_right_dls_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_front_right_dls_columns_from(long s0, long n, long ld, const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
-  double q_s[3];
-  double target_s[3];
-  double damping_s[1];
-  double q_next_s[3];
-  double error_s[1];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 3; ++k) q_s[k] = q[k * ld + s];
-    for (long k = 0; k < 3; ++k) target_s[k] = target[k * ld + s];
-    for (long k = 0; k < 1; ++k) damping_s[k] = damping[k * ld + s];
-    hexapod_front_right_dls(q_s, target_s, damping_s, q_next_s, error_s);
-    for (long k = 0; k < 3; ++k) q_next[k * ld + s] = q_next_s[k];
-    for (long k = 0; k < 1; ++k) error[k * ld + s] = error_s[k];
+void hexapod_front_right_dls_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
+  double gagen_in_q[3];
+  double gagen_in_target[3];
+  double gagen_in_damping[1];
+  double gagen_out_q_next[3];
+  double gagen_out_error[1];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_q[gagen_k] = in_q[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_target[gagen_k] = in_target[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) gagen_in_damping[gagen_k] = in_damping[gagen_k * gagen_ld + gagen_s];
+    hexapod_front_right_dls(gagen_in_q, gagen_in_target, gagen_in_damping, gagen_out_q_next, gagen_out_error);
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_q_next[gagen_k * gagen_ld + gagen_s] = gagen_out_q_next[gagen_k];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) out_error[gagen_k * gagen_ld + gagen_s] = gagen_out_error[gagen_k];
   }
 }
 
@@ -4919,7 +4919,7 @@ void hexapod_front_right_dls_batch_columns_argv(long n, long ld, const double *c
 }
 
 /* all 6 toes in PGA3D: stacked positions and their 18\xd718 Jacobian: mul=208 add=188 neg=6 div=0 cos=18 sin=18 (flops=402) */
-void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *restrict J) {
+void hexapod_body_fk_pga(const double *restrict in_q, double *restrict out_p, double *restrict out_J) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   double w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -4930,14 +4930,14 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w0 = 0.553923048454;
   w1 = 0.4;
   w2 = 0.5;
-  w3 = q[2];
+  w3 = in_q[2];
   w3 = w2 * w3;
   w4 = sin(w3);
   w5 = w4 * w4;
   w5 = w1 * w5;
   w6 = w0 - w5;
   w7 = 0.8;
-  w8 = q[1];
+  w8 = in_q[1];
   w8 = w2 * w8;
   w9 = sin(w8);
   w8 = cos(w8);
@@ -4951,7 +4951,7 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w13 = w1 - w5;
   w14 = w12 * w13;
   w15 = 0.2617993877991494;
-  w16 = q[0];
+  w16 = in_q[0];
   w16 = w2 * w16;
   w16 = w15 + w16;
   w17 = sin(w16);
@@ -4965,14 +4965,14 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w14 = w14 + w20;
   w14 = w14 + w14;
   w6 = w6 - w14;
-  p[0] = w6;
+  out_p[0] = w6;
   w20 = 0.06;
   w16 = cos(w16);
   w17 = w17 * w16;
   w11 = w17 * w11;
   w11 = w11 + w11;
   w16 = w20 + w11;
-  p[1] = w16;
+  out_p[1] = w16;
   w21 = w12 * w4;
   w21 = w21 * w3;
   w21 = w7 * w21;
@@ -4982,14 +4982,14 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w13 = w10 * w13;
   w13 = w13 + w13;
   w21 = w21 - w13;
-  p[2] = w21;
-  w13 = q[5];
+  out_p[2] = w21;
+  w13 = in_q[5];
   w13 = w2 * w13;
   w4 = sin(w13);
   w3 = w4 * w4;
   w3 = w1 * w3;
   w22 = w19 - w3;
-  w23 = q[4];
+  w23 = in_q[4];
   w23 = w2 * w23;
   w24 = sin(w23);
   w23 = cos(w23);
@@ -5003,7 +5003,7 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w3 = w1 - w3;
   w27 = w26 * w3;
   w28 = 0.7853981633974483;
-  w29 = q[3];
+  w29 = in_q[3];
   w29 = w2 * w29;
   w29 = w28 + w29;
   w30 = sin(w29);
@@ -5014,14 +5014,14 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w27 = w27 + w33;
   w27 = w27 + w27;
   w22 = w22 - w27;
-  p[3] = w22;
+  out_p[3] = w22;
   w27 = 0.12;
   w29 = cos(w29);
   w30 = w30 * w29;
   w32 = w30 * w32;
   w32 = w32 + w32;
   w29 = w27 + w32;
-  p[4] = w29;
+  out_p[4] = w29;
   w33 = w26 * w4;
   w33 = w33 * w13;
   w33 = w7 * w33;
@@ -5031,15 +5031,15 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w3 = w25 * w3;
   w3 = w3 + w3;
   w33 = w33 - w3;
-  p[5] = w33;
+  out_p[5] = w33;
   w3 = 0.34607695154600004;
-  w4 = q[8];
+  w4 = in_q[8];
   w4 = w2 * w4;
   w13 = sin(w4);
   w34 = w13 * w13;
   w34 = w1 * w34;
   w35 = w3 - w34;
-  w36 = q[7];
+  w36 = in_q[7];
   w36 = w2 * w36;
   w37 = sin(w36);
   w36 = cos(w36);
@@ -5053,7 +5053,7 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w41 = w1 - w34;
   w42 = w40 * w41;
   w43 = 1.3089969389957472;
-  w44 = q[6];
+  w44 = in_q[6];
   w44 = w2 * w44;
   w44 = w43 + w44;
   w45 = sin(w44);
@@ -5066,13 +5066,13 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w42 = w42 + w47;
   w42 = w42 + w42;
   w35 = w35 - w42;
-  p[6] = w35;
+  out_p[6] = w35;
   w44 = cos(w44);
   w45 = w45 * w44;
   w39 = w45 * w39;
   w39 = w39 + w39;
   w44 = w20 + w39;
-  p[7] = w44;
+  out_p[7] = w44;
   w47 = w40 * w13;
   w47 = w47 * w4;
   w47 = w7 * w47;
@@ -5082,14 +5082,14 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w41 = w38 * w41;
   w41 = w41 + w41;
   w47 = w47 - w41;
-  p[8] = w47;
-  w41 = q[11];
+  out_p[8] = w47;
+  w41 = in_q[11];
   w41 = w2 * w41;
   w13 = sin(w41);
   w4 = w13 * w13;
   w4 = w1 * w4;
   w3 = w3 - w4;
-  w48 = q[10];
+  w48 = in_q[10];
   w48 = w2 * w48;
   w49 = sin(w48);
   w48 = cos(w48);
@@ -5102,7 +5102,7 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w52 = w49 * w49;
   w53 = w1 - w4;
   w54 = w52 * w53;
-  w55 = q[9];
+  w55 = in_q[9];
   w55 = w2 * w55;
   w55 = w55 - w43;
   w43 = sin(w55);
@@ -5115,13 +5115,13 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w54 = w54 + w57;
   w54 = w54 + w54;
   w3 = w3 - w54;
-  p[9] = w3;
+  out_p[9] = w3;
   w55 = cos(w55);
   w43 = w43 * w55;
   w51 = w43 * w51;
   w51 = w51 + w51;
   w55 = w51 - w20;
-  p[10] = w55;
+  out_p[10] = w55;
   w57 = w52 * w13;
   w57 = w57 * w41;
   w57 = w7 * w57;
@@ -5131,14 +5131,14 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w53 = w50 * w53;
   w53 = w53 + w53;
   w57 = w57 - w53;
-  p[11] = w57;
-  w53 = q[14];
+  out_p[11] = w57;
+  w53 = in_q[14];
   w53 = w2 * w53;
   w13 = sin(w53);
   w41 = w13 * w13;
   w41 = w1 * w41;
   w58 = w19 - w41;
-  w59 = q[13];
+  w59 = in_q[13];
   w59 = w2 * w59;
   w60 = sin(w59);
   w59 = cos(w59);
@@ -5151,7 +5151,7 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w62 = w60 * w60;
   w41 = w1 - w41;
   w63 = w62 * w41;
-  w64 = q[12];
+  w64 = in_q[12];
   w64 = w2 * w64;
   w64 = w64 - w28;
   w28 = sin(w64);
@@ -5162,13 +5162,13 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w63 = w63 + w67;
   w63 = w63 + w63;
   w58 = w58 - w63;
-  p[12] = w58;
+  out_p[12] = w58;
   w64 = cos(w64);
   w28 = w28 * w64;
   w66 = w28 * w66;
   w66 = w66 + w66;
   w64 = w66 - w27;
-  p[13] = w64;
+  out_p[13] = w64;
   w63 = w62 * w13;
   w63 = w63 * w53;
   w63 = w7 * w63;
@@ -5178,14 +5178,14 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w41 = w61 * w41;
   w41 = w41 + w41;
   w63 = w63 - w41;
-  p[14] = w63;
-  w41 = q[17];
+  out_p[14] = w63;
+  w41 = in_q[17];
   w41 = w2 * w41;
   w13 = sin(w41);
   w53 = w13 * w13;
   w53 = w1 * w53;
   w0 = w0 - w53;
-  w67 = q[16];
+  w67 = in_q[16];
   w67 = w2 * w67;
   w68 = sin(w67);
   w67 = cos(w67);
@@ -5198,7 +5198,7 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w71 = w68 * w68;
   w72 = w1 - w53;
   w73 = w71 * w72;
-  w74 = q[15];
+  w74 = in_q[15];
   w2 = w2 * w74;
   w2 = w2 - w15;
   w15 = sin(w2);
@@ -5211,13 +5211,13 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w73 = w73 + w53;
   w73 = w73 + w73;
   w0 = w0 - w73;
-  p[15] = w0;
+  out_p[15] = w0;
   w2 = cos(w2);
   w15 = w15 * w2;
   w70 = w15 * w70;
   w70 = w70 + w70;
   w20 = w70 - w20;
-  p[16] = w20;
+  out_p[16] = w20;
   w2 = w71 * w13;
   w2 = w2 * w41;
   w2 = w7 * w2;
@@ -5227,36 +5227,36 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w72 = w69 * w72;
   w72 = w72 + w72;
   w2 = w2 - w72;
-  p[17] = w2;
+  out_p[17] = w2;
   w11 = -w11;
-  J[0] = w11;
+  out_J[0] = w11;
   w5 = w5 - w14;
-  J[1] = w5;
+  out_J[1] = w5;
   w5 = 0.0;
-  J[2] = w5;
-  J[3] = w5;
-  J[4] = w5;
-  J[5] = w5;
-  J[6] = w5;
-  J[7] = w5;
-  J[8] = w5;
-  J[9] = w5;
-  J[10] = w5;
-  J[11] = w5;
-  J[12] = w5;
-  J[13] = w5;
-  J[14] = w5;
-  J[15] = w5;
-  J[16] = w5;
-  J[17] = w5;
+  out_J[2] = w5;
+  out_J[3] = w5;
+  out_J[4] = w5;
+  out_J[5] = w5;
+  out_J[6] = w5;
+  out_J[7] = w5;
+  out_J[8] = w5;
+  out_J[9] = w5;
+  out_J[10] = w5;
+  out_J[11] = w5;
+  out_J[12] = w5;
+  out_J[13] = w5;
+  out_J[14] = w5;
+  out_J[15] = w5;
+  out_J[16] = w5;
+  out_J[17] = w5;
   w14 = 1.0;
   w11 = w18 + w18;
   w11 = w14 - w11;
   w72 = w11 * w21;
-  J[18] = w72;
+  out_J[18] = w72;
   w21 = w17 * w21;
   w21 = w21 + w21;
-  J[19] = w21;
+  out_J[19] = w21;
   w13 = 0.153923048454;
   w41 = w27 * w17;
   w53 = w13 + w41;
@@ -5268,34 +5268,34 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w16 = w17 * w16;
   w16 = w16 + w16;
   w53 = w53 - w16;
-  J[20] = w53;
-  J[21] = w5;
-  J[22] = w5;
-  J[23] = w5;
-  J[24] = w5;
-  J[25] = w5;
-  J[26] = w5;
-  J[27] = w5;
-  J[28] = w5;
-  J[29] = w5;
-  J[30] = w5;
-  J[31] = w5;
-  J[32] = w5;
-  J[33] = w5;
-  J[34] = w5;
-  J[35] = w5;
+  out_J[20] = w53;
+  out_J[21] = w5;
+  out_J[22] = w5;
+  out_J[23] = w5;
+  out_J[24] = w5;
+  out_J[25] = w5;
+  out_J[26] = w5;
+  out_J[27] = w5;
+  out_J[28] = w5;
+  out_J[29] = w5;
+  out_J[30] = w5;
+  out_J[31] = w5;
+  out_J[32] = w5;
+  out_J[33] = w5;
+  out_J[34] = w5;
+  out_J[35] = w5;
   w10 = w1 * w10;
   w72 = w72 + w10;
   w18 = w18 * w9;
   w18 = w18 * w8;
   w18 = w7 * w18;
   w72 = w72 - w18;
-  J[36] = w72;
+  out_J[36] = w72;
   w17 = w17 * w9;
   w17 = w17 * w8;
   w17 = w7 * w17;
   w17 = w17 + w21;
-  J[37] = w17;
+  out_J[37] = w17;
   w17 = 0.353923048454;
   w41 = w17 + w41;
   w41 = w41 - w11;
@@ -5303,51 +5303,51 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w41 = w41 - w12;
   w41 = w41 - w75;
   w41 = w41 - w16;
-  J[38] = w41;
-  J[39] = w5;
-  J[40] = w5;
-  J[41] = w5;
-  J[42] = w5;
-  J[43] = w5;
-  J[44] = w5;
-  J[45] = w5;
-  J[46] = w5;
-  J[47] = w5;
-  J[48] = w5;
-  J[49] = w5;
-  J[50] = w5;
-  J[51] = w5;
-  J[52] = w5;
-  J[53] = w5;
-  J[54] = w5;
-  J[55] = w5;
-  J[56] = w5;
+  out_J[38] = w41;
+  out_J[39] = w5;
+  out_J[40] = w5;
+  out_J[41] = w5;
+  out_J[42] = w5;
+  out_J[43] = w5;
+  out_J[44] = w5;
+  out_J[45] = w5;
+  out_J[46] = w5;
+  out_J[47] = w5;
+  out_J[48] = w5;
+  out_J[49] = w5;
+  out_J[50] = w5;
+  out_J[51] = w5;
+  out_J[52] = w5;
+  out_J[53] = w5;
+  out_J[54] = w5;
+  out_J[55] = w5;
+  out_J[56] = w5;
   w32 = -w32;
-  J[57] = w32;
-  J[58] = w22;
-  J[59] = w5;
-  J[60] = w5;
-  J[61] = w5;
-  J[62] = w5;
-  J[63] = w5;
-  J[64] = w5;
-  J[65] = w5;
-  J[66] = w5;
-  J[67] = w5;
-  J[68] = w5;
-  J[69] = w5;
-  J[70] = w5;
-  J[71] = w5;
-  J[72] = w5;
-  J[73] = w5;
-  J[74] = w5;
+  out_J[57] = w32;
+  out_J[58] = w22;
+  out_J[59] = w5;
+  out_J[60] = w5;
+  out_J[61] = w5;
+  out_J[62] = w5;
+  out_J[63] = w5;
+  out_J[64] = w5;
+  out_J[65] = w5;
+  out_J[66] = w5;
+  out_J[67] = w5;
+  out_J[68] = w5;
+  out_J[69] = w5;
+  out_J[70] = w5;
+  out_J[71] = w5;
+  out_J[72] = w5;
+  out_J[73] = w5;
+  out_J[74] = w5;
   w32 = w31 + w31;
   w32 = w14 - w32;
   w41 = w32 * w33;
-  J[75] = w41;
+  out_J[75] = w41;
   w33 = w30 * w33;
   w33 = w33 + w33;
-  J[76] = w33;
+  out_J[76] = w33;
   w16 = 0.05;
   w75 = 0.24;
   w12 = w75 * w30;
@@ -5357,86 +5357,86 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w29 = w30 * w29;
   w29 = w29 + w29;
   w11 = w11 - w29;
-  J[77] = w11;
-  J[78] = w5;
-  J[79] = w5;
-  J[80] = w5;
-  J[81] = w5;
-  J[82] = w5;
-  J[83] = w5;
-  J[84] = w5;
-  J[85] = w5;
-  J[86] = w5;
-  J[87] = w5;
-  J[88] = w5;
-  J[89] = w5;
-  J[90] = w5;
-  J[91] = w5;
-  J[92] = w5;
+  out_J[77] = w11;
+  out_J[78] = w5;
+  out_J[79] = w5;
+  out_J[80] = w5;
+  out_J[81] = w5;
+  out_J[82] = w5;
+  out_J[83] = w5;
+  out_J[84] = w5;
+  out_J[85] = w5;
+  out_J[86] = w5;
+  out_J[87] = w5;
+  out_J[88] = w5;
+  out_J[89] = w5;
+  out_J[90] = w5;
+  out_J[91] = w5;
+  out_J[92] = w5;
   w25 = w1 * w25;
   w41 = w41 + w25;
   w31 = w31 * w24;
   w31 = w31 * w23;
   w31 = w7 * w31;
   w41 = w41 - w31;
-  J[93] = w41;
+  out_J[93] = w41;
   w30 = w30 * w24;
   w30 = w30 * w23;
   w30 = w7 * w30;
   w30 = w30 + w33;
-  J[94] = w30;
+  out_J[94] = w30;
   w30 = 0.25;
   w12 = w30 + w12;
   w12 = w12 - w32;
   w26 = w1 * w26;
   w12 = w12 - w26;
   w12 = w12 - w29;
-  J[95] = w12;
-  J[96] = w5;
-  J[97] = w5;
-  J[98] = w5;
-  J[99] = w5;
-  J[100] = w5;
-  J[101] = w5;
-  J[102] = w5;
-  J[103] = w5;
-  J[104] = w5;
-  J[105] = w5;
-  J[106] = w5;
-  J[107] = w5;
-  J[108] = w5;
-  J[109] = w5;
-  J[110] = w5;
-  J[111] = w5;
-  J[112] = w5;
-  J[113] = w5;
+  out_J[95] = w12;
+  out_J[96] = w5;
+  out_J[97] = w5;
+  out_J[98] = w5;
+  out_J[99] = w5;
+  out_J[100] = w5;
+  out_J[101] = w5;
+  out_J[102] = w5;
+  out_J[103] = w5;
+  out_J[104] = w5;
+  out_J[105] = w5;
+  out_J[106] = w5;
+  out_J[107] = w5;
+  out_J[108] = w5;
+  out_J[109] = w5;
+  out_J[110] = w5;
+  out_J[111] = w5;
+  out_J[112] = w5;
+  out_J[113] = w5;
   w39 = -w39;
-  J[114] = w39;
+  out_J[114] = w39;
   w34 = w34 - w42;
-  J[115] = w34;
-  J[116] = w5;
-  J[117] = w5;
-  J[118] = w5;
-  J[119] = w5;
-  J[120] = w5;
-  J[121] = w5;
-  J[122] = w5;
-  J[123] = w5;
-  J[124] = w5;
-  J[125] = w5;
-  J[126] = w5;
-  J[127] = w5;
-  J[128] = w5;
-  J[129] = w5;
-  J[130] = w5;
-  J[131] = w5;
+  out_J[115] = w34;
+  out_J[116] = w5;
+  out_J[117] = w5;
+  out_J[118] = w5;
+  out_J[119] = w5;
+  out_J[120] = w5;
+  out_J[121] = w5;
+  out_J[122] = w5;
+  out_J[123] = w5;
+  out_J[124] = w5;
+  out_J[125] = w5;
+  out_J[126] = w5;
+  out_J[127] = w5;
+  out_J[128] = w5;
+  out_J[129] = w5;
+  out_J[130] = w5;
+  out_J[131] = w5;
   w34 = w46 + w46;
   w34 = w14 - w34;
   w42 = w34 * w47;
-  J[132] = w42;
+  out_J[132] = w42;
   w47 = w45 * w47;
   w47 = w47 + w47;
-  J[133] = w47;
+  out_J[133] = w47;
   w39 = w27 * w45;
   w12 = w6 * w46;
   w29 = w39 + w12;
@@ -5447,34 +5447,34 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w44 = w45 * w44;
   w44 = w44 + w44;
   w29 = w29 - w44;
-  J[134] = w29;
-  J[135] = w5;
-  J[136] = w5;
-  J[137] = w5;
-  J[138] = w5;
-  J[139] = w5;
-  J[140] = w5;
-  J[141] = w5;
-  J[142] = w5;
-  J[143] = w5;
-  J[144] = w5;
-  J[145] = w5;
-  J[146] = w5;
-  J[147] = w5;
-  J[148] = w5;
-  J[149] = w5;
+  out_J[134] = w29;
+  out_J[135] = w5;
+  out_J[136] = w5;
+  out_J[137] = w5;
+  out_J[138] = w5;
+  out_J[139] = w5;
+  out_J[140] = w5;
+  out_J[141] = w5;
+  out_J[142] = w5;
+  out_J[143] = w5;
+  out_J[144] = w5;
+  out_J[145] = w5;
+  out_J[146] = w5;
+  out_J[147] = w5;
+  out_J[148] = w5;
+  out_J[149] = w5;
   w38 = w1 * w38;
   w42 = w42 + w38;
   w46 = w46 * w37;
   w46 = w46 * w36;
   w46 = w7 * w46;
   w42 = w42 - w46;
-  J[150] = w42;
+  out_J[150] = w42;
   w45 = w45 * w37;
   w45 = w45 * w36;
   w45 = w7 * w45;
   w45 = w45 + w47;
-  J[151] = w45;
+  out_J[151] = w45;
   w45 = 0.146076951546;
   w39 = w45 + w39;
   w39 = w39 + w12;
@@ -5482,52 +5482,52 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w40 = w1 * w40;
   w39 = w39 - w40;
   w39 = w39 - w44;
-  J[152] = w39;
-  J[153] = w5;
-  J[154] = w5;
-  J[155] = w5;
-  J[156] = w5;
-  J[157] = w5;
-  J[158] = w5;
-  J[159] = w5;
-  J[160] = w5;
-  J[161] = w5;
-  J[162] = w5;
-  J[163] = w5;
-  J[164] = w5;
-  J[165] = w5;
-  J[166] = w5;
-  J[167] = w5;
-  J[168] = w5;
-  J[169] = w5;
-  J[170] = w5;
+  out_J[152] = w39;
+  out_J[153] = w5;
+  out_J[154] = w5;
+  out_J[155] = w5;
+  out_J[156] = w5;
+  out_J[157] = w5;
+  out_J[158] = w5;
+  out_J[159] = w5;
+  out_J[160] = w5;
+  out_J[161] = w5;
+  out_J[162] = w5;
+  out_J[163] = w5;
+  out_J[164] = w5;
+  out_J[165] = w5;
+  out_J[166] = w5;
+  out_J[167] = w5;
+  out_J[168] = w5;
+  out_J[169] = w5;
+  out_J[170] = w5;
   w51 = -w51;
-  J[171] = w51;
+  out_J[171] = w51;
   w4 = w4 - w54;
-  J[172] = w4;
-  J[173] = w5;
-  J[174] = w5;
-  J[175] = w5;
-  J[176] = w5;
-  J[177] = w5;
-  J[178] = w5;
-  J[179] = w5;
-  J[180] = w5;
-  J[181] = w5;
-  J[182] = w5;
-  J[183] = w5;
-  J[184] = w5;
-  J[185] = w5;
-  J[186] = w5;
-  J[187] = w5;
-  J[188] = w5;
+  out_J[172] = w4;
+  out_J[173] = w5;
+  out_J[174] = w5;
+  out_J[175] = w5;
+  out_J[176] = w5;
+  out_J[177] = w5;
+  out_J[178] = w5;
+  out_J[179] = w5;
+  out_J[180] = w5;
+  out_J[181] = w5;
+  out_J[182] = w5;
+  out_J[183] = w5;
+  out_J[184] = w5;
+  out_J[185] = w5;
+  out_J[186] = w5;
+  out_J[187] = w5;
+  out_J[188] = w5;
   w4 = w56 + w56;
   w4 = w14 - w4;
   w54 = w4 * w57;
-  J[189] = w54;
+  out_J[189] = w54;
   w57 = w43 * w57;
   w57 = w57 + w57;
-  J[190] = w57;
+  out_J[190] = w57;
   w51 = w6 * w56;
   w4 = w4 * w3;
   w3 = w51 - w4;
@@ -5537,85 +5537,85 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w55 = w43 * w55;
   w55 = w55 + w55;
   w3 = w3 - w55;
-  J[191] = w3;
-  J[192] = w5;
-  J[193] = w5;
-  J[194] = w5;
-  J[195] = w5;
-  J[196] = w5;
-  J[197] = w5;
-  J[198] = w5;
-  J[199] = w5;
-  J[200] = w5;
-  J[201] = w5;
-  J[202] = w5;
-  J[203] = w5;
-  J[204] = w5;
-  J[205] = w5;
-  J[206] = w5;
+  out_J[191] = w3;
+  out_J[192] = w5;
+  out_J[193] = w5;
+  out_J[194] = w5;
+  out_J[195] = w5;
+  out_J[196] = w5;
+  out_J[197] = w5;
+  out_J[198] = w5;
+  out_J[199] = w5;
+  out_J[200] = w5;
+  out_J[201] = w5;
+  out_J[202] = w5;
+  out_J[203] = w5;
+  out_J[204] = w5;
+  out_J[205] = w5;
+  out_J[206] = w5;
   w50 = w1 * w50;
   w54 = w54 + w50;
   w56 = w56 * w49;
   w56 = w56 * w48;
   w56 = w7 * w56;
   w54 = w54 - w56;
-  J[207] = w54;
+  out_J[207] = w54;
   w43 = w43 * w49;
   w43 = w43 * w48;
   w43 = w7 * w43;
   w43 = w43 + w57;
-  J[208] = w43;
+  out_J[208] = w43;
   w45 = w45 + w51;
   w45 = w45 - w4;
   w52 = w1 * w52;
   w45 = w45 - w52;
   w45 = w45 - w35;
   w45 = w45 - w55;
-  J[209] = w45;
-  J[210] = w5;
-  J[211] = w5;
-  J[212] = w5;
-  J[213] = w5;
-  J[214] = w5;
-  J[215] = w5;
-  J[216] = w5;
-  J[217] = w5;
-  J[218] = w5;
-  J[219] = w5;
-  J[220] = w5;
-  J[221] = w5;
-  J[222] = w5;
-  J[223] = w5;
-  J[224] = w5;
-  J[225] = w5;
-  J[226] = w5;
-  J[227] = w5;
+  out_J[209] = w45;
+  out_J[210] = w5;
+  out_J[211] = w5;
+  out_J[212] = w5;
+  out_J[213] = w5;
+  out_J[214] = w5;
+  out_J[215] = w5;
+  out_J[216] = w5;
+  out_J[217] = w5;
+  out_J[218] = w5;
+  out_J[219] = w5;
+  out_J[220] = w5;
+  out_J[221] = w5;
+  out_J[222] = w5;
+  out_J[223] = w5;
+  out_J[224] = w5;
+  out_J[225] = w5;
+  out_J[226] = w5;
+  out_J[227] = w5;
   w66 = -w66;
-  J[228] = w66;
-  J[229] = w58;
-  J[230] = w5;
-  J[231] = w5;
-  J[232] = w5;
-  J[233] = w5;
-  J[234] = w5;
-  J[235] = w5;
-  J[236] = w5;
-  J[237] = w5;
-  J[238] = w5;
-  J[239] = w5;
-  J[240] = w5;
-  J[241] = w5;
-  J[242] = w5;
-  J[243] = w5;
-  J[244] = w5;
-  J[245] = w5;
+  out_J[228] = w66;
+  out_J[229] = w58;
+  out_J[230] = w5;
+  out_J[231] = w5;
+  out_J[232] = w5;
+  out_J[233] = w5;
+  out_J[234] = w5;
+  out_J[235] = w5;
+  out_J[236] = w5;
+  out_J[237] = w5;
+  out_J[238] = w5;
+  out_J[239] = w5;
+  out_J[240] = w5;
+  out_J[241] = w5;
+  out_J[242] = w5;
+  out_J[243] = w5;
+  out_J[244] = w5;
+  out_J[245] = w5;
   w66 = w65 + w65;
   w66 = w14 - w66;
   w45 = w66 * w63;
-  J[246] = w45;
+  out_J[246] = w45;
   w63 = w28 * w63;
   w63 = w63 + w63;
-  J[247] = w63;
+  out_J[247] = w63;
   w66 = w66 * w58;
   w16 = w16 - w66;
   w75 = w75 * w28;
@@ -5623,85 +5623,85 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w64 = w28 * w64;
   w64 = w64 + w64;
   w16 = w16 - w64;
-  J[248] = w16;
-  J[249] = w5;
-  J[250] = w5;
-  J[251] = w5;
-  J[252] = w5;
-  J[253] = w5;
-  J[254] = w5;
-  J[255] = w5;
-  J[256] = w5;
-  J[257] = w5;
-  J[258] = w5;
-  J[259] = w5;
-  J[260] = w5;
-  J[261] = w5;
-  J[262] = w5;
-  J[263] = w5;
+  out_J[248] = w16;
+  out_J[249] = w5;
+  out_J[250] = w5;
+  out_J[251] = w5;
+  out_J[252] = w5;
+  out_J[253] = w5;
+  out_J[254] = w5;
+  out_J[255] = w5;
+  out_J[256] = w5;
+  out_J[257] = w5;
+  out_J[258] = w5;
+  out_J[259] = w5;
+  out_J[260] = w5;
+  out_J[261] = w5;
+  out_J[262] = w5;
+  out_J[263] = w5;
   w61 = w1 * w61;
   w45 = w45 + w61;
   w65 = w65 * w60;
   w65 = w65 * w59;
   w65 = w7 * w65;
   w45 = w45 - w65;
-  J[264] = w45;
+  out_J[264] = w45;
   w28 = w28 * w60;
   w28 = w28 * w59;
   w28 = w7 * w28;
   w28 = w28 + w63;
-  J[265] = w28;
+  out_J[265] = w28;
   w30 = w30 - w66;
   w62 = w1 * w62;
   w30 = w30 - w62;
   w30 = w30 - w75;
   w30 = w30 - w64;
-  J[266] = w30;
-  J[267] = w5;
-  J[268] = w5;
-  J[269] = w5;
-  J[270] = w5;
-  J[271] = w5;
-  J[272] = w5;
-  J[273] = w5;
-  J[274] = w5;
-  J[275] = w5;
-  J[276] = w5;
-  J[277] = w5;
-  J[278] = w5;
-  J[279] = w5;
-  J[280] = w5;
-  J[281] = w5;
-  J[282] = w5;
-  J[283] = w5;
-  J[284] = w5;
+  out_J[266] = w30;
+  out_J[267] = w5;
+  out_J[268] = w5;
+  out_J[269] = w5;
+  out_J[270] = w5;
+  out_J[271] = w5;
+  out_J[272] = w5;
+  out_J[273] = w5;
+  out_J[274] = w5;
+  out_J[275] = w5;
+  out_J[276] = w5;
+  out_J[277] = w5;
+  out_J[278] = w5;
+  out_J[279] = w5;
+  out_J[280] = w5;
+  out_J[281] = w5;
+  out_J[282] = w5;
+  out_J[283] = w5;
+  out_J[284] = w5;
   w70 = -w70;
-  J[285] = w70;
+  out_J[285] = w70;
   w19 = w19 - w73;
-  J[286] = w19;
-  J[287] = w5;
-  J[288] = w5;
-  J[289] = w5;
-  J[290] = w5;
-  J[291] = w5;
-  J[292] = w5;
-  J[293] = w5;
-  J[294] = w5;
-  J[295] = w5;
-  J[296] = w5;
-  J[297] = w5;
-  J[298] = w5;
-  J[299] = w5;
-  J[300] = w5;
-  J[301] = w5;
-  J[302] = w5;
+  out_J[286] = w19;
+  out_J[287] = w5;
+  out_J[288] = w5;
+  out_J[289] = w5;
+  out_J[290] = w5;
+  out_J[291] = w5;
+  out_J[292] = w5;
+  out_J[293] = w5;
+  out_J[294] = w5;
+  out_J[295] = w5;
+  out_J[296] = w5;
+  out_J[297] = w5;
+  out_J[298] = w5;
+  out_J[299] = w5;
+  out_J[300] = w5;
+  out_J[301] = w5;
+  out_J[302] = w5;
   w19 = w74 + w74;
   w14 = w14 - w19;
   w19 = w14 * w2;
-  J[303] = w19;
+  out_J[303] = w19;
   w2 = w15 * w2;
   w2 = w2 + w2;
-  J[304] = w2;
+  out_J[304] = w2;
   w14 = w14 * w0;
   w13 = w13 - w14;
   w27 = w27 * w15;
@@ -5711,55 +5711,55 @@ void hexapod_body_fk_pga(const double *restrict q, double *restrict p, double *r
   w20 = w15 * w20;
   w20 = w20 + w20;
   w13 = w13 - w20;
-  J[305] = w13;
-  J[306] = w5;
-  J[307] = w5;
-  J[308] = w5;
-  J[309] = w5;
-  J[310] = w5;
-  J[311] = w5;
-  J[312] = w5;
-  J[313] = w5;
-  J[314] = w5;
-  J[315] = w5;
-  J[316] = w5;
-  J[317] = w5;
-  J[318] = w5;
-  J[319] = w5;
-  J[320] = w5;
+  out_J[305] = w13;
+  out_J[306] = w5;
+  out_J[307] = w5;
+  out_J[308] = w5;
+  out_J[309] = w5;
+  out_J[310] = w5;
+  out_J[311] = w5;
+  out_J[312] = w5;
+  out_J[313] = w5;
+  out_J[314] = w5;
+  out_J[315] = w5;
+  out_J[316] = w5;
+  out_J[317] = w5;
+  out_J[318] = w5;
+  out_J[319] = w5;
+  out_J[320] = w5;
   w69 = w1 * w69;
   w19 = w19 + w69;
   w74 = w74 * w68;
   w74 = w74 * w67;
   w74 = w7 * w74;
   w19 = w19 - w74;
-  J[321] = w19;
+  out_J[321] = w19;
   w15 = w15 * w68;
   w15 = w15 * w67;
   w7 = w7 * w15;
   w7 = w7 + w2;
-  J[322] = w7;
+  out_J[322] = w7;
   w17 = w17 - w14;
   w1 = w1 * w71;
   w17 = w17 - w1;
   w17 = w17 - w27;
   w17 = w17 - w6;
   w17 = w17 - w20;
-  J[323] = w17;
+  out_J[323] = w17;
 }
 
 /* hexapod_body_fk_pga_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_body_fk_pga_columns_from(long s0, long n, long ld, const double *restrict q, double *restrict p, double *restrict J) {
-  double q_s[18];
-  double p_s[18];
-  double J_s[324];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 18; ++k) q_s[k] = q[k * ld + s];
-    hexapod_body_fk_pga(q_s, p_s, J_s);
-    for (long k = 0; k < 18; ++k) p[k * ld + s] = p_s[k];
-    for (long k = 0; k < 324; ++k) J[k * ld + s] = J_s[k];
+void hexapod_body_fk_pga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_p, double *restrict out_J) {
+  double gagen_in_q[18];
+  double gagen_out_p[18];
+  double gagen_out_J[324];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 18; ++gagen_k) gagen_in_q[gagen_k] = in_q[gagen_k * gagen_ld + gagen_s];
+    hexapod_body_fk_pga(gagen_in_q, gagen_out_p, gagen_out_J);
+    for (long gagen_k = 0; gagen_k < 18; ++gagen_k) out_p[gagen_k * gagen_ld + gagen_s] = gagen_out_p[gagen_k];
+    for (long gagen_k = 0; gagen_k < 324; ++gagen_k) out_J[gagen_k * gagen_ld + gagen_s] = gagen_out_J[gagen_k];
   }
 }
 
@@ -5776,7 +5776,7 @@ void hexapod_body_fk_pga_batch_columns_argv(long n, long ld, const double *const
 }
 
 /* all 6 toes in CGA3D: stacked positions and their 18\xd718 Jacobian: mul=208 add=200 neg=6 div=0 cos=18 sin=18 (flops=414) */
-void hexapod_body_fk_cga(const double *restrict q, double *restrict p, double *restrict J) {
+void hexapod_body_fk_cga(const double *restrict in_q, double *restrict out_p, double *restrict out_J) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   double w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -5786,12 +5786,12 @@ void hexapod_body_fk_cga(const double *restrict q, double *restrict p, double *r
   double w72, w73, w74, w75, w76, w77, w78, w79;
   w0 = 0.553923048454;
   w1 = 0.5;
-  w2 = q[1];
+  w2 = in_q[1];
   w2 = w1 * w2;
   w3 = sin(w2);
   w4 = w3 * w3;
   w5 = 0.4;
-  w6 = q[2];
+  w6 = in_q[2];
   w6 = w1 * w6;
   w7 = sin(w6);
   w8 = w7 * w7;
@@ -5799,7 +5799,7 @@ void hexapod_body_fk_cga(const double *restrict q, double *restrict p, double *r
   w9 = w8 - w5;
   w10 = w4 * w9;
   w11 = 0.2617993877991494;
-  w12 = q[0];
+  w12 = in_q[0];
   w12 = w1 * w12;
   w12 = w11 + w12;
   w13 = sin(w12);
@@ -5822,14 +5822,14 @@ void hexapod_body_fk_cga(const double *restrict q, double *restrict p, double *r
   w20 = w0 + w10;
   w20 = w20 - w8;
   w20 = w20 - w19;
-  p[0] = w20;
+  out_p[0] = w20;
   w21 = 0.06;
   w12 = cos(w12);
   w13 = w13 * w12;
   w16 = w13 * w16;
   w16 = w16 + w16;
   w12 = w21 + w16;
-  p[1] = w12;
+  out_p[1] = w12;
   w9 = w18 * w9;
   w9 = w9 + w9;
   w22 = w4 * w7;
@@ -5839,12 +5839,12 @@ void hexapod_body_fk_cga(const double *restrict q, double *restrict p, double *r
   w7 = w7 * w6;
   w7 = w5 * w7;
   w9 = w9 - w7;
-  p[2] = w9;
-  w7 = q[4];
+  out_p[2] = w9;
+  w7 = in_q[4];
   w7 = w1 * w7;
   w6 = sin(w7);
   w22 = w6 * w6;
-  w23 = q[5];
+  w23 = in_q[5];
   w23 = w1 * w23;
   w24 = sin(w23);
   w25 = w24 * w24;
@@ -5852,7 +5852,7 @@ void hexapod_body_fk_cga(const double *restrict q, double *restrict p, double *r
   w26 = w25 - w5;
   w27 = w22 * w26;
   w28 = 0.7853981633974483;
-  w29 = q[3];
+  w29 = in_q[3];
   w29 = w1 * w29;
   w29 = w28 + w29;
   w30 = sin(w29);
@@ -5873,14 +5873,14 @@ void hexapod_body_fk_cga(const double *restrict q, double *restrict p, double *r
   w27 = w15 + w27;
   w27 = w27 - w25;
   w27 = w27 - w34;
-  p[3] = w27;
+  out_p[3] = w27;
   w34 = 0.12;
   w29 = cos(w29);
   w30 = w30 * w29;
   w32 = w30 * w32;
   w32 = w32 + w32;
   w29 = w34 + w32;
-  p[4] = w29;
+  out_p[4] = w29;
   w26 = w33 * w26;
   w26 = w26 + w26;
   w25 = w22 * w24;
@@ -5890,13 +5890,13 @@ void hexapod_body_fk_cga(const double *restrict q, double *restrict p, double *r
   w24 = w24 * w23;
   w24 = w5 * w24;
   w26 = w26 - w24;
-  p[5] = w26;
+  out_p[5] = w26;
   w24 = 0.34607695154600004;
-  w23 = q[7];
+  w23 = in_q[7];
   w23 = w1 * w23;
   w25 = sin(w23);
   w35 = w25 * w25;
-  w36 = q[8];
+  w36 = in_q[8];
   w36 = w1 * w36;
   w37 = sin(w36);
   w38 = w37 * w37;
@@ -5904,7 +5904,7 @@ void hexapod_body_fk_cga(const double *restrict q, double *restrict p, double *r
   w39 = w38 - w5;
   w40 = w35 * w39;
   w41 = 1.3089969389957472;
-  w42 = q[6];
+  w42 = in_q[6];
   w42 = w1 * w42;
   w42 = w41 + w42;
   w43 = sin(w42);
@@ -5925,13 +5925,13 @@ void hexapod_body_fk_cga(const double *restrict q, double *restrict p, double *r
   w48 = w24 + w40;
   w48 = w48 - w38;
   w48 = w48 - w47;
-  p[6] = w48;
+  out_p[6] = w48;
   w42 = cos(w42);
   w43 = w43 * w42;
   w45 = w43 * w45;
   w45 = w45 + w45;
   w42 = w21 + w45;
-  p[7] = w42;
+  out_p[7] = w42;
   w39 = w46 * w39;
   w39 = w39 + w39;
   w49 = w35 * w37;
@@ -5941,19 +5941,19 @@ void hexapod_body_fk_cga(const double *restrict q, double *restrict p, double *r
   w37 = w37 * w36;
   w37 = w5 * w37;
   w39 = w39 - w37;
-  p[8] = w39;
-  w37 = q[10];
+  out_p[8] = w39;
+  w37 = in_q[10];
   w37 = w1 * w37;
   w36 = sin(w37);
   w49 = w36 * w36;
-  w50 = q[11];
+  w50 = in_q[11];
   w50 = w1 * w50;
   w51 = sin(w50);
   w52 = w51 * w51;
   w52 = w5 * w52;
   w53 = w52 - w5;
   w54 = w49 * w53;
-  w55 = q[9];
+  w55 = in_q[9];
   w55 = w1 * w55;
   w55 = w55 - w41;
   w41 = sin(w55);
@@ -5974,13 +5974,13 @@ void hexapod_body_fk_cga(const double *restrict q, double *restrict p, double *r
   w24 = w24 + w54;
   w24 = w24 - w52;
   w24 = w24 - w59;
-  p[9] = w24;
+  out_p[9] = w24;
   w55 = cos(w55);
   w41 = w41 * w55;
   w57 = w41 * w57;
   w57 = w57 + w57;
   w55 = w57 - w21;
-  p[10] = w55;
+  out_p[10] = w55;
   w53 = w58 * w53;
   w53 = w53 + w53;
   w60 = w49 * w51;
@@ -5990,19 +5990,19 @@ void hexapod_body_fk_cga(const double *restrict q, double *restrict p, double *r
   w51 = w51 * w50;
   w51 = w5 * w51;
   w53 = w53 - w51;
-  p[11] = w53;
-  w51 = q[13];
+  out_p[11] = w53;
+  w51 = in_q[13];
   w51 = w1 * w51;
   w50 = sin(w51);
   w60 = w50 * w50;
-  w61 = q[14];
+  w61 = in_q[14];
   w61 = w1 * w61;
   w62 = sin(w61);
   w63 = w62 * w62;
   w63 = w5 * w63;
   w64 = w63 - w5;
   w65 = w60 * w64;
-  w66 = q[12];
+  w66 = in_q[12];
   w66 = w1 * w66;
   w66 = w66 - w28;
   w28 = sin(w66);
@@ -6023,13 +6023,13 @@ void hexapod_body_fk_cga(const double *restrict q, double *restrict p, double *r
   w65 = w15 + w65;
   w65 = w65 - w63;
   w65 = w65 - w70;
-  p[12] = w65;
+  out_p[12] = w65;
   w66 = cos(w66);
   w28 = w28 * w66;
   w68 = w28 * w68;
   w68 = w68 + w68;
   w66 = w68 - w34;
-  p[13] = w66;
+  out_p[13] = w66;
   w64 = w69 * w64;
   w64 = w64 + w64;
   w70 = w60 * w62;
@@ -6039,19 +6039,19 @@ void hexapod_body_fk_cga(const double *restrict q, double *restrict p, double *r
   w62 = w62 * w61;
   w62 = w5 * w62;
   w64 = w64 - w62;
-  p[14] = w64;
-  w62 = q[16];
+  out_p[14] = w64;
+  w62 = in_q[16];
   w62 = w1 * w62;
   w61 = sin(w62);
   w70 = w61 * w61;
-  w63 = q[17];
+  w63 = in_q[17];
   w63 = w1 * w63;
   w71 = sin(w63);
   w72 = w71 * w71;
   w72 = w5 * w72;
   w73 = w72 - w5;
   w74 = w70 * w73;
-  w75 = q[15];
+  w75 = in_q[15];
   w1 = w1 * w75;
   w1 = w1 - w11;
   w11 = sin(w1);
@@ -6072,13 +6072,13 @@ void hexapod_body_fk_cga(const double *restrict q, double *restrict p, double *r
   w0 = w0 + w74;
   w0 = w0 - w72;
   w0 = w0 - w78;
-  p[15] = w0;
+  out_p[15] = w0;
   w1 = cos(w1);
   w11 = w11 * w1;
   w76 = w11 * w76;
   w76 = w76 + w76;
   w21 = w76 - w21;
-  p[16] = w21;
+  out_p[16] = w21;
   w73 = w77 * w73;
   w73 = w73 + w73;
   w1 = w70 * w71;
@@ -6088,38 +6088,38 @@ void hexapod_body_fk_cga(const double *restrict q, double *restrict p, double *r
   w71 = w71 * w63;
   w71 = w5 * w71;
   w73 = w73 - w71;
-  p[17] = w73;
+  out_p[17] = w73;
   w16 = -w16;
-  J[0] = w16;
+  out_J[0] = w16;
   w10 = w15 + w10;
   w10 = w10 - w8;
   w10 = w10 - w19;
-  J[1] = w10;
+  out_J[1] = w10;
   w10 = 0.0;
-  J[2] = w10;
-  J[3] = w10;
-  J[4] = w10;
-  J[5] = w10;
-  J[6] = w10;
-  J[7] = w10;
-  J[8] = w10;
-  J[9] = w10;
-  J[10] = w10;
-  J[11] = w10;
-  J[12] = w10;
-  J[13] = w10;
-  J[14] = w10;
-  J[15] = w10;
-  J[16] = w10;
-  J[17] = w10;
+  out_J[2] = w10;
+  out_J[3] = w10;
+  out_J[4] = w10;
+  out_J[5] = w10;
+  out_J[6] = w10;
+  out_J[7] = w10;
+  out_J[8] = w10;
+  out_J[9] = w10;
+  out_J[10] = w10;
+  out_J[11] = w10;
+  out_J[12] = w10;
+  out_J[13] = w10;
+  out_J[14] = w10;
+  out_J[15] = w10;
+  out_J[16] = w10;
+  out_J[17] = w10;
   w19 = 1.0;
   w8 = w14 + w14;
   w8 = w19 - w8;
   w16 = w8 * w9;
-  J[18] = w16;
+  out_J[18] = w16;
   w9 = w13 * w9;
   w9 = w9 + w9;
-  J[19] = w9;
+  out_J[19] = w9;
   w71 = 0.153923048454;
   w63 = w34 * w13;
   w1 = w71 + w63;
@@ -6131,34 +6131,34 @@ void hexapod_body_fk_cga(const double *restrict q, double *restrict p, double *r
   w12 = w13 * w12;
   w12 = w12 + w12;
   w1 = w1 - w12;
-  J[20] = w1;
-  J[21] = w10;
-  J[22] = w10;
-  J[23] = w10;
-  J[24] = w10;
-  J[25] = w10;
-  J[26] = w10;
-  J[27] = w10;
-  J[28] = w10;
-  J[29] = w10;
-  J[30] = w10;
-  J[31] = w10;
-  J[32] = w10;
-  J[33] = w10;
-  J[34] = w10;
-  J[35] = w10;
+  out_J[20] = w1;
+  out_J[21] = w10;
+  out_J[22] = w10;
+  out_J[23] = w10;
+  out_J[24] = w10;
+  out_J[25] = w10;
+  out_J[26] = w10;
+  out_J[27] = w10;
+  out_J[28] = w10;
+  out_J[29] = w10;
+  out_J[30] = w10;
+  out_J[31] = w10;
+  out_J[32] = w10;
+  out_J[33] = w10;
+  out_J[34] = w10;
+  out_J[35] = w10;
   w18 = w5 * w18;
   w16 = w16 + w18;
   w14 = w14 * w3;
   w14 = w14 * w2;
   w14 = w17 * w14;
   w16 = w16 - w14;
-  J[36] = w16;
+  out_J[36] = w16;
   w13 = w13 * w3;
   w13 = w13 * w2;
   w13 = w17 * w13;
   w13 = w13 + w9;
-  J[37] = w13;
+  out_J[37] = w13;
   w13 = 0.353923048454;
   w63 = w13 + w63;
   w63 = w63 - w8;
@@ -6166,51 +6166,51 @@ void hexapod_body_fk_cga(const double *restrict q, double *restrict p, double *r
   w63 = w63 - w4;
   w63 = w63 - w79;
   w63 = w63 - w12;
-  J[38] = w63;
-  J[39] = w10;
-  J[40] = w10;
-  J[41] = w10;
-  J[42] = w10;
-  J[43] = w10;
-  J[44] = w10;
-  J[45] = w10;
-  J[46] = w10;
-  J[47] = w10;
-  J[48] = w10;
-  J[49] = w10;
-  J[50] = w10;
-  J[51] = w10;
-  J[52] = w10;
-  J[53] = w10;
-  J[54] = w10;
-  J[55] = w10;
-  J[56] = w10;
+  out_J[38] = w63;
+  out_J[39] = w10;
+  out_J[40] = w10;
+  out_J[41] = w10;
+  out_J[42] = w10;
+  out_J[43] = w10;
+  out_J[44] = w10;
+  out_J[45] = w10;
+  out_J[46] = w10;
+  out_J[47] = w10;
+  out_J[48] = w10;
+  out_J[49] = w10;
+  out_J[50] = w10;
+  out_J[51] = w10;
+  out_J[52] = w10;
+  out_J[53] = w10;
+  out_J[54] = w10;
+  out_J[55] = w10;
+  out_J[56] = w10;
   w32 = -w32;
-  J[57] = w32;
-  J[58] = w27;
-  J[59] = w10;
-  J[60] = w10;
-  J[61] = w10;
-  J[62] = w10;
-  J[63] = w10;
-  J[64] = w10;
-  J[65] = w10;
-  J[66] = w10;
-  J[67] = w10;
-  J[68] = w10;
-  J[69] = w10;
-  J[70] = w10;
-  J[71] = w10;
-  J[72] = w10;
-  J[73] = w10;
-  J[74] = w10;
+  out_J[57] = w32;
+  out_J[58] = w27;
+  out_J[59] = w10;
+  out_J[60] = w10;
+  out_J[61] = w10;
+  out_J[62] = w10;
+  out_J[63] = w10;
+  out_J[64] = w10;
+  out_J[65] = w10;
+  out_J[66] = w10;
+  out_J[67] = w10;
+  out_J[68] = w10;
+  out_J[69] = w10;
+  out_J[70] = w10;
+  out_J[71] = w10;
+  out_J[72] = w10;
+  out_J[73] = w10;
+  out_J[74] = w10;
   w32 = w31 + w31;
   w32 = w19 - w32;
   w63 = w32 * w26;
-  J[75] = w63;
+  out_J[75] = w63;
   w26 = w30 * w26;
   w26 = w26 + w26;
-  J[76] = w26;
+  out_J[76] = w26;
   w12 = 0.05;
   w79 = 0.24;
   w4 = w79 * w30;
@@ -6220,88 +6220,88 @@ void hexapod_body_fk_cga(const double *restrict q, double *restrict p, double *r
   w29 = w30 * w29;
   w29 = w29 + w29;
   w8 = w8 - w29;
-  J[77] = w8;
-  J[78] = w10;
-  J[79] = w10;
-  J[80] = w10;
-  J[81] = w10;
-  J[82] = w10;
-  J[83] = w10;
-  J[84] = w10;
-  J[85] = w10;
-  J[86] = w10;
-  J[87] = w10;
-  J[88] = w10;
-  J[89] = w10;
-  J[90] = w10;
-  J[91] = w10;
-  J[92] = w10;
+  out_J[77] = w8;
+  out_J[78] = w10;
+  out_J[79] = w10;
+  out_J[80] = w10;
+  out_J[81] = w10;
+  out_J[82] = w10;
+  out_J[83] = w10;
+  out_J[84] = w10;
+  out_J[85] = w10;
+  out_J[86] = w10;
+  out_J[87] = w10;
+  out_J[88] = w10;
+  out_J[89] = w10;
+  out_J[90] = w10;
+  out_J[91] = w10;
+  out_J[92] = w10;
   w33 = w5 * w33;
   w63 = w63 + w33;
   w31 = w31 * w6;
   w31 = w31 * w7;
   w31 = w17 * w31;
   w63 = w63 - w31;
-  J[93] = w63;
+  out_J[93] = w63;
   w30 = w30 * w6;
   w30 = w30 * w7;
   w30 = w17 * w30;
   w30 = w30 + w26;
-  J[94] = w30;
+  out_J[94] = w30;
   w30 = 0.25;
   w4 = w30 + w4;
   w4 = w4 - w32;
   w22 = w5 * w22;
   w4 = w4 - w22;
   w4 = w4 - w29;
-  J[95] = w4;
-  J[96] = w10;
-  J[97] = w10;
-  J[98] = w10;
-  J[99] = w10;
-  J[100] = w10;
-  J[101] = w10;
-  J[102] = w10;
-  J[103] = w10;
-  J[104] = w10;
-  J[105] = w10;
-  J[106] = w10;
-  J[107] = w10;
-  J[108] = w10;
-  J[109] = w10;
-  J[110] = w10;
-  J[111] = w10;
-  J[112] = w10;
-  J[113] = w10;
+  out_J[95] = w4;
+  out_J[96] = w10;
+  out_J[97] = w10;
+  out_J[98] = w10;
+  out_J[99] = w10;
+  out_J[100] = w10;
+  out_J[101] = w10;
+  out_J[102] = w10;
+  out_J[103] = w10;
+  out_J[104] = w10;
+  out_J[105] = w10;
+  out_J[106] = w10;
+  out_J[107] = w10;
+  out_J[108] = w10;
+  out_J[109] = w10;
+  out_J[110] = w10;
+  out_J[111] = w10;
+  out_J[112] = w10;
+  out_J[113] = w10;
   w45 = -w45;
-  J[114] = w45;
+  out_J[114] = w45;
   w40 = w15 + w40;
   w40 = w40 - w38;
   w40 = w40 - w47;
-  J[115] = w40;
-  J[116] = w10;
-  J[117] = w10;
-  J[118] = w10;
-  J[119] = w10;
-  J[120] = w10;
-  J[121] = w10;
-  J[122] = w10;
-  J[123] = w10;
-  J[124] = w10;
-  J[125] = w10;
-  J[126] = w10;
-  J[127] = w10;
-  J[128] = w10;
-  J[129] = w10;
-  J[130] = w10;
-  J[131] = w10;
+  out_J[115] = w40;
+  out_J[116] = w10;
+  out_J[117] = w10;
+  out_J[118] = w10;
+  out_J[119] = w10;
+  out_J[120] = w10;
+  out_J[121] = w10;
+  out_J[122] = w10;
+  out_J[123] = w10;
+  out_J[124] = w10;
+  out_J[125] = w10;
+  out_J[126] = w10;
+  out_J[127] = w10;
+  out_J[128] = w10;
+  out_J[129] = w10;
+  out_J[130] = w10;
+  out_J[131] = w10;
   w40 = w44 + w44;
   w40 = w19 - w40;
   w47 = w40 * w39;
-  J[132] = w47;
+  out_J[132] = w47;
   w39 = w43 * w39;
   w39 = w39 + w39;
-  J[133] = w39;
+  out_J[133] = w39;
   w38 = w34 * w43;
   w45 = w20 * w44;
   w4 = w38 + w45;
@@ -6312,34 +6312,34 @@ void hexapod_body_fk_cga(const double *restrict q, double *restrict p, double *r
   w42 = w43 * w42;
   w42 = w42 + w42;
   w4 = w4 - w42;
-  J[134] = w4;
-  J[135] = w10;
-  J[136] = w10;
-  J[137] = w10;
-  J[138] = w10;
-  J[139] = w10;
-  J[140] = w10;
-  J[141] = w10;
-  J[142] = w10;
-  J[143] = w10;
-  J[144] = w10;
-  J[145] = w10;
-  J[146] = w10;
-  J[147] = w10;
-  J[148] = w10;
-  J[149] = w10;
+  out_J[134] = w4;
+  out_J[135] = w10;
+  out_J[136] = w10;
+  out_J[137] = w10;
+  out_J[138] = w10;
+  out_J[139] = w10;
+  out_J[140] = w10;
+  out_J[141] = w10;
+  out_J[142] = w10;
+  out_J[143] = w10;
+  out_J[144] = w10;
+  out_J[145] = w10;
+  out_J[146] = w10;
+  out_J[147] = w10;
+  out_J[148] = w10;
+  out_J[149] = w10;
   w46 = w5 * w46;
   w47 = w47 + w46;
   w44 = w44 * w25;
   w44 = w44 * w23;
   w44 = w17 * w44;
   w47 = w47 - w44;
-  J[150] = w47;
+  out_J[150] = w47;
   w43 = w43 * w25;
   w43 = w43 * w23;
   w43 = w17 * w43;
   w43 = w43 + w39;
-  J[151] = w43;
+  out_J[151] = w43;
   w43 = 0.146076951546;
   w38 = w43 + w38;
   w38 = w38 + w45;
@@ -6347,54 +6347,54 @@ void hexapod_body_fk_cga(const double *restrict q, double *restrict p, double *r
   w35 = w5 * w35;
   w38 = w38 - w35;
   w38 = w38 - w42;
-  J[152] = w38;
-  J[153] = w10;
-  J[154] = w10;
-  J[155] = w10;
-  J[156] = w10;
-  J[157] = w10;
-  J[158] = w10;
-  J[159] = w10;
-  J[160] = w10;
-  J[161] = w10;
-  J[162] = w10;
-  J[163] = w10;
-  J[164] = w10;
-  J[165] = w10;
-  J[166] = w10;
-  J[167] = w10;
-  J[168] = w10;
-  J[169] = w10;
-  J[170] = w10;
+  out_J[152] = w38;
+  out_J[153] = w10;
+  out_J[154] = w10;
+  out_J[155] = w10;
+  out_J[156] = w10;
+  out_J[157] = w10;
+  out_J[158] = w10;
+  out_J[159] = w10;
+  out_J[160] = w10;
+  out_J[161] = w10;
+  out_J[162] = w10;
+  out_J[163] = w10;
+  out_J[164] = w10;
+  out_J[165] = w10;
+  out_J[166] = w10;
+  out_J[167] = w10;
+  out_J[168] = w10;
+  out_J[169] = w10;
+  out_J[170] = w10;
   w57 = -w57;
-  J[171] = w57;
+  out_J[171] = w57;
   w54 = w15 + w54;
   w54 = w54 - w52;
   w54 = w54 - w59;
-  J[172] = w54;
-  J[173] = w10;
-  J[174] = w10;
-  J[175] = w10;
-  J[176] = w10;
-  J[177] = w10;
-  J[178] = w10;
-  J[179] = w10;
-  J[180] = w10;
-  J[181] = w10;
-  J[182] = w10;
-  J[183] = w10;
-  J[184] = w10;
-  J[185] = w10;
-  J[186] = w10;
-  J[187] = w10;
-  J[188] = w10;
+  out_J[172] = w54;
+  out_J[173] = w10;
+  out_J[174] = w10;
+  out_J[175] = w10;
+  out_J[176] = w10;
+  out_J[177] = w10;
+  out_J[178] = w10;
+  out_J[179] = w10;
+  out_J[180] = w10;
+  out_J[181] = w10;
+  out_J[182] = w10;
+  out_J[183] = w10;
+  out_J[184] = w10;
+  out_J[185] = w10;
+  out_J[186] = w10;
+  out_J[187] = w10;
+  out_J[188] = w10;
   w54 = w56 + w56;
   w54 = w19 - w54;
   w59 = w54 * w53;
-  J[189] = w59;
+  out_J[189] = w59;
   w53 = w41 * w53;
   w53 = w53 + w53;
-  J[190] = w53;
+  out_J[190] = w53;
   w52 = w20 * w56;
   w54 = w54 * w24;
   w24 = w52 - w54;
@@ -6404,85 +6404,85 @@ void hexapod_body_fk_cga(const double *restrict q, double *restrict p, double *r
   w55 = w41 * w55;
   w55 = w55 + w55;
   w24 = w24 - w55;
-  J[191] = w24;
-  J[192] = w10;
-  J[193] = w10;
-  J[194] = w10;
-  J[195] = w10;
-  J[196] = w10;
-  J[197] = w10;
-  J[198] = w10;
-  J[199] = w10;
-  J[200] = w10;
-  J[201] = w10;
-  J[202] = w10;
-  J[203] = w10;
-  J[204] = w10;
-  J[205] = w10;
-  J[206] = w10;
+  out_J[191] = w24;
+  out_J[192] = w10;
+  out_J[193] = w10;
+  out_J[194] = w10;
+  out_J[195] = w10;
+  out_J[196] = w10;
+  out_J[197] = w10;
+  out_J[198] = w10;
+  out_J[199] = w10;
+  out_J[200] = w10;
+  out_J[201] = w10;
+  out_J[202] = w10;
+  out_J[203] = w10;
+  out_J[204] = w10;
+  out_J[205] = w10;
+  out_J[206] = w10;
   w58 = w5 * w58;
   w59 = w59 + w58;
   w56 = w56 * w36;
   w56 = w56 * w37;
   w56 = w17 * w56;
   w59 = w59 - w56;
-  J[207] = w59;
+  out_J[207] = w59;
   w41 = w41 * w36;
   w41 = w41 * w37;
   w41 = w17 * w41;
   w41 = w41 + w53;
-  J[208] = w41;
+  out_J[208] = w41;
   w43 = w43 + w52;
   w43 = w43 - w54;
   w49 = w5 * w49;
   w43 = w43 - w49;
   w43 = w43 - w48;
   w43 = w43 - w55;
-  J[209] = w43;
-  J[210] = w10;
-  J[211] = w10;
-  J[212] = w10;
-  J[213] = w10;
-  J[214] = w10;
-  J[215] = w10;
-  J[216] = w10;
-  J[217] = w10;
-  J[218] = w10;
-  J[219] = w10;
-  J[220] = w10;
-  J[221] = w10;
-  J[222] = w10;
-  J[223] = w10;
-  J[224] = w10;
-  J[225] = w10;
-  J[226] = w10;
-  J[227] = w10;
+  out_J[209] = w43;
+  out_J[210] = w10;
+  out_J[211] = w10;
+  out_J[212] = w10;
+  out_J[213] = w10;
+  out_J[214] = w10;
+  out_J[215] = w10;
+  out_J[216] = w10;
+  out_J[217] = w10;
+  out_J[218] = w10;
+  out_J[219] = w10;
+  out_J[220] = w10;
+  out_J[221] = w10;
+  out_J[222] = w10;
+  out_J[223] = w10;
+  out_J[224] = w10;
+  out_J[225] = w10;
+  out_J[226] = w10;
+  out_J[227] = w10;
   w68 = -w68;
-  J[228] = w68;
-  J[229] = w65;
-  J[230] = w10;
-  J[231] = w10;
-  J[232] = w10;
-  J[233] = w10;
-  J[234] = w10;
-  J[235] = w10;
-  J[236] = w10;
-  J[237] = w10;
-  J[238] = w10;
-  J[239] = w10;
-  J[240] = w10;
-  J[241] = w10;
-  J[242] = w10;
-  J[243] = w10;
-  J[244] = w10;
-  J[245] = w10;
+  out_J[228] = w68;
+  out_J[229] = w65;
+  out_J[230] = w10;
+  out_J[231] = w10;
+  out_J[232] = w10;
+  out_J[233] = w10;
+  out_J[234] = w10;
+  out_J[235] = w10;
+  out_J[236] = w10;
+  out_J[237] = w10;
+  out_J[238] = w10;
+  out_J[239] = w10;
+  out_J[240] = w10;
+  out_J[241] = w10;
+  out_J[242] = w10;
+  out_J[243] = w10;
+  out_J[244] = w10;
+  out_J[245] = w10;
   w68 = w67 + w67;
   w68 = w19 - w68;
   w43 = w68 * w64;
-  J[246] = w43;
+  out_J[246] = w43;
   w64 = w28 * w64;
   w64 = w64 + w64;
-  J[247] = w64;
+  out_J[247] = w64;
   w68 = w68 * w65;
   w12 = w12 - w68;
   w79 = w79 * w28;
@@ -6490,87 +6490,87 @@ void hexapod_body_fk_cga(const double *restrict q, double *restrict p, double *r
   w66 = w28 * w66;
   w66 = w66 + w66;
   w12 = w12 - w66;
-  J[248] = w12;
-  J[249] = w10;
-  J[250] = w10;
-  J[251] = w10;
-  J[252] = w10;
-  J[253] = w10;
-  J[254] = w10;
-  J[255] = w10;
-  J[256] = w10;
-  J[257] = w10;
-  J[258] = w10;
-  J[259] = w10;
-  J[260] = w10;
-  J[261] = w10;
-  J[262] = w10;
-  J[263] = w10;
+  out_J[248] = w12;
+  out_J[249] = w10;
+  out_J[250] = w10;
+  out_J[251] = w10;
+  out_J[252] = w10;
+  out_J[253] = w10;
+  out_J[254] = w10;
+  out_J[255] = w10;
+  out_J[256] = w10;
+  out_J[257] = w10;
+  out_J[258] = w10;
+  out_J[259] = w10;
+  out_J[260] = w10;
+  out_J[261] = w10;
+  out_J[262] = w10;
+  out_J[263] = w10;
   w69 = w5 * w69;
   w43 = w43 + w69;
   w67 = w67 * w50;
   w67 = w67 * w51;
   w67 = w17 * w67;
   w43 = w43 - w67;
-  J[264] = w43;
+  out_J[264] = w43;
   w28 = w28 * w50;
   w28 = w28 * w51;
   w28 = w17 * w28;
   w28 = w28 + w64;
-  J[265] = w28;
+  out_J[265] = w28;
   w30 = w30 - w68;
   w60 = w5 * w60;
   w30 = w30 - w60;
   w30 = w30 - w79;
   w30 = w30 - w66;
-  J[266] = w30;
-  J[267] = w10;
-  J[268] = w10;
-  J[269] = w10;
-  J[270] = w10;
-  J[271] = w10;
-  J[272] = w10;
-  J[273] = w10;
-  J[274] = w10;
-  J[275] = w10;
-  J[276] = w10;
-  J[277] = w10;
-  J[278] = w10;
-  J[279] = w10;
-  J[280] = w10;
-  J[281] = w10;
-  J[282] = w10;
-  J[283] = w10;
-  J[284] = w10;
+  out_J[266] = w30;
+  out_J[267] = w10;
+  out_J[268] = w10;
+  out_J[269] = w10;
+  out_J[270] = w10;
+  out_J[271] = w10;
+  out_J[272] = w10;
+  out_J[273] = w10;
+  out_J[274] = w10;
+  out_J[275] = w10;
+  out_J[276] = w10;
+  out_J[277] = w10;
+  out_J[278] = w10;
+  out_J[279] = w10;
+  out_J[280] = w10;
+  out_J[281] = w10;
+  out_J[282] = w10;
+  out_J[283] = w10;
+  out_J[284] = w10;
   w76 = -w76;
-  J[285] = w76;
+  out_J[285] = w76;
   w15 = w15 + w74;
   w15 = w15 - w72;
   w15 = w15 - w78;
-  J[286] = w15;
-  J[287] = w10;
-  J[288] = w10;
-  J[289] = w10;
-  J[290] = w10;
-  J[291] = w10;
-  J[292] = w10;
-  J[293] = w10;
-  J[294] = w10;
-  J[295] = w10;
-  J[296] = w10;
-  J[297] = w10;
-  J[298] = w10;
-  J[299] = w10;
-  J[300] = w10;
-  J[301] = w10;
-  J[302] = w10;
+  out_J[286] = w15;
+  out_J[287] = w10;
+  out_J[288] = w10;
+  out_J[289] = w10;
+  out_J[290] = w10;
+  out_J[291] = w10;
+  out_J[292] = w10;
+  out_J[293] = w10;
+  out_J[294] = w10;
+  out_J[295] = w10;
+  out_J[296] = w10;
+  out_J[297] = w10;
+  out_J[298] = w10;
+  out_J[299] = w10;
+  out_J[300] = w10;
+  out_J[301] = w10;
+  out_J[302] = w10;
   w15 = w75 + w75;
   w19 = w19 - w15;
   w15 = w19 * w73;
-  J[303] = w15;
+  out_J[303] = w15;
   w73 = w11 * w73;
   w73 = w73 + w73;
-  J[304] = w73;
+  out_J[304] = w73;
   w19 = w19 * w0;
   w71 = w71 - w19;
   w34 = w34 * w11;
@@ -6580,55 +6580,55 @@ void hexapod_body_fk_cga(const double *restrict q, double *restrict p, double *r
   w21 = w11 * w21;
   w21 = w21 + w21;
   w71 = w71 - w21;
-  J[305] = w71;
-  J[306] = w10;
-  J[307] = w10;
-  J[308] = w10;
-  J[309] = w10;
-  J[310] = w10;
-  J[311] = w10;
-  J[312] = w10;
-  J[313] = w10;
-  J[314] = w10;
-  J[315] = w10;
-  J[316] = w10;
-  J[317] = w10;
-  J[318] = w10;
-  J[319] = w10;
-  J[320] = w10;
+  out_J[305] = w71;
+  out_J[306] = w10;
+  out_J[307] = w10;
+  out_J[308] = w10;
+  out_J[309] = w10;
+  out_J[310] = w10;
+  out_J[311] = w10;
+  out_J[312] = w10;
+  out_J[313] = w10;
+  out_J[314] = w10;
+  out_J[315] = w10;
+  out_J[316] = w10;
+  out_J[317] = w10;
+  out_J[318] = w10;
+  out_J[319] = w10;
+  out_J[320] = w10;
   w77 = w5 * w77;
   w15 = w15 + w77;
   w75 = w75 * w61;
   w75 = w75 * w62;
   w75 = w17 * w75;
   w15 = w15 - w75;
-  J[321] = w15;
+  out_J[321] = w15;
   w11 = w11 * w61;
   w11 = w11 * w62;
   w17 = w17 * w11;
   w17 = w17 + w73;
-  J[322] = w17;
+  out_J[322] = w17;
   w13 = w13 - w19;
   w5 = w5 * w70;
   w13 = w13 - w5;
   w13 = w13 - w34;
   w13 = w13 - w20;
   w13 = w13 - w21;
-  J[323] = w13;
+  out_J[323] = w13;
 }
 
 /* hexapod_body_fk_cga_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_body_fk_cga_columns_from(long s0, long n, long ld, const double *restrict q, double *restrict p, double *restrict J) {
-  double q_s[18];
-  double p_s[18];
-  double J_s[324];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 18; ++k) q_s[k] = q[k * ld + s];
-    hexapod_body_fk_cga(q_s, p_s, J_s);
-    for (long k = 0; k < 18; ++k) p[k * ld + s] = p_s[k];
-    for (long k = 0; k < 324; ++k) J[k * ld + s] = J_s[k];
+void hexapod_body_fk_cga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_p, double *restrict out_J) {
+  double gagen_in_q[18];
+  double gagen_out_p[18];
+  double gagen_out_J[324];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 18; ++gagen_k) gagen_in_q[gagen_k] = in_q[gagen_k * gagen_ld + gagen_s];
+    hexapod_body_fk_cga(gagen_in_q, gagen_out_p, gagen_out_J);
+    for (long gagen_k = 0; gagen_k < 18; ++gagen_k) out_p[gagen_k * gagen_ld + gagen_s] = gagen_out_p[gagen_k];
+    for (long gagen_k = 0; gagen_k < 324; ++gagen_k) out_J[gagen_k * gagen_ld + gagen_s] = gagen_out_J[gagen_k];
   }
 }
 
@@ -6645,29 +6645,29 @@ void hexapod_body_fk_cga_batch_columns_argv(long n, long ld, const double *const
 }
 
 /* all legs' analytic IK (knee up) for a body pose (PGA motor, body \u2192 world) and world toe targets: mul=230 add=265 neg=15 div=26 atan2=24 fabs=1 if_else_zero=33 lt=26 not=25 sqrt=18 (flops=536) */
-void hexapod_body_ik(const double *restrict pose, const double *restrict toes, double *restrict q, double *restrict reach, double *restrict excess) {
+void hexapod_body_ik(const double *restrict in_pose, const double *restrict in_toes, double *restrict out_q, double *restrict out_reach, double *restrict out_excess) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   double w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   double w36, w37, w38, w39, w40, w41;
   w0 = 0.8660254037844387;
-  w1 = pose[5];
-  w2 = toes[1];
+  w1 = in_pose[5];
+  w2 = in_toes[1];
   w3 = w1 * w2;
-  w4 = pose[3];
-  w5 = toes[2];
+  w4 = in_pose[3];
+  w5 = in_toes[2];
   w6 = w4 * w5;
   w3 = w3 - w6;
-  w6 = pose[6];
-  w7 = toes[0];
+  w6 = in_pose[6];
+  w7 = in_toes[0];
   w8 = w6 * w7;
   w3 = w3 - w8;
-  w8 = pose[7];
+  w8 = in_pose[7];
   w3 = w3 - w8;
   w9 = w3 * w1;
-  w10 = pose[0];
+  w10 = in_pose[0];
   w11 = w10 * w5;
-  w12 = pose[4];
+  w12 = in_pose[4];
   w11 = w11 + w12;
   w13 = w1 * w7;
   w11 = w11 + w13;
@@ -6675,11 +6675,11 @@ void hexapod_body_ik(const double *restrict pose, const double *restrict toes, d
   w11 = w11 + w13;
   w13 = w11 * w6;
   w9 = w9 - w13;
-  w13 = pose[1];
+  w13 = in_pose[1];
   w14 = w4 * w13;
   w9 = w9 + w14;
   w15 = w10 * w2;
-  w16 = pose[2];
+  w16 = in_pose[2];
   w15 = w15 + w16;
   w17 = w4 * w7;
   w15 = w15 + w17;
@@ -6749,7 +6749,7 @@ void hexapod_body_ik(const double *restrict pose, const double *restrict toes, d
   w24 = 0.11999999999988513;
   w9 = w9 - w24;
   w28 = atan2(w5, w9);
-  q[0] = w28;
+  out_q[0] = w28;
   w28 = w6 * w16;
   w29 = w1 * w13;
   w28 = w28 + w29;
@@ -6791,21 +6791,21 @@ void hexapod_body_ik(const double *restrict pose, const double *restrict toes, d
   w15 = w3 * w9;
   w31 = atan2(w31, w15);
   w11 = w11 - w31;
-  q[1] = w11;
+  out_q[1] = w11;
   w11 = 12.499999999999998;
   w2 = w11 * w2;
   w31 = w11 * w9;
   w15 = 1.0;
   w31 = w31 - w15;
   w2 = atan2(w2, w31);
-  q[2] = w2;
-  w2 = toes[5];
+  out_q[2] = w2;
+  w2 = in_toes[5];
   w31 = w10 * w2;
   w31 = w31 + w12;
-  w32 = toes[3];
+  w32 = in_toes[3];
   w33 = w1 * w32;
   w31 = w31 + w33;
-  w33 = toes[4];
+  w33 = in_toes[4];
   w34 = w6 * w33;
   w31 = w31 + w34;
   w34 = w31 * w1;
@@ -6854,7 +6854,7 @@ void hexapod_body_ik(const double *restrict pose, const double *restrict toes, d
   w38 = 0.12;
   w37 = w37 - w38;
   w2 = atan2(w2, w37);
-  q[3] = w2;
+  out_q[3] = w2;
   w36 = w36 * w6;
   w36 = w28 + w36;
   w36 = w36 + w29;
@@ -6888,18 +6888,18 @@ void hexapod_body_ik(const double *restrict pose, const double *restrict toes, d
   w36 = w3 * w37;
   w32 = atan2(w32, w36);
   w31 = w31 - w32;
-  q[4] = w31;
+  out_q[4] = w31;
   w33 = w11 * w33;
   w31 = w11 * w37;
   w31 = w31 - w15;
   w33 = atan2(w33, w31);
-  q[5] = w33;
-  w33 = toes[7];
+  out_q[5] = w33;
+  w33 = in_toes[7];
   w31 = w1 * w33;
-  w32 = toes[8];
+  w32 = in_toes[8];
   w36 = w4 * w32;
   w31 = w31 - w36;
-  w36 = toes[6];
+  w36 = in_toes[6];
   w34 = w6 * w36;
   w31 = w31 - w34;
   w31 = w31 - w8;
@@ -6954,7 +6954,7 @@ void hexapod_body_ik(const double *restrict pose, const double *restrict toes, d
   w32 = w0 * w32;
   w34 = w34 - w32;
   w32 = atan2(w36, w34);
-  q[6] = w32;
+  out_q[6] = w32;
   w2 = w2 * w6;
   w2 = w28 + w2;
   w2 = w2 + w29;
@@ -6987,19 +6987,19 @@ void hexapod_body_ik(const double *restrict pose, const double *restrict toes, d
   w2 = w3 * w34;
   w36 = atan2(w36, w2);
   w35 = w35 - w36;
-  q[7] = w35;
+  out_q[7] = w35;
   w33 = w11 * w33;
   w35 = w11 * w34;
   w35 = w35 - w15;
   w33 = atan2(w33, w35);
-  q[8] = w33;
-  w33 = toes[11];
+  out_q[8] = w33;
+  w33 = in_toes[11];
   w35 = w10 * w33;
   w35 = w35 + w12;
-  w36 = toes[9];
+  w36 = in_toes[9];
   w2 = w1 * w36;
   w35 = w35 + w2;
-  w2 = toes[10];
+  w2 = in_toes[10];
   w31 = w6 * w2;
   w35 = w35 + w31;
   w31 = w35 * w1;
@@ -7054,7 +7054,7 @@ void hexapod_body_ik(const double *restrict pose, const double *restrict toes, d
   w33 = w33 + w31;
   w31 = -w33;
   w31 = atan2(w36, w31);
-  q[9] = w31;
+  out_q[9] = w31;
   w39 = w39 * w6;
   w39 = w28 + w39;
   w39 = w39 + w29;
@@ -7087,19 +7087,19 @@ void hexapod_body_ik(const double *restrict pose, const double *restrict toes, d
   w39 = w3 * w33;
   w36 = atan2(w36, w39);
   w35 = w35 - w36;
-  q[10] = w35;
+  out_q[10] = w35;
   w2 = w11 * w2;
   w35 = w11 * w33;
   w35 = w35 - w15;
   w2 = atan2(w2, w35);
-  q[11] = w2;
-  w2 = toes[14];
+  out_q[11] = w2;
+  w2 = in_toes[14];
   w35 = w10 * w2;
   w35 = w35 + w12;
-  w36 = toes[12];
+  w36 = in_toes[12];
   w39 = w1 * w36;
   w35 = w35 + w39;
-  w39 = toes[13];
+  w39 = in_toes[13];
   w32 = w6 * w39;
   w35 = w35 + w32;
   w32 = w35 * w1;
@@ -7147,7 +7147,7 @@ void hexapod_body_ik(const double *restrict pose, const double *restrict toes, d
   w2 = w2 + w38;
   w38 = -w2;
   w38 = atan2(w36, w38);
-  q[12] = w38;
+  out_q[12] = w38;
   w40 = w40 * w6;
   w40 = w28 + w40;
   w40 = w40 + w29;
@@ -7181,18 +7181,18 @@ void hexapod_body_ik(const double *restrict pose, const double *restrict toes, d
   w40 = w3 * w2;
   w36 = atan2(w36, w40);
   w35 = w35 - w36;
-  q[13] = w35;
+  out_q[13] = w35;
   w39 = w11 * w39;
   w35 = w11 * w2;
   w35 = w35 - w15;
   w39 = atan2(w39, w35);
-  q[14] = w39;
-  w39 = toes[16];
+  out_q[14] = w39;
+  w39 = in_toes[16];
   w35 = w1 * w39;
-  w36 = toes[17];
+  w36 = in_toes[17];
   w40 = w4 * w36;
   w35 = w35 - w40;
-  w40 = toes[15];
+  w40 = in_toes[15];
   w32 = w6 * w40;
   w35 = w35 - w32;
   w35 = w35 - w8;
@@ -7247,7 +7247,7 @@ void hexapod_body_ik(const double *restrict pose, const double *restrict toes, d
   w22 = w22 * w8;
   w0 = w0 - w22;
   w22 = atan2(w23, w0);
-  q[15] = w22;
+  out_q[15] = w22;
   w14 = w14 * w6;
   w28 = w28 + w14;
   w28 = w28 + w29;
@@ -7280,12 +7280,12 @@ void hexapod_body_ik(const double *restrict pose, const double *restrict toes, d
   w3 = w3 * w0;
   w30 = atan2(w30, w3);
   w1 = w1 - w30;
-  q[16] = w1;
+  out_q[16] = w1;
   w39 = w11 * w39;
   w11 = w11 * w0;
   w11 = w11 - w15;
   w39 = atan2(w39, w11);
-  q[17] = w39;
+  out_q[17] = w39;
   w39 = 1e-09;
   w11 = w9 < w21;
   w9 = sqrt(w9);
@@ -7302,7 +7302,7 @@ void hexapod_body_ik(const double *restrict pose, const double *restrict toes, d
   w1 = w39 < w11;
   w1 = !w1;
   w1 = w1 ? w15 : 0.0;
-  reach[0] = w1;
+  out_reach[0] = w1;
   w1 = w37 < w21;
   w37 = sqrt(w37);
   w9 = -w37;
@@ -7317,7 +7317,7 @@ void hexapod_body_ik(const double *restrict pose, const double *restrict toes, d
   w9 = w39 < w1;
   w9 = !w9;
   w9 = w9 ? w15 : 0.0;
-  reach[1] = w9;
+  out_reach[1] = w9;
   w9 = w34 < w21;
   w34 = sqrt(w34);
   w37 = -w34;
@@ -7332,7 +7332,7 @@ void hexapod_body_ik(const double *restrict pose, const double *restrict toes, d
   w37 = w39 < w9;
   w37 = !w37;
   w37 = w37 ? w15 : 0.0;
-  reach[2] = w37;
+  out_reach[2] = w37;
   w37 = w33 < w21;
   w33 = sqrt(w33);
   w34 = -w33;
@@ -7347,7 +7347,7 @@ void hexapod_body_ik(const double *restrict pose, const double *restrict toes, d
   w34 = w39 < w37;
   w34 = !w34;
   w34 = w34 ? w15 : 0.0;
-  reach[3] = w34;
+  out_reach[3] = w34;
   w34 = w2 < w21;
   w2 = sqrt(w2);
   w33 = -w2;
@@ -7362,7 +7362,7 @@ void hexapod_body_ik(const double *restrict pose, const double *restrict toes, d
   w33 = w39 < w34;
   w33 = !w33;
   w33 = w33 ? w15 : 0.0;
-  reach[4] = w33;
+  out_reach[4] = w33;
   w33 = w0 < w21;
   w0 = sqrt(w0);
   w2 = -w0;
@@ -7377,31 +7377,31 @@ void hexapod_body_ik(const double *restrict pose, const double *restrict toes, d
   w39 = w39 < w21;
   w39 = !w39;
   w39 = w39 ? w15 : 0.0;
-  reach[5] = w39;
-  excess[0] = w11;
-  excess[1] = w1;
-  excess[2] = w9;
-  excess[3] = w37;
-  excess[4] = w34;
-  excess[5] = w21;
+  out_reach[5] = w39;
+  out_excess[0] = w11;
+  out_excess[1] = w1;
+  out_excess[2] = w9;
+  out_excess[3] = w37;
+  out_excess[4] = w34;
+  out_excess[5] = w21;
 }
 
 /* hexapod_body_ik_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_body_ik_columns_from(long s0, long n, long ld, const double *restrict pose, const double *restrict toes, double *restrict q, double *restrict reach, double *restrict excess) {
-  double pose_s[8];
-  double toes_s[18];
-  double q_s[18];
-  double reach_s[6];
-  double excess_s[6];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 8; ++k) pose_s[k] = pose[k * ld + s];
-    for (long k = 0; k < 18; ++k) toes_s[k] = toes[k * ld + s];
-    hexapod_body_ik(pose_s, toes_s, q_s, reach_s, excess_s);
-    for (long k = 0; k < 18; ++k) q[k * ld + s] = q_s[k];
-    for (long k = 0; k < 6; ++k) reach[k * ld + s] = reach_s[k];
-    for (long k = 0; k < 6; ++k) excess[k * ld + s] = excess_s[k];
+void hexapod_body_ik_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_pose, const double *restrict in_toes, double *restrict out_q, double *restrict out_reach, double *restrict out_excess) {
+  double gagen_in_pose[8];
+  double gagen_in_toes[18];
+  double gagen_out_q[18];
+  double gagen_out_reach[6];
+  double gagen_out_excess[6];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 8; ++gagen_k) gagen_in_pose[gagen_k] = in_pose[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 18; ++gagen_k) gagen_in_toes[gagen_k] = in_toes[gagen_k * gagen_ld + gagen_s];
+    hexapod_body_ik(gagen_in_pose, gagen_in_toes, gagen_out_q, gagen_out_reach, gagen_out_excess);
+    for (long gagen_k = 0; gagen_k < 18; ++gagen_k) out_q[gagen_k * gagen_ld + gagen_s] = gagen_out_q[gagen_k];
+    for (long gagen_k = 0; gagen_k < 6; ++gagen_k) out_reach[gagen_k * gagen_ld + gagen_s] = gagen_out_reach[gagen_k];
+    for (long gagen_k = 0; gagen_k < 6; ++gagen_k) out_excess[gagen_k * gagen_ld + gagen_s] = gagen_out_excess[gagen_k];
   }
 }
 
@@ -7418,35 +7418,35 @@ void hexapod_body_ik_batch_columns_argv(long n, long ld, const double *const *ar
 }
 
 /* each toe's signed distance from the ground plane and its foot on it (PGA3D): mul=390 add=365 neg=12 div=43 cos=18 fabs=3 if_else_zero=9 lt=6 not=3 sin=18 sqrt=1 (flops=810) */
-void hexapod_body_contact_pga(const double *restrict pose, const double *restrict q, const double *restrict ground, double *restrict distance, double *restrict feet) {
+void hexapod_body_contact_pga(const double *restrict in_pose, const double *restrict in_q, const double *restrict in_ground, double *restrict out_distance, double *restrict out_feet) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   double w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   double w36, w37, w38, w39, w40, w41, w42, w43, w44, w45, w46, w47;
   double w48, w49, w50, w51, w52, w53, w54, w55, w56, w57, w58;
-  w0 = ground[0];
-  w1 = pose[6];
+  w0 = in_ground[0];
+  w1 = in_pose[6];
   w2 = w1 * w1;
-  w3 = pose[5];
+  w3 = in_pose[5];
   w4 = w3 * w3;
   w2 = w2 + w4;
-  w4 = pose[3];
+  w4 = in_pose[3];
   w5 = w4 * w4;
   w2 = w2 + w5;
-  w5 = pose[0];
+  w5 = in_pose[0];
   w6 = w5 * w5;
   w2 = w2 + w6;
   w6 = w0 * w2;
-  w7 = ground[2];
-  w8 = pose[7];
+  w7 = in_ground[2];
+  w8 = in_pose[7];
   w9 = w3 * w8;
-  w10 = pose[1];
+  w10 = in_pose[1];
   w11 = w4 * w10;
   w9 = w9 + w11;
   w11 = 0.06;
   w12 = 0.2617993877991494;
   w13 = 0.5;
-  w14 = q[0];
+  w14 = in_q[0];
   w14 = w13 * w14;
   w14 = w12 + w14;
   w15 = sin(w14);
@@ -7454,14 +7454,14 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w14 = w15 * w14;
   w16 = 0.45;
   w17 = 0.4;
-  w18 = q[2];
+  w18 = in_q[2];
   w18 = w13 * w18;
   w19 = sin(w18);
   w20 = w19 * w19;
   w20 = w17 * w20;
   w21 = w16 - w20;
   w22 = 0.8;
-  w23 = q[1];
+  w23 = in_q[1];
   w23 = w13 * w23;
   w24 = sin(w23);
   w23 = cos(w23);
@@ -7491,7 +7491,7 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w24 = w24 - w23;
   w23 = w1 * w24;
   w28 = w28 + w23;
-  w23 = pose[2];
+  w23 = in_pose[2];
   w28 = w28 - w23;
   w26 = 0.553923048454;
   w20 = w26 - w20;
@@ -7521,7 +7521,7 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w21 = w21 - w8;
   w25 = w21 * w3;
   w27 = w27 - w25;
-  w25 = pose[4];
+  w25 = in_pose[4];
   w19 = w1 * w25;
   w27 = w27 - w19;
   w20 = w3 * w20;
@@ -7536,7 +7536,7 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w27 = w27 - w24;
   w14 = w7 * w27;
   w14 = w6 + w14;
-  w18 = ground[1];
+  w18 = in_ground[1];
   w29 = w1 * w8;
   w30 = w3 * w25;
   w29 = w29 + w30;
@@ -7554,7 +7554,7 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w30 = w30 - w33;
   w33 = w18 * w30;
   w14 = w14 - w33;
-  w33 = ground[3];
+  w33 = in_ground[3];
   w20 = w20 * w5;
   w34 = w4 * w8;
   w20 = w20 + w34;
@@ -7592,22 +7592,22 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w36 = w36 ? w41 : 0.0;
   w15 = w15 + w36;
   w14 = w14 / w15;
-  distance[0] = w14;
+  out_distance[0] = w14;
   w14 = 0.12;
   w36 = 0.7853981633974483;
-  w41 = q[3];
+  w41 = in_q[3];
   w41 = w13 * w41;
   w41 = w36 + w41;
   w39 = sin(w41);
   w41 = cos(w41);
   w41 = w39 * w41;
-  w42 = q[5];
+  w42 = in_q[5];
   w42 = w13 * w42;
   w43 = sin(w42);
   w44 = w43 * w43;
   w44 = w17 * w44;
   w45 = w16 - w44;
-  w46 = q[4];
+  w46 = in_q[4];
   w46 = w13 * w46;
   w47 = sin(w46);
   w46 = cos(w46);
@@ -7701,21 +7701,21 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w39 = w33 * w45;
   w47 = w47 - w39;
   w47 = w47 / w15;
-  distance[1] = w47;
+  out_distance[1] = w47;
   w47 = 1.3089969389957472;
-  w39 = q[6];
+  w39 = in_q[6];
   w39 = w13 * w39;
   w39 = w47 + w39;
   w49 = sin(w39);
   w39 = cos(w39);
   w39 = w49 * w39;
-  w50 = q[8];
+  w50 = in_q[8];
   w50 = w13 * w50;
   w46 = sin(w50);
   w44 = w46 * w46;
   w44 = w17 * w44;
   w43 = w16 - w44;
-  w42 = q[7];
+  w42 = in_q[7];
   w42 = w13 * w42;
   w51 = sin(w42);
   w42 = cos(w42);
@@ -7812,20 +7812,20 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w49 = w33 * w44;
   w51 = w51 - w49;
   w51 = w51 / w15;
-  distance[2] = w51;
-  w51 = q[9];
+  out_distance[2] = w51;
+  w51 = in_q[9];
   w51 = w13 * w51;
   w51 = w51 - w47;
   w47 = sin(w51);
   w51 = cos(w51);
   w51 = w47 * w51;
-  w49 = q[11];
+  w49 = in_q[11];
   w49 = w13 * w49;
   w43 = sin(w49);
   w55 = w43 * w43;
   w55 = w17 * w55;
   w52 = w16 - w55;
-  w53 = q[10];
+  w53 = in_q[10];
   w53 = w13 * w53;
   w46 = sin(w53);
   w53 = cos(w53);
@@ -7921,20 +7921,20 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w47 = w33 * w42;
   w46 = w46 - w47;
   w46 = w46 / w15;
-  distance[3] = w46;
-  w46 = q[12];
+  out_distance[3] = w46;
+  w46 = in_q[12];
   w46 = w13 * w46;
   w46 = w46 - w36;
   w36 = sin(w46);
   w46 = cos(w46);
   w46 = w36 * w46;
-  w47 = q[14];
+  w47 = in_q[14];
   w47 = w13 * w47;
   w52 = sin(w47);
   w58 = w52 * w52;
   w58 = w17 * w58;
   w50 = w16 - w58;
-  w55 = q[13];
+  w55 = in_q[13];
   w55 = w13 * w55;
   w53 = sin(w55);
   w55 = cos(w55);
@@ -8028,20 +8028,20 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w36 = w33 * w50;
   w53 = w53 - w36;
   w53 = w53 / w15;
-  distance[4] = w53;
-  w53 = q[15];
+  out_distance[4] = w53;
+  w53 = in_q[15];
   w53 = w13 * w53;
   w53 = w53 - w12;
   w12 = sin(w53);
   w53 = cos(w53);
   w53 = w12 * w53;
-  w36 = q[17];
+  w36 = in_q[17];
   w36 = w13 * w36;
   w43 = sin(w36);
   w14 = w43 * w43;
   w14 = w17 * w14;
   w16 = w16 - w14;
-  w55 = q[16];
+  w55 = in_q[16];
   w13 = w13 * w55;
   w55 = sin(w13);
   w13 = cos(w13);
@@ -8137,7 +8137,7 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w10 = w33 * w25;
   w6 = w6 - w10;
   w6 = w6 / w15;
-  distance[5] = w6;
+  out_distance[5] = w6;
   w6 = w33 * w30;
   w15 = w18 * w20;
   w6 = w6 - w15;
@@ -8179,7 +8179,7 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w21 = w21 + w4;
   w15 = w15 / w21;
   w15 = -w15;
-  feet[0] = w15;
+  out_feet[0] = w15;
   w20 = w7 * w20;
   w27 = w33 * w27;
   w20 = w20 + w27;
@@ -8190,7 +8190,7 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w27 = w27 - w2;
   w27 = w27 / w10;
   w27 = w27 / w21;
-  feet[1] = w27;
+  out_feet[1] = w27;
   w20 = w20 * w7;
   w30 = w30 * w0;
   w20 = w20 + w30;
@@ -8199,7 +8199,7 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w20 = w20 / w10;
   w20 = w20 / w21;
   w20 = -w20;
-  feet[2] = w20;
+  out_feet[2] = w20;
   w20 = w33 * w41;
   w6 = w18 * w45;
   w20 = w20 - w6;
@@ -8213,7 +8213,7 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w6 = w6 / w10;
   w6 = w6 / w21;
   w6 = -w6;
-  feet[3] = w6;
+  out_feet[3] = w6;
   w45 = w7 * w45;
   w48 = w33 * w48;
   w45 = w45 + w48;
@@ -8223,7 +8223,7 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w48 = w48 - w2;
   w48 = w48 / w10;
   w48 = w48 / w21;
-  feet[4] = w48;
+  out_feet[4] = w48;
   w45 = w45 * w7;
   w45 = w45 + w30;
   w20 = w20 * w18;
@@ -8231,7 +8231,7 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w45 = w45 / w10;
   w45 = w45 / w21;
   w45 = -w45;
-  feet[5] = w45;
+  out_feet[5] = w45;
   w45 = w33 * w39;
   w20 = w18 * w44;
   w45 = w45 - w20;
@@ -8245,7 +8245,7 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w20 = w20 / w10;
   w20 = w20 / w21;
   w20 = -w20;
-  feet[6] = w20;
+  out_feet[6] = w20;
   w44 = w7 * w44;
   w54 = w33 * w54;
   w44 = w44 + w54;
@@ -8255,7 +8255,7 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w54 = w54 - w2;
   w54 = w54 / w10;
   w54 = w54 / w21;
-  feet[7] = w54;
+  out_feet[7] = w54;
   w44 = w44 * w7;
   w44 = w44 + w30;
   w45 = w45 * w18;
@@ -8263,7 +8263,7 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w44 = w44 / w10;
   w44 = w44 / w21;
   w44 = -w44;
-  feet[8] = w44;
+  out_feet[8] = w44;
   w44 = w33 * w51;
   w45 = w18 * w42;
   w44 = w44 - w45;
@@ -8277,7 +8277,7 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w45 = w45 / w10;
   w45 = w45 / w21;
   w45 = -w45;
-  feet[9] = w45;
+  out_feet[9] = w45;
   w42 = w7 * w42;
   w57 = w33 * w57;
   w42 = w42 + w57;
@@ -8287,7 +8287,7 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w57 = w57 - w2;
   w57 = w57 / w10;
   w57 = w57 / w21;
-  feet[10] = w57;
+  out_feet[10] = w57;
   w42 = w42 * w7;
   w42 = w42 + w30;
   w44 = w44 * w18;
@@ -8295,7 +8295,7 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w42 = w42 / w10;
   w42 = w42 / w21;
   w42 = -w42;
-  feet[11] = w42;
+  out_feet[11] = w42;
   w42 = w33 * w46;
   w44 = w18 * w50;
   w42 = w42 - w44;
@@ -8309,7 +8309,7 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w44 = w44 / w10;
   w44 = w44 / w21;
   w44 = -w44;
-  feet[12] = w44;
+  out_feet[12] = w44;
   w50 = w7 * w50;
   w56 = w33 * w56;
   w50 = w50 + w56;
@@ -8319,7 +8319,7 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w56 = w56 - w2;
   w56 = w56 / w10;
   w56 = w56 / w21;
-  feet[13] = w56;
+  out_feet[13] = w56;
   w50 = w50 * w7;
   w50 = w50 + w30;
   w42 = w42 * w18;
@@ -8327,7 +8327,7 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w50 = w50 / w10;
   w50 = w50 / w21;
   w50 = -w50;
-  feet[14] = w50;
+  out_feet[14] = w50;
   w50 = w33 * w29;
   w42 = w18 * w25;
   w50 = w50 - w42;
@@ -8341,7 +8341,7 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w42 = w42 / w10;
   w42 = w42 / w21;
   w42 = -w42;
-  feet[15] = w42;
+  out_feet[15] = w42;
   w25 = w7 * w25;
   w9 = w33 * w9;
   w25 = w25 + w9;
@@ -8351,7 +8351,7 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w33 = w33 - w2;
   w33 = w33 / w10;
   w33 = w33 / w21;
-  feet[16] = w33;
+  out_feet[16] = w33;
   w25 = w25 * w7;
   w25 = w25 + w30;
   w50 = w50 * w18;
@@ -8359,25 +8359,25 @@ void hexapod_body_contact_pga(const double *restrict pose, const double *restric
   w25 = w25 / w10;
   w25 = w25 / w21;
   w25 = -w25;
-  feet[17] = w25;
+  out_feet[17] = w25;
 }
 
 /* hexapod_body_contact_pga_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_body_contact_pga_columns_from(long s0, long n, long ld, const double *restrict pose, const double *restrict q, const double *restrict ground, double *restrict distance, double *restrict feet) {
-  double pose_s[8];
-  double q_s[18];
-  double ground_s[4];
-  double distance_s[6];
-  double feet_s[18];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 8; ++k) pose_s[k] = pose[k * ld + s];
-    for (long k = 0; k < 18; ++k) q_s[k] = q[k * ld + s];
-    for (long k = 0; k < 4; ++k) ground_s[k] = ground[k * ld + s];
-    hexapod_body_contact_pga(pose_s, q_s, ground_s, distance_s, feet_s);
-    for (long k = 0; k < 6; ++k) distance[k * ld + s] = distance_s[k];
-    for (long k = 0; k < 18; ++k) feet[k * ld + s] = feet_s[k];
+void hexapod_body_contact_pga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_pose, const double *restrict in_q, const double *restrict in_ground, double *restrict out_distance, double *restrict out_feet) {
+  double gagen_in_pose[8];
+  double gagen_in_q[18];
+  double gagen_in_ground[4];
+  double gagen_out_distance[6];
+  double gagen_out_feet[18];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 8; ++gagen_k) gagen_in_pose[gagen_k] = in_pose[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 18; ++gagen_k) gagen_in_q[gagen_k] = in_q[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 4; ++gagen_k) gagen_in_ground[gagen_k] = in_ground[gagen_k * gagen_ld + gagen_s];
+    hexapod_body_contact_pga(gagen_in_pose, gagen_in_q, gagen_in_ground, gagen_out_distance, gagen_out_feet);
+    for (long gagen_k = 0; gagen_k < 6; ++gagen_k) out_distance[gagen_k * gagen_ld + gagen_s] = gagen_out_distance[gagen_k];
+    for (long gagen_k = 0; gagen_k < 18; ++gagen_k) out_feet[gagen_k * gagen_ld + gagen_s] = gagen_out_feet[gagen_k];
   }
 }
 
@@ -8394,7 +8394,7 @@ void hexapod_body_contact_pga_batch_columns_argv(long n, long ld, const double *
 }
 
 /* each toe's signed distance from the ground plane and its foot on it (CGA3D): mul=327 add=389 neg=0 div=30 cos=18 fabs=3 if_else_zero=9 lt=6 not=3 sin=18 sqrt=1 (flops=746) */
-void hexapod_body_contact_cga(const double *restrict pose, const double *restrict q, const double *restrict ground, double *restrict distance, double *restrict feet) {
+void hexapod_body_contact_cga(const double *restrict in_pose, const double *restrict in_q, const double *restrict in_ground, double *restrict out_distance, double *restrict out_feet) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   double w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -8402,24 +8402,24 @@ void hexapod_body_contact_cga(const double *restrict pose, const double *restric
   double w48, w49, w50, w51, w52, w53, w54, w55, w56, w57, w58, w59;
   double w60, w61, w62, w63, w64, w65, w66, w67, w68, w69, w70, w71;
   double w72, w73, w74, w75;
-  w0 = ground[1];
-  w1 = pose[0];
+  w0 = in_ground[1];
+  w1 = in_pose[0];
   w2 = 0.06;
   w3 = 0.2617993877991494;
   w4 = 0.5;
-  w5 = q[0];
+  w5 = in_q[0];
   w5 = w4 * w5;
   w5 = w3 + w5;
   w6 = sin(w5);
   w5 = cos(w5);
   w5 = w6 * w5;
   w7 = 0.45;
-  w8 = q[1];
+  w8 = in_q[1];
   w8 = w4 * w8;
   w9 = sin(w8);
   w10 = w9 * w9;
   w11 = 0.4;
-  w12 = q[2];
+  w12 = in_q[2];
   w12 = w4 * w12;
   w13 = sin(w12);
   w14 = w13 * w13;
@@ -8441,7 +8441,7 @@ void hexapod_body_contact_cga(const double *restrict pose, const double *restric
   w5 = w5 + w5;
   w5 = w2 + w5;
   w19 = w1 * w5;
-  w20 = pose[3];
+  w20 = in_pose[3];
   w9 = w9 * w15;
   w9 = w9 + w9;
   w10 = w10 * w13;
@@ -8453,7 +8453,7 @@ void hexapod_body_contact_cga(const double *restrict pose, const double *restric
   w9 = w9 - w13;
   w13 = w20 * w9;
   w19 = w19 + w13;
-  w13 = pose[1];
+  w13 = in_pose[1];
   w12 = 0.553923048454;
   w6 = w6 * w6;
   w6 = w6 * w17;
@@ -8464,23 +8464,23 @@ void hexapod_body_contact_cga(const double *restrict pose, const double *restric
   w16 = w16 - w8;
   w8 = w13 * w16;
   w19 = w19 - w8;
-  w8 = pose[5];
+  w8 = in_pose[5];
   w19 = w19 - w8;
   w14 = w19 * w1;
-  w6 = pose[4];
+  w6 = in_pose[4];
   w17 = w13 * w6;
   w14 = w14 + w17;
   w10 = w1 * w9;
-  w15 = pose[2];
+  w15 = in_pose[2];
   w21 = w15 * w16;
   w10 = w10 - w21;
   w21 = w20 * w5;
   w10 = w10 - w21;
-  w21 = pose[6];
+  w21 = in_pose[6];
   w10 = w10 - w21;
   w22 = w10 * w20;
   w14 = w14 + w22;
-  w22 = pose[7];
+  w22 = in_pose[7];
   w23 = w15 * w22;
   w14 = w14 + w23;
   w24 = w1 * w8;
@@ -8504,7 +8504,7 @@ void hexapod_body_contact_cga(const double *restrict pose, const double *restric
   w5 = w9 * w15;
   w14 = w14 - w5;
   w5 = w0 * w14;
-  w16 = ground[3];
+  w16 = in_ground[3];
   w27 = w1 * w1;
   w28 = w13 * w13;
   w27 = w27 + w28;
@@ -8514,7 +8514,7 @@ void hexapod_body_contact_cga(const double *restrict pose, const double *restric
   w27 = w27 + w28;
   w16 = w16 * w27;
   w5 = w5 + w16;
-  w28 = ground[0];
+  w28 = in_ground[0];
   w29 = w10 * w1;
   w30 = w15 * w6;
   w29 = w29 + w30;
@@ -8532,7 +8532,7 @@ void hexapod_body_contact_cga(const double *restrict pose, const double *restric
   w33 = w33 - w36;
   w33 = w28 * w33;
   w5 = w5 - w33;
-  w33 = ground[2];
+  w33 = in_ground[2];
   w25 = w25 * w1;
   w19 = w19 * w13;
   w25 = w25 + w19;
@@ -8570,20 +8570,20 @@ void hexapod_body_contact_cga(const double *restrict pose, const double *restric
   w40 = w40 ? w45 : 0.0;
   w39 = w39 + w40;
   w40 = w5 / w39;
-  distance[0] = w40;
+  out_distance[0] = w40;
   w40 = 0.12;
   w45 = 0.7853981633974483;
-  w43 = q[3];
+  w43 = in_q[3];
   w43 = w4 * w43;
   w43 = w45 + w43;
   w46 = sin(w43);
   w43 = cos(w43);
   w43 = w46 * w43;
-  w47 = q[4];
+  w47 = in_q[4];
   w47 = w4 * w47;
   w48 = sin(w47);
   w49 = w48 * w48;
-  w50 = q[5];
+  w50 = in_q[5];
   w50 = w4 * w50;
   w51 = sin(w50);
   w52 = w51 * w51;
@@ -8683,19 +8683,19 @@ void hexapod_body_contact_cga(const double *restrict pose, const double *restric
   w48 = w33 * w48;
   w43 = w43 - w48;
   w48 = w43 / w39;
-  distance[1] = w48;
+  out_distance[1] = w48;
   w48 = 1.3089969389957472;
-  w52 = q[6];
+  w52 = in_q[6];
   w52 = w4 * w52;
   w52 = w48 + w52;
   w56 = sin(w52);
   w52 = cos(w52);
   w52 = w56 * w52;
-  w55 = q[7];
+  w55 = in_q[7];
   w55 = w4 * w55;
   w49 = sin(w55);
   w53 = w49 * w49;
-  w57 = q[8];
+  w57 = in_q[8];
   w57 = w4 * w57;
   w58 = sin(w57);
   w59 = w58 * w58;
@@ -8796,18 +8796,18 @@ void hexapod_body_contact_cga(const double *restrict pose, const double *restric
   w49 = w33 * w49;
   w52 = w52 - w49;
   w49 = w52 / w39;
-  distance[2] = w49;
-  w49 = q[9];
+  out_distance[2] = w49;
+  w49 = in_q[9];
   w49 = w4 * w49;
   w49 = w49 - w48;
   w48 = sin(w49);
   w49 = cos(w49);
   w49 = w48 * w49;
-  w59 = q[10];
+  w59 = in_q[10];
   w59 = w4 * w59;
   w63 = sin(w59);
   w62 = w63 * w63;
-  w60 = q[11];
+  w60 = in_q[11];
   w60 = w4 * w60;
   w64 = sin(w60);
   w65 = w64 * w64;
@@ -8907,18 +8907,18 @@ void hexapod_body_contact_cga(const double *restrict pose, const double *restric
   w63 = w33 * w63;
   w49 = w49 - w63;
   w63 = w49 / w39;
-  distance[3] = w63;
-  w63 = q[12];
+  out_distance[3] = w63;
+  w63 = in_q[12];
   w63 = w4 * w63;
   w63 = w63 - w45;
   w45 = sin(w63);
   w63 = cos(w63);
   w63 = w45 * w63;
-  w65 = q[13];
+  w65 = in_q[13];
   w65 = w4 * w65;
   w69 = sin(w65);
   w48 = w69 * w69;
-  w60 = q[14];
+  w60 = in_q[14];
   w60 = w4 * w60;
   w62 = sin(w60);
   w66 = w62 * w62;
@@ -9018,18 +9018,18 @@ void hexapod_body_contact_cga(const double *restrict pose, const double *restric
   w69 = w33 * w69;
   w63 = w63 - w69;
   w69 = w63 / w39;
-  distance[4] = w69;
-  w69 = q[15];
+  out_distance[4] = w69;
+  w69 = in_q[15];
   w69 = w4 * w69;
   w69 = w69 - w3;
   w3 = sin(w69);
   w69 = cos(w69);
   w69 = w3 * w69;
-  w66 = q[16];
+  w66 = in_q[16];
   w66 = w4 * w66;
   w40 = sin(w66);
   w72 = w40 * w40;
-  w48 = q[17];
+  w48 = in_q[17];
   w4 = w4 * w48;
   w48 = sin(w4);
   w70 = w48 * w48;
@@ -9129,7 +9129,7 @@ void hexapod_body_contact_cga(const double *restrict pose, const double *restric
   w40 = w33 * w40;
   w22 = w22 - w40;
   w39 = w22 / w39;
-  distance[5] = w39;
+  out_distance[5] = w39;
   w39 = fabs(w10);
   w39 = w39 < w41;
   w40 = w10 < w42;
@@ -9156,11 +9156,11 @@ void hexapod_body_contact_cga(const double *restrict pose, const double *restric
   w39 = w39 ? w44 : 0.0;
   w27 = w27 + w39;
   w25 = w25 / w27;
-  feet[0] = w25;
+  out_feet[0] = w25;
   w25 = w5 * w0;
   w14 = w14 - w25;
   w14 = w14 / w27;
-  feet[1] = w14;
+  out_feet[1] = w14;
   w5 = w5 * w28;
   w29 = w29 + w5;
   w29 = w29 - w32;
@@ -9168,7 +9168,7 @@ void hexapod_body_contact_cga(const double *restrict pose, const double *restric
   w29 = w29 - w35;
   w29 = w29 - w36;
   w29 = w29 / w27;
-  feet[2] = w29;
+  out_feet[2] = w29;
   w43 = w43 / w10;
   w29 = w43 * w33;
   w46 = w46 + w29;
@@ -9177,11 +9177,11 @@ void hexapod_body_contact_cga(const double *restrict pose, const double *restric
   w46 = w46 - w37;
   w46 = w46 - w38;
   w46 = w46 / w27;
-  feet[3] = w46;
+  out_feet[3] = w46;
   w46 = w43 * w0;
   w47 = w47 - w46;
   w47 = w47 / w27;
-  feet[4] = w47;
+  out_feet[4] = w47;
   w43 = w43 * w28;
   w54 = w54 + w43;
   w54 = w54 - w32;
@@ -9189,7 +9189,7 @@ void hexapod_body_contact_cga(const double *restrict pose, const double *restric
   w54 = w54 - w50;
   w54 = w54 - w36;
   w54 = w54 / w27;
-  feet[5] = w54;
+  out_feet[5] = w54;
   w52 = w52 / w10;
   w54 = w52 * w33;
   w56 = w56 + w54;
@@ -9198,11 +9198,11 @@ void hexapod_body_contact_cga(const double *restrict pose, const double *restric
   w56 = w56 - w37;
   w56 = w56 - w38;
   w56 = w56 / w27;
-  feet[6] = w56;
+  out_feet[6] = w56;
   w56 = w52 * w0;
   w55 = w55 - w56;
   w55 = w55 / w27;
-  feet[7] = w55;
+  out_feet[7] = w55;
   w52 = w52 * w28;
   w61 = w61 + w52;
   w61 = w61 - w32;
@@ -9210,7 +9210,7 @@ void hexapod_body_contact_cga(const double *restrict pose, const double *restric
   w61 = w61 - w53;
   w61 = w61 - w36;
   w61 = w61 / w27;
-  feet[8] = w61;
+  out_feet[8] = w61;
   w49 = w49 / w10;
   w61 = w49 * w33;
   w67 = w67 + w61;
@@ -9219,11 +9219,11 @@ void hexapod_body_contact_cga(const double *restrict pose, const double *restric
   w67 = w67 - w37;
   w67 = w67 - w38;
   w67 = w67 / w27;
-  feet[9] = w67;
+  out_feet[9] = w67;
   w67 = w49 * w0;
   w59 = w59 - w67;
   w59 = w59 / w27;
-  feet[10] = w59;
+  out_feet[10] = w59;
   w49 = w49 * w28;
   w58 = w58 + w49;
   w58 = w58 - w32;
@@ -9231,7 +9231,7 @@ void hexapod_body_contact_cga(const double *restrict pose, const double *restric
   w58 = w58 - w64;
   w58 = w58 - w36;
   w58 = w58 / w27;
-  feet[11] = w58;
+  out_feet[11] = w58;
   w63 = w63 / w10;
   w58 = w63 * w33;
   w45 = w45 + w58;
@@ -9240,11 +9240,11 @@ void hexapod_body_contact_cga(const double *restrict pose, const double *restric
   w45 = w45 - w37;
   w45 = w45 - w38;
   w45 = w45 / w27;
-  feet[12] = w45;
+  out_feet[12] = w45;
   w45 = w63 * w0;
   w65 = w65 - w45;
   w65 = w65 / w27;
-  feet[13] = w65;
+  out_feet[13] = w65;
   w63 = w63 * w28;
   w71 = w71 + w63;
   w71 = w71 - w32;
@@ -9252,7 +9252,7 @@ void hexapod_body_contact_cga(const double *restrict pose, const double *restric
   w71 = w71 - w60;
   w71 = w71 - w36;
   w71 = w71 / w27;
-  feet[14] = w71;
+  out_feet[14] = w71;
   w22 = w22 / w10;
   w33 = w22 * w33;
   w24 = w24 + w33;
@@ -9261,11 +9261,11 @@ void hexapod_body_contact_cga(const double *restrict pose, const double *restric
   w24 = w24 - w37;
   w24 = w24 - w38;
   w24 = w24 / w27;
-  feet[15] = w24;
+  out_feet[15] = w24;
   w0 = w22 * w0;
   w8 = w8 - w0;
   w8 = w8 / w27;
-  feet[16] = w8;
+  out_feet[16] = w8;
   w22 = w22 * w28;
   w16 = w16 + w22;
   w16 = w16 - w32;
@@ -9273,25 +9273,25 @@ void hexapod_body_contact_cga(const double *restrict pose, const double *restric
   w16 = w16 - w69;
   w16 = w16 - w36;
   w16 = w16 / w27;
-  feet[17] = w16;
+  out_feet[17] = w16;
 }
 
 /* hexapod_body_contact_cga_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_body_contact_cga_columns_from(long s0, long n, long ld, const double *restrict pose, const double *restrict q, const double *restrict ground, double *restrict distance, double *restrict feet) {
-  double pose_s[8];
-  double q_s[18];
-  double ground_s[4];
-  double distance_s[6];
-  double feet_s[18];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 8; ++k) pose_s[k] = pose[k * ld + s];
-    for (long k = 0; k < 18; ++k) q_s[k] = q[k * ld + s];
-    for (long k = 0; k < 4; ++k) ground_s[k] = ground[k * ld + s];
-    hexapod_body_contact_cga(pose_s, q_s, ground_s, distance_s, feet_s);
-    for (long k = 0; k < 6; ++k) distance[k * ld + s] = distance_s[k];
-    for (long k = 0; k < 18; ++k) feet[k * ld + s] = feet_s[k];
+void hexapod_body_contact_cga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_pose, const double *restrict in_q, const double *restrict in_ground, double *restrict out_distance, double *restrict out_feet) {
+  double gagen_in_pose[8];
+  double gagen_in_q[18];
+  double gagen_in_ground[4];
+  double gagen_out_distance[6];
+  double gagen_out_feet[18];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 8; ++gagen_k) gagen_in_pose[gagen_k] = in_pose[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 18; ++gagen_k) gagen_in_q[gagen_k] = in_q[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 4; ++gagen_k) gagen_in_ground[gagen_k] = in_ground[gagen_k * gagen_ld + gagen_s];
+    hexapod_body_contact_cga(gagen_in_pose, gagen_in_q, gagen_in_ground, gagen_out_distance, gagen_out_feet);
+    for (long gagen_k = 0; gagen_k < 6; ++gagen_k) out_distance[gagen_k * gagen_ld + gagen_s] = gagen_out_distance[gagen_k];
+    for (long gagen_k = 0; gagen_k < 18; ++gagen_k) out_feet[gagen_k * gagen_ld + gagen_s] = gagen_out_feet[gagen_k];
   }
 }
 
@@ -9308,22 +9308,22 @@ void hexapod_body_contact_cga_batch_columns_argv(long n, long ld, const double *
 }
 
 /* a point against a plane in PGA3D: signed distance, foot of the perpendicular and the incidence \u03a0 \u2227 P: mul=29 add=20 neg=0 div=5 fabs=2 if_else_zero=6 lt=4 not=2 sqrt=1 (flops=54) */
-void hexapod_ground_pga(const double *restrict plane, const double *restrict toe, double *restrict distance, double *restrict foot, double *restrict incidence) {
+void hexapod_ground_pga(const double *restrict in_plane, const double *restrict in_toe, double *restrict out_distance, double *restrict out_foot, double *restrict out_incidence) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16;
-  w0 = plane[0];
-  w1 = toe[3];
+  w0 = in_plane[0];
+  w1 = in_toe[3];
   w2 = w0 * w1;
-  w3 = plane[2];
-  w4 = toe[1];
+  w3 = in_plane[2];
+  w4 = in_toe[1];
   w5 = w3 * w4;
   w2 = w2 + w5;
-  w5 = plane[1];
-  w6 = toe[2];
+  w5 = in_plane[1];
+  w6 = in_toe[2];
   w7 = w5 * w6;
   w2 = w2 - w7;
-  w7 = plane[3];
-  w8 = toe[0];
+  w7 = in_plane[3];
+  w8 = in_toe[0];
   w9 = w7 * w8;
   w2 = w2 - w9;
   w9 = w5 * w5;
@@ -9346,7 +9346,7 @@ void hexapod_ground_pga(const double *restrict plane, const double *restrict toe
   w10 = w10 ? w15 : 0.0;
   w9 = w9 + w10;
   w9 = w2 / w9;
-  distance[0] = w9;
+  out_distance[0] = w9;
   w9 = w3 * w8;
   w10 = w7 * w4;
   w9 = w9 + w10;
@@ -9376,7 +9376,7 @@ void hexapod_ground_pga(const double *restrict plane, const double *restrict toe
   w16 = w16 ? w14 : 0.0;
   w16 = w15 + w16;
   w10 = w10 / w16;
-  foot[0] = w10;
+  out_foot[0] = w10;
   w9 = w9 * w7;
   w4 = w5 * w4;
   w6 = w3 * w6;
@@ -9386,35 +9386,35 @@ void hexapod_ground_pga(const double *restrict plane, const double *restrict toe
   w8 = w8 * w0;
   w9 = w9 - w8;
   w9 = w9 / w16;
-  foot[1] = w9;
+  out_foot[1] = w9;
   w13 = w13 * w7;
   w1 = w1 * w0;
   w13 = w13 + w1;
   w4 = w4 * w3;
   w13 = w13 + w4;
   w13 = w13 / w16;
-  foot[2] = w13;
+  out_foot[2] = w13;
   w15 = w15 / w16;
-  foot[3] = w15;
-  incidence[0] = w2;
+  out_foot[3] = w15;
+  out_incidence[0] = w2;
 }
 
 /* hexapod_ground_pga_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_ground_pga_columns_from(long s0, long n, long ld, const double *restrict plane, const double *restrict toe, double *restrict distance, double *restrict foot, double *restrict incidence) {
-  double plane_s[4];
-  double toe_s[4];
-  double distance_s[1];
-  double foot_s[4];
-  double incidence_s[1];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 4; ++k) plane_s[k] = plane[k * ld + s];
-    for (long k = 0; k < 4; ++k) toe_s[k] = toe[k * ld + s];
-    hexapod_ground_pga(plane_s, toe_s, distance_s, foot_s, incidence_s);
-    for (long k = 0; k < 1; ++k) distance[k * ld + s] = distance_s[k];
-    for (long k = 0; k < 4; ++k) foot[k * ld + s] = foot_s[k];
-    for (long k = 0; k < 1; ++k) incidence[k * ld + s] = incidence_s[k];
+void hexapod_ground_pga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_plane, const double *restrict in_toe, double *restrict out_distance, double *restrict out_foot, double *restrict out_incidence) {
+  double gagen_in_plane[4];
+  double gagen_in_toe[4];
+  double gagen_out_distance[1];
+  double gagen_out_foot[4];
+  double gagen_out_incidence[1];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 4; ++gagen_k) gagen_in_plane[gagen_k] = in_plane[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 4; ++gagen_k) gagen_in_toe[gagen_k] = in_toe[gagen_k * gagen_ld + gagen_s];
+    hexapod_ground_pga(gagen_in_plane, gagen_in_toe, gagen_out_distance, gagen_out_foot, gagen_out_incidence);
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) out_distance[gagen_k * gagen_ld + gagen_s] = gagen_out_distance[gagen_k];
+    for (long gagen_k = 0; gagen_k < 4; ++gagen_k) out_foot[gagen_k * gagen_ld + gagen_s] = gagen_out_foot[gagen_k];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) out_incidence[gagen_k * gagen_ld + gagen_s] = gagen_out_incidence[gagen_k];
   }
 }
 
@@ -9431,22 +9431,22 @@ void hexapod_ground_pga_batch_columns_argv(long n, long ld, const double *const 
 }
 
 /* a point against a plane in CGA3D: signed distance, foot of the perpendicular and the incidence \u03a0 \u2227 P: mul=15 add=16 neg=0 div=8 fabs=3 if_else_zero=9 lt=6 not=3 sqrt=1 (flops=39) */
-void hexapod_ground_cga(const double *restrict plane, const double *restrict toe, double *restrict distance, double *restrict foot, double *restrict incidence) {
+void hexapod_ground_cga(const double *restrict in_plane, const double *restrict in_toe, double *restrict out_distance, double *restrict out_foot, double *restrict out_incidence) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15;
-  w0 = plane[1];
-  w1 = toe[2];
+  w0 = in_plane[1];
+  w1 = in_toe[2];
   w2 = w0 * w1;
-  w3 = plane[3];
-  w4 = toe[0];
+  w3 = in_plane[3];
+  w4 = in_toe[0];
   w3 = w3 * w4;
   w2 = w2 + w3;
-  w3 = plane[0];
-  w5 = toe[3];
+  w3 = in_plane[0];
+  w5 = in_toe[3];
   w6 = w3 * w5;
   w2 = w2 - w6;
-  w6 = plane[2];
-  w7 = toe[1];
+  w6 = in_plane[2];
+  w7 = in_toe[1];
   w8 = w6 * w7;
   w2 = w2 - w8;
   w8 = w6 * w6;
@@ -9469,9 +9469,9 @@ void hexapod_ground_cga(const double *restrict plane, const double *restrict toe
   w10 = w10 ? w15 : 0.0;
   w9 = w9 + w10;
   w9 = w2 / w9;
-  distance[0] = w9;
+  out_distance[0] = w9;
   w9 = 1.0;
-  foot[0] = w9;
+  out_foot[0] = w9;
   w9 = fabs(w8);
   w9 = w9 < w11;
   w10 = w8 < w12;
@@ -9494,15 +9494,15 @@ void hexapod_ground_cga(const double *restrict plane, const double *restrict toe
   w6 = w6 ? w14 : 0.0;
   w4 = w4 + w6;
   w6 = w7 / w4;
-  foot[1] = w6;
+  out_foot[1] = w6;
   w0 = w8 * w0;
   w1 = w1 - w0;
   w0 = w1 / w4;
-  foot[2] = w0;
+  out_foot[2] = w0;
   w8 = w8 * w3;
   w5 = w5 + w8;
   w8 = w5 / w4;
-  foot[3] = w8;
+  out_foot[3] = w8;
   w3 = 0.5;
   w6 = w6 / w4;
   w6 = w6 * w7;
@@ -9513,26 +9513,26 @@ void hexapod_ground_cga(const double *restrict plane, const double *restrict toe
   w8 = w8 * w5;
   w6 = w6 + w8;
   w3 = w3 * w6;
-  foot[4] = w3;
-  incidence[0] = w2;
+  out_foot[4] = w3;
+  out_incidence[0] = w2;
 }
 
 /* hexapod_ground_cga_batch: SIMD, in hexapod_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void hexapod_ground_cga_columns_from(long s0, long n, long ld, const double *restrict plane, const double *restrict toe, double *restrict distance, double *restrict foot, double *restrict incidence) {
-  double plane_s[4];
-  double toe_s[5];
-  double distance_s[1];
-  double foot_s[5];
-  double incidence_s[1];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 4; ++k) plane_s[k] = plane[k * ld + s];
-    for (long k = 0; k < 5; ++k) toe_s[k] = toe[k * ld + s];
-    hexapod_ground_cga(plane_s, toe_s, distance_s, foot_s, incidence_s);
-    for (long k = 0; k < 1; ++k) distance[k * ld + s] = distance_s[k];
-    for (long k = 0; k < 5; ++k) foot[k * ld + s] = foot_s[k];
-    for (long k = 0; k < 1; ++k) incidence[k * ld + s] = incidence_s[k];
+void hexapod_ground_cga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_plane, const double *restrict in_toe, double *restrict out_distance, double *restrict out_foot, double *restrict out_incidence) {
+  double gagen_in_plane[4];
+  double gagen_in_toe[5];
+  double gagen_out_distance[1];
+  double gagen_out_foot[5];
+  double gagen_out_incidence[1];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 4; ++gagen_k) gagen_in_plane[gagen_k] = in_plane[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 5; ++gagen_k) gagen_in_toe[gagen_k] = in_toe[gagen_k * gagen_ld + gagen_s];
+    hexapod_ground_cga(gagen_in_plane, gagen_in_toe, gagen_out_distance, gagen_out_foot, gagen_out_incidence);
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) out_distance[gagen_k * gagen_ld + gagen_s] = gagen_out_distance[gagen_k];
+    for (long gagen_k = 0; gagen_k < 5; ++gagen_k) out_foot[gagen_k * gagen_ld + gagen_s] = gagen_out_foot[gagen_k];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) out_incidence[gagen_k * gagen_ld + gagen_s] = gagen_out_incidence[gagen_k];
   }
 }
 

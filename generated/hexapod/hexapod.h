@@ -69,13 +69,13 @@ extern "C" {
 #define HEXAPOD_FRONT_LEFT_FK_PGA_P_SIZE 3
 #define HEXAPOD_FRONT_LEFT_FK_PGA_J_SIZE 9
 #define HEXAPOD_FRONT_LEFT_FK_PGA_S_SIZE 18
-void hexapod_front_left_fk_pga(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
-void hexapod_front_left_fk_pga_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_front_left_fk_pga(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
+void hexapod_front_left_fk_pga_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 void hexapod_front_left_fk_pga_argv(const double *const *arg, double *const *res);
 void hexapod_front_left_fk_pga_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_front_left_fk_pga_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_front_left_fk_pga_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 void hexapod_front_left_fk_pga_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_front_left_fk_pga_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_front_left_fk_pga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 
 /* leg front_left in CGA3D: FK motor, toe point and position, point and spatial Jacobians
  *   in  q            [3] front_left_yaw, front_left_thigh, front_left_knee
@@ -91,13 +91,13 @@ void hexapod_front_left_fk_pga_columns_from(long s0, long n, long ld, const doub
 #define HEXAPOD_FRONT_LEFT_FK_CGA_P_SIZE 3
 #define HEXAPOD_FRONT_LEFT_FK_CGA_J_SIZE 9
 #define HEXAPOD_FRONT_LEFT_FK_CGA_S_SIZE 18
-void hexapod_front_left_fk_cga(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
-void hexapod_front_left_fk_cga_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_front_left_fk_cga(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
+void hexapod_front_left_fk_cga_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 void hexapod_front_left_fk_cga_argv(const double *const *arg, double *const *res);
 void hexapod_front_left_fk_cga_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_front_left_fk_cga_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_front_left_fk_cga_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 void hexapod_front_left_fk_cga_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_front_left_fk_cga_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_front_left_fk_cga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 
 /* leg front_left: analytic IK of a body-frame toe target, knee up and down, with reachability
  *   in  target       [3] x, y, z
@@ -111,13 +111,13 @@ void hexapod_front_left_fk_cga_columns_from(long s0, long n, long ld, const doub
 #define HEXAPOD_FRONT_LEFT_IK_Q_DOWN_SIZE 3
 #define HEXAPOD_FRONT_LEFT_IK_REACH_SIZE 1
 #define HEXAPOD_FRONT_LEFT_IK_EXCESS_SIZE 1
-void hexapod_front_left_ik(const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
-void hexapod_front_left_ik_batch(long n, const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
+void hexapod_front_left_ik(const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
+void hexapod_front_left_ik_batch(long gagen_n, const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
 void hexapod_front_left_ik_argv(const double *const *arg, double *const *res);
 void hexapod_front_left_ik_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_front_left_ik_batch_columns(long n, long ld, const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
+void hexapod_front_left_ik_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
 void hexapod_front_left_ik_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_front_left_ik_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
+void hexapod_front_left_ik_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
 
 /* leg front_left: one damped least-squares IK step towards a body-frame toe target
  *   in  q            [3] front_left_yaw, front_left_thigh, front_left_knee
@@ -131,13 +131,13 @@ void hexapod_front_left_ik_columns_from(long s0, long n, long ld, const double *
 #define HEXAPOD_FRONT_LEFT_DLS_DAMPING_SIZE 1
 #define HEXAPOD_FRONT_LEFT_DLS_Q_NEXT_SIZE 3
 #define HEXAPOD_FRONT_LEFT_DLS_ERROR_SIZE 1
-void hexapod_front_left_dls(const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error);
-void hexapod_front_left_dls_batch(long n, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error);
+void hexapod_front_left_dls(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error);
+void hexapod_front_left_dls_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error);
 void hexapod_front_left_dls_argv(const double *const *arg, double *const *res);
 void hexapod_front_left_dls_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_front_left_dls_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error);
+void hexapod_front_left_dls_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error);
 void hexapod_front_left_dls_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_front_left_dls_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error);
+void hexapod_front_left_dls_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error);
 
 /* leg middle_left in PGA3D: FK motor, toe point and position, point and spatial Jacobians
  *   in  q            [3] middle_left_yaw, middle_left_thigh, middle_left_knee
@@ -153,13 +153,13 @@ void hexapod_front_left_dls_columns_from(long s0, long n, long ld, const double 
 #define HEXAPOD_MIDDLE_LEFT_FK_PGA_P_SIZE 3
 #define HEXAPOD_MIDDLE_LEFT_FK_PGA_J_SIZE 9
 #define HEXAPOD_MIDDLE_LEFT_FK_PGA_S_SIZE 18
-void hexapod_middle_left_fk_pga(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
-void hexapod_middle_left_fk_pga_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_middle_left_fk_pga(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
+void hexapod_middle_left_fk_pga_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 void hexapod_middle_left_fk_pga_argv(const double *const *arg, double *const *res);
 void hexapod_middle_left_fk_pga_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_middle_left_fk_pga_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_middle_left_fk_pga_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 void hexapod_middle_left_fk_pga_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_middle_left_fk_pga_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_middle_left_fk_pga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 
 /* leg middle_left in CGA3D: FK motor, toe point and position, point and spatial Jacobians
  *   in  q            [3] middle_left_yaw, middle_left_thigh, middle_left_knee
@@ -175,13 +175,13 @@ void hexapod_middle_left_fk_pga_columns_from(long s0, long n, long ld, const dou
 #define HEXAPOD_MIDDLE_LEFT_FK_CGA_P_SIZE 3
 #define HEXAPOD_MIDDLE_LEFT_FK_CGA_J_SIZE 9
 #define HEXAPOD_MIDDLE_LEFT_FK_CGA_S_SIZE 18
-void hexapod_middle_left_fk_cga(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
-void hexapod_middle_left_fk_cga_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_middle_left_fk_cga(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
+void hexapod_middle_left_fk_cga_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 void hexapod_middle_left_fk_cga_argv(const double *const *arg, double *const *res);
 void hexapod_middle_left_fk_cga_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_middle_left_fk_cga_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_middle_left_fk_cga_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 void hexapod_middle_left_fk_cga_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_middle_left_fk_cga_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_middle_left_fk_cga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 
 /* leg middle_left: analytic IK of a body-frame toe target, knee up and down, with reachability
  *   in  target       [3] x, y, z
@@ -195,13 +195,13 @@ void hexapod_middle_left_fk_cga_columns_from(long s0, long n, long ld, const dou
 #define HEXAPOD_MIDDLE_LEFT_IK_Q_DOWN_SIZE 3
 #define HEXAPOD_MIDDLE_LEFT_IK_REACH_SIZE 1
 #define HEXAPOD_MIDDLE_LEFT_IK_EXCESS_SIZE 1
-void hexapod_middle_left_ik(const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
-void hexapod_middle_left_ik_batch(long n, const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
+void hexapod_middle_left_ik(const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
+void hexapod_middle_left_ik_batch(long gagen_n, const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
 void hexapod_middle_left_ik_argv(const double *const *arg, double *const *res);
 void hexapod_middle_left_ik_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_middle_left_ik_batch_columns(long n, long ld, const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
+void hexapod_middle_left_ik_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
 void hexapod_middle_left_ik_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_middle_left_ik_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
+void hexapod_middle_left_ik_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
 
 /* leg middle_left: one damped least-squares IK step towards a body-frame toe target
  *   in  q            [3] middle_left_yaw, middle_left_thigh, middle_left_knee
@@ -215,13 +215,13 @@ void hexapod_middle_left_ik_columns_from(long s0, long n, long ld, const double 
 #define HEXAPOD_MIDDLE_LEFT_DLS_DAMPING_SIZE 1
 #define HEXAPOD_MIDDLE_LEFT_DLS_Q_NEXT_SIZE 3
 #define HEXAPOD_MIDDLE_LEFT_DLS_ERROR_SIZE 1
-void hexapod_middle_left_dls(const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error);
-void hexapod_middle_left_dls_batch(long n, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error);
+void hexapod_middle_left_dls(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error);
+void hexapod_middle_left_dls_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error);
 void hexapod_middle_left_dls_argv(const double *const *arg, double *const *res);
 void hexapod_middle_left_dls_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_middle_left_dls_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error);
+void hexapod_middle_left_dls_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error);
 void hexapod_middle_left_dls_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_middle_left_dls_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error);
+void hexapod_middle_left_dls_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error);
 
 /* leg rear_left in PGA3D: FK motor, toe point and position, point and spatial Jacobians
  *   in  q            [3] rear_left_yaw, rear_left_thigh, rear_left_knee
@@ -237,13 +237,13 @@ void hexapod_middle_left_dls_columns_from(long s0, long n, long ld, const double
 #define HEXAPOD_REAR_LEFT_FK_PGA_P_SIZE 3
 #define HEXAPOD_REAR_LEFT_FK_PGA_J_SIZE 9
 #define HEXAPOD_REAR_LEFT_FK_PGA_S_SIZE 18
-void hexapod_rear_left_fk_pga(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
-void hexapod_rear_left_fk_pga_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_rear_left_fk_pga(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
+void hexapod_rear_left_fk_pga_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 void hexapod_rear_left_fk_pga_argv(const double *const *arg, double *const *res);
 void hexapod_rear_left_fk_pga_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_rear_left_fk_pga_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_rear_left_fk_pga_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 void hexapod_rear_left_fk_pga_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_rear_left_fk_pga_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_rear_left_fk_pga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 
 /* leg rear_left in CGA3D: FK motor, toe point and position, point and spatial Jacobians
  *   in  q            [3] rear_left_yaw, rear_left_thigh, rear_left_knee
@@ -259,13 +259,13 @@ void hexapod_rear_left_fk_pga_columns_from(long s0, long n, long ld, const doubl
 #define HEXAPOD_REAR_LEFT_FK_CGA_P_SIZE 3
 #define HEXAPOD_REAR_LEFT_FK_CGA_J_SIZE 9
 #define HEXAPOD_REAR_LEFT_FK_CGA_S_SIZE 18
-void hexapod_rear_left_fk_cga(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
-void hexapod_rear_left_fk_cga_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_rear_left_fk_cga(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
+void hexapod_rear_left_fk_cga_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 void hexapod_rear_left_fk_cga_argv(const double *const *arg, double *const *res);
 void hexapod_rear_left_fk_cga_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_rear_left_fk_cga_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_rear_left_fk_cga_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 void hexapod_rear_left_fk_cga_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_rear_left_fk_cga_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_rear_left_fk_cga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 
 /* leg rear_left: analytic IK of a body-frame toe target, knee up and down, with reachability
  *   in  target       [3] x, y, z
@@ -279,13 +279,13 @@ void hexapod_rear_left_fk_cga_columns_from(long s0, long n, long ld, const doubl
 #define HEXAPOD_REAR_LEFT_IK_Q_DOWN_SIZE 3
 #define HEXAPOD_REAR_LEFT_IK_REACH_SIZE 1
 #define HEXAPOD_REAR_LEFT_IK_EXCESS_SIZE 1
-void hexapod_rear_left_ik(const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
-void hexapod_rear_left_ik_batch(long n, const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
+void hexapod_rear_left_ik(const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
+void hexapod_rear_left_ik_batch(long gagen_n, const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
 void hexapod_rear_left_ik_argv(const double *const *arg, double *const *res);
 void hexapod_rear_left_ik_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_rear_left_ik_batch_columns(long n, long ld, const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
+void hexapod_rear_left_ik_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
 void hexapod_rear_left_ik_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_rear_left_ik_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
+void hexapod_rear_left_ik_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
 
 /* leg rear_left: one damped least-squares IK step towards a body-frame toe target
  *   in  q            [3] rear_left_yaw, rear_left_thigh, rear_left_knee
@@ -299,13 +299,13 @@ void hexapod_rear_left_ik_columns_from(long s0, long n, long ld, const double *G
 #define HEXAPOD_REAR_LEFT_DLS_DAMPING_SIZE 1
 #define HEXAPOD_REAR_LEFT_DLS_Q_NEXT_SIZE 3
 #define HEXAPOD_REAR_LEFT_DLS_ERROR_SIZE 1
-void hexapod_rear_left_dls(const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error);
-void hexapod_rear_left_dls_batch(long n, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error);
+void hexapod_rear_left_dls(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error);
+void hexapod_rear_left_dls_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error);
 void hexapod_rear_left_dls_argv(const double *const *arg, double *const *res);
 void hexapod_rear_left_dls_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_rear_left_dls_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error);
+void hexapod_rear_left_dls_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error);
 void hexapod_rear_left_dls_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_rear_left_dls_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error);
+void hexapod_rear_left_dls_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error);
 
 /* leg rear_right in PGA3D: FK motor, toe point and position, point and spatial Jacobians
  *   in  q            [3] rear_right_yaw, rear_right_thigh, rear_right_knee
@@ -321,13 +321,13 @@ void hexapod_rear_left_dls_columns_from(long s0, long n, long ld, const double *
 #define HEXAPOD_REAR_RIGHT_FK_PGA_P_SIZE 3
 #define HEXAPOD_REAR_RIGHT_FK_PGA_J_SIZE 9
 #define HEXAPOD_REAR_RIGHT_FK_PGA_S_SIZE 18
-void hexapod_rear_right_fk_pga(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
-void hexapod_rear_right_fk_pga_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_rear_right_fk_pga(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
+void hexapod_rear_right_fk_pga_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 void hexapod_rear_right_fk_pga_argv(const double *const *arg, double *const *res);
 void hexapod_rear_right_fk_pga_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_rear_right_fk_pga_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_rear_right_fk_pga_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 void hexapod_rear_right_fk_pga_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_rear_right_fk_pga_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_rear_right_fk_pga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 
 /* leg rear_right in CGA3D: FK motor, toe point and position, point and spatial Jacobians
  *   in  q            [3] rear_right_yaw, rear_right_thigh, rear_right_knee
@@ -343,13 +343,13 @@ void hexapod_rear_right_fk_pga_columns_from(long s0, long n, long ld, const doub
 #define HEXAPOD_REAR_RIGHT_FK_CGA_P_SIZE 3
 #define HEXAPOD_REAR_RIGHT_FK_CGA_J_SIZE 9
 #define HEXAPOD_REAR_RIGHT_FK_CGA_S_SIZE 18
-void hexapod_rear_right_fk_cga(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
-void hexapod_rear_right_fk_cga_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_rear_right_fk_cga(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
+void hexapod_rear_right_fk_cga_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 void hexapod_rear_right_fk_cga_argv(const double *const *arg, double *const *res);
 void hexapod_rear_right_fk_cga_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_rear_right_fk_cga_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_rear_right_fk_cga_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 void hexapod_rear_right_fk_cga_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_rear_right_fk_cga_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_rear_right_fk_cga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 
 /* leg rear_right: analytic IK of a body-frame toe target, knee up and down, with reachability
  *   in  target       [3] x, y, z
@@ -363,13 +363,13 @@ void hexapod_rear_right_fk_cga_columns_from(long s0, long n, long ld, const doub
 #define HEXAPOD_REAR_RIGHT_IK_Q_DOWN_SIZE 3
 #define HEXAPOD_REAR_RIGHT_IK_REACH_SIZE 1
 #define HEXAPOD_REAR_RIGHT_IK_EXCESS_SIZE 1
-void hexapod_rear_right_ik(const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
-void hexapod_rear_right_ik_batch(long n, const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
+void hexapod_rear_right_ik(const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
+void hexapod_rear_right_ik_batch(long gagen_n, const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
 void hexapod_rear_right_ik_argv(const double *const *arg, double *const *res);
 void hexapod_rear_right_ik_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_rear_right_ik_batch_columns(long n, long ld, const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
+void hexapod_rear_right_ik_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
 void hexapod_rear_right_ik_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_rear_right_ik_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
+void hexapod_rear_right_ik_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
 
 /* leg rear_right: one damped least-squares IK step towards a body-frame toe target
  *   in  q            [3] rear_right_yaw, rear_right_thigh, rear_right_knee
@@ -383,13 +383,13 @@ void hexapod_rear_right_ik_columns_from(long s0, long n, long ld, const double *
 #define HEXAPOD_REAR_RIGHT_DLS_DAMPING_SIZE 1
 #define HEXAPOD_REAR_RIGHT_DLS_Q_NEXT_SIZE 3
 #define HEXAPOD_REAR_RIGHT_DLS_ERROR_SIZE 1
-void hexapod_rear_right_dls(const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error);
-void hexapod_rear_right_dls_batch(long n, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error);
+void hexapod_rear_right_dls(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error);
+void hexapod_rear_right_dls_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error);
 void hexapod_rear_right_dls_argv(const double *const *arg, double *const *res);
 void hexapod_rear_right_dls_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_rear_right_dls_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error);
+void hexapod_rear_right_dls_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error);
 void hexapod_rear_right_dls_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_rear_right_dls_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error);
+void hexapod_rear_right_dls_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error);
 
 /* leg middle_right in PGA3D: FK motor, toe point and position, point and spatial Jacobians
  *   in  q            [3] middle_right_yaw, middle_right_thigh, middle_right_knee
@@ -405,13 +405,13 @@ void hexapod_rear_right_dls_columns_from(long s0, long n, long ld, const double 
 #define HEXAPOD_MIDDLE_RIGHT_FK_PGA_P_SIZE 3
 #define HEXAPOD_MIDDLE_RIGHT_FK_PGA_J_SIZE 9
 #define HEXAPOD_MIDDLE_RIGHT_FK_PGA_S_SIZE 18
-void hexapod_middle_right_fk_pga(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
-void hexapod_middle_right_fk_pga_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_middle_right_fk_pga(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
+void hexapod_middle_right_fk_pga_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 void hexapod_middle_right_fk_pga_argv(const double *const *arg, double *const *res);
 void hexapod_middle_right_fk_pga_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_middle_right_fk_pga_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_middle_right_fk_pga_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 void hexapod_middle_right_fk_pga_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_middle_right_fk_pga_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_middle_right_fk_pga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 
 /* leg middle_right in CGA3D: FK motor, toe point and position, point and spatial Jacobians
  *   in  q            [3] middle_right_yaw, middle_right_thigh, middle_right_knee
@@ -427,13 +427,13 @@ void hexapod_middle_right_fk_pga_columns_from(long s0, long n, long ld, const do
 #define HEXAPOD_MIDDLE_RIGHT_FK_CGA_P_SIZE 3
 #define HEXAPOD_MIDDLE_RIGHT_FK_CGA_J_SIZE 9
 #define HEXAPOD_MIDDLE_RIGHT_FK_CGA_S_SIZE 18
-void hexapod_middle_right_fk_cga(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
-void hexapod_middle_right_fk_cga_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_middle_right_fk_cga(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
+void hexapod_middle_right_fk_cga_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 void hexapod_middle_right_fk_cga_argv(const double *const *arg, double *const *res);
 void hexapod_middle_right_fk_cga_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_middle_right_fk_cga_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_middle_right_fk_cga_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 void hexapod_middle_right_fk_cga_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_middle_right_fk_cga_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_middle_right_fk_cga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 
 /* leg middle_right: analytic IK of a body-frame toe target, knee up and down, with reachability
  *   in  target       [3] x, y, z
@@ -447,13 +447,13 @@ void hexapod_middle_right_fk_cga_columns_from(long s0, long n, long ld, const do
 #define HEXAPOD_MIDDLE_RIGHT_IK_Q_DOWN_SIZE 3
 #define HEXAPOD_MIDDLE_RIGHT_IK_REACH_SIZE 1
 #define HEXAPOD_MIDDLE_RIGHT_IK_EXCESS_SIZE 1
-void hexapod_middle_right_ik(const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
-void hexapod_middle_right_ik_batch(long n, const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
+void hexapod_middle_right_ik(const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
+void hexapod_middle_right_ik_batch(long gagen_n, const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
 void hexapod_middle_right_ik_argv(const double *const *arg, double *const *res);
 void hexapod_middle_right_ik_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_middle_right_ik_batch_columns(long n, long ld, const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
+void hexapod_middle_right_ik_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
 void hexapod_middle_right_ik_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_middle_right_ik_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
+void hexapod_middle_right_ik_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
 
 /* leg middle_right: one damped least-squares IK step towards a body-frame toe target
  *   in  q            [3] middle_right_yaw, middle_right_thigh, middle_right_knee
@@ -467,13 +467,13 @@ void hexapod_middle_right_ik_columns_from(long s0, long n, long ld, const double
 #define HEXAPOD_MIDDLE_RIGHT_DLS_DAMPING_SIZE 1
 #define HEXAPOD_MIDDLE_RIGHT_DLS_Q_NEXT_SIZE 3
 #define HEXAPOD_MIDDLE_RIGHT_DLS_ERROR_SIZE 1
-void hexapod_middle_right_dls(const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error);
-void hexapod_middle_right_dls_batch(long n, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error);
+void hexapod_middle_right_dls(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error);
+void hexapod_middle_right_dls_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error);
 void hexapod_middle_right_dls_argv(const double *const *arg, double *const *res);
 void hexapod_middle_right_dls_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_middle_right_dls_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error);
+void hexapod_middle_right_dls_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error);
 void hexapod_middle_right_dls_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_middle_right_dls_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error);
+void hexapod_middle_right_dls_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error);
 
 /* leg front_right in PGA3D: FK motor, toe point and position, point and spatial Jacobians
  *   in  q            [3] front_right_yaw, front_right_thigh, front_right_knee
@@ -489,13 +489,13 @@ void hexapod_middle_right_dls_columns_from(long s0, long n, long ld, const doubl
 #define HEXAPOD_FRONT_RIGHT_FK_PGA_P_SIZE 3
 #define HEXAPOD_FRONT_RIGHT_FK_PGA_J_SIZE 9
 #define HEXAPOD_FRONT_RIGHT_FK_PGA_S_SIZE 18
-void hexapod_front_right_fk_pga(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
-void hexapod_front_right_fk_pga_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_front_right_fk_pga(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
+void hexapod_front_right_fk_pga_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 void hexapod_front_right_fk_pga_argv(const double *const *arg, double *const *res);
 void hexapod_front_right_fk_pga_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_front_right_fk_pga_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_front_right_fk_pga_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 void hexapod_front_right_fk_pga_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_front_right_fk_pga_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_front_right_fk_pga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 
 /* leg front_right in CGA3D: FK motor, toe point and position, point and spatial Jacobians
  *   in  q            [3] front_right_yaw, front_right_thigh, front_right_knee
@@ -511,13 +511,13 @@ void hexapod_front_right_fk_pga_columns_from(long s0, long n, long ld, const dou
 #define HEXAPOD_FRONT_RIGHT_FK_CGA_P_SIZE 3
 #define HEXAPOD_FRONT_RIGHT_FK_CGA_J_SIZE 9
 #define HEXAPOD_FRONT_RIGHT_FK_CGA_S_SIZE 18
-void hexapod_front_right_fk_cga(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
-void hexapod_front_right_fk_cga_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_front_right_fk_cga(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
+void hexapod_front_right_fk_cga_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 void hexapod_front_right_fk_cga_argv(const double *const *arg, double *const *res);
 void hexapod_front_right_fk_cga_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_front_right_fk_cga_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_front_right_fk_cga_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 void hexapod_front_right_fk_cga_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_front_right_fk_cga_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S);
+void hexapod_front_right_fk_cga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S);
 
 /* leg front_right: analytic IK of a body-frame toe target, knee up and down, with reachability
  *   in  target       [3] x, y, z
@@ -531,13 +531,13 @@ void hexapod_front_right_fk_cga_columns_from(long s0, long n, long ld, const dou
 #define HEXAPOD_FRONT_RIGHT_IK_Q_DOWN_SIZE 3
 #define HEXAPOD_FRONT_RIGHT_IK_REACH_SIZE 1
 #define HEXAPOD_FRONT_RIGHT_IK_EXCESS_SIZE 1
-void hexapod_front_right_ik(const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
-void hexapod_front_right_ik_batch(long n, const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
+void hexapod_front_right_ik(const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
+void hexapod_front_right_ik_batch(long gagen_n, const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
 void hexapod_front_right_ik_argv(const double *const *arg, double *const *res);
 void hexapod_front_right_ik_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_front_right_ik_batch_columns(long n, long ld, const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
+void hexapod_front_right_ik_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
 void hexapod_front_right_ik_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_front_right_ik_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
+void hexapod_front_right_ik_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
 
 /* leg front_right: one damped least-squares IK step towards a body-frame toe target
  *   in  q            [3] front_right_yaw, front_right_thigh, front_right_knee
@@ -551,13 +551,13 @@ void hexapod_front_right_ik_columns_from(long s0, long n, long ld, const double 
 #define HEXAPOD_FRONT_RIGHT_DLS_DAMPING_SIZE 1
 #define HEXAPOD_FRONT_RIGHT_DLS_Q_NEXT_SIZE 3
 #define HEXAPOD_FRONT_RIGHT_DLS_ERROR_SIZE 1
-void hexapod_front_right_dls(const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error);
-void hexapod_front_right_dls_batch(long n, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error);
+void hexapod_front_right_dls(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error);
+void hexapod_front_right_dls_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error);
 void hexapod_front_right_dls_argv(const double *const *arg, double *const *res);
 void hexapod_front_right_dls_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_front_right_dls_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error);
+void hexapod_front_right_dls_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error);
 void hexapod_front_right_dls_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_front_right_dls_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error);
+void hexapod_front_right_dls_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error);
 
 /* all 6 toes in PGA3D: stacked positions and their 18\xd718 Jacobian
  *   in  q            [18] front_left_yaw, front_left_thigh, front_left_knee, middle_left_yaw,...
@@ -567,13 +567,13 @@ void hexapod_front_right_dls_columns_from(long s0, long n, long ld, const double
 #define HEXAPOD_BODY_FK_PGA_Q_SIZE 18
 #define HEXAPOD_BODY_FK_PGA_P_SIZE 18
 #define HEXAPOD_BODY_FK_PGA_J_SIZE 324
-void hexapod_body_fk_pga(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J);
-void hexapod_body_fk_pga_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J);
+void hexapod_body_fk_pga(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J);
+void hexapod_body_fk_pga_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J);
 void hexapod_body_fk_pga_argv(const double *const *arg, double *const *res);
 void hexapod_body_fk_pga_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_body_fk_pga_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J);
+void hexapod_body_fk_pga_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J);
 void hexapod_body_fk_pga_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_body_fk_pga_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J);
+void hexapod_body_fk_pga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J);
 
 /* all 6 toes in CGA3D: stacked positions and their 18\xd718 Jacobian
  *   in  q            [18] front_left_yaw, front_left_thigh, front_left_knee, middle_left_yaw,...
@@ -583,13 +583,13 @@ void hexapod_body_fk_pga_columns_from(long s0, long n, long ld, const double *GA
 #define HEXAPOD_BODY_FK_CGA_Q_SIZE 18
 #define HEXAPOD_BODY_FK_CGA_P_SIZE 18
 #define HEXAPOD_BODY_FK_CGA_J_SIZE 324
-void hexapod_body_fk_cga(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J);
-void hexapod_body_fk_cga_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J);
+void hexapod_body_fk_cga(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J);
+void hexapod_body_fk_cga_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J);
 void hexapod_body_fk_cga_argv(const double *const *arg, double *const *res);
 void hexapod_body_fk_cga_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_body_fk_cga_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J);
+void hexapod_body_fk_cga_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J);
 void hexapod_body_fk_cga_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_body_fk_cga_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J);
+void hexapod_body_fk_cga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J);
 
 /* all legs' analytic IK (knee up) for a body pose (PGA motor, body \u2192 world) and world toe targets
  *   in  pose         [8] 1, e01, e02, e12, e03, e13, e23, e0123
@@ -603,13 +603,13 @@ void hexapod_body_fk_cga_columns_from(long s0, long n, long ld, const double *GA
 #define HEXAPOD_BODY_IK_Q_SIZE 18
 #define HEXAPOD_BODY_IK_REACH_SIZE 6
 #define HEXAPOD_BODY_IK_EXCESS_SIZE 6
-void hexapod_body_ik(const double *GAGEN_RESTRICT pose, const double *GAGEN_RESTRICT toes, double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
-void hexapod_body_ik_batch(long n, const double *GAGEN_RESTRICT pose, const double *GAGEN_RESTRICT toes, double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
+void hexapod_body_ik(const double *GAGEN_RESTRICT in_pose, const double *GAGEN_RESTRICT in_toes, double *GAGEN_RESTRICT out_q, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
+void hexapod_body_ik_batch(long gagen_n, const double *GAGEN_RESTRICT in_pose, const double *GAGEN_RESTRICT in_toes, double *GAGEN_RESTRICT out_q, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
 void hexapod_body_ik_argv(const double *const *arg, double *const *res);
 void hexapod_body_ik_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_body_ik_batch_columns(long n, long ld, const double *GAGEN_RESTRICT pose, const double *GAGEN_RESTRICT toes, double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
+void hexapod_body_ik_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_pose, const double *GAGEN_RESTRICT in_toes, double *GAGEN_RESTRICT out_q, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
 void hexapod_body_ik_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_body_ik_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT pose, const double *GAGEN_RESTRICT toes, double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess);
+void hexapod_body_ik_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_pose, const double *GAGEN_RESTRICT in_toes, double *GAGEN_RESTRICT out_q, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess);
 
 /* each toe's signed distance from the ground plane and its foot on it (PGA3D)
  *   in  pose         [8] 1, e01, e02, e12, e03, e13, e23, e0123
@@ -623,13 +623,13 @@ void hexapod_body_ik_columns_from(long s0, long n, long ld, const double *GAGEN_
 #define HEXAPOD_BODY_CONTACT_PGA_GROUND_SIZE 4
 #define HEXAPOD_BODY_CONTACT_PGA_DISTANCE_SIZE 6
 #define HEXAPOD_BODY_CONTACT_PGA_FEET_SIZE 18
-void hexapod_body_contact_pga(const double *GAGEN_RESTRICT pose, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT ground, double *GAGEN_RESTRICT distance, double *GAGEN_RESTRICT feet);
-void hexapod_body_contact_pga_batch(long n, const double *GAGEN_RESTRICT pose, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT ground, double *GAGEN_RESTRICT distance, double *GAGEN_RESTRICT feet);
+void hexapod_body_contact_pga(const double *GAGEN_RESTRICT in_pose, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_ground, double *GAGEN_RESTRICT out_distance, double *GAGEN_RESTRICT out_feet);
+void hexapod_body_contact_pga_batch(long gagen_n, const double *GAGEN_RESTRICT in_pose, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_ground, double *GAGEN_RESTRICT out_distance, double *GAGEN_RESTRICT out_feet);
 void hexapod_body_contact_pga_argv(const double *const *arg, double *const *res);
 void hexapod_body_contact_pga_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_body_contact_pga_batch_columns(long n, long ld, const double *GAGEN_RESTRICT pose, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT ground, double *GAGEN_RESTRICT distance, double *GAGEN_RESTRICT feet);
+void hexapod_body_contact_pga_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_pose, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_ground, double *GAGEN_RESTRICT out_distance, double *GAGEN_RESTRICT out_feet);
 void hexapod_body_contact_pga_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_body_contact_pga_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT pose, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT ground, double *GAGEN_RESTRICT distance, double *GAGEN_RESTRICT feet);
+void hexapod_body_contact_pga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_pose, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_ground, double *GAGEN_RESTRICT out_distance, double *GAGEN_RESTRICT out_feet);
 
 /* each toe's signed distance from the ground plane and its foot on it (CGA3D)
  *   in  pose         [8] 1, e12, e13, e23, e1inf, e2inf, e3inf, e123inf
@@ -643,13 +643,13 @@ void hexapod_body_contact_pga_columns_from(long s0, long n, long ld, const doubl
 #define HEXAPOD_BODY_CONTACT_CGA_GROUND_SIZE 4
 #define HEXAPOD_BODY_CONTACT_CGA_DISTANCE_SIZE 6
 #define HEXAPOD_BODY_CONTACT_CGA_FEET_SIZE 18
-void hexapod_body_contact_cga(const double *GAGEN_RESTRICT pose, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT ground, double *GAGEN_RESTRICT distance, double *GAGEN_RESTRICT feet);
-void hexapod_body_contact_cga_batch(long n, const double *GAGEN_RESTRICT pose, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT ground, double *GAGEN_RESTRICT distance, double *GAGEN_RESTRICT feet);
+void hexapod_body_contact_cga(const double *GAGEN_RESTRICT in_pose, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_ground, double *GAGEN_RESTRICT out_distance, double *GAGEN_RESTRICT out_feet);
+void hexapod_body_contact_cga_batch(long gagen_n, const double *GAGEN_RESTRICT in_pose, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_ground, double *GAGEN_RESTRICT out_distance, double *GAGEN_RESTRICT out_feet);
 void hexapod_body_contact_cga_argv(const double *const *arg, double *const *res);
 void hexapod_body_contact_cga_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_body_contact_cga_batch_columns(long n, long ld, const double *GAGEN_RESTRICT pose, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT ground, double *GAGEN_RESTRICT distance, double *GAGEN_RESTRICT feet);
+void hexapod_body_contact_cga_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_pose, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_ground, double *GAGEN_RESTRICT out_distance, double *GAGEN_RESTRICT out_feet);
 void hexapod_body_contact_cga_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_body_contact_cga_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT pose, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT ground, double *GAGEN_RESTRICT distance, double *GAGEN_RESTRICT feet);
+void hexapod_body_contact_cga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_pose, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_ground, double *GAGEN_RESTRICT out_distance, double *GAGEN_RESTRICT out_feet);
 
 /* a point against a plane in PGA3D: signed distance, foot of the perpendicular and the incidence \u03a0 \u2227 P
  *   in  plane        [4] e0, e1, e2, e3
@@ -663,13 +663,13 @@ void hexapod_body_contact_cga_columns_from(long s0, long n, long ld, const doubl
 #define HEXAPOD_GROUND_PGA_DISTANCE_SIZE 1
 #define HEXAPOD_GROUND_PGA_FOOT_SIZE 4
 #define HEXAPOD_GROUND_PGA_INCIDENCE_SIZE 1
-void hexapod_ground_pga(const double *GAGEN_RESTRICT plane, const double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT distance, double *GAGEN_RESTRICT foot, double *GAGEN_RESTRICT incidence);
-void hexapod_ground_pga_batch(long n, const double *GAGEN_RESTRICT plane, const double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT distance, double *GAGEN_RESTRICT foot, double *GAGEN_RESTRICT incidence);
+void hexapod_ground_pga(const double *GAGEN_RESTRICT in_plane, const double *GAGEN_RESTRICT in_toe, double *GAGEN_RESTRICT out_distance, double *GAGEN_RESTRICT out_foot, double *GAGEN_RESTRICT out_incidence);
+void hexapod_ground_pga_batch(long gagen_n, const double *GAGEN_RESTRICT in_plane, const double *GAGEN_RESTRICT in_toe, double *GAGEN_RESTRICT out_distance, double *GAGEN_RESTRICT out_foot, double *GAGEN_RESTRICT out_incidence);
 void hexapod_ground_pga_argv(const double *const *arg, double *const *res);
 void hexapod_ground_pga_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_ground_pga_batch_columns(long n, long ld, const double *GAGEN_RESTRICT plane, const double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT distance, double *GAGEN_RESTRICT foot, double *GAGEN_RESTRICT incidence);
+void hexapod_ground_pga_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_plane, const double *GAGEN_RESTRICT in_toe, double *GAGEN_RESTRICT out_distance, double *GAGEN_RESTRICT out_foot, double *GAGEN_RESTRICT out_incidence);
 void hexapod_ground_pga_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_ground_pga_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT plane, const double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT distance, double *GAGEN_RESTRICT foot, double *GAGEN_RESTRICT incidence);
+void hexapod_ground_pga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_plane, const double *GAGEN_RESTRICT in_toe, double *GAGEN_RESTRICT out_distance, double *GAGEN_RESTRICT out_foot, double *GAGEN_RESTRICT out_incidence);
 
 /* a point against a plane in CGA3D: signed distance, foot of the perpendicular and the incidence \u03a0 \u2227 P
  *   in  plane        [4] e012inf, e013inf, e023inf, e123inf
@@ -683,13 +683,13 @@ void hexapod_ground_pga_columns_from(long s0, long n, long ld, const double *GAG
 #define HEXAPOD_GROUND_CGA_DISTANCE_SIZE 1
 #define HEXAPOD_GROUND_CGA_FOOT_SIZE 5
 #define HEXAPOD_GROUND_CGA_INCIDENCE_SIZE 1
-void hexapod_ground_cga(const double *GAGEN_RESTRICT plane, const double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT distance, double *GAGEN_RESTRICT foot, double *GAGEN_RESTRICT incidence);
-void hexapod_ground_cga_batch(long n, const double *GAGEN_RESTRICT plane, const double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT distance, double *GAGEN_RESTRICT foot, double *GAGEN_RESTRICT incidence);
+void hexapod_ground_cga(const double *GAGEN_RESTRICT in_plane, const double *GAGEN_RESTRICT in_toe, double *GAGEN_RESTRICT out_distance, double *GAGEN_RESTRICT out_foot, double *GAGEN_RESTRICT out_incidence);
+void hexapod_ground_cga_batch(long gagen_n, const double *GAGEN_RESTRICT in_plane, const double *GAGEN_RESTRICT in_toe, double *GAGEN_RESTRICT out_distance, double *GAGEN_RESTRICT out_foot, double *GAGEN_RESTRICT out_incidence);
 void hexapod_ground_cga_argv(const double *const *arg, double *const *res);
 void hexapod_ground_cga_batch_argv(long n, const double *const *arg, double *const *res);
-void hexapod_ground_cga_batch_columns(long n, long ld, const double *GAGEN_RESTRICT plane, const double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT distance, double *GAGEN_RESTRICT foot, double *GAGEN_RESTRICT incidence);
+void hexapod_ground_cga_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_plane, const double *GAGEN_RESTRICT in_toe, double *GAGEN_RESTRICT out_distance, double *GAGEN_RESTRICT out_foot, double *GAGEN_RESTRICT out_incidence);
 void hexapod_ground_cga_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void hexapod_ground_cga_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT plane, const double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT distance, double *GAGEN_RESTRICT foot, double *GAGEN_RESTRICT incidence);
+void hexapod_ground_cga_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_plane, const double *GAGEN_RESTRICT in_toe, double *GAGEN_RESTRICT out_distance, double *GAGEN_RESTRICT out_foot, double *GAGEN_RESTRICT out_incidence);
 
 #ifdef __cplusplus
 }

@@ -216,7 +216,7 @@ static PyObject *run_hexapod_front_left_fk_pga(Kernel *b, PyObject *const *input
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4]);
   return result;
 }
 
@@ -284,7 +284,7 @@ static PyObject *run_hexapod_front_left_fk_cga(Kernel *b, PyObject *const *input
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4]);
   return result;
 }
 
@@ -352,7 +352,7 @@ static PyObject *run_hexapod_front_left_ik(Kernel *b, PyObject *const *inputs, P
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess))b->kernel)(in[0], res[0], res[1], res[2], res[3]);
+  ((void (*)(const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess))b->kernel)(in[0], res[0], res[1], res[2], res[3]);
   return result;
 }
 
@@ -420,7 +420,7 @@ static PyObject *run_hexapod_front_left_dls(Kernel *b, PyObject *const *inputs, 
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error))b->kernel)(in[0], in[1], in[2], res[0], res[1]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error))b->kernel)(in[0], in[1], in[2], res[0], res[1]);
   return result;
 }
 
@@ -488,7 +488,7 @@ static PyObject *run_hexapod_middle_left_fk_pga(Kernel *b, PyObject *const *inpu
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4]);
   return result;
 }
 
@@ -556,7 +556,7 @@ static PyObject *run_hexapod_middle_left_fk_cga(Kernel *b, PyObject *const *inpu
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4]);
   return result;
 }
 
@@ -624,7 +624,7 @@ static PyObject *run_hexapod_middle_left_ik(Kernel *b, PyObject *const *inputs, 
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess))b->kernel)(in[0], res[0], res[1], res[2], res[3]);
+  ((void (*)(const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess))b->kernel)(in[0], res[0], res[1], res[2], res[3]);
   return result;
 }
 
@@ -692,7 +692,7 @@ static PyObject *run_hexapod_middle_left_dls(Kernel *b, PyObject *const *inputs,
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error))b->kernel)(in[0], in[1], in[2], res[0], res[1]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error))b->kernel)(in[0], in[1], in[2], res[0], res[1]);
   return result;
 }
 
@@ -760,7 +760,7 @@ static PyObject *run_hexapod_rear_left_fk_pga(Kernel *b, PyObject *const *inputs
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4]);
   return result;
 }
 
@@ -828,7 +828,7 @@ static PyObject *run_hexapod_rear_left_fk_cga(Kernel *b, PyObject *const *inputs
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4]);
   return result;
 }
 
@@ -896,7 +896,7 @@ static PyObject *run_hexapod_rear_left_ik(Kernel *b, PyObject *const *inputs, Py
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess))b->kernel)(in[0], res[0], res[1], res[2], res[3]);
+  ((void (*)(const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess))b->kernel)(in[0], res[0], res[1], res[2], res[3]);
   return result;
 }
 
@@ -964,7 +964,7 @@ static PyObject *run_hexapod_rear_left_dls(Kernel *b, PyObject *const *inputs, P
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error))b->kernel)(in[0], in[1], in[2], res[0], res[1]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error))b->kernel)(in[0], in[1], in[2], res[0], res[1]);
   return result;
 }
 
@@ -1032,7 +1032,7 @@ static PyObject *run_hexapod_rear_right_fk_pga(Kernel *b, PyObject *const *input
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4]);
   return result;
 }
 
@@ -1100,7 +1100,7 @@ static PyObject *run_hexapod_rear_right_fk_cga(Kernel *b, PyObject *const *input
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4]);
   return result;
 }
 
@@ -1168,7 +1168,7 @@ static PyObject *run_hexapod_rear_right_ik(Kernel *b, PyObject *const *inputs, P
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess))b->kernel)(in[0], res[0], res[1], res[2], res[3]);
+  ((void (*)(const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess))b->kernel)(in[0], res[0], res[1], res[2], res[3]);
   return result;
 }
 
@@ -1236,7 +1236,7 @@ static PyObject *run_hexapod_rear_right_dls(Kernel *b, PyObject *const *inputs, 
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error))b->kernel)(in[0], in[1], in[2], res[0], res[1]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error))b->kernel)(in[0], in[1], in[2], res[0], res[1]);
   return result;
 }
 
@@ -1304,7 +1304,7 @@ static PyObject *run_hexapod_middle_right_fk_pga(Kernel *b, PyObject *const *inp
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4]);
   return result;
 }
 
@@ -1372,7 +1372,7 @@ static PyObject *run_hexapod_middle_right_fk_cga(Kernel *b, PyObject *const *inp
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4]);
   return result;
 }
 
@@ -1440,7 +1440,7 @@ static PyObject *run_hexapod_middle_right_ik(Kernel *b, PyObject *const *inputs,
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess))b->kernel)(in[0], res[0], res[1], res[2], res[3]);
+  ((void (*)(const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess))b->kernel)(in[0], res[0], res[1], res[2], res[3]);
   return result;
 }
 
@@ -1508,7 +1508,7 @@ static PyObject *run_hexapod_middle_right_dls(Kernel *b, PyObject *const *inputs
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error))b->kernel)(in[0], in[1], in[2], res[0], res[1]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error))b->kernel)(in[0], in[1], in[2], res[0], res[1]);
   return result;
 }
 
@@ -1576,7 +1576,7 @@ static PyObject *run_hexapod_front_right_fk_pga(Kernel *b, PyObject *const *inpu
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4]);
   return result;
 }
 
@@ -1644,7 +1644,7 @@ static PyObject *run_hexapod_front_right_fk_cga(Kernel *b, PyObject *const *inpu
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT S))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_toe, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J, double *GAGEN_RESTRICT out_S))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4]);
   return result;
 }
 
@@ -1712,7 +1712,7 @@ static PyObject *run_hexapod_front_right_ik(Kernel *b, PyObject *const *inputs, 
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT target, double *GAGEN_RESTRICT q_up, double *GAGEN_RESTRICT q_down, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess))b->kernel)(in[0], res[0], res[1], res[2], res[3]);
+  ((void (*)(const double *GAGEN_RESTRICT in_target, double *GAGEN_RESTRICT out_q_up, double *GAGEN_RESTRICT out_q_down, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess))b->kernel)(in[0], res[0], res[1], res[2], res[3]);
   return result;
 }
 
@@ -1780,7 +1780,7 @@ static PyObject *run_hexapod_front_right_dls(Kernel *b, PyObject *const *inputs,
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT target, const double *GAGEN_RESTRICT damping, double *GAGEN_RESTRICT q_next, double *GAGEN_RESTRICT error))b->kernel)(in[0], in[1], in[2], res[0], res[1]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_target, const double *GAGEN_RESTRICT in_damping, double *GAGEN_RESTRICT out_q_next, double *GAGEN_RESTRICT out_error))b->kernel)(in[0], in[1], in[2], res[0], res[1]);
   return result;
 }
 
@@ -1848,7 +1848,7 @@ static PyObject *run_hexapod_body_fk_pga(Kernel *b, PyObject *const *inputs, Py_
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J))b->kernel)(in[0], res[0], res[1]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J))b->kernel)(in[0], res[0], res[1]);
   return result;
 }
 
@@ -1916,7 +1916,7 @@ static PyObject *run_hexapod_body_fk_cga(Kernel *b, PyObject *const *inputs, Py_
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT p, double *GAGEN_RESTRICT J))b->kernel)(in[0], res[0], res[1]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_p, double *GAGEN_RESTRICT out_J))b->kernel)(in[0], res[0], res[1]);
   return result;
 }
 
@@ -1984,7 +1984,7 @@ static PyObject *run_hexapod_body_ik(Kernel *b, PyObject *const *inputs, Py_ssiz
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT pose, const double *GAGEN_RESTRICT toes, double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT reach, double *GAGEN_RESTRICT excess))b->kernel)(in[0], in[1], res[0], res[1], res[2]);
+  ((void (*)(const double *GAGEN_RESTRICT in_pose, const double *GAGEN_RESTRICT in_toes, double *GAGEN_RESTRICT out_q, double *GAGEN_RESTRICT out_reach, double *GAGEN_RESTRICT out_excess))b->kernel)(in[0], in[1], res[0], res[1], res[2]);
   return result;
 }
 
@@ -2052,7 +2052,7 @@ static PyObject *run_hexapod_body_contact_pga(Kernel *b, PyObject *const *inputs
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT pose, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT ground, double *GAGEN_RESTRICT distance, double *GAGEN_RESTRICT feet))b->kernel)(in[0], in[1], in[2], res[0], res[1]);
+  ((void (*)(const double *GAGEN_RESTRICT in_pose, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_ground, double *GAGEN_RESTRICT out_distance, double *GAGEN_RESTRICT out_feet))b->kernel)(in[0], in[1], in[2], res[0], res[1]);
   return result;
 }
 
@@ -2120,7 +2120,7 @@ static PyObject *run_hexapod_body_contact_cga(Kernel *b, PyObject *const *inputs
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT pose, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT ground, double *GAGEN_RESTRICT distance, double *GAGEN_RESTRICT feet))b->kernel)(in[0], in[1], in[2], res[0], res[1]);
+  ((void (*)(const double *GAGEN_RESTRICT in_pose, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_ground, double *GAGEN_RESTRICT out_distance, double *GAGEN_RESTRICT out_feet))b->kernel)(in[0], in[1], in[2], res[0], res[1]);
   return result;
 }
 
@@ -2188,7 +2188,7 @@ static PyObject *run_hexapod_ground_pga(Kernel *b, PyObject *const *inputs, Py_s
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT plane, const double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT distance, double *GAGEN_RESTRICT foot, double *GAGEN_RESTRICT incidence))b->kernel)(in[0], in[1], res[0], res[1], res[2]);
+  ((void (*)(const double *GAGEN_RESTRICT in_plane, const double *GAGEN_RESTRICT in_toe, double *GAGEN_RESTRICT out_distance, double *GAGEN_RESTRICT out_foot, double *GAGEN_RESTRICT out_incidence))b->kernel)(in[0], in[1], res[0], res[1], res[2]);
   return result;
 }
 
@@ -2256,7 +2256,7 @@ static PyObject *run_hexapod_ground_cga(Kernel *b, PyObject *const *inputs, Py_s
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT plane, const double *GAGEN_RESTRICT toe, double *GAGEN_RESTRICT distance, double *GAGEN_RESTRICT foot, double *GAGEN_RESTRICT incidence))b->kernel)(in[0], in[1], res[0], res[1], res[2]);
+  ((void (*)(const double *GAGEN_RESTRICT in_plane, const double *GAGEN_RESTRICT in_toe, double *GAGEN_RESTRICT out_distance, double *GAGEN_RESTRICT out_foot, double *GAGEN_RESTRICT out_incidence))b->kernel)(in[0], in[1], res[0], res[1], res[2]);
   return result;
 }
 

@@ -149,19 +149,19 @@ static inline void gagen_stream_fence(int stream) {
 
 #if GAGEN_SIMD
 /* leg front_left in PGA3D: FK motor, toe point and position, point and spatial Jacobians: GAGEN_W consecutive samples at once */
-static void hexapod_front_left_fk_pga_block(const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+static void hexapod_front_left_fk_pga_block(const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19;
   w0 = gagen_v_splat(0.2617993877991494);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 3, 0);
+  w2 = GAGEN_GATHER(in_q, 3, 0);
   w2 = w1 * w2;
   w0 = w0 + w2;
   w2 = gagen_v_cos(w0);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w1 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 3, 2);
+  w5 = GAGEN_GATHER(in_q, 3, 2);
   w1 = w1 * w5;
   w5 = gagen_v_cos(w1);
   w6 = w4 * w5;
@@ -170,7 +170,7 @@ static void hexapod_front_left_fk_pga_block(const double *restrict q, double *re
   w7 = w3 * w1;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  GAGEN_SCATTER(M, 8, 0, w9);
+  GAGEN_SCATTER(out_M, 8, 0, w9);
   w10 = gagen_v_splat(0.076961524227);
   w10 = w10 * w7;
   w7 = gagen_v_splat(0.276961524227);
@@ -182,16 +182,16 @@ static void hexapod_front_left_fk_pga_block(const double *restrict q, double *re
   w8 = w0 * w8;
   w11 = w6 * w8;
   w7 = w7 - w11;
-  GAGEN_SCATTER(M, 8, 1, w7);
+  GAGEN_SCATTER(out_M, 8, 1, w7);
   w10 = w0 * w10;
   w7 = gagen_v_splat(0.103923048454);
   w11 = w7 * w8;
   w10 = w10 + w11;
   w9 = w6 * w9;
   w10 = w10 - w9;
-  GAGEN_SCATTER(M, 8, 2, w10);
+  GAGEN_SCATTER(out_M, 8, 2, w10);
   w8 = -w8;
-  GAGEN_SCATTER(M, 8, 3, w8);
+  GAGEN_SCATTER(out_M, 8, 3, w8);
   w8 = gagen_v_splat(0.123038475773);
   w10 = w3 * w5;
   w8 = w8 * w10;
@@ -204,16 +204,16 @@ static void hexapod_front_left_fk_pga_block(const double *restrict q, double *re
   w10 = w0 * w11;
   w12 = w6 * w10;
   w9 = w9 - w12;
-  GAGEN_SCATTER(M, 8, 4, w9);
+  GAGEN_SCATTER(out_M, 8, 4, w9);
   w11 = w2 * w11;
-  GAGEN_SCATTER(M, 8, 5, w11);
-  GAGEN_SCATTER(M, 8, 6, w10);
+  GAGEN_SCATTER(out_M, 8, 5, w11);
+  GAGEN_SCATTER(out_M, 8, 6, w10);
   w6 = w6 * w11;
   w8 = w0 * w8;
   w6 = w6 - w8;
   w7 = w7 * w10;
   w6 = w6 - w7;
-  GAGEN_SCATTER(M, 8, 7, w6);
+  GAGEN_SCATTER(out_M, 8, 7, w6);
   w6 = gagen_v_splat(0.8);
   w7 = w3 * w3;
   w10 = w7 * w1;
@@ -231,7 +231,7 @@ static void hexapod_front_left_fk_pga_block(const double *restrict q, double *re
   w13 = w13 + w13;
   w10 = w10 - w13;
   w13 = -w10;
-  GAGEN_SCATTER(toe, 4, 0, w13);
+  GAGEN_SCATTER(out_toe, 4, 0, w13);
   w13 = gagen_v_splat(0.06);
   w2 = w0 * w2;
   w14 = gagen_v_splat(0.45);
@@ -246,7 +246,7 @@ static void hexapod_front_left_fk_pga_block(const double *restrict q, double *re
   w15 = w2 * w5;
   w15 = w15 + w15;
   w16 = w13 + w15;
-  GAGEN_SCATTER(toe, 4, 1, w16);
+  GAGEN_SCATTER(out_toe, 4, 1, w16);
   w17 = gagen_v_splat(0.553923048454);
   w17 = w17 - w9;
   w17 = w17 - w1;
@@ -256,25 +256,25 @@ static void hexapod_front_left_fk_pga_block(const double *restrict q, double *re
   w12 = w12 + w12;
   w17 = w17 - w12;
   w5 = -w17;
-  GAGEN_SCATTER(toe, 4, 2, w5);
+  GAGEN_SCATTER(out_toe, 4, 2, w5);
   w5 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(toe, 4, 3, w5);
-  GAGEN_SCATTER(p, 3, 0, w17);
-  GAGEN_SCATTER(p, 3, 1, w16);
-  GAGEN_SCATTER(p, 3, 2, w10);
+  GAGEN_SCATTER(out_toe, 4, 3, w5);
+  GAGEN_SCATTER(out_p, 3, 0, w17);
+  GAGEN_SCATTER(out_p, 3, 1, w16);
+  GAGEN_SCATTER(out_p, 3, 2, w10);
   w15 = -w15;
-  GAGEN_SCATTER(J, 9, 0, w15);
+  GAGEN_SCATTER(out_J, 9, 0, w15);
   w14 = w14 - w12;
-  GAGEN_SCATTER(J, 9, 1, w14);
+  GAGEN_SCATTER(out_J, 9, 1, w14);
   w14 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 2, w14);
+  GAGEN_SCATTER(out_J, 9, 2, w14);
   w12 = w0 + w0;
   w12 = w5 - w12;
   w15 = w12 * w10;
-  GAGEN_SCATTER(J, 9, 3, w15);
+  GAGEN_SCATTER(out_J, 9, 3, w15);
   w10 = w2 * w10;
   w10 = w10 + w10;
-  GAGEN_SCATTER(J, 9, 4, w10);
+  GAGEN_SCATTER(out_J, 9, 4, w10);
   w1 = gagen_v_splat(0.153923048454);
   w9 = gagen_v_splat(0.12);
   w9 = w9 * w2;
@@ -287,19 +287,19 @@ static void hexapod_front_left_fk_pga_block(const double *restrict q, double *re
   w16 = w2 * w16;
   w16 = w16 + w16;
   w18 = w18 - w16;
-  GAGEN_SCATTER(J, 9, 5, w18);
+  GAGEN_SCATTER(out_J, 9, 5, w18);
   w11 = w8 * w11;
   w15 = w15 + w11;
   w0 = w0 * w3;
   w0 = w0 * w4;
   w0 = w6 * w0;
   w15 = w15 - w0;
-  GAGEN_SCATTER(J, 9, 6, w15);
+  GAGEN_SCATTER(out_J, 9, 6, w15);
   w3 = w2 * w3;
   w3 = w3 * w4;
   w6 = w6 * w3;
   w10 = w6 + w10;
-  GAGEN_SCATTER(J, 9, 7, w10);
+  GAGEN_SCATTER(out_J, 9, 7, w10);
   w10 = gagen_v_splat(0.353923048454);
   w10 = w10 + w9;
   w17 = w10 - w17;
@@ -307,52 +307,52 @@ static void hexapod_front_left_fk_pga_block(const double *restrict q, double *re
   w17 = w17 - w8;
   w17 = w17 - w19;
   w17 = w17 - w16;
-  GAGEN_SCATTER(J, 9, 8, w17);
-  GAGEN_SCATTER(S, 18, 0, w13);
+  GAGEN_SCATTER(out_J, 9, 8, w17);
+  GAGEN_SCATTER(out_S, 18, 0, w13);
   w13 = gagen_v_splat((-0.103923048454));
-  GAGEN_SCATTER(S, 18, 1, w13);
-  GAGEN_SCATTER(S, 18, 2, w14);
-  GAGEN_SCATTER(S, 18, 3, w14);
-  GAGEN_SCATTER(S, 18, 4, w14);
-  GAGEN_SCATTER(S, 18, 5, w5);
-  GAGEN_SCATTER(S, 18, 6, w14);
-  GAGEN_SCATTER(S, 18, 7, w14);
+  GAGEN_SCATTER(out_S, 18, 1, w13);
+  GAGEN_SCATTER(out_S, 18, 2, w14);
+  GAGEN_SCATTER(out_S, 18, 3, w14);
+  GAGEN_SCATTER(out_S, 18, 4, w14);
+  GAGEN_SCATTER(out_S, 18, 5, w5);
+  GAGEN_SCATTER(out_S, 18, 6, w14);
+  GAGEN_SCATTER(out_S, 18, 7, w14);
   w1 = w1 - w19;
-  GAGEN_SCATTER(S, 18, 8, w1);
+  GAGEN_SCATTER(out_S, 18, 8, w1);
   w2 = w2 + w2;
   w2 = -w2;
-  GAGEN_SCATTER(S, 18, 9, w2);
-  GAGEN_SCATTER(S, 18, 10, w12);
-  GAGEN_SCATTER(S, 18, 11, w14);
+  GAGEN_SCATTER(out_S, 18, 9, w2);
+  GAGEN_SCATTER(out_S, 18, 10, w12);
+  GAGEN_SCATTER(out_S, 18, 11, w14);
   w11 = w11 - w0;
-  GAGEN_SCATTER(S, 18, 12, w11);
-  GAGEN_SCATTER(S, 18, 13, w6);
+  GAGEN_SCATTER(out_S, 18, 12, w11);
+  GAGEN_SCATTER(out_S, 18, 13, w6);
   w10 = w10 - w8;
   w10 = w10 - w19;
-  GAGEN_SCATTER(S, 18, 14, w10);
-  GAGEN_SCATTER(S, 18, 15, w2);
-  GAGEN_SCATTER(S, 18, 16, w12);
-  GAGEN_SCATTER(S, 18, 17, w14);
+  GAGEN_SCATTER(out_S, 18, 14, w10);
+  GAGEN_SCATTER(out_S, 18, 15, w2);
+  GAGEN_SCATTER(out_S, 18, 16, w12);
+  GAGEN_SCATTER(out_S, 18, 17, w14);
 }
 #endif
 
-void hexapod_front_left_fk_pga_batch(long n, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  long s = 0;
+void hexapod_front_left_fk_pga_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 4 * GAGEN_W + 7; o += 8) __builtin_prefetch(toe + 4 * a + o, 1, 0);
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(p + 3 * a + o, 1, 0);
-      for (int o = 0; o < 9 * GAGEN_W + 7; o += 8) __builtin_prefetch(J + 9 * a + o, 1, 0);
-      for (int o = 0; o < 18 * GAGEN_W + 7; o += 8) __builtin_prefetch(S + 18 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 4 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_toe + 4 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_p + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 9 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J + 9 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 18 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_S + 18 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_front_left_fk_pga_block(q + 3 * s, M + 8 * s, toe + 4 * s, p + 3 * s, J + 9 * s, S + 18 * s);
+    hexapod_front_left_fk_pga_block(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_toe + 4 * gagen_s, out_p + 3 * gagen_s, out_J + 9 * gagen_s, out_S + 18 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_front_left_fk_pga(q + 3 * s, M + 8 * s, toe + 4 * s, p + 3 * s, J + 9 * s, S + 18 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_front_left_fk_pga(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_toe + 4 * gagen_s, out_p + 3 * gagen_s, out_J + 9 * gagen_s, out_S + 18 * gagen_s);
   }
 }
 
@@ -362,19 +362,19 @@ void hexapod_front_left_fk_pga_batch(long n, const double *restrict q, double *r
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_front_left_fk_pga_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+static void hexapod_front_left_fk_pga_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19;
   w0 = gagen_v_splat(0.2617993877991494);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 3, 0);
+  w2 = GAGEN_GATHER(in_q, 3, 0);
   w2 = w1 * w2;
   w0 = w0 + w2;
   w2 = gagen_v_cos(w0);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w1 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 3, 2);
+  w5 = GAGEN_GATHER(in_q, 3, 2);
   w1 = w1 * w5;
   w5 = gagen_v_cos(w1);
   w6 = w4 * w5;
@@ -383,7 +383,7 @@ static void hexapod_front_left_fk_pga_block_columns(long gagen_ld, int gagen_str
   w7 = w3 * w1;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  GAGEN_SCATTER(M, 8, 0, w9);
+  GAGEN_SCATTER(out_M, 8, 0, w9);
   w10 = gagen_v_splat(0.076961524227);
   w10 = w10 * w7;
   w7 = gagen_v_splat(0.276961524227);
@@ -395,16 +395,16 @@ static void hexapod_front_left_fk_pga_block_columns(long gagen_ld, int gagen_str
   w8 = w0 * w8;
   w11 = w6 * w8;
   w7 = w7 - w11;
-  GAGEN_SCATTER(M, 8, 1, w7);
+  GAGEN_SCATTER(out_M, 8, 1, w7);
   w10 = w0 * w10;
   w7 = gagen_v_splat(0.103923048454);
   w11 = w7 * w8;
   w10 = w10 + w11;
   w9 = w6 * w9;
   w10 = w10 - w9;
-  GAGEN_SCATTER(M, 8, 2, w10);
+  GAGEN_SCATTER(out_M, 8, 2, w10);
   w8 = -w8;
-  GAGEN_SCATTER(M, 8, 3, w8);
+  GAGEN_SCATTER(out_M, 8, 3, w8);
   w8 = gagen_v_splat(0.123038475773);
   w10 = w3 * w5;
   w8 = w8 * w10;
@@ -417,16 +417,16 @@ static void hexapod_front_left_fk_pga_block_columns(long gagen_ld, int gagen_str
   w10 = w0 * w11;
   w12 = w6 * w10;
   w9 = w9 - w12;
-  GAGEN_SCATTER(M, 8, 4, w9);
+  GAGEN_SCATTER(out_M, 8, 4, w9);
   w11 = w2 * w11;
-  GAGEN_SCATTER(M, 8, 5, w11);
-  GAGEN_SCATTER(M, 8, 6, w10);
+  GAGEN_SCATTER(out_M, 8, 5, w11);
+  GAGEN_SCATTER(out_M, 8, 6, w10);
   w6 = w6 * w11;
   w8 = w0 * w8;
   w6 = w6 - w8;
   w7 = w7 * w10;
   w6 = w6 - w7;
-  GAGEN_SCATTER(M, 8, 7, w6);
+  GAGEN_SCATTER(out_M, 8, 7, w6);
   w6 = gagen_v_splat(0.8);
   w7 = w3 * w3;
   w10 = w7 * w1;
@@ -444,7 +444,7 @@ static void hexapod_front_left_fk_pga_block_columns(long gagen_ld, int gagen_str
   w13 = w13 + w13;
   w10 = w10 - w13;
   w13 = -w10;
-  GAGEN_SCATTER(toe, 4, 0, w13);
+  GAGEN_SCATTER(out_toe, 4, 0, w13);
   w13 = gagen_v_splat(0.06);
   w2 = w0 * w2;
   w14 = gagen_v_splat(0.45);
@@ -459,7 +459,7 @@ static void hexapod_front_left_fk_pga_block_columns(long gagen_ld, int gagen_str
   w15 = w2 * w5;
   w15 = w15 + w15;
   w16 = w13 + w15;
-  GAGEN_SCATTER(toe, 4, 1, w16);
+  GAGEN_SCATTER(out_toe, 4, 1, w16);
   w17 = gagen_v_splat(0.553923048454);
   w17 = w17 - w9;
   w17 = w17 - w1;
@@ -469,25 +469,25 @@ static void hexapod_front_left_fk_pga_block_columns(long gagen_ld, int gagen_str
   w12 = w12 + w12;
   w17 = w17 - w12;
   w5 = -w17;
-  GAGEN_SCATTER(toe, 4, 2, w5);
+  GAGEN_SCATTER(out_toe, 4, 2, w5);
   w5 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(toe, 4, 3, w5);
-  GAGEN_SCATTER(p, 3, 0, w17);
-  GAGEN_SCATTER(p, 3, 1, w16);
-  GAGEN_SCATTER(p, 3, 2, w10);
+  GAGEN_SCATTER(out_toe, 4, 3, w5);
+  GAGEN_SCATTER(out_p, 3, 0, w17);
+  GAGEN_SCATTER(out_p, 3, 1, w16);
+  GAGEN_SCATTER(out_p, 3, 2, w10);
   w15 = -w15;
-  GAGEN_SCATTER(J, 9, 0, w15);
+  GAGEN_SCATTER(out_J, 9, 0, w15);
   w14 = w14 - w12;
-  GAGEN_SCATTER(J, 9, 1, w14);
+  GAGEN_SCATTER(out_J, 9, 1, w14);
   w14 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 2, w14);
+  GAGEN_SCATTER(out_J, 9, 2, w14);
   w12 = w0 + w0;
   w12 = w5 - w12;
   w15 = w12 * w10;
-  GAGEN_SCATTER(J, 9, 3, w15);
+  GAGEN_SCATTER(out_J, 9, 3, w15);
   w10 = w2 * w10;
   w10 = w10 + w10;
-  GAGEN_SCATTER(J, 9, 4, w10);
+  GAGEN_SCATTER(out_J, 9, 4, w10);
   w1 = gagen_v_splat(0.153923048454);
   w9 = gagen_v_splat(0.12);
   w9 = w9 * w2;
@@ -500,19 +500,19 @@ static void hexapod_front_left_fk_pga_block_columns(long gagen_ld, int gagen_str
   w16 = w2 * w16;
   w16 = w16 + w16;
   w18 = w18 - w16;
-  GAGEN_SCATTER(J, 9, 5, w18);
+  GAGEN_SCATTER(out_J, 9, 5, w18);
   w11 = w8 * w11;
   w15 = w15 + w11;
   w0 = w0 * w3;
   w0 = w0 * w4;
   w0 = w6 * w0;
   w15 = w15 - w0;
-  GAGEN_SCATTER(J, 9, 6, w15);
+  GAGEN_SCATTER(out_J, 9, 6, w15);
   w3 = w2 * w3;
   w3 = w3 * w4;
   w6 = w6 * w3;
   w10 = w6 + w10;
-  GAGEN_SCATTER(J, 9, 7, w10);
+  GAGEN_SCATTER(out_J, 9, 7, w10);
   w10 = gagen_v_splat(0.353923048454);
   w10 = w10 + w9;
   w17 = w10 - w17;
@@ -520,32 +520,32 @@ static void hexapod_front_left_fk_pga_block_columns(long gagen_ld, int gagen_str
   w17 = w17 - w8;
   w17 = w17 - w19;
   w17 = w17 - w16;
-  GAGEN_SCATTER(J, 9, 8, w17);
-  GAGEN_SCATTER(S, 18, 0, w13);
+  GAGEN_SCATTER(out_J, 9, 8, w17);
+  GAGEN_SCATTER(out_S, 18, 0, w13);
   w13 = gagen_v_splat((-0.103923048454));
-  GAGEN_SCATTER(S, 18, 1, w13);
-  GAGEN_SCATTER(S, 18, 2, w14);
-  GAGEN_SCATTER(S, 18, 3, w14);
-  GAGEN_SCATTER(S, 18, 4, w14);
-  GAGEN_SCATTER(S, 18, 5, w5);
-  GAGEN_SCATTER(S, 18, 6, w14);
-  GAGEN_SCATTER(S, 18, 7, w14);
+  GAGEN_SCATTER(out_S, 18, 1, w13);
+  GAGEN_SCATTER(out_S, 18, 2, w14);
+  GAGEN_SCATTER(out_S, 18, 3, w14);
+  GAGEN_SCATTER(out_S, 18, 4, w14);
+  GAGEN_SCATTER(out_S, 18, 5, w5);
+  GAGEN_SCATTER(out_S, 18, 6, w14);
+  GAGEN_SCATTER(out_S, 18, 7, w14);
   w1 = w1 - w19;
-  GAGEN_SCATTER(S, 18, 8, w1);
+  GAGEN_SCATTER(out_S, 18, 8, w1);
   w2 = w2 + w2;
   w2 = -w2;
-  GAGEN_SCATTER(S, 18, 9, w2);
-  GAGEN_SCATTER(S, 18, 10, w12);
-  GAGEN_SCATTER(S, 18, 11, w14);
+  GAGEN_SCATTER(out_S, 18, 9, w2);
+  GAGEN_SCATTER(out_S, 18, 10, w12);
+  GAGEN_SCATTER(out_S, 18, 11, w14);
   w11 = w11 - w0;
-  GAGEN_SCATTER(S, 18, 12, w11);
-  GAGEN_SCATTER(S, 18, 13, w6);
+  GAGEN_SCATTER(out_S, 18, 12, w11);
+  GAGEN_SCATTER(out_S, 18, 13, w6);
   w10 = w10 - w8;
   w10 = w10 - w19;
-  GAGEN_SCATTER(S, 18, 14, w10);
-  GAGEN_SCATTER(S, 18, 15, w2);
-  GAGEN_SCATTER(S, 18, 16, w12);
-  GAGEN_SCATTER(S, 18, 17, w14);
+  GAGEN_SCATTER(out_S, 18, 14, w10);
+  GAGEN_SCATTER(out_S, 18, 15, w2);
+  GAGEN_SCATTER(out_S, 18, 16, w12);
+  GAGEN_SCATTER(out_S, 18, 17, w14);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -553,34 +553,34 @@ static void hexapod_front_left_fk_pga_block_columns(long gagen_ld, int gagen_str
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_front_left_fk_pga_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  long s = 0;
+void hexapod_front_left_fk_pga_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 42L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_front_left_fk_pga_block_columns(ld, stream, q + s, M + s, toe + s, p + s, J + s, S + s);
+  const int gagen_stream = gagen_n * 42L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_front_left_fk_pga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_front_left_fk_pga_columns_from(s, n, ld, q, M, toe, p, J, S);
+  hexapod_front_left_fk_pga_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_toe, out_p, out_J, out_S);
 }
 
 #if GAGEN_SIMD
 /* leg front_left in CGA3D: FK motor, toe point and position, point and spatial Jacobians: GAGEN_W consecutive samples at once */
-static void hexapod_front_left_fk_cga_block(const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+static void hexapod_front_left_fk_cga_block(const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25;
   w0 = gagen_v_splat(0.2617993877991494);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 3, 0);
+  w2 = GAGEN_GATHER(in_q, 3, 0);
   w2 = w1 * w2;
   w0 = w0 + w2;
   w2 = gagen_v_cos(w0);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w1 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 3, 2);
+  w5 = GAGEN_GATHER(in_q, 3, 2);
   w1 = w1 * w5;
   w5 = gagen_v_cos(w1);
   w6 = w4 * w5;
@@ -589,18 +589,18 @@ static void hexapod_front_left_fk_cga_block(const double *restrict q, double *re
   w7 = w3 * w1;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  GAGEN_SCATTER(M, 8, 0, w9);
+  GAGEN_SCATTER(out_M, 8, 0, w9);
   w0 = gagen_v_sin(w0);
   w8 = w0 * w8;
   w10 = -w8;
-  GAGEN_SCATTER(M, 8, 1, w10);
+  GAGEN_SCATTER(out_M, 8, 1, w10);
   w10 = w4 * w1;
   w11 = w3 * w5;
   w12 = w10 + w11;
   w13 = w2 * w12;
-  GAGEN_SCATTER(M, 8, 2, w13);
+  GAGEN_SCATTER(out_M, 8, 2, w13);
   w12 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 3, w12);
+  GAGEN_SCATTER(out_M, 8, 3, w12);
   w14 = gagen_v_splat(0.076961524227);
   w14 = w14 * w7;
   w7 = gagen_v_splat(0.276961524227);
@@ -610,14 +610,14 @@ static void hexapod_front_left_fk_cga_block(const double *restrict q, double *re
   w6 = gagen_v_splat(0.03);
   w15 = w6 * w8;
   w7 = w7 - w15;
-  GAGEN_SCATTER(M, 8, 4, w7);
+  GAGEN_SCATTER(out_M, 8, 4, w7);
   w14 = w0 * w14;
   w7 = gagen_v_splat(0.103923048454);
   w8 = w7 * w8;
   w14 = w14 + w8;
   w9 = w6 * w9;
   w14 = w14 - w9;
-  GAGEN_SCATTER(M, 8, 5, w14);
+  GAGEN_SCATTER(out_M, 8, 5, w14);
   w14 = gagen_v_splat(0.123038475773);
   w14 = w14 * w11;
   w11 = gagen_v_splat(0.07696152422699999);
@@ -626,15 +626,15 @@ static void hexapod_front_left_fk_cga_block(const double *restrict q, double *re
   w11 = w2 * w14;
   w10 = w6 * w12;
   w11 = w11 - w10;
-  GAGEN_SCATTER(M, 8, 6, w11);
+  GAGEN_SCATTER(out_M, 8, 6, w11);
   w6 = w6 * w13;
   w14 = w0 * w14;
   w6 = w6 - w14;
   w7 = w7 * w12;
   w6 = w6 - w7;
-  GAGEN_SCATTER(M, 8, 7, w6);
+  GAGEN_SCATTER(out_M, 8, 7, w6);
   w6 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(toe, 5, 0, w6);
+  GAGEN_SCATTER(out_toe, 5, 0, w6);
   w7 = gagen_v_splat(0.553923048454);
   w12 = w3 * w3;
   w14 = gagen_v_splat(0.4);
@@ -659,13 +659,13 @@ static void hexapod_front_left_fk_cga_block(const double *restrict q, double *re
   w7 = w7 + w21;
   w7 = w7 - w11;
   w7 = w7 - w20;
-  GAGEN_SCATTER(toe, 5, 1, w7);
+  GAGEN_SCATTER(out_toe, 5, 1, w7);
   w22 = gagen_v_splat(0.06);
   w0 = w0 * w2;
   w16 = w0 * w16;
   w16 = w16 + w16;
   w2 = w22 + w16;
-  GAGEN_SCATTER(toe, 5, 2, w2);
+  GAGEN_SCATTER(out_toe, 5, 2, w2);
   w10 = w18 * w10;
   w10 = w10 + w10;
   w23 = w12 * w1;
@@ -675,7 +675,7 @@ static void hexapod_front_left_fk_cga_block(const double *restrict q, double *re
   w1 = w1 * w5;
   w1 = w14 * w1;
   w10 = w10 - w1;
-  GAGEN_SCATTER(toe, 5, 3, w10);
+  GAGEN_SCATTER(out_toe, 5, 3, w10);
   w1 = gagen_v_splat(0.1552153718042862);
   w5 = gagen_v_splat(0.0615692193816);
   w23 = w5 * w13;
@@ -713,25 +713,25 @@ static void hexapod_front_left_fk_cga_block(const double *restrict q, double *re
   w23 = gagen_v_splat(0.1231384387632);
   w23 = w23 * w19;
   w1 = w1 - w23;
-  GAGEN_SCATTER(toe, 5, 4, w1);
-  GAGEN_SCATTER(p, 3, 0, w7);
-  GAGEN_SCATTER(p, 3, 1, w2);
-  GAGEN_SCATTER(p, 3, 2, w10);
+  GAGEN_SCATTER(out_toe, 5, 4, w1);
+  GAGEN_SCATTER(out_p, 3, 0, w7);
+  GAGEN_SCATTER(out_p, 3, 1, w2);
+  GAGEN_SCATTER(out_p, 3, 2, w10);
   w16 = -w16;
-  GAGEN_SCATTER(J, 9, 0, w16);
+  GAGEN_SCATTER(out_J, 9, 0, w16);
   w15 = w15 + w21;
   w15 = w15 - w11;
   w15 = w15 - w20;
-  GAGEN_SCATTER(J, 9, 1, w15);
+  GAGEN_SCATTER(out_J, 9, 1, w15);
   w15 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 2, w15);
+  GAGEN_SCATTER(out_J, 9, 2, w15);
   w20 = w8 + w8;
   w20 = w6 - w20;
   w11 = w20 * w10;
-  GAGEN_SCATTER(J, 9, 3, w11);
+  GAGEN_SCATTER(out_J, 9, 3, w11);
   w10 = w0 * w10;
   w10 = w10 + w10;
-  GAGEN_SCATTER(J, 9, 4, w10);
+  GAGEN_SCATTER(out_J, 9, 4, w10);
   w21 = gagen_v_splat(0.153923048454);
   w24 = w24 * w0;
   w21 = w21 + w24;
@@ -742,19 +742,19 @@ static void hexapod_front_left_fk_cga_block(const double *restrict q, double *re
   w2 = w0 * w2;
   w2 = w2 + w2;
   w16 = w16 - w2;
-  GAGEN_SCATTER(J, 9, 5, w16);
+  GAGEN_SCATTER(out_J, 9, 5, w16);
   w18 = w14 * w18;
   w11 = w11 + w18;
   w8 = w8 * w3;
   w8 = w8 * w4;
   w8 = w17 * w8;
   w11 = w11 - w8;
-  GAGEN_SCATTER(J, 9, 6, w11);
+  GAGEN_SCATTER(out_J, 9, 6, w11);
   w3 = w0 * w3;
   w3 = w3 * w4;
   w17 = w17 * w3;
   w10 = w17 + w10;
-  GAGEN_SCATTER(J, 9, 7, w10);
+  GAGEN_SCATTER(out_J, 9, 7, w10);
   w10 = gagen_v_splat(0.353923048454);
   w10 = w10 + w24;
   w7 = w10 - w7;
@@ -762,52 +762,52 @@ static void hexapod_front_left_fk_cga_block(const double *restrict q, double *re
   w7 = w7 - w14;
   w7 = w7 - w25;
   w7 = w7 - w2;
-  GAGEN_SCATTER(J, 9, 8, w7);
-  GAGEN_SCATTER(S, 18, 0, w22);
+  GAGEN_SCATTER(out_J, 9, 8, w7);
+  GAGEN_SCATTER(out_S, 18, 0, w22);
   w22 = gagen_v_splat((-0.103923048454));
-  GAGEN_SCATTER(S, 18, 1, w22);
-  GAGEN_SCATTER(S, 18, 2, w15);
-  GAGEN_SCATTER(S, 18, 3, w15);
-  GAGEN_SCATTER(S, 18, 4, w15);
-  GAGEN_SCATTER(S, 18, 5, w6);
-  GAGEN_SCATTER(S, 18, 6, w15);
-  GAGEN_SCATTER(S, 18, 7, w15);
+  GAGEN_SCATTER(out_S, 18, 1, w22);
+  GAGEN_SCATTER(out_S, 18, 2, w15);
+  GAGEN_SCATTER(out_S, 18, 3, w15);
+  GAGEN_SCATTER(out_S, 18, 4, w15);
+  GAGEN_SCATTER(out_S, 18, 5, w6);
+  GAGEN_SCATTER(out_S, 18, 6, w15);
+  GAGEN_SCATTER(out_S, 18, 7, w15);
   w21 = w21 - w25;
-  GAGEN_SCATTER(S, 18, 8, w21);
+  GAGEN_SCATTER(out_S, 18, 8, w21);
   w0 = w0 + w0;
   w0 = -w0;
-  GAGEN_SCATTER(S, 18, 9, w0);
-  GAGEN_SCATTER(S, 18, 10, w20);
-  GAGEN_SCATTER(S, 18, 11, w15);
+  GAGEN_SCATTER(out_S, 18, 9, w0);
+  GAGEN_SCATTER(out_S, 18, 10, w20);
+  GAGEN_SCATTER(out_S, 18, 11, w15);
   w18 = w18 - w8;
-  GAGEN_SCATTER(S, 18, 12, w18);
-  GAGEN_SCATTER(S, 18, 13, w17);
+  GAGEN_SCATTER(out_S, 18, 12, w18);
+  GAGEN_SCATTER(out_S, 18, 13, w17);
   w10 = w10 - w14;
   w10 = w10 - w25;
-  GAGEN_SCATTER(S, 18, 14, w10);
-  GAGEN_SCATTER(S, 18, 15, w0);
-  GAGEN_SCATTER(S, 18, 16, w20);
-  GAGEN_SCATTER(S, 18, 17, w15);
+  GAGEN_SCATTER(out_S, 18, 14, w10);
+  GAGEN_SCATTER(out_S, 18, 15, w0);
+  GAGEN_SCATTER(out_S, 18, 16, w20);
+  GAGEN_SCATTER(out_S, 18, 17, w15);
 }
 #endif
 
-void hexapod_front_left_fk_cga_batch(long n, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  long s = 0;
+void hexapod_front_left_fk_cga_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(toe + 5 * a + o, 1, 0);
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(p + 3 * a + o, 1, 0);
-      for (int o = 0; o < 9 * GAGEN_W + 7; o += 8) __builtin_prefetch(J + 9 * a + o, 1, 0);
-      for (int o = 0; o < 18 * GAGEN_W + 7; o += 8) __builtin_prefetch(S + 18 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_toe + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_p + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 9 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J + 9 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 18 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_S + 18 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_front_left_fk_cga_block(q + 3 * s, M + 8 * s, toe + 5 * s, p + 3 * s, J + 9 * s, S + 18 * s);
+    hexapod_front_left_fk_cga_block(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_toe + 5 * gagen_s, out_p + 3 * gagen_s, out_J + 9 * gagen_s, out_S + 18 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_front_left_fk_cga(q + 3 * s, M + 8 * s, toe + 5 * s, p + 3 * s, J + 9 * s, S + 18 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_front_left_fk_cga(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_toe + 5 * gagen_s, out_p + 3 * gagen_s, out_J + 9 * gagen_s, out_S + 18 * gagen_s);
   }
 }
 
@@ -817,20 +817,20 @@ void hexapod_front_left_fk_cga_batch(long n, const double *restrict q, double *r
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_front_left_fk_cga_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+static void hexapod_front_left_fk_cga_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25;
   w0 = gagen_v_splat(0.2617993877991494);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 3, 0);
+  w2 = GAGEN_GATHER(in_q, 3, 0);
   w2 = w1 * w2;
   w0 = w0 + w2;
   w2 = gagen_v_cos(w0);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w1 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 3, 2);
+  w5 = GAGEN_GATHER(in_q, 3, 2);
   w1 = w1 * w5;
   w5 = gagen_v_cos(w1);
   w6 = w4 * w5;
@@ -839,18 +839,18 @@ static void hexapod_front_left_fk_cga_block_columns(long gagen_ld, int gagen_str
   w7 = w3 * w1;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  GAGEN_SCATTER(M, 8, 0, w9);
+  GAGEN_SCATTER(out_M, 8, 0, w9);
   w0 = gagen_v_sin(w0);
   w8 = w0 * w8;
   w10 = -w8;
-  GAGEN_SCATTER(M, 8, 1, w10);
+  GAGEN_SCATTER(out_M, 8, 1, w10);
   w10 = w4 * w1;
   w11 = w3 * w5;
   w12 = w10 + w11;
   w13 = w2 * w12;
-  GAGEN_SCATTER(M, 8, 2, w13);
+  GAGEN_SCATTER(out_M, 8, 2, w13);
   w12 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 3, w12);
+  GAGEN_SCATTER(out_M, 8, 3, w12);
   w14 = gagen_v_splat(0.076961524227);
   w14 = w14 * w7;
   w7 = gagen_v_splat(0.276961524227);
@@ -860,14 +860,14 @@ static void hexapod_front_left_fk_cga_block_columns(long gagen_ld, int gagen_str
   w6 = gagen_v_splat(0.03);
   w15 = w6 * w8;
   w7 = w7 - w15;
-  GAGEN_SCATTER(M, 8, 4, w7);
+  GAGEN_SCATTER(out_M, 8, 4, w7);
   w14 = w0 * w14;
   w7 = gagen_v_splat(0.103923048454);
   w8 = w7 * w8;
   w14 = w14 + w8;
   w9 = w6 * w9;
   w14 = w14 - w9;
-  GAGEN_SCATTER(M, 8, 5, w14);
+  GAGEN_SCATTER(out_M, 8, 5, w14);
   w14 = gagen_v_splat(0.123038475773);
   w14 = w14 * w11;
   w11 = gagen_v_splat(0.07696152422699999);
@@ -876,15 +876,15 @@ static void hexapod_front_left_fk_cga_block_columns(long gagen_ld, int gagen_str
   w11 = w2 * w14;
   w10 = w6 * w12;
   w11 = w11 - w10;
-  GAGEN_SCATTER(M, 8, 6, w11);
+  GAGEN_SCATTER(out_M, 8, 6, w11);
   w6 = w6 * w13;
   w14 = w0 * w14;
   w6 = w6 - w14;
   w7 = w7 * w12;
   w6 = w6 - w7;
-  GAGEN_SCATTER(M, 8, 7, w6);
+  GAGEN_SCATTER(out_M, 8, 7, w6);
   w6 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(toe, 5, 0, w6);
+  GAGEN_SCATTER(out_toe, 5, 0, w6);
   w7 = gagen_v_splat(0.553923048454);
   w12 = w3 * w3;
   w14 = gagen_v_splat(0.4);
@@ -909,13 +909,13 @@ static void hexapod_front_left_fk_cga_block_columns(long gagen_ld, int gagen_str
   w7 = w7 + w21;
   w7 = w7 - w11;
   w7 = w7 - w20;
-  GAGEN_SCATTER(toe, 5, 1, w7);
+  GAGEN_SCATTER(out_toe, 5, 1, w7);
   w22 = gagen_v_splat(0.06);
   w0 = w0 * w2;
   w16 = w0 * w16;
   w16 = w16 + w16;
   w2 = w22 + w16;
-  GAGEN_SCATTER(toe, 5, 2, w2);
+  GAGEN_SCATTER(out_toe, 5, 2, w2);
   w10 = w18 * w10;
   w10 = w10 + w10;
   w23 = w12 * w1;
@@ -925,7 +925,7 @@ static void hexapod_front_left_fk_cga_block_columns(long gagen_ld, int gagen_str
   w1 = w1 * w5;
   w1 = w14 * w1;
   w10 = w10 - w1;
-  GAGEN_SCATTER(toe, 5, 3, w10);
+  GAGEN_SCATTER(out_toe, 5, 3, w10);
   w1 = gagen_v_splat(0.1552153718042862);
   w5 = gagen_v_splat(0.0615692193816);
   w23 = w5 * w13;
@@ -963,25 +963,25 @@ static void hexapod_front_left_fk_cga_block_columns(long gagen_ld, int gagen_str
   w23 = gagen_v_splat(0.1231384387632);
   w23 = w23 * w19;
   w1 = w1 - w23;
-  GAGEN_SCATTER(toe, 5, 4, w1);
-  GAGEN_SCATTER(p, 3, 0, w7);
-  GAGEN_SCATTER(p, 3, 1, w2);
-  GAGEN_SCATTER(p, 3, 2, w10);
+  GAGEN_SCATTER(out_toe, 5, 4, w1);
+  GAGEN_SCATTER(out_p, 3, 0, w7);
+  GAGEN_SCATTER(out_p, 3, 1, w2);
+  GAGEN_SCATTER(out_p, 3, 2, w10);
   w16 = -w16;
-  GAGEN_SCATTER(J, 9, 0, w16);
+  GAGEN_SCATTER(out_J, 9, 0, w16);
   w15 = w15 + w21;
   w15 = w15 - w11;
   w15 = w15 - w20;
-  GAGEN_SCATTER(J, 9, 1, w15);
+  GAGEN_SCATTER(out_J, 9, 1, w15);
   w15 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 2, w15);
+  GAGEN_SCATTER(out_J, 9, 2, w15);
   w20 = w8 + w8;
   w20 = w6 - w20;
   w11 = w20 * w10;
-  GAGEN_SCATTER(J, 9, 3, w11);
+  GAGEN_SCATTER(out_J, 9, 3, w11);
   w10 = w0 * w10;
   w10 = w10 + w10;
-  GAGEN_SCATTER(J, 9, 4, w10);
+  GAGEN_SCATTER(out_J, 9, 4, w10);
   w21 = gagen_v_splat(0.153923048454);
   w24 = w24 * w0;
   w21 = w21 + w24;
@@ -992,19 +992,19 @@ static void hexapod_front_left_fk_cga_block_columns(long gagen_ld, int gagen_str
   w2 = w0 * w2;
   w2 = w2 + w2;
   w16 = w16 - w2;
-  GAGEN_SCATTER(J, 9, 5, w16);
+  GAGEN_SCATTER(out_J, 9, 5, w16);
   w18 = w14 * w18;
   w11 = w11 + w18;
   w8 = w8 * w3;
   w8 = w8 * w4;
   w8 = w17 * w8;
   w11 = w11 - w8;
-  GAGEN_SCATTER(J, 9, 6, w11);
+  GAGEN_SCATTER(out_J, 9, 6, w11);
   w3 = w0 * w3;
   w3 = w3 * w4;
   w17 = w17 * w3;
   w10 = w17 + w10;
-  GAGEN_SCATTER(J, 9, 7, w10);
+  GAGEN_SCATTER(out_J, 9, 7, w10);
   w10 = gagen_v_splat(0.353923048454);
   w10 = w10 + w24;
   w7 = w10 - w7;
@@ -1012,32 +1012,32 @@ static void hexapod_front_left_fk_cga_block_columns(long gagen_ld, int gagen_str
   w7 = w7 - w14;
   w7 = w7 - w25;
   w7 = w7 - w2;
-  GAGEN_SCATTER(J, 9, 8, w7);
-  GAGEN_SCATTER(S, 18, 0, w22);
+  GAGEN_SCATTER(out_J, 9, 8, w7);
+  GAGEN_SCATTER(out_S, 18, 0, w22);
   w22 = gagen_v_splat((-0.103923048454));
-  GAGEN_SCATTER(S, 18, 1, w22);
-  GAGEN_SCATTER(S, 18, 2, w15);
-  GAGEN_SCATTER(S, 18, 3, w15);
-  GAGEN_SCATTER(S, 18, 4, w15);
-  GAGEN_SCATTER(S, 18, 5, w6);
-  GAGEN_SCATTER(S, 18, 6, w15);
-  GAGEN_SCATTER(S, 18, 7, w15);
+  GAGEN_SCATTER(out_S, 18, 1, w22);
+  GAGEN_SCATTER(out_S, 18, 2, w15);
+  GAGEN_SCATTER(out_S, 18, 3, w15);
+  GAGEN_SCATTER(out_S, 18, 4, w15);
+  GAGEN_SCATTER(out_S, 18, 5, w6);
+  GAGEN_SCATTER(out_S, 18, 6, w15);
+  GAGEN_SCATTER(out_S, 18, 7, w15);
   w21 = w21 - w25;
-  GAGEN_SCATTER(S, 18, 8, w21);
+  GAGEN_SCATTER(out_S, 18, 8, w21);
   w0 = w0 + w0;
   w0 = -w0;
-  GAGEN_SCATTER(S, 18, 9, w0);
-  GAGEN_SCATTER(S, 18, 10, w20);
-  GAGEN_SCATTER(S, 18, 11, w15);
+  GAGEN_SCATTER(out_S, 18, 9, w0);
+  GAGEN_SCATTER(out_S, 18, 10, w20);
+  GAGEN_SCATTER(out_S, 18, 11, w15);
   w18 = w18 - w8;
-  GAGEN_SCATTER(S, 18, 12, w18);
-  GAGEN_SCATTER(S, 18, 13, w17);
+  GAGEN_SCATTER(out_S, 18, 12, w18);
+  GAGEN_SCATTER(out_S, 18, 13, w17);
   w10 = w10 - w14;
   w10 = w10 - w25;
-  GAGEN_SCATTER(S, 18, 14, w10);
-  GAGEN_SCATTER(S, 18, 15, w0);
-  GAGEN_SCATTER(S, 18, 16, w20);
-  GAGEN_SCATTER(S, 18, 17, w15);
+  GAGEN_SCATTER(out_S, 18, 14, w10);
+  GAGEN_SCATTER(out_S, 18, 15, w0);
+  GAGEN_SCATTER(out_S, 18, 16, w20);
+  GAGEN_SCATTER(out_S, 18, 17, w15);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -1045,29 +1045,29 @@ static void hexapod_front_left_fk_cga_block_columns(long gagen_ld, int gagen_str
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_front_left_fk_cga_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  long s = 0;
+void hexapod_front_left_fk_cga_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 43L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_front_left_fk_cga_block_columns(ld, stream, q + s, M + s, toe + s, p + s, J + s, S + s);
+  const int gagen_stream = gagen_n * 43L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_front_left_fk_cga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_front_left_fk_cga_columns_from(s, n, ld, q, M, toe, p, J, S);
+  hexapod_front_left_fk_cga_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_toe, out_p, out_J, out_S);
 }
 
 #if GAGEN_SIMD
 /* leg front_left: analytic IK of a body-frame toe target, knee up and down, with reachability: GAGEN_W consecutive samples at once */
-static void hexapod_front_left_ik_block(const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
+static void hexapod_front_left_ik_block(const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7;
   w0 = gagen_v_splat(0.8660254037844387);
-  w1 = GAGEN_GATHER(target, 3, 1);
+  w1 = GAGEN_GATHER(in_target, 3, 1);
   w2 = w0 * w1;
   w3 = gagen_v_splat(6.632658891371746e-14);
   w2 = w2 - w3;
   w3 = gagen_v_splat(0.49999999999999994);
-  w4 = GAGEN_GATHER(target, 3, 0);
+  w4 = GAGEN_GATHER(in_target, 3, 0);
   w5 = w3 * w4;
   w2 = w2 - w5;
   w3 = w3 * w1;
@@ -1076,8 +1076,8 @@ static void hexapod_front_left_ik_block(const double *restrict target, double *r
   w0 = gagen_v_splat(0.11999999999988513);
   w3 = w3 - w0;
   w0 = gagen_v_atan2(w2, w3);
-  GAGEN_SCATTER(q_up, 3, 0, w0);
-  w4 = GAGEN_GATHER(target, 3, 2);
+  GAGEN_SCATTER(out_q_up, 3, 0, w0);
+  w4 = GAGEN_GATHER(in_target, 3, 2);
   w1 = -w4;
   w3 = w3 * w3;
   w2 = w2 * w2;
@@ -1103,19 +1103,19 @@ static void hexapod_front_left_ik_block(const double *restrict target, double *r
   w2 = w2 * w3;
   w5 = gagen_v_atan2(w5, w2);
   w2 = w1 - w5;
-  GAGEN_SCATTER(q_up, 3, 1, w2);
+  GAGEN_SCATTER(out_q_up, 3, 1, w2);
   w2 = gagen_v_splat(12.499999999999998);
   w6 = w2 * w6;
   w2 = w2 * w3;
   w7 = gagen_v_splat(1.0);
   w2 = w2 - w7;
   w6 = gagen_v_atan2(w6, w2);
-  GAGEN_SCATTER(q_up, 3, 2, w6);
-  GAGEN_SCATTER(q_down, 3, 0, w0);
+  GAGEN_SCATTER(out_q_up, 3, 2, w6);
+  GAGEN_SCATTER(out_q_down, 3, 0, w0);
   w1 = w1 + w5;
-  GAGEN_SCATTER(q_down, 3, 1, w1);
+  GAGEN_SCATTER(out_q_down, 3, 1, w1);
   w6 = -w6;
-  GAGEN_SCATTER(q_down, 3, 2, w6);
+  GAGEN_SCATTER(out_q_down, 3, 2, w6);
   w6 = gagen_v_splat(1e-09);
   w1 = gagen_v_lt(w3, w4);
   w3 = gagen_v_sqrt(w3);
@@ -1132,27 +1132,27 @@ static void hexapod_front_left_ik_block(const double *restrict target, double *r
   w6 = gagen_v_lt(w6, w4);
   w6 = gagen_v_not(w6);
   w6 = gagen_v_if_else_zero(w6, w7);
-  GAGEN_SCATTER(reach, 1, 0, w6);
-  GAGEN_SCATTER(excess, 1, 0, w4);
+  GAGEN_SCATTER(out_reach, 1, 0, w6);
+  GAGEN_SCATTER(out_excess, 1, 0, w4);
 }
 #endif
 
-void hexapod_front_left_ik_batch(long n, const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
-  long s = 0;
+void hexapod_front_left_ik_batch(long gagen_n, const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(q_up + 3 * a + o, 1, 0);
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(q_down + 3 * a + o, 1, 0);
-      for (int o = 0; o < 1 * GAGEN_W + 7; o += 8) __builtin_prefetch(reach + 1 * a + o, 1, 0);
-      for (int o = 0; o < 1 * GAGEN_W + 7; o += 8) __builtin_prefetch(excess + 1 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_q_up + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_q_down + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 1 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_reach + 1 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 1 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_excess + 1 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_front_left_ik_block(target + 3 * s, q_up + 3 * s, q_down + 3 * s, reach + 1 * s, excess + 1 * s);
+    hexapod_front_left_ik_block(in_target + 3 * gagen_s, out_q_up + 3 * gagen_s, out_q_down + 3 * gagen_s, out_reach + 1 * gagen_s, out_excess + 1 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_front_left_ik(target + 3 * s, q_up + 3 * s, q_down + 3 * s, reach + 1 * s, excess + 1 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_front_left_ik(in_target + 3 * gagen_s, out_q_up + 3 * gagen_s, out_q_down + 3 * gagen_s, out_reach + 1 * gagen_s, out_excess + 1 * gagen_s);
   }
 }
 
@@ -1162,15 +1162,15 @@ void hexapod_front_left_ik_batch(long n, const double *restrict target, double *
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_front_left_ik_block_columns(long gagen_ld, int gagen_stream, const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
+static void hexapod_front_left_ik_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7;
   w0 = gagen_v_splat(0.8660254037844387);
-  w1 = GAGEN_GATHER(target, 3, 1);
+  w1 = GAGEN_GATHER(in_target, 3, 1);
   w2 = w0 * w1;
   w3 = gagen_v_splat(6.632658891371746e-14);
   w2 = w2 - w3;
   w3 = gagen_v_splat(0.49999999999999994);
-  w4 = GAGEN_GATHER(target, 3, 0);
+  w4 = GAGEN_GATHER(in_target, 3, 0);
   w5 = w3 * w4;
   w2 = w2 - w5;
   w3 = w3 * w1;
@@ -1179,8 +1179,8 @@ static void hexapod_front_left_ik_block_columns(long gagen_ld, int gagen_stream,
   w0 = gagen_v_splat(0.11999999999988513);
   w3 = w3 - w0;
   w0 = gagen_v_atan2(w2, w3);
-  GAGEN_SCATTER(q_up, 3, 0, w0);
-  w4 = GAGEN_GATHER(target, 3, 2);
+  GAGEN_SCATTER(out_q_up, 3, 0, w0);
+  w4 = GAGEN_GATHER(in_target, 3, 2);
   w1 = -w4;
   w3 = w3 * w3;
   w2 = w2 * w2;
@@ -1206,19 +1206,19 @@ static void hexapod_front_left_ik_block_columns(long gagen_ld, int gagen_stream,
   w2 = w2 * w3;
   w5 = gagen_v_atan2(w5, w2);
   w2 = w1 - w5;
-  GAGEN_SCATTER(q_up, 3, 1, w2);
+  GAGEN_SCATTER(out_q_up, 3, 1, w2);
   w2 = gagen_v_splat(12.499999999999998);
   w6 = w2 * w6;
   w2 = w2 * w3;
   w7 = gagen_v_splat(1.0);
   w2 = w2 - w7;
   w6 = gagen_v_atan2(w6, w2);
-  GAGEN_SCATTER(q_up, 3, 2, w6);
-  GAGEN_SCATTER(q_down, 3, 0, w0);
+  GAGEN_SCATTER(out_q_up, 3, 2, w6);
+  GAGEN_SCATTER(out_q_down, 3, 0, w0);
   w1 = w1 + w5;
-  GAGEN_SCATTER(q_down, 3, 1, w1);
+  GAGEN_SCATTER(out_q_down, 3, 1, w1);
   w6 = -w6;
-  GAGEN_SCATTER(q_down, 3, 2, w6);
+  GAGEN_SCATTER(out_q_down, 3, 2, w6);
   w6 = gagen_v_splat(1e-09);
   w1 = gagen_v_lt(w3, w4);
   w3 = gagen_v_sqrt(w3);
@@ -1235,8 +1235,8 @@ static void hexapod_front_left_ik_block_columns(long gagen_ld, int gagen_stream,
   w6 = gagen_v_lt(w6, w4);
   w6 = gagen_v_not(w6);
   w6 = gagen_v_if_else_zero(w6, w7);
-  GAGEN_SCATTER(reach, 1, 0, w6);
-  GAGEN_SCATTER(excess, 1, 0, w4);
+  GAGEN_SCATTER(out_reach, 1, 0, w6);
+  GAGEN_SCATTER(out_excess, 1, 0, w4);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -1244,36 +1244,36 @@ static void hexapod_front_left_ik_block_columns(long gagen_ld, int gagen_stream,
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_front_left_ik_batch_columns(long n, long ld, const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
-  long s = 0;
+void hexapod_front_left_ik_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 8L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_front_left_ik_block_columns(ld, stream, target + s, q_up + s, q_down + s, reach + s, excess + s);
+  const int gagen_stream = gagen_n * 8L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_front_left_ik_block_columns(gagen_ld, gagen_stream, in_target + gagen_s, out_q_up + gagen_s, out_q_down + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_front_left_ik_columns_from(s, n, ld, target, q_up, q_down, reach, excess);
+  hexapod_front_left_ik_columns_from(gagen_s, gagen_n, gagen_ld, in_target, out_q_up, out_q_down, out_reach, out_excess);
 }
 
 #if GAGEN_SIMD
 /* leg front_left: one damped least-squares IK step towards a body-frame toe target: GAGEN_W consecutive samples at once */
-static void hexapod_front_left_dls_block(const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
+static void hexapod_front_left_dls_block(const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33;
-  w0 = GAGEN_GATHER(q, 3, 0);
+  w0 = GAGEN_GATHER(in_q, 3, 0);
   w1 = gagen_v_splat(0.45);
   w2 = gagen_v_splat(0.4);
   w3 = gagen_v_splat(0.5);
-  w4 = GAGEN_GATHER(q, 3, 2);
+  w4 = GAGEN_GATHER(in_q, 3, 2);
   w5 = w3 * w4;
   w6 = gagen_v_sin(w5);
   w7 = w6 * w6;
   w7 = w2 * w7;
   w1 = w1 - w7;
   w8 = gagen_v_splat(0.8);
-  w9 = GAGEN_GATHER(q, 3, 1);
+  w9 = GAGEN_GATHER(in_q, 3, 1);
   w10 = w3 * w9;
   w11 = gagen_v_sin(w10);
   w10 = gagen_v_cos(w10);
@@ -1370,12 +1370,12 @@ static void hexapod_front_left_dls_block(const double *restrict q, const double 
   w10 = w33 * w33;
   w11 = w24 * w24;
   w10 = w10 + w11;
-  w11 = GAGEN_GATHER(damping, 1, 0);
+  w11 = GAGEN_GATHER(in_damping, 1, 0);
   w11 = w11 * w11;
   w10 = w10 + w11;
   w12 = w18 * w10;
   w8 = w8 - w12;
-  w12 = GAGEN_GATHER(target, 3, 0);
+  w12 = GAGEN_GATHER(in_target, 3, 0);
   w12 = w12 + w7;
   w12 = w12 + w13;
   w12 = w12 + w16;
@@ -1395,7 +1395,7 @@ static void hexapod_front_left_dls_block(const double *restrict q, const double 
   w13 = w10 * w26;
   w19 = w14 * w14;
   w13 = w13 - w19;
-  w19 = GAGEN_GATHER(target, 3, 1);
+  w19 = GAGEN_GATHER(in_target, 3, 1);
   w19 = w19 - w29;
   w19 = w19 - w31;
   w13 = w13 * w19;
@@ -1403,7 +1403,7 @@ static void hexapod_front_left_dls_block(const double *restrict q, const double 
   w13 = w14 * w18;
   w31 = w26 * w32;
   w13 = w13 - w31;
-  w31 = GAGEN_GATHER(target, 3, 2);
+  w31 = GAGEN_GATHER(in_target, 3, 2);
   w31 = w31 + w6;
   w31 = w31 + w15;
   w31 = w31 - w22;
@@ -1441,7 +1441,7 @@ static void hexapod_front_left_dls_block(const double *restrict q, const double 
   w30 = w30 * w10;
   w30 = w30 + w30;
   w0 = w0 - w30;
-  GAGEN_SCATTER(q_next, 3, 0, w0);
+  GAGEN_SCATTER(out_q_next, 3, 0, w0);
   w20 = w20 * w10;
   w9 = w9 + w20;
   w32 = w32 * w12;
@@ -1458,38 +1458,38 @@ static void hexapod_front_left_dls_block(const double *restrict q, const double 
   w23 = w23 * w27;
   w23 = w23 + w23;
   w9 = w9 + w23;
-  GAGEN_SCATTER(q_next, 3, 1, w9);
+  GAGEN_SCATTER(out_q_next, 3, 1, w9);
   w2 = w2 * w10;
   w4 = w4 + w2;
   w21 = w21 * w27;
   w4 = w4 + w21;
   w24 = w24 * w32;
   w4 = w4 + w24;
-  GAGEN_SCATTER(q_next, 3, 2, w4);
+  GAGEN_SCATTER(out_q_next, 3, 2, w4);
   w12 = w12 * w12;
   w19 = w19 * w19;
   w12 = w12 + w19;
   w31 = w31 * w31;
   w12 = w12 + w31;
   w12 = gagen_v_sqrt(w12);
-  GAGEN_SCATTER(error, 1, 0, w12);
+  GAGEN_SCATTER(out_error, 1, 0, w12);
 }
 #endif
 
-void hexapod_front_left_dls_batch(long n, const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
-  long s = 0;
+void hexapod_front_left_dls_batch(long gagen_n, const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(q_next + 3 * a + o, 1, 0);
-      for (int o = 0; o < 1 * GAGEN_W + 7; o += 8) __builtin_prefetch(error + 1 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_q_next + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 1 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_error + 1 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_front_left_dls_block(q + 3 * s, target + 3 * s, damping + 1 * s, q_next + 3 * s, error + 1 * s);
+    hexapod_front_left_dls_block(in_q + 3 * gagen_s, in_target + 3 * gagen_s, in_damping + 1 * gagen_s, out_q_next + 3 * gagen_s, out_error + 1 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_front_left_dls(q + 3 * s, target + 3 * s, damping + 1 * s, q_next + 3 * s, error + 1 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_front_left_dls(in_q + 3 * gagen_s, in_target + 3 * gagen_s, in_damping + 1 * gagen_s, out_q_next + 3 * gagen_s, out_error + 1 * gagen_s);
   }
 }
 
@@ -1499,22 +1499,22 @@ void hexapod_front_left_dls_batch(long n, const double *restrict q, const double
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_front_left_dls_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
+static void hexapod_front_left_dls_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33;
-  w0 = GAGEN_GATHER(q, 3, 0);
+  w0 = GAGEN_GATHER(in_q, 3, 0);
   w1 = gagen_v_splat(0.45);
   w2 = gagen_v_splat(0.4);
   w3 = gagen_v_splat(0.5);
-  w4 = GAGEN_GATHER(q, 3, 2);
+  w4 = GAGEN_GATHER(in_q, 3, 2);
   w5 = w3 * w4;
   w6 = gagen_v_sin(w5);
   w7 = w6 * w6;
   w7 = w2 * w7;
   w1 = w1 - w7;
   w8 = gagen_v_splat(0.8);
-  w9 = GAGEN_GATHER(q, 3, 1);
+  w9 = GAGEN_GATHER(in_q, 3, 1);
   w10 = w3 * w9;
   w11 = gagen_v_sin(w10);
   w10 = gagen_v_cos(w10);
@@ -1611,12 +1611,12 @@ static void hexapod_front_left_dls_block_columns(long gagen_ld, int gagen_stream
   w10 = w33 * w33;
   w11 = w24 * w24;
   w10 = w10 + w11;
-  w11 = GAGEN_GATHER(damping, 1, 0);
+  w11 = GAGEN_GATHER(in_damping, 1, 0);
   w11 = w11 * w11;
   w10 = w10 + w11;
   w12 = w18 * w10;
   w8 = w8 - w12;
-  w12 = GAGEN_GATHER(target, 3, 0);
+  w12 = GAGEN_GATHER(in_target, 3, 0);
   w12 = w12 + w7;
   w12 = w12 + w13;
   w12 = w12 + w16;
@@ -1636,7 +1636,7 @@ static void hexapod_front_left_dls_block_columns(long gagen_ld, int gagen_stream
   w13 = w10 * w26;
   w19 = w14 * w14;
   w13 = w13 - w19;
-  w19 = GAGEN_GATHER(target, 3, 1);
+  w19 = GAGEN_GATHER(in_target, 3, 1);
   w19 = w19 - w29;
   w19 = w19 - w31;
   w13 = w13 * w19;
@@ -1644,7 +1644,7 @@ static void hexapod_front_left_dls_block_columns(long gagen_ld, int gagen_stream
   w13 = w14 * w18;
   w31 = w26 * w32;
   w13 = w13 - w31;
-  w31 = GAGEN_GATHER(target, 3, 2);
+  w31 = GAGEN_GATHER(in_target, 3, 2);
   w31 = w31 + w6;
   w31 = w31 + w15;
   w31 = w31 - w22;
@@ -1682,7 +1682,7 @@ static void hexapod_front_left_dls_block_columns(long gagen_ld, int gagen_stream
   w30 = w30 * w10;
   w30 = w30 + w30;
   w0 = w0 - w30;
-  GAGEN_SCATTER(q_next, 3, 0, w0);
+  GAGEN_SCATTER(out_q_next, 3, 0, w0);
   w20 = w20 * w10;
   w9 = w9 + w20;
   w32 = w32 * w12;
@@ -1699,21 +1699,21 @@ static void hexapod_front_left_dls_block_columns(long gagen_ld, int gagen_stream
   w23 = w23 * w27;
   w23 = w23 + w23;
   w9 = w9 + w23;
-  GAGEN_SCATTER(q_next, 3, 1, w9);
+  GAGEN_SCATTER(out_q_next, 3, 1, w9);
   w2 = w2 * w10;
   w4 = w4 + w2;
   w21 = w21 * w27;
   w4 = w4 + w21;
   w24 = w24 * w32;
   w4 = w4 + w24;
-  GAGEN_SCATTER(q_next, 3, 2, w4);
+  GAGEN_SCATTER(out_q_next, 3, 2, w4);
   w12 = w12 * w12;
   w19 = w19 * w19;
   w12 = w12 + w19;
   w31 = w31 * w31;
   w12 = w12 + w31;
   w12 = gagen_v_sqrt(w12);
-  GAGEN_SCATTER(error, 1, 0, w12);
+  GAGEN_SCATTER(out_error, 1, 0, w12);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -1721,33 +1721,33 @@ static void hexapod_front_left_dls_block_columns(long gagen_ld, int gagen_stream
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_front_left_dls_batch_columns(long n, long ld, const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
-  long s = 0;
+void hexapod_front_left_dls_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 4L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_front_left_dls_block_columns(ld, stream, q + s, target + s, damping + s, q_next + s, error + s);
+  const int gagen_stream = gagen_n * 4L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_front_left_dls_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, in_target + gagen_s, in_damping + gagen_s, out_q_next + gagen_s, out_error + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_front_left_dls_columns_from(s, n, ld, q, target, damping, q_next, error);
+  hexapod_front_left_dls_columns_from(gagen_s, gagen_n, gagen_ld, in_q, in_target, in_damping, out_q_next, out_error);
 }
 
 #if GAGEN_SIMD
 /* leg middle_left in PGA3D: FK motor, toe point and position, point and spatial Jacobians: GAGEN_W consecutive samples at once */
-static void hexapod_middle_left_fk_pga_block(const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+static void hexapod_middle_left_fk_pga_block(const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18;
   w0 = gagen_v_splat(0.7853981633974483);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 3, 0);
+  w2 = GAGEN_GATHER(in_q, 3, 0);
   w2 = w1 * w2;
   w0 = w0 + w2;
   w2 = gagen_v_cos(w0);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w1 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 3, 2);
+  w5 = GAGEN_GATHER(in_q, 3, 2);
   w1 = w1 * w5;
   w5 = gagen_v_cos(w1);
   w6 = w4 * w5;
@@ -1756,7 +1756,7 @@ static void hexapod_middle_left_fk_pga_block(const double *restrict q, double *r
   w7 = w3 * w1;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  GAGEN_SCATTER(M, 8, 0, w9);
+  GAGEN_SCATTER(out_M, 8, 0, w9);
   w10 = gagen_v_splat(0.02500000000000001);
   w10 = w10 * w7;
   w7 = gagen_v_splat(0.225);
@@ -1768,13 +1768,13 @@ static void hexapod_middle_left_fk_pga_block(const double *restrict q, double *r
   w8 = w0 * w8;
   w11 = w6 * w8;
   w7 = w7 - w11;
-  GAGEN_SCATTER(M, 8, 1, w7);
+  GAGEN_SCATTER(out_M, 8, 1, w7);
   w10 = w0 * w10;
   w9 = w6 * w9;
   w10 = w10 - w9;
-  GAGEN_SCATTER(M, 8, 2, w10);
+  GAGEN_SCATTER(out_M, 8, 2, w10);
   w8 = -w8;
-  GAGEN_SCATTER(M, 8, 3, w8);
+  GAGEN_SCATTER(out_M, 8, 3, w8);
   w8 = gagen_v_splat(0.175);
   w10 = w3 * w5;
   w8 = w8 * w10;
@@ -1787,14 +1787,14 @@ static void hexapod_middle_left_fk_pga_block(const double *restrict q, double *r
   w10 = w0 * w7;
   w11 = w6 * w10;
   w9 = w9 - w11;
-  GAGEN_SCATTER(M, 8, 4, w9);
+  GAGEN_SCATTER(out_M, 8, 4, w9);
   w7 = w2 * w7;
-  GAGEN_SCATTER(M, 8, 5, w7);
-  GAGEN_SCATTER(M, 8, 6, w10);
+  GAGEN_SCATTER(out_M, 8, 5, w7);
+  GAGEN_SCATTER(out_M, 8, 6, w10);
   w6 = w6 * w7;
   w8 = w0 * w8;
   w6 = w6 - w8;
-  GAGEN_SCATTER(M, 8, 7, w6);
+  GAGEN_SCATTER(out_M, 8, 7, w6);
   w6 = gagen_v_splat(0.8);
   w8 = w3 * w3;
   w7 = w8 * w1;
@@ -1812,7 +1812,7 @@ static void hexapod_middle_left_fk_pga_block(const double *restrict q, double *r
   w13 = w13 + w13;
   w7 = w7 - w13;
   w13 = -w7;
-  GAGEN_SCATTER(toe, 4, 0, w13);
+  GAGEN_SCATTER(out_toe, 4, 0, w13);
   w13 = gagen_v_splat(0.12);
   w2 = w0 * w2;
   w14 = gagen_v_splat(0.45);
@@ -1827,31 +1827,31 @@ static void hexapod_middle_left_fk_pga_block(const double *restrict q, double *r
   w5 = w2 * w1;
   w5 = w5 + w5;
   w11 = w13 + w5;
-  GAGEN_SCATTER(toe, 4, 1, w11);
+  GAGEN_SCATTER(out_toe, 4, 1, w11);
   w0 = w0 * w0;
   w1 = w0 * w1;
   w12 = w12 + w1;
   w12 = w12 + w12;
   w14 = w14 - w12;
   w12 = -w14;
-  GAGEN_SCATTER(toe, 4, 2, w12);
+  GAGEN_SCATTER(out_toe, 4, 2, w12);
   w12 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(toe, 4, 3, w12);
-  GAGEN_SCATTER(p, 3, 0, w14);
-  GAGEN_SCATTER(p, 3, 1, w11);
-  GAGEN_SCATTER(p, 3, 2, w7);
+  GAGEN_SCATTER(out_toe, 4, 3, w12);
+  GAGEN_SCATTER(out_p, 3, 0, w14);
+  GAGEN_SCATTER(out_p, 3, 1, w11);
+  GAGEN_SCATTER(out_p, 3, 2, w7);
   w5 = -w5;
-  GAGEN_SCATTER(J, 9, 0, w5);
-  GAGEN_SCATTER(J, 9, 1, w14);
+  GAGEN_SCATTER(out_J, 9, 0, w5);
+  GAGEN_SCATTER(out_J, 9, 1, w14);
   w5 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 2, w5);
+  GAGEN_SCATTER(out_J, 9, 2, w5);
   w1 = w0 + w0;
   w1 = w12 - w1;
   w15 = w1 * w7;
-  GAGEN_SCATTER(J, 9, 3, w15);
+  GAGEN_SCATTER(out_J, 9, 3, w15);
   w7 = w2 * w7;
   w7 = w7 + w7;
-  GAGEN_SCATTER(J, 9, 4, w7);
+  GAGEN_SCATTER(out_J, 9, 4, w7);
   w16 = gagen_v_splat(0.05);
   w17 = gagen_v_splat(0.24);
   w17 = w17 * w2;
@@ -1861,68 +1861,68 @@ static void hexapod_middle_left_fk_pga_block(const double *restrict q, double *r
   w11 = w2 * w11;
   w11 = w11 + w11;
   w18 = w18 - w11;
-  GAGEN_SCATTER(J, 9, 5, w18);
+  GAGEN_SCATTER(out_J, 9, 5, w18);
   w9 = w10 * w9;
   w15 = w15 + w9;
   w0 = w0 * w3;
   w0 = w0 * w4;
   w0 = w6 * w0;
   w15 = w15 - w0;
-  GAGEN_SCATTER(J, 9, 6, w15);
+  GAGEN_SCATTER(out_J, 9, 6, w15);
   w3 = w2 * w3;
   w3 = w3 * w4;
   w6 = w6 * w3;
   w7 = w6 + w7;
-  GAGEN_SCATTER(J, 9, 7, w7);
+  GAGEN_SCATTER(out_J, 9, 7, w7);
   w7 = gagen_v_splat(0.25);
   w7 = w7 + w17;
   w14 = w7 - w14;
   w10 = w10 * w8;
   w14 = w14 - w10;
   w14 = w14 - w11;
-  GAGEN_SCATTER(J, 9, 8, w14);
-  GAGEN_SCATTER(S, 18, 0, w13);
-  GAGEN_SCATTER(S, 18, 1, w5);
-  GAGEN_SCATTER(S, 18, 2, w5);
-  GAGEN_SCATTER(S, 18, 3, w5);
-  GAGEN_SCATTER(S, 18, 4, w5);
-  GAGEN_SCATTER(S, 18, 5, w12);
-  GAGEN_SCATTER(S, 18, 6, w5);
-  GAGEN_SCATTER(S, 18, 7, w5);
-  GAGEN_SCATTER(S, 18, 8, w16);
+  GAGEN_SCATTER(out_J, 9, 8, w14);
+  GAGEN_SCATTER(out_S, 18, 0, w13);
+  GAGEN_SCATTER(out_S, 18, 1, w5);
+  GAGEN_SCATTER(out_S, 18, 2, w5);
+  GAGEN_SCATTER(out_S, 18, 3, w5);
+  GAGEN_SCATTER(out_S, 18, 4, w5);
+  GAGEN_SCATTER(out_S, 18, 5, w12);
+  GAGEN_SCATTER(out_S, 18, 6, w5);
+  GAGEN_SCATTER(out_S, 18, 7, w5);
+  GAGEN_SCATTER(out_S, 18, 8, w16);
   w2 = w2 + w2;
   w2 = -w2;
-  GAGEN_SCATTER(S, 18, 9, w2);
-  GAGEN_SCATTER(S, 18, 10, w1);
-  GAGEN_SCATTER(S, 18, 11, w5);
+  GAGEN_SCATTER(out_S, 18, 9, w2);
+  GAGEN_SCATTER(out_S, 18, 10, w1);
+  GAGEN_SCATTER(out_S, 18, 11, w5);
   w9 = w9 - w0;
-  GAGEN_SCATTER(S, 18, 12, w9);
-  GAGEN_SCATTER(S, 18, 13, w6);
+  GAGEN_SCATTER(out_S, 18, 12, w9);
+  GAGEN_SCATTER(out_S, 18, 13, w6);
   w7 = w7 - w10;
-  GAGEN_SCATTER(S, 18, 14, w7);
-  GAGEN_SCATTER(S, 18, 15, w2);
-  GAGEN_SCATTER(S, 18, 16, w1);
-  GAGEN_SCATTER(S, 18, 17, w5);
+  GAGEN_SCATTER(out_S, 18, 14, w7);
+  GAGEN_SCATTER(out_S, 18, 15, w2);
+  GAGEN_SCATTER(out_S, 18, 16, w1);
+  GAGEN_SCATTER(out_S, 18, 17, w5);
 }
 #endif
 
-void hexapod_middle_left_fk_pga_batch(long n, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  long s = 0;
+void hexapod_middle_left_fk_pga_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 4 * GAGEN_W + 7; o += 8) __builtin_prefetch(toe + 4 * a + o, 1, 0);
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(p + 3 * a + o, 1, 0);
-      for (int o = 0; o < 9 * GAGEN_W + 7; o += 8) __builtin_prefetch(J + 9 * a + o, 1, 0);
-      for (int o = 0; o < 18 * GAGEN_W + 7; o += 8) __builtin_prefetch(S + 18 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 4 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_toe + 4 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_p + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 9 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J + 9 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 18 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_S + 18 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_middle_left_fk_pga_block(q + 3 * s, M + 8 * s, toe + 4 * s, p + 3 * s, J + 9 * s, S + 18 * s);
+    hexapod_middle_left_fk_pga_block(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_toe + 4 * gagen_s, out_p + 3 * gagen_s, out_J + 9 * gagen_s, out_S + 18 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_middle_left_fk_pga(q + 3 * s, M + 8 * s, toe + 4 * s, p + 3 * s, J + 9 * s, S + 18 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_middle_left_fk_pga(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_toe + 4 * gagen_s, out_p + 3 * gagen_s, out_J + 9 * gagen_s, out_S + 18 * gagen_s);
   }
 }
 
@@ -1932,19 +1932,19 @@ void hexapod_middle_left_fk_pga_batch(long n, const double *restrict q, double *
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_middle_left_fk_pga_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+static void hexapod_middle_left_fk_pga_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18;
   w0 = gagen_v_splat(0.7853981633974483);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 3, 0);
+  w2 = GAGEN_GATHER(in_q, 3, 0);
   w2 = w1 * w2;
   w0 = w0 + w2;
   w2 = gagen_v_cos(w0);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w1 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 3, 2);
+  w5 = GAGEN_GATHER(in_q, 3, 2);
   w1 = w1 * w5;
   w5 = gagen_v_cos(w1);
   w6 = w4 * w5;
@@ -1953,7 +1953,7 @@ static void hexapod_middle_left_fk_pga_block_columns(long gagen_ld, int gagen_st
   w7 = w3 * w1;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  GAGEN_SCATTER(M, 8, 0, w9);
+  GAGEN_SCATTER(out_M, 8, 0, w9);
   w10 = gagen_v_splat(0.02500000000000001);
   w10 = w10 * w7;
   w7 = gagen_v_splat(0.225);
@@ -1965,13 +1965,13 @@ static void hexapod_middle_left_fk_pga_block_columns(long gagen_ld, int gagen_st
   w8 = w0 * w8;
   w11 = w6 * w8;
   w7 = w7 - w11;
-  GAGEN_SCATTER(M, 8, 1, w7);
+  GAGEN_SCATTER(out_M, 8, 1, w7);
   w10 = w0 * w10;
   w9 = w6 * w9;
   w10 = w10 - w9;
-  GAGEN_SCATTER(M, 8, 2, w10);
+  GAGEN_SCATTER(out_M, 8, 2, w10);
   w8 = -w8;
-  GAGEN_SCATTER(M, 8, 3, w8);
+  GAGEN_SCATTER(out_M, 8, 3, w8);
   w8 = gagen_v_splat(0.175);
   w10 = w3 * w5;
   w8 = w8 * w10;
@@ -1984,14 +1984,14 @@ static void hexapod_middle_left_fk_pga_block_columns(long gagen_ld, int gagen_st
   w10 = w0 * w7;
   w11 = w6 * w10;
   w9 = w9 - w11;
-  GAGEN_SCATTER(M, 8, 4, w9);
+  GAGEN_SCATTER(out_M, 8, 4, w9);
   w7 = w2 * w7;
-  GAGEN_SCATTER(M, 8, 5, w7);
-  GAGEN_SCATTER(M, 8, 6, w10);
+  GAGEN_SCATTER(out_M, 8, 5, w7);
+  GAGEN_SCATTER(out_M, 8, 6, w10);
   w6 = w6 * w7;
   w8 = w0 * w8;
   w6 = w6 - w8;
-  GAGEN_SCATTER(M, 8, 7, w6);
+  GAGEN_SCATTER(out_M, 8, 7, w6);
   w6 = gagen_v_splat(0.8);
   w8 = w3 * w3;
   w7 = w8 * w1;
@@ -2009,7 +2009,7 @@ static void hexapod_middle_left_fk_pga_block_columns(long gagen_ld, int gagen_st
   w13 = w13 + w13;
   w7 = w7 - w13;
   w13 = -w7;
-  GAGEN_SCATTER(toe, 4, 0, w13);
+  GAGEN_SCATTER(out_toe, 4, 0, w13);
   w13 = gagen_v_splat(0.12);
   w2 = w0 * w2;
   w14 = gagen_v_splat(0.45);
@@ -2024,31 +2024,31 @@ static void hexapod_middle_left_fk_pga_block_columns(long gagen_ld, int gagen_st
   w5 = w2 * w1;
   w5 = w5 + w5;
   w11 = w13 + w5;
-  GAGEN_SCATTER(toe, 4, 1, w11);
+  GAGEN_SCATTER(out_toe, 4, 1, w11);
   w0 = w0 * w0;
   w1 = w0 * w1;
   w12 = w12 + w1;
   w12 = w12 + w12;
   w14 = w14 - w12;
   w12 = -w14;
-  GAGEN_SCATTER(toe, 4, 2, w12);
+  GAGEN_SCATTER(out_toe, 4, 2, w12);
   w12 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(toe, 4, 3, w12);
-  GAGEN_SCATTER(p, 3, 0, w14);
-  GAGEN_SCATTER(p, 3, 1, w11);
-  GAGEN_SCATTER(p, 3, 2, w7);
+  GAGEN_SCATTER(out_toe, 4, 3, w12);
+  GAGEN_SCATTER(out_p, 3, 0, w14);
+  GAGEN_SCATTER(out_p, 3, 1, w11);
+  GAGEN_SCATTER(out_p, 3, 2, w7);
   w5 = -w5;
-  GAGEN_SCATTER(J, 9, 0, w5);
-  GAGEN_SCATTER(J, 9, 1, w14);
+  GAGEN_SCATTER(out_J, 9, 0, w5);
+  GAGEN_SCATTER(out_J, 9, 1, w14);
   w5 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 2, w5);
+  GAGEN_SCATTER(out_J, 9, 2, w5);
   w1 = w0 + w0;
   w1 = w12 - w1;
   w15 = w1 * w7;
-  GAGEN_SCATTER(J, 9, 3, w15);
+  GAGEN_SCATTER(out_J, 9, 3, w15);
   w7 = w2 * w7;
   w7 = w7 + w7;
-  GAGEN_SCATTER(J, 9, 4, w7);
+  GAGEN_SCATTER(out_J, 9, 4, w7);
   w16 = gagen_v_splat(0.05);
   w17 = gagen_v_splat(0.24);
   w17 = w17 * w2;
@@ -2058,48 +2058,48 @@ static void hexapod_middle_left_fk_pga_block_columns(long gagen_ld, int gagen_st
   w11 = w2 * w11;
   w11 = w11 + w11;
   w18 = w18 - w11;
-  GAGEN_SCATTER(J, 9, 5, w18);
+  GAGEN_SCATTER(out_J, 9, 5, w18);
   w9 = w10 * w9;
   w15 = w15 + w9;
   w0 = w0 * w3;
   w0 = w0 * w4;
   w0 = w6 * w0;
   w15 = w15 - w0;
-  GAGEN_SCATTER(J, 9, 6, w15);
+  GAGEN_SCATTER(out_J, 9, 6, w15);
   w3 = w2 * w3;
   w3 = w3 * w4;
   w6 = w6 * w3;
   w7 = w6 + w7;
-  GAGEN_SCATTER(J, 9, 7, w7);
+  GAGEN_SCATTER(out_J, 9, 7, w7);
   w7 = gagen_v_splat(0.25);
   w7 = w7 + w17;
   w14 = w7 - w14;
   w10 = w10 * w8;
   w14 = w14 - w10;
   w14 = w14 - w11;
-  GAGEN_SCATTER(J, 9, 8, w14);
-  GAGEN_SCATTER(S, 18, 0, w13);
-  GAGEN_SCATTER(S, 18, 1, w5);
-  GAGEN_SCATTER(S, 18, 2, w5);
-  GAGEN_SCATTER(S, 18, 3, w5);
-  GAGEN_SCATTER(S, 18, 4, w5);
-  GAGEN_SCATTER(S, 18, 5, w12);
-  GAGEN_SCATTER(S, 18, 6, w5);
-  GAGEN_SCATTER(S, 18, 7, w5);
-  GAGEN_SCATTER(S, 18, 8, w16);
+  GAGEN_SCATTER(out_J, 9, 8, w14);
+  GAGEN_SCATTER(out_S, 18, 0, w13);
+  GAGEN_SCATTER(out_S, 18, 1, w5);
+  GAGEN_SCATTER(out_S, 18, 2, w5);
+  GAGEN_SCATTER(out_S, 18, 3, w5);
+  GAGEN_SCATTER(out_S, 18, 4, w5);
+  GAGEN_SCATTER(out_S, 18, 5, w12);
+  GAGEN_SCATTER(out_S, 18, 6, w5);
+  GAGEN_SCATTER(out_S, 18, 7, w5);
+  GAGEN_SCATTER(out_S, 18, 8, w16);
   w2 = w2 + w2;
   w2 = -w2;
-  GAGEN_SCATTER(S, 18, 9, w2);
-  GAGEN_SCATTER(S, 18, 10, w1);
-  GAGEN_SCATTER(S, 18, 11, w5);
+  GAGEN_SCATTER(out_S, 18, 9, w2);
+  GAGEN_SCATTER(out_S, 18, 10, w1);
+  GAGEN_SCATTER(out_S, 18, 11, w5);
   w9 = w9 - w0;
-  GAGEN_SCATTER(S, 18, 12, w9);
-  GAGEN_SCATTER(S, 18, 13, w6);
+  GAGEN_SCATTER(out_S, 18, 12, w9);
+  GAGEN_SCATTER(out_S, 18, 13, w6);
   w7 = w7 - w10;
-  GAGEN_SCATTER(S, 18, 14, w7);
-  GAGEN_SCATTER(S, 18, 15, w2);
-  GAGEN_SCATTER(S, 18, 16, w1);
-  GAGEN_SCATTER(S, 18, 17, w5);
+  GAGEN_SCATTER(out_S, 18, 14, w7);
+  GAGEN_SCATTER(out_S, 18, 15, w2);
+  GAGEN_SCATTER(out_S, 18, 16, w1);
+  GAGEN_SCATTER(out_S, 18, 17, w5);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -2107,33 +2107,33 @@ static void hexapod_middle_left_fk_pga_block_columns(long gagen_ld, int gagen_st
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_middle_left_fk_pga_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  long s = 0;
+void hexapod_middle_left_fk_pga_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 42L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_middle_left_fk_pga_block_columns(ld, stream, q + s, M + s, toe + s, p + s, J + s, S + s);
+  const int gagen_stream = gagen_n * 42L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_middle_left_fk_pga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_middle_left_fk_pga_columns_from(s, n, ld, q, M, toe, p, J, S);
+  hexapod_middle_left_fk_pga_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_toe, out_p, out_J, out_S);
 }
 
 #if GAGEN_SIMD
 /* leg middle_left in CGA3D: FK motor, toe point and position, point and spatial Jacobians: GAGEN_W consecutive samples at once */
-static void hexapod_middle_left_fk_cga_block(const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+static void hexapod_middle_left_fk_cga_block(const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20;
   w0 = gagen_v_splat(0.7853981633974483);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 3, 0);
+  w2 = GAGEN_GATHER(in_q, 3, 0);
   w2 = w1 * w2;
   w0 = w0 + w2;
   w2 = gagen_v_cos(w0);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w1 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 3, 2);
+  w5 = GAGEN_GATHER(in_q, 3, 2);
   w1 = w1 * w5;
   w5 = gagen_v_cos(w1);
   w6 = w4 * w5;
@@ -2142,18 +2142,18 @@ static void hexapod_middle_left_fk_cga_block(const double *restrict q, double *r
   w7 = w3 * w1;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  GAGEN_SCATTER(M, 8, 0, w9);
+  GAGEN_SCATTER(out_M, 8, 0, w9);
   w0 = gagen_v_sin(w0);
   w8 = w0 * w8;
   w10 = -w8;
-  GAGEN_SCATTER(M, 8, 1, w10);
+  GAGEN_SCATTER(out_M, 8, 1, w10);
   w10 = w4 * w1;
   w11 = w3 * w5;
   w12 = w10 + w11;
   w13 = w2 * w12;
-  GAGEN_SCATTER(M, 8, 2, w13);
+  GAGEN_SCATTER(out_M, 8, 2, w13);
   w12 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 3, w12);
+  GAGEN_SCATTER(out_M, 8, 3, w12);
   w14 = gagen_v_splat(0.02500000000000001);
   w14 = w14 * w7;
   w7 = gagen_v_splat(0.225);
@@ -2163,11 +2163,11 @@ static void hexapod_middle_left_fk_cga_block(const double *restrict q, double *r
   w6 = gagen_v_splat(0.06);
   w8 = w6 * w8;
   w7 = w7 - w8;
-  GAGEN_SCATTER(M, 8, 4, w7);
+  GAGEN_SCATTER(out_M, 8, 4, w7);
   w14 = w0 * w14;
   w9 = w6 * w9;
   w14 = w14 - w9;
-  GAGEN_SCATTER(M, 8, 5, w14);
+  GAGEN_SCATTER(out_M, 8, 5, w14);
   w14 = gagen_v_splat(0.175);
   w14 = w14 * w11;
   w11 = gagen_v_splat(0.024999999999999994);
@@ -2176,13 +2176,13 @@ static void hexapod_middle_left_fk_cga_block(const double *restrict q, double *r
   w11 = w2 * w14;
   w12 = w6 * w12;
   w11 = w11 - w12;
-  GAGEN_SCATTER(M, 8, 6, w11);
+  GAGEN_SCATTER(out_M, 8, 6, w11);
   w6 = w6 * w13;
   w14 = w0 * w14;
   w6 = w6 - w14;
-  GAGEN_SCATTER(M, 8, 7, w6);
+  GAGEN_SCATTER(out_M, 8, 7, w6);
   w6 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(toe, 5, 0, w6);
+  GAGEN_SCATTER(out_toe, 5, 0, w6);
   w14 = gagen_v_splat(0.45);
   w13 = w3 * w3;
   w11 = gagen_v_splat(0.4);
@@ -2206,13 +2206,13 @@ static void hexapod_middle_left_fk_cga_block(const double *restrict q, double *r
   w14 = w14 + w20;
   w14 = w14 - w10;
   w14 = w14 - w19;
-  GAGEN_SCATTER(toe, 5, 1, w14);
+  GAGEN_SCATTER(out_toe, 5, 1, w14);
   w19 = gagen_v_splat(0.12);
   w0 = w0 * w2;
   w15 = w0 * w15;
   w15 = w15 + w15;
   w2 = w19 + w15;
-  GAGEN_SCATTER(toe, 5, 2, w2);
+  GAGEN_SCATTER(out_toe, 5, 2, w2);
   w9 = w17 * w9;
   w9 = w9 + w9;
   w10 = w13 * w1;
@@ -2222,7 +2222,7 @@ static void hexapod_middle_left_fk_cga_block(const double *restrict q, double *r
   w1 = w1 * w5;
   w1 = w11 * w1;
   w9 = w9 - w1;
-  GAGEN_SCATTER(toe, 5, 3, w9);
+  GAGEN_SCATTER(out_toe, 5, 3, w9);
   w1 = gagen_v_splat(0.10845);
   w5 = gagen_v_splat(0.020000000000000004);
   w5 = w5 * w12;
@@ -2249,22 +2249,22 @@ static void hexapod_middle_left_fk_cga_block(const double *restrict q, double *r
   w5 = gagen_v_splat(0.04000000000000001);
   w5 = w5 * w18;
   w1 = w1 - w5;
-  GAGEN_SCATTER(toe, 5, 4, w1);
-  GAGEN_SCATTER(p, 3, 0, w14);
-  GAGEN_SCATTER(p, 3, 1, w2);
-  GAGEN_SCATTER(p, 3, 2, w9);
+  GAGEN_SCATTER(out_toe, 5, 4, w1);
+  GAGEN_SCATTER(out_p, 3, 0, w14);
+  GAGEN_SCATTER(out_p, 3, 1, w2);
+  GAGEN_SCATTER(out_p, 3, 2, w9);
   w15 = -w15;
-  GAGEN_SCATTER(J, 9, 0, w15);
-  GAGEN_SCATTER(J, 9, 1, w14);
+  GAGEN_SCATTER(out_J, 9, 0, w15);
+  GAGEN_SCATTER(out_J, 9, 1, w14);
   w15 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 2, w15);
+  GAGEN_SCATTER(out_J, 9, 2, w15);
   w1 = w8 + w8;
   w1 = w6 - w1;
   w5 = w1 * w9;
-  GAGEN_SCATTER(J, 9, 3, w5);
+  GAGEN_SCATTER(out_J, 9, 3, w5);
   w9 = w0 * w9;
   w9 = w9 + w9;
-  GAGEN_SCATTER(J, 9, 4, w9);
+  GAGEN_SCATTER(out_J, 9, 4, w9);
   w18 = gagen_v_splat(0.05);
   w20 = w20 * w0;
   w18 = w18 + w20;
@@ -2273,68 +2273,68 @@ static void hexapod_middle_left_fk_cga_block(const double *restrict q, double *r
   w2 = w0 * w2;
   w2 = w2 + w2;
   w12 = w12 - w2;
-  GAGEN_SCATTER(J, 9, 5, w12);
+  GAGEN_SCATTER(out_J, 9, 5, w12);
   w17 = w11 * w17;
   w5 = w5 + w17;
   w8 = w8 * w3;
   w8 = w8 * w4;
   w8 = w16 * w8;
   w5 = w5 - w8;
-  GAGEN_SCATTER(J, 9, 6, w5);
+  GAGEN_SCATTER(out_J, 9, 6, w5);
   w3 = w0 * w3;
   w3 = w3 * w4;
   w16 = w16 * w3;
   w9 = w16 + w9;
-  GAGEN_SCATTER(J, 9, 7, w9);
+  GAGEN_SCATTER(out_J, 9, 7, w9);
   w9 = gagen_v_splat(0.25);
   w9 = w9 + w20;
   w14 = w9 - w14;
   w11 = w11 * w13;
   w14 = w14 - w11;
   w14 = w14 - w2;
-  GAGEN_SCATTER(J, 9, 8, w14);
-  GAGEN_SCATTER(S, 18, 0, w19);
-  GAGEN_SCATTER(S, 18, 1, w15);
-  GAGEN_SCATTER(S, 18, 2, w15);
-  GAGEN_SCATTER(S, 18, 3, w15);
-  GAGEN_SCATTER(S, 18, 4, w15);
-  GAGEN_SCATTER(S, 18, 5, w6);
-  GAGEN_SCATTER(S, 18, 6, w15);
-  GAGEN_SCATTER(S, 18, 7, w15);
-  GAGEN_SCATTER(S, 18, 8, w18);
+  GAGEN_SCATTER(out_J, 9, 8, w14);
+  GAGEN_SCATTER(out_S, 18, 0, w19);
+  GAGEN_SCATTER(out_S, 18, 1, w15);
+  GAGEN_SCATTER(out_S, 18, 2, w15);
+  GAGEN_SCATTER(out_S, 18, 3, w15);
+  GAGEN_SCATTER(out_S, 18, 4, w15);
+  GAGEN_SCATTER(out_S, 18, 5, w6);
+  GAGEN_SCATTER(out_S, 18, 6, w15);
+  GAGEN_SCATTER(out_S, 18, 7, w15);
+  GAGEN_SCATTER(out_S, 18, 8, w18);
   w0 = w0 + w0;
   w0 = -w0;
-  GAGEN_SCATTER(S, 18, 9, w0);
-  GAGEN_SCATTER(S, 18, 10, w1);
-  GAGEN_SCATTER(S, 18, 11, w15);
+  GAGEN_SCATTER(out_S, 18, 9, w0);
+  GAGEN_SCATTER(out_S, 18, 10, w1);
+  GAGEN_SCATTER(out_S, 18, 11, w15);
   w17 = w17 - w8;
-  GAGEN_SCATTER(S, 18, 12, w17);
-  GAGEN_SCATTER(S, 18, 13, w16);
+  GAGEN_SCATTER(out_S, 18, 12, w17);
+  GAGEN_SCATTER(out_S, 18, 13, w16);
   w9 = w9 - w11;
-  GAGEN_SCATTER(S, 18, 14, w9);
-  GAGEN_SCATTER(S, 18, 15, w0);
-  GAGEN_SCATTER(S, 18, 16, w1);
-  GAGEN_SCATTER(S, 18, 17, w15);
+  GAGEN_SCATTER(out_S, 18, 14, w9);
+  GAGEN_SCATTER(out_S, 18, 15, w0);
+  GAGEN_SCATTER(out_S, 18, 16, w1);
+  GAGEN_SCATTER(out_S, 18, 17, w15);
 }
 #endif
 
-void hexapod_middle_left_fk_cga_batch(long n, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  long s = 0;
+void hexapod_middle_left_fk_cga_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(toe + 5 * a + o, 1, 0);
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(p + 3 * a + o, 1, 0);
-      for (int o = 0; o < 9 * GAGEN_W + 7; o += 8) __builtin_prefetch(J + 9 * a + o, 1, 0);
-      for (int o = 0; o < 18 * GAGEN_W + 7; o += 8) __builtin_prefetch(S + 18 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_toe + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_p + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 9 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J + 9 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 18 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_S + 18 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_middle_left_fk_cga_block(q + 3 * s, M + 8 * s, toe + 5 * s, p + 3 * s, J + 9 * s, S + 18 * s);
+    hexapod_middle_left_fk_cga_block(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_toe + 5 * gagen_s, out_p + 3 * gagen_s, out_J + 9 * gagen_s, out_S + 18 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_middle_left_fk_cga(q + 3 * s, M + 8 * s, toe + 5 * s, p + 3 * s, J + 9 * s, S + 18 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_middle_left_fk_cga(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_toe + 5 * gagen_s, out_p + 3 * gagen_s, out_J + 9 * gagen_s, out_S + 18 * gagen_s);
   }
 }
 
@@ -2344,19 +2344,19 @@ void hexapod_middle_left_fk_cga_batch(long n, const double *restrict q, double *
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_middle_left_fk_cga_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+static void hexapod_middle_left_fk_cga_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20;
   w0 = gagen_v_splat(0.7853981633974483);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 3, 0);
+  w2 = GAGEN_GATHER(in_q, 3, 0);
   w2 = w1 * w2;
   w0 = w0 + w2;
   w2 = gagen_v_cos(w0);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w1 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 3, 2);
+  w5 = GAGEN_GATHER(in_q, 3, 2);
   w1 = w1 * w5;
   w5 = gagen_v_cos(w1);
   w6 = w4 * w5;
@@ -2365,18 +2365,18 @@ static void hexapod_middle_left_fk_cga_block_columns(long gagen_ld, int gagen_st
   w7 = w3 * w1;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  GAGEN_SCATTER(M, 8, 0, w9);
+  GAGEN_SCATTER(out_M, 8, 0, w9);
   w0 = gagen_v_sin(w0);
   w8 = w0 * w8;
   w10 = -w8;
-  GAGEN_SCATTER(M, 8, 1, w10);
+  GAGEN_SCATTER(out_M, 8, 1, w10);
   w10 = w4 * w1;
   w11 = w3 * w5;
   w12 = w10 + w11;
   w13 = w2 * w12;
-  GAGEN_SCATTER(M, 8, 2, w13);
+  GAGEN_SCATTER(out_M, 8, 2, w13);
   w12 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 3, w12);
+  GAGEN_SCATTER(out_M, 8, 3, w12);
   w14 = gagen_v_splat(0.02500000000000001);
   w14 = w14 * w7;
   w7 = gagen_v_splat(0.225);
@@ -2386,11 +2386,11 @@ static void hexapod_middle_left_fk_cga_block_columns(long gagen_ld, int gagen_st
   w6 = gagen_v_splat(0.06);
   w8 = w6 * w8;
   w7 = w7 - w8;
-  GAGEN_SCATTER(M, 8, 4, w7);
+  GAGEN_SCATTER(out_M, 8, 4, w7);
   w14 = w0 * w14;
   w9 = w6 * w9;
   w14 = w14 - w9;
-  GAGEN_SCATTER(M, 8, 5, w14);
+  GAGEN_SCATTER(out_M, 8, 5, w14);
   w14 = gagen_v_splat(0.175);
   w14 = w14 * w11;
   w11 = gagen_v_splat(0.024999999999999994);
@@ -2399,13 +2399,13 @@ static void hexapod_middle_left_fk_cga_block_columns(long gagen_ld, int gagen_st
   w11 = w2 * w14;
   w12 = w6 * w12;
   w11 = w11 - w12;
-  GAGEN_SCATTER(M, 8, 6, w11);
+  GAGEN_SCATTER(out_M, 8, 6, w11);
   w6 = w6 * w13;
   w14 = w0 * w14;
   w6 = w6 - w14;
-  GAGEN_SCATTER(M, 8, 7, w6);
+  GAGEN_SCATTER(out_M, 8, 7, w6);
   w6 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(toe, 5, 0, w6);
+  GAGEN_SCATTER(out_toe, 5, 0, w6);
   w14 = gagen_v_splat(0.45);
   w13 = w3 * w3;
   w11 = gagen_v_splat(0.4);
@@ -2429,13 +2429,13 @@ static void hexapod_middle_left_fk_cga_block_columns(long gagen_ld, int gagen_st
   w14 = w14 + w20;
   w14 = w14 - w10;
   w14 = w14 - w19;
-  GAGEN_SCATTER(toe, 5, 1, w14);
+  GAGEN_SCATTER(out_toe, 5, 1, w14);
   w19 = gagen_v_splat(0.12);
   w0 = w0 * w2;
   w15 = w0 * w15;
   w15 = w15 + w15;
   w2 = w19 + w15;
-  GAGEN_SCATTER(toe, 5, 2, w2);
+  GAGEN_SCATTER(out_toe, 5, 2, w2);
   w9 = w17 * w9;
   w9 = w9 + w9;
   w10 = w13 * w1;
@@ -2445,7 +2445,7 @@ static void hexapod_middle_left_fk_cga_block_columns(long gagen_ld, int gagen_st
   w1 = w1 * w5;
   w1 = w11 * w1;
   w9 = w9 - w1;
-  GAGEN_SCATTER(toe, 5, 3, w9);
+  GAGEN_SCATTER(out_toe, 5, 3, w9);
   w1 = gagen_v_splat(0.10845);
   w5 = gagen_v_splat(0.020000000000000004);
   w5 = w5 * w12;
@@ -2472,22 +2472,22 @@ static void hexapod_middle_left_fk_cga_block_columns(long gagen_ld, int gagen_st
   w5 = gagen_v_splat(0.04000000000000001);
   w5 = w5 * w18;
   w1 = w1 - w5;
-  GAGEN_SCATTER(toe, 5, 4, w1);
-  GAGEN_SCATTER(p, 3, 0, w14);
-  GAGEN_SCATTER(p, 3, 1, w2);
-  GAGEN_SCATTER(p, 3, 2, w9);
+  GAGEN_SCATTER(out_toe, 5, 4, w1);
+  GAGEN_SCATTER(out_p, 3, 0, w14);
+  GAGEN_SCATTER(out_p, 3, 1, w2);
+  GAGEN_SCATTER(out_p, 3, 2, w9);
   w15 = -w15;
-  GAGEN_SCATTER(J, 9, 0, w15);
-  GAGEN_SCATTER(J, 9, 1, w14);
+  GAGEN_SCATTER(out_J, 9, 0, w15);
+  GAGEN_SCATTER(out_J, 9, 1, w14);
   w15 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 2, w15);
+  GAGEN_SCATTER(out_J, 9, 2, w15);
   w1 = w8 + w8;
   w1 = w6 - w1;
   w5 = w1 * w9;
-  GAGEN_SCATTER(J, 9, 3, w5);
+  GAGEN_SCATTER(out_J, 9, 3, w5);
   w9 = w0 * w9;
   w9 = w9 + w9;
-  GAGEN_SCATTER(J, 9, 4, w9);
+  GAGEN_SCATTER(out_J, 9, 4, w9);
   w18 = gagen_v_splat(0.05);
   w20 = w20 * w0;
   w18 = w18 + w20;
@@ -2496,48 +2496,48 @@ static void hexapod_middle_left_fk_cga_block_columns(long gagen_ld, int gagen_st
   w2 = w0 * w2;
   w2 = w2 + w2;
   w12 = w12 - w2;
-  GAGEN_SCATTER(J, 9, 5, w12);
+  GAGEN_SCATTER(out_J, 9, 5, w12);
   w17 = w11 * w17;
   w5 = w5 + w17;
   w8 = w8 * w3;
   w8 = w8 * w4;
   w8 = w16 * w8;
   w5 = w5 - w8;
-  GAGEN_SCATTER(J, 9, 6, w5);
+  GAGEN_SCATTER(out_J, 9, 6, w5);
   w3 = w0 * w3;
   w3 = w3 * w4;
   w16 = w16 * w3;
   w9 = w16 + w9;
-  GAGEN_SCATTER(J, 9, 7, w9);
+  GAGEN_SCATTER(out_J, 9, 7, w9);
   w9 = gagen_v_splat(0.25);
   w9 = w9 + w20;
   w14 = w9 - w14;
   w11 = w11 * w13;
   w14 = w14 - w11;
   w14 = w14 - w2;
-  GAGEN_SCATTER(J, 9, 8, w14);
-  GAGEN_SCATTER(S, 18, 0, w19);
-  GAGEN_SCATTER(S, 18, 1, w15);
-  GAGEN_SCATTER(S, 18, 2, w15);
-  GAGEN_SCATTER(S, 18, 3, w15);
-  GAGEN_SCATTER(S, 18, 4, w15);
-  GAGEN_SCATTER(S, 18, 5, w6);
-  GAGEN_SCATTER(S, 18, 6, w15);
-  GAGEN_SCATTER(S, 18, 7, w15);
-  GAGEN_SCATTER(S, 18, 8, w18);
+  GAGEN_SCATTER(out_J, 9, 8, w14);
+  GAGEN_SCATTER(out_S, 18, 0, w19);
+  GAGEN_SCATTER(out_S, 18, 1, w15);
+  GAGEN_SCATTER(out_S, 18, 2, w15);
+  GAGEN_SCATTER(out_S, 18, 3, w15);
+  GAGEN_SCATTER(out_S, 18, 4, w15);
+  GAGEN_SCATTER(out_S, 18, 5, w6);
+  GAGEN_SCATTER(out_S, 18, 6, w15);
+  GAGEN_SCATTER(out_S, 18, 7, w15);
+  GAGEN_SCATTER(out_S, 18, 8, w18);
   w0 = w0 + w0;
   w0 = -w0;
-  GAGEN_SCATTER(S, 18, 9, w0);
-  GAGEN_SCATTER(S, 18, 10, w1);
-  GAGEN_SCATTER(S, 18, 11, w15);
+  GAGEN_SCATTER(out_S, 18, 9, w0);
+  GAGEN_SCATTER(out_S, 18, 10, w1);
+  GAGEN_SCATTER(out_S, 18, 11, w15);
   w17 = w17 - w8;
-  GAGEN_SCATTER(S, 18, 12, w17);
-  GAGEN_SCATTER(S, 18, 13, w16);
+  GAGEN_SCATTER(out_S, 18, 12, w17);
+  GAGEN_SCATTER(out_S, 18, 13, w16);
   w9 = w9 - w11;
-  GAGEN_SCATTER(S, 18, 14, w9);
-  GAGEN_SCATTER(S, 18, 15, w0);
-  GAGEN_SCATTER(S, 18, 16, w1);
-  GAGEN_SCATTER(S, 18, 17, w15);
+  GAGEN_SCATTER(out_S, 18, 14, w9);
+  GAGEN_SCATTER(out_S, 18, 15, w0);
+  GAGEN_SCATTER(out_S, 18, 16, w1);
+  GAGEN_SCATTER(out_S, 18, 17, w15);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -2545,30 +2545,30 @@ static void hexapod_middle_left_fk_cga_block_columns(long gagen_ld, int gagen_st
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_middle_left_fk_cga_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  long s = 0;
+void hexapod_middle_left_fk_cga_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 43L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_middle_left_fk_cga_block_columns(ld, stream, q + s, M + s, toe + s, p + s, J + s, S + s);
+  const int gagen_stream = gagen_n * 43L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_middle_left_fk_cga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_middle_left_fk_cga_columns_from(s, n, ld, q, M, toe, p, J, S);
+  hexapod_middle_left_fk_cga_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_toe, out_p, out_J, out_S);
 }
 
 #if GAGEN_SIMD
 /* leg middle_left: analytic IK of a body-frame toe target, knee up and down, with reachability: GAGEN_W consecutive samples at once */
-static void hexapod_middle_left_ik_block(const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
+static void hexapod_middle_left_ik_block(const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7;
-  w0 = GAGEN_GATHER(target, 3, 0);
+  w0 = GAGEN_GATHER(in_target, 3, 0);
   w1 = -w0;
-  w2 = GAGEN_GATHER(target, 3, 1);
+  w2 = GAGEN_GATHER(in_target, 3, 1);
   w3 = gagen_v_splat(0.12);
   w2 = w2 - w3;
   w1 = gagen_v_atan2(w1, w2);
-  GAGEN_SCATTER(q_up, 3, 0, w1);
-  w3 = GAGEN_GATHER(target, 3, 2);
+  GAGEN_SCATTER(out_q_up, 3, 0, w1);
+  w3 = GAGEN_GATHER(in_target, 3, 2);
   w4 = -w3;
   w2 = w2 * w2;
   w0 = w0 * w0;
@@ -2594,19 +2594,19 @@ static void hexapod_middle_left_ik_block(const double *restrict target, double *
   w0 = w0 * w2;
   w5 = gagen_v_atan2(w5, w0);
   w0 = w4 - w5;
-  GAGEN_SCATTER(q_up, 3, 1, w0);
+  GAGEN_SCATTER(out_q_up, 3, 1, w0);
   w0 = gagen_v_splat(12.499999999999998);
   w6 = w0 * w6;
   w0 = w0 * w2;
   w7 = gagen_v_splat(1.0);
   w0 = w0 - w7;
   w6 = gagen_v_atan2(w6, w0);
-  GAGEN_SCATTER(q_up, 3, 2, w6);
-  GAGEN_SCATTER(q_down, 3, 0, w1);
+  GAGEN_SCATTER(out_q_up, 3, 2, w6);
+  GAGEN_SCATTER(out_q_down, 3, 0, w1);
   w4 = w4 + w5;
-  GAGEN_SCATTER(q_down, 3, 1, w4);
+  GAGEN_SCATTER(out_q_down, 3, 1, w4);
   w6 = -w6;
-  GAGEN_SCATTER(q_down, 3, 2, w6);
+  GAGEN_SCATTER(out_q_down, 3, 2, w6);
   w6 = gagen_v_splat(1e-09);
   w4 = gagen_v_lt(w2, w3);
   w2 = gagen_v_sqrt(w2);
@@ -2623,27 +2623,27 @@ static void hexapod_middle_left_ik_block(const double *restrict target, double *
   w6 = gagen_v_lt(w6, w3);
   w6 = gagen_v_not(w6);
   w6 = gagen_v_if_else_zero(w6, w7);
-  GAGEN_SCATTER(reach, 1, 0, w6);
-  GAGEN_SCATTER(excess, 1, 0, w3);
+  GAGEN_SCATTER(out_reach, 1, 0, w6);
+  GAGEN_SCATTER(out_excess, 1, 0, w3);
 }
 #endif
 
-void hexapod_middle_left_ik_batch(long n, const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
-  long s = 0;
+void hexapod_middle_left_ik_batch(long gagen_n, const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(q_up + 3 * a + o, 1, 0);
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(q_down + 3 * a + o, 1, 0);
-      for (int o = 0; o < 1 * GAGEN_W + 7; o += 8) __builtin_prefetch(reach + 1 * a + o, 1, 0);
-      for (int o = 0; o < 1 * GAGEN_W + 7; o += 8) __builtin_prefetch(excess + 1 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_q_up + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_q_down + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 1 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_reach + 1 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 1 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_excess + 1 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_middle_left_ik_block(target + 3 * s, q_up + 3 * s, q_down + 3 * s, reach + 1 * s, excess + 1 * s);
+    hexapod_middle_left_ik_block(in_target + 3 * gagen_s, out_q_up + 3 * gagen_s, out_q_down + 3 * gagen_s, out_reach + 1 * gagen_s, out_excess + 1 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_middle_left_ik(target + 3 * s, q_up + 3 * s, q_down + 3 * s, reach + 1 * s, excess + 1 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_middle_left_ik(in_target + 3 * gagen_s, out_q_up + 3 * gagen_s, out_q_down + 3 * gagen_s, out_reach + 1 * gagen_s, out_excess + 1 * gagen_s);
   }
 }
 
@@ -2653,16 +2653,16 @@ void hexapod_middle_left_ik_batch(long n, const double *restrict target, double 
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_middle_left_ik_block_columns(long gagen_ld, int gagen_stream, const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
+static void hexapod_middle_left_ik_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7;
-  w0 = GAGEN_GATHER(target, 3, 0);
+  w0 = GAGEN_GATHER(in_target, 3, 0);
   w1 = -w0;
-  w2 = GAGEN_GATHER(target, 3, 1);
+  w2 = GAGEN_GATHER(in_target, 3, 1);
   w3 = gagen_v_splat(0.12);
   w2 = w2 - w3;
   w1 = gagen_v_atan2(w1, w2);
-  GAGEN_SCATTER(q_up, 3, 0, w1);
-  w3 = GAGEN_GATHER(target, 3, 2);
+  GAGEN_SCATTER(out_q_up, 3, 0, w1);
+  w3 = GAGEN_GATHER(in_target, 3, 2);
   w4 = -w3;
   w2 = w2 * w2;
   w0 = w0 * w0;
@@ -2688,19 +2688,19 @@ static void hexapod_middle_left_ik_block_columns(long gagen_ld, int gagen_stream
   w0 = w0 * w2;
   w5 = gagen_v_atan2(w5, w0);
   w0 = w4 - w5;
-  GAGEN_SCATTER(q_up, 3, 1, w0);
+  GAGEN_SCATTER(out_q_up, 3, 1, w0);
   w0 = gagen_v_splat(12.499999999999998);
   w6 = w0 * w6;
   w0 = w0 * w2;
   w7 = gagen_v_splat(1.0);
   w0 = w0 - w7;
   w6 = gagen_v_atan2(w6, w0);
-  GAGEN_SCATTER(q_up, 3, 2, w6);
-  GAGEN_SCATTER(q_down, 3, 0, w1);
+  GAGEN_SCATTER(out_q_up, 3, 2, w6);
+  GAGEN_SCATTER(out_q_down, 3, 0, w1);
   w4 = w4 + w5;
-  GAGEN_SCATTER(q_down, 3, 1, w4);
+  GAGEN_SCATTER(out_q_down, 3, 1, w4);
   w6 = -w6;
-  GAGEN_SCATTER(q_down, 3, 2, w6);
+  GAGEN_SCATTER(out_q_down, 3, 2, w6);
   w6 = gagen_v_splat(1e-09);
   w4 = gagen_v_lt(w2, w3);
   w2 = gagen_v_sqrt(w2);
@@ -2717,8 +2717,8 @@ static void hexapod_middle_left_ik_block_columns(long gagen_ld, int gagen_stream
   w6 = gagen_v_lt(w6, w3);
   w6 = gagen_v_not(w6);
   w6 = gagen_v_if_else_zero(w6, w7);
-  GAGEN_SCATTER(reach, 1, 0, w6);
-  GAGEN_SCATTER(excess, 1, 0, w3);
+  GAGEN_SCATTER(out_reach, 1, 0, w6);
+  GAGEN_SCATTER(out_excess, 1, 0, w3);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -2726,36 +2726,36 @@ static void hexapod_middle_left_ik_block_columns(long gagen_ld, int gagen_stream
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_middle_left_ik_batch_columns(long n, long ld, const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
-  long s = 0;
+void hexapod_middle_left_ik_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 8L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_middle_left_ik_block_columns(ld, stream, target + s, q_up + s, q_down + s, reach + s, excess + s);
+  const int gagen_stream = gagen_n * 8L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_middle_left_ik_block_columns(gagen_ld, gagen_stream, in_target + gagen_s, out_q_up + gagen_s, out_q_down + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_middle_left_ik_columns_from(s, n, ld, target, q_up, q_down, reach, excess);
+  hexapod_middle_left_ik_columns_from(gagen_s, gagen_n, gagen_ld, in_target, out_q_up, out_q_down, out_reach, out_excess);
 }
 
 #if GAGEN_SIMD
 /* leg middle_left: one damped least-squares IK step towards a body-frame toe target: GAGEN_W consecutive samples at once */
-static void hexapod_middle_left_dls_block(const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
+static void hexapod_middle_left_dls_block(const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32;
-  w0 = GAGEN_GATHER(q, 3, 0);
+  w0 = GAGEN_GATHER(in_q, 3, 0);
   w1 = gagen_v_splat(0.45);
   w2 = gagen_v_splat(0.4);
   w3 = gagen_v_splat(0.5);
-  w4 = GAGEN_GATHER(q, 3, 2);
+  w4 = GAGEN_GATHER(in_q, 3, 2);
   w5 = w3 * w4;
   w6 = gagen_v_sin(w5);
   w7 = w6 * w6;
   w7 = w2 * w7;
   w8 = w1 - w7;
   w9 = gagen_v_splat(0.8);
-  w10 = GAGEN_GATHER(q, 3, 1);
+  w10 = GAGEN_GATHER(in_q, 3, 1);
   w11 = w3 * w10;
   w12 = gagen_v_sin(w11);
   w11 = gagen_v_cos(w11);
@@ -2844,12 +2844,12 @@ static void hexapod_middle_left_dls_block(const double *restrict q, const double
   w11 = w32 * w32;
   w12 = w25 * w25;
   w11 = w11 + w12;
-  w12 = GAGEN_GATHER(damping, 1, 0);
+  w12 = GAGEN_GATHER(in_damping, 1, 0);
   w12 = w12 * w12;
   w11 = w11 + w12;
   w13 = w19 * w11;
   w9 = w9 - w13;
-  w13 = GAGEN_GATHER(target, 3, 0);
+  w13 = GAGEN_GATHER(in_target, 3, 0);
   w13 = w13 + w7;
   w13 = w13 + w14;
   w13 = w13 + w17;
@@ -2869,7 +2869,7 @@ static void hexapod_middle_left_dls_block(const double *restrict q, const double
   w14 = w11 * w27;
   w20 = w28 * w28;
   w14 = w14 - w20;
-  w20 = GAGEN_GATHER(target, 3, 1);
+  w20 = GAGEN_GATHER(in_target, 3, 1);
   w20 = w20 - w15;
   w20 = w20 - w30;
   w14 = w14 * w20;
@@ -2877,7 +2877,7 @@ static void hexapod_middle_left_dls_block(const double *restrict q, const double
   w14 = w28 * w19;
   w30 = w27 * w31;
   w14 = w14 - w30;
-  w30 = GAGEN_GATHER(target, 3, 2);
+  w30 = GAGEN_GATHER(in_target, 3, 2);
   w30 = w30 + w6;
   w30 = w30 + w16;
   w30 = w30 - w23;
@@ -2915,7 +2915,7 @@ static void hexapod_middle_left_dls_block(const double *restrict q, const double
   w29 = w29 * w11;
   w29 = w29 + w29;
   w0 = w0 - w29;
-  GAGEN_SCATTER(q_next, 3, 0, w0);
+  GAGEN_SCATTER(out_q_next, 3, 0, w0);
   w21 = w21 * w11;
   w10 = w10 + w21;
   w31 = w31 * w13;
@@ -2932,38 +2932,38 @@ static void hexapod_middle_left_dls_block(const double *restrict q, const double
   w24 = w24 * w1;
   w24 = w24 + w24;
   w10 = w10 + w24;
-  GAGEN_SCATTER(q_next, 3, 1, w10);
+  GAGEN_SCATTER(out_q_next, 3, 1, w10);
   w2 = w2 * w11;
   w4 = w4 + w2;
   w22 = w22 * w1;
   w4 = w4 + w22;
   w25 = w25 * w31;
   w4 = w4 + w25;
-  GAGEN_SCATTER(q_next, 3, 2, w4);
+  GAGEN_SCATTER(out_q_next, 3, 2, w4);
   w13 = w13 * w13;
   w20 = w20 * w20;
   w13 = w13 + w20;
   w30 = w30 * w30;
   w13 = w13 + w30;
   w13 = gagen_v_sqrt(w13);
-  GAGEN_SCATTER(error, 1, 0, w13);
+  GAGEN_SCATTER(out_error, 1, 0, w13);
 }
 #endif
 
-void hexapod_middle_left_dls_batch(long n, const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
-  long s = 0;
+void hexapod_middle_left_dls_batch(long gagen_n, const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(q_next + 3 * a + o, 1, 0);
-      for (int o = 0; o < 1 * GAGEN_W + 7; o += 8) __builtin_prefetch(error + 1 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_q_next + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 1 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_error + 1 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_middle_left_dls_block(q + 3 * s, target + 3 * s, damping + 1 * s, q_next + 3 * s, error + 1 * s);
+    hexapod_middle_left_dls_block(in_q + 3 * gagen_s, in_target + 3 * gagen_s, in_damping + 1 * gagen_s, out_q_next + 3 * gagen_s, out_error + 1 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_middle_left_dls(q + 3 * s, target + 3 * s, damping + 1 * s, q_next + 3 * s, error + 1 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_middle_left_dls(in_q + 3 * gagen_s, in_target + 3 * gagen_s, in_damping + 1 * gagen_s, out_q_next + 3 * gagen_s, out_error + 1 * gagen_s);
   }
 }
 
@@ -2973,22 +2973,22 @@ void hexapod_middle_left_dls_batch(long n, const double *restrict q, const doubl
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_middle_left_dls_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
+static void hexapod_middle_left_dls_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32;
-  w0 = GAGEN_GATHER(q, 3, 0);
+  w0 = GAGEN_GATHER(in_q, 3, 0);
   w1 = gagen_v_splat(0.45);
   w2 = gagen_v_splat(0.4);
   w3 = gagen_v_splat(0.5);
-  w4 = GAGEN_GATHER(q, 3, 2);
+  w4 = GAGEN_GATHER(in_q, 3, 2);
   w5 = w3 * w4;
   w6 = gagen_v_sin(w5);
   w7 = w6 * w6;
   w7 = w2 * w7;
   w8 = w1 - w7;
   w9 = gagen_v_splat(0.8);
-  w10 = GAGEN_GATHER(q, 3, 1);
+  w10 = GAGEN_GATHER(in_q, 3, 1);
   w11 = w3 * w10;
   w12 = gagen_v_sin(w11);
   w11 = gagen_v_cos(w11);
@@ -3077,12 +3077,12 @@ static void hexapod_middle_left_dls_block_columns(long gagen_ld, int gagen_strea
   w11 = w32 * w32;
   w12 = w25 * w25;
   w11 = w11 + w12;
-  w12 = GAGEN_GATHER(damping, 1, 0);
+  w12 = GAGEN_GATHER(in_damping, 1, 0);
   w12 = w12 * w12;
   w11 = w11 + w12;
   w13 = w19 * w11;
   w9 = w9 - w13;
-  w13 = GAGEN_GATHER(target, 3, 0);
+  w13 = GAGEN_GATHER(in_target, 3, 0);
   w13 = w13 + w7;
   w13 = w13 + w14;
   w13 = w13 + w17;
@@ -3102,7 +3102,7 @@ static void hexapod_middle_left_dls_block_columns(long gagen_ld, int gagen_strea
   w14 = w11 * w27;
   w20 = w28 * w28;
   w14 = w14 - w20;
-  w20 = GAGEN_GATHER(target, 3, 1);
+  w20 = GAGEN_GATHER(in_target, 3, 1);
   w20 = w20 - w15;
   w20 = w20 - w30;
   w14 = w14 * w20;
@@ -3110,7 +3110,7 @@ static void hexapod_middle_left_dls_block_columns(long gagen_ld, int gagen_strea
   w14 = w28 * w19;
   w30 = w27 * w31;
   w14 = w14 - w30;
-  w30 = GAGEN_GATHER(target, 3, 2);
+  w30 = GAGEN_GATHER(in_target, 3, 2);
   w30 = w30 + w6;
   w30 = w30 + w16;
   w30 = w30 - w23;
@@ -3148,7 +3148,7 @@ static void hexapod_middle_left_dls_block_columns(long gagen_ld, int gagen_strea
   w29 = w29 * w11;
   w29 = w29 + w29;
   w0 = w0 - w29;
-  GAGEN_SCATTER(q_next, 3, 0, w0);
+  GAGEN_SCATTER(out_q_next, 3, 0, w0);
   w21 = w21 * w11;
   w10 = w10 + w21;
   w31 = w31 * w13;
@@ -3165,21 +3165,21 @@ static void hexapod_middle_left_dls_block_columns(long gagen_ld, int gagen_strea
   w24 = w24 * w1;
   w24 = w24 + w24;
   w10 = w10 + w24;
-  GAGEN_SCATTER(q_next, 3, 1, w10);
+  GAGEN_SCATTER(out_q_next, 3, 1, w10);
   w2 = w2 * w11;
   w4 = w4 + w2;
   w22 = w22 * w1;
   w4 = w4 + w22;
   w25 = w25 * w31;
   w4 = w4 + w25;
-  GAGEN_SCATTER(q_next, 3, 2, w4);
+  GAGEN_SCATTER(out_q_next, 3, 2, w4);
   w13 = w13 * w13;
   w20 = w20 * w20;
   w13 = w13 + w20;
   w30 = w30 * w30;
   w13 = w13 + w30;
   w13 = gagen_v_sqrt(w13);
-  GAGEN_SCATTER(error, 1, 0, w13);
+  GAGEN_SCATTER(out_error, 1, 0, w13);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -3187,33 +3187,33 @@ static void hexapod_middle_left_dls_block_columns(long gagen_ld, int gagen_strea
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_middle_left_dls_batch_columns(long n, long ld, const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
-  long s = 0;
+void hexapod_middle_left_dls_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 4L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_middle_left_dls_block_columns(ld, stream, q + s, target + s, damping + s, q_next + s, error + s);
+  const int gagen_stream = gagen_n * 4L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_middle_left_dls_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, in_target + gagen_s, in_damping + gagen_s, out_q_next + gagen_s, out_error + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_middle_left_dls_columns_from(s, n, ld, q, target, damping, q_next, error);
+  hexapod_middle_left_dls_columns_from(gagen_s, gagen_n, gagen_ld, in_q, in_target, in_damping, out_q_next, out_error);
 }
 
 #if GAGEN_SIMD
 /* leg rear_left in PGA3D: FK motor, toe point and position, point and spatial Jacobians: GAGEN_W consecutive samples at once */
-static void hexapod_rear_left_fk_pga_block(const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+static void hexapod_rear_left_fk_pga_block(const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21;
   w0 = gagen_v_splat(1.3089969389957472);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 3, 0);
+  w2 = GAGEN_GATHER(in_q, 3, 0);
   w2 = w1 * w2;
   w0 = w0 + w2;
   w2 = gagen_v_cos(w0);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w1 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 3, 2);
+  w5 = GAGEN_GATHER(in_q, 3, 2);
   w1 = w1 * w5;
   w5 = gagen_v_cos(w1);
   w6 = w4 * w5;
@@ -3222,7 +3222,7 @@ static void hexapod_rear_left_fk_pga_block(const double *restrict q, double *res
   w7 = w3 * w1;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  GAGEN_SCATTER(M, 8, 0, w9);
+  GAGEN_SCATTER(out_M, 8, 0, w9);
   w10 = gagen_v_splat(0.17303847577300002);
   w10 = w10 * w6;
   w6 = gagen_v_splat(0.02696152422699999);
@@ -3235,7 +3235,7 @@ static void hexapod_rear_left_fk_pga_block(const double *restrict q, double *res
   w11 = w7 * w8;
   w6 = w6 + w11;
   w6 = -w6;
-  GAGEN_SCATTER(M, 8, 1, w6);
+  GAGEN_SCATTER(out_M, 8, 1, w6);
   w10 = w0 * w10;
   w9 = w7 * w9;
   w10 = w10 + w9;
@@ -3243,9 +3243,9 @@ static void hexapod_rear_left_fk_pga_block(const double *restrict q, double *res
   w6 = w9 * w8;
   w10 = w10 + w6;
   w10 = -w10;
-  GAGEN_SCATTER(M, 8, 2, w10);
+  GAGEN_SCATTER(out_M, 8, 2, w10);
   w8 = -w8;
-  GAGEN_SCATTER(M, 8, 3, w8);
+  GAGEN_SCATTER(out_M, 8, 3, w8);
   w8 = gagen_v_splat(0.026961524227000003);
   w10 = w4 * w1;
   w8 = w8 * w10;
@@ -3258,16 +3258,16 @@ static void hexapod_rear_left_fk_pga_block(const double *restrict q, double *res
   w11 = w0 * w10;
   w12 = w7 * w11;
   w6 = w6 - w12;
-  GAGEN_SCATTER(M, 8, 4, w6);
+  GAGEN_SCATTER(out_M, 8, 4, w6);
   w10 = w2 * w10;
-  GAGEN_SCATTER(M, 8, 5, w10);
-  GAGEN_SCATTER(M, 8, 6, w11);
+  GAGEN_SCATTER(out_M, 8, 5, w10);
+  GAGEN_SCATTER(out_M, 8, 6, w11);
   w7 = w7 * w10;
   w11 = w9 * w11;
   w7 = w7 + w11;
   w8 = w0 * w8;
   w7 = w7 - w8;
-  GAGEN_SCATTER(M, 8, 7, w7);
+  GAGEN_SCATTER(out_M, 8, 7, w7);
   w7 = gagen_v_splat(0.8);
   w8 = w3 * w3;
   w11 = w8 * w1;
@@ -3285,7 +3285,7 @@ static void hexapod_rear_left_fk_pga_block(const double *restrict q, double *res
   w14 = w14 + w14;
   w11 = w11 - w14;
   w14 = -w11;
-  GAGEN_SCATTER(toe, 4, 0, w14);
+  GAGEN_SCATTER(out_toe, 4, 0, w14);
   w14 = gagen_v_splat(0.06);
   w2 = w0 * w2;
   w15 = gagen_v_splat(0.45);
@@ -3300,7 +3300,7 @@ static void hexapod_rear_left_fk_pga_block(const double *restrict q, double *res
   w16 = w2 * w5;
   w16 = w16 + w16;
   w17 = w14 + w16;
-  GAGEN_SCATTER(toe, 4, 1, w17);
+  GAGEN_SCATTER(out_toe, 4, 1, w17);
   w18 = gagen_v_splat(0.34607695154600004);
   w18 = w18 - w12;
   w18 = w18 - w1;
@@ -3310,25 +3310,25 @@ static void hexapod_rear_left_fk_pga_block(const double *restrict q, double *res
   w13 = w13 + w13;
   w18 = w18 - w13;
   w5 = -w18;
-  GAGEN_SCATTER(toe, 4, 2, w5);
+  GAGEN_SCATTER(out_toe, 4, 2, w5);
   w5 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(toe, 4, 3, w5);
-  GAGEN_SCATTER(p, 3, 0, w18);
-  GAGEN_SCATTER(p, 3, 1, w17);
-  GAGEN_SCATTER(p, 3, 2, w11);
+  GAGEN_SCATTER(out_toe, 4, 3, w5);
+  GAGEN_SCATTER(out_p, 3, 0, w18);
+  GAGEN_SCATTER(out_p, 3, 1, w17);
+  GAGEN_SCATTER(out_p, 3, 2, w11);
   w16 = -w16;
-  GAGEN_SCATTER(J, 9, 0, w16);
+  GAGEN_SCATTER(out_J, 9, 0, w16);
   w15 = w15 - w13;
-  GAGEN_SCATTER(J, 9, 1, w15);
+  GAGEN_SCATTER(out_J, 9, 1, w15);
   w15 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 2, w15);
+  GAGEN_SCATTER(out_J, 9, 2, w15);
   w13 = w0 + w0;
   w13 = w5 - w13;
   w16 = w13 * w11;
-  GAGEN_SCATTER(J, 9, 3, w16);
+  GAGEN_SCATTER(out_J, 9, 3, w16);
   w11 = w2 * w11;
   w11 = w11 + w11;
-  GAGEN_SCATTER(J, 9, 4, w11);
+  GAGEN_SCATTER(out_J, 9, 4, w11);
   w1 = gagen_v_splat(0.12);
   w1 = w1 * w2;
   w12 = gagen_v_splat(0.207846096908);
@@ -3341,19 +3341,19 @@ static void hexapod_rear_left_fk_pga_block(const double *restrict q, double *res
   w17 = w2 * w17;
   w17 = w17 + w17;
   w20 = w20 - w17;
-  GAGEN_SCATTER(J, 9, 5, w20);
+  GAGEN_SCATTER(out_J, 9, 5, w20);
   w6 = w10 * w6;
   w16 = w16 + w6;
   w0 = w0 * w3;
   w0 = w0 * w4;
   w0 = w7 * w0;
   w16 = w16 - w0;
-  GAGEN_SCATTER(J, 9, 6, w16);
+  GAGEN_SCATTER(out_J, 9, 6, w16);
   w3 = w2 * w3;
   w3 = w3 * w4;
   w7 = w7 * w3;
   w11 = w7 + w11;
-  GAGEN_SCATTER(J, 9, 7, w11);
+  GAGEN_SCATTER(out_J, 9, 7, w11);
   w11 = gagen_v_splat(0.146076951546);
   w11 = w11 + w1;
   w11 = w11 + w12;
@@ -3361,50 +3361,50 @@ static void hexapod_rear_left_fk_pga_block(const double *restrict q, double *res
   w10 = w10 * w8;
   w18 = w18 - w10;
   w18 = w18 - w17;
-  GAGEN_SCATTER(J, 9, 8, w18);
-  GAGEN_SCATTER(S, 18, 0, w14);
-  GAGEN_SCATTER(S, 18, 1, w9);
-  GAGEN_SCATTER(S, 18, 2, w15);
-  GAGEN_SCATTER(S, 18, 3, w15);
-  GAGEN_SCATTER(S, 18, 4, w15);
-  GAGEN_SCATTER(S, 18, 5, w5);
-  GAGEN_SCATTER(S, 18, 6, w15);
-  GAGEN_SCATTER(S, 18, 7, w15);
+  GAGEN_SCATTER(out_J, 9, 8, w18);
+  GAGEN_SCATTER(out_S, 18, 0, w14);
+  GAGEN_SCATTER(out_S, 18, 1, w9);
+  GAGEN_SCATTER(out_S, 18, 2, w15);
+  GAGEN_SCATTER(out_S, 18, 3, w15);
+  GAGEN_SCATTER(out_S, 18, 4, w15);
+  GAGEN_SCATTER(out_S, 18, 5, w5);
+  GAGEN_SCATTER(out_S, 18, 6, w15);
+  GAGEN_SCATTER(out_S, 18, 7, w15);
   w19 = w19 - w21;
-  GAGEN_SCATTER(S, 18, 8, w19);
+  GAGEN_SCATTER(out_S, 18, 8, w19);
   w2 = w2 + w2;
   w2 = -w2;
-  GAGEN_SCATTER(S, 18, 9, w2);
-  GAGEN_SCATTER(S, 18, 10, w13);
-  GAGEN_SCATTER(S, 18, 11, w15);
+  GAGEN_SCATTER(out_S, 18, 9, w2);
+  GAGEN_SCATTER(out_S, 18, 10, w13);
+  GAGEN_SCATTER(out_S, 18, 11, w15);
   w6 = w6 - w0;
-  GAGEN_SCATTER(S, 18, 12, w6);
-  GAGEN_SCATTER(S, 18, 13, w7);
+  GAGEN_SCATTER(out_S, 18, 12, w6);
+  GAGEN_SCATTER(out_S, 18, 13, w7);
   w11 = w11 - w10;
-  GAGEN_SCATTER(S, 18, 14, w11);
-  GAGEN_SCATTER(S, 18, 15, w2);
-  GAGEN_SCATTER(S, 18, 16, w13);
-  GAGEN_SCATTER(S, 18, 17, w15);
+  GAGEN_SCATTER(out_S, 18, 14, w11);
+  GAGEN_SCATTER(out_S, 18, 15, w2);
+  GAGEN_SCATTER(out_S, 18, 16, w13);
+  GAGEN_SCATTER(out_S, 18, 17, w15);
 }
 #endif
 
-void hexapod_rear_left_fk_pga_batch(long n, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  long s = 0;
+void hexapod_rear_left_fk_pga_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 4 * GAGEN_W + 7; o += 8) __builtin_prefetch(toe + 4 * a + o, 1, 0);
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(p + 3 * a + o, 1, 0);
-      for (int o = 0; o < 9 * GAGEN_W + 7; o += 8) __builtin_prefetch(J + 9 * a + o, 1, 0);
-      for (int o = 0; o < 18 * GAGEN_W + 7; o += 8) __builtin_prefetch(S + 18 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 4 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_toe + 4 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_p + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 9 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J + 9 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 18 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_S + 18 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_rear_left_fk_pga_block(q + 3 * s, M + 8 * s, toe + 4 * s, p + 3 * s, J + 9 * s, S + 18 * s);
+    hexapod_rear_left_fk_pga_block(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_toe + 4 * gagen_s, out_p + 3 * gagen_s, out_J + 9 * gagen_s, out_S + 18 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_rear_left_fk_pga(q + 3 * s, M + 8 * s, toe + 4 * s, p + 3 * s, J + 9 * s, S + 18 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_rear_left_fk_pga(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_toe + 4 * gagen_s, out_p + 3 * gagen_s, out_J + 9 * gagen_s, out_S + 18 * gagen_s);
   }
 }
 
@@ -3414,19 +3414,19 @@ void hexapod_rear_left_fk_pga_batch(long n, const double *restrict q, double *re
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_rear_left_fk_pga_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+static void hexapod_rear_left_fk_pga_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21;
   w0 = gagen_v_splat(1.3089969389957472);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 3, 0);
+  w2 = GAGEN_GATHER(in_q, 3, 0);
   w2 = w1 * w2;
   w0 = w0 + w2;
   w2 = gagen_v_cos(w0);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w1 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 3, 2);
+  w5 = GAGEN_GATHER(in_q, 3, 2);
   w1 = w1 * w5;
   w5 = gagen_v_cos(w1);
   w6 = w4 * w5;
@@ -3435,7 +3435,7 @@ static void hexapod_rear_left_fk_pga_block_columns(long gagen_ld, int gagen_stre
   w7 = w3 * w1;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  GAGEN_SCATTER(M, 8, 0, w9);
+  GAGEN_SCATTER(out_M, 8, 0, w9);
   w10 = gagen_v_splat(0.17303847577300002);
   w10 = w10 * w6;
   w6 = gagen_v_splat(0.02696152422699999);
@@ -3448,7 +3448,7 @@ static void hexapod_rear_left_fk_pga_block_columns(long gagen_ld, int gagen_stre
   w11 = w7 * w8;
   w6 = w6 + w11;
   w6 = -w6;
-  GAGEN_SCATTER(M, 8, 1, w6);
+  GAGEN_SCATTER(out_M, 8, 1, w6);
   w10 = w0 * w10;
   w9 = w7 * w9;
   w10 = w10 + w9;
@@ -3456,9 +3456,9 @@ static void hexapod_rear_left_fk_pga_block_columns(long gagen_ld, int gagen_stre
   w6 = w9 * w8;
   w10 = w10 + w6;
   w10 = -w10;
-  GAGEN_SCATTER(M, 8, 2, w10);
+  GAGEN_SCATTER(out_M, 8, 2, w10);
   w8 = -w8;
-  GAGEN_SCATTER(M, 8, 3, w8);
+  GAGEN_SCATTER(out_M, 8, 3, w8);
   w8 = gagen_v_splat(0.026961524227000003);
   w10 = w4 * w1;
   w8 = w8 * w10;
@@ -3471,16 +3471,16 @@ static void hexapod_rear_left_fk_pga_block_columns(long gagen_ld, int gagen_stre
   w11 = w0 * w10;
   w12 = w7 * w11;
   w6 = w6 - w12;
-  GAGEN_SCATTER(M, 8, 4, w6);
+  GAGEN_SCATTER(out_M, 8, 4, w6);
   w10 = w2 * w10;
-  GAGEN_SCATTER(M, 8, 5, w10);
-  GAGEN_SCATTER(M, 8, 6, w11);
+  GAGEN_SCATTER(out_M, 8, 5, w10);
+  GAGEN_SCATTER(out_M, 8, 6, w11);
   w7 = w7 * w10;
   w11 = w9 * w11;
   w7 = w7 + w11;
   w8 = w0 * w8;
   w7 = w7 - w8;
-  GAGEN_SCATTER(M, 8, 7, w7);
+  GAGEN_SCATTER(out_M, 8, 7, w7);
   w7 = gagen_v_splat(0.8);
   w8 = w3 * w3;
   w11 = w8 * w1;
@@ -3498,7 +3498,7 @@ static void hexapod_rear_left_fk_pga_block_columns(long gagen_ld, int gagen_stre
   w14 = w14 + w14;
   w11 = w11 - w14;
   w14 = -w11;
-  GAGEN_SCATTER(toe, 4, 0, w14);
+  GAGEN_SCATTER(out_toe, 4, 0, w14);
   w14 = gagen_v_splat(0.06);
   w2 = w0 * w2;
   w15 = gagen_v_splat(0.45);
@@ -3513,7 +3513,7 @@ static void hexapod_rear_left_fk_pga_block_columns(long gagen_ld, int gagen_stre
   w16 = w2 * w5;
   w16 = w16 + w16;
   w17 = w14 + w16;
-  GAGEN_SCATTER(toe, 4, 1, w17);
+  GAGEN_SCATTER(out_toe, 4, 1, w17);
   w18 = gagen_v_splat(0.34607695154600004);
   w18 = w18 - w12;
   w18 = w18 - w1;
@@ -3523,25 +3523,25 @@ static void hexapod_rear_left_fk_pga_block_columns(long gagen_ld, int gagen_stre
   w13 = w13 + w13;
   w18 = w18 - w13;
   w5 = -w18;
-  GAGEN_SCATTER(toe, 4, 2, w5);
+  GAGEN_SCATTER(out_toe, 4, 2, w5);
   w5 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(toe, 4, 3, w5);
-  GAGEN_SCATTER(p, 3, 0, w18);
-  GAGEN_SCATTER(p, 3, 1, w17);
-  GAGEN_SCATTER(p, 3, 2, w11);
+  GAGEN_SCATTER(out_toe, 4, 3, w5);
+  GAGEN_SCATTER(out_p, 3, 0, w18);
+  GAGEN_SCATTER(out_p, 3, 1, w17);
+  GAGEN_SCATTER(out_p, 3, 2, w11);
   w16 = -w16;
-  GAGEN_SCATTER(J, 9, 0, w16);
+  GAGEN_SCATTER(out_J, 9, 0, w16);
   w15 = w15 - w13;
-  GAGEN_SCATTER(J, 9, 1, w15);
+  GAGEN_SCATTER(out_J, 9, 1, w15);
   w15 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 2, w15);
+  GAGEN_SCATTER(out_J, 9, 2, w15);
   w13 = w0 + w0;
   w13 = w5 - w13;
   w16 = w13 * w11;
-  GAGEN_SCATTER(J, 9, 3, w16);
+  GAGEN_SCATTER(out_J, 9, 3, w16);
   w11 = w2 * w11;
   w11 = w11 + w11;
-  GAGEN_SCATTER(J, 9, 4, w11);
+  GAGEN_SCATTER(out_J, 9, 4, w11);
   w1 = gagen_v_splat(0.12);
   w1 = w1 * w2;
   w12 = gagen_v_splat(0.207846096908);
@@ -3554,19 +3554,19 @@ static void hexapod_rear_left_fk_pga_block_columns(long gagen_ld, int gagen_stre
   w17 = w2 * w17;
   w17 = w17 + w17;
   w20 = w20 - w17;
-  GAGEN_SCATTER(J, 9, 5, w20);
+  GAGEN_SCATTER(out_J, 9, 5, w20);
   w6 = w10 * w6;
   w16 = w16 + w6;
   w0 = w0 * w3;
   w0 = w0 * w4;
   w0 = w7 * w0;
   w16 = w16 - w0;
-  GAGEN_SCATTER(J, 9, 6, w16);
+  GAGEN_SCATTER(out_J, 9, 6, w16);
   w3 = w2 * w3;
   w3 = w3 * w4;
   w7 = w7 * w3;
   w11 = w7 + w11;
-  GAGEN_SCATTER(J, 9, 7, w11);
+  GAGEN_SCATTER(out_J, 9, 7, w11);
   w11 = gagen_v_splat(0.146076951546);
   w11 = w11 + w1;
   w11 = w11 + w12;
@@ -3574,30 +3574,30 @@ static void hexapod_rear_left_fk_pga_block_columns(long gagen_ld, int gagen_stre
   w10 = w10 * w8;
   w18 = w18 - w10;
   w18 = w18 - w17;
-  GAGEN_SCATTER(J, 9, 8, w18);
-  GAGEN_SCATTER(S, 18, 0, w14);
-  GAGEN_SCATTER(S, 18, 1, w9);
-  GAGEN_SCATTER(S, 18, 2, w15);
-  GAGEN_SCATTER(S, 18, 3, w15);
-  GAGEN_SCATTER(S, 18, 4, w15);
-  GAGEN_SCATTER(S, 18, 5, w5);
-  GAGEN_SCATTER(S, 18, 6, w15);
-  GAGEN_SCATTER(S, 18, 7, w15);
+  GAGEN_SCATTER(out_J, 9, 8, w18);
+  GAGEN_SCATTER(out_S, 18, 0, w14);
+  GAGEN_SCATTER(out_S, 18, 1, w9);
+  GAGEN_SCATTER(out_S, 18, 2, w15);
+  GAGEN_SCATTER(out_S, 18, 3, w15);
+  GAGEN_SCATTER(out_S, 18, 4, w15);
+  GAGEN_SCATTER(out_S, 18, 5, w5);
+  GAGEN_SCATTER(out_S, 18, 6, w15);
+  GAGEN_SCATTER(out_S, 18, 7, w15);
   w19 = w19 - w21;
-  GAGEN_SCATTER(S, 18, 8, w19);
+  GAGEN_SCATTER(out_S, 18, 8, w19);
   w2 = w2 + w2;
   w2 = -w2;
-  GAGEN_SCATTER(S, 18, 9, w2);
-  GAGEN_SCATTER(S, 18, 10, w13);
-  GAGEN_SCATTER(S, 18, 11, w15);
+  GAGEN_SCATTER(out_S, 18, 9, w2);
+  GAGEN_SCATTER(out_S, 18, 10, w13);
+  GAGEN_SCATTER(out_S, 18, 11, w15);
   w6 = w6 - w0;
-  GAGEN_SCATTER(S, 18, 12, w6);
-  GAGEN_SCATTER(S, 18, 13, w7);
+  GAGEN_SCATTER(out_S, 18, 12, w6);
+  GAGEN_SCATTER(out_S, 18, 13, w7);
   w11 = w11 - w10;
-  GAGEN_SCATTER(S, 18, 14, w11);
-  GAGEN_SCATTER(S, 18, 15, w2);
-  GAGEN_SCATTER(S, 18, 16, w13);
-  GAGEN_SCATTER(S, 18, 17, w15);
+  GAGEN_SCATTER(out_S, 18, 14, w11);
+  GAGEN_SCATTER(out_S, 18, 15, w2);
+  GAGEN_SCATTER(out_S, 18, 16, w13);
+  GAGEN_SCATTER(out_S, 18, 17, w15);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -3605,34 +3605,34 @@ static void hexapod_rear_left_fk_pga_block_columns(long gagen_ld, int gagen_stre
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_rear_left_fk_pga_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  long s = 0;
+void hexapod_rear_left_fk_pga_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 42L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_rear_left_fk_pga_block_columns(ld, stream, q + s, M + s, toe + s, p + s, J + s, S + s);
+  const int gagen_stream = gagen_n * 42L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_rear_left_fk_pga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_rear_left_fk_pga_columns_from(s, n, ld, q, M, toe, p, J, S);
+  hexapod_rear_left_fk_pga_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_toe, out_p, out_J, out_S);
 }
 
 #if GAGEN_SIMD
 /* leg rear_left in CGA3D: FK motor, toe point and position, point and spatial Jacobians: GAGEN_W consecutive samples at once */
-static void hexapod_rear_left_fk_cga_block(const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+static void hexapod_rear_left_fk_cga_block(const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26;
   w0 = gagen_v_splat(1.3089969389957472);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 3, 0);
+  w2 = GAGEN_GATHER(in_q, 3, 0);
   w2 = w1 * w2;
   w0 = w0 + w2;
   w2 = gagen_v_cos(w0);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w1 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 3, 2);
+  w5 = GAGEN_GATHER(in_q, 3, 2);
   w1 = w1 * w5;
   w5 = gagen_v_cos(w1);
   w6 = w4 * w5;
@@ -3641,18 +3641,18 @@ static void hexapod_rear_left_fk_cga_block(const double *restrict q, double *res
   w7 = w3 * w1;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  GAGEN_SCATTER(M, 8, 0, w9);
+  GAGEN_SCATTER(out_M, 8, 0, w9);
   w0 = gagen_v_sin(w0);
   w8 = w0 * w8;
   w10 = -w8;
-  GAGEN_SCATTER(M, 8, 1, w10);
+  GAGEN_SCATTER(out_M, 8, 1, w10);
   w10 = w4 * w1;
   w11 = w3 * w5;
   w12 = w10 + w11;
   w13 = w2 * w12;
-  GAGEN_SCATTER(M, 8, 2, w13);
+  GAGEN_SCATTER(out_M, 8, 2, w13);
   w12 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 3, w12);
+  GAGEN_SCATTER(out_M, 8, 3, w12);
   w14 = gagen_v_splat(0.17303847577300002);
   w14 = w14 * w6;
   w6 = gagen_v_splat(0.02696152422699999);
@@ -3663,7 +3663,7 @@ static void hexapod_rear_left_fk_cga_block(const double *restrict q, double *res
   w15 = w7 * w8;
   w6 = w6 + w15;
   w6 = -w6;
-  GAGEN_SCATTER(M, 8, 4, w6);
+  GAGEN_SCATTER(out_M, 8, 4, w6);
   w14 = w0 * w14;
   w9 = w7 * w9;
   w14 = w14 + w9;
@@ -3671,7 +3671,7 @@ static void hexapod_rear_left_fk_cga_block(const double *restrict q, double *res
   w8 = w9 * w8;
   w14 = w14 + w8;
   w14 = -w14;
-  GAGEN_SCATTER(M, 8, 5, w14);
+  GAGEN_SCATTER(out_M, 8, 5, w14);
   w14 = gagen_v_splat(0.026961524227000003);
   w14 = w14 * w10;
   w10 = gagen_v_splat(0.226961524227);
@@ -3680,15 +3680,15 @@ static void hexapod_rear_left_fk_cga_block(const double *restrict q, double *res
   w10 = w2 * w14;
   w11 = w7 * w12;
   w10 = w10 - w11;
-  GAGEN_SCATTER(M, 8, 6, w10);
+  GAGEN_SCATTER(out_M, 8, 6, w10);
   w7 = w7 * w13;
   w12 = w9 * w12;
   w7 = w7 + w12;
   w14 = w0 * w14;
   w7 = w7 - w14;
-  GAGEN_SCATTER(M, 8, 7, w7);
+  GAGEN_SCATTER(out_M, 8, 7, w7);
   w7 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(toe, 5, 0, w7);
+  GAGEN_SCATTER(out_toe, 5, 0, w7);
   w14 = gagen_v_splat(0.34607695154600004);
   w12 = w3 * w3;
   w13 = gagen_v_splat(0.4);
@@ -3713,13 +3713,13 @@ static void hexapod_rear_left_fk_cga_block(const double *restrict q, double *res
   w14 = w14 + w22;
   w14 = w14 - w11;
   w14 = w14 - w21;
-  GAGEN_SCATTER(toe, 5, 1, w14);
+  GAGEN_SCATTER(out_toe, 5, 1, w14);
   w23 = gagen_v_splat(0.06);
   w0 = w0 * w2;
   w17 = w0 * w17;
   w17 = w17 + w17;
   w2 = w23 + w17;
-  GAGEN_SCATTER(toe, 5, 2, w2);
+  GAGEN_SCATTER(out_toe, 5, 2, w2);
   w8 = w19 * w8;
   w8 = w8 + w8;
   w24 = w12 * w1;
@@ -3729,7 +3729,7 @@ static void hexapod_rear_left_fk_cga_block(const double *restrict q, double *res
   w1 = w1 * w5;
   w1 = w13 * w1;
   w8 = w8 - w1;
-  GAGEN_SCATTER(toe, 5, 3, w8);
+  GAGEN_SCATTER(out_toe, 5, 3, w8);
   w1 = gagen_v_splat(0.06168462819568622);
   w5 = gagen_v_splat(0.0431384387632);
   w5 = w5 * w20;
@@ -3767,25 +3767,25 @@ static void hexapod_rear_left_fk_cga_block(const double *restrict q, double *res
   w5 = gagen_v_splat(0.058430780618400006);
   w5 = w5 * w10;
   w1 = w1 - w5;
-  GAGEN_SCATTER(toe, 5, 4, w1);
-  GAGEN_SCATTER(p, 3, 0, w14);
-  GAGEN_SCATTER(p, 3, 1, w2);
-  GAGEN_SCATTER(p, 3, 2, w8);
+  GAGEN_SCATTER(out_toe, 5, 4, w1);
+  GAGEN_SCATTER(out_p, 3, 0, w14);
+  GAGEN_SCATTER(out_p, 3, 1, w2);
+  GAGEN_SCATTER(out_p, 3, 2, w8);
   w17 = -w17;
-  GAGEN_SCATTER(J, 9, 0, w17);
+  GAGEN_SCATTER(out_J, 9, 0, w17);
   w16 = w16 + w22;
   w16 = w16 - w11;
   w16 = w16 - w21;
-  GAGEN_SCATTER(J, 9, 1, w16);
+  GAGEN_SCATTER(out_J, 9, 1, w16);
   w16 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 2, w16);
+  GAGEN_SCATTER(out_J, 9, 2, w16);
   w21 = w15 + w15;
   w21 = w7 - w21;
   w11 = w21 * w8;
-  GAGEN_SCATTER(J, 9, 3, w11);
+  GAGEN_SCATTER(out_J, 9, 3, w11);
   w8 = w0 * w8;
   w8 = w8 + w8;
-  GAGEN_SCATTER(J, 9, 4, w8);
+  GAGEN_SCATTER(out_J, 9, 4, w8);
   w25 = w25 * w0;
   w26 = w26 * w15;
   w22 = w25 + w26;
@@ -3796,19 +3796,19 @@ static void hexapod_rear_left_fk_cga_block(const double *restrict q, double *res
   w2 = w0 * w2;
   w2 = w2 + w2;
   w17 = w17 - w2;
-  GAGEN_SCATTER(J, 9, 5, w17);
+  GAGEN_SCATTER(out_J, 9, 5, w17);
   w19 = w13 * w19;
   w11 = w11 + w19;
   w15 = w15 * w3;
   w15 = w15 * w4;
   w15 = w18 * w15;
   w11 = w11 - w15;
-  GAGEN_SCATTER(J, 9, 6, w11);
+  GAGEN_SCATTER(out_J, 9, 6, w11);
   w3 = w0 * w3;
   w3 = w3 * w4;
   w18 = w18 * w3;
   w8 = w18 + w8;
-  GAGEN_SCATTER(J, 9, 7, w8);
+  GAGEN_SCATTER(out_J, 9, 7, w8);
   w8 = gagen_v_splat(0.146076951546);
   w8 = w8 + w25;
   w8 = w8 + w26;
@@ -3816,50 +3816,50 @@ static void hexapod_rear_left_fk_cga_block(const double *restrict q, double *res
   w13 = w13 * w12;
   w14 = w14 - w13;
   w14 = w14 - w2;
-  GAGEN_SCATTER(J, 9, 8, w14);
-  GAGEN_SCATTER(S, 18, 0, w23);
-  GAGEN_SCATTER(S, 18, 1, w9);
-  GAGEN_SCATTER(S, 18, 2, w16);
-  GAGEN_SCATTER(S, 18, 3, w16);
-  GAGEN_SCATTER(S, 18, 4, w16);
-  GAGEN_SCATTER(S, 18, 5, w7);
-  GAGEN_SCATTER(S, 18, 6, w16);
-  GAGEN_SCATTER(S, 18, 7, w16);
+  GAGEN_SCATTER(out_J, 9, 8, w14);
+  GAGEN_SCATTER(out_S, 18, 0, w23);
+  GAGEN_SCATTER(out_S, 18, 1, w9);
+  GAGEN_SCATTER(out_S, 18, 2, w16);
+  GAGEN_SCATTER(out_S, 18, 3, w16);
+  GAGEN_SCATTER(out_S, 18, 4, w16);
+  GAGEN_SCATTER(out_S, 18, 5, w7);
+  GAGEN_SCATTER(out_S, 18, 6, w16);
+  GAGEN_SCATTER(out_S, 18, 7, w16);
   w22 = w22 - w1;
-  GAGEN_SCATTER(S, 18, 8, w22);
+  GAGEN_SCATTER(out_S, 18, 8, w22);
   w0 = w0 + w0;
   w0 = -w0;
-  GAGEN_SCATTER(S, 18, 9, w0);
-  GAGEN_SCATTER(S, 18, 10, w21);
-  GAGEN_SCATTER(S, 18, 11, w16);
+  GAGEN_SCATTER(out_S, 18, 9, w0);
+  GAGEN_SCATTER(out_S, 18, 10, w21);
+  GAGEN_SCATTER(out_S, 18, 11, w16);
   w19 = w19 - w15;
-  GAGEN_SCATTER(S, 18, 12, w19);
-  GAGEN_SCATTER(S, 18, 13, w18);
+  GAGEN_SCATTER(out_S, 18, 12, w19);
+  GAGEN_SCATTER(out_S, 18, 13, w18);
   w8 = w8 - w13;
-  GAGEN_SCATTER(S, 18, 14, w8);
-  GAGEN_SCATTER(S, 18, 15, w0);
-  GAGEN_SCATTER(S, 18, 16, w21);
-  GAGEN_SCATTER(S, 18, 17, w16);
+  GAGEN_SCATTER(out_S, 18, 14, w8);
+  GAGEN_SCATTER(out_S, 18, 15, w0);
+  GAGEN_SCATTER(out_S, 18, 16, w21);
+  GAGEN_SCATTER(out_S, 18, 17, w16);
 }
 #endif
 
-void hexapod_rear_left_fk_cga_batch(long n, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  long s = 0;
+void hexapod_rear_left_fk_cga_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(toe + 5 * a + o, 1, 0);
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(p + 3 * a + o, 1, 0);
-      for (int o = 0; o < 9 * GAGEN_W + 7; o += 8) __builtin_prefetch(J + 9 * a + o, 1, 0);
-      for (int o = 0; o < 18 * GAGEN_W + 7; o += 8) __builtin_prefetch(S + 18 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_toe + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_p + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 9 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J + 9 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 18 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_S + 18 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_rear_left_fk_cga_block(q + 3 * s, M + 8 * s, toe + 5 * s, p + 3 * s, J + 9 * s, S + 18 * s);
+    hexapod_rear_left_fk_cga_block(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_toe + 5 * gagen_s, out_p + 3 * gagen_s, out_J + 9 * gagen_s, out_S + 18 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_rear_left_fk_cga(q + 3 * s, M + 8 * s, toe + 5 * s, p + 3 * s, J + 9 * s, S + 18 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_rear_left_fk_cga(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_toe + 5 * gagen_s, out_p + 3 * gagen_s, out_J + 9 * gagen_s, out_S + 18 * gagen_s);
   }
 }
 
@@ -3869,20 +3869,20 @@ void hexapod_rear_left_fk_cga_batch(long n, const double *restrict q, double *re
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_rear_left_fk_cga_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+static void hexapod_rear_left_fk_cga_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26;
   w0 = gagen_v_splat(1.3089969389957472);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 3, 0);
+  w2 = GAGEN_GATHER(in_q, 3, 0);
   w2 = w1 * w2;
   w0 = w0 + w2;
   w2 = gagen_v_cos(w0);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w1 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 3, 2);
+  w5 = GAGEN_GATHER(in_q, 3, 2);
   w1 = w1 * w5;
   w5 = gagen_v_cos(w1);
   w6 = w4 * w5;
@@ -3891,18 +3891,18 @@ static void hexapod_rear_left_fk_cga_block_columns(long gagen_ld, int gagen_stre
   w7 = w3 * w1;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  GAGEN_SCATTER(M, 8, 0, w9);
+  GAGEN_SCATTER(out_M, 8, 0, w9);
   w0 = gagen_v_sin(w0);
   w8 = w0 * w8;
   w10 = -w8;
-  GAGEN_SCATTER(M, 8, 1, w10);
+  GAGEN_SCATTER(out_M, 8, 1, w10);
   w10 = w4 * w1;
   w11 = w3 * w5;
   w12 = w10 + w11;
   w13 = w2 * w12;
-  GAGEN_SCATTER(M, 8, 2, w13);
+  GAGEN_SCATTER(out_M, 8, 2, w13);
   w12 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 3, w12);
+  GAGEN_SCATTER(out_M, 8, 3, w12);
   w14 = gagen_v_splat(0.17303847577300002);
   w14 = w14 * w6;
   w6 = gagen_v_splat(0.02696152422699999);
@@ -3913,7 +3913,7 @@ static void hexapod_rear_left_fk_cga_block_columns(long gagen_ld, int gagen_stre
   w15 = w7 * w8;
   w6 = w6 + w15;
   w6 = -w6;
-  GAGEN_SCATTER(M, 8, 4, w6);
+  GAGEN_SCATTER(out_M, 8, 4, w6);
   w14 = w0 * w14;
   w9 = w7 * w9;
   w14 = w14 + w9;
@@ -3921,7 +3921,7 @@ static void hexapod_rear_left_fk_cga_block_columns(long gagen_ld, int gagen_stre
   w8 = w9 * w8;
   w14 = w14 + w8;
   w14 = -w14;
-  GAGEN_SCATTER(M, 8, 5, w14);
+  GAGEN_SCATTER(out_M, 8, 5, w14);
   w14 = gagen_v_splat(0.026961524227000003);
   w14 = w14 * w10;
   w10 = gagen_v_splat(0.226961524227);
@@ -3930,15 +3930,15 @@ static void hexapod_rear_left_fk_cga_block_columns(long gagen_ld, int gagen_stre
   w10 = w2 * w14;
   w11 = w7 * w12;
   w10 = w10 - w11;
-  GAGEN_SCATTER(M, 8, 6, w10);
+  GAGEN_SCATTER(out_M, 8, 6, w10);
   w7 = w7 * w13;
   w12 = w9 * w12;
   w7 = w7 + w12;
   w14 = w0 * w14;
   w7 = w7 - w14;
-  GAGEN_SCATTER(M, 8, 7, w7);
+  GAGEN_SCATTER(out_M, 8, 7, w7);
   w7 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(toe, 5, 0, w7);
+  GAGEN_SCATTER(out_toe, 5, 0, w7);
   w14 = gagen_v_splat(0.34607695154600004);
   w12 = w3 * w3;
   w13 = gagen_v_splat(0.4);
@@ -3963,13 +3963,13 @@ static void hexapod_rear_left_fk_cga_block_columns(long gagen_ld, int gagen_stre
   w14 = w14 + w22;
   w14 = w14 - w11;
   w14 = w14 - w21;
-  GAGEN_SCATTER(toe, 5, 1, w14);
+  GAGEN_SCATTER(out_toe, 5, 1, w14);
   w23 = gagen_v_splat(0.06);
   w0 = w0 * w2;
   w17 = w0 * w17;
   w17 = w17 + w17;
   w2 = w23 + w17;
-  GAGEN_SCATTER(toe, 5, 2, w2);
+  GAGEN_SCATTER(out_toe, 5, 2, w2);
   w8 = w19 * w8;
   w8 = w8 + w8;
   w24 = w12 * w1;
@@ -3979,7 +3979,7 @@ static void hexapod_rear_left_fk_cga_block_columns(long gagen_ld, int gagen_stre
   w1 = w1 * w5;
   w1 = w13 * w1;
   w8 = w8 - w1;
-  GAGEN_SCATTER(toe, 5, 3, w8);
+  GAGEN_SCATTER(out_toe, 5, 3, w8);
   w1 = gagen_v_splat(0.06168462819568622);
   w5 = gagen_v_splat(0.0431384387632);
   w5 = w5 * w20;
@@ -4017,25 +4017,25 @@ static void hexapod_rear_left_fk_cga_block_columns(long gagen_ld, int gagen_stre
   w5 = gagen_v_splat(0.058430780618400006);
   w5 = w5 * w10;
   w1 = w1 - w5;
-  GAGEN_SCATTER(toe, 5, 4, w1);
-  GAGEN_SCATTER(p, 3, 0, w14);
-  GAGEN_SCATTER(p, 3, 1, w2);
-  GAGEN_SCATTER(p, 3, 2, w8);
+  GAGEN_SCATTER(out_toe, 5, 4, w1);
+  GAGEN_SCATTER(out_p, 3, 0, w14);
+  GAGEN_SCATTER(out_p, 3, 1, w2);
+  GAGEN_SCATTER(out_p, 3, 2, w8);
   w17 = -w17;
-  GAGEN_SCATTER(J, 9, 0, w17);
+  GAGEN_SCATTER(out_J, 9, 0, w17);
   w16 = w16 + w22;
   w16 = w16 - w11;
   w16 = w16 - w21;
-  GAGEN_SCATTER(J, 9, 1, w16);
+  GAGEN_SCATTER(out_J, 9, 1, w16);
   w16 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 2, w16);
+  GAGEN_SCATTER(out_J, 9, 2, w16);
   w21 = w15 + w15;
   w21 = w7 - w21;
   w11 = w21 * w8;
-  GAGEN_SCATTER(J, 9, 3, w11);
+  GAGEN_SCATTER(out_J, 9, 3, w11);
   w8 = w0 * w8;
   w8 = w8 + w8;
-  GAGEN_SCATTER(J, 9, 4, w8);
+  GAGEN_SCATTER(out_J, 9, 4, w8);
   w25 = w25 * w0;
   w26 = w26 * w15;
   w22 = w25 + w26;
@@ -4046,19 +4046,19 @@ static void hexapod_rear_left_fk_cga_block_columns(long gagen_ld, int gagen_stre
   w2 = w0 * w2;
   w2 = w2 + w2;
   w17 = w17 - w2;
-  GAGEN_SCATTER(J, 9, 5, w17);
+  GAGEN_SCATTER(out_J, 9, 5, w17);
   w19 = w13 * w19;
   w11 = w11 + w19;
   w15 = w15 * w3;
   w15 = w15 * w4;
   w15 = w18 * w15;
   w11 = w11 - w15;
-  GAGEN_SCATTER(J, 9, 6, w11);
+  GAGEN_SCATTER(out_J, 9, 6, w11);
   w3 = w0 * w3;
   w3 = w3 * w4;
   w18 = w18 * w3;
   w8 = w18 + w8;
-  GAGEN_SCATTER(J, 9, 7, w8);
+  GAGEN_SCATTER(out_J, 9, 7, w8);
   w8 = gagen_v_splat(0.146076951546);
   w8 = w8 + w25;
   w8 = w8 + w26;
@@ -4066,30 +4066,30 @@ static void hexapod_rear_left_fk_cga_block_columns(long gagen_ld, int gagen_stre
   w13 = w13 * w12;
   w14 = w14 - w13;
   w14 = w14 - w2;
-  GAGEN_SCATTER(J, 9, 8, w14);
-  GAGEN_SCATTER(S, 18, 0, w23);
-  GAGEN_SCATTER(S, 18, 1, w9);
-  GAGEN_SCATTER(S, 18, 2, w16);
-  GAGEN_SCATTER(S, 18, 3, w16);
-  GAGEN_SCATTER(S, 18, 4, w16);
-  GAGEN_SCATTER(S, 18, 5, w7);
-  GAGEN_SCATTER(S, 18, 6, w16);
-  GAGEN_SCATTER(S, 18, 7, w16);
+  GAGEN_SCATTER(out_J, 9, 8, w14);
+  GAGEN_SCATTER(out_S, 18, 0, w23);
+  GAGEN_SCATTER(out_S, 18, 1, w9);
+  GAGEN_SCATTER(out_S, 18, 2, w16);
+  GAGEN_SCATTER(out_S, 18, 3, w16);
+  GAGEN_SCATTER(out_S, 18, 4, w16);
+  GAGEN_SCATTER(out_S, 18, 5, w7);
+  GAGEN_SCATTER(out_S, 18, 6, w16);
+  GAGEN_SCATTER(out_S, 18, 7, w16);
   w22 = w22 - w1;
-  GAGEN_SCATTER(S, 18, 8, w22);
+  GAGEN_SCATTER(out_S, 18, 8, w22);
   w0 = w0 + w0;
   w0 = -w0;
-  GAGEN_SCATTER(S, 18, 9, w0);
-  GAGEN_SCATTER(S, 18, 10, w21);
-  GAGEN_SCATTER(S, 18, 11, w16);
+  GAGEN_SCATTER(out_S, 18, 9, w0);
+  GAGEN_SCATTER(out_S, 18, 10, w21);
+  GAGEN_SCATTER(out_S, 18, 11, w16);
   w19 = w19 - w15;
-  GAGEN_SCATTER(S, 18, 12, w19);
-  GAGEN_SCATTER(S, 18, 13, w18);
+  GAGEN_SCATTER(out_S, 18, 12, w19);
+  GAGEN_SCATTER(out_S, 18, 13, w18);
   w8 = w8 - w13;
-  GAGEN_SCATTER(S, 18, 14, w8);
-  GAGEN_SCATTER(S, 18, 15, w0);
-  GAGEN_SCATTER(S, 18, 16, w21);
-  GAGEN_SCATTER(S, 18, 17, w16);
+  GAGEN_SCATTER(out_S, 18, 14, w8);
+  GAGEN_SCATTER(out_S, 18, 15, w0);
+  GAGEN_SCATTER(out_S, 18, 16, w21);
+  GAGEN_SCATTER(out_S, 18, 17, w16);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -4097,29 +4097,29 @@ static void hexapod_rear_left_fk_cga_block_columns(long gagen_ld, int gagen_stre
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_rear_left_fk_cga_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  long s = 0;
+void hexapod_rear_left_fk_cga_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 43L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_rear_left_fk_cga_block_columns(ld, stream, q + s, M + s, toe + s, p + s, J + s, S + s);
+  const int gagen_stream = gagen_n * 43L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_rear_left_fk_cga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_rear_left_fk_cga_columns_from(s, n, ld, q, M, toe, p, J, S);
+  hexapod_rear_left_fk_cga_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_toe, out_p, out_J, out_S);
 }
 
 #if GAGEN_SIMD
 /* leg rear_left: analytic IK of a body-frame toe target, knee up and down, with reachability: GAGEN_W consecutive samples at once */
-static void hexapod_rear_left_ik_block(const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
+static void hexapod_rear_left_ik_block(const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7;
   w0 = gagen_v_splat(6.632658891371746e-14);
   w1 = gagen_v_splat(0.8660254037844387);
-  w2 = GAGEN_GATHER(target, 3, 1);
+  w2 = GAGEN_GATHER(in_target, 3, 1);
   w3 = w1 * w2;
   w0 = w0 - w3;
   w3 = gagen_v_splat(0.49999999999999994);
-  w4 = GAGEN_GATHER(target, 3, 0);
+  w4 = GAGEN_GATHER(in_target, 3, 0);
   w5 = w3 * w4;
   w0 = w0 - w5;
   w3 = w3 * w2;
@@ -4128,8 +4128,8 @@ static void hexapod_rear_left_ik_block(const double *restrict target, double *re
   w1 = w1 * w4;
   w3 = w3 - w1;
   w1 = gagen_v_atan2(w0, w3);
-  GAGEN_SCATTER(q_up, 3, 0, w1);
-  w4 = GAGEN_GATHER(target, 3, 2);
+  GAGEN_SCATTER(out_q_up, 3, 0, w1);
+  w4 = GAGEN_GATHER(in_target, 3, 2);
   w2 = -w4;
   w3 = w3 * w3;
   w0 = w0 * w0;
@@ -4155,19 +4155,19 @@ static void hexapod_rear_left_ik_block(const double *restrict target, double *re
   w0 = w0 * w3;
   w5 = gagen_v_atan2(w5, w0);
   w0 = w2 - w5;
-  GAGEN_SCATTER(q_up, 3, 1, w0);
+  GAGEN_SCATTER(out_q_up, 3, 1, w0);
   w0 = gagen_v_splat(12.499999999999998);
   w6 = w0 * w6;
   w0 = w0 * w3;
   w7 = gagen_v_splat(1.0);
   w0 = w0 - w7;
   w6 = gagen_v_atan2(w6, w0);
-  GAGEN_SCATTER(q_up, 3, 2, w6);
-  GAGEN_SCATTER(q_down, 3, 0, w1);
+  GAGEN_SCATTER(out_q_up, 3, 2, w6);
+  GAGEN_SCATTER(out_q_down, 3, 0, w1);
   w2 = w2 + w5;
-  GAGEN_SCATTER(q_down, 3, 1, w2);
+  GAGEN_SCATTER(out_q_down, 3, 1, w2);
   w6 = -w6;
-  GAGEN_SCATTER(q_down, 3, 2, w6);
+  GAGEN_SCATTER(out_q_down, 3, 2, w6);
   w6 = gagen_v_splat(1e-09);
   w2 = gagen_v_lt(w3, w4);
   w3 = gagen_v_sqrt(w3);
@@ -4184,27 +4184,27 @@ static void hexapod_rear_left_ik_block(const double *restrict target, double *re
   w6 = gagen_v_lt(w6, w4);
   w6 = gagen_v_not(w6);
   w6 = gagen_v_if_else_zero(w6, w7);
-  GAGEN_SCATTER(reach, 1, 0, w6);
-  GAGEN_SCATTER(excess, 1, 0, w4);
+  GAGEN_SCATTER(out_reach, 1, 0, w6);
+  GAGEN_SCATTER(out_excess, 1, 0, w4);
 }
 #endif
 
-void hexapod_rear_left_ik_batch(long n, const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
-  long s = 0;
+void hexapod_rear_left_ik_batch(long gagen_n, const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(q_up + 3 * a + o, 1, 0);
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(q_down + 3 * a + o, 1, 0);
-      for (int o = 0; o < 1 * GAGEN_W + 7; o += 8) __builtin_prefetch(reach + 1 * a + o, 1, 0);
-      for (int o = 0; o < 1 * GAGEN_W + 7; o += 8) __builtin_prefetch(excess + 1 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_q_up + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_q_down + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 1 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_reach + 1 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 1 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_excess + 1 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_rear_left_ik_block(target + 3 * s, q_up + 3 * s, q_down + 3 * s, reach + 1 * s, excess + 1 * s);
+    hexapod_rear_left_ik_block(in_target + 3 * gagen_s, out_q_up + 3 * gagen_s, out_q_down + 3 * gagen_s, out_reach + 1 * gagen_s, out_excess + 1 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_rear_left_ik(target + 3 * s, q_up + 3 * s, q_down + 3 * s, reach + 1 * s, excess + 1 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_rear_left_ik(in_target + 3 * gagen_s, out_q_up + 3 * gagen_s, out_q_down + 3 * gagen_s, out_reach + 1 * gagen_s, out_excess + 1 * gagen_s);
   }
 }
 
@@ -4214,15 +4214,15 @@ void hexapod_rear_left_ik_batch(long n, const double *restrict target, double *r
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_rear_left_ik_block_columns(long gagen_ld, int gagen_stream, const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
+static void hexapod_rear_left_ik_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7;
   w0 = gagen_v_splat(6.632658891371746e-14);
   w1 = gagen_v_splat(0.8660254037844387);
-  w2 = GAGEN_GATHER(target, 3, 1);
+  w2 = GAGEN_GATHER(in_target, 3, 1);
   w3 = w1 * w2;
   w0 = w0 - w3;
   w3 = gagen_v_splat(0.49999999999999994);
-  w4 = GAGEN_GATHER(target, 3, 0);
+  w4 = GAGEN_GATHER(in_target, 3, 0);
   w5 = w3 * w4;
   w0 = w0 - w5;
   w3 = w3 * w2;
@@ -4231,8 +4231,8 @@ static void hexapod_rear_left_ik_block_columns(long gagen_ld, int gagen_stream, 
   w1 = w1 * w4;
   w3 = w3 - w1;
   w1 = gagen_v_atan2(w0, w3);
-  GAGEN_SCATTER(q_up, 3, 0, w1);
-  w4 = GAGEN_GATHER(target, 3, 2);
+  GAGEN_SCATTER(out_q_up, 3, 0, w1);
+  w4 = GAGEN_GATHER(in_target, 3, 2);
   w2 = -w4;
   w3 = w3 * w3;
   w0 = w0 * w0;
@@ -4258,19 +4258,19 @@ static void hexapod_rear_left_ik_block_columns(long gagen_ld, int gagen_stream, 
   w0 = w0 * w3;
   w5 = gagen_v_atan2(w5, w0);
   w0 = w2 - w5;
-  GAGEN_SCATTER(q_up, 3, 1, w0);
+  GAGEN_SCATTER(out_q_up, 3, 1, w0);
   w0 = gagen_v_splat(12.499999999999998);
   w6 = w0 * w6;
   w0 = w0 * w3;
   w7 = gagen_v_splat(1.0);
   w0 = w0 - w7;
   w6 = gagen_v_atan2(w6, w0);
-  GAGEN_SCATTER(q_up, 3, 2, w6);
-  GAGEN_SCATTER(q_down, 3, 0, w1);
+  GAGEN_SCATTER(out_q_up, 3, 2, w6);
+  GAGEN_SCATTER(out_q_down, 3, 0, w1);
   w2 = w2 + w5;
-  GAGEN_SCATTER(q_down, 3, 1, w2);
+  GAGEN_SCATTER(out_q_down, 3, 1, w2);
   w6 = -w6;
-  GAGEN_SCATTER(q_down, 3, 2, w6);
+  GAGEN_SCATTER(out_q_down, 3, 2, w6);
   w6 = gagen_v_splat(1e-09);
   w2 = gagen_v_lt(w3, w4);
   w3 = gagen_v_sqrt(w3);
@@ -4287,8 +4287,8 @@ static void hexapod_rear_left_ik_block_columns(long gagen_ld, int gagen_stream, 
   w6 = gagen_v_lt(w6, w4);
   w6 = gagen_v_not(w6);
   w6 = gagen_v_if_else_zero(w6, w7);
-  GAGEN_SCATTER(reach, 1, 0, w6);
-  GAGEN_SCATTER(excess, 1, 0, w4);
+  GAGEN_SCATTER(out_reach, 1, 0, w6);
+  GAGEN_SCATTER(out_excess, 1, 0, w4);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -4296,36 +4296,36 @@ static void hexapod_rear_left_ik_block_columns(long gagen_ld, int gagen_stream, 
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_rear_left_ik_batch_columns(long n, long ld, const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
-  long s = 0;
+void hexapod_rear_left_ik_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 8L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_rear_left_ik_block_columns(ld, stream, target + s, q_up + s, q_down + s, reach + s, excess + s);
+  const int gagen_stream = gagen_n * 8L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_rear_left_ik_block_columns(gagen_ld, gagen_stream, in_target + gagen_s, out_q_up + gagen_s, out_q_down + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_rear_left_ik_columns_from(s, n, ld, target, q_up, q_down, reach, excess);
+  hexapod_rear_left_ik_columns_from(gagen_s, gagen_n, gagen_ld, in_target, out_q_up, out_q_down, out_reach, out_excess);
 }
 
 #if GAGEN_SIMD
 /* leg rear_left: one damped least-squares IK step towards a body-frame toe target: GAGEN_W consecutive samples at once */
-static void hexapod_rear_left_dls_block(const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
+static void hexapod_rear_left_dls_block(const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32;
-  w0 = GAGEN_GATHER(q, 3, 0);
+  w0 = GAGEN_GATHER(in_q, 3, 0);
   w1 = gagen_v_splat(0.45);
   w2 = gagen_v_splat(0.4);
   w3 = gagen_v_splat(0.5);
-  w4 = GAGEN_GATHER(q, 3, 2);
+  w4 = GAGEN_GATHER(in_q, 3, 2);
   w5 = w3 * w4;
   w6 = gagen_v_sin(w5);
   w7 = w6 * w6;
   w7 = w2 * w7;
   w1 = w1 - w7;
   w8 = gagen_v_splat(0.8);
-  w9 = GAGEN_GATHER(q, 3, 1);
+  w9 = GAGEN_GATHER(in_q, 3, 1);
   w10 = w3 * w9;
   w11 = gagen_v_sin(w10);
   w10 = gagen_v_cos(w10);
@@ -4422,12 +4422,12 @@ static void hexapod_rear_left_dls_block(const double *restrict q, const double *
   w10 = w25 * w25;
   w11 = w24 * w24;
   w10 = w10 + w11;
-  w11 = GAGEN_GATHER(damping, 1, 0);
+  w11 = GAGEN_GATHER(in_damping, 1, 0);
   w11 = w11 * w11;
   w10 = w10 + w11;
   w12 = w18 * w10;
   w8 = w8 - w12;
-  w12 = GAGEN_GATHER(target, 3, 0);
+  w12 = GAGEN_GATHER(in_target, 3, 0);
   w12 = w12 + w7;
   w12 = w12 + w13;
   w12 = w12 + w16;
@@ -4447,7 +4447,7 @@ static void hexapod_rear_left_dls_block(const double *restrict q, const double *
   w13 = w10 * w27;
   w19 = w29 * w29;
   w13 = w13 - w19;
-  w19 = GAGEN_GATHER(target, 3, 1);
+  w19 = GAGEN_GATHER(in_target, 3, 1);
   w19 = w19 - w14;
   w19 = w19 - w31;
   w13 = w13 * w19;
@@ -4455,7 +4455,7 @@ static void hexapod_rear_left_dls_block(const double *restrict q, const double *
   w13 = w29 * w18;
   w31 = w27 * w32;
   w13 = w13 - w31;
-  w31 = GAGEN_GATHER(target, 3, 2);
+  w31 = GAGEN_GATHER(in_target, 3, 2);
   w31 = w31 + w6;
   w31 = w31 + w15;
   w31 = w31 - w22;
@@ -4493,7 +4493,7 @@ static void hexapod_rear_left_dls_block(const double *restrict q, const double *
   w30 = w30 * w10;
   w30 = w30 + w30;
   w0 = w0 - w30;
-  GAGEN_SCATTER(q_next, 3, 0, w0);
+  GAGEN_SCATTER(out_q_next, 3, 0, w0);
   w20 = w20 * w10;
   w9 = w9 + w20;
   w32 = w32 * w12;
@@ -4510,38 +4510,38 @@ static void hexapod_rear_left_dls_block(const double *restrict q, const double *
   w23 = w23 * w28;
   w23 = w23 + w23;
   w9 = w9 + w23;
-  GAGEN_SCATTER(q_next, 3, 1, w9);
+  GAGEN_SCATTER(out_q_next, 3, 1, w9);
   w2 = w2 * w10;
   w4 = w4 + w2;
   w21 = w21 * w28;
   w4 = w4 + w21;
   w24 = w24 * w32;
   w4 = w4 + w24;
-  GAGEN_SCATTER(q_next, 3, 2, w4);
+  GAGEN_SCATTER(out_q_next, 3, 2, w4);
   w12 = w12 * w12;
   w19 = w19 * w19;
   w12 = w12 + w19;
   w31 = w31 * w31;
   w12 = w12 + w31;
   w12 = gagen_v_sqrt(w12);
-  GAGEN_SCATTER(error, 1, 0, w12);
+  GAGEN_SCATTER(out_error, 1, 0, w12);
 }
 #endif
 
-void hexapod_rear_left_dls_batch(long n, const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
-  long s = 0;
+void hexapod_rear_left_dls_batch(long gagen_n, const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(q_next + 3 * a + o, 1, 0);
-      for (int o = 0; o < 1 * GAGEN_W + 7; o += 8) __builtin_prefetch(error + 1 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_q_next + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 1 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_error + 1 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_rear_left_dls_block(q + 3 * s, target + 3 * s, damping + 1 * s, q_next + 3 * s, error + 1 * s);
+    hexapod_rear_left_dls_block(in_q + 3 * gagen_s, in_target + 3 * gagen_s, in_damping + 1 * gagen_s, out_q_next + 3 * gagen_s, out_error + 1 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_rear_left_dls(q + 3 * s, target + 3 * s, damping + 1 * s, q_next + 3 * s, error + 1 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_rear_left_dls(in_q + 3 * gagen_s, in_target + 3 * gagen_s, in_damping + 1 * gagen_s, out_q_next + 3 * gagen_s, out_error + 1 * gagen_s);
   }
 }
 
@@ -4551,22 +4551,22 @@ void hexapod_rear_left_dls_batch(long n, const double *restrict q, const double 
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_rear_left_dls_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
+static void hexapod_rear_left_dls_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32;
-  w0 = GAGEN_GATHER(q, 3, 0);
+  w0 = GAGEN_GATHER(in_q, 3, 0);
   w1 = gagen_v_splat(0.45);
   w2 = gagen_v_splat(0.4);
   w3 = gagen_v_splat(0.5);
-  w4 = GAGEN_GATHER(q, 3, 2);
+  w4 = GAGEN_GATHER(in_q, 3, 2);
   w5 = w3 * w4;
   w6 = gagen_v_sin(w5);
   w7 = w6 * w6;
   w7 = w2 * w7;
   w1 = w1 - w7;
   w8 = gagen_v_splat(0.8);
-  w9 = GAGEN_GATHER(q, 3, 1);
+  w9 = GAGEN_GATHER(in_q, 3, 1);
   w10 = w3 * w9;
   w11 = gagen_v_sin(w10);
   w10 = gagen_v_cos(w10);
@@ -4663,12 +4663,12 @@ static void hexapod_rear_left_dls_block_columns(long gagen_ld, int gagen_stream,
   w10 = w25 * w25;
   w11 = w24 * w24;
   w10 = w10 + w11;
-  w11 = GAGEN_GATHER(damping, 1, 0);
+  w11 = GAGEN_GATHER(in_damping, 1, 0);
   w11 = w11 * w11;
   w10 = w10 + w11;
   w12 = w18 * w10;
   w8 = w8 - w12;
-  w12 = GAGEN_GATHER(target, 3, 0);
+  w12 = GAGEN_GATHER(in_target, 3, 0);
   w12 = w12 + w7;
   w12 = w12 + w13;
   w12 = w12 + w16;
@@ -4688,7 +4688,7 @@ static void hexapod_rear_left_dls_block_columns(long gagen_ld, int gagen_stream,
   w13 = w10 * w27;
   w19 = w29 * w29;
   w13 = w13 - w19;
-  w19 = GAGEN_GATHER(target, 3, 1);
+  w19 = GAGEN_GATHER(in_target, 3, 1);
   w19 = w19 - w14;
   w19 = w19 - w31;
   w13 = w13 * w19;
@@ -4696,7 +4696,7 @@ static void hexapod_rear_left_dls_block_columns(long gagen_ld, int gagen_stream,
   w13 = w29 * w18;
   w31 = w27 * w32;
   w13 = w13 - w31;
-  w31 = GAGEN_GATHER(target, 3, 2);
+  w31 = GAGEN_GATHER(in_target, 3, 2);
   w31 = w31 + w6;
   w31 = w31 + w15;
   w31 = w31 - w22;
@@ -4734,7 +4734,7 @@ static void hexapod_rear_left_dls_block_columns(long gagen_ld, int gagen_stream,
   w30 = w30 * w10;
   w30 = w30 + w30;
   w0 = w0 - w30;
-  GAGEN_SCATTER(q_next, 3, 0, w0);
+  GAGEN_SCATTER(out_q_next, 3, 0, w0);
   w20 = w20 * w10;
   w9 = w9 + w20;
   w32 = w32 * w12;
@@ -4751,21 +4751,21 @@ static void hexapod_rear_left_dls_block_columns(long gagen_ld, int gagen_stream,
   w23 = w23 * w28;
   w23 = w23 + w23;
   w9 = w9 + w23;
-  GAGEN_SCATTER(q_next, 3, 1, w9);
+  GAGEN_SCATTER(out_q_next, 3, 1, w9);
   w2 = w2 * w10;
   w4 = w4 + w2;
   w21 = w21 * w28;
   w4 = w4 + w21;
   w24 = w24 * w32;
   w4 = w4 + w24;
-  GAGEN_SCATTER(q_next, 3, 2, w4);
+  GAGEN_SCATTER(out_q_next, 3, 2, w4);
   w12 = w12 * w12;
   w19 = w19 * w19;
   w12 = w12 + w19;
   w31 = w31 * w31;
   w12 = w12 + w31;
   w12 = gagen_v_sqrt(w12);
-  GAGEN_SCATTER(error, 1, 0, w12);
+  GAGEN_SCATTER(out_error, 1, 0, w12);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -4773,33 +4773,33 @@ static void hexapod_rear_left_dls_block_columns(long gagen_ld, int gagen_stream,
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_rear_left_dls_batch_columns(long n, long ld, const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
-  long s = 0;
+void hexapod_rear_left_dls_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 4L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_rear_left_dls_block_columns(ld, stream, q + s, target + s, damping + s, q_next + s, error + s);
+  const int gagen_stream = gagen_n * 4L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_rear_left_dls_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, in_target + gagen_s, in_damping + gagen_s, out_q_next + gagen_s, out_error + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_rear_left_dls_columns_from(s, n, ld, q, target, damping, q_next, error);
+  hexapod_rear_left_dls_columns_from(gagen_s, gagen_n, gagen_ld, in_q, in_target, in_damping, out_q_next, out_error);
 }
 
 #if GAGEN_SIMD
 /* leg rear_right in PGA3D: FK motor, toe point and position, point and spatial Jacobians: GAGEN_W consecutive samples at once */
-static void hexapod_rear_right_fk_pga_block(const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+static void hexapod_rear_right_fk_pga_block(const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19;
   w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(q, 3, 0);
+  w1 = GAGEN_GATHER(in_q, 3, 0);
   w1 = w0 * w1;
   w2 = gagen_v_splat(1.3089969389957472);
   w1 = w1 - w2;
   w2 = gagen_v_cos(w1);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w0 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 3, 2);
+  w5 = GAGEN_GATHER(in_q, 3, 2);
   w0 = w0 * w5;
   w5 = gagen_v_cos(w0);
   w6 = w4 * w5;
@@ -4808,7 +4808,7 @@ static void hexapod_rear_right_fk_pga_block(const double *restrict q, double *re
   w7 = w3 * w0;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  GAGEN_SCATTER(M, 8, 0, w9);
+  GAGEN_SCATTER(out_M, 8, 0, w9);
   w10 = gagen_v_splat(0.03);
   w1 = gagen_v_sin(w1);
   w8 = w1 * w8;
@@ -4820,16 +4820,16 @@ static void hexapod_rear_right_fk_pga_block(const double *restrict q, double *re
   w12 = w12 + w6;
   w6 = w2 * w12;
   w11 = w11 - w6;
-  GAGEN_SCATTER(M, 8, 1, w11);
+  GAGEN_SCATTER(out_M, 8, 1, w11);
   w9 = w10 * w9;
   w12 = w1 * w12;
   w9 = w9 - w12;
   w12 = gagen_v_splat(0.103923048454);
   w11 = w12 * w8;
   w9 = w9 - w11;
-  GAGEN_SCATTER(M, 8, 2, w9);
+  GAGEN_SCATTER(out_M, 8, 2, w9);
   w8 = -w8;
-  GAGEN_SCATTER(M, 8, 3, w8);
+  GAGEN_SCATTER(out_M, 8, 3, w8);
   w8 = gagen_v_splat(0.026961524227000003);
   w9 = w4 * w0;
   w8 = w8 * w9;
@@ -4842,16 +4842,16 @@ static void hexapod_rear_right_fk_pga_block(const double *restrict q, double *re
   w6 = w1 * w9;
   w7 = w10 * w6;
   w11 = w11 + w7;
-  GAGEN_SCATTER(M, 8, 4, w11);
+  GAGEN_SCATTER(out_M, 8, 4, w11);
   w9 = w2 * w9;
-  GAGEN_SCATTER(M, 8, 5, w9);
-  GAGEN_SCATTER(M, 8, 6, w6);
+  GAGEN_SCATTER(out_M, 8, 5, w9);
+  GAGEN_SCATTER(out_M, 8, 6, w6);
   w6 = w12 * w6;
   w8 = w1 * w8;
   w6 = w6 - w8;
   w10 = w10 * w9;
   w6 = w6 - w10;
-  GAGEN_SCATTER(M, 8, 7, w6);
+  GAGEN_SCATTER(out_M, 8, 7, w6);
   w6 = gagen_v_splat(0.8);
   w10 = w3 * w3;
   w9 = w10 * w0;
@@ -4869,7 +4869,7 @@ static void hexapod_rear_right_fk_pga_block(const double *restrict q, double *re
   w14 = w14 + w14;
   w9 = w9 - w14;
   w14 = -w9;
-  GAGEN_SCATTER(toe, 4, 0, w14);
+  GAGEN_SCATTER(out_toe, 4, 0, w14);
   w2 = w1 * w2;
   w14 = gagen_v_splat(0.45);
   w14 = w14 - w7;
@@ -4884,7 +4884,7 @@ static void hexapod_rear_right_fk_pga_block(const double *restrict q, double *re
   w15 = w15 + w15;
   w16 = gagen_v_splat(0.06);
   w16 = w15 - w16;
-  GAGEN_SCATTER(toe, 4, 1, w16);
+  GAGEN_SCATTER(out_toe, 4, 1, w16);
   w17 = gagen_v_splat(0.34607695154600004);
   w17 = w17 - w7;
   w17 = w17 - w0;
@@ -4894,25 +4894,25 @@ static void hexapod_rear_right_fk_pga_block(const double *restrict q, double *re
   w13 = w13 + w13;
   w17 = w17 - w13;
   w5 = -w17;
-  GAGEN_SCATTER(toe, 4, 2, w5);
+  GAGEN_SCATTER(out_toe, 4, 2, w5);
   w5 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(toe, 4, 3, w5);
-  GAGEN_SCATTER(p, 3, 0, w17);
-  GAGEN_SCATTER(p, 3, 1, w16);
-  GAGEN_SCATTER(p, 3, 2, w9);
+  GAGEN_SCATTER(out_toe, 4, 3, w5);
+  GAGEN_SCATTER(out_p, 3, 0, w17);
+  GAGEN_SCATTER(out_p, 3, 1, w16);
+  GAGEN_SCATTER(out_p, 3, 2, w9);
   w15 = -w15;
-  GAGEN_SCATTER(J, 9, 0, w15);
+  GAGEN_SCATTER(out_J, 9, 0, w15);
   w14 = w14 - w13;
-  GAGEN_SCATTER(J, 9, 1, w14);
+  GAGEN_SCATTER(out_J, 9, 1, w14);
   w14 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 2, w14);
+  GAGEN_SCATTER(out_J, 9, 2, w14);
   w13 = w1 + w1;
   w13 = w5 - w13;
   w15 = w13 * w9;
-  GAGEN_SCATTER(J, 9, 3, w15);
+  GAGEN_SCATTER(out_J, 9, 3, w15);
   w9 = w2 * w9;
   w9 = w9 + w9;
-  GAGEN_SCATTER(J, 9, 4, w9);
+  GAGEN_SCATTER(out_J, 9, 4, w9);
   w0 = gagen_v_splat(0.207846096908);
   w0 = w0 * w1;
   w17 = w13 * w17;
@@ -4925,19 +4925,19 @@ static void hexapod_rear_right_fk_pga_block(const double *restrict q, double *re
   w16 = w2 * w16;
   w16 = w16 + w16;
   w7 = w7 - w16;
-  GAGEN_SCATTER(J, 9, 5, w7);
+  GAGEN_SCATTER(out_J, 9, 5, w7);
   w11 = w8 * w11;
   w15 = w15 + w11;
   w1 = w1 * w3;
   w1 = w1 * w4;
   w1 = w6 * w1;
   w15 = w15 - w1;
-  GAGEN_SCATTER(J, 9, 6, w15);
+  GAGEN_SCATTER(out_J, 9, 6, w15);
   w3 = w2 * w3;
   w3 = w3 * w4;
   w6 = w6 * w3;
   w9 = w6 + w9;
-  GAGEN_SCATTER(J, 9, 7, w9);
+  GAGEN_SCATTER(out_J, 9, 7, w9);
   w9 = gagen_v_splat(0.146076951546);
   w9 = w9 + w0;
   w17 = w9 - w17;
@@ -4945,53 +4945,53 @@ static void hexapod_rear_right_fk_pga_block(const double *restrict q, double *re
   w17 = w17 - w8;
   w17 = w17 - w19;
   w17 = w17 - w16;
-  GAGEN_SCATTER(J, 9, 8, w17);
+  GAGEN_SCATTER(out_J, 9, 8, w17);
   w17 = gagen_v_splat((-0.06));
-  GAGEN_SCATTER(S, 18, 0, w17);
-  GAGEN_SCATTER(S, 18, 1, w12);
-  GAGEN_SCATTER(S, 18, 2, w14);
-  GAGEN_SCATTER(S, 18, 3, w14);
-  GAGEN_SCATTER(S, 18, 4, w14);
-  GAGEN_SCATTER(S, 18, 5, w5);
-  GAGEN_SCATTER(S, 18, 6, w14);
-  GAGEN_SCATTER(S, 18, 7, w14);
+  GAGEN_SCATTER(out_S, 18, 0, w17);
+  GAGEN_SCATTER(out_S, 18, 1, w12);
+  GAGEN_SCATTER(out_S, 18, 2, w14);
+  GAGEN_SCATTER(out_S, 18, 3, w14);
+  GAGEN_SCATTER(out_S, 18, 4, w14);
+  GAGEN_SCATTER(out_S, 18, 5, w5);
+  GAGEN_SCATTER(out_S, 18, 6, w14);
+  GAGEN_SCATTER(out_S, 18, 7, w14);
   w0 = w0 - w18;
   w0 = w0 - w19;
-  GAGEN_SCATTER(S, 18, 8, w0);
+  GAGEN_SCATTER(out_S, 18, 8, w0);
   w2 = w2 + w2;
   w2 = -w2;
-  GAGEN_SCATTER(S, 18, 9, w2);
-  GAGEN_SCATTER(S, 18, 10, w13);
-  GAGEN_SCATTER(S, 18, 11, w14);
+  GAGEN_SCATTER(out_S, 18, 9, w2);
+  GAGEN_SCATTER(out_S, 18, 10, w13);
+  GAGEN_SCATTER(out_S, 18, 11, w14);
   w11 = w11 - w1;
-  GAGEN_SCATTER(S, 18, 12, w11);
-  GAGEN_SCATTER(S, 18, 13, w6);
+  GAGEN_SCATTER(out_S, 18, 12, w11);
+  GAGEN_SCATTER(out_S, 18, 13, w6);
   w9 = w9 - w8;
   w9 = w9 - w19;
-  GAGEN_SCATTER(S, 18, 14, w9);
-  GAGEN_SCATTER(S, 18, 15, w2);
-  GAGEN_SCATTER(S, 18, 16, w13);
-  GAGEN_SCATTER(S, 18, 17, w14);
+  GAGEN_SCATTER(out_S, 18, 14, w9);
+  GAGEN_SCATTER(out_S, 18, 15, w2);
+  GAGEN_SCATTER(out_S, 18, 16, w13);
+  GAGEN_SCATTER(out_S, 18, 17, w14);
 }
 #endif
 
-void hexapod_rear_right_fk_pga_batch(long n, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  long s = 0;
+void hexapod_rear_right_fk_pga_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 4 * GAGEN_W + 7; o += 8) __builtin_prefetch(toe + 4 * a + o, 1, 0);
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(p + 3 * a + o, 1, 0);
-      for (int o = 0; o < 9 * GAGEN_W + 7; o += 8) __builtin_prefetch(J + 9 * a + o, 1, 0);
-      for (int o = 0; o < 18 * GAGEN_W + 7; o += 8) __builtin_prefetch(S + 18 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 4 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_toe + 4 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_p + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 9 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J + 9 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 18 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_S + 18 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_rear_right_fk_pga_block(q + 3 * s, M + 8 * s, toe + 4 * s, p + 3 * s, J + 9 * s, S + 18 * s);
+    hexapod_rear_right_fk_pga_block(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_toe + 4 * gagen_s, out_p + 3 * gagen_s, out_J + 9 * gagen_s, out_S + 18 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_rear_right_fk_pga(q + 3 * s, M + 8 * s, toe + 4 * s, p + 3 * s, J + 9 * s, S + 18 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_rear_right_fk_pga(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_toe + 4 * gagen_s, out_p + 3 * gagen_s, out_J + 9 * gagen_s, out_S + 18 * gagen_s);
   }
 }
 
@@ -5001,19 +5001,19 @@ void hexapod_rear_right_fk_pga_batch(long n, const double *restrict q, double *r
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_rear_right_fk_pga_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+static void hexapod_rear_right_fk_pga_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19;
   w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(q, 3, 0);
+  w1 = GAGEN_GATHER(in_q, 3, 0);
   w1 = w0 * w1;
   w2 = gagen_v_splat(1.3089969389957472);
   w1 = w1 - w2;
   w2 = gagen_v_cos(w1);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w0 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 3, 2);
+  w5 = GAGEN_GATHER(in_q, 3, 2);
   w0 = w0 * w5;
   w5 = gagen_v_cos(w0);
   w6 = w4 * w5;
@@ -5022,7 +5022,7 @@ static void hexapod_rear_right_fk_pga_block_columns(long gagen_ld, int gagen_str
   w7 = w3 * w0;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  GAGEN_SCATTER(M, 8, 0, w9);
+  GAGEN_SCATTER(out_M, 8, 0, w9);
   w10 = gagen_v_splat(0.03);
   w1 = gagen_v_sin(w1);
   w8 = w1 * w8;
@@ -5034,16 +5034,16 @@ static void hexapod_rear_right_fk_pga_block_columns(long gagen_ld, int gagen_str
   w12 = w12 + w6;
   w6 = w2 * w12;
   w11 = w11 - w6;
-  GAGEN_SCATTER(M, 8, 1, w11);
+  GAGEN_SCATTER(out_M, 8, 1, w11);
   w9 = w10 * w9;
   w12 = w1 * w12;
   w9 = w9 - w12;
   w12 = gagen_v_splat(0.103923048454);
   w11 = w12 * w8;
   w9 = w9 - w11;
-  GAGEN_SCATTER(M, 8, 2, w9);
+  GAGEN_SCATTER(out_M, 8, 2, w9);
   w8 = -w8;
-  GAGEN_SCATTER(M, 8, 3, w8);
+  GAGEN_SCATTER(out_M, 8, 3, w8);
   w8 = gagen_v_splat(0.026961524227000003);
   w9 = w4 * w0;
   w8 = w8 * w9;
@@ -5056,16 +5056,16 @@ static void hexapod_rear_right_fk_pga_block_columns(long gagen_ld, int gagen_str
   w6 = w1 * w9;
   w7 = w10 * w6;
   w11 = w11 + w7;
-  GAGEN_SCATTER(M, 8, 4, w11);
+  GAGEN_SCATTER(out_M, 8, 4, w11);
   w9 = w2 * w9;
-  GAGEN_SCATTER(M, 8, 5, w9);
-  GAGEN_SCATTER(M, 8, 6, w6);
+  GAGEN_SCATTER(out_M, 8, 5, w9);
+  GAGEN_SCATTER(out_M, 8, 6, w6);
   w6 = w12 * w6;
   w8 = w1 * w8;
   w6 = w6 - w8;
   w10 = w10 * w9;
   w6 = w6 - w10;
-  GAGEN_SCATTER(M, 8, 7, w6);
+  GAGEN_SCATTER(out_M, 8, 7, w6);
   w6 = gagen_v_splat(0.8);
   w10 = w3 * w3;
   w9 = w10 * w0;
@@ -5083,7 +5083,7 @@ static void hexapod_rear_right_fk_pga_block_columns(long gagen_ld, int gagen_str
   w14 = w14 + w14;
   w9 = w9 - w14;
   w14 = -w9;
-  GAGEN_SCATTER(toe, 4, 0, w14);
+  GAGEN_SCATTER(out_toe, 4, 0, w14);
   w2 = w1 * w2;
   w14 = gagen_v_splat(0.45);
   w14 = w14 - w7;
@@ -5098,7 +5098,7 @@ static void hexapod_rear_right_fk_pga_block_columns(long gagen_ld, int gagen_str
   w15 = w15 + w15;
   w16 = gagen_v_splat(0.06);
   w16 = w15 - w16;
-  GAGEN_SCATTER(toe, 4, 1, w16);
+  GAGEN_SCATTER(out_toe, 4, 1, w16);
   w17 = gagen_v_splat(0.34607695154600004);
   w17 = w17 - w7;
   w17 = w17 - w0;
@@ -5108,25 +5108,25 @@ static void hexapod_rear_right_fk_pga_block_columns(long gagen_ld, int gagen_str
   w13 = w13 + w13;
   w17 = w17 - w13;
   w5 = -w17;
-  GAGEN_SCATTER(toe, 4, 2, w5);
+  GAGEN_SCATTER(out_toe, 4, 2, w5);
   w5 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(toe, 4, 3, w5);
-  GAGEN_SCATTER(p, 3, 0, w17);
-  GAGEN_SCATTER(p, 3, 1, w16);
-  GAGEN_SCATTER(p, 3, 2, w9);
+  GAGEN_SCATTER(out_toe, 4, 3, w5);
+  GAGEN_SCATTER(out_p, 3, 0, w17);
+  GAGEN_SCATTER(out_p, 3, 1, w16);
+  GAGEN_SCATTER(out_p, 3, 2, w9);
   w15 = -w15;
-  GAGEN_SCATTER(J, 9, 0, w15);
+  GAGEN_SCATTER(out_J, 9, 0, w15);
   w14 = w14 - w13;
-  GAGEN_SCATTER(J, 9, 1, w14);
+  GAGEN_SCATTER(out_J, 9, 1, w14);
   w14 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 2, w14);
+  GAGEN_SCATTER(out_J, 9, 2, w14);
   w13 = w1 + w1;
   w13 = w5 - w13;
   w15 = w13 * w9;
-  GAGEN_SCATTER(J, 9, 3, w15);
+  GAGEN_SCATTER(out_J, 9, 3, w15);
   w9 = w2 * w9;
   w9 = w9 + w9;
-  GAGEN_SCATTER(J, 9, 4, w9);
+  GAGEN_SCATTER(out_J, 9, 4, w9);
   w0 = gagen_v_splat(0.207846096908);
   w0 = w0 * w1;
   w17 = w13 * w17;
@@ -5139,19 +5139,19 @@ static void hexapod_rear_right_fk_pga_block_columns(long gagen_ld, int gagen_str
   w16 = w2 * w16;
   w16 = w16 + w16;
   w7 = w7 - w16;
-  GAGEN_SCATTER(J, 9, 5, w7);
+  GAGEN_SCATTER(out_J, 9, 5, w7);
   w11 = w8 * w11;
   w15 = w15 + w11;
   w1 = w1 * w3;
   w1 = w1 * w4;
   w1 = w6 * w1;
   w15 = w15 - w1;
-  GAGEN_SCATTER(J, 9, 6, w15);
+  GAGEN_SCATTER(out_J, 9, 6, w15);
   w3 = w2 * w3;
   w3 = w3 * w4;
   w6 = w6 * w3;
   w9 = w6 + w9;
-  GAGEN_SCATTER(J, 9, 7, w9);
+  GAGEN_SCATTER(out_J, 9, 7, w9);
   w9 = gagen_v_splat(0.146076951546);
   w9 = w9 + w0;
   w17 = w9 - w17;
@@ -5159,33 +5159,33 @@ static void hexapod_rear_right_fk_pga_block_columns(long gagen_ld, int gagen_str
   w17 = w17 - w8;
   w17 = w17 - w19;
   w17 = w17 - w16;
-  GAGEN_SCATTER(J, 9, 8, w17);
+  GAGEN_SCATTER(out_J, 9, 8, w17);
   w17 = gagen_v_splat((-0.06));
-  GAGEN_SCATTER(S, 18, 0, w17);
-  GAGEN_SCATTER(S, 18, 1, w12);
-  GAGEN_SCATTER(S, 18, 2, w14);
-  GAGEN_SCATTER(S, 18, 3, w14);
-  GAGEN_SCATTER(S, 18, 4, w14);
-  GAGEN_SCATTER(S, 18, 5, w5);
-  GAGEN_SCATTER(S, 18, 6, w14);
-  GAGEN_SCATTER(S, 18, 7, w14);
+  GAGEN_SCATTER(out_S, 18, 0, w17);
+  GAGEN_SCATTER(out_S, 18, 1, w12);
+  GAGEN_SCATTER(out_S, 18, 2, w14);
+  GAGEN_SCATTER(out_S, 18, 3, w14);
+  GAGEN_SCATTER(out_S, 18, 4, w14);
+  GAGEN_SCATTER(out_S, 18, 5, w5);
+  GAGEN_SCATTER(out_S, 18, 6, w14);
+  GAGEN_SCATTER(out_S, 18, 7, w14);
   w0 = w0 - w18;
   w0 = w0 - w19;
-  GAGEN_SCATTER(S, 18, 8, w0);
+  GAGEN_SCATTER(out_S, 18, 8, w0);
   w2 = w2 + w2;
   w2 = -w2;
-  GAGEN_SCATTER(S, 18, 9, w2);
-  GAGEN_SCATTER(S, 18, 10, w13);
-  GAGEN_SCATTER(S, 18, 11, w14);
+  GAGEN_SCATTER(out_S, 18, 9, w2);
+  GAGEN_SCATTER(out_S, 18, 10, w13);
+  GAGEN_SCATTER(out_S, 18, 11, w14);
   w11 = w11 - w1;
-  GAGEN_SCATTER(S, 18, 12, w11);
-  GAGEN_SCATTER(S, 18, 13, w6);
+  GAGEN_SCATTER(out_S, 18, 12, w11);
+  GAGEN_SCATTER(out_S, 18, 13, w6);
   w9 = w9 - w8;
   w9 = w9 - w19;
-  GAGEN_SCATTER(S, 18, 14, w9);
-  GAGEN_SCATTER(S, 18, 15, w2);
-  GAGEN_SCATTER(S, 18, 16, w13);
-  GAGEN_SCATTER(S, 18, 17, w14);
+  GAGEN_SCATTER(out_S, 18, 14, w9);
+  GAGEN_SCATTER(out_S, 18, 15, w2);
+  GAGEN_SCATTER(out_S, 18, 16, w13);
+  GAGEN_SCATTER(out_S, 18, 17, w14);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -5193,34 +5193,34 @@ static void hexapod_rear_right_fk_pga_block_columns(long gagen_ld, int gagen_str
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_rear_right_fk_pga_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  long s = 0;
+void hexapod_rear_right_fk_pga_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 42L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_rear_right_fk_pga_block_columns(ld, stream, q + s, M + s, toe + s, p + s, J + s, S + s);
+  const int gagen_stream = gagen_n * 42L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_rear_right_fk_pga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_rear_right_fk_pga_columns_from(s, n, ld, q, M, toe, p, J, S);
+  hexapod_rear_right_fk_pga_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_toe, out_p, out_J, out_S);
 }
 
 #if GAGEN_SIMD
 /* leg rear_right in CGA3D: FK motor, toe point and position, point and spatial Jacobians: GAGEN_W consecutive samples at once */
-static void hexapod_rear_right_fk_cga_block(const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+static void hexapod_rear_right_fk_cga_block(const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25;
   w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(q, 3, 0);
+  w1 = GAGEN_GATHER(in_q, 3, 0);
   w1 = w0 * w1;
   w2 = gagen_v_splat(1.3089969389957472);
   w1 = w1 - w2;
   w2 = gagen_v_cos(w1);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w0 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 3, 2);
+  w5 = GAGEN_GATHER(in_q, 3, 2);
   w0 = w0 * w5;
   w5 = gagen_v_cos(w0);
   w6 = w4 * w5;
@@ -5229,18 +5229,18 @@ static void hexapod_rear_right_fk_cga_block(const double *restrict q, double *re
   w7 = w3 * w0;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  GAGEN_SCATTER(M, 8, 0, w9);
+  GAGEN_SCATTER(out_M, 8, 0, w9);
   w1 = gagen_v_sin(w1);
   w8 = w1 * w8;
   w10 = -w8;
-  GAGEN_SCATTER(M, 8, 1, w10);
+  GAGEN_SCATTER(out_M, 8, 1, w10);
   w10 = w4 * w0;
   w11 = w3 * w5;
   w12 = w10 + w11;
   w13 = w2 * w12;
-  GAGEN_SCATTER(M, 8, 2, w13);
+  GAGEN_SCATTER(out_M, 8, 2, w13);
   w12 = w1 * w12;
-  GAGEN_SCATTER(M, 8, 3, w12);
+  GAGEN_SCATTER(out_M, 8, 3, w12);
   w14 = gagen_v_splat(0.03);
   w15 = w14 * w8;
   w16 = gagen_v_splat(0.17303847577300002);
@@ -5250,14 +5250,14 @@ static void hexapod_rear_right_fk_cga_block(const double *restrict q, double *re
   w16 = w16 + w6;
   w6 = w2 * w16;
   w15 = w15 - w6;
-  GAGEN_SCATTER(M, 8, 4, w15);
+  GAGEN_SCATTER(out_M, 8, 4, w15);
   w9 = w14 * w9;
   w16 = w1 * w16;
   w9 = w9 - w16;
   w16 = gagen_v_splat(0.103923048454);
   w8 = w16 * w8;
   w9 = w9 - w8;
-  GAGEN_SCATTER(M, 8, 5, w9);
+  GAGEN_SCATTER(out_M, 8, 5, w9);
   w9 = gagen_v_splat(0.026961524227000003);
   w9 = w9 * w10;
   w10 = gagen_v_splat(0.226961524227);
@@ -5266,15 +5266,15 @@ static void hexapod_rear_right_fk_cga_block(const double *restrict q, double *re
   w10 = w2 * w9;
   w11 = w14 * w12;
   w10 = w10 + w11;
-  GAGEN_SCATTER(M, 8, 6, w10);
+  GAGEN_SCATTER(out_M, 8, 6, w10);
   w12 = w16 * w12;
   w9 = w1 * w9;
   w12 = w12 - w9;
   w14 = w14 * w13;
   w12 = w12 - w14;
-  GAGEN_SCATTER(M, 8, 7, w12);
+  GAGEN_SCATTER(out_M, 8, 7, w12);
   w12 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(toe, 5, 0, w12);
+  GAGEN_SCATTER(out_toe, 5, 0, w12);
   w14 = gagen_v_splat(0.34607695154600004);
   w13 = w3 * w3;
   w9 = gagen_v_splat(0.4);
@@ -5299,13 +5299,13 @@ static void hexapod_rear_right_fk_cga_block(const double *restrict q, double *re
   w14 = w14 + w22;
   w14 = w14 - w11;
   w14 = w14 - w21;
-  GAGEN_SCATTER(toe, 5, 1, w14);
+  GAGEN_SCATTER(out_toe, 5, 1, w14);
   w1 = w1 * w2;
   w17 = w1 * w17;
   w17 = w17 + w17;
   w2 = gagen_v_splat(0.06);
   w2 = w17 - w2;
-  GAGEN_SCATTER(toe, 5, 2, w2);
+  GAGEN_SCATTER(out_toe, 5, 2, w2);
   w8 = w19 * w8;
   w8 = w8 + w8;
   w23 = w13 * w0;
@@ -5315,7 +5315,7 @@ static void hexapod_rear_right_fk_cga_block(const double *restrict q, double *re
   w0 = w0 * w5;
   w0 = w9 * w0;
   w8 = w8 - w0;
-  GAGEN_SCATTER(toe, 5, 3, w8);
+  GAGEN_SCATTER(out_toe, 5, 3, w8);
   w0 = gagen_v_splat(0.06168462819568622);
   w5 = gagen_v_splat(0.0431384387632);
   w5 = w5 * w20;
@@ -5353,25 +5353,25 @@ static void hexapod_rear_right_fk_cga_block(const double *restrict q, double *re
   w5 = gagen_v_splat(0.058430780618400006);
   w5 = w5 * w10;
   w0 = w0 - w5;
-  GAGEN_SCATTER(toe, 5, 4, w0);
-  GAGEN_SCATTER(p, 3, 0, w14);
-  GAGEN_SCATTER(p, 3, 1, w2);
-  GAGEN_SCATTER(p, 3, 2, w8);
+  GAGEN_SCATTER(out_toe, 5, 4, w0);
+  GAGEN_SCATTER(out_p, 3, 0, w14);
+  GAGEN_SCATTER(out_p, 3, 1, w2);
+  GAGEN_SCATTER(out_p, 3, 2, w8);
   w17 = -w17;
-  GAGEN_SCATTER(J, 9, 0, w17);
+  GAGEN_SCATTER(out_J, 9, 0, w17);
   w7 = w7 + w22;
   w7 = w7 - w11;
   w7 = w7 - w21;
-  GAGEN_SCATTER(J, 9, 1, w7);
+  GAGEN_SCATTER(out_J, 9, 1, w7);
   w7 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 2, w7);
+  GAGEN_SCATTER(out_J, 9, 2, w7);
   w21 = w6 + w6;
   w21 = w12 - w21;
   w11 = w21 * w8;
-  GAGEN_SCATTER(J, 9, 3, w11);
+  GAGEN_SCATTER(out_J, 9, 3, w11);
   w8 = w1 * w8;
   w8 = w8 + w8;
-  GAGEN_SCATTER(J, 9, 4, w8);
+  GAGEN_SCATTER(out_J, 9, 4, w8);
   w25 = w25 * w6;
   w14 = w21 * w14;
   w22 = w25 - w14;
@@ -5382,19 +5382,19 @@ static void hexapod_rear_right_fk_cga_block(const double *restrict q, double *re
   w2 = w1 * w2;
   w2 = w2 + w2;
   w22 = w22 - w2;
-  GAGEN_SCATTER(J, 9, 5, w22);
+  GAGEN_SCATTER(out_J, 9, 5, w22);
   w19 = w9 * w19;
   w11 = w11 + w19;
   w6 = w6 * w3;
   w6 = w6 * w4;
   w6 = w18 * w6;
   w11 = w11 - w6;
-  GAGEN_SCATTER(J, 9, 6, w11);
+  GAGEN_SCATTER(out_J, 9, 6, w11);
   w3 = w1 * w3;
   w3 = w3 * w4;
   w18 = w18 * w3;
   w8 = w18 + w8;
-  GAGEN_SCATTER(J, 9, 7, w8);
+  GAGEN_SCATTER(out_J, 9, 7, w8);
   w8 = gagen_v_splat(0.146076951546);
   w8 = w8 + w25;
   w14 = w8 - w14;
@@ -5402,53 +5402,53 @@ static void hexapod_rear_right_fk_cga_block(const double *restrict q, double *re
   w14 = w14 - w9;
   w14 = w14 - w24;
   w14 = w14 - w2;
-  GAGEN_SCATTER(J, 9, 8, w14);
+  GAGEN_SCATTER(out_J, 9, 8, w14);
   w14 = gagen_v_splat((-0.06));
-  GAGEN_SCATTER(S, 18, 0, w14);
-  GAGEN_SCATTER(S, 18, 1, w16);
-  GAGEN_SCATTER(S, 18, 2, w7);
-  GAGEN_SCATTER(S, 18, 3, w7);
-  GAGEN_SCATTER(S, 18, 4, w7);
-  GAGEN_SCATTER(S, 18, 5, w12);
-  GAGEN_SCATTER(S, 18, 6, w7);
-  GAGEN_SCATTER(S, 18, 7, w7);
+  GAGEN_SCATTER(out_S, 18, 0, w14);
+  GAGEN_SCATTER(out_S, 18, 1, w16);
+  GAGEN_SCATTER(out_S, 18, 2, w7);
+  GAGEN_SCATTER(out_S, 18, 3, w7);
+  GAGEN_SCATTER(out_S, 18, 4, w7);
+  GAGEN_SCATTER(out_S, 18, 5, w12);
+  GAGEN_SCATTER(out_S, 18, 6, w7);
+  GAGEN_SCATTER(out_S, 18, 7, w7);
   w25 = w25 - w17;
   w25 = w25 - w24;
-  GAGEN_SCATTER(S, 18, 8, w25);
+  GAGEN_SCATTER(out_S, 18, 8, w25);
   w1 = w1 + w1;
   w1 = -w1;
-  GAGEN_SCATTER(S, 18, 9, w1);
-  GAGEN_SCATTER(S, 18, 10, w21);
-  GAGEN_SCATTER(S, 18, 11, w7);
+  GAGEN_SCATTER(out_S, 18, 9, w1);
+  GAGEN_SCATTER(out_S, 18, 10, w21);
+  GAGEN_SCATTER(out_S, 18, 11, w7);
   w19 = w19 - w6;
-  GAGEN_SCATTER(S, 18, 12, w19);
-  GAGEN_SCATTER(S, 18, 13, w18);
+  GAGEN_SCATTER(out_S, 18, 12, w19);
+  GAGEN_SCATTER(out_S, 18, 13, w18);
   w8 = w8 - w9;
   w8 = w8 - w24;
-  GAGEN_SCATTER(S, 18, 14, w8);
-  GAGEN_SCATTER(S, 18, 15, w1);
-  GAGEN_SCATTER(S, 18, 16, w21);
-  GAGEN_SCATTER(S, 18, 17, w7);
+  GAGEN_SCATTER(out_S, 18, 14, w8);
+  GAGEN_SCATTER(out_S, 18, 15, w1);
+  GAGEN_SCATTER(out_S, 18, 16, w21);
+  GAGEN_SCATTER(out_S, 18, 17, w7);
 }
 #endif
 
-void hexapod_rear_right_fk_cga_batch(long n, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  long s = 0;
+void hexapod_rear_right_fk_cga_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(toe + 5 * a + o, 1, 0);
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(p + 3 * a + o, 1, 0);
-      for (int o = 0; o < 9 * GAGEN_W + 7; o += 8) __builtin_prefetch(J + 9 * a + o, 1, 0);
-      for (int o = 0; o < 18 * GAGEN_W + 7; o += 8) __builtin_prefetch(S + 18 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_toe + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_p + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 9 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J + 9 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 18 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_S + 18 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_rear_right_fk_cga_block(q + 3 * s, M + 8 * s, toe + 5 * s, p + 3 * s, J + 9 * s, S + 18 * s);
+    hexapod_rear_right_fk_cga_block(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_toe + 5 * gagen_s, out_p + 3 * gagen_s, out_J + 9 * gagen_s, out_S + 18 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_rear_right_fk_cga(q + 3 * s, M + 8 * s, toe + 5 * s, p + 3 * s, J + 9 * s, S + 18 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_rear_right_fk_cga(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_toe + 5 * gagen_s, out_p + 3 * gagen_s, out_J + 9 * gagen_s, out_S + 18 * gagen_s);
   }
 }
 
@@ -5458,20 +5458,20 @@ void hexapod_rear_right_fk_cga_batch(long n, const double *restrict q, double *r
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_rear_right_fk_cga_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+static void hexapod_rear_right_fk_cga_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25;
   w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(q, 3, 0);
+  w1 = GAGEN_GATHER(in_q, 3, 0);
   w1 = w0 * w1;
   w2 = gagen_v_splat(1.3089969389957472);
   w1 = w1 - w2;
   w2 = gagen_v_cos(w1);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w0 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 3, 2);
+  w5 = GAGEN_GATHER(in_q, 3, 2);
   w0 = w0 * w5;
   w5 = gagen_v_cos(w0);
   w6 = w4 * w5;
@@ -5480,18 +5480,18 @@ static void hexapod_rear_right_fk_cga_block_columns(long gagen_ld, int gagen_str
   w7 = w3 * w0;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  GAGEN_SCATTER(M, 8, 0, w9);
+  GAGEN_SCATTER(out_M, 8, 0, w9);
   w1 = gagen_v_sin(w1);
   w8 = w1 * w8;
   w10 = -w8;
-  GAGEN_SCATTER(M, 8, 1, w10);
+  GAGEN_SCATTER(out_M, 8, 1, w10);
   w10 = w4 * w0;
   w11 = w3 * w5;
   w12 = w10 + w11;
   w13 = w2 * w12;
-  GAGEN_SCATTER(M, 8, 2, w13);
+  GAGEN_SCATTER(out_M, 8, 2, w13);
   w12 = w1 * w12;
-  GAGEN_SCATTER(M, 8, 3, w12);
+  GAGEN_SCATTER(out_M, 8, 3, w12);
   w14 = gagen_v_splat(0.03);
   w15 = w14 * w8;
   w16 = gagen_v_splat(0.17303847577300002);
@@ -5501,14 +5501,14 @@ static void hexapod_rear_right_fk_cga_block_columns(long gagen_ld, int gagen_str
   w16 = w16 + w6;
   w6 = w2 * w16;
   w15 = w15 - w6;
-  GAGEN_SCATTER(M, 8, 4, w15);
+  GAGEN_SCATTER(out_M, 8, 4, w15);
   w9 = w14 * w9;
   w16 = w1 * w16;
   w9 = w9 - w16;
   w16 = gagen_v_splat(0.103923048454);
   w8 = w16 * w8;
   w9 = w9 - w8;
-  GAGEN_SCATTER(M, 8, 5, w9);
+  GAGEN_SCATTER(out_M, 8, 5, w9);
   w9 = gagen_v_splat(0.026961524227000003);
   w9 = w9 * w10;
   w10 = gagen_v_splat(0.226961524227);
@@ -5517,15 +5517,15 @@ static void hexapod_rear_right_fk_cga_block_columns(long gagen_ld, int gagen_str
   w10 = w2 * w9;
   w11 = w14 * w12;
   w10 = w10 + w11;
-  GAGEN_SCATTER(M, 8, 6, w10);
+  GAGEN_SCATTER(out_M, 8, 6, w10);
   w12 = w16 * w12;
   w9 = w1 * w9;
   w12 = w12 - w9;
   w14 = w14 * w13;
   w12 = w12 - w14;
-  GAGEN_SCATTER(M, 8, 7, w12);
+  GAGEN_SCATTER(out_M, 8, 7, w12);
   w12 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(toe, 5, 0, w12);
+  GAGEN_SCATTER(out_toe, 5, 0, w12);
   w14 = gagen_v_splat(0.34607695154600004);
   w13 = w3 * w3;
   w9 = gagen_v_splat(0.4);
@@ -5550,13 +5550,13 @@ static void hexapod_rear_right_fk_cga_block_columns(long gagen_ld, int gagen_str
   w14 = w14 + w22;
   w14 = w14 - w11;
   w14 = w14 - w21;
-  GAGEN_SCATTER(toe, 5, 1, w14);
+  GAGEN_SCATTER(out_toe, 5, 1, w14);
   w1 = w1 * w2;
   w17 = w1 * w17;
   w17 = w17 + w17;
   w2 = gagen_v_splat(0.06);
   w2 = w17 - w2;
-  GAGEN_SCATTER(toe, 5, 2, w2);
+  GAGEN_SCATTER(out_toe, 5, 2, w2);
   w8 = w19 * w8;
   w8 = w8 + w8;
   w23 = w13 * w0;
@@ -5566,7 +5566,7 @@ static void hexapod_rear_right_fk_cga_block_columns(long gagen_ld, int gagen_str
   w0 = w0 * w5;
   w0 = w9 * w0;
   w8 = w8 - w0;
-  GAGEN_SCATTER(toe, 5, 3, w8);
+  GAGEN_SCATTER(out_toe, 5, 3, w8);
   w0 = gagen_v_splat(0.06168462819568622);
   w5 = gagen_v_splat(0.0431384387632);
   w5 = w5 * w20;
@@ -5604,25 +5604,25 @@ static void hexapod_rear_right_fk_cga_block_columns(long gagen_ld, int gagen_str
   w5 = gagen_v_splat(0.058430780618400006);
   w5 = w5 * w10;
   w0 = w0 - w5;
-  GAGEN_SCATTER(toe, 5, 4, w0);
-  GAGEN_SCATTER(p, 3, 0, w14);
-  GAGEN_SCATTER(p, 3, 1, w2);
-  GAGEN_SCATTER(p, 3, 2, w8);
+  GAGEN_SCATTER(out_toe, 5, 4, w0);
+  GAGEN_SCATTER(out_p, 3, 0, w14);
+  GAGEN_SCATTER(out_p, 3, 1, w2);
+  GAGEN_SCATTER(out_p, 3, 2, w8);
   w17 = -w17;
-  GAGEN_SCATTER(J, 9, 0, w17);
+  GAGEN_SCATTER(out_J, 9, 0, w17);
   w7 = w7 + w22;
   w7 = w7 - w11;
   w7 = w7 - w21;
-  GAGEN_SCATTER(J, 9, 1, w7);
+  GAGEN_SCATTER(out_J, 9, 1, w7);
   w7 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 2, w7);
+  GAGEN_SCATTER(out_J, 9, 2, w7);
   w21 = w6 + w6;
   w21 = w12 - w21;
   w11 = w21 * w8;
-  GAGEN_SCATTER(J, 9, 3, w11);
+  GAGEN_SCATTER(out_J, 9, 3, w11);
   w8 = w1 * w8;
   w8 = w8 + w8;
-  GAGEN_SCATTER(J, 9, 4, w8);
+  GAGEN_SCATTER(out_J, 9, 4, w8);
   w25 = w25 * w6;
   w14 = w21 * w14;
   w22 = w25 - w14;
@@ -5633,19 +5633,19 @@ static void hexapod_rear_right_fk_cga_block_columns(long gagen_ld, int gagen_str
   w2 = w1 * w2;
   w2 = w2 + w2;
   w22 = w22 - w2;
-  GAGEN_SCATTER(J, 9, 5, w22);
+  GAGEN_SCATTER(out_J, 9, 5, w22);
   w19 = w9 * w19;
   w11 = w11 + w19;
   w6 = w6 * w3;
   w6 = w6 * w4;
   w6 = w18 * w6;
   w11 = w11 - w6;
-  GAGEN_SCATTER(J, 9, 6, w11);
+  GAGEN_SCATTER(out_J, 9, 6, w11);
   w3 = w1 * w3;
   w3 = w3 * w4;
   w18 = w18 * w3;
   w8 = w18 + w8;
-  GAGEN_SCATTER(J, 9, 7, w8);
+  GAGEN_SCATTER(out_J, 9, 7, w8);
   w8 = gagen_v_splat(0.146076951546);
   w8 = w8 + w25;
   w14 = w8 - w14;
@@ -5653,33 +5653,33 @@ static void hexapod_rear_right_fk_cga_block_columns(long gagen_ld, int gagen_str
   w14 = w14 - w9;
   w14 = w14 - w24;
   w14 = w14 - w2;
-  GAGEN_SCATTER(J, 9, 8, w14);
+  GAGEN_SCATTER(out_J, 9, 8, w14);
   w14 = gagen_v_splat((-0.06));
-  GAGEN_SCATTER(S, 18, 0, w14);
-  GAGEN_SCATTER(S, 18, 1, w16);
-  GAGEN_SCATTER(S, 18, 2, w7);
-  GAGEN_SCATTER(S, 18, 3, w7);
-  GAGEN_SCATTER(S, 18, 4, w7);
-  GAGEN_SCATTER(S, 18, 5, w12);
-  GAGEN_SCATTER(S, 18, 6, w7);
-  GAGEN_SCATTER(S, 18, 7, w7);
+  GAGEN_SCATTER(out_S, 18, 0, w14);
+  GAGEN_SCATTER(out_S, 18, 1, w16);
+  GAGEN_SCATTER(out_S, 18, 2, w7);
+  GAGEN_SCATTER(out_S, 18, 3, w7);
+  GAGEN_SCATTER(out_S, 18, 4, w7);
+  GAGEN_SCATTER(out_S, 18, 5, w12);
+  GAGEN_SCATTER(out_S, 18, 6, w7);
+  GAGEN_SCATTER(out_S, 18, 7, w7);
   w25 = w25 - w17;
   w25 = w25 - w24;
-  GAGEN_SCATTER(S, 18, 8, w25);
+  GAGEN_SCATTER(out_S, 18, 8, w25);
   w1 = w1 + w1;
   w1 = -w1;
-  GAGEN_SCATTER(S, 18, 9, w1);
-  GAGEN_SCATTER(S, 18, 10, w21);
-  GAGEN_SCATTER(S, 18, 11, w7);
+  GAGEN_SCATTER(out_S, 18, 9, w1);
+  GAGEN_SCATTER(out_S, 18, 10, w21);
+  GAGEN_SCATTER(out_S, 18, 11, w7);
   w19 = w19 - w6;
-  GAGEN_SCATTER(S, 18, 12, w19);
-  GAGEN_SCATTER(S, 18, 13, w18);
+  GAGEN_SCATTER(out_S, 18, 12, w19);
+  GAGEN_SCATTER(out_S, 18, 13, w18);
   w8 = w8 - w9;
   w8 = w8 - w24;
-  GAGEN_SCATTER(S, 18, 14, w8);
-  GAGEN_SCATTER(S, 18, 15, w1);
-  GAGEN_SCATTER(S, 18, 16, w21);
-  GAGEN_SCATTER(S, 18, 17, w7);
+  GAGEN_SCATTER(out_S, 18, 14, w8);
+  GAGEN_SCATTER(out_S, 18, 15, w1);
+  GAGEN_SCATTER(out_S, 18, 16, w21);
+  GAGEN_SCATTER(out_S, 18, 17, w7);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -5687,29 +5687,29 @@ static void hexapod_rear_right_fk_cga_block_columns(long gagen_ld, int gagen_str
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_rear_right_fk_cga_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  long s = 0;
+void hexapod_rear_right_fk_cga_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 43L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_rear_right_fk_cga_block_columns(ld, stream, q + s, M + s, toe + s, p + s, J + s, S + s);
+  const int gagen_stream = gagen_n * 43L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_rear_right_fk_cga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_rear_right_fk_cga_columns_from(s, n, ld, q, M, toe, p, J, S);
+  hexapod_rear_right_fk_cga_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_toe, out_p, out_J, out_S);
 }
 
 #if GAGEN_SIMD
 /* leg rear_right: analytic IK of a body-frame toe target, knee up and down, with reachability: GAGEN_W consecutive samples at once */
-static void hexapod_rear_right_ik_block(const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
+static void hexapod_rear_right_ik_block(const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7;
   w0 = gagen_v_splat(0.49999999999999994);
-  w1 = GAGEN_GATHER(target, 3, 0);
+  w1 = GAGEN_GATHER(in_target, 3, 0);
   w2 = w0 * w1;
   w3 = gagen_v_splat(6.632658891371746e-14);
   w2 = w2 - w3;
   w3 = gagen_v_splat(0.8660254037844387);
-  w4 = GAGEN_GATHER(target, 3, 1);
+  w4 = GAGEN_GATHER(in_target, 3, 1);
   w5 = w3 * w4;
   w2 = w2 - w5;
   w5 = gagen_v_splat(0.11999999999988513);
@@ -5719,8 +5719,8 @@ static void hexapod_rear_right_ik_block(const double *restrict target, double *r
   w5 = w5 + w3;
   w3 = -w5;
   w3 = gagen_v_atan2(w2, w3);
-  GAGEN_SCATTER(q_up, 3, 0, w3);
-  w1 = GAGEN_GATHER(target, 3, 2);
+  GAGEN_SCATTER(out_q_up, 3, 0, w3);
+  w1 = GAGEN_GATHER(in_target, 3, 2);
   w0 = -w1;
   w5 = w5 * w5;
   w2 = w2 * w2;
@@ -5746,19 +5746,19 @@ static void hexapod_rear_right_ik_block(const double *restrict target, double *r
   w2 = w2 * w5;
   w4 = gagen_v_atan2(w4, w2);
   w2 = w0 - w4;
-  GAGEN_SCATTER(q_up, 3, 1, w2);
+  GAGEN_SCATTER(out_q_up, 3, 1, w2);
   w2 = gagen_v_splat(12.499999999999998);
   w6 = w2 * w6;
   w2 = w2 * w5;
   w7 = gagen_v_splat(1.0);
   w2 = w2 - w7;
   w6 = gagen_v_atan2(w6, w2);
-  GAGEN_SCATTER(q_up, 3, 2, w6);
-  GAGEN_SCATTER(q_down, 3, 0, w3);
+  GAGEN_SCATTER(out_q_up, 3, 2, w6);
+  GAGEN_SCATTER(out_q_down, 3, 0, w3);
   w0 = w0 + w4;
-  GAGEN_SCATTER(q_down, 3, 1, w0);
+  GAGEN_SCATTER(out_q_down, 3, 1, w0);
   w6 = -w6;
-  GAGEN_SCATTER(q_down, 3, 2, w6);
+  GAGEN_SCATTER(out_q_down, 3, 2, w6);
   w6 = gagen_v_splat(1e-09);
   w0 = gagen_v_lt(w5, w1);
   w5 = gagen_v_sqrt(w5);
@@ -5775,27 +5775,27 @@ static void hexapod_rear_right_ik_block(const double *restrict target, double *r
   w6 = gagen_v_lt(w6, w1);
   w6 = gagen_v_not(w6);
   w6 = gagen_v_if_else_zero(w6, w7);
-  GAGEN_SCATTER(reach, 1, 0, w6);
-  GAGEN_SCATTER(excess, 1, 0, w1);
+  GAGEN_SCATTER(out_reach, 1, 0, w6);
+  GAGEN_SCATTER(out_excess, 1, 0, w1);
 }
 #endif
 
-void hexapod_rear_right_ik_batch(long n, const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
-  long s = 0;
+void hexapod_rear_right_ik_batch(long gagen_n, const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(q_up + 3 * a + o, 1, 0);
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(q_down + 3 * a + o, 1, 0);
-      for (int o = 0; o < 1 * GAGEN_W + 7; o += 8) __builtin_prefetch(reach + 1 * a + o, 1, 0);
-      for (int o = 0; o < 1 * GAGEN_W + 7; o += 8) __builtin_prefetch(excess + 1 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_q_up + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_q_down + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 1 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_reach + 1 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 1 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_excess + 1 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_rear_right_ik_block(target + 3 * s, q_up + 3 * s, q_down + 3 * s, reach + 1 * s, excess + 1 * s);
+    hexapod_rear_right_ik_block(in_target + 3 * gagen_s, out_q_up + 3 * gagen_s, out_q_down + 3 * gagen_s, out_reach + 1 * gagen_s, out_excess + 1 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_rear_right_ik(target + 3 * s, q_up + 3 * s, q_down + 3 * s, reach + 1 * s, excess + 1 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_rear_right_ik(in_target + 3 * gagen_s, out_q_up + 3 * gagen_s, out_q_down + 3 * gagen_s, out_reach + 1 * gagen_s, out_excess + 1 * gagen_s);
   }
 }
 
@@ -5805,15 +5805,15 @@ void hexapod_rear_right_ik_batch(long n, const double *restrict target, double *
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_rear_right_ik_block_columns(long gagen_ld, int gagen_stream, const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
+static void hexapod_rear_right_ik_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7;
   w0 = gagen_v_splat(0.49999999999999994);
-  w1 = GAGEN_GATHER(target, 3, 0);
+  w1 = GAGEN_GATHER(in_target, 3, 0);
   w2 = w0 * w1;
   w3 = gagen_v_splat(6.632658891371746e-14);
   w2 = w2 - w3;
   w3 = gagen_v_splat(0.8660254037844387);
-  w4 = GAGEN_GATHER(target, 3, 1);
+  w4 = GAGEN_GATHER(in_target, 3, 1);
   w5 = w3 * w4;
   w2 = w2 - w5;
   w5 = gagen_v_splat(0.11999999999988513);
@@ -5823,8 +5823,8 @@ static void hexapod_rear_right_ik_block_columns(long gagen_ld, int gagen_stream,
   w5 = w5 + w3;
   w3 = -w5;
   w3 = gagen_v_atan2(w2, w3);
-  GAGEN_SCATTER(q_up, 3, 0, w3);
-  w1 = GAGEN_GATHER(target, 3, 2);
+  GAGEN_SCATTER(out_q_up, 3, 0, w3);
+  w1 = GAGEN_GATHER(in_target, 3, 2);
   w0 = -w1;
   w5 = w5 * w5;
   w2 = w2 * w2;
@@ -5850,19 +5850,19 @@ static void hexapod_rear_right_ik_block_columns(long gagen_ld, int gagen_stream,
   w2 = w2 * w5;
   w4 = gagen_v_atan2(w4, w2);
   w2 = w0 - w4;
-  GAGEN_SCATTER(q_up, 3, 1, w2);
+  GAGEN_SCATTER(out_q_up, 3, 1, w2);
   w2 = gagen_v_splat(12.499999999999998);
   w6 = w2 * w6;
   w2 = w2 * w5;
   w7 = gagen_v_splat(1.0);
   w2 = w2 - w7;
   w6 = gagen_v_atan2(w6, w2);
-  GAGEN_SCATTER(q_up, 3, 2, w6);
-  GAGEN_SCATTER(q_down, 3, 0, w3);
+  GAGEN_SCATTER(out_q_up, 3, 2, w6);
+  GAGEN_SCATTER(out_q_down, 3, 0, w3);
   w0 = w0 + w4;
-  GAGEN_SCATTER(q_down, 3, 1, w0);
+  GAGEN_SCATTER(out_q_down, 3, 1, w0);
   w6 = -w6;
-  GAGEN_SCATTER(q_down, 3, 2, w6);
+  GAGEN_SCATTER(out_q_down, 3, 2, w6);
   w6 = gagen_v_splat(1e-09);
   w0 = gagen_v_lt(w5, w1);
   w5 = gagen_v_sqrt(w5);
@@ -5879,8 +5879,8 @@ static void hexapod_rear_right_ik_block_columns(long gagen_ld, int gagen_stream,
   w6 = gagen_v_lt(w6, w1);
   w6 = gagen_v_not(w6);
   w6 = gagen_v_if_else_zero(w6, w7);
-  GAGEN_SCATTER(reach, 1, 0, w6);
-  GAGEN_SCATTER(excess, 1, 0, w1);
+  GAGEN_SCATTER(out_reach, 1, 0, w6);
+  GAGEN_SCATTER(out_excess, 1, 0, w1);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -5888,36 +5888,36 @@ static void hexapod_rear_right_ik_block_columns(long gagen_ld, int gagen_stream,
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_rear_right_ik_batch_columns(long n, long ld, const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
-  long s = 0;
+void hexapod_rear_right_ik_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 8L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_rear_right_ik_block_columns(ld, stream, target + s, q_up + s, q_down + s, reach + s, excess + s);
+  const int gagen_stream = gagen_n * 8L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_rear_right_ik_block_columns(gagen_ld, gagen_stream, in_target + gagen_s, out_q_up + gagen_s, out_q_down + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_rear_right_ik_columns_from(s, n, ld, target, q_up, q_down, reach, excess);
+  hexapod_rear_right_ik_columns_from(gagen_s, gagen_n, gagen_ld, in_target, out_q_up, out_q_down, out_reach, out_excess);
 }
 
 #if GAGEN_SIMD
 /* leg rear_right: one damped least-squares IK step towards a body-frame toe target: GAGEN_W consecutive samples at once */
-static void hexapod_rear_right_dls_block(const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
+static void hexapod_rear_right_dls_block(const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32;
-  w0 = GAGEN_GATHER(q, 3, 0);
+  w0 = GAGEN_GATHER(in_q, 3, 0);
   w1 = gagen_v_splat(0.45);
   w2 = gagen_v_splat(0.4);
   w3 = gagen_v_splat(0.5);
-  w4 = GAGEN_GATHER(q, 3, 2);
+  w4 = GAGEN_GATHER(in_q, 3, 2);
   w5 = w3 * w4;
   w6 = gagen_v_sin(w5);
   w7 = w6 * w6;
   w7 = w2 * w7;
   w1 = w1 - w7;
   w8 = gagen_v_splat(0.8);
-  w9 = GAGEN_GATHER(q, 3, 1);
+  w9 = GAGEN_GATHER(in_q, 3, 1);
   w10 = w3 * w9;
   w11 = gagen_v_sin(w10);
   w10 = gagen_v_cos(w10);
@@ -6014,12 +6014,12 @@ static void hexapod_rear_right_dls_block(const double *restrict q, const double 
   w10 = w25 * w25;
   w11 = w24 * w24;
   w10 = w10 + w11;
-  w11 = GAGEN_GATHER(damping, 1, 0);
+  w11 = GAGEN_GATHER(in_damping, 1, 0);
   w11 = w11 * w11;
   w10 = w10 + w11;
   w12 = w18 * w10;
   w8 = w8 - w12;
-  w12 = GAGEN_GATHER(target, 3, 0);
+  w12 = GAGEN_GATHER(in_target, 3, 0);
   w12 = w12 + w7;
   w12 = w12 + w13;
   w12 = w12 + w16;
@@ -6039,7 +6039,7 @@ static void hexapod_rear_right_dls_block(const double *restrict q, const double 
   w13 = w10 * w26;
   w19 = w14 * w14;
   w13 = w13 - w19;
-  w19 = GAGEN_GATHER(target, 3, 1);
+  w19 = GAGEN_GATHER(in_target, 3, 1);
   w19 = w19 + w31;
   w19 = w19 - w30;
   w13 = w13 * w19;
@@ -6047,7 +6047,7 @@ static void hexapod_rear_right_dls_block(const double *restrict q, const double 
   w13 = w14 * w18;
   w30 = w26 * w32;
   w13 = w13 - w30;
-  w30 = GAGEN_GATHER(target, 3, 2);
+  w30 = GAGEN_GATHER(in_target, 3, 2);
   w30 = w30 + w6;
   w30 = w30 + w15;
   w30 = w30 - w22;
@@ -6085,7 +6085,7 @@ static void hexapod_rear_right_dls_block(const double *restrict q, const double 
   w29 = w29 * w10;
   w29 = w29 + w29;
   w0 = w0 - w29;
-  GAGEN_SCATTER(q_next, 3, 0, w0);
+  GAGEN_SCATTER(out_q_next, 3, 0, w0);
   w20 = w20 * w10;
   w9 = w9 + w20;
   w32 = w32 * w12;
@@ -6102,38 +6102,38 @@ static void hexapod_rear_right_dls_block(const double *restrict q, const double 
   w23 = w23 * w27;
   w23 = w23 + w23;
   w9 = w9 + w23;
-  GAGEN_SCATTER(q_next, 3, 1, w9);
+  GAGEN_SCATTER(out_q_next, 3, 1, w9);
   w2 = w2 * w10;
   w4 = w4 + w2;
   w21 = w21 * w27;
   w4 = w4 + w21;
   w24 = w24 * w32;
   w4 = w4 + w24;
-  GAGEN_SCATTER(q_next, 3, 2, w4);
+  GAGEN_SCATTER(out_q_next, 3, 2, w4);
   w12 = w12 * w12;
   w19 = w19 * w19;
   w12 = w12 + w19;
   w30 = w30 * w30;
   w12 = w12 + w30;
   w12 = gagen_v_sqrt(w12);
-  GAGEN_SCATTER(error, 1, 0, w12);
+  GAGEN_SCATTER(out_error, 1, 0, w12);
 }
 #endif
 
-void hexapod_rear_right_dls_batch(long n, const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
-  long s = 0;
+void hexapod_rear_right_dls_batch(long gagen_n, const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(q_next + 3 * a + o, 1, 0);
-      for (int o = 0; o < 1 * GAGEN_W + 7; o += 8) __builtin_prefetch(error + 1 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_q_next + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 1 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_error + 1 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_rear_right_dls_block(q + 3 * s, target + 3 * s, damping + 1 * s, q_next + 3 * s, error + 1 * s);
+    hexapod_rear_right_dls_block(in_q + 3 * gagen_s, in_target + 3 * gagen_s, in_damping + 1 * gagen_s, out_q_next + 3 * gagen_s, out_error + 1 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_rear_right_dls(q + 3 * s, target + 3 * s, damping + 1 * s, q_next + 3 * s, error + 1 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_rear_right_dls(in_q + 3 * gagen_s, in_target + 3 * gagen_s, in_damping + 1 * gagen_s, out_q_next + 3 * gagen_s, out_error + 1 * gagen_s);
   }
 }
 
@@ -6143,22 +6143,22 @@ void hexapod_rear_right_dls_batch(long n, const double *restrict q, const double
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_rear_right_dls_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
+static void hexapod_rear_right_dls_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32;
-  w0 = GAGEN_GATHER(q, 3, 0);
+  w0 = GAGEN_GATHER(in_q, 3, 0);
   w1 = gagen_v_splat(0.45);
   w2 = gagen_v_splat(0.4);
   w3 = gagen_v_splat(0.5);
-  w4 = GAGEN_GATHER(q, 3, 2);
+  w4 = GAGEN_GATHER(in_q, 3, 2);
   w5 = w3 * w4;
   w6 = gagen_v_sin(w5);
   w7 = w6 * w6;
   w7 = w2 * w7;
   w1 = w1 - w7;
   w8 = gagen_v_splat(0.8);
-  w9 = GAGEN_GATHER(q, 3, 1);
+  w9 = GAGEN_GATHER(in_q, 3, 1);
   w10 = w3 * w9;
   w11 = gagen_v_sin(w10);
   w10 = gagen_v_cos(w10);
@@ -6255,12 +6255,12 @@ static void hexapod_rear_right_dls_block_columns(long gagen_ld, int gagen_stream
   w10 = w25 * w25;
   w11 = w24 * w24;
   w10 = w10 + w11;
-  w11 = GAGEN_GATHER(damping, 1, 0);
+  w11 = GAGEN_GATHER(in_damping, 1, 0);
   w11 = w11 * w11;
   w10 = w10 + w11;
   w12 = w18 * w10;
   w8 = w8 - w12;
-  w12 = GAGEN_GATHER(target, 3, 0);
+  w12 = GAGEN_GATHER(in_target, 3, 0);
   w12 = w12 + w7;
   w12 = w12 + w13;
   w12 = w12 + w16;
@@ -6280,7 +6280,7 @@ static void hexapod_rear_right_dls_block_columns(long gagen_ld, int gagen_stream
   w13 = w10 * w26;
   w19 = w14 * w14;
   w13 = w13 - w19;
-  w19 = GAGEN_GATHER(target, 3, 1);
+  w19 = GAGEN_GATHER(in_target, 3, 1);
   w19 = w19 + w31;
   w19 = w19 - w30;
   w13 = w13 * w19;
@@ -6288,7 +6288,7 @@ static void hexapod_rear_right_dls_block_columns(long gagen_ld, int gagen_stream
   w13 = w14 * w18;
   w30 = w26 * w32;
   w13 = w13 - w30;
-  w30 = GAGEN_GATHER(target, 3, 2);
+  w30 = GAGEN_GATHER(in_target, 3, 2);
   w30 = w30 + w6;
   w30 = w30 + w15;
   w30 = w30 - w22;
@@ -6326,7 +6326,7 @@ static void hexapod_rear_right_dls_block_columns(long gagen_ld, int gagen_stream
   w29 = w29 * w10;
   w29 = w29 + w29;
   w0 = w0 - w29;
-  GAGEN_SCATTER(q_next, 3, 0, w0);
+  GAGEN_SCATTER(out_q_next, 3, 0, w0);
   w20 = w20 * w10;
   w9 = w9 + w20;
   w32 = w32 * w12;
@@ -6343,21 +6343,21 @@ static void hexapod_rear_right_dls_block_columns(long gagen_ld, int gagen_stream
   w23 = w23 * w27;
   w23 = w23 + w23;
   w9 = w9 + w23;
-  GAGEN_SCATTER(q_next, 3, 1, w9);
+  GAGEN_SCATTER(out_q_next, 3, 1, w9);
   w2 = w2 * w10;
   w4 = w4 + w2;
   w21 = w21 * w27;
   w4 = w4 + w21;
   w24 = w24 * w32;
   w4 = w4 + w24;
-  GAGEN_SCATTER(q_next, 3, 2, w4);
+  GAGEN_SCATTER(out_q_next, 3, 2, w4);
   w12 = w12 * w12;
   w19 = w19 * w19;
   w12 = w12 + w19;
   w30 = w30 * w30;
   w12 = w12 + w30;
   w12 = gagen_v_sqrt(w12);
-  GAGEN_SCATTER(error, 1, 0, w12);
+  GAGEN_SCATTER(out_error, 1, 0, w12);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -6365,33 +6365,33 @@ static void hexapod_rear_right_dls_block_columns(long gagen_ld, int gagen_stream
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_rear_right_dls_batch_columns(long n, long ld, const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
-  long s = 0;
+void hexapod_rear_right_dls_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 4L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_rear_right_dls_block_columns(ld, stream, q + s, target + s, damping + s, q_next + s, error + s);
+  const int gagen_stream = gagen_n * 4L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_rear_right_dls_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, in_target + gagen_s, in_damping + gagen_s, out_q_next + gagen_s, out_error + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_rear_right_dls_columns_from(s, n, ld, q, target, damping, q_next, error);
+  hexapod_rear_right_dls_columns_from(gagen_s, gagen_n, gagen_ld, in_q, in_target, in_damping, out_q_next, out_error);
 }
 
 #if GAGEN_SIMD
 /* leg middle_right in PGA3D: FK motor, toe point and position, point and spatial Jacobians: GAGEN_W consecutive samples at once */
-static void hexapod_middle_right_fk_pga_block(const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+static void hexapod_middle_right_fk_pga_block(const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17;
   w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(q, 3, 0);
+  w1 = GAGEN_GATHER(in_q, 3, 0);
   w1 = w0 * w1;
   w2 = gagen_v_splat(0.7853981633974483);
   w1 = w1 - w2;
   w2 = gagen_v_cos(w1);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w0 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 3, 2);
+  w5 = GAGEN_GATHER(in_q, 3, 2);
   w0 = w0 * w5;
   w5 = gagen_v_cos(w0);
   w6 = w4 * w5;
@@ -6400,7 +6400,7 @@ static void hexapod_middle_right_fk_pga_block(const double *restrict q, double *
   w7 = w3 * w0;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  GAGEN_SCATTER(M, 8, 0, w9);
+  GAGEN_SCATTER(out_M, 8, 0, w9);
   w10 = gagen_v_splat(0.02500000000000001);
   w10 = w10 * w7;
   w7 = gagen_v_splat(0.225);
@@ -6412,13 +6412,13 @@ static void hexapod_middle_right_fk_pga_block(const double *restrict q, double *
   w8 = w1 * w8;
   w11 = w6 * w8;
   w7 = w7 + w11;
-  GAGEN_SCATTER(M, 8, 1, w7);
+  GAGEN_SCATTER(out_M, 8, 1, w7);
   w10 = w1 * w10;
   w9 = w6 * w9;
   w10 = w10 + w9;
-  GAGEN_SCATTER(M, 8, 2, w10);
+  GAGEN_SCATTER(out_M, 8, 2, w10);
   w8 = -w8;
-  GAGEN_SCATTER(M, 8, 3, w8);
+  GAGEN_SCATTER(out_M, 8, 3, w8);
   w8 = gagen_v_splat(0.175);
   w10 = w3 * w5;
   w8 = w8 * w10;
@@ -6431,15 +6431,15 @@ static void hexapod_middle_right_fk_pga_block(const double *restrict q, double *
   w10 = w1 * w7;
   w11 = w6 * w10;
   w9 = w9 + w11;
-  GAGEN_SCATTER(M, 8, 4, w9);
+  GAGEN_SCATTER(out_M, 8, 4, w9);
   w7 = w2 * w7;
-  GAGEN_SCATTER(M, 8, 5, w7);
-  GAGEN_SCATTER(M, 8, 6, w10);
+  GAGEN_SCATTER(out_M, 8, 5, w7);
+  GAGEN_SCATTER(out_M, 8, 6, w10);
   w8 = w1 * w8;
   w6 = w6 * w7;
   w8 = w8 + w6;
   w8 = -w8;
-  GAGEN_SCATTER(M, 8, 7, w8);
+  GAGEN_SCATTER(out_M, 8, 7, w8);
   w8 = gagen_v_splat(0.8);
   w6 = w3 * w3;
   w7 = w6 * w0;
@@ -6457,7 +6457,7 @@ static void hexapod_middle_right_fk_pga_block(const double *restrict q, double *
   w13 = w13 + w13;
   w7 = w7 - w13;
   w13 = -w7;
-  GAGEN_SCATTER(toe, 4, 0, w13);
+  GAGEN_SCATTER(out_toe, 4, 0, w13);
   w2 = w1 * w2;
   w13 = gagen_v_splat(0.45);
   w13 = w13 - w11;
@@ -6472,31 +6472,31 @@ static void hexapod_middle_right_fk_pga_block(const double *restrict q, double *
   w5 = w5 + w5;
   w11 = gagen_v_splat(0.12);
   w11 = w5 - w11;
-  GAGEN_SCATTER(toe, 4, 1, w11);
+  GAGEN_SCATTER(out_toe, 4, 1, w11);
   w1 = w1 * w1;
   w0 = w1 * w0;
   w12 = w12 + w0;
   w12 = w12 + w12;
   w13 = w13 - w12;
   w12 = -w13;
-  GAGEN_SCATTER(toe, 4, 2, w12);
+  GAGEN_SCATTER(out_toe, 4, 2, w12);
   w12 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(toe, 4, 3, w12);
-  GAGEN_SCATTER(p, 3, 0, w13);
-  GAGEN_SCATTER(p, 3, 1, w11);
-  GAGEN_SCATTER(p, 3, 2, w7);
+  GAGEN_SCATTER(out_toe, 4, 3, w12);
+  GAGEN_SCATTER(out_p, 3, 0, w13);
+  GAGEN_SCATTER(out_p, 3, 1, w11);
+  GAGEN_SCATTER(out_p, 3, 2, w7);
   w5 = -w5;
-  GAGEN_SCATTER(J, 9, 0, w5);
-  GAGEN_SCATTER(J, 9, 1, w13);
+  GAGEN_SCATTER(out_J, 9, 0, w5);
+  GAGEN_SCATTER(out_J, 9, 1, w13);
   w5 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 2, w5);
+  GAGEN_SCATTER(out_J, 9, 2, w5);
   w0 = w1 + w1;
   w0 = w12 - w0;
   w14 = w0 * w7;
-  GAGEN_SCATTER(J, 9, 3, w14);
+  GAGEN_SCATTER(out_J, 9, 3, w14);
   w7 = w2 * w7;
   w7 = w7 + w7;
-  GAGEN_SCATTER(J, 9, 4, w7);
+  GAGEN_SCATTER(out_J, 9, 4, w7);
   w15 = gagen_v_splat(0.05);
   w13 = w0 * w13;
   w16 = w15 - w13;
@@ -6506,71 +6506,71 @@ static void hexapod_middle_right_fk_pga_block(const double *restrict q, double *
   w11 = w2 * w11;
   w11 = w11 + w11;
   w16 = w16 - w11;
-  GAGEN_SCATTER(J, 9, 5, w16);
+  GAGEN_SCATTER(out_J, 9, 5, w16);
   w9 = w10 * w9;
   w14 = w14 + w9;
   w1 = w1 * w3;
   w1 = w1 * w4;
   w1 = w8 * w1;
   w14 = w14 - w1;
-  GAGEN_SCATTER(J, 9, 6, w14);
+  GAGEN_SCATTER(out_J, 9, 6, w14);
   w3 = w2 * w3;
   w3 = w3 * w4;
   w8 = w8 * w3;
   w7 = w8 + w7;
-  GAGEN_SCATTER(J, 9, 7, w7);
+  GAGEN_SCATTER(out_J, 9, 7, w7);
   w7 = gagen_v_splat(0.25);
   w13 = w7 - w13;
   w10 = w10 * w6;
   w13 = w13 - w10;
   w13 = w13 - w17;
   w13 = w13 - w11;
-  GAGEN_SCATTER(J, 9, 8, w13);
+  GAGEN_SCATTER(out_J, 9, 8, w13);
   w13 = gagen_v_splat((-0.12));
-  GAGEN_SCATTER(S, 18, 0, w13);
-  GAGEN_SCATTER(S, 18, 1, w5);
-  GAGEN_SCATTER(S, 18, 2, w5);
-  GAGEN_SCATTER(S, 18, 3, w5);
-  GAGEN_SCATTER(S, 18, 4, w5);
-  GAGEN_SCATTER(S, 18, 5, w12);
-  GAGEN_SCATTER(S, 18, 6, w5);
-  GAGEN_SCATTER(S, 18, 7, w5);
+  GAGEN_SCATTER(out_S, 18, 0, w13);
+  GAGEN_SCATTER(out_S, 18, 1, w5);
+  GAGEN_SCATTER(out_S, 18, 2, w5);
+  GAGEN_SCATTER(out_S, 18, 3, w5);
+  GAGEN_SCATTER(out_S, 18, 4, w5);
+  GAGEN_SCATTER(out_S, 18, 5, w12);
+  GAGEN_SCATTER(out_S, 18, 6, w5);
+  GAGEN_SCATTER(out_S, 18, 7, w5);
   w15 = w15 - w17;
-  GAGEN_SCATTER(S, 18, 8, w15);
+  GAGEN_SCATTER(out_S, 18, 8, w15);
   w2 = w2 + w2;
   w2 = -w2;
-  GAGEN_SCATTER(S, 18, 9, w2);
-  GAGEN_SCATTER(S, 18, 10, w0);
-  GAGEN_SCATTER(S, 18, 11, w5);
+  GAGEN_SCATTER(out_S, 18, 9, w2);
+  GAGEN_SCATTER(out_S, 18, 10, w0);
+  GAGEN_SCATTER(out_S, 18, 11, w5);
   w9 = w9 - w1;
-  GAGEN_SCATTER(S, 18, 12, w9);
-  GAGEN_SCATTER(S, 18, 13, w8);
+  GAGEN_SCATTER(out_S, 18, 12, w9);
+  GAGEN_SCATTER(out_S, 18, 13, w8);
   w7 = w7 - w10;
   w7 = w7 - w17;
-  GAGEN_SCATTER(S, 18, 14, w7);
-  GAGEN_SCATTER(S, 18, 15, w2);
-  GAGEN_SCATTER(S, 18, 16, w0);
-  GAGEN_SCATTER(S, 18, 17, w5);
+  GAGEN_SCATTER(out_S, 18, 14, w7);
+  GAGEN_SCATTER(out_S, 18, 15, w2);
+  GAGEN_SCATTER(out_S, 18, 16, w0);
+  GAGEN_SCATTER(out_S, 18, 17, w5);
 }
 #endif
 
-void hexapod_middle_right_fk_pga_batch(long n, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  long s = 0;
+void hexapod_middle_right_fk_pga_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 4 * GAGEN_W + 7; o += 8) __builtin_prefetch(toe + 4 * a + o, 1, 0);
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(p + 3 * a + o, 1, 0);
-      for (int o = 0; o < 9 * GAGEN_W + 7; o += 8) __builtin_prefetch(J + 9 * a + o, 1, 0);
-      for (int o = 0; o < 18 * GAGEN_W + 7; o += 8) __builtin_prefetch(S + 18 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 4 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_toe + 4 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_p + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 9 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J + 9 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 18 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_S + 18 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_middle_right_fk_pga_block(q + 3 * s, M + 8 * s, toe + 4 * s, p + 3 * s, J + 9 * s, S + 18 * s);
+    hexapod_middle_right_fk_pga_block(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_toe + 4 * gagen_s, out_p + 3 * gagen_s, out_J + 9 * gagen_s, out_S + 18 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_middle_right_fk_pga(q + 3 * s, M + 8 * s, toe + 4 * s, p + 3 * s, J + 9 * s, S + 18 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_middle_right_fk_pga(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_toe + 4 * gagen_s, out_p + 3 * gagen_s, out_J + 9 * gagen_s, out_S + 18 * gagen_s);
   }
 }
 
@@ -6580,19 +6580,19 @@ void hexapod_middle_right_fk_pga_batch(long n, const double *restrict q, double 
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_middle_right_fk_pga_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+static void hexapod_middle_right_fk_pga_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17;
   w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(q, 3, 0);
+  w1 = GAGEN_GATHER(in_q, 3, 0);
   w1 = w0 * w1;
   w2 = gagen_v_splat(0.7853981633974483);
   w1 = w1 - w2;
   w2 = gagen_v_cos(w1);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w0 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 3, 2);
+  w5 = GAGEN_GATHER(in_q, 3, 2);
   w0 = w0 * w5;
   w5 = gagen_v_cos(w0);
   w6 = w4 * w5;
@@ -6601,7 +6601,7 @@ static void hexapod_middle_right_fk_pga_block_columns(long gagen_ld, int gagen_s
   w7 = w3 * w0;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  GAGEN_SCATTER(M, 8, 0, w9);
+  GAGEN_SCATTER(out_M, 8, 0, w9);
   w10 = gagen_v_splat(0.02500000000000001);
   w10 = w10 * w7;
   w7 = gagen_v_splat(0.225);
@@ -6613,13 +6613,13 @@ static void hexapod_middle_right_fk_pga_block_columns(long gagen_ld, int gagen_s
   w8 = w1 * w8;
   w11 = w6 * w8;
   w7 = w7 + w11;
-  GAGEN_SCATTER(M, 8, 1, w7);
+  GAGEN_SCATTER(out_M, 8, 1, w7);
   w10 = w1 * w10;
   w9 = w6 * w9;
   w10 = w10 + w9;
-  GAGEN_SCATTER(M, 8, 2, w10);
+  GAGEN_SCATTER(out_M, 8, 2, w10);
   w8 = -w8;
-  GAGEN_SCATTER(M, 8, 3, w8);
+  GAGEN_SCATTER(out_M, 8, 3, w8);
   w8 = gagen_v_splat(0.175);
   w10 = w3 * w5;
   w8 = w8 * w10;
@@ -6632,15 +6632,15 @@ static void hexapod_middle_right_fk_pga_block_columns(long gagen_ld, int gagen_s
   w10 = w1 * w7;
   w11 = w6 * w10;
   w9 = w9 + w11;
-  GAGEN_SCATTER(M, 8, 4, w9);
+  GAGEN_SCATTER(out_M, 8, 4, w9);
   w7 = w2 * w7;
-  GAGEN_SCATTER(M, 8, 5, w7);
-  GAGEN_SCATTER(M, 8, 6, w10);
+  GAGEN_SCATTER(out_M, 8, 5, w7);
+  GAGEN_SCATTER(out_M, 8, 6, w10);
   w8 = w1 * w8;
   w6 = w6 * w7;
   w8 = w8 + w6;
   w8 = -w8;
-  GAGEN_SCATTER(M, 8, 7, w8);
+  GAGEN_SCATTER(out_M, 8, 7, w8);
   w8 = gagen_v_splat(0.8);
   w6 = w3 * w3;
   w7 = w6 * w0;
@@ -6658,7 +6658,7 @@ static void hexapod_middle_right_fk_pga_block_columns(long gagen_ld, int gagen_s
   w13 = w13 + w13;
   w7 = w7 - w13;
   w13 = -w7;
-  GAGEN_SCATTER(toe, 4, 0, w13);
+  GAGEN_SCATTER(out_toe, 4, 0, w13);
   w2 = w1 * w2;
   w13 = gagen_v_splat(0.45);
   w13 = w13 - w11;
@@ -6673,31 +6673,31 @@ static void hexapod_middle_right_fk_pga_block_columns(long gagen_ld, int gagen_s
   w5 = w5 + w5;
   w11 = gagen_v_splat(0.12);
   w11 = w5 - w11;
-  GAGEN_SCATTER(toe, 4, 1, w11);
+  GAGEN_SCATTER(out_toe, 4, 1, w11);
   w1 = w1 * w1;
   w0 = w1 * w0;
   w12 = w12 + w0;
   w12 = w12 + w12;
   w13 = w13 - w12;
   w12 = -w13;
-  GAGEN_SCATTER(toe, 4, 2, w12);
+  GAGEN_SCATTER(out_toe, 4, 2, w12);
   w12 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(toe, 4, 3, w12);
-  GAGEN_SCATTER(p, 3, 0, w13);
-  GAGEN_SCATTER(p, 3, 1, w11);
-  GAGEN_SCATTER(p, 3, 2, w7);
+  GAGEN_SCATTER(out_toe, 4, 3, w12);
+  GAGEN_SCATTER(out_p, 3, 0, w13);
+  GAGEN_SCATTER(out_p, 3, 1, w11);
+  GAGEN_SCATTER(out_p, 3, 2, w7);
   w5 = -w5;
-  GAGEN_SCATTER(J, 9, 0, w5);
-  GAGEN_SCATTER(J, 9, 1, w13);
+  GAGEN_SCATTER(out_J, 9, 0, w5);
+  GAGEN_SCATTER(out_J, 9, 1, w13);
   w5 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 2, w5);
+  GAGEN_SCATTER(out_J, 9, 2, w5);
   w0 = w1 + w1;
   w0 = w12 - w0;
   w14 = w0 * w7;
-  GAGEN_SCATTER(J, 9, 3, w14);
+  GAGEN_SCATTER(out_J, 9, 3, w14);
   w7 = w2 * w7;
   w7 = w7 + w7;
-  GAGEN_SCATTER(J, 9, 4, w7);
+  GAGEN_SCATTER(out_J, 9, 4, w7);
   w15 = gagen_v_splat(0.05);
   w13 = w0 * w13;
   w16 = w15 - w13;
@@ -6707,51 +6707,51 @@ static void hexapod_middle_right_fk_pga_block_columns(long gagen_ld, int gagen_s
   w11 = w2 * w11;
   w11 = w11 + w11;
   w16 = w16 - w11;
-  GAGEN_SCATTER(J, 9, 5, w16);
+  GAGEN_SCATTER(out_J, 9, 5, w16);
   w9 = w10 * w9;
   w14 = w14 + w9;
   w1 = w1 * w3;
   w1 = w1 * w4;
   w1 = w8 * w1;
   w14 = w14 - w1;
-  GAGEN_SCATTER(J, 9, 6, w14);
+  GAGEN_SCATTER(out_J, 9, 6, w14);
   w3 = w2 * w3;
   w3 = w3 * w4;
   w8 = w8 * w3;
   w7 = w8 + w7;
-  GAGEN_SCATTER(J, 9, 7, w7);
+  GAGEN_SCATTER(out_J, 9, 7, w7);
   w7 = gagen_v_splat(0.25);
   w13 = w7 - w13;
   w10 = w10 * w6;
   w13 = w13 - w10;
   w13 = w13 - w17;
   w13 = w13 - w11;
-  GAGEN_SCATTER(J, 9, 8, w13);
+  GAGEN_SCATTER(out_J, 9, 8, w13);
   w13 = gagen_v_splat((-0.12));
-  GAGEN_SCATTER(S, 18, 0, w13);
-  GAGEN_SCATTER(S, 18, 1, w5);
-  GAGEN_SCATTER(S, 18, 2, w5);
-  GAGEN_SCATTER(S, 18, 3, w5);
-  GAGEN_SCATTER(S, 18, 4, w5);
-  GAGEN_SCATTER(S, 18, 5, w12);
-  GAGEN_SCATTER(S, 18, 6, w5);
-  GAGEN_SCATTER(S, 18, 7, w5);
+  GAGEN_SCATTER(out_S, 18, 0, w13);
+  GAGEN_SCATTER(out_S, 18, 1, w5);
+  GAGEN_SCATTER(out_S, 18, 2, w5);
+  GAGEN_SCATTER(out_S, 18, 3, w5);
+  GAGEN_SCATTER(out_S, 18, 4, w5);
+  GAGEN_SCATTER(out_S, 18, 5, w12);
+  GAGEN_SCATTER(out_S, 18, 6, w5);
+  GAGEN_SCATTER(out_S, 18, 7, w5);
   w15 = w15 - w17;
-  GAGEN_SCATTER(S, 18, 8, w15);
+  GAGEN_SCATTER(out_S, 18, 8, w15);
   w2 = w2 + w2;
   w2 = -w2;
-  GAGEN_SCATTER(S, 18, 9, w2);
-  GAGEN_SCATTER(S, 18, 10, w0);
-  GAGEN_SCATTER(S, 18, 11, w5);
+  GAGEN_SCATTER(out_S, 18, 9, w2);
+  GAGEN_SCATTER(out_S, 18, 10, w0);
+  GAGEN_SCATTER(out_S, 18, 11, w5);
   w9 = w9 - w1;
-  GAGEN_SCATTER(S, 18, 12, w9);
-  GAGEN_SCATTER(S, 18, 13, w8);
+  GAGEN_SCATTER(out_S, 18, 12, w9);
+  GAGEN_SCATTER(out_S, 18, 13, w8);
   w7 = w7 - w10;
   w7 = w7 - w17;
-  GAGEN_SCATTER(S, 18, 14, w7);
-  GAGEN_SCATTER(S, 18, 15, w2);
-  GAGEN_SCATTER(S, 18, 16, w0);
-  GAGEN_SCATTER(S, 18, 17, w5);
+  GAGEN_SCATTER(out_S, 18, 14, w7);
+  GAGEN_SCATTER(out_S, 18, 15, w2);
+  GAGEN_SCATTER(out_S, 18, 16, w0);
+  GAGEN_SCATTER(out_S, 18, 17, w5);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -6759,33 +6759,33 @@ static void hexapod_middle_right_fk_pga_block_columns(long gagen_ld, int gagen_s
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_middle_right_fk_pga_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  long s = 0;
+void hexapod_middle_right_fk_pga_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 42L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_middle_right_fk_pga_block_columns(ld, stream, q + s, M + s, toe + s, p + s, J + s, S + s);
+  const int gagen_stream = gagen_n * 42L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_middle_right_fk_pga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_middle_right_fk_pga_columns_from(s, n, ld, q, M, toe, p, J, S);
+  hexapod_middle_right_fk_pga_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_toe, out_p, out_J, out_S);
 }
 
 #if GAGEN_SIMD
 /* leg middle_right in CGA3D: FK motor, toe point and position, point and spatial Jacobians: GAGEN_W consecutive samples at once */
-static void hexapod_middle_right_fk_cga_block(const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+static void hexapod_middle_right_fk_cga_block(const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20;
   w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(q, 3, 0);
+  w1 = GAGEN_GATHER(in_q, 3, 0);
   w1 = w0 * w1;
   w2 = gagen_v_splat(0.7853981633974483);
   w1 = w1 - w2;
   w2 = gagen_v_cos(w1);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w0 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 3, 2);
+  w5 = GAGEN_GATHER(in_q, 3, 2);
   w0 = w0 * w5;
   w5 = gagen_v_cos(w0);
   w6 = w4 * w5;
@@ -6794,18 +6794,18 @@ static void hexapod_middle_right_fk_cga_block(const double *restrict q, double *
   w7 = w3 * w0;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  GAGEN_SCATTER(M, 8, 0, w9);
+  GAGEN_SCATTER(out_M, 8, 0, w9);
   w1 = gagen_v_sin(w1);
   w8 = w1 * w8;
   w10 = -w8;
-  GAGEN_SCATTER(M, 8, 1, w10);
+  GAGEN_SCATTER(out_M, 8, 1, w10);
   w10 = w4 * w0;
   w11 = w3 * w5;
   w12 = w10 + w11;
   w13 = w2 * w12;
-  GAGEN_SCATTER(M, 8, 2, w13);
+  GAGEN_SCATTER(out_M, 8, 2, w13);
   w12 = w1 * w12;
-  GAGEN_SCATTER(M, 8, 3, w12);
+  GAGEN_SCATTER(out_M, 8, 3, w12);
   w14 = gagen_v_splat(0.02500000000000001);
   w14 = w14 * w7;
   w7 = gagen_v_splat(0.225);
@@ -6815,11 +6815,11 @@ static void hexapod_middle_right_fk_cga_block(const double *restrict q, double *
   w6 = gagen_v_splat(0.06);
   w8 = w6 * w8;
   w7 = w7 + w8;
-  GAGEN_SCATTER(M, 8, 4, w7);
+  GAGEN_SCATTER(out_M, 8, 4, w7);
   w14 = w1 * w14;
   w9 = w6 * w9;
   w14 = w14 + w9;
-  GAGEN_SCATTER(M, 8, 5, w14);
+  GAGEN_SCATTER(out_M, 8, 5, w14);
   w14 = gagen_v_splat(0.175);
   w14 = w14 * w11;
   w11 = gagen_v_splat(0.024999999999999994);
@@ -6828,14 +6828,14 @@ static void hexapod_middle_right_fk_cga_block(const double *restrict q, double *
   w11 = w2 * w14;
   w12 = w6 * w12;
   w11 = w11 + w12;
-  GAGEN_SCATTER(M, 8, 6, w11);
+  GAGEN_SCATTER(out_M, 8, 6, w11);
   w14 = w1 * w14;
   w6 = w6 * w13;
   w14 = w14 + w6;
   w14 = -w14;
-  GAGEN_SCATTER(M, 8, 7, w14);
+  GAGEN_SCATTER(out_M, 8, 7, w14);
   w14 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(toe, 5, 0, w14);
+  GAGEN_SCATTER(out_toe, 5, 0, w14);
   w6 = gagen_v_splat(0.45);
   w13 = w3 * w3;
   w11 = gagen_v_splat(0.4);
@@ -6859,13 +6859,13 @@ static void hexapod_middle_right_fk_cga_block(const double *restrict q, double *
   w6 = w6 + w20;
   w6 = w6 - w10;
   w6 = w6 - w19;
-  GAGEN_SCATTER(toe, 5, 1, w6);
+  GAGEN_SCATTER(out_toe, 5, 1, w6);
   w1 = w1 * w2;
   w15 = w1 * w15;
   w15 = w15 + w15;
   w2 = gagen_v_splat(0.12);
   w2 = w15 - w2;
-  GAGEN_SCATTER(toe, 5, 2, w2);
+  GAGEN_SCATTER(out_toe, 5, 2, w2);
   w9 = w17 * w9;
   w9 = w9 + w9;
   w19 = w13 * w0;
@@ -6875,7 +6875,7 @@ static void hexapod_middle_right_fk_cga_block(const double *restrict q, double *
   w0 = w0 * w5;
   w0 = w11 * w0;
   w9 = w9 - w0;
-  GAGEN_SCATTER(toe, 5, 3, w9);
+  GAGEN_SCATTER(out_toe, 5, 3, w9);
   w0 = gagen_v_splat(0.10845);
   w5 = gagen_v_splat(0.020000000000000004);
   w5 = w5 * w12;
@@ -6902,22 +6902,22 @@ static void hexapod_middle_right_fk_cga_block(const double *restrict q, double *
   w5 = gagen_v_splat(0.04000000000000001);
   w5 = w5 * w18;
   w0 = w0 - w5;
-  GAGEN_SCATTER(toe, 5, 4, w0);
-  GAGEN_SCATTER(p, 3, 0, w6);
-  GAGEN_SCATTER(p, 3, 1, w2);
-  GAGEN_SCATTER(p, 3, 2, w9);
+  GAGEN_SCATTER(out_toe, 5, 4, w0);
+  GAGEN_SCATTER(out_p, 3, 0, w6);
+  GAGEN_SCATTER(out_p, 3, 1, w2);
+  GAGEN_SCATTER(out_p, 3, 2, w9);
   w15 = -w15;
-  GAGEN_SCATTER(J, 9, 0, w15);
-  GAGEN_SCATTER(J, 9, 1, w6);
+  GAGEN_SCATTER(out_J, 9, 0, w15);
+  GAGEN_SCATTER(out_J, 9, 1, w6);
   w15 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 2, w15);
+  GAGEN_SCATTER(out_J, 9, 2, w15);
   w0 = w8 + w8;
   w0 = w14 - w0;
   w5 = w0 * w9;
-  GAGEN_SCATTER(J, 9, 3, w5);
+  GAGEN_SCATTER(out_J, 9, 3, w5);
   w9 = w1 * w9;
   w9 = w9 + w9;
-  GAGEN_SCATTER(J, 9, 4, w9);
+  GAGEN_SCATTER(out_J, 9, 4, w9);
   w18 = gagen_v_splat(0.05);
   w6 = w0 * w6;
   w12 = w18 - w6;
@@ -6926,71 +6926,71 @@ static void hexapod_middle_right_fk_cga_block(const double *restrict q, double *
   w2 = w1 * w2;
   w2 = w2 + w2;
   w12 = w12 - w2;
-  GAGEN_SCATTER(J, 9, 5, w12);
+  GAGEN_SCATTER(out_J, 9, 5, w12);
   w17 = w11 * w17;
   w5 = w5 + w17;
   w8 = w8 * w3;
   w8 = w8 * w4;
   w8 = w16 * w8;
   w5 = w5 - w8;
-  GAGEN_SCATTER(J, 9, 6, w5);
+  GAGEN_SCATTER(out_J, 9, 6, w5);
   w3 = w1 * w3;
   w3 = w3 * w4;
   w16 = w16 * w3;
   w9 = w16 + w9;
-  GAGEN_SCATTER(J, 9, 7, w9);
+  GAGEN_SCATTER(out_J, 9, 7, w9);
   w9 = gagen_v_splat(0.25);
   w6 = w9 - w6;
   w11 = w11 * w13;
   w6 = w6 - w11;
   w6 = w6 - w10;
   w6 = w6 - w2;
-  GAGEN_SCATTER(J, 9, 8, w6);
+  GAGEN_SCATTER(out_J, 9, 8, w6);
   w6 = gagen_v_splat((-0.12));
-  GAGEN_SCATTER(S, 18, 0, w6);
-  GAGEN_SCATTER(S, 18, 1, w15);
-  GAGEN_SCATTER(S, 18, 2, w15);
-  GAGEN_SCATTER(S, 18, 3, w15);
-  GAGEN_SCATTER(S, 18, 4, w15);
-  GAGEN_SCATTER(S, 18, 5, w14);
-  GAGEN_SCATTER(S, 18, 6, w15);
-  GAGEN_SCATTER(S, 18, 7, w15);
+  GAGEN_SCATTER(out_S, 18, 0, w6);
+  GAGEN_SCATTER(out_S, 18, 1, w15);
+  GAGEN_SCATTER(out_S, 18, 2, w15);
+  GAGEN_SCATTER(out_S, 18, 3, w15);
+  GAGEN_SCATTER(out_S, 18, 4, w15);
+  GAGEN_SCATTER(out_S, 18, 5, w14);
+  GAGEN_SCATTER(out_S, 18, 6, w15);
+  GAGEN_SCATTER(out_S, 18, 7, w15);
   w18 = w18 - w10;
-  GAGEN_SCATTER(S, 18, 8, w18);
+  GAGEN_SCATTER(out_S, 18, 8, w18);
   w1 = w1 + w1;
   w1 = -w1;
-  GAGEN_SCATTER(S, 18, 9, w1);
-  GAGEN_SCATTER(S, 18, 10, w0);
-  GAGEN_SCATTER(S, 18, 11, w15);
+  GAGEN_SCATTER(out_S, 18, 9, w1);
+  GAGEN_SCATTER(out_S, 18, 10, w0);
+  GAGEN_SCATTER(out_S, 18, 11, w15);
   w17 = w17 - w8;
-  GAGEN_SCATTER(S, 18, 12, w17);
-  GAGEN_SCATTER(S, 18, 13, w16);
+  GAGEN_SCATTER(out_S, 18, 12, w17);
+  GAGEN_SCATTER(out_S, 18, 13, w16);
   w9 = w9 - w11;
   w9 = w9 - w10;
-  GAGEN_SCATTER(S, 18, 14, w9);
-  GAGEN_SCATTER(S, 18, 15, w1);
-  GAGEN_SCATTER(S, 18, 16, w0);
-  GAGEN_SCATTER(S, 18, 17, w15);
+  GAGEN_SCATTER(out_S, 18, 14, w9);
+  GAGEN_SCATTER(out_S, 18, 15, w1);
+  GAGEN_SCATTER(out_S, 18, 16, w0);
+  GAGEN_SCATTER(out_S, 18, 17, w15);
 }
 #endif
 
-void hexapod_middle_right_fk_cga_batch(long n, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  long s = 0;
+void hexapod_middle_right_fk_cga_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(toe + 5 * a + o, 1, 0);
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(p + 3 * a + o, 1, 0);
-      for (int o = 0; o < 9 * GAGEN_W + 7; o += 8) __builtin_prefetch(J + 9 * a + o, 1, 0);
-      for (int o = 0; o < 18 * GAGEN_W + 7; o += 8) __builtin_prefetch(S + 18 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_toe + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_p + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 9 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J + 9 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 18 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_S + 18 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_middle_right_fk_cga_block(q + 3 * s, M + 8 * s, toe + 5 * s, p + 3 * s, J + 9 * s, S + 18 * s);
+    hexapod_middle_right_fk_cga_block(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_toe + 5 * gagen_s, out_p + 3 * gagen_s, out_J + 9 * gagen_s, out_S + 18 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_middle_right_fk_cga(q + 3 * s, M + 8 * s, toe + 5 * s, p + 3 * s, J + 9 * s, S + 18 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_middle_right_fk_cga(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_toe + 5 * gagen_s, out_p + 3 * gagen_s, out_J + 9 * gagen_s, out_S + 18 * gagen_s);
   }
 }
 
@@ -7000,19 +7000,19 @@ void hexapod_middle_right_fk_cga_batch(long n, const double *restrict q, double 
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_middle_right_fk_cga_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+static void hexapod_middle_right_fk_cga_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20;
   w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(q, 3, 0);
+  w1 = GAGEN_GATHER(in_q, 3, 0);
   w1 = w0 * w1;
   w2 = gagen_v_splat(0.7853981633974483);
   w1 = w1 - w2;
   w2 = gagen_v_cos(w1);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w0 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 3, 2);
+  w5 = GAGEN_GATHER(in_q, 3, 2);
   w0 = w0 * w5;
   w5 = gagen_v_cos(w0);
   w6 = w4 * w5;
@@ -7021,18 +7021,18 @@ static void hexapod_middle_right_fk_cga_block_columns(long gagen_ld, int gagen_s
   w7 = w3 * w0;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  GAGEN_SCATTER(M, 8, 0, w9);
+  GAGEN_SCATTER(out_M, 8, 0, w9);
   w1 = gagen_v_sin(w1);
   w8 = w1 * w8;
   w10 = -w8;
-  GAGEN_SCATTER(M, 8, 1, w10);
+  GAGEN_SCATTER(out_M, 8, 1, w10);
   w10 = w4 * w0;
   w11 = w3 * w5;
   w12 = w10 + w11;
   w13 = w2 * w12;
-  GAGEN_SCATTER(M, 8, 2, w13);
+  GAGEN_SCATTER(out_M, 8, 2, w13);
   w12 = w1 * w12;
-  GAGEN_SCATTER(M, 8, 3, w12);
+  GAGEN_SCATTER(out_M, 8, 3, w12);
   w14 = gagen_v_splat(0.02500000000000001);
   w14 = w14 * w7;
   w7 = gagen_v_splat(0.225);
@@ -7042,11 +7042,11 @@ static void hexapod_middle_right_fk_cga_block_columns(long gagen_ld, int gagen_s
   w6 = gagen_v_splat(0.06);
   w8 = w6 * w8;
   w7 = w7 + w8;
-  GAGEN_SCATTER(M, 8, 4, w7);
+  GAGEN_SCATTER(out_M, 8, 4, w7);
   w14 = w1 * w14;
   w9 = w6 * w9;
   w14 = w14 + w9;
-  GAGEN_SCATTER(M, 8, 5, w14);
+  GAGEN_SCATTER(out_M, 8, 5, w14);
   w14 = gagen_v_splat(0.175);
   w14 = w14 * w11;
   w11 = gagen_v_splat(0.024999999999999994);
@@ -7055,14 +7055,14 @@ static void hexapod_middle_right_fk_cga_block_columns(long gagen_ld, int gagen_s
   w11 = w2 * w14;
   w12 = w6 * w12;
   w11 = w11 + w12;
-  GAGEN_SCATTER(M, 8, 6, w11);
+  GAGEN_SCATTER(out_M, 8, 6, w11);
   w14 = w1 * w14;
   w6 = w6 * w13;
   w14 = w14 + w6;
   w14 = -w14;
-  GAGEN_SCATTER(M, 8, 7, w14);
+  GAGEN_SCATTER(out_M, 8, 7, w14);
   w14 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(toe, 5, 0, w14);
+  GAGEN_SCATTER(out_toe, 5, 0, w14);
   w6 = gagen_v_splat(0.45);
   w13 = w3 * w3;
   w11 = gagen_v_splat(0.4);
@@ -7086,13 +7086,13 @@ static void hexapod_middle_right_fk_cga_block_columns(long gagen_ld, int gagen_s
   w6 = w6 + w20;
   w6 = w6 - w10;
   w6 = w6 - w19;
-  GAGEN_SCATTER(toe, 5, 1, w6);
+  GAGEN_SCATTER(out_toe, 5, 1, w6);
   w1 = w1 * w2;
   w15 = w1 * w15;
   w15 = w15 + w15;
   w2 = gagen_v_splat(0.12);
   w2 = w15 - w2;
-  GAGEN_SCATTER(toe, 5, 2, w2);
+  GAGEN_SCATTER(out_toe, 5, 2, w2);
   w9 = w17 * w9;
   w9 = w9 + w9;
   w19 = w13 * w0;
@@ -7102,7 +7102,7 @@ static void hexapod_middle_right_fk_cga_block_columns(long gagen_ld, int gagen_s
   w0 = w0 * w5;
   w0 = w11 * w0;
   w9 = w9 - w0;
-  GAGEN_SCATTER(toe, 5, 3, w9);
+  GAGEN_SCATTER(out_toe, 5, 3, w9);
   w0 = gagen_v_splat(0.10845);
   w5 = gagen_v_splat(0.020000000000000004);
   w5 = w5 * w12;
@@ -7129,22 +7129,22 @@ static void hexapod_middle_right_fk_cga_block_columns(long gagen_ld, int gagen_s
   w5 = gagen_v_splat(0.04000000000000001);
   w5 = w5 * w18;
   w0 = w0 - w5;
-  GAGEN_SCATTER(toe, 5, 4, w0);
-  GAGEN_SCATTER(p, 3, 0, w6);
-  GAGEN_SCATTER(p, 3, 1, w2);
-  GAGEN_SCATTER(p, 3, 2, w9);
+  GAGEN_SCATTER(out_toe, 5, 4, w0);
+  GAGEN_SCATTER(out_p, 3, 0, w6);
+  GAGEN_SCATTER(out_p, 3, 1, w2);
+  GAGEN_SCATTER(out_p, 3, 2, w9);
   w15 = -w15;
-  GAGEN_SCATTER(J, 9, 0, w15);
-  GAGEN_SCATTER(J, 9, 1, w6);
+  GAGEN_SCATTER(out_J, 9, 0, w15);
+  GAGEN_SCATTER(out_J, 9, 1, w6);
   w15 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 2, w15);
+  GAGEN_SCATTER(out_J, 9, 2, w15);
   w0 = w8 + w8;
   w0 = w14 - w0;
   w5 = w0 * w9;
-  GAGEN_SCATTER(J, 9, 3, w5);
+  GAGEN_SCATTER(out_J, 9, 3, w5);
   w9 = w1 * w9;
   w9 = w9 + w9;
-  GAGEN_SCATTER(J, 9, 4, w9);
+  GAGEN_SCATTER(out_J, 9, 4, w9);
   w18 = gagen_v_splat(0.05);
   w6 = w0 * w6;
   w12 = w18 - w6;
@@ -7153,51 +7153,51 @@ static void hexapod_middle_right_fk_cga_block_columns(long gagen_ld, int gagen_s
   w2 = w1 * w2;
   w2 = w2 + w2;
   w12 = w12 - w2;
-  GAGEN_SCATTER(J, 9, 5, w12);
+  GAGEN_SCATTER(out_J, 9, 5, w12);
   w17 = w11 * w17;
   w5 = w5 + w17;
   w8 = w8 * w3;
   w8 = w8 * w4;
   w8 = w16 * w8;
   w5 = w5 - w8;
-  GAGEN_SCATTER(J, 9, 6, w5);
+  GAGEN_SCATTER(out_J, 9, 6, w5);
   w3 = w1 * w3;
   w3 = w3 * w4;
   w16 = w16 * w3;
   w9 = w16 + w9;
-  GAGEN_SCATTER(J, 9, 7, w9);
+  GAGEN_SCATTER(out_J, 9, 7, w9);
   w9 = gagen_v_splat(0.25);
   w6 = w9 - w6;
   w11 = w11 * w13;
   w6 = w6 - w11;
   w6 = w6 - w10;
   w6 = w6 - w2;
-  GAGEN_SCATTER(J, 9, 8, w6);
+  GAGEN_SCATTER(out_J, 9, 8, w6);
   w6 = gagen_v_splat((-0.12));
-  GAGEN_SCATTER(S, 18, 0, w6);
-  GAGEN_SCATTER(S, 18, 1, w15);
-  GAGEN_SCATTER(S, 18, 2, w15);
-  GAGEN_SCATTER(S, 18, 3, w15);
-  GAGEN_SCATTER(S, 18, 4, w15);
-  GAGEN_SCATTER(S, 18, 5, w14);
-  GAGEN_SCATTER(S, 18, 6, w15);
-  GAGEN_SCATTER(S, 18, 7, w15);
+  GAGEN_SCATTER(out_S, 18, 0, w6);
+  GAGEN_SCATTER(out_S, 18, 1, w15);
+  GAGEN_SCATTER(out_S, 18, 2, w15);
+  GAGEN_SCATTER(out_S, 18, 3, w15);
+  GAGEN_SCATTER(out_S, 18, 4, w15);
+  GAGEN_SCATTER(out_S, 18, 5, w14);
+  GAGEN_SCATTER(out_S, 18, 6, w15);
+  GAGEN_SCATTER(out_S, 18, 7, w15);
   w18 = w18 - w10;
-  GAGEN_SCATTER(S, 18, 8, w18);
+  GAGEN_SCATTER(out_S, 18, 8, w18);
   w1 = w1 + w1;
   w1 = -w1;
-  GAGEN_SCATTER(S, 18, 9, w1);
-  GAGEN_SCATTER(S, 18, 10, w0);
-  GAGEN_SCATTER(S, 18, 11, w15);
+  GAGEN_SCATTER(out_S, 18, 9, w1);
+  GAGEN_SCATTER(out_S, 18, 10, w0);
+  GAGEN_SCATTER(out_S, 18, 11, w15);
   w17 = w17 - w8;
-  GAGEN_SCATTER(S, 18, 12, w17);
-  GAGEN_SCATTER(S, 18, 13, w16);
+  GAGEN_SCATTER(out_S, 18, 12, w17);
+  GAGEN_SCATTER(out_S, 18, 13, w16);
   w9 = w9 - w11;
   w9 = w9 - w10;
-  GAGEN_SCATTER(S, 18, 14, w9);
-  GAGEN_SCATTER(S, 18, 15, w1);
-  GAGEN_SCATTER(S, 18, 16, w0);
-  GAGEN_SCATTER(S, 18, 17, w15);
+  GAGEN_SCATTER(out_S, 18, 14, w9);
+  GAGEN_SCATTER(out_S, 18, 15, w1);
+  GAGEN_SCATTER(out_S, 18, 16, w0);
+  GAGEN_SCATTER(out_S, 18, 17, w15);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -7205,30 +7205,30 @@ static void hexapod_middle_right_fk_cga_block_columns(long gagen_ld, int gagen_s
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_middle_right_fk_cga_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  long s = 0;
+void hexapod_middle_right_fk_cga_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 43L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_middle_right_fk_cga_block_columns(ld, stream, q + s, M + s, toe + s, p + s, J + s, S + s);
+  const int gagen_stream = gagen_n * 43L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_middle_right_fk_cga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_middle_right_fk_cga_columns_from(s, n, ld, q, M, toe, p, J, S);
+  hexapod_middle_right_fk_cga_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_toe, out_p, out_J, out_S);
 }
 
 #if GAGEN_SIMD
 /* leg middle_right: analytic IK of a body-frame toe target, knee up and down, with reachability: GAGEN_W consecutive samples at once */
-static void hexapod_middle_right_ik_block(const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
+static void hexapod_middle_right_ik_block(const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7;
-  w0 = GAGEN_GATHER(target, 3, 0);
-  w1 = GAGEN_GATHER(target, 3, 1);
+  w0 = GAGEN_GATHER(in_target, 3, 0);
+  w1 = GAGEN_GATHER(in_target, 3, 1);
   w2 = gagen_v_splat(0.12);
   w1 = w1 + w2;
   w2 = -w1;
   w2 = gagen_v_atan2(w0, w2);
-  GAGEN_SCATTER(q_up, 3, 0, w2);
-  w3 = GAGEN_GATHER(target, 3, 2);
+  GAGEN_SCATTER(out_q_up, 3, 0, w2);
+  w3 = GAGEN_GATHER(in_target, 3, 2);
   w4 = -w3;
   w1 = w1 * w1;
   w0 = w0 * w0;
@@ -7254,19 +7254,19 @@ static void hexapod_middle_right_ik_block(const double *restrict target, double 
   w0 = w0 * w1;
   w5 = gagen_v_atan2(w5, w0);
   w0 = w4 - w5;
-  GAGEN_SCATTER(q_up, 3, 1, w0);
+  GAGEN_SCATTER(out_q_up, 3, 1, w0);
   w0 = gagen_v_splat(12.499999999999998);
   w6 = w0 * w6;
   w0 = w0 * w1;
   w7 = gagen_v_splat(1.0);
   w0 = w0 - w7;
   w6 = gagen_v_atan2(w6, w0);
-  GAGEN_SCATTER(q_up, 3, 2, w6);
-  GAGEN_SCATTER(q_down, 3, 0, w2);
+  GAGEN_SCATTER(out_q_up, 3, 2, w6);
+  GAGEN_SCATTER(out_q_down, 3, 0, w2);
   w4 = w4 + w5;
-  GAGEN_SCATTER(q_down, 3, 1, w4);
+  GAGEN_SCATTER(out_q_down, 3, 1, w4);
   w6 = -w6;
-  GAGEN_SCATTER(q_down, 3, 2, w6);
+  GAGEN_SCATTER(out_q_down, 3, 2, w6);
   w6 = gagen_v_splat(1e-09);
   w4 = gagen_v_lt(w1, w3);
   w1 = gagen_v_sqrt(w1);
@@ -7283,27 +7283,27 @@ static void hexapod_middle_right_ik_block(const double *restrict target, double 
   w6 = gagen_v_lt(w6, w3);
   w6 = gagen_v_not(w6);
   w6 = gagen_v_if_else_zero(w6, w7);
-  GAGEN_SCATTER(reach, 1, 0, w6);
-  GAGEN_SCATTER(excess, 1, 0, w3);
+  GAGEN_SCATTER(out_reach, 1, 0, w6);
+  GAGEN_SCATTER(out_excess, 1, 0, w3);
 }
 #endif
 
-void hexapod_middle_right_ik_batch(long n, const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
-  long s = 0;
+void hexapod_middle_right_ik_batch(long gagen_n, const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(q_up + 3 * a + o, 1, 0);
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(q_down + 3 * a + o, 1, 0);
-      for (int o = 0; o < 1 * GAGEN_W + 7; o += 8) __builtin_prefetch(reach + 1 * a + o, 1, 0);
-      for (int o = 0; o < 1 * GAGEN_W + 7; o += 8) __builtin_prefetch(excess + 1 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_q_up + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_q_down + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 1 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_reach + 1 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 1 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_excess + 1 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_middle_right_ik_block(target + 3 * s, q_up + 3 * s, q_down + 3 * s, reach + 1 * s, excess + 1 * s);
+    hexapod_middle_right_ik_block(in_target + 3 * gagen_s, out_q_up + 3 * gagen_s, out_q_down + 3 * gagen_s, out_reach + 1 * gagen_s, out_excess + 1 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_middle_right_ik(target + 3 * s, q_up + 3 * s, q_down + 3 * s, reach + 1 * s, excess + 1 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_middle_right_ik(in_target + 3 * gagen_s, out_q_up + 3 * gagen_s, out_q_down + 3 * gagen_s, out_reach + 1 * gagen_s, out_excess + 1 * gagen_s);
   }
 }
 
@@ -7313,16 +7313,16 @@ void hexapod_middle_right_ik_batch(long n, const double *restrict target, double
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_middle_right_ik_block_columns(long gagen_ld, int gagen_stream, const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
+static void hexapod_middle_right_ik_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7;
-  w0 = GAGEN_GATHER(target, 3, 0);
-  w1 = GAGEN_GATHER(target, 3, 1);
+  w0 = GAGEN_GATHER(in_target, 3, 0);
+  w1 = GAGEN_GATHER(in_target, 3, 1);
   w2 = gagen_v_splat(0.12);
   w1 = w1 + w2;
   w2 = -w1;
   w2 = gagen_v_atan2(w0, w2);
-  GAGEN_SCATTER(q_up, 3, 0, w2);
-  w3 = GAGEN_GATHER(target, 3, 2);
+  GAGEN_SCATTER(out_q_up, 3, 0, w2);
+  w3 = GAGEN_GATHER(in_target, 3, 2);
   w4 = -w3;
   w1 = w1 * w1;
   w0 = w0 * w0;
@@ -7348,19 +7348,19 @@ static void hexapod_middle_right_ik_block_columns(long gagen_ld, int gagen_strea
   w0 = w0 * w1;
   w5 = gagen_v_atan2(w5, w0);
   w0 = w4 - w5;
-  GAGEN_SCATTER(q_up, 3, 1, w0);
+  GAGEN_SCATTER(out_q_up, 3, 1, w0);
   w0 = gagen_v_splat(12.499999999999998);
   w6 = w0 * w6;
   w0 = w0 * w1;
   w7 = gagen_v_splat(1.0);
   w0 = w0 - w7;
   w6 = gagen_v_atan2(w6, w0);
-  GAGEN_SCATTER(q_up, 3, 2, w6);
-  GAGEN_SCATTER(q_down, 3, 0, w2);
+  GAGEN_SCATTER(out_q_up, 3, 2, w6);
+  GAGEN_SCATTER(out_q_down, 3, 0, w2);
   w4 = w4 + w5;
-  GAGEN_SCATTER(q_down, 3, 1, w4);
+  GAGEN_SCATTER(out_q_down, 3, 1, w4);
   w6 = -w6;
-  GAGEN_SCATTER(q_down, 3, 2, w6);
+  GAGEN_SCATTER(out_q_down, 3, 2, w6);
   w6 = gagen_v_splat(1e-09);
   w4 = gagen_v_lt(w1, w3);
   w1 = gagen_v_sqrt(w1);
@@ -7377,8 +7377,8 @@ static void hexapod_middle_right_ik_block_columns(long gagen_ld, int gagen_strea
   w6 = gagen_v_lt(w6, w3);
   w6 = gagen_v_not(w6);
   w6 = gagen_v_if_else_zero(w6, w7);
-  GAGEN_SCATTER(reach, 1, 0, w6);
-  GAGEN_SCATTER(excess, 1, 0, w3);
+  GAGEN_SCATTER(out_reach, 1, 0, w6);
+  GAGEN_SCATTER(out_excess, 1, 0, w3);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -7386,36 +7386,36 @@ static void hexapod_middle_right_ik_block_columns(long gagen_ld, int gagen_strea
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_middle_right_ik_batch_columns(long n, long ld, const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
-  long s = 0;
+void hexapod_middle_right_ik_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 8L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_middle_right_ik_block_columns(ld, stream, target + s, q_up + s, q_down + s, reach + s, excess + s);
+  const int gagen_stream = gagen_n * 8L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_middle_right_ik_block_columns(gagen_ld, gagen_stream, in_target + gagen_s, out_q_up + gagen_s, out_q_down + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_middle_right_ik_columns_from(s, n, ld, target, q_up, q_down, reach, excess);
+  hexapod_middle_right_ik_columns_from(gagen_s, gagen_n, gagen_ld, in_target, out_q_up, out_q_down, out_reach, out_excess);
 }
 
 #if GAGEN_SIMD
 /* leg middle_right: one damped least-squares IK step towards a body-frame toe target: GAGEN_W consecutive samples at once */
-static void hexapod_middle_right_dls_block(const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
+static void hexapod_middle_right_dls_block(const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32;
-  w0 = GAGEN_GATHER(q, 3, 0);
+  w0 = GAGEN_GATHER(in_q, 3, 0);
   w1 = gagen_v_splat(0.45);
   w2 = gagen_v_splat(0.4);
   w3 = gagen_v_splat(0.5);
-  w4 = GAGEN_GATHER(q, 3, 2);
+  w4 = GAGEN_GATHER(in_q, 3, 2);
   w5 = w3 * w4;
   w6 = gagen_v_sin(w5);
   w7 = w6 * w6;
   w7 = w2 * w7;
   w8 = w1 - w7;
   w9 = gagen_v_splat(0.8);
-  w10 = GAGEN_GATHER(q, 3, 1);
+  w10 = GAGEN_GATHER(in_q, 3, 1);
   w11 = w3 * w10;
   w12 = gagen_v_sin(w11);
   w11 = gagen_v_cos(w11);
@@ -7504,12 +7504,12 @@ static void hexapod_middle_right_dls_block(const double *restrict q, const doubl
   w11 = w32 * w32;
   w12 = w25 * w25;
   w11 = w11 + w12;
-  w12 = GAGEN_GATHER(damping, 1, 0);
+  w12 = GAGEN_GATHER(in_damping, 1, 0);
   w12 = w12 * w12;
   w11 = w11 + w12;
   w13 = w19 * w11;
   w9 = w9 - w13;
-  w13 = GAGEN_GATHER(target, 3, 0);
+  w13 = GAGEN_GATHER(in_target, 3, 0);
   w13 = w13 + w7;
   w13 = w13 + w14;
   w13 = w13 + w17;
@@ -7529,7 +7529,7 @@ static void hexapod_middle_right_dls_block(const double *restrict q, const doubl
   w14 = w11 * w26;
   w20 = w15 * w15;
   w14 = w14 - w20;
-  w20 = GAGEN_GATHER(target, 3, 1);
+  w20 = GAGEN_GATHER(in_target, 3, 1);
   w20 = w20 + w30;
   w20 = w20 - w29;
   w14 = w14 * w20;
@@ -7537,7 +7537,7 @@ static void hexapod_middle_right_dls_block(const double *restrict q, const doubl
   w14 = w15 * w19;
   w29 = w26 * w31;
   w14 = w14 - w29;
-  w29 = GAGEN_GATHER(target, 3, 2);
+  w29 = GAGEN_GATHER(in_target, 3, 2);
   w29 = w29 + w6;
   w29 = w29 + w16;
   w29 = w29 - w23;
@@ -7575,7 +7575,7 @@ static void hexapod_middle_right_dls_block(const double *restrict q, const doubl
   w28 = w28 * w11;
   w28 = w28 + w28;
   w0 = w0 - w28;
-  GAGEN_SCATTER(q_next, 3, 0, w0);
+  GAGEN_SCATTER(out_q_next, 3, 0, w0);
   w21 = w21 * w11;
   w10 = w10 + w21;
   w31 = w31 * w13;
@@ -7592,38 +7592,38 @@ static void hexapod_middle_right_dls_block(const double *restrict q, const doubl
   w24 = w24 * w1;
   w24 = w24 + w24;
   w10 = w10 + w24;
-  GAGEN_SCATTER(q_next, 3, 1, w10);
+  GAGEN_SCATTER(out_q_next, 3, 1, w10);
   w2 = w2 * w11;
   w4 = w4 + w2;
   w22 = w22 * w1;
   w4 = w4 + w22;
   w25 = w25 * w31;
   w4 = w4 + w25;
-  GAGEN_SCATTER(q_next, 3, 2, w4);
+  GAGEN_SCATTER(out_q_next, 3, 2, w4);
   w13 = w13 * w13;
   w20 = w20 * w20;
   w13 = w13 + w20;
   w29 = w29 * w29;
   w13 = w13 + w29;
   w13 = gagen_v_sqrt(w13);
-  GAGEN_SCATTER(error, 1, 0, w13);
+  GAGEN_SCATTER(out_error, 1, 0, w13);
 }
 #endif
 
-void hexapod_middle_right_dls_batch(long n, const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
-  long s = 0;
+void hexapod_middle_right_dls_batch(long gagen_n, const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(q_next + 3 * a + o, 1, 0);
-      for (int o = 0; o < 1 * GAGEN_W + 7; o += 8) __builtin_prefetch(error + 1 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_q_next + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 1 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_error + 1 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_middle_right_dls_block(q + 3 * s, target + 3 * s, damping + 1 * s, q_next + 3 * s, error + 1 * s);
+    hexapod_middle_right_dls_block(in_q + 3 * gagen_s, in_target + 3 * gagen_s, in_damping + 1 * gagen_s, out_q_next + 3 * gagen_s, out_error + 1 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_middle_right_dls(q + 3 * s, target + 3 * s, damping + 1 * s, q_next + 3 * s, error + 1 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_middle_right_dls(in_q + 3 * gagen_s, in_target + 3 * gagen_s, in_damping + 1 * gagen_s, out_q_next + 3 * gagen_s, out_error + 1 * gagen_s);
   }
 }
 
@@ -7633,22 +7633,22 @@ void hexapod_middle_right_dls_batch(long n, const double *restrict q, const doub
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_middle_right_dls_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
+static void hexapod_middle_right_dls_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32;
-  w0 = GAGEN_GATHER(q, 3, 0);
+  w0 = GAGEN_GATHER(in_q, 3, 0);
   w1 = gagen_v_splat(0.45);
   w2 = gagen_v_splat(0.4);
   w3 = gagen_v_splat(0.5);
-  w4 = GAGEN_GATHER(q, 3, 2);
+  w4 = GAGEN_GATHER(in_q, 3, 2);
   w5 = w3 * w4;
   w6 = gagen_v_sin(w5);
   w7 = w6 * w6;
   w7 = w2 * w7;
   w8 = w1 - w7;
   w9 = gagen_v_splat(0.8);
-  w10 = GAGEN_GATHER(q, 3, 1);
+  w10 = GAGEN_GATHER(in_q, 3, 1);
   w11 = w3 * w10;
   w12 = gagen_v_sin(w11);
   w11 = gagen_v_cos(w11);
@@ -7737,12 +7737,12 @@ static void hexapod_middle_right_dls_block_columns(long gagen_ld, int gagen_stre
   w11 = w32 * w32;
   w12 = w25 * w25;
   w11 = w11 + w12;
-  w12 = GAGEN_GATHER(damping, 1, 0);
+  w12 = GAGEN_GATHER(in_damping, 1, 0);
   w12 = w12 * w12;
   w11 = w11 + w12;
   w13 = w19 * w11;
   w9 = w9 - w13;
-  w13 = GAGEN_GATHER(target, 3, 0);
+  w13 = GAGEN_GATHER(in_target, 3, 0);
   w13 = w13 + w7;
   w13 = w13 + w14;
   w13 = w13 + w17;
@@ -7762,7 +7762,7 @@ static void hexapod_middle_right_dls_block_columns(long gagen_ld, int gagen_stre
   w14 = w11 * w26;
   w20 = w15 * w15;
   w14 = w14 - w20;
-  w20 = GAGEN_GATHER(target, 3, 1);
+  w20 = GAGEN_GATHER(in_target, 3, 1);
   w20 = w20 + w30;
   w20 = w20 - w29;
   w14 = w14 * w20;
@@ -7770,7 +7770,7 @@ static void hexapod_middle_right_dls_block_columns(long gagen_ld, int gagen_stre
   w14 = w15 * w19;
   w29 = w26 * w31;
   w14 = w14 - w29;
-  w29 = GAGEN_GATHER(target, 3, 2);
+  w29 = GAGEN_GATHER(in_target, 3, 2);
   w29 = w29 + w6;
   w29 = w29 + w16;
   w29 = w29 - w23;
@@ -7808,7 +7808,7 @@ static void hexapod_middle_right_dls_block_columns(long gagen_ld, int gagen_stre
   w28 = w28 * w11;
   w28 = w28 + w28;
   w0 = w0 - w28;
-  GAGEN_SCATTER(q_next, 3, 0, w0);
+  GAGEN_SCATTER(out_q_next, 3, 0, w0);
   w21 = w21 * w11;
   w10 = w10 + w21;
   w31 = w31 * w13;
@@ -7825,21 +7825,21 @@ static void hexapod_middle_right_dls_block_columns(long gagen_ld, int gagen_stre
   w24 = w24 * w1;
   w24 = w24 + w24;
   w10 = w10 + w24;
-  GAGEN_SCATTER(q_next, 3, 1, w10);
+  GAGEN_SCATTER(out_q_next, 3, 1, w10);
   w2 = w2 * w11;
   w4 = w4 + w2;
   w22 = w22 * w1;
   w4 = w4 + w22;
   w25 = w25 * w31;
   w4 = w4 + w25;
-  GAGEN_SCATTER(q_next, 3, 2, w4);
+  GAGEN_SCATTER(out_q_next, 3, 2, w4);
   w13 = w13 * w13;
   w20 = w20 * w20;
   w13 = w13 + w20;
   w29 = w29 * w29;
   w13 = w13 + w29;
   w13 = gagen_v_sqrt(w13);
-  GAGEN_SCATTER(error, 1, 0, w13);
+  GAGEN_SCATTER(out_error, 1, 0, w13);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -7847,33 +7847,33 @@ static void hexapod_middle_right_dls_block_columns(long gagen_ld, int gagen_stre
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_middle_right_dls_batch_columns(long n, long ld, const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
-  long s = 0;
+void hexapod_middle_right_dls_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 4L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_middle_right_dls_block_columns(ld, stream, q + s, target + s, damping + s, q_next + s, error + s);
+  const int gagen_stream = gagen_n * 4L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_middle_right_dls_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, in_target + gagen_s, in_damping + gagen_s, out_q_next + gagen_s, out_error + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_middle_right_dls_columns_from(s, n, ld, q, target, damping, q_next, error);
+  hexapod_middle_right_dls_columns_from(gagen_s, gagen_n, gagen_ld, in_q, in_target, in_damping, out_q_next, out_error);
 }
 
 #if GAGEN_SIMD
 /* leg front_right in PGA3D: FK motor, toe point and position, point and spatial Jacobians: GAGEN_W consecutive samples at once */
-static void hexapod_front_right_fk_pga_block(const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+static void hexapod_front_right_fk_pga_block(const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18;
   w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(q, 3, 0);
+  w1 = GAGEN_GATHER(in_q, 3, 0);
   w1 = w0 * w1;
   w2 = gagen_v_splat(0.2617993877991494);
   w1 = w1 - w2;
   w2 = gagen_v_cos(w1);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w0 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 3, 2);
+  w5 = GAGEN_GATHER(in_q, 3, 2);
   w0 = w0 * w5;
   w5 = gagen_v_cos(w0);
   w6 = w4 * w5;
@@ -7882,7 +7882,7 @@ static void hexapod_front_right_fk_pga_block(const double *restrict q, double *r
   w7 = w3 * w0;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  GAGEN_SCATTER(M, 8, 0, w9);
+  GAGEN_SCATTER(out_M, 8, 0, w9);
   w10 = gagen_v_splat(0.076961524227);
   w10 = w10 * w7;
   w7 = gagen_v_splat(0.276961524227);
@@ -7894,16 +7894,16 @@ static void hexapod_front_right_fk_pga_block(const double *restrict q, double *r
   w8 = w1 * w8;
   w11 = w6 * w8;
   w7 = w7 + w11;
-  GAGEN_SCATTER(M, 8, 1, w7);
+  GAGEN_SCATTER(out_M, 8, 1, w7);
   w10 = w1 * w10;
   w9 = w6 * w9;
   w10 = w10 + w9;
   w9 = gagen_v_splat(0.103923048454);
   w7 = w9 * w8;
   w10 = w10 + w7;
-  GAGEN_SCATTER(M, 8, 2, w10);
+  GAGEN_SCATTER(out_M, 8, 2, w10);
   w8 = -w8;
-  GAGEN_SCATTER(M, 8, 3, w8);
+  GAGEN_SCATTER(out_M, 8, 3, w8);
   w8 = gagen_v_splat(0.123038475773);
   w10 = w3 * w5;
   w8 = w8 * w10;
@@ -7916,17 +7916,17 @@ static void hexapod_front_right_fk_pga_block(const double *restrict q, double *r
   w10 = w1 * w11;
   w12 = w6 * w10;
   w7 = w7 + w12;
-  GAGEN_SCATTER(M, 8, 4, w7);
+  GAGEN_SCATTER(out_M, 8, 4, w7);
   w11 = w2 * w11;
-  GAGEN_SCATTER(M, 8, 5, w11);
-  GAGEN_SCATTER(M, 8, 6, w10);
+  GAGEN_SCATTER(out_M, 8, 5, w11);
+  GAGEN_SCATTER(out_M, 8, 6, w10);
   w8 = w1 * w8;
   w6 = w6 * w11;
   w8 = w8 + w6;
   w9 = w9 * w10;
   w8 = w8 + w9;
   w8 = -w8;
-  GAGEN_SCATTER(M, 8, 7, w8);
+  GAGEN_SCATTER(out_M, 8, 7, w8);
   w8 = gagen_v_splat(0.8);
   w9 = w3 * w3;
   w10 = w9 * w0;
@@ -7944,7 +7944,7 @@ static void hexapod_front_right_fk_pga_block(const double *restrict q, double *r
   w13 = w13 + w13;
   w10 = w10 - w13;
   w13 = -w10;
-  GAGEN_SCATTER(toe, 4, 0, w13);
+  GAGEN_SCATTER(out_toe, 4, 0, w13);
   w2 = w1 * w2;
   w13 = gagen_v_splat(0.45);
   w13 = w13 - w7;
@@ -7959,7 +7959,7 @@ static void hexapod_front_right_fk_pga_block(const double *restrict q, double *r
   w14 = w14 + w14;
   w15 = gagen_v_splat(0.06);
   w15 = w14 - w15;
-  GAGEN_SCATTER(toe, 4, 1, w15);
+  GAGEN_SCATTER(out_toe, 4, 1, w15);
   w16 = gagen_v_splat(0.553923048454);
   w16 = w16 - w7;
   w16 = w16 - w0;
@@ -7969,25 +7969,25 @@ static void hexapod_front_right_fk_pga_block(const double *restrict q, double *r
   w12 = w12 + w12;
   w16 = w16 - w12;
   w5 = -w16;
-  GAGEN_SCATTER(toe, 4, 2, w5);
+  GAGEN_SCATTER(out_toe, 4, 2, w5);
   w5 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(toe, 4, 3, w5);
-  GAGEN_SCATTER(p, 3, 0, w16);
-  GAGEN_SCATTER(p, 3, 1, w15);
-  GAGEN_SCATTER(p, 3, 2, w10);
+  GAGEN_SCATTER(out_toe, 4, 3, w5);
+  GAGEN_SCATTER(out_p, 3, 0, w16);
+  GAGEN_SCATTER(out_p, 3, 1, w15);
+  GAGEN_SCATTER(out_p, 3, 2, w10);
   w14 = -w14;
-  GAGEN_SCATTER(J, 9, 0, w14);
+  GAGEN_SCATTER(out_J, 9, 0, w14);
   w13 = w13 - w12;
-  GAGEN_SCATTER(J, 9, 1, w13);
+  GAGEN_SCATTER(out_J, 9, 1, w13);
   w13 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 2, w13);
+  GAGEN_SCATTER(out_J, 9, 2, w13);
   w12 = w1 + w1;
   w12 = w5 - w12;
   w14 = w12 * w10;
-  GAGEN_SCATTER(J, 9, 3, w14);
+  GAGEN_SCATTER(out_J, 9, 3, w14);
   w10 = w2 * w10;
   w10 = w10 + w10;
-  GAGEN_SCATTER(J, 9, 4, w10);
+  GAGEN_SCATTER(out_J, 9, 4, w10);
   w0 = gagen_v_splat(0.153923048454);
   w16 = w12 * w16;
   w7 = w0 - w16;
@@ -8000,19 +8000,19 @@ static void hexapod_front_right_fk_pga_block(const double *restrict q, double *r
   w15 = w2 * w15;
   w15 = w15 + w15;
   w7 = w7 - w15;
-  GAGEN_SCATTER(J, 9, 5, w7);
+  GAGEN_SCATTER(out_J, 9, 5, w7);
   w11 = w6 * w11;
   w14 = w14 + w11;
   w1 = w1 * w3;
   w1 = w1 * w4;
   w1 = w8 * w1;
   w14 = w14 - w1;
-  GAGEN_SCATTER(J, 9, 6, w14);
+  GAGEN_SCATTER(out_J, 9, 6, w14);
   w3 = w2 * w3;
   w3 = w3 * w4;
   w8 = w8 * w3;
   w10 = w8 + w10;
-  GAGEN_SCATTER(J, 9, 7, w10);
+  GAGEN_SCATTER(out_J, 9, 7, w10);
   w10 = gagen_v_splat(0.353923048454);
   w16 = w10 - w16;
   w6 = w6 * w9;
@@ -8020,55 +8020,55 @@ static void hexapod_front_right_fk_pga_block(const double *restrict q, double *r
   w16 = w16 - w17;
   w16 = w16 - w18;
   w16 = w16 - w15;
-  GAGEN_SCATTER(J, 9, 8, w16);
+  GAGEN_SCATTER(out_J, 9, 8, w16);
   w16 = gagen_v_splat((-0.06));
-  GAGEN_SCATTER(S, 18, 0, w16);
+  GAGEN_SCATTER(out_S, 18, 0, w16);
   w16 = gagen_v_splat((-0.103923048454));
-  GAGEN_SCATTER(S, 18, 1, w16);
-  GAGEN_SCATTER(S, 18, 2, w13);
-  GAGEN_SCATTER(S, 18, 3, w13);
-  GAGEN_SCATTER(S, 18, 4, w13);
-  GAGEN_SCATTER(S, 18, 5, w5);
-  GAGEN_SCATTER(S, 18, 6, w13);
-  GAGEN_SCATTER(S, 18, 7, w13);
+  GAGEN_SCATTER(out_S, 18, 1, w16);
+  GAGEN_SCATTER(out_S, 18, 2, w13);
+  GAGEN_SCATTER(out_S, 18, 3, w13);
+  GAGEN_SCATTER(out_S, 18, 4, w13);
+  GAGEN_SCATTER(out_S, 18, 5, w5);
+  GAGEN_SCATTER(out_S, 18, 6, w13);
+  GAGEN_SCATTER(out_S, 18, 7, w13);
   w0 = w0 - w17;
   w0 = w0 - w18;
-  GAGEN_SCATTER(S, 18, 8, w0);
+  GAGEN_SCATTER(out_S, 18, 8, w0);
   w2 = w2 + w2;
   w2 = -w2;
-  GAGEN_SCATTER(S, 18, 9, w2);
-  GAGEN_SCATTER(S, 18, 10, w12);
-  GAGEN_SCATTER(S, 18, 11, w13);
+  GAGEN_SCATTER(out_S, 18, 9, w2);
+  GAGEN_SCATTER(out_S, 18, 10, w12);
+  GAGEN_SCATTER(out_S, 18, 11, w13);
   w11 = w11 - w1;
-  GAGEN_SCATTER(S, 18, 12, w11);
-  GAGEN_SCATTER(S, 18, 13, w8);
+  GAGEN_SCATTER(out_S, 18, 12, w11);
+  GAGEN_SCATTER(out_S, 18, 13, w8);
   w10 = w10 - w6;
   w10 = w10 - w17;
   w10 = w10 - w18;
-  GAGEN_SCATTER(S, 18, 14, w10);
-  GAGEN_SCATTER(S, 18, 15, w2);
-  GAGEN_SCATTER(S, 18, 16, w12);
-  GAGEN_SCATTER(S, 18, 17, w13);
+  GAGEN_SCATTER(out_S, 18, 14, w10);
+  GAGEN_SCATTER(out_S, 18, 15, w2);
+  GAGEN_SCATTER(out_S, 18, 16, w12);
+  GAGEN_SCATTER(out_S, 18, 17, w13);
 }
 #endif
 
-void hexapod_front_right_fk_pga_batch(long n, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  long s = 0;
+void hexapod_front_right_fk_pga_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 4 * GAGEN_W + 7; o += 8) __builtin_prefetch(toe + 4 * a + o, 1, 0);
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(p + 3 * a + o, 1, 0);
-      for (int o = 0; o < 9 * GAGEN_W + 7; o += 8) __builtin_prefetch(J + 9 * a + o, 1, 0);
-      for (int o = 0; o < 18 * GAGEN_W + 7; o += 8) __builtin_prefetch(S + 18 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 4 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_toe + 4 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_p + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 9 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J + 9 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 18 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_S + 18 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_front_right_fk_pga_block(q + 3 * s, M + 8 * s, toe + 4 * s, p + 3 * s, J + 9 * s, S + 18 * s);
+    hexapod_front_right_fk_pga_block(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_toe + 4 * gagen_s, out_p + 3 * gagen_s, out_J + 9 * gagen_s, out_S + 18 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_front_right_fk_pga(q + 3 * s, M + 8 * s, toe + 4 * s, p + 3 * s, J + 9 * s, S + 18 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_front_right_fk_pga(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_toe + 4 * gagen_s, out_p + 3 * gagen_s, out_J + 9 * gagen_s, out_S + 18 * gagen_s);
   }
 }
 
@@ -8078,19 +8078,19 @@ void hexapod_front_right_fk_pga_batch(long n, const double *restrict q, double *
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_front_right_fk_pga_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+static void hexapod_front_right_fk_pga_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18;
   w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(q, 3, 0);
+  w1 = GAGEN_GATHER(in_q, 3, 0);
   w1 = w0 * w1;
   w2 = gagen_v_splat(0.2617993877991494);
   w1 = w1 - w2;
   w2 = gagen_v_cos(w1);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w0 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 3, 2);
+  w5 = GAGEN_GATHER(in_q, 3, 2);
   w0 = w0 * w5;
   w5 = gagen_v_cos(w0);
   w6 = w4 * w5;
@@ -8099,7 +8099,7 @@ static void hexapod_front_right_fk_pga_block_columns(long gagen_ld, int gagen_st
   w7 = w3 * w0;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  GAGEN_SCATTER(M, 8, 0, w9);
+  GAGEN_SCATTER(out_M, 8, 0, w9);
   w10 = gagen_v_splat(0.076961524227);
   w10 = w10 * w7;
   w7 = gagen_v_splat(0.276961524227);
@@ -8111,16 +8111,16 @@ static void hexapod_front_right_fk_pga_block_columns(long gagen_ld, int gagen_st
   w8 = w1 * w8;
   w11 = w6 * w8;
   w7 = w7 + w11;
-  GAGEN_SCATTER(M, 8, 1, w7);
+  GAGEN_SCATTER(out_M, 8, 1, w7);
   w10 = w1 * w10;
   w9 = w6 * w9;
   w10 = w10 + w9;
   w9 = gagen_v_splat(0.103923048454);
   w7 = w9 * w8;
   w10 = w10 + w7;
-  GAGEN_SCATTER(M, 8, 2, w10);
+  GAGEN_SCATTER(out_M, 8, 2, w10);
   w8 = -w8;
-  GAGEN_SCATTER(M, 8, 3, w8);
+  GAGEN_SCATTER(out_M, 8, 3, w8);
   w8 = gagen_v_splat(0.123038475773);
   w10 = w3 * w5;
   w8 = w8 * w10;
@@ -8133,17 +8133,17 @@ static void hexapod_front_right_fk_pga_block_columns(long gagen_ld, int gagen_st
   w10 = w1 * w11;
   w12 = w6 * w10;
   w7 = w7 + w12;
-  GAGEN_SCATTER(M, 8, 4, w7);
+  GAGEN_SCATTER(out_M, 8, 4, w7);
   w11 = w2 * w11;
-  GAGEN_SCATTER(M, 8, 5, w11);
-  GAGEN_SCATTER(M, 8, 6, w10);
+  GAGEN_SCATTER(out_M, 8, 5, w11);
+  GAGEN_SCATTER(out_M, 8, 6, w10);
   w8 = w1 * w8;
   w6 = w6 * w11;
   w8 = w8 + w6;
   w9 = w9 * w10;
   w8 = w8 + w9;
   w8 = -w8;
-  GAGEN_SCATTER(M, 8, 7, w8);
+  GAGEN_SCATTER(out_M, 8, 7, w8);
   w8 = gagen_v_splat(0.8);
   w9 = w3 * w3;
   w10 = w9 * w0;
@@ -8161,7 +8161,7 @@ static void hexapod_front_right_fk_pga_block_columns(long gagen_ld, int gagen_st
   w13 = w13 + w13;
   w10 = w10 - w13;
   w13 = -w10;
-  GAGEN_SCATTER(toe, 4, 0, w13);
+  GAGEN_SCATTER(out_toe, 4, 0, w13);
   w2 = w1 * w2;
   w13 = gagen_v_splat(0.45);
   w13 = w13 - w7;
@@ -8176,7 +8176,7 @@ static void hexapod_front_right_fk_pga_block_columns(long gagen_ld, int gagen_st
   w14 = w14 + w14;
   w15 = gagen_v_splat(0.06);
   w15 = w14 - w15;
-  GAGEN_SCATTER(toe, 4, 1, w15);
+  GAGEN_SCATTER(out_toe, 4, 1, w15);
   w16 = gagen_v_splat(0.553923048454);
   w16 = w16 - w7;
   w16 = w16 - w0;
@@ -8186,25 +8186,25 @@ static void hexapod_front_right_fk_pga_block_columns(long gagen_ld, int gagen_st
   w12 = w12 + w12;
   w16 = w16 - w12;
   w5 = -w16;
-  GAGEN_SCATTER(toe, 4, 2, w5);
+  GAGEN_SCATTER(out_toe, 4, 2, w5);
   w5 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(toe, 4, 3, w5);
-  GAGEN_SCATTER(p, 3, 0, w16);
-  GAGEN_SCATTER(p, 3, 1, w15);
-  GAGEN_SCATTER(p, 3, 2, w10);
+  GAGEN_SCATTER(out_toe, 4, 3, w5);
+  GAGEN_SCATTER(out_p, 3, 0, w16);
+  GAGEN_SCATTER(out_p, 3, 1, w15);
+  GAGEN_SCATTER(out_p, 3, 2, w10);
   w14 = -w14;
-  GAGEN_SCATTER(J, 9, 0, w14);
+  GAGEN_SCATTER(out_J, 9, 0, w14);
   w13 = w13 - w12;
-  GAGEN_SCATTER(J, 9, 1, w13);
+  GAGEN_SCATTER(out_J, 9, 1, w13);
   w13 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 2, w13);
+  GAGEN_SCATTER(out_J, 9, 2, w13);
   w12 = w1 + w1;
   w12 = w5 - w12;
   w14 = w12 * w10;
-  GAGEN_SCATTER(J, 9, 3, w14);
+  GAGEN_SCATTER(out_J, 9, 3, w14);
   w10 = w2 * w10;
   w10 = w10 + w10;
-  GAGEN_SCATTER(J, 9, 4, w10);
+  GAGEN_SCATTER(out_J, 9, 4, w10);
   w0 = gagen_v_splat(0.153923048454);
   w16 = w12 * w16;
   w7 = w0 - w16;
@@ -8217,19 +8217,19 @@ static void hexapod_front_right_fk_pga_block_columns(long gagen_ld, int gagen_st
   w15 = w2 * w15;
   w15 = w15 + w15;
   w7 = w7 - w15;
-  GAGEN_SCATTER(J, 9, 5, w7);
+  GAGEN_SCATTER(out_J, 9, 5, w7);
   w11 = w6 * w11;
   w14 = w14 + w11;
   w1 = w1 * w3;
   w1 = w1 * w4;
   w1 = w8 * w1;
   w14 = w14 - w1;
-  GAGEN_SCATTER(J, 9, 6, w14);
+  GAGEN_SCATTER(out_J, 9, 6, w14);
   w3 = w2 * w3;
   w3 = w3 * w4;
   w8 = w8 * w3;
   w10 = w8 + w10;
-  GAGEN_SCATTER(J, 9, 7, w10);
+  GAGEN_SCATTER(out_J, 9, 7, w10);
   w10 = gagen_v_splat(0.353923048454);
   w16 = w10 - w16;
   w6 = w6 * w9;
@@ -8237,35 +8237,35 @@ static void hexapod_front_right_fk_pga_block_columns(long gagen_ld, int gagen_st
   w16 = w16 - w17;
   w16 = w16 - w18;
   w16 = w16 - w15;
-  GAGEN_SCATTER(J, 9, 8, w16);
+  GAGEN_SCATTER(out_J, 9, 8, w16);
   w16 = gagen_v_splat((-0.06));
-  GAGEN_SCATTER(S, 18, 0, w16);
+  GAGEN_SCATTER(out_S, 18, 0, w16);
   w16 = gagen_v_splat((-0.103923048454));
-  GAGEN_SCATTER(S, 18, 1, w16);
-  GAGEN_SCATTER(S, 18, 2, w13);
-  GAGEN_SCATTER(S, 18, 3, w13);
-  GAGEN_SCATTER(S, 18, 4, w13);
-  GAGEN_SCATTER(S, 18, 5, w5);
-  GAGEN_SCATTER(S, 18, 6, w13);
-  GAGEN_SCATTER(S, 18, 7, w13);
+  GAGEN_SCATTER(out_S, 18, 1, w16);
+  GAGEN_SCATTER(out_S, 18, 2, w13);
+  GAGEN_SCATTER(out_S, 18, 3, w13);
+  GAGEN_SCATTER(out_S, 18, 4, w13);
+  GAGEN_SCATTER(out_S, 18, 5, w5);
+  GAGEN_SCATTER(out_S, 18, 6, w13);
+  GAGEN_SCATTER(out_S, 18, 7, w13);
   w0 = w0 - w17;
   w0 = w0 - w18;
-  GAGEN_SCATTER(S, 18, 8, w0);
+  GAGEN_SCATTER(out_S, 18, 8, w0);
   w2 = w2 + w2;
   w2 = -w2;
-  GAGEN_SCATTER(S, 18, 9, w2);
-  GAGEN_SCATTER(S, 18, 10, w12);
-  GAGEN_SCATTER(S, 18, 11, w13);
+  GAGEN_SCATTER(out_S, 18, 9, w2);
+  GAGEN_SCATTER(out_S, 18, 10, w12);
+  GAGEN_SCATTER(out_S, 18, 11, w13);
   w11 = w11 - w1;
-  GAGEN_SCATTER(S, 18, 12, w11);
-  GAGEN_SCATTER(S, 18, 13, w8);
+  GAGEN_SCATTER(out_S, 18, 12, w11);
+  GAGEN_SCATTER(out_S, 18, 13, w8);
   w10 = w10 - w6;
   w10 = w10 - w17;
   w10 = w10 - w18;
-  GAGEN_SCATTER(S, 18, 14, w10);
-  GAGEN_SCATTER(S, 18, 15, w2);
-  GAGEN_SCATTER(S, 18, 16, w12);
-  GAGEN_SCATTER(S, 18, 17, w13);
+  GAGEN_SCATTER(out_S, 18, 14, w10);
+  GAGEN_SCATTER(out_S, 18, 15, w2);
+  GAGEN_SCATTER(out_S, 18, 16, w12);
+  GAGEN_SCATTER(out_S, 18, 17, w13);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -8273,34 +8273,34 @@ static void hexapod_front_right_fk_pga_block_columns(long gagen_ld, int gagen_st
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_front_right_fk_pga_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  long s = 0;
+void hexapod_front_right_fk_pga_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 42L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_front_right_fk_pga_block_columns(ld, stream, q + s, M + s, toe + s, p + s, J + s, S + s);
+  const int gagen_stream = gagen_n * 42L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_front_right_fk_pga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_front_right_fk_pga_columns_from(s, n, ld, q, M, toe, p, J, S);
+  hexapod_front_right_fk_pga_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_toe, out_p, out_J, out_S);
 }
 
 #if GAGEN_SIMD
 /* leg front_right in CGA3D: FK motor, toe point and position, point and spatial Jacobians: GAGEN_W consecutive samples at once */
-static void hexapod_front_right_fk_cga_block(const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+static void hexapod_front_right_fk_cga_block(const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24;
   w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(q, 3, 0);
+  w1 = GAGEN_GATHER(in_q, 3, 0);
   w1 = w0 * w1;
   w2 = gagen_v_splat(0.2617993877991494);
   w1 = w1 - w2;
   w2 = gagen_v_cos(w1);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w0 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 3, 2);
+  w5 = GAGEN_GATHER(in_q, 3, 2);
   w0 = w0 * w5;
   w5 = gagen_v_cos(w0);
   w6 = w4 * w5;
@@ -8309,18 +8309,18 @@ static void hexapod_front_right_fk_cga_block(const double *restrict q, double *r
   w7 = w3 * w0;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  GAGEN_SCATTER(M, 8, 0, w9);
+  GAGEN_SCATTER(out_M, 8, 0, w9);
   w1 = gagen_v_sin(w1);
   w8 = w1 * w8;
   w10 = -w8;
-  GAGEN_SCATTER(M, 8, 1, w10);
+  GAGEN_SCATTER(out_M, 8, 1, w10);
   w10 = w4 * w0;
   w11 = w3 * w5;
   w12 = w10 + w11;
   w13 = w2 * w12;
-  GAGEN_SCATTER(M, 8, 2, w13);
+  GAGEN_SCATTER(out_M, 8, 2, w13);
   w12 = w1 * w12;
-  GAGEN_SCATTER(M, 8, 3, w12);
+  GAGEN_SCATTER(out_M, 8, 3, w12);
   w14 = gagen_v_splat(0.076961524227);
   w14 = w14 * w7;
   w7 = gagen_v_splat(0.276961524227);
@@ -8330,14 +8330,14 @@ static void hexapod_front_right_fk_cga_block(const double *restrict q, double *r
   w6 = gagen_v_splat(0.03);
   w15 = w6 * w8;
   w7 = w7 + w15;
-  GAGEN_SCATTER(M, 8, 4, w7);
+  GAGEN_SCATTER(out_M, 8, 4, w7);
   w14 = w1 * w14;
   w9 = w6 * w9;
   w14 = w14 + w9;
   w9 = gagen_v_splat(0.103923048454);
   w8 = w9 * w8;
   w14 = w14 + w8;
-  GAGEN_SCATTER(M, 8, 5, w14);
+  GAGEN_SCATTER(out_M, 8, 5, w14);
   w14 = gagen_v_splat(0.123038475773);
   w14 = w14 * w11;
   w11 = gagen_v_splat(0.07696152422699999);
@@ -8346,16 +8346,16 @@ static void hexapod_front_right_fk_cga_block(const double *restrict q, double *r
   w11 = w2 * w14;
   w10 = w6 * w12;
   w11 = w11 + w10;
-  GAGEN_SCATTER(M, 8, 6, w11);
+  GAGEN_SCATTER(out_M, 8, 6, w11);
   w14 = w1 * w14;
   w6 = w6 * w13;
   w14 = w14 + w6;
   w9 = w9 * w12;
   w14 = w14 + w9;
   w14 = -w14;
-  GAGEN_SCATTER(M, 8, 7, w14);
+  GAGEN_SCATTER(out_M, 8, 7, w14);
   w14 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(toe, 5, 0, w14);
+  GAGEN_SCATTER(out_toe, 5, 0, w14);
   w9 = gagen_v_splat(0.553923048454);
   w12 = w3 * w3;
   w6 = gagen_v_splat(0.4);
@@ -8380,13 +8380,13 @@ static void hexapod_front_right_fk_cga_block(const double *restrict q, double *r
   w9 = w9 + w21;
   w9 = w9 - w11;
   w9 = w9 - w20;
-  GAGEN_SCATTER(toe, 5, 1, w9);
+  GAGEN_SCATTER(out_toe, 5, 1, w9);
   w1 = w1 * w2;
   w16 = w1 * w16;
   w16 = w16 + w16;
   w2 = gagen_v_splat(0.06);
   w2 = w16 - w2;
-  GAGEN_SCATTER(toe, 5, 2, w2);
+  GAGEN_SCATTER(out_toe, 5, 2, w2);
   w10 = w18 * w10;
   w10 = w10 + w10;
   w22 = w12 * w0;
@@ -8396,7 +8396,7 @@ static void hexapod_front_right_fk_cga_block(const double *restrict q, double *r
   w0 = w0 * w5;
   w0 = w6 * w0;
   w10 = w10 - w0;
-  GAGEN_SCATTER(toe, 5, 3, w10);
+  GAGEN_SCATTER(out_toe, 5, 3, w10);
   w0 = gagen_v_splat(0.1552153718042862);
   w5 = gagen_v_splat(0.0615692193816);
   w22 = w5 * w13;
@@ -8434,25 +8434,25 @@ static void hexapod_front_right_fk_cga_block(const double *restrict q, double *r
   w22 = gagen_v_splat(0.1231384387632);
   w22 = w22 * w19;
   w0 = w0 - w22;
-  GAGEN_SCATTER(toe, 5, 4, w0);
-  GAGEN_SCATTER(p, 3, 0, w9);
-  GAGEN_SCATTER(p, 3, 1, w2);
-  GAGEN_SCATTER(p, 3, 2, w10);
+  GAGEN_SCATTER(out_toe, 5, 4, w0);
+  GAGEN_SCATTER(out_p, 3, 0, w9);
+  GAGEN_SCATTER(out_p, 3, 1, w2);
+  GAGEN_SCATTER(out_p, 3, 2, w10);
   w16 = -w16;
-  GAGEN_SCATTER(J, 9, 0, w16);
+  GAGEN_SCATTER(out_J, 9, 0, w16);
   w15 = w15 + w21;
   w15 = w15 - w11;
   w15 = w15 - w20;
-  GAGEN_SCATTER(J, 9, 1, w15);
+  GAGEN_SCATTER(out_J, 9, 1, w15);
   w15 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 2, w15);
+  GAGEN_SCATTER(out_J, 9, 2, w15);
   w20 = w7 + w7;
   w20 = w14 - w20;
   w11 = w20 * w10;
-  GAGEN_SCATTER(J, 9, 3, w11);
+  GAGEN_SCATTER(out_J, 9, 3, w11);
   w10 = w1 * w10;
   w10 = w10 + w10;
-  GAGEN_SCATTER(J, 9, 4, w10);
+  GAGEN_SCATTER(out_J, 9, 4, w10);
   w21 = gagen_v_splat(0.153923048454);
   w9 = w20 * w9;
   w16 = w21 - w9;
@@ -8463,19 +8463,19 @@ static void hexapod_front_right_fk_cga_block(const double *restrict q, double *r
   w2 = w1 * w2;
   w2 = w2 + w2;
   w16 = w16 - w2;
-  GAGEN_SCATTER(J, 9, 5, w16);
+  GAGEN_SCATTER(out_J, 9, 5, w16);
   w18 = w6 * w18;
   w11 = w11 + w18;
   w7 = w7 * w3;
   w7 = w7 * w4;
   w7 = w17 * w7;
   w11 = w11 - w7;
-  GAGEN_SCATTER(J, 9, 6, w11);
+  GAGEN_SCATTER(out_J, 9, 6, w11);
   w3 = w1 * w3;
   w3 = w3 * w4;
   w17 = w17 * w3;
   w10 = w17 + w10;
-  GAGEN_SCATTER(J, 9, 7, w10);
+  GAGEN_SCATTER(out_J, 9, 7, w10);
   w10 = gagen_v_splat(0.353923048454);
   w9 = w10 - w9;
   w6 = w6 * w12;
@@ -8483,55 +8483,55 @@ static void hexapod_front_right_fk_cga_block(const double *restrict q, double *r
   w9 = w9 - w23;
   w9 = w9 - w24;
   w9 = w9 - w2;
-  GAGEN_SCATTER(J, 9, 8, w9);
+  GAGEN_SCATTER(out_J, 9, 8, w9);
   w9 = gagen_v_splat((-0.06));
-  GAGEN_SCATTER(S, 18, 0, w9);
+  GAGEN_SCATTER(out_S, 18, 0, w9);
   w9 = gagen_v_splat((-0.103923048454));
-  GAGEN_SCATTER(S, 18, 1, w9);
-  GAGEN_SCATTER(S, 18, 2, w15);
-  GAGEN_SCATTER(S, 18, 3, w15);
-  GAGEN_SCATTER(S, 18, 4, w15);
-  GAGEN_SCATTER(S, 18, 5, w14);
-  GAGEN_SCATTER(S, 18, 6, w15);
-  GAGEN_SCATTER(S, 18, 7, w15);
+  GAGEN_SCATTER(out_S, 18, 1, w9);
+  GAGEN_SCATTER(out_S, 18, 2, w15);
+  GAGEN_SCATTER(out_S, 18, 3, w15);
+  GAGEN_SCATTER(out_S, 18, 4, w15);
+  GAGEN_SCATTER(out_S, 18, 5, w14);
+  GAGEN_SCATTER(out_S, 18, 6, w15);
+  GAGEN_SCATTER(out_S, 18, 7, w15);
   w21 = w21 - w23;
   w21 = w21 - w24;
-  GAGEN_SCATTER(S, 18, 8, w21);
+  GAGEN_SCATTER(out_S, 18, 8, w21);
   w1 = w1 + w1;
   w1 = -w1;
-  GAGEN_SCATTER(S, 18, 9, w1);
-  GAGEN_SCATTER(S, 18, 10, w20);
-  GAGEN_SCATTER(S, 18, 11, w15);
+  GAGEN_SCATTER(out_S, 18, 9, w1);
+  GAGEN_SCATTER(out_S, 18, 10, w20);
+  GAGEN_SCATTER(out_S, 18, 11, w15);
   w18 = w18 - w7;
-  GAGEN_SCATTER(S, 18, 12, w18);
-  GAGEN_SCATTER(S, 18, 13, w17);
+  GAGEN_SCATTER(out_S, 18, 12, w18);
+  GAGEN_SCATTER(out_S, 18, 13, w17);
   w10 = w10 - w6;
   w10 = w10 - w23;
   w10 = w10 - w24;
-  GAGEN_SCATTER(S, 18, 14, w10);
-  GAGEN_SCATTER(S, 18, 15, w1);
-  GAGEN_SCATTER(S, 18, 16, w20);
-  GAGEN_SCATTER(S, 18, 17, w15);
+  GAGEN_SCATTER(out_S, 18, 14, w10);
+  GAGEN_SCATTER(out_S, 18, 15, w1);
+  GAGEN_SCATTER(out_S, 18, 16, w20);
+  GAGEN_SCATTER(out_S, 18, 17, w15);
 }
 #endif
 
-void hexapod_front_right_fk_cga_batch(long n, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  long s = 0;
+void hexapod_front_right_fk_cga_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(toe + 5 * a + o, 1, 0);
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(p + 3 * a + o, 1, 0);
-      for (int o = 0; o < 9 * GAGEN_W + 7; o += 8) __builtin_prefetch(J + 9 * a + o, 1, 0);
-      for (int o = 0; o < 18 * GAGEN_W + 7; o += 8) __builtin_prefetch(S + 18 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_toe + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_p + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 9 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J + 9 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 18 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_S + 18 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_front_right_fk_cga_block(q + 3 * s, M + 8 * s, toe + 5 * s, p + 3 * s, J + 9 * s, S + 18 * s);
+    hexapod_front_right_fk_cga_block(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_toe + 5 * gagen_s, out_p + 3 * gagen_s, out_J + 9 * gagen_s, out_S + 18 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_front_right_fk_cga(q + 3 * s, M + 8 * s, toe + 5 * s, p + 3 * s, J + 9 * s, S + 18 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_front_right_fk_cga(in_q + 3 * gagen_s, out_M + 8 * gagen_s, out_toe + 5 * gagen_s, out_p + 3 * gagen_s, out_J + 9 * gagen_s, out_S + 18 * gagen_s);
   }
 }
 
@@ -8541,20 +8541,20 @@ void hexapod_front_right_fk_cga_batch(long n, const double *restrict q, double *
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_front_right_fk_cga_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
+static void hexapod_front_right_fk_cga_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24;
   w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(q, 3, 0);
+  w1 = GAGEN_GATHER(in_q, 3, 0);
   w1 = w0 * w1;
   w2 = gagen_v_splat(0.2617993877991494);
   w1 = w1 - w2;
   w2 = gagen_v_cos(w1);
-  w3 = GAGEN_GATHER(q, 3, 1);
+  w3 = GAGEN_GATHER(in_q, 3, 1);
   w3 = w0 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 3, 2);
+  w5 = GAGEN_GATHER(in_q, 3, 2);
   w0 = w0 * w5;
   w5 = gagen_v_cos(w0);
   w6 = w4 * w5;
@@ -8563,18 +8563,18 @@ static void hexapod_front_right_fk_cga_block_columns(long gagen_ld, int gagen_st
   w7 = w3 * w0;
   w8 = w6 - w7;
   w9 = w2 * w8;
-  GAGEN_SCATTER(M, 8, 0, w9);
+  GAGEN_SCATTER(out_M, 8, 0, w9);
   w1 = gagen_v_sin(w1);
   w8 = w1 * w8;
   w10 = -w8;
-  GAGEN_SCATTER(M, 8, 1, w10);
+  GAGEN_SCATTER(out_M, 8, 1, w10);
   w10 = w4 * w0;
   w11 = w3 * w5;
   w12 = w10 + w11;
   w13 = w2 * w12;
-  GAGEN_SCATTER(M, 8, 2, w13);
+  GAGEN_SCATTER(out_M, 8, 2, w13);
   w12 = w1 * w12;
-  GAGEN_SCATTER(M, 8, 3, w12);
+  GAGEN_SCATTER(out_M, 8, 3, w12);
   w14 = gagen_v_splat(0.076961524227);
   w14 = w14 * w7;
   w7 = gagen_v_splat(0.276961524227);
@@ -8584,14 +8584,14 @@ static void hexapod_front_right_fk_cga_block_columns(long gagen_ld, int gagen_st
   w6 = gagen_v_splat(0.03);
   w15 = w6 * w8;
   w7 = w7 + w15;
-  GAGEN_SCATTER(M, 8, 4, w7);
+  GAGEN_SCATTER(out_M, 8, 4, w7);
   w14 = w1 * w14;
   w9 = w6 * w9;
   w14 = w14 + w9;
   w9 = gagen_v_splat(0.103923048454);
   w8 = w9 * w8;
   w14 = w14 + w8;
-  GAGEN_SCATTER(M, 8, 5, w14);
+  GAGEN_SCATTER(out_M, 8, 5, w14);
   w14 = gagen_v_splat(0.123038475773);
   w14 = w14 * w11;
   w11 = gagen_v_splat(0.07696152422699999);
@@ -8600,16 +8600,16 @@ static void hexapod_front_right_fk_cga_block_columns(long gagen_ld, int gagen_st
   w11 = w2 * w14;
   w10 = w6 * w12;
   w11 = w11 + w10;
-  GAGEN_SCATTER(M, 8, 6, w11);
+  GAGEN_SCATTER(out_M, 8, 6, w11);
   w14 = w1 * w14;
   w6 = w6 * w13;
   w14 = w14 + w6;
   w9 = w9 * w12;
   w14 = w14 + w9;
   w14 = -w14;
-  GAGEN_SCATTER(M, 8, 7, w14);
+  GAGEN_SCATTER(out_M, 8, 7, w14);
   w14 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(toe, 5, 0, w14);
+  GAGEN_SCATTER(out_toe, 5, 0, w14);
   w9 = gagen_v_splat(0.553923048454);
   w12 = w3 * w3;
   w6 = gagen_v_splat(0.4);
@@ -8634,13 +8634,13 @@ static void hexapod_front_right_fk_cga_block_columns(long gagen_ld, int gagen_st
   w9 = w9 + w21;
   w9 = w9 - w11;
   w9 = w9 - w20;
-  GAGEN_SCATTER(toe, 5, 1, w9);
+  GAGEN_SCATTER(out_toe, 5, 1, w9);
   w1 = w1 * w2;
   w16 = w1 * w16;
   w16 = w16 + w16;
   w2 = gagen_v_splat(0.06);
   w2 = w16 - w2;
-  GAGEN_SCATTER(toe, 5, 2, w2);
+  GAGEN_SCATTER(out_toe, 5, 2, w2);
   w10 = w18 * w10;
   w10 = w10 + w10;
   w22 = w12 * w0;
@@ -8650,7 +8650,7 @@ static void hexapod_front_right_fk_cga_block_columns(long gagen_ld, int gagen_st
   w0 = w0 * w5;
   w0 = w6 * w0;
   w10 = w10 - w0;
-  GAGEN_SCATTER(toe, 5, 3, w10);
+  GAGEN_SCATTER(out_toe, 5, 3, w10);
   w0 = gagen_v_splat(0.1552153718042862);
   w5 = gagen_v_splat(0.0615692193816);
   w22 = w5 * w13;
@@ -8688,25 +8688,25 @@ static void hexapod_front_right_fk_cga_block_columns(long gagen_ld, int gagen_st
   w22 = gagen_v_splat(0.1231384387632);
   w22 = w22 * w19;
   w0 = w0 - w22;
-  GAGEN_SCATTER(toe, 5, 4, w0);
-  GAGEN_SCATTER(p, 3, 0, w9);
-  GAGEN_SCATTER(p, 3, 1, w2);
-  GAGEN_SCATTER(p, 3, 2, w10);
+  GAGEN_SCATTER(out_toe, 5, 4, w0);
+  GAGEN_SCATTER(out_p, 3, 0, w9);
+  GAGEN_SCATTER(out_p, 3, 1, w2);
+  GAGEN_SCATTER(out_p, 3, 2, w10);
   w16 = -w16;
-  GAGEN_SCATTER(J, 9, 0, w16);
+  GAGEN_SCATTER(out_J, 9, 0, w16);
   w15 = w15 + w21;
   w15 = w15 - w11;
   w15 = w15 - w20;
-  GAGEN_SCATTER(J, 9, 1, w15);
+  GAGEN_SCATTER(out_J, 9, 1, w15);
   w15 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 2, w15);
+  GAGEN_SCATTER(out_J, 9, 2, w15);
   w20 = w7 + w7;
   w20 = w14 - w20;
   w11 = w20 * w10;
-  GAGEN_SCATTER(J, 9, 3, w11);
+  GAGEN_SCATTER(out_J, 9, 3, w11);
   w10 = w1 * w10;
   w10 = w10 + w10;
-  GAGEN_SCATTER(J, 9, 4, w10);
+  GAGEN_SCATTER(out_J, 9, 4, w10);
   w21 = gagen_v_splat(0.153923048454);
   w9 = w20 * w9;
   w16 = w21 - w9;
@@ -8717,19 +8717,19 @@ static void hexapod_front_right_fk_cga_block_columns(long gagen_ld, int gagen_st
   w2 = w1 * w2;
   w2 = w2 + w2;
   w16 = w16 - w2;
-  GAGEN_SCATTER(J, 9, 5, w16);
+  GAGEN_SCATTER(out_J, 9, 5, w16);
   w18 = w6 * w18;
   w11 = w11 + w18;
   w7 = w7 * w3;
   w7 = w7 * w4;
   w7 = w17 * w7;
   w11 = w11 - w7;
-  GAGEN_SCATTER(J, 9, 6, w11);
+  GAGEN_SCATTER(out_J, 9, 6, w11);
   w3 = w1 * w3;
   w3 = w3 * w4;
   w17 = w17 * w3;
   w10 = w17 + w10;
-  GAGEN_SCATTER(J, 9, 7, w10);
+  GAGEN_SCATTER(out_J, 9, 7, w10);
   w10 = gagen_v_splat(0.353923048454);
   w9 = w10 - w9;
   w6 = w6 * w12;
@@ -8737,35 +8737,35 @@ static void hexapod_front_right_fk_cga_block_columns(long gagen_ld, int gagen_st
   w9 = w9 - w23;
   w9 = w9 - w24;
   w9 = w9 - w2;
-  GAGEN_SCATTER(J, 9, 8, w9);
+  GAGEN_SCATTER(out_J, 9, 8, w9);
   w9 = gagen_v_splat((-0.06));
-  GAGEN_SCATTER(S, 18, 0, w9);
+  GAGEN_SCATTER(out_S, 18, 0, w9);
   w9 = gagen_v_splat((-0.103923048454));
-  GAGEN_SCATTER(S, 18, 1, w9);
-  GAGEN_SCATTER(S, 18, 2, w15);
-  GAGEN_SCATTER(S, 18, 3, w15);
-  GAGEN_SCATTER(S, 18, 4, w15);
-  GAGEN_SCATTER(S, 18, 5, w14);
-  GAGEN_SCATTER(S, 18, 6, w15);
-  GAGEN_SCATTER(S, 18, 7, w15);
+  GAGEN_SCATTER(out_S, 18, 1, w9);
+  GAGEN_SCATTER(out_S, 18, 2, w15);
+  GAGEN_SCATTER(out_S, 18, 3, w15);
+  GAGEN_SCATTER(out_S, 18, 4, w15);
+  GAGEN_SCATTER(out_S, 18, 5, w14);
+  GAGEN_SCATTER(out_S, 18, 6, w15);
+  GAGEN_SCATTER(out_S, 18, 7, w15);
   w21 = w21 - w23;
   w21 = w21 - w24;
-  GAGEN_SCATTER(S, 18, 8, w21);
+  GAGEN_SCATTER(out_S, 18, 8, w21);
   w1 = w1 + w1;
   w1 = -w1;
-  GAGEN_SCATTER(S, 18, 9, w1);
-  GAGEN_SCATTER(S, 18, 10, w20);
-  GAGEN_SCATTER(S, 18, 11, w15);
+  GAGEN_SCATTER(out_S, 18, 9, w1);
+  GAGEN_SCATTER(out_S, 18, 10, w20);
+  GAGEN_SCATTER(out_S, 18, 11, w15);
   w18 = w18 - w7;
-  GAGEN_SCATTER(S, 18, 12, w18);
-  GAGEN_SCATTER(S, 18, 13, w17);
+  GAGEN_SCATTER(out_S, 18, 12, w18);
+  GAGEN_SCATTER(out_S, 18, 13, w17);
   w10 = w10 - w6;
   w10 = w10 - w23;
   w10 = w10 - w24;
-  GAGEN_SCATTER(S, 18, 14, w10);
-  GAGEN_SCATTER(S, 18, 15, w1);
-  GAGEN_SCATTER(S, 18, 16, w20);
-  GAGEN_SCATTER(S, 18, 17, w15);
+  GAGEN_SCATTER(out_S, 18, 14, w10);
+  GAGEN_SCATTER(out_S, 18, 15, w1);
+  GAGEN_SCATTER(out_S, 18, 16, w20);
+  GAGEN_SCATTER(out_S, 18, 17, w15);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -8773,29 +8773,29 @@ static void hexapod_front_right_fk_cga_block_columns(long gagen_ld, int gagen_st
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_front_right_fk_cga_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict toe, double *restrict p, double *restrict J, double *restrict S) {
-  long s = 0;
+void hexapod_front_right_fk_cga_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_toe, double *restrict out_p, double *restrict out_J, double *restrict out_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 43L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_front_right_fk_cga_block_columns(ld, stream, q + s, M + s, toe + s, p + s, J + s, S + s);
+  const int gagen_stream = gagen_n * 43L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_front_right_fk_cga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_front_right_fk_cga_columns_from(s, n, ld, q, M, toe, p, J, S);
+  hexapod_front_right_fk_cga_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_toe, out_p, out_J, out_S);
 }
 
 #if GAGEN_SIMD
 /* leg front_right: analytic IK of a body-frame toe target, knee up and down, with reachability: GAGEN_W consecutive samples at once */
-static void hexapod_front_right_ik_block(const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
+static void hexapod_front_right_ik_block(const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7;
   w0 = gagen_v_splat(6.632658891371746e-14);
   w1 = gagen_v_splat(0.8660254037844387);
-  w2 = GAGEN_GATHER(target, 3, 1);
+  w2 = GAGEN_GATHER(in_target, 3, 1);
   w3 = w1 * w2;
   w0 = w0 + w3;
   w3 = gagen_v_splat(0.49999999999999994);
-  w4 = GAGEN_GATHER(target, 3, 0);
+  w4 = GAGEN_GATHER(in_target, 3, 0);
   w5 = w3 * w4;
   w0 = w0 + w5;
   w1 = w1 * w4;
@@ -8804,8 +8804,8 @@ static void hexapod_front_right_ik_block(const double *restrict target, double *
   w3 = w3 * w2;
   w1 = w1 - w3;
   w3 = gagen_v_atan2(w0, w1);
-  GAGEN_SCATTER(q_up, 3, 0, w3);
-  w2 = GAGEN_GATHER(target, 3, 2);
+  GAGEN_SCATTER(out_q_up, 3, 0, w3);
+  w2 = GAGEN_GATHER(in_target, 3, 2);
   w4 = -w2;
   w1 = w1 * w1;
   w0 = w0 * w0;
@@ -8831,19 +8831,19 @@ static void hexapod_front_right_ik_block(const double *restrict target, double *
   w0 = w0 * w1;
   w5 = gagen_v_atan2(w5, w0);
   w0 = w4 - w5;
-  GAGEN_SCATTER(q_up, 3, 1, w0);
+  GAGEN_SCATTER(out_q_up, 3, 1, w0);
   w0 = gagen_v_splat(12.499999999999998);
   w6 = w0 * w6;
   w0 = w0 * w1;
   w7 = gagen_v_splat(1.0);
   w0 = w0 - w7;
   w6 = gagen_v_atan2(w6, w0);
-  GAGEN_SCATTER(q_up, 3, 2, w6);
-  GAGEN_SCATTER(q_down, 3, 0, w3);
+  GAGEN_SCATTER(out_q_up, 3, 2, w6);
+  GAGEN_SCATTER(out_q_down, 3, 0, w3);
   w4 = w4 + w5;
-  GAGEN_SCATTER(q_down, 3, 1, w4);
+  GAGEN_SCATTER(out_q_down, 3, 1, w4);
   w6 = -w6;
-  GAGEN_SCATTER(q_down, 3, 2, w6);
+  GAGEN_SCATTER(out_q_down, 3, 2, w6);
   w6 = gagen_v_splat(1e-09);
   w4 = gagen_v_lt(w1, w2);
   w1 = gagen_v_sqrt(w1);
@@ -8860,27 +8860,27 @@ static void hexapod_front_right_ik_block(const double *restrict target, double *
   w6 = gagen_v_lt(w6, w2);
   w6 = gagen_v_not(w6);
   w6 = gagen_v_if_else_zero(w6, w7);
-  GAGEN_SCATTER(reach, 1, 0, w6);
-  GAGEN_SCATTER(excess, 1, 0, w2);
+  GAGEN_SCATTER(out_reach, 1, 0, w6);
+  GAGEN_SCATTER(out_excess, 1, 0, w2);
 }
 #endif
 
-void hexapod_front_right_ik_batch(long n, const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
-  long s = 0;
+void hexapod_front_right_ik_batch(long gagen_n, const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(q_up + 3 * a + o, 1, 0);
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(q_down + 3 * a + o, 1, 0);
-      for (int o = 0; o < 1 * GAGEN_W + 7; o += 8) __builtin_prefetch(reach + 1 * a + o, 1, 0);
-      for (int o = 0; o < 1 * GAGEN_W + 7; o += 8) __builtin_prefetch(excess + 1 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_q_up + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_q_down + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 1 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_reach + 1 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 1 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_excess + 1 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_front_right_ik_block(target + 3 * s, q_up + 3 * s, q_down + 3 * s, reach + 1 * s, excess + 1 * s);
+    hexapod_front_right_ik_block(in_target + 3 * gagen_s, out_q_up + 3 * gagen_s, out_q_down + 3 * gagen_s, out_reach + 1 * gagen_s, out_excess + 1 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_front_right_ik(target + 3 * s, q_up + 3 * s, q_down + 3 * s, reach + 1 * s, excess + 1 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_front_right_ik(in_target + 3 * gagen_s, out_q_up + 3 * gagen_s, out_q_down + 3 * gagen_s, out_reach + 1 * gagen_s, out_excess + 1 * gagen_s);
   }
 }
 
@@ -8890,15 +8890,15 @@ void hexapod_front_right_ik_batch(long n, const double *restrict target, double 
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_front_right_ik_block_columns(long gagen_ld, int gagen_stream, const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
+static void hexapod_front_right_ik_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7;
   w0 = gagen_v_splat(6.632658891371746e-14);
   w1 = gagen_v_splat(0.8660254037844387);
-  w2 = GAGEN_GATHER(target, 3, 1);
+  w2 = GAGEN_GATHER(in_target, 3, 1);
   w3 = w1 * w2;
   w0 = w0 + w3;
   w3 = gagen_v_splat(0.49999999999999994);
-  w4 = GAGEN_GATHER(target, 3, 0);
+  w4 = GAGEN_GATHER(in_target, 3, 0);
   w5 = w3 * w4;
   w0 = w0 + w5;
   w1 = w1 * w4;
@@ -8907,8 +8907,8 @@ static void hexapod_front_right_ik_block_columns(long gagen_ld, int gagen_stream
   w3 = w3 * w2;
   w1 = w1 - w3;
   w3 = gagen_v_atan2(w0, w1);
-  GAGEN_SCATTER(q_up, 3, 0, w3);
-  w2 = GAGEN_GATHER(target, 3, 2);
+  GAGEN_SCATTER(out_q_up, 3, 0, w3);
+  w2 = GAGEN_GATHER(in_target, 3, 2);
   w4 = -w2;
   w1 = w1 * w1;
   w0 = w0 * w0;
@@ -8934,19 +8934,19 @@ static void hexapod_front_right_ik_block_columns(long gagen_ld, int gagen_stream
   w0 = w0 * w1;
   w5 = gagen_v_atan2(w5, w0);
   w0 = w4 - w5;
-  GAGEN_SCATTER(q_up, 3, 1, w0);
+  GAGEN_SCATTER(out_q_up, 3, 1, w0);
   w0 = gagen_v_splat(12.499999999999998);
   w6 = w0 * w6;
   w0 = w0 * w1;
   w7 = gagen_v_splat(1.0);
   w0 = w0 - w7;
   w6 = gagen_v_atan2(w6, w0);
-  GAGEN_SCATTER(q_up, 3, 2, w6);
-  GAGEN_SCATTER(q_down, 3, 0, w3);
+  GAGEN_SCATTER(out_q_up, 3, 2, w6);
+  GAGEN_SCATTER(out_q_down, 3, 0, w3);
   w4 = w4 + w5;
-  GAGEN_SCATTER(q_down, 3, 1, w4);
+  GAGEN_SCATTER(out_q_down, 3, 1, w4);
   w6 = -w6;
-  GAGEN_SCATTER(q_down, 3, 2, w6);
+  GAGEN_SCATTER(out_q_down, 3, 2, w6);
   w6 = gagen_v_splat(1e-09);
   w4 = gagen_v_lt(w1, w2);
   w1 = gagen_v_sqrt(w1);
@@ -8963,8 +8963,8 @@ static void hexapod_front_right_ik_block_columns(long gagen_ld, int gagen_stream
   w6 = gagen_v_lt(w6, w2);
   w6 = gagen_v_not(w6);
   w6 = gagen_v_if_else_zero(w6, w7);
-  GAGEN_SCATTER(reach, 1, 0, w6);
-  GAGEN_SCATTER(excess, 1, 0, w2);
+  GAGEN_SCATTER(out_reach, 1, 0, w6);
+  GAGEN_SCATTER(out_excess, 1, 0, w2);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -8972,36 +8972,36 @@ static void hexapod_front_right_ik_block_columns(long gagen_ld, int gagen_stream
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_front_right_ik_batch_columns(long n, long ld, const double *restrict target, double *restrict q_up, double *restrict q_down, double *restrict reach, double *restrict excess) {
-  long s = 0;
+void hexapod_front_right_ik_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_target, double *restrict out_q_up, double *restrict out_q_down, double *restrict out_reach, double *restrict out_excess) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 8L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_front_right_ik_block_columns(ld, stream, target + s, q_up + s, q_down + s, reach + s, excess + s);
+  const int gagen_stream = gagen_n * 8L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_front_right_ik_block_columns(gagen_ld, gagen_stream, in_target + gagen_s, out_q_up + gagen_s, out_q_down + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_front_right_ik_columns_from(s, n, ld, target, q_up, q_down, reach, excess);
+  hexapod_front_right_ik_columns_from(gagen_s, gagen_n, gagen_ld, in_target, out_q_up, out_q_down, out_reach, out_excess);
 }
 
 #if GAGEN_SIMD
 /* leg front_right: one damped least-squares IK step towards a body-frame toe target: GAGEN_W consecutive samples at once */
-static void hexapod_front_right_dls_block(const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
+static void hexapod_front_right_dls_block(const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33;
-  w0 = GAGEN_GATHER(q, 3, 0);
+  w0 = GAGEN_GATHER(in_q, 3, 0);
   w1 = gagen_v_splat(0.45);
   w2 = gagen_v_splat(0.4);
   w3 = gagen_v_splat(0.5);
-  w4 = GAGEN_GATHER(q, 3, 2);
+  w4 = GAGEN_GATHER(in_q, 3, 2);
   w5 = w3 * w4;
   w6 = gagen_v_sin(w5);
   w7 = w6 * w6;
   w7 = w2 * w7;
   w1 = w1 - w7;
   w8 = gagen_v_splat(0.8);
-  w9 = GAGEN_GATHER(q, 3, 1);
+  w9 = GAGEN_GATHER(in_q, 3, 1);
   w10 = w3 * w9;
   w11 = gagen_v_sin(w10);
   w10 = gagen_v_cos(w10);
@@ -9098,12 +9098,12 @@ static void hexapod_front_right_dls_block(const double *restrict q, const double
   w10 = w33 * w33;
   w11 = w24 * w24;
   w10 = w10 + w11;
-  w11 = GAGEN_GATHER(damping, 1, 0);
+  w11 = GAGEN_GATHER(in_damping, 1, 0);
   w11 = w11 * w11;
   w10 = w10 + w11;
   w12 = w18 * w10;
   w8 = w8 - w12;
-  w12 = GAGEN_GATHER(target, 3, 0);
+  w12 = GAGEN_GATHER(in_target, 3, 0);
   w12 = w12 + w7;
   w12 = w12 + w13;
   w12 = w12 + w16;
@@ -9123,7 +9123,7 @@ static void hexapod_front_right_dls_block(const double *restrict q, const double
   w13 = w10 * w25;
   w19 = w28 * w28;
   w13 = w13 - w19;
-  w19 = GAGEN_GATHER(target, 3, 1);
+  w19 = GAGEN_GATHER(in_target, 3, 1);
   w19 = w19 + w31;
   w19 = w19 - w30;
   w13 = w13 * w19;
@@ -9131,7 +9131,7 @@ static void hexapod_front_right_dls_block(const double *restrict q, const double
   w13 = w28 * w18;
   w30 = w25 * w32;
   w13 = w13 - w30;
-  w30 = GAGEN_GATHER(target, 3, 2);
+  w30 = GAGEN_GATHER(in_target, 3, 2);
   w30 = w30 + w6;
   w30 = w30 + w15;
   w30 = w30 - w22;
@@ -9169,7 +9169,7 @@ static void hexapod_front_right_dls_block(const double *restrict q, const double
   w29 = w29 * w10;
   w29 = w29 + w29;
   w0 = w0 - w29;
-  GAGEN_SCATTER(q_next, 3, 0, w0);
+  GAGEN_SCATTER(out_q_next, 3, 0, w0);
   w20 = w20 * w10;
   w9 = w9 + w20;
   w32 = w32 * w12;
@@ -9186,38 +9186,38 @@ static void hexapod_front_right_dls_block(const double *restrict q, const double
   w23 = w23 * w26;
   w23 = w23 + w23;
   w9 = w9 + w23;
-  GAGEN_SCATTER(q_next, 3, 1, w9);
+  GAGEN_SCATTER(out_q_next, 3, 1, w9);
   w2 = w2 * w10;
   w4 = w4 + w2;
   w21 = w21 * w26;
   w4 = w4 + w21;
   w24 = w24 * w32;
   w4 = w4 + w24;
-  GAGEN_SCATTER(q_next, 3, 2, w4);
+  GAGEN_SCATTER(out_q_next, 3, 2, w4);
   w12 = w12 * w12;
   w19 = w19 * w19;
   w12 = w12 + w19;
   w30 = w30 * w30;
   w12 = w12 + w30;
   w12 = gagen_v_sqrt(w12);
-  GAGEN_SCATTER(error, 1, 0, w12);
+  GAGEN_SCATTER(out_error, 1, 0, w12);
 }
 #endif
 
-void hexapod_front_right_dls_batch(long n, const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
-  long s = 0;
+void hexapod_front_right_dls_batch(long gagen_n, const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(q_next + 3 * a + o, 1, 0);
-      for (int o = 0; o < 1 * GAGEN_W + 7; o += 8) __builtin_prefetch(error + 1 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_q_next + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 1 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_error + 1 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_front_right_dls_block(q + 3 * s, target + 3 * s, damping + 1 * s, q_next + 3 * s, error + 1 * s);
+    hexapod_front_right_dls_block(in_q + 3 * gagen_s, in_target + 3 * gagen_s, in_damping + 1 * gagen_s, out_q_next + 3 * gagen_s, out_error + 1 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_front_right_dls(q + 3 * s, target + 3 * s, damping + 1 * s, q_next + 3 * s, error + 1 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_front_right_dls(in_q + 3 * gagen_s, in_target + 3 * gagen_s, in_damping + 1 * gagen_s, out_q_next + 3 * gagen_s, out_error + 1 * gagen_s);
   }
 }
 
@@ -9227,22 +9227,22 @@ void hexapod_front_right_dls_batch(long n, const double *restrict q, const doubl
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_front_right_dls_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
+static void hexapod_front_right_dls_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33;
-  w0 = GAGEN_GATHER(q, 3, 0);
+  w0 = GAGEN_GATHER(in_q, 3, 0);
   w1 = gagen_v_splat(0.45);
   w2 = gagen_v_splat(0.4);
   w3 = gagen_v_splat(0.5);
-  w4 = GAGEN_GATHER(q, 3, 2);
+  w4 = GAGEN_GATHER(in_q, 3, 2);
   w5 = w3 * w4;
   w6 = gagen_v_sin(w5);
   w7 = w6 * w6;
   w7 = w2 * w7;
   w1 = w1 - w7;
   w8 = gagen_v_splat(0.8);
-  w9 = GAGEN_GATHER(q, 3, 1);
+  w9 = GAGEN_GATHER(in_q, 3, 1);
   w10 = w3 * w9;
   w11 = gagen_v_sin(w10);
   w10 = gagen_v_cos(w10);
@@ -9339,12 +9339,12 @@ static void hexapod_front_right_dls_block_columns(long gagen_ld, int gagen_strea
   w10 = w33 * w33;
   w11 = w24 * w24;
   w10 = w10 + w11;
-  w11 = GAGEN_GATHER(damping, 1, 0);
+  w11 = GAGEN_GATHER(in_damping, 1, 0);
   w11 = w11 * w11;
   w10 = w10 + w11;
   w12 = w18 * w10;
   w8 = w8 - w12;
-  w12 = GAGEN_GATHER(target, 3, 0);
+  w12 = GAGEN_GATHER(in_target, 3, 0);
   w12 = w12 + w7;
   w12 = w12 + w13;
   w12 = w12 + w16;
@@ -9364,7 +9364,7 @@ static void hexapod_front_right_dls_block_columns(long gagen_ld, int gagen_strea
   w13 = w10 * w25;
   w19 = w28 * w28;
   w13 = w13 - w19;
-  w19 = GAGEN_GATHER(target, 3, 1);
+  w19 = GAGEN_GATHER(in_target, 3, 1);
   w19 = w19 + w31;
   w19 = w19 - w30;
   w13 = w13 * w19;
@@ -9372,7 +9372,7 @@ static void hexapod_front_right_dls_block_columns(long gagen_ld, int gagen_strea
   w13 = w28 * w18;
   w30 = w25 * w32;
   w13 = w13 - w30;
-  w30 = GAGEN_GATHER(target, 3, 2);
+  w30 = GAGEN_GATHER(in_target, 3, 2);
   w30 = w30 + w6;
   w30 = w30 + w15;
   w30 = w30 - w22;
@@ -9410,7 +9410,7 @@ static void hexapod_front_right_dls_block_columns(long gagen_ld, int gagen_strea
   w29 = w29 * w10;
   w29 = w29 + w29;
   w0 = w0 - w29;
-  GAGEN_SCATTER(q_next, 3, 0, w0);
+  GAGEN_SCATTER(out_q_next, 3, 0, w0);
   w20 = w20 * w10;
   w9 = w9 + w20;
   w32 = w32 * w12;
@@ -9427,21 +9427,21 @@ static void hexapod_front_right_dls_block_columns(long gagen_ld, int gagen_strea
   w23 = w23 * w26;
   w23 = w23 + w23;
   w9 = w9 + w23;
-  GAGEN_SCATTER(q_next, 3, 1, w9);
+  GAGEN_SCATTER(out_q_next, 3, 1, w9);
   w2 = w2 * w10;
   w4 = w4 + w2;
   w21 = w21 * w26;
   w4 = w4 + w21;
   w24 = w24 * w32;
   w4 = w4 + w24;
-  GAGEN_SCATTER(q_next, 3, 2, w4);
+  GAGEN_SCATTER(out_q_next, 3, 2, w4);
   w12 = w12 * w12;
   w19 = w19 * w19;
   w12 = w12 + w19;
   w30 = w30 * w30;
   w12 = w12 + w30;
   w12 = gagen_v_sqrt(w12);
-  GAGEN_SCATTER(error, 1, 0, w12);
+  GAGEN_SCATTER(out_error, 1, 0, w12);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -9449,21 +9449,21 @@ static void hexapod_front_right_dls_block_columns(long gagen_ld, int gagen_strea
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_front_right_dls_batch_columns(long n, long ld, const double *restrict q, const double *restrict target, const double *restrict damping, double *restrict q_next, double *restrict error) {
-  long s = 0;
+void hexapod_front_right_dls_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, const double *restrict in_target, const double *restrict in_damping, double *restrict out_q_next, double *restrict out_error) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 4L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_front_right_dls_block_columns(ld, stream, q + s, target + s, damping + s, q_next + s, error + s);
+  const int gagen_stream = gagen_n * 4L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_front_right_dls_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, in_target + gagen_s, in_damping + gagen_s, out_q_next + gagen_s, out_error + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_front_right_dls_columns_from(s, n, ld, q, target, damping, q_next, error);
+  hexapod_front_right_dls_columns_from(gagen_s, gagen_n, gagen_ld, in_q, in_target, in_damping, out_q_next, out_error);
 }
 
 #if GAGEN_SIMD
 /* all 6 toes in PGA3D: stacked positions and their 18\xd718 Jacobian: GAGEN_W consecutive samples at once */
-static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict p, double *restrict J) {
+static void hexapod_body_fk_pga_block(const double *restrict in_q, double *restrict out_p, double *restrict out_J) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -9474,14 +9474,14 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w0 = gagen_v_splat(0.553923048454);
   w1 = gagen_v_splat(0.4);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 18, 2);
+  w3 = GAGEN_GATHER(in_q, 18, 2);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
   w5 = w4 * w4;
   w5 = w1 * w5;
   w6 = w0 - w5;
   w7 = gagen_v_splat(0.8);
-  w8 = GAGEN_GATHER(q, 18, 1);
+  w8 = GAGEN_GATHER(in_q, 18, 1);
   w8 = w2 * w8;
   w9 = gagen_v_sin(w8);
   w8 = gagen_v_cos(w8);
@@ -9495,7 +9495,7 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w13 = w1 - w5;
   w14 = w12 * w13;
   w15 = gagen_v_splat(0.2617993877991494);
-  w16 = GAGEN_GATHER(q, 18, 0);
+  w16 = GAGEN_GATHER(in_q, 18, 0);
   w16 = w2 * w16;
   w16 = w15 + w16;
   w17 = gagen_v_sin(w16);
@@ -9509,14 +9509,14 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w14 = w14 + w20;
   w14 = w14 + w14;
   w6 = w6 - w14;
-  GAGEN_SCATTER(p, 18, 0, w6);
+  GAGEN_SCATTER(out_p, 18, 0, w6);
   w20 = gagen_v_splat(0.06);
   w16 = gagen_v_cos(w16);
   w17 = w17 * w16;
   w11 = w17 * w11;
   w11 = w11 + w11;
   w16 = w20 + w11;
-  GAGEN_SCATTER(p, 18, 1, w16);
+  GAGEN_SCATTER(out_p, 18, 1, w16);
   w21 = w12 * w4;
   w21 = w21 * w3;
   w21 = w7 * w21;
@@ -9526,14 +9526,14 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w13 = w10 * w13;
   w13 = w13 + w13;
   w21 = w21 - w13;
-  GAGEN_SCATTER(p, 18, 2, w21);
-  w13 = GAGEN_GATHER(q, 18, 5);
+  GAGEN_SCATTER(out_p, 18, 2, w21);
+  w13 = GAGEN_GATHER(in_q, 18, 5);
   w13 = w2 * w13;
   w4 = gagen_v_sin(w13);
   w3 = w4 * w4;
   w3 = w1 * w3;
   w22 = w19 - w3;
-  w23 = GAGEN_GATHER(q, 18, 4);
+  w23 = GAGEN_GATHER(in_q, 18, 4);
   w23 = w2 * w23;
   w24 = gagen_v_sin(w23);
   w23 = gagen_v_cos(w23);
@@ -9547,7 +9547,7 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w3 = w1 - w3;
   w27 = w26 * w3;
   w28 = gagen_v_splat(0.7853981633974483);
-  w29 = GAGEN_GATHER(q, 18, 3);
+  w29 = GAGEN_GATHER(in_q, 18, 3);
   w29 = w2 * w29;
   w29 = w28 + w29;
   w30 = gagen_v_sin(w29);
@@ -9558,14 +9558,14 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w27 = w27 + w33;
   w27 = w27 + w27;
   w22 = w22 - w27;
-  GAGEN_SCATTER(p, 18, 3, w22);
+  GAGEN_SCATTER(out_p, 18, 3, w22);
   w27 = gagen_v_splat(0.12);
   w29 = gagen_v_cos(w29);
   w30 = w30 * w29;
   w32 = w30 * w32;
   w32 = w32 + w32;
   w29 = w27 + w32;
-  GAGEN_SCATTER(p, 18, 4, w29);
+  GAGEN_SCATTER(out_p, 18, 4, w29);
   w33 = w26 * w4;
   w33 = w33 * w13;
   w33 = w7 * w33;
@@ -9575,15 +9575,15 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w3 = w25 * w3;
   w3 = w3 + w3;
   w33 = w33 - w3;
-  GAGEN_SCATTER(p, 18, 5, w33);
+  GAGEN_SCATTER(out_p, 18, 5, w33);
   w3 = gagen_v_splat(0.34607695154600004);
-  w4 = GAGEN_GATHER(q, 18, 8);
+  w4 = GAGEN_GATHER(in_q, 18, 8);
   w4 = w2 * w4;
   w13 = gagen_v_sin(w4);
   w34 = w13 * w13;
   w34 = w1 * w34;
   w35 = w3 - w34;
-  w36 = GAGEN_GATHER(q, 18, 7);
+  w36 = GAGEN_GATHER(in_q, 18, 7);
   w36 = w2 * w36;
   w37 = gagen_v_sin(w36);
   w36 = gagen_v_cos(w36);
@@ -9597,7 +9597,7 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w41 = w1 - w34;
   w42 = w40 * w41;
   w43 = gagen_v_splat(1.3089969389957472);
-  w44 = GAGEN_GATHER(q, 18, 6);
+  w44 = GAGEN_GATHER(in_q, 18, 6);
   w44 = w2 * w44;
   w44 = w43 + w44;
   w45 = gagen_v_sin(w44);
@@ -9610,13 +9610,13 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w42 = w42 + w47;
   w42 = w42 + w42;
   w35 = w35 - w42;
-  GAGEN_SCATTER(p, 18, 6, w35);
+  GAGEN_SCATTER(out_p, 18, 6, w35);
   w44 = gagen_v_cos(w44);
   w45 = w45 * w44;
   w39 = w45 * w39;
   w39 = w39 + w39;
   w44 = w20 + w39;
-  GAGEN_SCATTER(p, 18, 7, w44);
+  GAGEN_SCATTER(out_p, 18, 7, w44);
   w47 = w40 * w13;
   w47 = w47 * w4;
   w47 = w7 * w47;
@@ -9626,14 +9626,14 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w41 = w38 * w41;
   w41 = w41 + w41;
   w47 = w47 - w41;
-  GAGEN_SCATTER(p, 18, 8, w47);
-  w41 = GAGEN_GATHER(q, 18, 11);
+  GAGEN_SCATTER(out_p, 18, 8, w47);
+  w41 = GAGEN_GATHER(in_q, 18, 11);
   w41 = w2 * w41;
   w13 = gagen_v_sin(w41);
   w4 = w13 * w13;
   w4 = w1 * w4;
   w3 = w3 - w4;
-  w48 = GAGEN_GATHER(q, 18, 10);
+  w48 = GAGEN_GATHER(in_q, 18, 10);
   w48 = w2 * w48;
   w49 = gagen_v_sin(w48);
   w48 = gagen_v_cos(w48);
@@ -9646,7 +9646,7 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w52 = w49 * w49;
   w53 = w1 - w4;
   w54 = w52 * w53;
-  w55 = GAGEN_GATHER(q, 18, 9);
+  w55 = GAGEN_GATHER(in_q, 18, 9);
   w55 = w2 * w55;
   w55 = w55 - w43;
   w43 = gagen_v_sin(w55);
@@ -9659,13 +9659,13 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w54 = w54 + w57;
   w54 = w54 + w54;
   w3 = w3 - w54;
-  GAGEN_SCATTER(p, 18, 9, w3);
+  GAGEN_SCATTER(out_p, 18, 9, w3);
   w55 = gagen_v_cos(w55);
   w43 = w43 * w55;
   w51 = w43 * w51;
   w51 = w51 + w51;
   w55 = w51 - w20;
-  GAGEN_SCATTER(p, 18, 10, w55);
+  GAGEN_SCATTER(out_p, 18, 10, w55);
   w57 = w52 * w13;
   w57 = w57 * w41;
   w57 = w7 * w57;
@@ -9675,14 +9675,14 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w53 = w50 * w53;
   w53 = w53 + w53;
   w57 = w57 - w53;
-  GAGEN_SCATTER(p, 18, 11, w57);
-  w53 = GAGEN_GATHER(q, 18, 14);
+  GAGEN_SCATTER(out_p, 18, 11, w57);
+  w53 = GAGEN_GATHER(in_q, 18, 14);
   w53 = w2 * w53;
   w13 = gagen_v_sin(w53);
   w41 = w13 * w13;
   w41 = w1 * w41;
   w58 = w19 - w41;
-  w59 = GAGEN_GATHER(q, 18, 13);
+  w59 = GAGEN_GATHER(in_q, 18, 13);
   w59 = w2 * w59;
   w60 = gagen_v_sin(w59);
   w59 = gagen_v_cos(w59);
@@ -9695,7 +9695,7 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w62 = w60 * w60;
   w41 = w1 - w41;
   w63 = w62 * w41;
-  w64 = GAGEN_GATHER(q, 18, 12);
+  w64 = GAGEN_GATHER(in_q, 18, 12);
   w64 = w2 * w64;
   w64 = w64 - w28;
   w28 = gagen_v_sin(w64);
@@ -9706,13 +9706,13 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w63 = w63 + w67;
   w63 = w63 + w63;
   w58 = w58 - w63;
-  GAGEN_SCATTER(p, 18, 12, w58);
+  GAGEN_SCATTER(out_p, 18, 12, w58);
   w64 = gagen_v_cos(w64);
   w28 = w28 * w64;
   w66 = w28 * w66;
   w66 = w66 + w66;
   w64 = w66 - w27;
-  GAGEN_SCATTER(p, 18, 13, w64);
+  GAGEN_SCATTER(out_p, 18, 13, w64);
   w63 = w62 * w13;
   w63 = w63 * w53;
   w63 = w7 * w63;
@@ -9722,14 +9722,14 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w41 = w61 * w41;
   w41 = w41 + w41;
   w63 = w63 - w41;
-  GAGEN_SCATTER(p, 18, 14, w63);
-  w41 = GAGEN_GATHER(q, 18, 17);
+  GAGEN_SCATTER(out_p, 18, 14, w63);
+  w41 = GAGEN_GATHER(in_q, 18, 17);
   w41 = w2 * w41;
   w13 = gagen_v_sin(w41);
   w53 = w13 * w13;
   w53 = w1 * w53;
   w0 = w0 - w53;
-  w67 = GAGEN_GATHER(q, 18, 16);
+  w67 = GAGEN_GATHER(in_q, 18, 16);
   w67 = w2 * w67;
   w68 = gagen_v_sin(w67);
   w67 = gagen_v_cos(w67);
@@ -9742,7 +9742,7 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w71 = w68 * w68;
   w72 = w1 - w53;
   w73 = w71 * w72;
-  w74 = GAGEN_GATHER(q, 18, 15);
+  w74 = GAGEN_GATHER(in_q, 18, 15);
   w2 = w2 * w74;
   w2 = w2 - w15;
   w15 = gagen_v_sin(w2);
@@ -9755,13 +9755,13 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w73 = w73 + w53;
   w73 = w73 + w73;
   w0 = w0 - w73;
-  GAGEN_SCATTER(p, 18, 15, w0);
+  GAGEN_SCATTER(out_p, 18, 15, w0);
   w2 = gagen_v_cos(w2);
   w15 = w15 * w2;
   w70 = w15 * w70;
   w70 = w70 + w70;
   w20 = w70 - w20;
-  GAGEN_SCATTER(p, 18, 16, w20);
+  GAGEN_SCATTER(out_p, 18, 16, w20);
   w2 = w71 * w13;
   w2 = w2 * w41;
   w2 = w7 * w2;
@@ -9771,36 +9771,36 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w72 = w69 * w72;
   w72 = w72 + w72;
   w2 = w2 - w72;
-  GAGEN_SCATTER(p, 18, 17, w2);
+  GAGEN_SCATTER(out_p, 18, 17, w2);
   w11 = -w11;
-  GAGEN_SCATTER(J, 324, 0, w11);
+  GAGEN_SCATTER(out_J, 324, 0, w11);
   w5 = w5 - w14;
-  GAGEN_SCATTER(J, 324, 1, w5);
+  GAGEN_SCATTER(out_J, 324, 1, w5);
   w5 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 324, 2, w5);
-  GAGEN_SCATTER(J, 324, 3, w5);
-  GAGEN_SCATTER(J, 324, 4, w5);
-  GAGEN_SCATTER(J, 324, 5, w5);
-  GAGEN_SCATTER(J, 324, 6, w5);
-  GAGEN_SCATTER(J, 324, 7, w5);
-  GAGEN_SCATTER(J, 324, 8, w5);
-  GAGEN_SCATTER(J, 324, 9, w5);
-  GAGEN_SCATTER(J, 324, 10, w5);
-  GAGEN_SCATTER(J, 324, 11, w5);
-  GAGEN_SCATTER(J, 324, 12, w5);
-  GAGEN_SCATTER(J, 324, 13, w5);
-  GAGEN_SCATTER(J, 324, 14, w5);
-  GAGEN_SCATTER(J, 324, 15, w5);
-  GAGEN_SCATTER(J, 324, 16, w5);
-  GAGEN_SCATTER(J, 324, 17, w5);
+  GAGEN_SCATTER(out_J, 324, 2, w5);
+  GAGEN_SCATTER(out_J, 324, 3, w5);
+  GAGEN_SCATTER(out_J, 324, 4, w5);
+  GAGEN_SCATTER(out_J, 324, 5, w5);
+  GAGEN_SCATTER(out_J, 324, 6, w5);
+  GAGEN_SCATTER(out_J, 324, 7, w5);
+  GAGEN_SCATTER(out_J, 324, 8, w5);
+  GAGEN_SCATTER(out_J, 324, 9, w5);
+  GAGEN_SCATTER(out_J, 324, 10, w5);
+  GAGEN_SCATTER(out_J, 324, 11, w5);
+  GAGEN_SCATTER(out_J, 324, 12, w5);
+  GAGEN_SCATTER(out_J, 324, 13, w5);
+  GAGEN_SCATTER(out_J, 324, 14, w5);
+  GAGEN_SCATTER(out_J, 324, 15, w5);
+  GAGEN_SCATTER(out_J, 324, 16, w5);
+  GAGEN_SCATTER(out_J, 324, 17, w5);
   w14 = gagen_v_splat(1.0);
   w11 = w18 + w18;
   w11 = w14 - w11;
   w72 = w11 * w21;
-  GAGEN_SCATTER(J, 324, 18, w72);
+  GAGEN_SCATTER(out_J, 324, 18, w72);
   w21 = w17 * w21;
   w21 = w21 + w21;
-  GAGEN_SCATTER(J, 324, 19, w21);
+  GAGEN_SCATTER(out_J, 324, 19, w21);
   w13 = gagen_v_splat(0.153923048454);
   w41 = w27 * w17;
   w53 = w13 + w41;
@@ -9812,34 +9812,34 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w16 = w17 * w16;
   w16 = w16 + w16;
   w53 = w53 - w16;
-  GAGEN_SCATTER(J, 324, 20, w53);
-  GAGEN_SCATTER(J, 324, 21, w5);
-  GAGEN_SCATTER(J, 324, 22, w5);
-  GAGEN_SCATTER(J, 324, 23, w5);
-  GAGEN_SCATTER(J, 324, 24, w5);
-  GAGEN_SCATTER(J, 324, 25, w5);
-  GAGEN_SCATTER(J, 324, 26, w5);
-  GAGEN_SCATTER(J, 324, 27, w5);
-  GAGEN_SCATTER(J, 324, 28, w5);
-  GAGEN_SCATTER(J, 324, 29, w5);
-  GAGEN_SCATTER(J, 324, 30, w5);
-  GAGEN_SCATTER(J, 324, 31, w5);
-  GAGEN_SCATTER(J, 324, 32, w5);
-  GAGEN_SCATTER(J, 324, 33, w5);
-  GAGEN_SCATTER(J, 324, 34, w5);
-  GAGEN_SCATTER(J, 324, 35, w5);
+  GAGEN_SCATTER(out_J, 324, 20, w53);
+  GAGEN_SCATTER(out_J, 324, 21, w5);
+  GAGEN_SCATTER(out_J, 324, 22, w5);
+  GAGEN_SCATTER(out_J, 324, 23, w5);
+  GAGEN_SCATTER(out_J, 324, 24, w5);
+  GAGEN_SCATTER(out_J, 324, 25, w5);
+  GAGEN_SCATTER(out_J, 324, 26, w5);
+  GAGEN_SCATTER(out_J, 324, 27, w5);
+  GAGEN_SCATTER(out_J, 324, 28, w5);
+  GAGEN_SCATTER(out_J, 324, 29, w5);
+  GAGEN_SCATTER(out_J, 324, 30, w5);
+  GAGEN_SCATTER(out_J, 324, 31, w5);
+  GAGEN_SCATTER(out_J, 324, 32, w5);
+  GAGEN_SCATTER(out_J, 324, 33, w5);
+  GAGEN_SCATTER(out_J, 324, 34, w5);
+  GAGEN_SCATTER(out_J, 324, 35, w5);
   w10 = w1 * w10;
   w72 = w72 + w10;
   w18 = w18 * w9;
   w18 = w18 * w8;
   w18 = w7 * w18;
   w72 = w72 - w18;
-  GAGEN_SCATTER(J, 324, 36, w72);
+  GAGEN_SCATTER(out_J, 324, 36, w72);
   w17 = w17 * w9;
   w17 = w17 * w8;
   w17 = w7 * w17;
   w17 = w17 + w21;
-  GAGEN_SCATTER(J, 324, 37, w17);
+  GAGEN_SCATTER(out_J, 324, 37, w17);
   w17 = gagen_v_splat(0.353923048454);
   w41 = w17 + w41;
   w41 = w41 - w11;
@@ -9847,51 +9847,51 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w41 = w41 - w12;
   w41 = w41 - w75;
   w41 = w41 - w16;
-  GAGEN_SCATTER(J, 324, 38, w41);
-  GAGEN_SCATTER(J, 324, 39, w5);
-  GAGEN_SCATTER(J, 324, 40, w5);
-  GAGEN_SCATTER(J, 324, 41, w5);
-  GAGEN_SCATTER(J, 324, 42, w5);
-  GAGEN_SCATTER(J, 324, 43, w5);
-  GAGEN_SCATTER(J, 324, 44, w5);
-  GAGEN_SCATTER(J, 324, 45, w5);
-  GAGEN_SCATTER(J, 324, 46, w5);
-  GAGEN_SCATTER(J, 324, 47, w5);
-  GAGEN_SCATTER(J, 324, 48, w5);
-  GAGEN_SCATTER(J, 324, 49, w5);
-  GAGEN_SCATTER(J, 324, 50, w5);
-  GAGEN_SCATTER(J, 324, 51, w5);
-  GAGEN_SCATTER(J, 324, 52, w5);
-  GAGEN_SCATTER(J, 324, 53, w5);
-  GAGEN_SCATTER(J, 324, 54, w5);
-  GAGEN_SCATTER(J, 324, 55, w5);
-  GAGEN_SCATTER(J, 324, 56, w5);
+  GAGEN_SCATTER(out_J, 324, 38, w41);
+  GAGEN_SCATTER(out_J, 324, 39, w5);
+  GAGEN_SCATTER(out_J, 324, 40, w5);
+  GAGEN_SCATTER(out_J, 324, 41, w5);
+  GAGEN_SCATTER(out_J, 324, 42, w5);
+  GAGEN_SCATTER(out_J, 324, 43, w5);
+  GAGEN_SCATTER(out_J, 324, 44, w5);
+  GAGEN_SCATTER(out_J, 324, 45, w5);
+  GAGEN_SCATTER(out_J, 324, 46, w5);
+  GAGEN_SCATTER(out_J, 324, 47, w5);
+  GAGEN_SCATTER(out_J, 324, 48, w5);
+  GAGEN_SCATTER(out_J, 324, 49, w5);
+  GAGEN_SCATTER(out_J, 324, 50, w5);
+  GAGEN_SCATTER(out_J, 324, 51, w5);
+  GAGEN_SCATTER(out_J, 324, 52, w5);
+  GAGEN_SCATTER(out_J, 324, 53, w5);
+  GAGEN_SCATTER(out_J, 324, 54, w5);
+  GAGEN_SCATTER(out_J, 324, 55, w5);
+  GAGEN_SCATTER(out_J, 324, 56, w5);
   w32 = -w32;
-  GAGEN_SCATTER(J, 324, 57, w32);
-  GAGEN_SCATTER(J, 324, 58, w22);
-  GAGEN_SCATTER(J, 324, 59, w5);
-  GAGEN_SCATTER(J, 324, 60, w5);
-  GAGEN_SCATTER(J, 324, 61, w5);
-  GAGEN_SCATTER(J, 324, 62, w5);
-  GAGEN_SCATTER(J, 324, 63, w5);
-  GAGEN_SCATTER(J, 324, 64, w5);
-  GAGEN_SCATTER(J, 324, 65, w5);
-  GAGEN_SCATTER(J, 324, 66, w5);
-  GAGEN_SCATTER(J, 324, 67, w5);
-  GAGEN_SCATTER(J, 324, 68, w5);
-  GAGEN_SCATTER(J, 324, 69, w5);
-  GAGEN_SCATTER(J, 324, 70, w5);
-  GAGEN_SCATTER(J, 324, 71, w5);
-  GAGEN_SCATTER(J, 324, 72, w5);
-  GAGEN_SCATTER(J, 324, 73, w5);
-  GAGEN_SCATTER(J, 324, 74, w5);
+  GAGEN_SCATTER(out_J, 324, 57, w32);
+  GAGEN_SCATTER(out_J, 324, 58, w22);
+  GAGEN_SCATTER(out_J, 324, 59, w5);
+  GAGEN_SCATTER(out_J, 324, 60, w5);
+  GAGEN_SCATTER(out_J, 324, 61, w5);
+  GAGEN_SCATTER(out_J, 324, 62, w5);
+  GAGEN_SCATTER(out_J, 324, 63, w5);
+  GAGEN_SCATTER(out_J, 324, 64, w5);
+  GAGEN_SCATTER(out_J, 324, 65, w5);
+  GAGEN_SCATTER(out_J, 324, 66, w5);
+  GAGEN_SCATTER(out_J, 324, 67, w5);
+  GAGEN_SCATTER(out_J, 324, 68, w5);
+  GAGEN_SCATTER(out_J, 324, 69, w5);
+  GAGEN_SCATTER(out_J, 324, 70, w5);
+  GAGEN_SCATTER(out_J, 324, 71, w5);
+  GAGEN_SCATTER(out_J, 324, 72, w5);
+  GAGEN_SCATTER(out_J, 324, 73, w5);
+  GAGEN_SCATTER(out_J, 324, 74, w5);
   w32 = w31 + w31;
   w32 = w14 - w32;
   w41 = w32 * w33;
-  GAGEN_SCATTER(J, 324, 75, w41);
+  GAGEN_SCATTER(out_J, 324, 75, w41);
   w33 = w30 * w33;
   w33 = w33 + w33;
-  GAGEN_SCATTER(J, 324, 76, w33);
+  GAGEN_SCATTER(out_J, 324, 76, w33);
   w16 = gagen_v_splat(0.05);
   w75 = gagen_v_splat(0.24);
   w12 = w75 * w30;
@@ -9901,86 +9901,86 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w29 = w30 * w29;
   w29 = w29 + w29;
   w11 = w11 - w29;
-  GAGEN_SCATTER(J, 324, 77, w11);
-  GAGEN_SCATTER(J, 324, 78, w5);
-  GAGEN_SCATTER(J, 324, 79, w5);
-  GAGEN_SCATTER(J, 324, 80, w5);
-  GAGEN_SCATTER(J, 324, 81, w5);
-  GAGEN_SCATTER(J, 324, 82, w5);
-  GAGEN_SCATTER(J, 324, 83, w5);
-  GAGEN_SCATTER(J, 324, 84, w5);
-  GAGEN_SCATTER(J, 324, 85, w5);
-  GAGEN_SCATTER(J, 324, 86, w5);
-  GAGEN_SCATTER(J, 324, 87, w5);
-  GAGEN_SCATTER(J, 324, 88, w5);
-  GAGEN_SCATTER(J, 324, 89, w5);
-  GAGEN_SCATTER(J, 324, 90, w5);
-  GAGEN_SCATTER(J, 324, 91, w5);
-  GAGEN_SCATTER(J, 324, 92, w5);
+  GAGEN_SCATTER(out_J, 324, 77, w11);
+  GAGEN_SCATTER(out_J, 324, 78, w5);
+  GAGEN_SCATTER(out_J, 324, 79, w5);
+  GAGEN_SCATTER(out_J, 324, 80, w5);
+  GAGEN_SCATTER(out_J, 324, 81, w5);
+  GAGEN_SCATTER(out_J, 324, 82, w5);
+  GAGEN_SCATTER(out_J, 324, 83, w5);
+  GAGEN_SCATTER(out_J, 324, 84, w5);
+  GAGEN_SCATTER(out_J, 324, 85, w5);
+  GAGEN_SCATTER(out_J, 324, 86, w5);
+  GAGEN_SCATTER(out_J, 324, 87, w5);
+  GAGEN_SCATTER(out_J, 324, 88, w5);
+  GAGEN_SCATTER(out_J, 324, 89, w5);
+  GAGEN_SCATTER(out_J, 324, 90, w5);
+  GAGEN_SCATTER(out_J, 324, 91, w5);
+  GAGEN_SCATTER(out_J, 324, 92, w5);
   w25 = w1 * w25;
   w41 = w41 + w25;
   w31 = w31 * w24;
   w31 = w31 * w23;
   w31 = w7 * w31;
   w41 = w41 - w31;
-  GAGEN_SCATTER(J, 324, 93, w41);
+  GAGEN_SCATTER(out_J, 324, 93, w41);
   w30 = w30 * w24;
   w30 = w30 * w23;
   w30 = w7 * w30;
   w30 = w30 + w33;
-  GAGEN_SCATTER(J, 324, 94, w30);
+  GAGEN_SCATTER(out_J, 324, 94, w30);
   w30 = gagen_v_splat(0.25);
   w12 = w30 + w12;
   w12 = w12 - w32;
   w26 = w1 * w26;
   w12 = w12 - w26;
   w12 = w12 - w29;
-  GAGEN_SCATTER(J, 324, 95, w12);
-  GAGEN_SCATTER(J, 324, 96, w5);
-  GAGEN_SCATTER(J, 324, 97, w5);
-  GAGEN_SCATTER(J, 324, 98, w5);
-  GAGEN_SCATTER(J, 324, 99, w5);
-  GAGEN_SCATTER(J, 324, 100, w5);
-  GAGEN_SCATTER(J, 324, 101, w5);
-  GAGEN_SCATTER(J, 324, 102, w5);
-  GAGEN_SCATTER(J, 324, 103, w5);
-  GAGEN_SCATTER(J, 324, 104, w5);
-  GAGEN_SCATTER(J, 324, 105, w5);
-  GAGEN_SCATTER(J, 324, 106, w5);
-  GAGEN_SCATTER(J, 324, 107, w5);
-  GAGEN_SCATTER(J, 324, 108, w5);
-  GAGEN_SCATTER(J, 324, 109, w5);
-  GAGEN_SCATTER(J, 324, 110, w5);
-  GAGEN_SCATTER(J, 324, 111, w5);
-  GAGEN_SCATTER(J, 324, 112, w5);
-  GAGEN_SCATTER(J, 324, 113, w5);
+  GAGEN_SCATTER(out_J, 324, 95, w12);
+  GAGEN_SCATTER(out_J, 324, 96, w5);
+  GAGEN_SCATTER(out_J, 324, 97, w5);
+  GAGEN_SCATTER(out_J, 324, 98, w5);
+  GAGEN_SCATTER(out_J, 324, 99, w5);
+  GAGEN_SCATTER(out_J, 324, 100, w5);
+  GAGEN_SCATTER(out_J, 324, 101, w5);
+  GAGEN_SCATTER(out_J, 324, 102, w5);
+  GAGEN_SCATTER(out_J, 324, 103, w5);
+  GAGEN_SCATTER(out_J, 324, 104, w5);
+  GAGEN_SCATTER(out_J, 324, 105, w5);
+  GAGEN_SCATTER(out_J, 324, 106, w5);
+  GAGEN_SCATTER(out_J, 324, 107, w5);
+  GAGEN_SCATTER(out_J, 324, 108, w5);
+  GAGEN_SCATTER(out_J, 324, 109, w5);
+  GAGEN_SCATTER(out_J, 324, 110, w5);
+  GAGEN_SCATTER(out_J, 324, 111, w5);
+  GAGEN_SCATTER(out_J, 324, 112, w5);
+  GAGEN_SCATTER(out_J, 324, 113, w5);
   w39 = -w39;
-  GAGEN_SCATTER(J, 324, 114, w39);
+  GAGEN_SCATTER(out_J, 324, 114, w39);
   w34 = w34 - w42;
-  GAGEN_SCATTER(J, 324, 115, w34);
-  GAGEN_SCATTER(J, 324, 116, w5);
-  GAGEN_SCATTER(J, 324, 117, w5);
-  GAGEN_SCATTER(J, 324, 118, w5);
-  GAGEN_SCATTER(J, 324, 119, w5);
-  GAGEN_SCATTER(J, 324, 120, w5);
-  GAGEN_SCATTER(J, 324, 121, w5);
-  GAGEN_SCATTER(J, 324, 122, w5);
-  GAGEN_SCATTER(J, 324, 123, w5);
-  GAGEN_SCATTER(J, 324, 124, w5);
-  GAGEN_SCATTER(J, 324, 125, w5);
-  GAGEN_SCATTER(J, 324, 126, w5);
-  GAGEN_SCATTER(J, 324, 127, w5);
-  GAGEN_SCATTER(J, 324, 128, w5);
-  GAGEN_SCATTER(J, 324, 129, w5);
-  GAGEN_SCATTER(J, 324, 130, w5);
-  GAGEN_SCATTER(J, 324, 131, w5);
+  GAGEN_SCATTER(out_J, 324, 115, w34);
+  GAGEN_SCATTER(out_J, 324, 116, w5);
+  GAGEN_SCATTER(out_J, 324, 117, w5);
+  GAGEN_SCATTER(out_J, 324, 118, w5);
+  GAGEN_SCATTER(out_J, 324, 119, w5);
+  GAGEN_SCATTER(out_J, 324, 120, w5);
+  GAGEN_SCATTER(out_J, 324, 121, w5);
+  GAGEN_SCATTER(out_J, 324, 122, w5);
+  GAGEN_SCATTER(out_J, 324, 123, w5);
+  GAGEN_SCATTER(out_J, 324, 124, w5);
+  GAGEN_SCATTER(out_J, 324, 125, w5);
+  GAGEN_SCATTER(out_J, 324, 126, w5);
+  GAGEN_SCATTER(out_J, 324, 127, w5);
+  GAGEN_SCATTER(out_J, 324, 128, w5);
+  GAGEN_SCATTER(out_J, 324, 129, w5);
+  GAGEN_SCATTER(out_J, 324, 130, w5);
+  GAGEN_SCATTER(out_J, 324, 131, w5);
   w34 = w46 + w46;
   w34 = w14 - w34;
   w42 = w34 * w47;
-  GAGEN_SCATTER(J, 324, 132, w42);
+  GAGEN_SCATTER(out_J, 324, 132, w42);
   w47 = w45 * w47;
   w47 = w47 + w47;
-  GAGEN_SCATTER(J, 324, 133, w47);
+  GAGEN_SCATTER(out_J, 324, 133, w47);
   w39 = w27 * w45;
   w12 = w6 * w46;
   w29 = w39 + w12;
@@ -9991,34 +9991,34 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w44 = w45 * w44;
   w44 = w44 + w44;
   w29 = w29 - w44;
-  GAGEN_SCATTER(J, 324, 134, w29);
-  GAGEN_SCATTER(J, 324, 135, w5);
-  GAGEN_SCATTER(J, 324, 136, w5);
-  GAGEN_SCATTER(J, 324, 137, w5);
-  GAGEN_SCATTER(J, 324, 138, w5);
-  GAGEN_SCATTER(J, 324, 139, w5);
-  GAGEN_SCATTER(J, 324, 140, w5);
-  GAGEN_SCATTER(J, 324, 141, w5);
-  GAGEN_SCATTER(J, 324, 142, w5);
-  GAGEN_SCATTER(J, 324, 143, w5);
-  GAGEN_SCATTER(J, 324, 144, w5);
-  GAGEN_SCATTER(J, 324, 145, w5);
-  GAGEN_SCATTER(J, 324, 146, w5);
-  GAGEN_SCATTER(J, 324, 147, w5);
-  GAGEN_SCATTER(J, 324, 148, w5);
-  GAGEN_SCATTER(J, 324, 149, w5);
+  GAGEN_SCATTER(out_J, 324, 134, w29);
+  GAGEN_SCATTER(out_J, 324, 135, w5);
+  GAGEN_SCATTER(out_J, 324, 136, w5);
+  GAGEN_SCATTER(out_J, 324, 137, w5);
+  GAGEN_SCATTER(out_J, 324, 138, w5);
+  GAGEN_SCATTER(out_J, 324, 139, w5);
+  GAGEN_SCATTER(out_J, 324, 140, w5);
+  GAGEN_SCATTER(out_J, 324, 141, w5);
+  GAGEN_SCATTER(out_J, 324, 142, w5);
+  GAGEN_SCATTER(out_J, 324, 143, w5);
+  GAGEN_SCATTER(out_J, 324, 144, w5);
+  GAGEN_SCATTER(out_J, 324, 145, w5);
+  GAGEN_SCATTER(out_J, 324, 146, w5);
+  GAGEN_SCATTER(out_J, 324, 147, w5);
+  GAGEN_SCATTER(out_J, 324, 148, w5);
+  GAGEN_SCATTER(out_J, 324, 149, w5);
   w38 = w1 * w38;
   w42 = w42 + w38;
   w46 = w46 * w37;
   w46 = w46 * w36;
   w46 = w7 * w46;
   w42 = w42 - w46;
-  GAGEN_SCATTER(J, 324, 150, w42);
+  GAGEN_SCATTER(out_J, 324, 150, w42);
   w45 = w45 * w37;
   w45 = w45 * w36;
   w45 = w7 * w45;
   w45 = w45 + w47;
-  GAGEN_SCATTER(J, 324, 151, w45);
+  GAGEN_SCATTER(out_J, 324, 151, w45);
   w45 = gagen_v_splat(0.146076951546);
   w39 = w45 + w39;
   w39 = w39 + w12;
@@ -10026,52 +10026,52 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w40 = w1 * w40;
   w39 = w39 - w40;
   w39 = w39 - w44;
-  GAGEN_SCATTER(J, 324, 152, w39);
-  GAGEN_SCATTER(J, 324, 153, w5);
-  GAGEN_SCATTER(J, 324, 154, w5);
-  GAGEN_SCATTER(J, 324, 155, w5);
-  GAGEN_SCATTER(J, 324, 156, w5);
-  GAGEN_SCATTER(J, 324, 157, w5);
-  GAGEN_SCATTER(J, 324, 158, w5);
-  GAGEN_SCATTER(J, 324, 159, w5);
-  GAGEN_SCATTER(J, 324, 160, w5);
-  GAGEN_SCATTER(J, 324, 161, w5);
-  GAGEN_SCATTER(J, 324, 162, w5);
-  GAGEN_SCATTER(J, 324, 163, w5);
-  GAGEN_SCATTER(J, 324, 164, w5);
-  GAGEN_SCATTER(J, 324, 165, w5);
-  GAGEN_SCATTER(J, 324, 166, w5);
-  GAGEN_SCATTER(J, 324, 167, w5);
-  GAGEN_SCATTER(J, 324, 168, w5);
-  GAGEN_SCATTER(J, 324, 169, w5);
-  GAGEN_SCATTER(J, 324, 170, w5);
+  GAGEN_SCATTER(out_J, 324, 152, w39);
+  GAGEN_SCATTER(out_J, 324, 153, w5);
+  GAGEN_SCATTER(out_J, 324, 154, w5);
+  GAGEN_SCATTER(out_J, 324, 155, w5);
+  GAGEN_SCATTER(out_J, 324, 156, w5);
+  GAGEN_SCATTER(out_J, 324, 157, w5);
+  GAGEN_SCATTER(out_J, 324, 158, w5);
+  GAGEN_SCATTER(out_J, 324, 159, w5);
+  GAGEN_SCATTER(out_J, 324, 160, w5);
+  GAGEN_SCATTER(out_J, 324, 161, w5);
+  GAGEN_SCATTER(out_J, 324, 162, w5);
+  GAGEN_SCATTER(out_J, 324, 163, w5);
+  GAGEN_SCATTER(out_J, 324, 164, w5);
+  GAGEN_SCATTER(out_J, 324, 165, w5);
+  GAGEN_SCATTER(out_J, 324, 166, w5);
+  GAGEN_SCATTER(out_J, 324, 167, w5);
+  GAGEN_SCATTER(out_J, 324, 168, w5);
+  GAGEN_SCATTER(out_J, 324, 169, w5);
+  GAGEN_SCATTER(out_J, 324, 170, w5);
   w51 = -w51;
-  GAGEN_SCATTER(J, 324, 171, w51);
+  GAGEN_SCATTER(out_J, 324, 171, w51);
   w4 = w4 - w54;
-  GAGEN_SCATTER(J, 324, 172, w4);
-  GAGEN_SCATTER(J, 324, 173, w5);
-  GAGEN_SCATTER(J, 324, 174, w5);
-  GAGEN_SCATTER(J, 324, 175, w5);
-  GAGEN_SCATTER(J, 324, 176, w5);
-  GAGEN_SCATTER(J, 324, 177, w5);
-  GAGEN_SCATTER(J, 324, 178, w5);
-  GAGEN_SCATTER(J, 324, 179, w5);
-  GAGEN_SCATTER(J, 324, 180, w5);
-  GAGEN_SCATTER(J, 324, 181, w5);
-  GAGEN_SCATTER(J, 324, 182, w5);
-  GAGEN_SCATTER(J, 324, 183, w5);
-  GAGEN_SCATTER(J, 324, 184, w5);
-  GAGEN_SCATTER(J, 324, 185, w5);
-  GAGEN_SCATTER(J, 324, 186, w5);
-  GAGEN_SCATTER(J, 324, 187, w5);
-  GAGEN_SCATTER(J, 324, 188, w5);
+  GAGEN_SCATTER(out_J, 324, 172, w4);
+  GAGEN_SCATTER(out_J, 324, 173, w5);
+  GAGEN_SCATTER(out_J, 324, 174, w5);
+  GAGEN_SCATTER(out_J, 324, 175, w5);
+  GAGEN_SCATTER(out_J, 324, 176, w5);
+  GAGEN_SCATTER(out_J, 324, 177, w5);
+  GAGEN_SCATTER(out_J, 324, 178, w5);
+  GAGEN_SCATTER(out_J, 324, 179, w5);
+  GAGEN_SCATTER(out_J, 324, 180, w5);
+  GAGEN_SCATTER(out_J, 324, 181, w5);
+  GAGEN_SCATTER(out_J, 324, 182, w5);
+  GAGEN_SCATTER(out_J, 324, 183, w5);
+  GAGEN_SCATTER(out_J, 324, 184, w5);
+  GAGEN_SCATTER(out_J, 324, 185, w5);
+  GAGEN_SCATTER(out_J, 324, 186, w5);
+  GAGEN_SCATTER(out_J, 324, 187, w5);
+  GAGEN_SCATTER(out_J, 324, 188, w5);
   w4 = w56 + w56;
   w4 = w14 - w4;
   w54 = w4 * w57;
-  GAGEN_SCATTER(J, 324, 189, w54);
+  GAGEN_SCATTER(out_J, 324, 189, w54);
   w57 = w43 * w57;
   w57 = w57 + w57;
-  GAGEN_SCATTER(J, 324, 190, w57);
+  GAGEN_SCATTER(out_J, 324, 190, w57);
   w51 = w6 * w56;
   w4 = w4 * w3;
   w3 = w51 - w4;
@@ -10081,85 +10081,85 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w55 = w43 * w55;
   w55 = w55 + w55;
   w3 = w3 - w55;
-  GAGEN_SCATTER(J, 324, 191, w3);
-  GAGEN_SCATTER(J, 324, 192, w5);
-  GAGEN_SCATTER(J, 324, 193, w5);
-  GAGEN_SCATTER(J, 324, 194, w5);
-  GAGEN_SCATTER(J, 324, 195, w5);
-  GAGEN_SCATTER(J, 324, 196, w5);
-  GAGEN_SCATTER(J, 324, 197, w5);
-  GAGEN_SCATTER(J, 324, 198, w5);
-  GAGEN_SCATTER(J, 324, 199, w5);
-  GAGEN_SCATTER(J, 324, 200, w5);
-  GAGEN_SCATTER(J, 324, 201, w5);
-  GAGEN_SCATTER(J, 324, 202, w5);
-  GAGEN_SCATTER(J, 324, 203, w5);
-  GAGEN_SCATTER(J, 324, 204, w5);
-  GAGEN_SCATTER(J, 324, 205, w5);
-  GAGEN_SCATTER(J, 324, 206, w5);
+  GAGEN_SCATTER(out_J, 324, 191, w3);
+  GAGEN_SCATTER(out_J, 324, 192, w5);
+  GAGEN_SCATTER(out_J, 324, 193, w5);
+  GAGEN_SCATTER(out_J, 324, 194, w5);
+  GAGEN_SCATTER(out_J, 324, 195, w5);
+  GAGEN_SCATTER(out_J, 324, 196, w5);
+  GAGEN_SCATTER(out_J, 324, 197, w5);
+  GAGEN_SCATTER(out_J, 324, 198, w5);
+  GAGEN_SCATTER(out_J, 324, 199, w5);
+  GAGEN_SCATTER(out_J, 324, 200, w5);
+  GAGEN_SCATTER(out_J, 324, 201, w5);
+  GAGEN_SCATTER(out_J, 324, 202, w5);
+  GAGEN_SCATTER(out_J, 324, 203, w5);
+  GAGEN_SCATTER(out_J, 324, 204, w5);
+  GAGEN_SCATTER(out_J, 324, 205, w5);
+  GAGEN_SCATTER(out_J, 324, 206, w5);
   w50 = w1 * w50;
   w54 = w54 + w50;
   w56 = w56 * w49;
   w56 = w56 * w48;
   w56 = w7 * w56;
   w54 = w54 - w56;
-  GAGEN_SCATTER(J, 324, 207, w54);
+  GAGEN_SCATTER(out_J, 324, 207, w54);
   w43 = w43 * w49;
   w43 = w43 * w48;
   w43 = w7 * w43;
   w43 = w43 + w57;
-  GAGEN_SCATTER(J, 324, 208, w43);
+  GAGEN_SCATTER(out_J, 324, 208, w43);
   w45 = w45 + w51;
   w45 = w45 - w4;
   w52 = w1 * w52;
   w45 = w45 - w52;
   w45 = w45 - w35;
   w45 = w45 - w55;
-  GAGEN_SCATTER(J, 324, 209, w45);
-  GAGEN_SCATTER(J, 324, 210, w5);
-  GAGEN_SCATTER(J, 324, 211, w5);
-  GAGEN_SCATTER(J, 324, 212, w5);
-  GAGEN_SCATTER(J, 324, 213, w5);
-  GAGEN_SCATTER(J, 324, 214, w5);
-  GAGEN_SCATTER(J, 324, 215, w5);
-  GAGEN_SCATTER(J, 324, 216, w5);
-  GAGEN_SCATTER(J, 324, 217, w5);
-  GAGEN_SCATTER(J, 324, 218, w5);
-  GAGEN_SCATTER(J, 324, 219, w5);
-  GAGEN_SCATTER(J, 324, 220, w5);
-  GAGEN_SCATTER(J, 324, 221, w5);
-  GAGEN_SCATTER(J, 324, 222, w5);
-  GAGEN_SCATTER(J, 324, 223, w5);
-  GAGEN_SCATTER(J, 324, 224, w5);
-  GAGEN_SCATTER(J, 324, 225, w5);
-  GAGEN_SCATTER(J, 324, 226, w5);
-  GAGEN_SCATTER(J, 324, 227, w5);
+  GAGEN_SCATTER(out_J, 324, 209, w45);
+  GAGEN_SCATTER(out_J, 324, 210, w5);
+  GAGEN_SCATTER(out_J, 324, 211, w5);
+  GAGEN_SCATTER(out_J, 324, 212, w5);
+  GAGEN_SCATTER(out_J, 324, 213, w5);
+  GAGEN_SCATTER(out_J, 324, 214, w5);
+  GAGEN_SCATTER(out_J, 324, 215, w5);
+  GAGEN_SCATTER(out_J, 324, 216, w5);
+  GAGEN_SCATTER(out_J, 324, 217, w5);
+  GAGEN_SCATTER(out_J, 324, 218, w5);
+  GAGEN_SCATTER(out_J, 324, 219, w5);
+  GAGEN_SCATTER(out_J, 324, 220, w5);
+  GAGEN_SCATTER(out_J, 324, 221, w5);
+  GAGEN_SCATTER(out_J, 324, 222, w5);
+  GAGEN_SCATTER(out_J, 324, 223, w5);
+  GAGEN_SCATTER(out_J, 324, 224, w5);
+  GAGEN_SCATTER(out_J, 324, 225, w5);
+  GAGEN_SCATTER(out_J, 324, 226, w5);
+  GAGEN_SCATTER(out_J, 324, 227, w5);
   w66 = -w66;
-  GAGEN_SCATTER(J, 324, 228, w66);
-  GAGEN_SCATTER(J, 324, 229, w58);
-  GAGEN_SCATTER(J, 324, 230, w5);
-  GAGEN_SCATTER(J, 324, 231, w5);
-  GAGEN_SCATTER(J, 324, 232, w5);
-  GAGEN_SCATTER(J, 324, 233, w5);
-  GAGEN_SCATTER(J, 324, 234, w5);
-  GAGEN_SCATTER(J, 324, 235, w5);
-  GAGEN_SCATTER(J, 324, 236, w5);
-  GAGEN_SCATTER(J, 324, 237, w5);
-  GAGEN_SCATTER(J, 324, 238, w5);
-  GAGEN_SCATTER(J, 324, 239, w5);
-  GAGEN_SCATTER(J, 324, 240, w5);
-  GAGEN_SCATTER(J, 324, 241, w5);
-  GAGEN_SCATTER(J, 324, 242, w5);
-  GAGEN_SCATTER(J, 324, 243, w5);
-  GAGEN_SCATTER(J, 324, 244, w5);
-  GAGEN_SCATTER(J, 324, 245, w5);
+  GAGEN_SCATTER(out_J, 324, 228, w66);
+  GAGEN_SCATTER(out_J, 324, 229, w58);
+  GAGEN_SCATTER(out_J, 324, 230, w5);
+  GAGEN_SCATTER(out_J, 324, 231, w5);
+  GAGEN_SCATTER(out_J, 324, 232, w5);
+  GAGEN_SCATTER(out_J, 324, 233, w5);
+  GAGEN_SCATTER(out_J, 324, 234, w5);
+  GAGEN_SCATTER(out_J, 324, 235, w5);
+  GAGEN_SCATTER(out_J, 324, 236, w5);
+  GAGEN_SCATTER(out_J, 324, 237, w5);
+  GAGEN_SCATTER(out_J, 324, 238, w5);
+  GAGEN_SCATTER(out_J, 324, 239, w5);
+  GAGEN_SCATTER(out_J, 324, 240, w5);
+  GAGEN_SCATTER(out_J, 324, 241, w5);
+  GAGEN_SCATTER(out_J, 324, 242, w5);
+  GAGEN_SCATTER(out_J, 324, 243, w5);
+  GAGEN_SCATTER(out_J, 324, 244, w5);
+  GAGEN_SCATTER(out_J, 324, 245, w5);
   w66 = w65 + w65;
   w66 = w14 - w66;
   w45 = w66 * w63;
-  GAGEN_SCATTER(J, 324, 246, w45);
+  GAGEN_SCATTER(out_J, 324, 246, w45);
   w63 = w28 * w63;
   w63 = w63 + w63;
-  GAGEN_SCATTER(J, 324, 247, w63);
+  GAGEN_SCATTER(out_J, 324, 247, w63);
   w66 = w66 * w58;
   w16 = w16 - w66;
   w75 = w75 * w28;
@@ -10167,85 +10167,85 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w64 = w28 * w64;
   w64 = w64 + w64;
   w16 = w16 - w64;
-  GAGEN_SCATTER(J, 324, 248, w16);
-  GAGEN_SCATTER(J, 324, 249, w5);
-  GAGEN_SCATTER(J, 324, 250, w5);
-  GAGEN_SCATTER(J, 324, 251, w5);
-  GAGEN_SCATTER(J, 324, 252, w5);
-  GAGEN_SCATTER(J, 324, 253, w5);
-  GAGEN_SCATTER(J, 324, 254, w5);
-  GAGEN_SCATTER(J, 324, 255, w5);
-  GAGEN_SCATTER(J, 324, 256, w5);
-  GAGEN_SCATTER(J, 324, 257, w5);
-  GAGEN_SCATTER(J, 324, 258, w5);
-  GAGEN_SCATTER(J, 324, 259, w5);
-  GAGEN_SCATTER(J, 324, 260, w5);
-  GAGEN_SCATTER(J, 324, 261, w5);
-  GAGEN_SCATTER(J, 324, 262, w5);
-  GAGEN_SCATTER(J, 324, 263, w5);
+  GAGEN_SCATTER(out_J, 324, 248, w16);
+  GAGEN_SCATTER(out_J, 324, 249, w5);
+  GAGEN_SCATTER(out_J, 324, 250, w5);
+  GAGEN_SCATTER(out_J, 324, 251, w5);
+  GAGEN_SCATTER(out_J, 324, 252, w5);
+  GAGEN_SCATTER(out_J, 324, 253, w5);
+  GAGEN_SCATTER(out_J, 324, 254, w5);
+  GAGEN_SCATTER(out_J, 324, 255, w5);
+  GAGEN_SCATTER(out_J, 324, 256, w5);
+  GAGEN_SCATTER(out_J, 324, 257, w5);
+  GAGEN_SCATTER(out_J, 324, 258, w5);
+  GAGEN_SCATTER(out_J, 324, 259, w5);
+  GAGEN_SCATTER(out_J, 324, 260, w5);
+  GAGEN_SCATTER(out_J, 324, 261, w5);
+  GAGEN_SCATTER(out_J, 324, 262, w5);
+  GAGEN_SCATTER(out_J, 324, 263, w5);
   w61 = w1 * w61;
   w45 = w45 + w61;
   w65 = w65 * w60;
   w65 = w65 * w59;
   w65 = w7 * w65;
   w45 = w45 - w65;
-  GAGEN_SCATTER(J, 324, 264, w45);
+  GAGEN_SCATTER(out_J, 324, 264, w45);
   w28 = w28 * w60;
   w28 = w28 * w59;
   w28 = w7 * w28;
   w28 = w28 + w63;
-  GAGEN_SCATTER(J, 324, 265, w28);
+  GAGEN_SCATTER(out_J, 324, 265, w28);
   w30 = w30 - w66;
   w62 = w1 * w62;
   w30 = w30 - w62;
   w30 = w30 - w75;
   w30 = w30 - w64;
-  GAGEN_SCATTER(J, 324, 266, w30);
-  GAGEN_SCATTER(J, 324, 267, w5);
-  GAGEN_SCATTER(J, 324, 268, w5);
-  GAGEN_SCATTER(J, 324, 269, w5);
-  GAGEN_SCATTER(J, 324, 270, w5);
-  GAGEN_SCATTER(J, 324, 271, w5);
-  GAGEN_SCATTER(J, 324, 272, w5);
-  GAGEN_SCATTER(J, 324, 273, w5);
-  GAGEN_SCATTER(J, 324, 274, w5);
-  GAGEN_SCATTER(J, 324, 275, w5);
-  GAGEN_SCATTER(J, 324, 276, w5);
-  GAGEN_SCATTER(J, 324, 277, w5);
-  GAGEN_SCATTER(J, 324, 278, w5);
-  GAGEN_SCATTER(J, 324, 279, w5);
-  GAGEN_SCATTER(J, 324, 280, w5);
-  GAGEN_SCATTER(J, 324, 281, w5);
-  GAGEN_SCATTER(J, 324, 282, w5);
-  GAGEN_SCATTER(J, 324, 283, w5);
-  GAGEN_SCATTER(J, 324, 284, w5);
+  GAGEN_SCATTER(out_J, 324, 266, w30);
+  GAGEN_SCATTER(out_J, 324, 267, w5);
+  GAGEN_SCATTER(out_J, 324, 268, w5);
+  GAGEN_SCATTER(out_J, 324, 269, w5);
+  GAGEN_SCATTER(out_J, 324, 270, w5);
+  GAGEN_SCATTER(out_J, 324, 271, w5);
+  GAGEN_SCATTER(out_J, 324, 272, w5);
+  GAGEN_SCATTER(out_J, 324, 273, w5);
+  GAGEN_SCATTER(out_J, 324, 274, w5);
+  GAGEN_SCATTER(out_J, 324, 275, w5);
+  GAGEN_SCATTER(out_J, 324, 276, w5);
+  GAGEN_SCATTER(out_J, 324, 277, w5);
+  GAGEN_SCATTER(out_J, 324, 278, w5);
+  GAGEN_SCATTER(out_J, 324, 279, w5);
+  GAGEN_SCATTER(out_J, 324, 280, w5);
+  GAGEN_SCATTER(out_J, 324, 281, w5);
+  GAGEN_SCATTER(out_J, 324, 282, w5);
+  GAGEN_SCATTER(out_J, 324, 283, w5);
+  GAGEN_SCATTER(out_J, 324, 284, w5);
   w70 = -w70;
-  GAGEN_SCATTER(J, 324, 285, w70);
+  GAGEN_SCATTER(out_J, 324, 285, w70);
   w19 = w19 - w73;
-  GAGEN_SCATTER(J, 324, 286, w19);
-  GAGEN_SCATTER(J, 324, 287, w5);
-  GAGEN_SCATTER(J, 324, 288, w5);
-  GAGEN_SCATTER(J, 324, 289, w5);
-  GAGEN_SCATTER(J, 324, 290, w5);
-  GAGEN_SCATTER(J, 324, 291, w5);
-  GAGEN_SCATTER(J, 324, 292, w5);
-  GAGEN_SCATTER(J, 324, 293, w5);
-  GAGEN_SCATTER(J, 324, 294, w5);
-  GAGEN_SCATTER(J, 324, 295, w5);
-  GAGEN_SCATTER(J, 324, 296, w5);
-  GAGEN_SCATTER(J, 324, 297, w5);
-  GAGEN_SCATTER(J, 324, 298, w5);
-  GAGEN_SCATTER(J, 324, 299, w5);
-  GAGEN_SCATTER(J, 324, 300, w5);
-  GAGEN_SCATTER(J, 324, 301, w5);
-  GAGEN_SCATTER(J, 324, 302, w5);
+  GAGEN_SCATTER(out_J, 324, 286, w19);
+  GAGEN_SCATTER(out_J, 324, 287, w5);
+  GAGEN_SCATTER(out_J, 324, 288, w5);
+  GAGEN_SCATTER(out_J, 324, 289, w5);
+  GAGEN_SCATTER(out_J, 324, 290, w5);
+  GAGEN_SCATTER(out_J, 324, 291, w5);
+  GAGEN_SCATTER(out_J, 324, 292, w5);
+  GAGEN_SCATTER(out_J, 324, 293, w5);
+  GAGEN_SCATTER(out_J, 324, 294, w5);
+  GAGEN_SCATTER(out_J, 324, 295, w5);
+  GAGEN_SCATTER(out_J, 324, 296, w5);
+  GAGEN_SCATTER(out_J, 324, 297, w5);
+  GAGEN_SCATTER(out_J, 324, 298, w5);
+  GAGEN_SCATTER(out_J, 324, 299, w5);
+  GAGEN_SCATTER(out_J, 324, 300, w5);
+  GAGEN_SCATTER(out_J, 324, 301, w5);
+  GAGEN_SCATTER(out_J, 324, 302, w5);
   w19 = w74 + w74;
   w14 = w14 - w19;
   w19 = w14 * w2;
-  GAGEN_SCATTER(J, 324, 303, w19);
+  GAGEN_SCATTER(out_J, 324, 303, w19);
   w2 = w15 * w2;
   w2 = w2 + w2;
-  GAGEN_SCATTER(J, 324, 304, w2);
+  GAGEN_SCATTER(out_J, 324, 304, w2);
   w14 = w14 * w0;
   w13 = w13 - w14;
   w27 = w27 * w15;
@@ -10255,58 +10255,58 @@ static void hexapod_body_fk_pga_block(const double *restrict q, double *restrict
   w20 = w15 * w20;
   w20 = w20 + w20;
   w13 = w13 - w20;
-  GAGEN_SCATTER(J, 324, 305, w13);
-  GAGEN_SCATTER(J, 324, 306, w5);
-  GAGEN_SCATTER(J, 324, 307, w5);
-  GAGEN_SCATTER(J, 324, 308, w5);
-  GAGEN_SCATTER(J, 324, 309, w5);
-  GAGEN_SCATTER(J, 324, 310, w5);
-  GAGEN_SCATTER(J, 324, 311, w5);
-  GAGEN_SCATTER(J, 324, 312, w5);
-  GAGEN_SCATTER(J, 324, 313, w5);
-  GAGEN_SCATTER(J, 324, 314, w5);
-  GAGEN_SCATTER(J, 324, 315, w5);
-  GAGEN_SCATTER(J, 324, 316, w5);
-  GAGEN_SCATTER(J, 324, 317, w5);
-  GAGEN_SCATTER(J, 324, 318, w5);
-  GAGEN_SCATTER(J, 324, 319, w5);
-  GAGEN_SCATTER(J, 324, 320, w5);
+  GAGEN_SCATTER(out_J, 324, 305, w13);
+  GAGEN_SCATTER(out_J, 324, 306, w5);
+  GAGEN_SCATTER(out_J, 324, 307, w5);
+  GAGEN_SCATTER(out_J, 324, 308, w5);
+  GAGEN_SCATTER(out_J, 324, 309, w5);
+  GAGEN_SCATTER(out_J, 324, 310, w5);
+  GAGEN_SCATTER(out_J, 324, 311, w5);
+  GAGEN_SCATTER(out_J, 324, 312, w5);
+  GAGEN_SCATTER(out_J, 324, 313, w5);
+  GAGEN_SCATTER(out_J, 324, 314, w5);
+  GAGEN_SCATTER(out_J, 324, 315, w5);
+  GAGEN_SCATTER(out_J, 324, 316, w5);
+  GAGEN_SCATTER(out_J, 324, 317, w5);
+  GAGEN_SCATTER(out_J, 324, 318, w5);
+  GAGEN_SCATTER(out_J, 324, 319, w5);
+  GAGEN_SCATTER(out_J, 324, 320, w5);
   w69 = w1 * w69;
   w19 = w19 + w69;
   w74 = w74 * w68;
   w74 = w74 * w67;
   w74 = w7 * w74;
   w19 = w19 - w74;
-  GAGEN_SCATTER(J, 324, 321, w19);
+  GAGEN_SCATTER(out_J, 324, 321, w19);
   w15 = w15 * w68;
   w15 = w15 * w67;
   w7 = w7 * w15;
   w7 = w7 + w2;
-  GAGEN_SCATTER(J, 324, 322, w7);
+  GAGEN_SCATTER(out_J, 324, 322, w7);
   w17 = w17 - w14;
   w1 = w1 * w71;
   w17 = w17 - w1;
   w17 = w17 - w27;
   w17 = w17 - w6;
   w17 = w17 - w20;
-  GAGEN_SCATTER(J, 324, 323, w17);
+  GAGEN_SCATTER(out_J, 324, 323, w17);
 }
 #endif
 
-void hexapod_body_fk_pga_batch(long n, const double *restrict q, double *restrict p, double *restrict J) {
-  long s = 0;
+void hexapod_body_fk_pga_batch(long gagen_n, const double *restrict in_q, double *restrict out_p, double *restrict out_J) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 18 * GAGEN_W + 7; o += 8) __builtin_prefetch(p + 18 * a + o, 1, 0);
-      for (int o = 0; o < 324 * GAGEN_W + 7; o += 8) __builtin_prefetch(J + 324 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 18 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_p + 18 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 324 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J + 324 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_body_fk_pga_block(q + 18 * s, p + 18 * s, J + 324 * s);
+    hexapod_body_fk_pga_block(in_q + 18 * gagen_s, out_p + 18 * gagen_s, out_J + 324 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_body_fk_pga(q + 18 * s, p + 18 * s, J + 324 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_body_fk_pga(in_q + 18 * gagen_s, out_p + 18 * gagen_s, out_J + 324 * gagen_s);
   }
 }
 
@@ -10316,7 +10316,7 @@ void hexapod_body_fk_pga_batch(long n, const double *restrict q, double *restric
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict p, double *restrict J) {
+static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_p, double *restrict out_J) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -10327,14 +10327,14 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w0 = gagen_v_splat(0.553923048454);
   w1 = gagen_v_splat(0.4);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 18, 2);
+  w3 = GAGEN_GATHER(in_q, 18, 2);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
   w5 = w4 * w4;
   w5 = w1 * w5;
   w6 = w0 - w5;
   w7 = gagen_v_splat(0.8);
-  w8 = GAGEN_GATHER(q, 18, 1);
+  w8 = GAGEN_GATHER(in_q, 18, 1);
   w8 = w2 * w8;
   w9 = gagen_v_sin(w8);
   w8 = gagen_v_cos(w8);
@@ -10348,7 +10348,7 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w13 = w1 - w5;
   w14 = w12 * w13;
   w15 = gagen_v_splat(0.2617993877991494);
-  w16 = GAGEN_GATHER(q, 18, 0);
+  w16 = GAGEN_GATHER(in_q, 18, 0);
   w16 = w2 * w16;
   w16 = w15 + w16;
   w17 = gagen_v_sin(w16);
@@ -10362,14 +10362,14 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w14 = w14 + w20;
   w14 = w14 + w14;
   w6 = w6 - w14;
-  GAGEN_SCATTER(p, 18, 0, w6);
+  GAGEN_SCATTER(out_p, 18, 0, w6);
   w20 = gagen_v_splat(0.06);
   w16 = gagen_v_cos(w16);
   w17 = w17 * w16;
   w11 = w17 * w11;
   w11 = w11 + w11;
   w16 = w20 + w11;
-  GAGEN_SCATTER(p, 18, 1, w16);
+  GAGEN_SCATTER(out_p, 18, 1, w16);
   w21 = w12 * w4;
   w21 = w21 * w3;
   w21 = w7 * w21;
@@ -10379,14 +10379,14 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w13 = w10 * w13;
   w13 = w13 + w13;
   w21 = w21 - w13;
-  GAGEN_SCATTER(p, 18, 2, w21);
-  w13 = GAGEN_GATHER(q, 18, 5);
+  GAGEN_SCATTER(out_p, 18, 2, w21);
+  w13 = GAGEN_GATHER(in_q, 18, 5);
   w13 = w2 * w13;
   w4 = gagen_v_sin(w13);
   w3 = w4 * w4;
   w3 = w1 * w3;
   w22 = w19 - w3;
-  w23 = GAGEN_GATHER(q, 18, 4);
+  w23 = GAGEN_GATHER(in_q, 18, 4);
   w23 = w2 * w23;
   w24 = gagen_v_sin(w23);
   w23 = gagen_v_cos(w23);
@@ -10400,7 +10400,7 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w3 = w1 - w3;
   w27 = w26 * w3;
   w28 = gagen_v_splat(0.7853981633974483);
-  w29 = GAGEN_GATHER(q, 18, 3);
+  w29 = GAGEN_GATHER(in_q, 18, 3);
   w29 = w2 * w29;
   w29 = w28 + w29;
   w30 = gagen_v_sin(w29);
@@ -10411,14 +10411,14 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w27 = w27 + w33;
   w27 = w27 + w27;
   w22 = w22 - w27;
-  GAGEN_SCATTER(p, 18, 3, w22);
+  GAGEN_SCATTER(out_p, 18, 3, w22);
   w27 = gagen_v_splat(0.12);
   w29 = gagen_v_cos(w29);
   w30 = w30 * w29;
   w32 = w30 * w32;
   w32 = w32 + w32;
   w29 = w27 + w32;
-  GAGEN_SCATTER(p, 18, 4, w29);
+  GAGEN_SCATTER(out_p, 18, 4, w29);
   w33 = w26 * w4;
   w33 = w33 * w13;
   w33 = w7 * w33;
@@ -10428,15 +10428,15 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w3 = w25 * w3;
   w3 = w3 + w3;
   w33 = w33 - w3;
-  GAGEN_SCATTER(p, 18, 5, w33);
+  GAGEN_SCATTER(out_p, 18, 5, w33);
   w3 = gagen_v_splat(0.34607695154600004);
-  w4 = GAGEN_GATHER(q, 18, 8);
+  w4 = GAGEN_GATHER(in_q, 18, 8);
   w4 = w2 * w4;
   w13 = gagen_v_sin(w4);
   w34 = w13 * w13;
   w34 = w1 * w34;
   w35 = w3 - w34;
-  w36 = GAGEN_GATHER(q, 18, 7);
+  w36 = GAGEN_GATHER(in_q, 18, 7);
   w36 = w2 * w36;
   w37 = gagen_v_sin(w36);
   w36 = gagen_v_cos(w36);
@@ -10450,7 +10450,7 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w41 = w1 - w34;
   w42 = w40 * w41;
   w43 = gagen_v_splat(1.3089969389957472);
-  w44 = GAGEN_GATHER(q, 18, 6);
+  w44 = GAGEN_GATHER(in_q, 18, 6);
   w44 = w2 * w44;
   w44 = w43 + w44;
   w45 = gagen_v_sin(w44);
@@ -10463,13 +10463,13 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w42 = w42 + w47;
   w42 = w42 + w42;
   w35 = w35 - w42;
-  GAGEN_SCATTER(p, 18, 6, w35);
+  GAGEN_SCATTER(out_p, 18, 6, w35);
   w44 = gagen_v_cos(w44);
   w45 = w45 * w44;
   w39 = w45 * w39;
   w39 = w39 + w39;
   w44 = w20 + w39;
-  GAGEN_SCATTER(p, 18, 7, w44);
+  GAGEN_SCATTER(out_p, 18, 7, w44);
   w47 = w40 * w13;
   w47 = w47 * w4;
   w47 = w7 * w47;
@@ -10479,14 +10479,14 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w41 = w38 * w41;
   w41 = w41 + w41;
   w47 = w47 - w41;
-  GAGEN_SCATTER(p, 18, 8, w47);
-  w41 = GAGEN_GATHER(q, 18, 11);
+  GAGEN_SCATTER(out_p, 18, 8, w47);
+  w41 = GAGEN_GATHER(in_q, 18, 11);
   w41 = w2 * w41;
   w13 = gagen_v_sin(w41);
   w4 = w13 * w13;
   w4 = w1 * w4;
   w3 = w3 - w4;
-  w48 = GAGEN_GATHER(q, 18, 10);
+  w48 = GAGEN_GATHER(in_q, 18, 10);
   w48 = w2 * w48;
   w49 = gagen_v_sin(w48);
   w48 = gagen_v_cos(w48);
@@ -10499,7 +10499,7 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w52 = w49 * w49;
   w53 = w1 - w4;
   w54 = w52 * w53;
-  w55 = GAGEN_GATHER(q, 18, 9);
+  w55 = GAGEN_GATHER(in_q, 18, 9);
   w55 = w2 * w55;
   w55 = w55 - w43;
   w43 = gagen_v_sin(w55);
@@ -10512,13 +10512,13 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w54 = w54 + w57;
   w54 = w54 + w54;
   w3 = w3 - w54;
-  GAGEN_SCATTER(p, 18, 9, w3);
+  GAGEN_SCATTER(out_p, 18, 9, w3);
   w55 = gagen_v_cos(w55);
   w43 = w43 * w55;
   w51 = w43 * w51;
   w51 = w51 + w51;
   w55 = w51 - w20;
-  GAGEN_SCATTER(p, 18, 10, w55);
+  GAGEN_SCATTER(out_p, 18, 10, w55);
   w57 = w52 * w13;
   w57 = w57 * w41;
   w57 = w7 * w57;
@@ -10528,14 +10528,14 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w53 = w50 * w53;
   w53 = w53 + w53;
   w57 = w57 - w53;
-  GAGEN_SCATTER(p, 18, 11, w57);
-  w53 = GAGEN_GATHER(q, 18, 14);
+  GAGEN_SCATTER(out_p, 18, 11, w57);
+  w53 = GAGEN_GATHER(in_q, 18, 14);
   w53 = w2 * w53;
   w13 = gagen_v_sin(w53);
   w41 = w13 * w13;
   w41 = w1 * w41;
   w58 = w19 - w41;
-  w59 = GAGEN_GATHER(q, 18, 13);
+  w59 = GAGEN_GATHER(in_q, 18, 13);
   w59 = w2 * w59;
   w60 = gagen_v_sin(w59);
   w59 = gagen_v_cos(w59);
@@ -10548,7 +10548,7 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w62 = w60 * w60;
   w41 = w1 - w41;
   w63 = w62 * w41;
-  w64 = GAGEN_GATHER(q, 18, 12);
+  w64 = GAGEN_GATHER(in_q, 18, 12);
   w64 = w2 * w64;
   w64 = w64 - w28;
   w28 = gagen_v_sin(w64);
@@ -10559,13 +10559,13 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w63 = w63 + w67;
   w63 = w63 + w63;
   w58 = w58 - w63;
-  GAGEN_SCATTER(p, 18, 12, w58);
+  GAGEN_SCATTER(out_p, 18, 12, w58);
   w64 = gagen_v_cos(w64);
   w28 = w28 * w64;
   w66 = w28 * w66;
   w66 = w66 + w66;
   w64 = w66 - w27;
-  GAGEN_SCATTER(p, 18, 13, w64);
+  GAGEN_SCATTER(out_p, 18, 13, w64);
   w63 = w62 * w13;
   w63 = w63 * w53;
   w63 = w7 * w63;
@@ -10575,14 +10575,14 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w41 = w61 * w41;
   w41 = w41 + w41;
   w63 = w63 - w41;
-  GAGEN_SCATTER(p, 18, 14, w63);
-  w41 = GAGEN_GATHER(q, 18, 17);
+  GAGEN_SCATTER(out_p, 18, 14, w63);
+  w41 = GAGEN_GATHER(in_q, 18, 17);
   w41 = w2 * w41;
   w13 = gagen_v_sin(w41);
   w53 = w13 * w13;
   w53 = w1 * w53;
   w0 = w0 - w53;
-  w67 = GAGEN_GATHER(q, 18, 16);
+  w67 = GAGEN_GATHER(in_q, 18, 16);
   w67 = w2 * w67;
   w68 = gagen_v_sin(w67);
   w67 = gagen_v_cos(w67);
@@ -10595,7 +10595,7 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w71 = w68 * w68;
   w72 = w1 - w53;
   w73 = w71 * w72;
-  w74 = GAGEN_GATHER(q, 18, 15);
+  w74 = GAGEN_GATHER(in_q, 18, 15);
   w2 = w2 * w74;
   w2 = w2 - w15;
   w15 = gagen_v_sin(w2);
@@ -10608,13 +10608,13 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w73 = w73 + w53;
   w73 = w73 + w73;
   w0 = w0 - w73;
-  GAGEN_SCATTER(p, 18, 15, w0);
+  GAGEN_SCATTER(out_p, 18, 15, w0);
   w2 = gagen_v_cos(w2);
   w15 = w15 * w2;
   w70 = w15 * w70;
   w70 = w70 + w70;
   w20 = w70 - w20;
-  GAGEN_SCATTER(p, 18, 16, w20);
+  GAGEN_SCATTER(out_p, 18, 16, w20);
   w2 = w71 * w13;
   w2 = w2 * w41;
   w2 = w7 * w2;
@@ -10624,36 +10624,36 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w72 = w69 * w72;
   w72 = w72 + w72;
   w2 = w2 - w72;
-  GAGEN_SCATTER(p, 18, 17, w2);
+  GAGEN_SCATTER(out_p, 18, 17, w2);
   w11 = -w11;
-  GAGEN_SCATTER(J, 324, 0, w11);
+  GAGEN_SCATTER(out_J, 324, 0, w11);
   w5 = w5 - w14;
-  GAGEN_SCATTER(J, 324, 1, w5);
+  GAGEN_SCATTER(out_J, 324, 1, w5);
   w5 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 324, 2, w5);
-  GAGEN_SCATTER(J, 324, 3, w5);
-  GAGEN_SCATTER(J, 324, 4, w5);
-  GAGEN_SCATTER(J, 324, 5, w5);
-  GAGEN_SCATTER(J, 324, 6, w5);
-  GAGEN_SCATTER(J, 324, 7, w5);
-  GAGEN_SCATTER(J, 324, 8, w5);
-  GAGEN_SCATTER(J, 324, 9, w5);
-  GAGEN_SCATTER(J, 324, 10, w5);
-  GAGEN_SCATTER(J, 324, 11, w5);
-  GAGEN_SCATTER(J, 324, 12, w5);
-  GAGEN_SCATTER(J, 324, 13, w5);
-  GAGEN_SCATTER(J, 324, 14, w5);
-  GAGEN_SCATTER(J, 324, 15, w5);
-  GAGEN_SCATTER(J, 324, 16, w5);
-  GAGEN_SCATTER(J, 324, 17, w5);
+  GAGEN_SCATTER(out_J, 324, 2, w5);
+  GAGEN_SCATTER(out_J, 324, 3, w5);
+  GAGEN_SCATTER(out_J, 324, 4, w5);
+  GAGEN_SCATTER(out_J, 324, 5, w5);
+  GAGEN_SCATTER(out_J, 324, 6, w5);
+  GAGEN_SCATTER(out_J, 324, 7, w5);
+  GAGEN_SCATTER(out_J, 324, 8, w5);
+  GAGEN_SCATTER(out_J, 324, 9, w5);
+  GAGEN_SCATTER(out_J, 324, 10, w5);
+  GAGEN_SCATTER(out_J, 324, 11, w5);
+  GAGEN_SCATTER(out_J, 324, 12, w5);
+  GAGEN_SCATTER(out_J, 324, 13, w5);
+  GAGEN_SCATTER(out_J, 324, 14, w5);
+  GAGEN_SCATTER(out_J, 324, 15, w5);
+  GAGEN_SCATTER(out_J, 324, 16, w5);
+  GAGEN_SCATTER(out_J, 324, 17, w5);
   w14 = gagen_v_splat(1.0);
   w11 = w18 + w18;
   w11 = w14 - w11;
   w72 = w11 * w21;
-  GAGEN_SCATTER(J, 324, 18, w72);
+  GAGEN_SCATTER(out_J, 324, 18, w72);
   w21 = w17 * w21;
   w21 = w21 + w21;
-  GAGEN_SCATTER(J, 324, 19, w21);
+  GAGEN_SCATTER(out_J, 324, 19, w21);
   w13 = gagen_v_splat(0.153923048454);
   w41 = w27 * w17;
   w53 = w13 + w41;
@@ -10665,34 +10665,34 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w16 = w17 * w16;
   w16 = w16 + w16;
   w53 = w53 - w16;
-  GAGEN_SCATTER(J, 324, 20, w53);
-  GAGEN_SCATTER(J, 324, 21, w5);
-  GAGEN_SCATTER(J, 324, 22, w5);
-  GAGEN_SCATTER(J, 324, 23, w5);
-  GAGEN_SCATTER(J, 324, 24, w5);
-  GAGEN_SCATTER(J, 324, 25, w5);
-  GAGEN_SCATTER(J, 324, 26, w5);
-  GAGEN_SCATTER(J, 324, 27, w5);
-  GAGEN_SCATTER(J, 324, 28, w5);
-  GAGEN_SCATTER(J, 324, 29, w5);
-  GAGEN_SCATTER(J, 324, 30, w5);
-  GAGEN_SCATTER(J, 324, 31, w5);
-  GAGEN_SCATTER(J, 324, 32, w5);
-  GAGEN_SCATTER(J, 324, 33, w5);
-  GAGEN_SCATTER(J, 324, 34, w5);
-  GAGEN_SCATTER(J, 324, 35, w5);
+  GAGEN_SCATTER(out_J, 324, 20, w53);
+  GAGEN_SCATTER(out_J, 324, 21, w5);
+  GAGEN_SCATTER(out_J, 324, 22, w5);
+  GAGEN_SCATTER(out_J, 324, 23, w5);
+  GAGEN_SCATTER(out_J, 324, 24, w5);
+  GAGEN_SCATTER(out_J, 324, 25, w5);
+  GAGEN_SCATTER(out_J, 324, 26, w5);
+  GAGEN_SCATTER(out_J, 324, 27, w5);
+  GAGEN_SCATTER(out_J, 324, 28, w5);
+  GAGEN_SCATTER(out_J, 324, 29, w5);
+  GAGEN_SCATTER(out_J, 324, 30, w5);
+  GAGEN_SCATTER(out_J, 324, 31, w5);
+  GAGEN_SCATTER(out_J, 324, 32, w5);
+  GAGEN_SCATTER(out_J, 324, 33, w5);
+  GAGEN_SCATTER(out_J, 324, 34, w5);
+  GAGEN_SCATTER(out_J, 324, 35, w5);
   w10 = w1 * w10;
   w72 = w72 + w10;
   w18 = w18 * w9;
   w18 = w18 * w8;
   w18 = w7 * w18;
   w72 = w72 - w18;
-  GAGEN_SCATTER(J, 324, 36, w72);
+  GAGEN_SCATTER(out_J, 324, 36, w72);
   w17 = w17 * w9;
   w17 = w17 * w8;
   w17 = w7 * w17;
   w17 = w17 + w21;
-  GAGEN_SCATTER(J, 324, 37, w17);
+  GAGEN_SCATTER(out_J, 324, 37, w17);
   w17 = gagen_v_splat(0.353923048454);
   w41 = w17 + w41;
   w41 = w41 - w11;
@@ -10700,51 +10700,51 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w41 = w41 - w12;
   w41 = w41 - w75;
   w41 = w41 - w16;
-  GAGEN_SCATTER(J, 324, 38, w41);
-  GAGEN_SCATTER(J, 324, 39, w5);
-  GAGEN_SCATTER(J, 324, 40, w5);
-  GAGEN_SCATTER(J, 324, 41, w5);
-  GAGEN_SCATTER(J, 324, 42, w5);
-  GAGEN_SCATTER(J, 324, 43, w5);
-  GAGEN_SCATTER(J, 324, 44, w5);
-  GAGEN_SCATTER(J, 324, 45, w5);
-  GAGEN_SCATTER(J, 324, 46, w5);
-  GAGEN_SCATTER(J, 324, 47, w5);
-  GAGEN_SCATTER(J, 324, 48, w5);
-  GAGEN_SCATTER(J, 324, 49, w5);
-  GAGEN_SCATTER(J, 324, 50, w5);
-  GAGEN_SCATTER(J, 324, 51, w5);
-  GAGEN_SCATTER(J, 324, 52, w5);
-  GAGEN_SCATTER(J, 324, 53, w5);
-  GAGEN_SCATTER(J, 324, 54, w5);
-  GAGEN_SCATTER(J, 324, 55, w5);
-  GAGEN_SCATTER(J, 324, 56, w5);
+  GAGEN_SCATTER(out_J, 324, 38, w41);
+  GAGEN_SCATTER(out_J, 324, 39, w5);
+  GAGEN_SCATTER(out_J, 324, 40, w5);
+  GAGEN_SCATTER(out_J, 324, 41, w5);
+  GAGEN_SCATTER(out_J, 324, 42, w5);
+  GAGEN_SCATTER(out_J, 324, 43, w5);
+  GAGEN_SCATTER(out_J, 324, 44, w5);
+  GAGEN_SCATTER(out_J, 324, 45, w5);
+  GAGEN_SCATTER(out_J, 324, 46, w5);
+  GAGEN_SCATTER(out_J, 324, 47, w5);
+  GAGEN_SCATTER(out_J, 324, 48, w5);
+  GAGEN_SCATTER(out_J, 324, 49, w5);
+  GAGEN_SCATTER(out_J, 324, 50, w5);
+  GAGEN_SCATTER(out_J, 324, 51, w5);
+  GAGEN_SCATTER(out_J, 324, 52, w5);
+  GAGEN_SCATTER(out_J, 324, 53, w5);
+  GAGEN_SCATTER(out_J, 324, 54, w5);
+  GAGEN_SCATTER(out_J, 324, 55, w5);
+  GAGEN_SCATTER(out_J, 324, 56, w5);
   w32 = -w32;
-  GAGEN_SCATTER(J, 324, 57, w32);
-  GAGEN_SCATTER(J, 324, 58, w22);
-  GAGEN_SCATTER(J, 324, 59, w5);
-  GAGEN_SCATTER(J, 324, 60, w5);
-  GAGEN_SCATTER(J, 324, 61, w5);
-  GAGEN_SCATTER(J, 324, 62, w5);
-  GAGEN_SCATTER(J, 324, 63, w5);
-  GAGEN_SCATTER(J, 324, 64, w5);
-  GAGEN_SCATTER(J, 324, 65, w5);
-  GAGEN_SCATTER(J, 324, 66, w5);
-  GAGEN_SCATTER(J, 324, 67, w5);
-  GAGEN_SCATTER(J, 324, 68, w5);
-  GAGEN_SCATTER(J, 324, 69, w5);
-  GAGEN_SCATTER(J, 324, 70, w5);
-  GAGEN_SCATTER(J, 324, 71, w5);
-  GAGEN_SCATTER(J, 324, 72, w5);
-  GAGEN_SCATTER(J, 324, 73, w5);
-  GAGEN_SCATTER(J, 324, 74, w5);
+  GAGEN_SCATTER(out_J, 324, 57, w32);
+  GAGEN_SCATTER(out_J, 324, 58, w22);
+  GAGEN_SCATTER(out_J, 324, 59, w5);
+  GAGEN_SCATTER(out_J, 324, 60, w5);
+  GAGEN_SCATTER(out_J, 324, 61, w5);
+  GAGEN_SCATTER(out_J, 324, 62, w5);
+  GAGEN_SCATTER(out_J, 324, 63, w5);
+  GAGEN_SCATTER(out_J, 324, 64, w5);
+  GAGEN_SCATTER(out_J, 324, 65, w5);
+  GAGEN_SCATTER(out_J, 324, 66, w5);
+  GAGEN_SCATTER(out_J, 324, 67, w5);
+  GAGEN_SCATTER(out_J, 324, 68, w5);
+  GAGEN_SCATTER(out_J, 324, 69, w5);
+  GAGEN_SCATTER(out_J, 324, 70, w5);
+  GAGEN_SCATTER(out_J, 324, 71, w5);
+  GAGEN_SCATTER(out_J, 324, 72, w5);
+  GAGEN_SCATTER(out_J, 324, 73, w5);
+  GAGEN_SCATTER(out_J, 324, 74, w5);
   w32 = w31 + w31;
   w32 = w14 - w32;
   w41 = w32 * w33;
-  GAGEN_SCATTER(J, 324, 75, w41);
+  GAGEN_SCATTER(out_J, 324, 75, w41);
   w33 = w30 * w33;
   w33 = w33 + w33;
-  GAGEN_SCATTER(J, 324, 76, w33);
+  GAGEN_SCATTER(out_J, 324, 76, w33);
   w16 = gagen_v_splat(0.05);
   w75 = gagen_v_splat(0.24);
   w12 = w75 * w30;
@@ -10754,86 +10754,86 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w29 = w30 * w29;
   w29 = w29 + w29;
   w11 = w11 - w29;
-  GAGEN_SCATTER(J, 324, 77, w11);
-  GAGEN_SCATTER(J, 324, 78, w5);
-  GAGEN_SCATTER(J, 324, 79, w5);
-  GAGEN_SCATTER(J, 324, 80, w5);
-  GAGEN_SCATTER(J, 324, 81, w5);
-  GAGEN_SCATTER(J, 324, 82, w5);
-  GAGEN_SCATTER(J, 324, 83, w5);
-  GAGEN_SCATTER(J, 324, 84, w5);
-  GAGEN_SCATTER(J, 324, 85, w5);
-  GAGEN_SCATTER(J, 324, 86, w5);
-  GAGEN_SCATTER(J, 324, 87, w5);
-  GAGEN_SCATTER(J, 324, 88, w5);
-  GAGEN_SCATTER(J, 324, 89, w5);
-  GAGEN_SCATTER(J, 324, 90, w5);
-  GAGEN_SCATTER(J, 324, 91, w5);
-  GAGEN_SCATTER(J, 324, 92, w5);
+  GAGEN_SCATTER(out_J, 324, 77, w11);
+  GAGEN_SCATTER(out_J, 324, 78, w5);
+  GAGEN_SCATTER(out_J, 324, 79, w5);
+  GAGEN_SCATTER(out_J, 324, 80, w5);
+  GAGEN_SCATTER(out_J, 324, 81, w5);
+  GAGEN_SCATTER(out_J, 324, 82, w5);
+  GAGEN_SCATTER(out_J, 324, 83, w5);
+  GAGEN_SCATTER(out_J, 324, 84, w5);
+  GAGEN_SCATTER(out_J, 324, 85, w5);
+  GAGEN_SCATTER(out_J, 324, 86, w5);
+  GAGEN_SCATTER(out_J, 324, 87, w5);
+  GAGEN_SCATTER(out_J, 324, 88, w5);
+  GAGEN_SCATTER(out_J, 324, 89, w5);
+  GAGEN_SCATTER(out_J, 324, 90, w5);
+  GAGEN_SCATTER(out_J, 324, 91, w5);
+  GAGEN_SCATTER(out_J, 324, 92, w5);
   w25 = w1 * w25;
   w41 = w41 + w25;
   w31 = w31 * w24;
   w31 = w31 * w23;
   w31 = w7 * w31;
   w41 = w41 - w31;
-  GAGEN_SCATTER(J, 324, 93, w41);
+  GAGEN_SCATTER(out_J, 324, 93, w41);
   w30 = w30 * w24;
   w30 = w30 * w23;
   w30 = w7 * w30;
   w30 = w30 + w33;
-  GAGEN_SCATTER(J, 324, 94, w30);
+  GAGEN_SCATTER(out_J, 324, 94, w30);
   w30 = gagen_v_splat(0.25);
   w12 = w30 + w12;
   w12 = w12 - w32;
   w26 = w1 * w26;
   w12 = w12 - w26;
   w12 = w12 - w29;
-  GAGEN_SCATTER(J, 324, 95, w12);
-  GAGEN_SCATTER(J, 324, 96, w5);
-  GAGEN_SCATTER(J, 324, 97, w5);
-  GAGEN_SCATTER(J, 324, 98, w5);
-  GAGEN_SCATTER(J, 324, 99, w5);
-  GAGEN_SCATTER(J, 324, 100, w5);
-  GAGEN_SCATTER(J, 324, 101, w5);
-  GAGEN_SCATTER(J, 324, 102, w5);
-  GAGEN_SCATTER(J, 324, 103, w5);
-  GAGEN_SCATTER(J, 324, 104, w5);
-  GAGEN_SCATTER(J, 324, 105, w5);
-  GAGEN_SCATTER(J, 324, 106, w5);
-  GAGEN_SCATTER(J, 324, 107, w5);
-  GAGEN_SCATTER(J, 324, 108, w5);
-  GAGEN_SCATTER(J, 324, 109, w5);
-  GAGEN_SCATTER(J, 324, 110, w5);
-  GAGEN_SCATTER(J, 324, 111, w5);
-  GAGEN_SCATTER(J, 324, 112, w5);
-  GAGEN_SCATTER(J, 324, 113, w5);
+  GAGEN_SCATTER(out_J, 324, 95, w12);
+  GAGEN_SCATTER(out_J, 324, 96, w5);
+  GAGEN_SCATTER(out_J, 324, 97, w5);
+  GAGEN_SCATTER(out_J, 324, 98, w5);
+  GAGEN_SCATTER(out_J, 324, 99, w5);
+  GAGEN_SCATTER(out_J, 324, 100, w5);
+  GAGEN_SCATTER(out_J, 324, 101, w5);
+  GAGEN_SCATTER(out_J, 324, 102, w5);
+  GAGEN_SCATTER(out_J, 324, 103, w5);
+  GAGEN_SCATTER(out_J, 324, 104, w5);
+  GAGEN_SCATTER(out_J, 324, 105, w5);
+  GAGEN_SCATTER(out_J, 324, 106, w5);
+  GAGEN_SCATTER(out_J, 324, 107, w5);
+  GAGEN_SCATTER(out_J, 324, 108, w5);
+  GAGEN_SCATTER(out_J, 324, 109, w5);
+  GAGEN_SCATTER(out_J, 324, 110, w5);
+  GAGEN_SCATTER(out_J, 324, 111, w5);
+  GAGEN_SCATTER(out_J, 324, 112, w5);
+  GAGEN_SCATTER(out_J, 324, 113, w5);
   w39 = -w39;
-  GAGEN_SCATTER(J, 324, 114, w39);
+  GAGEN_SCATTER(out_J, 324, 114, w39);
   w34 = w34 - w42;
-  GAGEN_SCATTER(J, 324, 115, w34);
-  GAGEN_SCATTER(J, 324, 116, w5);
-  GAGEN_SCATTER(J, 324, 117, w5);
-  GAGEN_SCATTER(J, 324, 118, w5);
-  GAGEN_SCATTER(J, 324, 119, w5);
-  GAGEN_SCATTER(J, 324, 120, w5);
-  GAGEN_SCATTER(J, 324, 121, w5);
-  GAGEN_SCATTER(J, 324, 122, w5);
-  GAGEN_SCATTER(J, 324, 123, w5);
-  GAGEN_SCATTER(J, 324, 124, w5);
-  GAGEN_SCATTER(J, 324, 125, w5);
-  GAGEN_SCATTER(J, 324, 126, w5);
-  GAGEN_SCATTER(J, 324, 127, w5);
-  GAGEN_SCATTER(J, 324, 128, w5);
-  GAGEN_SCATTER(J, 324, 129, w5);
-  GAGEN_SCATTER(J, 324, 130, w5);
-  GAGEN_SCATTER(J, 324, 131, w5);
+  GAGEN_SCATTER(out_J, 324, 115, w34);
+  GAGEN_SCATTER(out_J, 324, 116, w5);
+  GAGEN_SCATTER(out_J, 324, 117, w5);
+  GAGEN_SCATTER(out_J, 324, 118, w5);
+  GAGEN_SCATTER(out_J, 324, 119, w5);
+  GAGEN_SCATTER(out_J, 324, 120, w5);
+  GAGEN_SCATTER(out_J, 324, 121, w5);
+  GAGEN_SCATTER(out_J, 324, 122, w5);
+  GAGEN_SCATTER(out_J, 324, 123, w5);
+  GAGEN_SCATTER(out_J, 324, 124, w5);
+  GAGEN_SCATTER(out_J, 324, 125, w5);
+  GAGEN_SCATTER(out_J, 324, 126, w5);
+  GAGEN_SCATTER(out_J, 324, 127, w5);
+  GAGEN_SCATTER(out_J, 324, 128, w5);
+  GAGEN_SCATTER(out_J, 324, 129, w5);
+  GAGEN_SCATTER(out_J, 324, 130, w5);
+  GAGEN_SCATTER(out_J, 324, 131, w5);
   w34 = w46 + w46;
   w34 = w14 - w34;
   w42 = w34 * w47;
-  GAGEN_SCATTER(J, 324, 132, w42);
+  GAGEN_SCATTER(out_J, 324, 132, w42);
   w47 = w45 * w47;
   w47 = w47 + w47;
-  GAGEN_SCATTER(J, 324, 133, w47);
+  GAGEN_SCATTER(out_J, 324, 133, w47);
   w39 = w27 * w45;
   w12 = w6 * w46;
   w29 = w39 + w12;
@@ -10844,34 +10844,34 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w44 = w45 * w44;
   w44 = w44 + w44;
   w29 = w29 - w44;
-  GAGEN_SCATTER(J, 324, 134, w29);
-  GAGEN_SCATTER(J, 324, 135, w5);
-  GAGEN_SCATTER(J, 324, 136, w5);
-  GAGEN_SCATTER(J, 324, 137, w5);
-  GAGEN_SCATTER(J, 324, 138, w5);
-  GAGEN_SCATTER(J, 324, 139, w5);
-  GAGEN_SCATTER(J, 324, 140, w5);
-  GAGEN_SCATTER(J, 324, 141, w5);
-  GAGEN_SCATTER(J, 324, 142, w5);
-  GAGEN_SCATTER(J, 324, 143, w5);
-  GAGEN_SCATTER(J, 324, 144, w5);
-  GAGEN_SCATTER(J, 324, 145, w5);
-  GAGEN_SCATTER(J, 324, 146, w5);
-  GAGEN_SCATTER(J, 324, 147, w5);
-  GAGEN_SCATTER(J, 324, 148, w5);
-  GAGEN_SCATTER(J, 324, 149, w5);
+  GAGEN_SCATTER(out_J, 324, 134, w29);
+  GAGEN_SCATTER(out_J, 324, 135, w5);
+  GAGEN_SCATTER(out_J, 324, 136, w5);
+  GAGEN_SCATTER(out_J, 324, 137, w5);
+  GAGEN_SCATTER(out_J, 324, 138, w5);
+  GAGEN_SCATTER(out_J, 324, 139, w5);
+  GAGEN_SCATTER(out_J, 324, 140, w5);
+  GAGEN_SCATTER(out_J, 324, 141, w5);
+  GAGEN_SCATTER(out_J, 324, 142, w5);
+  GAGEN_SCATTER(out_J, 324, 143, w5);
+  GAGEN_SCATTER(out_J, 324, 144, w5);
+  GAGEN_SCATTER(out_J, 324, 145, w5);
+  GAGEN_SCATTER(out_J, 324, 146, w5);
+  GAGEN_SCATTER(out_J, 324, 147, w5);
+  GAGEN_SCATTER(out_J, 324, 148, w5);
+  GAGEN_SCATTER(out_J, 324, 149, w5);
   w38 = w1 * w38;
   w42 = w42 + w38;
   w46 = w46 * w37;
   w46 = w46 * w36;
   w46 = w7 * w46;
   w42 = w42 - w46;
-  GAGEN_SCATTER(J, 324, 150, w42);
+  GAGEN_SCATTER(out_J, 324, 150, w42);
   w45 = w45 * w37;
   w45 = w45 * w36;
   w45 = w7 * w45;
   w45 = w45 + w47;
-  GAGEN_SCATTER(J, 324, 151, w45);
+  GAGEN_SCATTER(out_J, 324, 151, w45);
   w45 = gagen_v_splat(0.146076951546);
   w39 = w45 + w39;
   w39 = w39 + w12;
@@ -10879,52 +10879,52 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w40 = w1 * w40;
   w39 = w39 - w40;
   w39 = w39 - w44;
-  GAGEN_SCATTER(J, 324, 152, w39);
-  GAGEN_SCATTER(J, 324, 153, w5);
-  GAGEN_SCATTER(J, 324, 154, w5);
-  GAGEN_SCATTER(J, 324, 155, w5);
-  GAGEN_SCATTER(J, 324, 156, w5);
-  GAGEN_SCATTER(J, 324, 157, w5);
-  GAGEN_SCATTER(J, 324, 158, w5);
-  GAGEN_SCATTER(J, 324, 159, w5);
-  GAGEN_SCATTER(J, 324, 160, w5);
-  GAGEN_SCATTER(J, 324, 161, w5);
-  GAGEN_SCATTER(J, 324, 162, w5);
-  GAGEN_SCATTER(J, 324, 163, w5);
-  GAGEN_SCATTER(J, 324, 164, w5);
-  GAGEN_SCATTER(J, 324, 165, w5);
-  GAGEN_SCATTER(J, 324, 166, w5);
-  GAGEN_SCATTER(J, 324, 167, w5);
-  GAGEN_SCATTER(J, 324, 168, w5);
-  GAGEN_SCATTER(J, 324, 169, w5);
-  GAGEN_SCATTER(J, 324, 170, w5);
+  GAGEN_SCATTER(out_J, 324, 152, w39);
+  GAGEN_SCATTER(out_J, 324, 153, w5);
+  GAGEN_SCATTER(out_J, 324, 154, w5);
+  GAGEN_SCATTER(out_J, 324, 155, w5);
+  GAGEN_SCATTER(out_J, 324, 156, w5);
+  GAGEN_SCATTER(out_J, 324, 157, w5);
+  GAGEN_SCATTER(out_J, 324, 158, w5);
+  GAGEN_SCATTER(out_J, 324, 159, w5);
+  GAGEN_SCATTER(out_J, 324, 160, w5);
+  GAGEN_SCATTER(out_J, 324, 161, w5);
+  GAGEN_SCATTER(out_J, 324, 162, w5);
+  GAGEN_SCATTER(out_J, 324, 163, w5);
+  GAGEN_SCATTER(out_J, 324, 164, w5);
+  GAGEN_SCATTER(out_J, 324, 165, w5);
+  GAGEN_SCATTER(out_J, 324, 166, w5);
+  GAGEN_SCATTER(out_J, 324, 167, w5);
+  GAGEN_SCATTER(out_J, 324, 168, w5);
+  GAGEN_SCATTER(out_J, 324, 169, w5);
+  GAGEN_SCATTER(out_J, 324, 170, w5);
   w51 = -w51;
-  GAGEN_SCATTER(J, 324, 171, w51);
+  GAGEN_SCATTER(out_J, 324, 171, w51);
   w4 = w4 - w54;
-  GAGEN_SCATTER(J, 324, 172, w4);
-  GAGEN_SCATTER(J, 324, 173, w5);
-  GAGEN_SCATTER(J, 324, 174, w5);
-  GAGEN_SCATTER(J, 324, 175, w5);
-  GAGEN_SCATTER(J, 324, 176, w5);
-  GAGEN_SCATTER(J, 324, 177, w5);
-  GAGEN_SCATTER(J, 324, 178, w5);
-  GAGEN_SCATTER(J, 324, 179, w5);
-  GAGEN_SCATTER(J, 324, 180, w5);
-  GAGEN_SCATTER(J, 324, 181, w5);
-  GAGEN_SCATTER(J, 324, 182, w5);
-  GAGEN_SCATTER(J, 324, 183, w5);
-  GAGEN_SCATTER(J, 324, 184, w5);
-  GAGEN_SCATTER(J, 324, 185, w5);
-  GAGEN_SCATTER(J, 324, 186, w5);
-  GAGEN_SCATTER(J, 324, 187, w5);
-  GAGEN_SCATTER(J, 324, 188, w5);
+  GAGEN_SCATTER(out_J, 324, 172, w4);
+  GAGEN_SCATTER(out_J, 324, 173, w5);
+  GAGEN_SCATTER(out_J, 324, 174, w5);
+  GAGEN_SCATTER(out_J, 324, 175, w5);
+  GAGEN_SCATTER(out_J, 324, 176, w5);
+  GAGEN_SCATTER(out_J, 324, 177, w5);
+  GAGEN_SCATTER(out_J, 324, 178, w5);
+  GAGEN_SCATTER(out_J, 324, 179, w5);
+  GAGEN_SCATTER(out_J, 324, 180, w5);
+  GAGEN_SCATTER(out_J, 324, 181, w5);
+  GAGEN_SCATTER(out_J, 324, 182, w5);
+  GAGEN_SCATTER(out_J, 324, 183, w5);
+  GAGEN_SCATTER(out_J, 324, 184, w5);
+  GAGEN_SCATTER(out_J, 324, 185, w5);
+  GAGEN_SCATTER(out_J, 324, 186, w5);
+  GAGEN_SCATTER(out_J, 324, 187, w5);
+  GAGEN_SCATTER(out_J, 324, 188, w5);
   w4 = w56 + w56;
   w4 = w14 - w4;
   w54 = w4 * w57;
-  GAGEN_SCATTER(J, 324, 189, w54);
+  GAGEN_SCATTER(out_J, 324, 189, w54);
   w57 = w43 * w57;
   w57 = w57 + w57;
-  GAGEN_SCATTER(J, 324, 190, w57);
+  GAGEN_SCATTER(out_J, 324, 190, w57);
   w51 = w6 * w56;
   w4 = w4 * w3;
   w3 = w51 - w4;
@@ -10934,85 +10934,85 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w55 = w43 * w55;
   w55 = w55 + w55;
   w3 = w3 - w55;
-  GAGEN_SCATTER(J, 324, 191, w3);
-  GAGEN_SCATTER(J, 324, 192, w5);
-  GAGEN_SCATTER(J, 324, 193, w5);
-  GAGEN_SCATTER(J, 324, 194, w5);
-  GAGEN_SCATTER(J, 324, 195, w5);
-  GAGEN_SCATTER(J, 324, 196, w5);
-  GAGEN_SCATTER(J, 324, 197, w5);
-  GAGEN_SCATTER(J, 324, 198, w5);
-  GAGEN_SCATTER(J, 324, 199, w5);
-  GAGEN_SCATTER(J, 324, 200, w5);
-  GAGEN_SCATTER(J, 324, 201, w5);
-  GAGEN_SCATTER(J, 324, 202, w5);
-  GAGEN_SCATTER(J, 324, 203, w5);
-  GAGEN_SCATTER(J, 324, 204, w5);
-  GAGEN_SCATTER(J, 324, 205, w5);
-  GAGEN_SCATTER(J, 324, 206, w5);
+  GAGEN_SCATTER(out_J, 324, 191, w3);
+  GAGEN_SCATTER(out_J, 324, 192, w5);
+  GAGEN_SCATTER(out_J, 324, 193, w5);
+  GAGEN_SCATTER(out_J, 324, 194, w5);
+  GAGEN_SCATTER(out_J, 324, 195, w5);
+  GAGEN_SCATTER(out_J, 324, 196, w5);
+  GAGEN_SCATTER(out_J, 324, 197, w5);
+  GAGEN_SCATTER(out_J, 324, 198, w5);
+  GAGEN_SCATTER(out_J, 324, 199, w5);
+  GAGEN_SCATTER(out_J, 324, 200, w5);
+  GAGEN_SCATTER(out_J, 324, 201, w5);
+  GAGEN_SCATTER(out_J, 324, 202, w5);
+  GAGEN_SCATTER(out_J, 324, 203, w5);
+  GAGEN_SCATTER(out_J, 324, 204, w5);
+  GAGEN_SCATTER(out_J, 324, 205, w5);
+  GAGEN_SCATTER(out_J, 324, 206, w5);
   w50 = w1 * w50;
   w54 = w54 + w50;
   w56 = w56 * w49;
   w56 = w56 * w48;
   w56 = w7 * w56;
   w54 = w54 - w56;
-  GAGEN_SCATTER(J, 324, 207, w54);
+  GAGEN_SCATTER(out_J, 324, 207, w54);
   w43 = w43 * w49;
   w43 = w43 * w48;
   w43 = w7 * w43;
   w43 = w43 + w57;
-  GAGEN_SCATTER(J, 324, 208, w43);
+  GAGEN_SCATTER(out_J, 324, 208, w43);
   w45 = w45 + w51;
   w45 = w45 - w4;
   w52 = w1 * w52;
   w45 = w45 - w52;
   w45 = w45 - w35;
   w45 = w45 - w55;
-  GAGEN_SCATTER(J, 324, 209, w45);
-  GAGEN_SCATTER(J, 324, 210, w5);
-  GAGEN_SCATTER(J, 324, 211, w5);
-  GAGEN_SCATTER(J, 324, 212, w5);
-  GAGEN_SCATTER(J, 324, 213, w5);
-  GAGEN_SCATTER(J, 324, 214, w5);
-  GAGEN_SCATTER(J, 324, 215, w5);
-  GAGEN_SCATTER(J, 324, 216, w5);
-  GAGEN_SCATTER(J, 324, 217, w5);
-  GAGEN_SCATTER(J, 324, 218, w5);
-  GAGEN_SCATTER(J, 324, 219, w5);
-  GAGEN_SCATTER(J, 324, 220, w5);
-  GAGEN_SCATTER(J, 324, 221, w5);
-  GAGEN_SCATTER(J, 324, 222, w5);
-  GAGEN_SCATTER(J, 324, 223, w5);
-  GAGEN_SCATTER(J, 324, 224, w5);
-  GAGEN_SCATTER(J, 324, 225, w5);
-  GAGEN_SCATTER(J, 324, 226, w5);
-  GAGEN_SCATTER(J, 324, 227, w5);
+  GAGEN_SCATTER(out_J, 324, 209, w45);
+  GAGEN_SCATTER(out_J, 324, 210, w5);
+  GAGEN_SCATTER(out_J, 324, 211, w5);
+  GAGEN_SCATTER(out_J, 324, 212, w5);
+  GAGEN_SCATTER(out_J, 324, 213, w5);
+  GAGEN_SCATTER(out_J, 324, 214, w5);
+  GAGEN_SCATTER(out_J, 324, 215, w5);
+  GAGEN_SCATTER(out_J, 324, 216, w5);
+  GAGEN_SCATTER(out_J, 324, 217, w5);
+  GAGEN_SCATTER(out_J, 324, 218, w5);
+  GAGEN_SCATTER(out_J, 324, 219, w5);
+  GAGEN_SCATTER(out_J, 324, 220, w5);
+  GAGEN_SCATTER(out_J, 324, 221, w5);
+  GAGEN_SCATTER(out_J, 324, 222, w5);
+  GAGEN_SCATTER(out_J, 324, 223, w5);
+  GAGEN_SCATTER(out_J, 324, 224, w5);
+  GAGEN_SCATTER(out_J, 324, 225, w5);
+  GAGEN_SCATTER(out_J, 324, 226, w5);
+  GAGEN_SCATTER(out_J, 324, 227, w5);
   w66 = -w66;
-  GAGEN_SCATTER(J, 324, 228, w66);
-  GAGEN_SCATTER(J, 324, 229, w58);
-  GAGEN_SCATTER(J, 324, 230, w5);
-  GAGEN_SCATTER(J, 324, 231, w5);
-  GAGEN_SCATTER(J, 324, 232, w5);
-  GAGEN_SCATTER(J, 324, 233, w5);
-  GAGEN_SCATTER(J, 324, 234, w5);
-  GAGEN_SCATTER(J, 324, 235, w5);
-  GAGEN_SCATTER(J, 324, 236, w5);
-  GAGEN_SCATTER(J, 324, 237, w5);
-  GAGEN_SCATTER(J, 324, 238, w5);
-  GAGEN_SCATTER(J, 324, 239, w5);
-  GAGEN_SCATTER(J, 324, 240, w5);
-  GAGEN_SCATTER(J, 324, 241, w5);
-  GAGEN_SCATTER(J, 324, 242, w5);
-  GAGEN_SCATTER(J, 324, 243, w5);
-  GAGEN_SCATTER(J, 324, 244, w5);
-  GAGEN_SCATTER(J, 324, 245, w5);
+  GAGEN_SCATTER(out_J, 324, 228, w66);
+  GAGEN_SCATTER(out_J, 324, 229, w58);
+  GAGEN_SCATTER(out_J, 324, 230, w5);
+  GAGEN_SCATTER(out_J, 324, 231, w5);
+  GAGEN_SCATTER(out_J, 324, 232, w5);
+  GAGEN_SCATTER(out_J, 324, 233, w5);
+  GAGEN_SCATTER(out_J, 324, 234, w5);
+  GAGEN_SCATTER(out_J, 324, 235, w5);
+  GAGEN_SCATTER(out_J, 324, 236, w5);
+  GAGEN_SCATTER(out_J, 324, 237, w5);
+  GAGEN_SCATTER(out_J, 324, 238, w5);
+  GAGEN_SCATTER(out_J, 324, 239, w5);
+  GAGEN_SCATTER(out_J, 324, 240, w5);
+  GAGEN_SCATTER(out_J, 324, 241, w5);
+  GAGEN_SCATTER(out_J, 324, 242, w5);
+  GAGEN_SCATTER(out_J, 324, 243, w5);
+  GAGEN_SCATTER(out_J, 324, 244, w5);
+  GAGEN_SCATTER(out_J, 324, 245, w5);
   w66 = w65 + w65;
   w66 = w14 - w66;
   w45 = w66 * w63;
-  GAGEN_SCATTER(J, 324, 246, w45);
+  GAGEN_SCATTER(out_J, 324, 246, w45);
   w63 = w28 * w63;
   w63 = w63 + w63;
-  GAGEN_SCATTER(J, 324, 247, w63);
+  GAGEN_SCATTER(out_J, 324, 247, w63);
   w66 = w66 * w58;
   w16 = w16 - w66;
   w75 = w75 * w28;
@@ -11020,85 +11020,85 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w64 = w28 * w64;
   w64 = w64 + w64;
   w16 = w16 - w64;
-  GAGEN_SCATTER(J, 324, 248, w16);
-  GAGEN_SCATTER(J, 324, 249, w5);
-  GAGEN_SCATTER(J, 324, 250, w5);
-  GAGEN_SCATTER(J, 324, 251, w5);
-  GAGEN_SCATTER(J, 324, 252, w5);
-  GAGEN_SCATTER(J, 324, 253, w5);
-  GAGEN_SCATTER(J, 324, 254, w5);
-  GAGEN_SCATTER(J, 324, 255, w5);
-  GAGEN_SCATTER(J, 324, 256, w5);
-  GAGEN_SCATTER(J, 324, 257, w5);
-  GAGEN_SCATTER(J, 324, 258, w5);
-  GAGEN_SCATTER(J, 324, 259, w5);
-  GAGEN_SCATTER(J, 324, 260, w5);
-  GAGEN_SCATTER(J, 324, 261, w5);
-  GAGEN_SCATTER(J, 324, 262, w5);
-  GAGEN_SCATTER(J, 324, 263, w5);
+  GAGEN_SCATTER(out_J, 324, 248, w16);
+  GAGEN_SCATTER(out_J, 324, 249, w5);
+  GAGEN_SCATTER(out_J, 324, 250, w5);
+  GAGEN_SCATTER(out_J, 324, 251, w5);
+  GAGEN_SCATTER(out_J, 324, 252, w5);
+  GAGEN_SCATTER(out_J, 324, 253, w5);
+  GAGEN_SCATTER(out_J, 324, 254, w5);
+  GAGEN_SCATTER(out_J, 324, 255, w5);
+  GAGEN_SCATTER(out_J, 324, 256, w5);
+  GAGEN_SCATTER(out_J, 324, 257, w5);
+  GAGEN_SCATTER(out_J, 324, 258, w5);
+  GAGEN_SCATTER(out_J, 324, 259, w5);
+  GAGEN_SCATTER(out_J, 324, 260, w5);
+  GAGEN_SCATTER(out_J, 324, 261, w5);
+  GAGEN_SCATTER(out_J, 324, 262, w5);
+  GAGEN_SCATTER(out_J, 324, 263, w5);
   w61 = w1 * w61;
   w45 = w45 + w61;
   w65 = w65 * w60;
   w65 = w65 * w59;
   w65 = w7 * w65;
   w45 = w45 - w65;
-  GAGEN_SCATTER(J, 324, 264, w45);
+  GAGEN_SCATTER(out_J, 324, 264, w45);
   w28 = w28 * w60;
   w28 = w28 * w59;
   w28 = w7 * w28;
   w28 = w28 + w63;
-  GAGEN_SCATTER(J, 324, 265, w28);
+  GAGEN_SCATTER(out_J, 324, 265, w28);
   w30 = w30 - w66;
   w62 = w1 * w62;
   w30 = w30 - w62;
   w30 = w30 - w75;
   w30 = w30 - w64;
-  GAGEN_SCATTER(J, 324, 266, w30);
-  GAGEN_SCATTER(J, 324, 267, w5);
-  GAGEN_SCATTER(J, 324, 268, w5);
-  GAGEN_SCATTER(J, 324, 269, w5);
-  GAGEN_SCATTER(J, 324, 270, w5);
-  GAGEN_SCATTER(J, 324, 271, w5);
-  GAGEN_SCATTER(J, 324, 272, w5);
-  GAGEN_SCATTER(J, 324, 273, w5);
-  GAGEN_SCATTER(J, 324, 274, w5);
-  GAGEN_SCATTER(J, 324, 275, w5);
-  GAGEN_SCATTER(J, 324, 276, w5);
-  GAGEN_SCATTER(J, 324, 277, w5);
-  GAGEN_SCATTER(J, 324, 278, w5);
-  GAGEN_SCATTER(J, 324, 279, w5);
-  GAGEN_SCATTER(J, 324, 280, w5);
-  GAGEN_SCATTER(J, 324, 281, w5);
-  GAGEN_SCATTER(J, 324, 282, w5);
-  GAGEN_SCATTER(J, 324, 283, w5);
-  GAGEN_SCATTER(J, 324, 284, w5);
+  GAGEN_SCATTER(out_J, 324, 266, w30);
+  GAGEN_SCATTER(out_J, 324, 267, w5);
+  GAGEN_SCATTER(out_J, 324, 268, w5);
+  GAGEN_SCATTER(out_J, 324, 269, w5);
+  GAGEN_SCATTER(out_J, 324, 270, w5);
+  GAGEN_SCATTER(out_J, 324, 271, w5);
+  GAGEN_SCATTER(out_J, 324, 272, w5);
+  GAGEN_SCATTER(out_J, 324, 273, w5);
+  GAGEN_SCATTER(out_J, 324, 274, w5);
+  GAGEN_SCATTER(out_J, 324, 275, w5);
+  GAGEN_SCATTER(out_J, 324, 276, w5);
+  GAGEN_SCATTER(out_J, 324, 277, w5);
+  GAGEN_SCATTER(out_J, 324, 278, w5);
+  GAGEN_SCATTER(out_J, 324, 279, w5);
+  GAGEN_SCATTER(out_J, 324, 280, w5);
+  GAGEN_SCATTER(out_J, 324, 281, w5);
+  GAGEN_SCATTER(out_J, 324, 282, w5);
+  GAGEN_SCATTER(out_J, 324, 283, w5);
+  GAGEN_SCATTER(out_J, 324, 284, w5);
   w70 = -w70;
-  GAGEN_SCATTER(J, 324, 285, w70);
+  GAGEN_SCATTER(out_J, 324, 285, w70);
   w19 = w19 - w73;
-  GAGEN_SCATTER(J, 324, 286, w19);
-  GAGEN_SCATTER(J, 324, 287, w5);
-  GAGEN_SCATTER(J, 324, 288, w5);
-  GAGEN_SCATTER(J, 324, 289, w5);
-  GAGEN_SCATTER(J, 324, 290, w5);
-  GAGEN_SCATTER(J, 324, 291, w5);
-  GAGEN_SCATTER(J, 324, 292, w5);
-  GAGEN_SCATTER(J, 324, 293, w5);
-  GAGEN_SCATTER(J, 324, 294, w5);
-  GAGEN_SCATTER(J, 324, 295, w5);
-  GAGEN_SCATTER(J, 324, 296, w5);
-  GAGEN_SCATTER(J, 324, 297, w5);
-  GAGEN_SCATTER(J, 324, 298, w5);
-  GAGEN_SCATTER(J, 324, 299, w5);
-  GAGEN_SCATTER(J, 324, 300, w5);
-  GAGEN_SCATTER(J, 324, 301, w5);
-  GAGEN_SCATTER(J, 324, 302, w5);
+  GAGEN_SCATTER(out_J, 324, 286, w19);
+  GAGEN_SCATTER(out_J, 324, 287, w5);
+  GAGEN_SCATTER(out_J, 324, 288, w5);
+  GAGEN_SCATTER(out_J, 324, 289, w5);
+  GAGEN_SCATTER(out_J, 324, 290, w5);
+  GAGEN_SCATTER(out_J, 324, 291, w5);
+  GAGEN_SCATTER(out_J, 324, 292, w5);
+  GAGEN_SCATTER(out_J, 324, 293, w5);
+  GAGEN_SCATTER(out_J, 324, 294, w5);
+  GAGEN_SCATTER(out_J, 324, 295, w5);
+  GAGEN_SCATTER(out_J, 324, 296, w5);
+  GAGEN_SCATTER(out_J, 324, 297, w5);
+  GAGEN_SCATTER(out_J, 324, 298, w5);
+  GAGEN_SCATTER(out_J, 324, 299, w5);
+  GAGEN_SCATTER(out_J, 324, 300, w5);
+  GAGEN_SCATTER(out_J, 324, 301, w5);
+  GAGEN_SCATTER(out_J, 324, 302, w5);
   w19 = w74 + w74;
   w14 = w14 - w19;
   w19 = w14 * w2;
-  GAGEN_SCATTER(J, 324, 303, w19);
+  GAGEN_SCATTER(out_J, 324, 303, w19);
   w2 = w15 * w2;
   w2 = w2 + w2;
-  GAGEN_SCATTER(J, 324, 304, w2);
+  GAGEN_SCATTER(out_J, 324, 304, w2);
   w14 = w14 * w0;
   w13 = w13 - w14;
   w27 = w27 * w15;
@@ -11108,41 +11108,41 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
   w20 = w15 * w20;
   w20 = w20 + w20;
   w13 = w13 - w20;
-  GAGEN_SCATTER(J, 324, 305, w13);
-  GAGEN_SCATTER(J, 324, 306, w5);
-  GAGEN_SCATTER(J, 324, 307, w5);
-  GAGEN_SCATTER(J, 324, 308, w5);
-  GAGEN_SCATTER(J, 324, 309, w5);
-  GAGEN_SCATTER(J, 324, 310, w5);
-  GAGEN_SCATTER(J, 324, 311, w5);
-  GAGEN_SCATTER(J, 324, 312, w5);
-  GAGEN_SCATTER(J, 324, 313, w5);
-  GAGEN_SCATTER(J, 324, 314, w5);
-  GAGEN_SCATTER(J, 324, 315, w5);
-  GAGEN_SCATTER(J, 324, 316, w5);
-  GAGEN_SCATTER(J, 324, 317, w5);
-  GAGEN_SCATTER(J, 324, 318, w5);
-  GAGEN_SCATTER(J, 324, 319, w5);
-  GAGEN_SCATTER(J, 324, 320, w5);
+  GAGEN_SCATTER(out_J, 324, 305, w13);
+  GAGEN_SCATTER(out_J, 324, 306, w5);
+  GAGEN_SCATTER(out_J, 324, 307, w5);
+  GAGEN_SCATTER(out_J, 324, 308, w5);
+  GAGEN_SCATTER(out_J, 324, 309, w5);
+  GAGEN_SCATTER(out_J, 324, 310, w5);
+  GAGEN_SCATTER(out_J, 324, 311, w5);
+  GAGEN_SCATTER(out_J, 324, 312, w5);
+  GAGEN_SCATTER(out_J, 324, 313, w5);
+  GAGEN_SCATTER(out_J, 324, 314, w5);
+  GAGEN_SCATTER(out_J, 324, 315, w5);
+  GAGEN_SCATTER(out_J, 324, 316, w5);
+  GAGEN_SCATTER(out_J, 324, 317, w5);
+  GAGEN_SCATTER(out_J, 324, 318, w5);
+  GAGEN_SCATTER(out_J, 324, 319, w5);
+  GAGEN_SCATTER(out_J, 324, 320, w5);
   w69 = w1 * w69;
   w19 = w19 + w69;
   w74 = w74 * w68;
   w74 = w74 * w67;
   w74 = w7 * w74;
   w19 = w19 - w74;
-  GAGEN_SCATTER(J, 324, 321, w19);
+  GAGEN_SCATTER(out_J, 324, 321, w19);
   w15 = w15 * w68;
   w15 = w15 * w67;
   w7 = w7 * w15;
   w7 = w7 + w2;
-  GAGEN_SCATTER(J, 324, 322, w7);
+  GAGEN_SCATTER(out_J, 324, 322, w7);
   w17 = w17 - w14;
   w1 = w1 * w71;
   w17 = w17 - w1;
   w17 = w17 - w27;
   w17 = w17 - w6;
   w17 = w17 - w20;
-  GAGEN_SCATTER(J, 324, 323, w17);
+  GAGEN_SCATTER(out_J, 324, 323, w17);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -11150,21 +11150,21 @@ static void hexapod_body_fk_pga_block_columns(long gagen_ld, int gagen_stream, c
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_body_fk_pga_batch_columns(long n, long ld, const double *restrict q, double *restrict p, double *restrict J) {
-  long s = 0;
+void hexapod_body_fk_pga_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_p, double *restrict out_J) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 342L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_body_fk_pga_block_columns(ld, stream, q + s, p + s, J + s);
+  const int gagen_stream = gagen_n * 342L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_body_fk_pga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_p + gagen_s, out_J + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_body_fk_pga_columns_from(s, n, ld, q, p, J);
+  hexapod_body_fk_pga_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_p, out_J);
 }
 
 #if GAGEN_SIMD
 /* all 6 toes in CGA3D: stacked positions and their 18\xd718 Jacobian: GAGEN_W consecutive samples at once */
-static void hexapod_body_fk_cga_block(const double *restrict q, double *restrict p, double *restrict J) {
+static void hexapod_body_fk_cga_block(const double *restrict in_q, double *restrict out_p, double *restrict out_J) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -11174,12 +11174,12 @@ static void hexapod_body_fk_cga_block(const double *restrict q, double *restrict
   gagen_v w72, w73, w74, w75, w76, w77, w78, w79;
   w0 = gagen_v_splat(0.553923048454);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 18, 1);
+  w2 = GAGEN_GATHER(in_q, 18, 1);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
   w4 = w3 * w3;
   w5 = gagen_v_splat(0.4);
-  w6 = GAGEN_GATHER(q, 18, 2);
+  w6 = GAGEN_GATHER(in_q, 18, 2);
   w6 = w1 * w6;
   w7 = gagen_v_sin(w6);
   w8 = w7 * w7;
@@ -11187,7 +11187,7 @@ static void hexapod_body_fk_cga_block(const double *restrict q, double *restrict
   w9 = w8 - w5;
   w10 = w4 * w9;
   w11 = gagen_v_splat(0.2617993877991494);
-  w12 = GAGEN_GATHER(q, 18, 0);
+  w12 = GAGEN_GATHER(in_q, 18, 0);
   w12 = w1 * w12;
   w12 = w11 + w12;
   w13 = gagen_v_sin(w12);
@@ -11210,14 +11210,14 @@ static void hexapod_body_fk_cga_block(const double *restrict q, double *restrict
   w20 = w0 + w10;
   w20 = w20 - w8;
   w20 = w20 - w19;
-  GAGEN_SCATTER(p, 18, 0, w20);
+  GAGEN_SCATTER(out_p, 18, 0, w20);
   w21 = gagen_v_splat(0.06);
   w12 = gagen_v_cos(w12);
   w13 = w13 * w12;
   w16 = w13 * w16;
   w16 = w16 + w16;
   w12 = w21 + w16;
-  GAGEN_SCATTER(p, 18, 1, w12);
+  GAGEN_SCATTER(out_p, 18, 1, w12);
   w9 = w18 * w9;
   w9 = w9 + w9;
   w22 = w4 * w7;
@@ -11227,12 +11227,12 @@ static void hexapod_body_fk_cga_block(const double *restrict q, double *restrict
   w7 = w7 * w6;
   w7 = w5 * w7;
   w9 = w9 - w7;
-  GAGEN_SCATTER(p, 18, 2, w9);
-  w7 = GAGEN_GATHER(q, 18, 4);
+  GAGEN_SCATTER(out_p, 18, 2, w9);
+  w7 = GAGEN_GATHER(in_q, 18, 4);
   w7 = w1 * w7;
   w6 = gagen_v_sin(w7);
   w22 = w6 * w6;
-  w23 = GAGEN_GATHER(q, 18, 5);
+  w23 = GAGEN_GATHER(in_q, 18, 5);
   w23 = w1 * w23;
   w24 = gagen_v_sin(w23);
   w25 = w24 * w24;
@@ -11240,7 +11240,7 @@ static void hexapod_body_fk_cga_block(const double *restrict q, double *restrict
   w26 = w25 - w5;
   w27 = w22 * w26;
   w28 = gagen_v_splat(0.7853981633974483);
-  w29 = GAGEN_GATHER(q, 18, 3);
+  w29 = GAGEN_GATHER(in_q, 18, 3);
   w29 = w1 * w29;
   w29 = w28 + w29;
   w30 = gagen_v_sin(w29);
@@ -11261,14 +11261,14 @@ static void hexapod_body_fk_cga_block(const double *restrict q, double *restrict
   w27 = w15 + w27;
   w27 = w27 - w25;
   w27 = w27 - w34;
-  GAGEN_SCATTER(p, 18, 3, w27);
+  GAGEN_SCATTER(out_p, 18, 3, w27);
   w34 = gagen_v_splat(0.12);
   w29 = gagen_v_cos(w29);
   w30 = w30 * w29;
   w32 = w30 * w32;
   w32 = w32 + w32;
   w29 = w34 + w32;
-  GAGEN_SCATTER(p, 18, 4, w29);
+  GAGEN_SCATTER(out_p, 18, 4, w29);
   w26 = w33 * w26;
   w26 = w26 + w26;
   w25 = w22 * w24;
@@ -11278,13 +11278,13 @@ static void hexapod_body_fk_cga_block(const double *restrict q, double *restrict
   w24 = w24 * w23;
   w24 = w5 * w24;
   w26 = w26 - w24;
-  GAGEN_SCATTER(p, 18, 5, w26);
+  GAGEN_SCATTER(out_p, 18, 5, w26);
   w24 = gagen_v_splat(0.34607695154600004);
-  w23 = GAGEN_GATHER(q, 18, 7);
+  w23 = GAGEN_GATHER(in_q, 18, 7);
   w23 = w1 * w23;
   w25 = gagen_v_sin(w23);
   w35 = w25 * w25;
-  w36 = GAGEN_GATHER(q, 18, 8);
+  w36 = GAGEN_GATHER(in_q, 18, 8);
   w36 = w1 * w36;
   w37 = gagen_v_sin(w36);
   w38 = w37 * w37;
@@ -11292,7 +11292,7 @@ static void hexapod_body_fk_cga_block(const double *restrict q, double *restrict
   w39 = w38 - w5;
   w40 = w35 * w39;
   w41 = gagen_v_splat(1.3089969389957472);
-  w42 = GAGEN_GATHER(q, 18, 6);
+  w42 = GAGEN_GATHER(in_q, 18, 6);
   w42 = w1 * w42;
   w42 = w41 + w42;
   w43 = gagen_v_sin(w42);
@@ -11313,13 +11313,13 @@ static void hexapod_body_fk_cga_block(const double *restrict q, double *restrict
   w48 = w24 + w40;
   w48 = w48 - w38;
   w48 = w48 - w47;
-  GAGEN_SCATTER(p, 18, 6, w48);
+  GAGEN_SCATTER(out_p, 18, 6, w48);
   w42 = gagen_v_cos(w42);
   w43 = w43 * w42;
   w45 = w43 * w45;
   w45 = w45 + w45;
   w42 = w21 + w45;
-  GAGEN_SCATTER(p, 18, 7, w42);
+  GAGEN_SCATTER(out_p, 18, 7, w42);
   w39 = w46 * w39;
   w39 = w39 + w39;
   w49 = w35 * w37;
@@ -11329,19 +11329,19 @@ static void hexapod_body_fk_cga_block(const double *restrict q, double *restrict
   w37 = w37 * w36;
   w37 = w5 * w37;
   w39 = w39 - w37;
-  GAGEN_SCATTER(p, 18, 8, w39);
-  w37 = GAGEN_GATHER(q, 18, 10);
+  GAGEN_SCATTER(out_p, 18, 8, w39);
+  w37 = GAGEN_GATHER(in_q, 18, 10);
   w37 = w1 * w37;
   w36 = gagen_v_sin(w37);
   w49 = w36 * w36;
-  w50 = GAGEN_GATHER(q, 18, 11);
+  w50 = GAGEN_GATHER(in_q, 18, 11);
   w50 = w1 * w50;
   w51 = gagen_v_sin(w50);
   w52 = w51 * w51;
   w52 = w5 * w52;
   w53 = w52 - w5;
   w54 = w49 * w53;
-  w55 = GAGEN_GATHER(q, 18, 9);
+  w55 = GAGEN_GATHER(in_q, 18, 9);
   w55 = w1 * w55;
   w55 = w55 - w41;
   w41 = gagen_v_sin(w55);
@@ -11362,13 +11362,13 @@ static void hexapod_body_fk_cga_block(const double *restrict q, double *restrict
   w24 = w24 + w54;
   w24 = w24 - w52;
   w24 = w24 - w59;
-  GAGEN_SCATTER(p, 18, 9, w24);
+  GAGEN_SCATTER(out_p, 18, 9, w24);
   w55 = gagen_v_cos(w55);
   w41 = w41 * w55;
   w57 = w41 * w57;
   w57 = w57 + w57;
   w55 = w57 - w21;
-  GAGEN_SCATTER(p, 18, 10, w55);
+  GAGEN_SCATTER(out_p, 18, 10, w55);
   w53 = w58 * w53;
   w53 = w53 + w53;
   w60 = w49 * w51;
@@ -11378,19 +11378,19 @@ static void hexapod_body_fk_cga_block(const double *restrict q, double *restrict
   w51 = w51 * w50;
   w51 = w5 * w51;
   w53 = w53 - w51;
-  GAGEN_SCATTER(p, 18, 11, w53);
-  w51 = GAGEN_GATHER(q, 18, 13);
+  GAGEN_SCATTER(out_p, 18, 11, w53);
+  w51 = GAGEN_GATHER(in_q, 18, 13);
   w51 = w1 * w51;
   w50 = gagen_v_sin(w51);
   w60 = w50 * w50;
-  w61 = GAGEN_GATHER(q, 18, 14);
+  w61 = GAGEN_GATHER(in_q, 18, 14);
   w61 = w1 * w61;
   w62 = gagen_v_sin(w61);
   w63 = w62 * w62;
   w63 = w5 * w63;
   w64 = w63 - w5;
   w65 = w60 * w64;
-  w66 = GAGEN_GATHER(q, 18, 12);
+  w66 = GAGEN_GATHER(in_q, 18, 12);
   w66 = w1 * w66;
   w66 = w66 - w28;
   w28 = gagen_v_sin(w66);
@@ -11411,13 +11411,13 @@ static void hexapod_body_fk_cga_block(const double *restrict q, double *restrict
   w65 = w15 + w65;
   w65 = w65 - w63;
   w65 = w65 - w70;
-  GAGEN_SCATTER(p, 18, 12, w65);
+  GAGEN_SCATTER(out_p, 18, 12, w65);
   w66 = gagen_v_cos(w66);
   w28 = w28 * w66;
   w68 = w28 * w68;
   w68 = w68 + w68;
   w66 = w68 - w34;
-  GAGEN_SCATTER(p, 18, 13, w66);
+  GAGEN_SCATTER(out_p, 18, 13, w66);
   w64 = w69 * w64;
   w64 = w64 + w64;
   w70 = w60 * w62;
@@ -11427,19 +11427,19 @@ static void hexapod_body_fk_cga_block(const double *restrict q, double *restrict
   w62 = w62 * w61;
   w62 = w5 * w62;
   w64 = w64 - w62;
-  GAGEN_SCATTER(p, 18, 14, w64);
-  w62 = GAGEN_GATHER(q, 18, 16);
+  GAGEN_SCATTER(out_p, 18, 14, w64);
+  w62 = GAGEN_GATHER(in_q, 18, 16);
   w62 = w1 * w62;
   w61 = gagen_v_sin(w62);
   w70 = w61 * w61;
-  w63 = GAGEN_GATHER(q, 18, 17);
+  w63 = GAGEN_GATHER(in_q, 18, 17);
   w63 = w1 * w63;
   w71 = gagen_v_sin(w63);
   w72 = w71 * w71;
   w72 = w5 * w72;
   w73 = w72 - w5;
   w74 = w70 * w73;
-  w75 = GAGEN_GATHER(q, 18, 15);
+  w75 = GAGEN_GATHER(in_q, 18, 15);
   w1 = w1 * w75;
   w1 = w1 - w11;
   w11 = gagen_v_sin(w1);
@@ -11460,13 +11460,13 @@ static void hexapod_body_fk_cga_block(const double *restrict q, double *restrict
   w0 = w0 + w74;
   w0 = w0 - w72;
   w0 = w0 - w78;
-  GAGEN_SCATTER(p, 18, 15, w0);
+  GAGEN_SCATTER(out_p, 18, 15, w0);
   w1 = gagen_v_cos(w1);
   w11 = w11 * w1;
   w76 = w11 * w76;
   w76 = w76 + w76;
   w21 = w76 - w21;
-  GAGEN_SCATTER(p, 18, 16, w21);
+  GAGEN_SCATTER(out_p, 18, 16, w21);
   w73 = w77 * w73;
   w73 = w73 + w73;
   w1 = w70 * w71;
@@ -11476,38 +11476,38 @@ static void hexapod_body_fk_cga_block(const double *restrict q, double *restrict
   w71 = w71 * w63;
   w71 = w5 * w71;
   w73 = w73 - w71;
-  GAGEN_SCATTER(p, 18, 17, w73);
+  GAGEN_SCATTER(out_p, 18, 17, w73);
   w16 = -w16;
-  GAGEN_SCATTER(J, 324, 0, w16);
+  GAGEN_SCATTER(out_J, 324, 0, w16);
   w10 = w15 + w10;
   w10 = w10 - w8;
   w10 = w10 - w19;
-  GAGEN_SCATTER(J, 324, 1, w10);
+  GAGEN_SCATTER(out_J, 324, 1, w10);
   w10 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 324, 2, w10);
-  GAGEN_SCATTER(J, 324, 3, w10);
-  GAGEN_SCATTER(J, 324, 4, w10);
-  GAGEN_SCATTER(J, 324, 5, w10);
-  GAGEN_SCATTER(J, 324, 6, w10);
-  GAGEN_SCATTER(J, 324, 7, w10);
-  GAGEN_SCATTER(J, 324, 8, w10);
-  GAGEN_SCATTER(J, 324, 9, w10);
-  GAGEN_SCATTER(J, 324, 10, w10);
-  GAGEN_SCATTER(J, 324, 11, w10);
-  GAGEN_SCATTER(J, 324, 12, w10);
-  GAGEN_SCATTER(J, 324, 13, w10);
-  GAGEN_SCATTER(J, 324, 14, w10);
-  GAGEN_SCATTER(J, 324, 15, w10);
-  GAGEN_SCATTER(J, 324, 16, w10);
-  GAGEN_SCATTER(J, 324, 17, w10);
+  GAGEN_SCATTER(out_J, 324, 2, w10);
+  GAGEN_SCATTER(out_J, 324, 3, w10);
+  GAGEN_SCATTER(out_J, 324, 4, w10);
+  GAGEN_SCATTER(out_J, 324, 5, w10);
+  GAGEN_SCATTER(out_J, 324, 6, w10);
+  GAGEN_SCATTER(out_J, 324, 7, w10);
+  GAGEN_SCATTER(out_J, 324, 8, w10);
+  GAGEN_SCATTER(out_J, 324, 9, w10);
+  GAGEN_SCATTER(out_J, 324, 10, w10);
+  GAGEN_SCATTER(out_J, 324, 11, w10);
+  GAGEN_SCATTER(out_J, 324, 12, w10);
+  GAGEN_SCATTER(out_J, 324, 13, w10);
+  GAGEN_SCATTER(out_J, 324, 14, w10);
+  GAGEN_SCATTER(out_J, 324, 15, w10);
+  GAGEN_SCATTER(out_J, 324, 16, w10);
+  GAGEN_SCATTER(out_J, 324, 17, w10);
   w19 = gagen_v_splat(1.0);
   w8 = w14 + w14;
   w8 = w19 - w8;
   w16 = w8 * w9;
-  GAGEN_SCATTER(J, 324, 18, w16);
+  GAGEN_SCATTER(out_J, 324, 18, w16);
   w9 = w13 * w9;
   w9 = w9 + w9;
-  GAGEN_SCATTER(J, 324, 19, w9);
+  GAGEN_SCATTER(out_J, 324, 19, w9);
   w71 = gagen_v_splat(0.153923048454);
   w63 = w34 * w13;
   w1 = w71 + w63;
@@ -11519,34 +11519,34 @@ static void hexapod_body_fk_cga_block(const double *restrict q, double *restrict
   w12 = w13 * w12;
   w12 = w12 + w12;
   w1 = w1 - w12;
-  GAGEN_SCATTER(J, 324, 20, w1);
-  GAGEN_SCATTER(J, 324, 21, w10);
-  GAGEN_SCATTER(J, 324, 22, w10);
-  GAGEN_SCATTER(J, 324, 23, w10);
-  GAGEN_SCATTER(J, 324, 24, w10);
-  GAGEN_SCATTER(J, 324, 25, w10);
-  GAGEN_SCATTER(J, 324, 26, w10);
-  GAGEN_SCATTER(J, 324, 27, w10);
-  GAGEN_SCATTER(J, 324, 28, w10);
-  GAGEN_SCATTER(J, 324, 29, w10);
-  GAGEN_SCATTER(J, 324, 30, w10);
-  GAGEN_SCATTER(J, 324, 31, w10);
-  GAGEN_SCATTER(J, 324, 32, w10);
-  GAGEN_SCATTER(J, 324, 33, w10);
-  GAGEN_SCATTER(J, 324, 34, w10);
-  GAGEN_SCATTER(J, 324, 35, w10);
+  GAGEN_SCATTER(out_J, 324, 20, w1);
+  GAGEN_SCATTER(out_J, 324, 21, w10);
+  GAGEN_SCATTER(out_J, 324, 22, w10);
+  GAGEN_SCATTER(out_J, 324, 23, w10);
+  GAGEN_SCATTER(out_J, 324, 24, w10);
+  GAGEN_SCATTER(out_J, 324, 25, w10);
+  GAGEN_SCATTER(out_J, 324, 26, w10);
+  GAGEN_SCATTER(out_J, 324, 27, w10);
+  GAGEN_SCATTER(out_J, 324, 28, w10);
+  GAGEN_SCATTER(out_J, 324, 29, w10);
+  GAGEN_SCATTER(out_J, 324, 30, w10);
+  GAGEN_SCATTER(out_J, 324, 31, w10);
+  GAGEN_SCATTER(out_J, 324, 32, w10);
+  GAGEN_SCATTER(out_J, 324, 33, w10);
+  GAGEN_SCATTER(out_J, 324, 34, w10);
+  GAGEN_SCATTER(out_J, 324, 35, w10);
   w18 = w5 * w18;
   w16 = w16 + w18;
   w14 = w14 * w3;
   w14 = w14 * w2;
   w14 = w17 * w14;
   w16 = w16 - w14;
-  GAGEN_SCATTER(J, 324, 36, w16);
+  GAGEN_SCATTER(out_J, 324, 36, w16);
   w13 = w13 * w3;
   w13 = w13 * w2;
   w13 = w17 * w13;
   w13 = w13 + w9;
-  GAGEN_SCATTER(J, 324, 37, w13);
+  GAGEN_SCATTER(out_J, 324, 37, w13);
   w13 = gagen_v_splat(0.353923048454);
   w63 = w13 + w63;
   w63 = w63 - w8;
@@ -11554,51 +11554,51 @@ static void hexapod_body_fk_cga_block(const double *restrict q, double *restrict
   w63 = w63 - w4;
   w63 = w63 - w79;
   w63 = w63 - w12;
-  GAGEN_SCATTER(J, 324, 38, w63);
-  GAGEN_SCATTER(J, 324, 39, w10);
-  GAGEN_SCATTER(J, 324, 40, w10);
-  GAGEN_SCATTER(J, 324, 41, w10);
-  GAGEN_SCATTER(J, 324, 42, w10);
-  GAGEN_SCATTER(J, 324, 43, w10);
-  GAGEN_SCATTER(J, 324, 44, w10);
-  GAGEN_SCATTER(J, 324, 45, w10);
-  GAGEN_SCATTER(J, 324, 46, w10);
-  GAGEN_SCATTER(J, 324, 47, w10);
-  GAGEN_SCATTER(J, 324, 48, w10);
-  GAGEN_SCATTER(J, 324, 49, w10);
-  GAGEN_SCATTER(J, 324, 50, w10);
-  GAGEN_SCATTER(J, 324, 51, w10);
-  GAGEN_SCATTER(J, 324, 52, w10);
-  GAGEN_SCATTER(J, 324, 53, w10);
-  GAGEN_SCATTER(J, 324, 54, w10);
-  GAGEN_SCATTER(J, 324, 55, w10);
-  GAGEN_SCATTER(J, 324, 56, w10);
+  GAGEN_SCATTER(out_J, 324, 38, w63);
+  GAGEN_SCATTER(out_J, 324, 39, w10);
+  GAGEN_SCATTER(out_J, 324, 40, w10);
+  GAGEN_SCATTER(out_J, 324, 41, w10);
+  GAGEN_SCATTER(out_J, 324, 42, w10);
+  GAGEN_SCATTER(out_J, 324, 43, w10);
+  GAGEN_SCATTER(out_J, 324, 44, w10);
+  GAGEN_SCATTER(out_J, 324, 45, w10);
+  GAGEN_SCATTER(out_J, 324, 46, w10);
+  GAGEN_SCATTER(out_J, 324, 47, w10);
+  GAGEN_SCATTER(out_J, 324, 48, w10);
+  GAGEN_SCATTER(out_J, 324, 49, w10);
+  GAGEN_SCATTER(out_J, 324, 50, w10);
+  GAGEN_SCATTER(out_J, 324, 51, w10);
+  GAGEN_SCATTER(out_J, 324, 52, w10);
+  GAGEN_SCATTER(out_J, 324, 53, w10);
+  GAGEN_SCATTER(out_J, 324, 54, w10);
+  GAGEN_SCATTER(out_J, 324, 55, w10);
+  GAGEN_SCATTER(out_J, 324, 56, w10);
   w32 = -w32;
-  GAGEN_SCATTER(J, 324, 57, w32);
-  GAGEN_SCATTER(J, 324, 58, w27);
-  GAGEN_SCATTER(J, 324, 59, w10);
-  GAGEN_SCATTER(J, 324, 60, w10);
-  GAGEN_SCATTER(J, 324, 61, w10);
-  GAGEN_SCATTER(J, 324, 62, w10);
-  GAGEN_SCATTER(J, 324, 63, w10);
-  GAGEN_SCATTER(J, 324, 64, w10);
-  GAGEN_SCATTER(J, 324, 65, w10);
-  GAGEN_SCATTER(J, 324, 66, w10);
-  GAGEN_SCATTER(J, 324, 67, w10);
-  GAGEN_SCATTER(J, 324, 68, w10);
-  GAGEN_SCATTER(J, 324, 69, w10);
-  GAGEN_SCATTER(J, 324, 70, w10);
-  GAGEN_SCATTER(J, 324, 71, w10);
-  GAGEN_SCATTER(J, 324, 72, w10);
-  GAGEN_SCATTER(J, 324, 73, w10);
-  GAGEN_SCATTER(J, 324, 74, w10);
+  GAGEN_SCATTER(out_J, 324, 57, w32);
+  GAGEN_SCATTER(out_J, 324, 58, w27);
+  GAGEN_SCATTER(out_J, 324, 59, w10);
+  GAGEN_SCATTER(out_J, 324, 60, w10);
+  GAGEN_SCATTER(out_J, 324, 61, w10);
+  GAGEN_SCATTER(out_J, 324, 62, w10);
+  GAGEN_SCATTER(out_J, 324, 63, w10);
+  GAGEN_SCATTER(out_J, 324, 64, w10);
+  GAGEN_SCATTER(out_J, 324, 65, w10);
+  GAGEN_SCATTER(out_J, 324, 66, w10);
+  GAGEN_SCATTER(out_J, 324, 67, w10);
+  GAGEN_SCATTER(out_J, 324, 68, w10);
+  GAGEN_SCATTER(out_J, 324, 69, w10);
+  GAGEN_SCATTER(out_J, 324, 70, w10);
+  GAGEN_SCATTER(out_J, 324, 71, w10);
+  GAGEN_SCATTER(out_J, 324, 72, w10);
+  GAGEN_SCATTER(out_J, 324, 73, w10);
+  GAGEN_SCATTER(out_J, 324, 74, w10);
   w32 = w31 + w31;
   w32 = w19 - w32;
   w63 = w32 * w26;
-  GAGEN_SCATTER(J, 324, 75, w63);
+  GAGEN_SCATTER(out_J, 324, 75, w63);
   w26 = w30 * w26;
   w26 = w26 + w26;
-  GAGEN_SCATTER(J, 324, 76, w26);
+  GAGEN_SCATTER(out_J, 324, 76, w26);
   w12 = gagen_v_splat(0.05);
   w79 = gagen_v_splat(0.24);
   w4 = w79 * w30;
@@ -11608,88 +11608,88 @@ static void hexapod_body_fk_cga_block(const double *restrict q, double *restrict
   w29 = w30 * w29;
   w29 = w29 + w29;
   w8 = w8 - w29;
-  GAGEN_SCATTER(J, 324, 77, w8);
-  GAGEN_SCATTER(J, 324, 78, w10);
-  GAGEN_SCATTER(J, 324, 79, w10);
-  GAGEN_SCATTER(J, 324, 80, w10);
-  GAGEN_SCATTER(J, 324, 81, w10);
-  GAGEN_SCATTER(J, 324, 82, w10);
-  GAGEN_SCATTER(J, 324, 83, w10);
-  GAGEN_SCATTER(J, 324, 84, w10);
-  GAGEN_SCATTER(J, 324, 85, w10);
-  GAGEN_SCATTER(J, 324, 86, w10);
-  GAGEN_SCATTER(J, 324, 87, w10);
-  GAGEN_SCATTER(J, 324, 88, w10);
-  GAGEN_SCATTER(J, 324, 89, w10);
-  GAGEN_SCATTER(J, 324, 90, w10);
-  GAGEN_SCATTER(J, 324, 91, w10);
-  GAGEN_SCATTER(J, 324, 92, w10);
+  GAGEN_SCATTER(out_J, 324, 77, w8);
+  GAGEN_SCATTER(out_J, 324, 78, w10);
+  GAGEN_SCATTER(out_J, 324, 79, w10);
+  GAGEN_SCATTER(out_J, 324, 80, w10);
+  GAGEN_SCATTER(out_J, 324, 81, w10);
+  GAGEN_SCATTER(out_J, 324, 82, w10);
+  GAGEN_SCATTER(out_J, 324, 83, w10);
+  GAGEN_SCATTER(out_J, 324, 84, w10);
+  GAGEN_SCATTER(out_J, 324, 85, w10);
+  GAGEN_SCATTER(out_J, 324, 86, w10);
+  GAGEN_SCATTER(out_J, 324, 87, w10);
+  GAGEN_SCATTER(out_J, 324, 88, w10);
+  GAGEN_SCATTER(out_J, 324, 89, w10);
+  GAGEN_SCATTER(out_J, 324, 90, w10);
+  GAGEN_SCATTER(out_J, 324, 91, w10);
+  GAGEN_SCATTER(out_J, 324, 92, w10);
   w33 = w5 * w33;
   w63 = w63 + w33;
   w31 = w31 * w6;
   w31 = w31 * w7;
   w31 = w17 * w31;
   w63 = w63 - w31;
-  GAGEN_SCATTER(J, 324, 93, w63);
+  GAGEN_SCATTER(out_J, 324, 93, w63);
   w30 = w30 * w6;
   w30 = w30 * w7;
   w30 = w17 * w30;
   w30 = w30 + w26;
-  GAGEN_SCATTER(J, 324, 94, w30);
+  GAGEN_SCATTER(out_J, 324, 94, w30);
   w30 = gagen_v_splat(0.25);
   w4 = w30 + w4;
   w4 = w4 - w32;
   w22 = w5 * w22;
   w4 = w4 - w22;
   w4 = w4 - w29;
-  GAGEN_SCATTER(J, 324, 95, w4);
-  GAGEN_SCATTER(J, 324, 96, w10);
-  GAGEN_SCATTER(J, 324, 97, w10);
-  GAGEN_SCATTER(J, 324, 98, w10);
-  GAGEN_SCATTER(J, 324, 99, w10);
-  GAGEN_SCATTER(J, 324, 100, w10);
-  GAGEN_SCATTER(J, 324, 101, w10);
-  GAGEN_SCATTER(J, 324, 102, w10);
-  GAGEN_SCATTER(J, 324, 103, w10);
-  GAGEN_SCATTER(J, 324, 104, w10);
-  GAGEN_SCATTER(J, 324, 105, w10);
-  GAGEN_SCATTER(J, 324, 106, w10);
-  GAGEN_SCATTER(J, 324, 107, w10);
-  GAGEN_SCATTER(J, 324, 108, w10);
-  GAGEN_SCATTER(J, 324, 109, w10);
-  GAGEN_SCATTER(J, 324, 110, w10);
-  GAGEN_SCATTER(J, 324, 111, w10);
-  GAGEN_SCATTER(J, 324, 112, w10);
-  GAGEN_SCATTER(J, 324, 113, w10);
+  GAGEN_SCATTER(out_J, 324, 95, w4);
+  GAGEN_SCATTER(out_J, 324, 96, w10);
+  GAGEN_SCATTER(out_J, 324, 97, w10);
+  GAGEN_SCATTER(out_J, 324, 98, w10);
+  GAGEN_SCATTER(out_J, 324, 99, w10);
+  GAGEN_SCATTER(out_J, 324, 100, w10);
+  GAGEN_SCATTER(out_J, 324, 101, w10);
+  GAGEN_SCATTER(out_J, 324, 102, w10);
+  GAGEN_SCATTER(out_J, 324, 103, w10);
+  GAGEN_SCATTER(out_J, 324, 104, w10);
+  GAGEN_SCATTER(out_J, 324, 105, w10);
+  GAGEN_SCATTER(out_J, 324, 106, w10);
+  GAGEN_SCATTER(out_J, 324, 107, w10);
+  GAGEN_SCATTER(out_J, 324, 108, w10);
+  GAGEN_SCATTER(out_J, 324, 109, w10);
+  GAGEN_SCATTER(out_J, 324, 110, w10);
+  GAGEN_SCATTER(out_J, 324, 111, w10);
+  GAGEN_SCATTER(out_J, 324, 112, w10);
+  GAGEN_SCATTER(out_J, 324, 113, w10);
   w45 = -w45;
-  GAGEN_SCATTER(J, 324, 114, w45);
+  GAGEN_SCATTER(out_J, 324, 114, w45);
   w40 = w15 + w40;
   w40 = w40 - w38;
   w40 = w40 - w47;
-  GAGEN_SCATTER(J, 324, 115, w40);
-  GAGEN_SCATTER(J, 324, 116, w10);
-  GAGEN_SCATTER(J, 324, 117, w10);
-  GAGEN_SCATTER(J, 324, 118, w10);
-  GAGEN_SCATTER(J, 324, 119, w10);
-  GAGEN_SCATTER(J, 324, 120, w10);
-  GAGEN_SCATTER(J, 324, 121, w10);
-  GAGEN_SCATTER(J, 324, 122, w10);
-  GAGEN_SCATTER(J, 324, 123, w10);
-  GAGEN_SCATTER(J, 324, 124, w10);
-  GAGEN_SCATTER(J, 324, 125, w10);
-  GAGEN_SCATTER(J, 324, 126, w10);
-  GAGEN_SCATTER(J, 324, 127, w10);
-  GAGEN_SCATTER(J, 324, 128, w10);
-  GAGEN_SCATTER(J, 324, 129, w10);
-  GAGEN_SCATTER(J, 324, 130, w10);
-  GAGEN_SCATTER(J, 324, 131, w10);
+  GAGEN_SCATTER(out_J, 324, 115, w40);
+  GAGEN_SCATTER(out_J, 324, 116, w10);
+  GAGEN_SCATTER(out_J, 324, 117, w10);
+  GAGEN_SCATTER(out_J, 324, 118, w10);
+  GAGEN_SCATTER(out_J, 324, 119, w10);
+  GAGEN_SCATTER(out_J, 324, 120, w10);
+  GAGEN_SCATTER(out_J, 324, 121, w10);
+  GAGEN_SCATTER(out_J, 324, 122, w10);
+  GAGEN_SCATTER(out_J, 324, 123, w10);
+  GAGEN_SCATTER(out_J, 324, 124, w10);
+  GAGEN_SCATTER(out_J, 324, 125, w10);
+  GAGEN_SCATTER(out_J, 324, 126, w10);
+  GAGEN_SCATTER(out_J, 324, 127, w10);
+  GAGEN_SCATTER(out_J, 324, 128, w10);
+  GAGEN_SCATTER(out_J, 324, 129, w10);
+  GAGEN_SCATTER(out_J, 324, 130, w10);
+  GAGEN_SCATTER(out_J, 324, 131, w10);
   w40 = w44 + w44;
   w40 = w19 - w40;
   w47 = w40 * w39;
-  GAGEN_SCATTER(J, 324, 132, w47);
+  GAGEN_SCATTER(out_J, 324, 132, w47);
   w39 = w43 * w39;
   w39 = w39 + w39;
-  GAGEN_SCATTER(J, 324, 133, w39);
+  GAGEN_SCATTER(out_J, 324, 133, w39);
   w38 = w34 * w43;
   w45 = w20 * w44;
   w4 = w38 + w45;
@@ -11700,34 +11700,34 @@ static void hexapod_body_fk_cga_block(const double *restrict q, double *restrict
   w42 = w43 * w42;
   w42 = w42 + w42;
   w4 = w4 - w42;
-  GAGEN_SCATTER(J, 324, 134, w4);
-  GAGEN_SCATTER(J, 324, 135, w10);
-  GAGEN_SCATTER(J, 324, 136, w10);
-  GAGEN_SCATTER(J, 324, 137, w10);
-  GAGEN_SCATTER(J, 324, 138, w10);
-  GAGEN_SCATTER(J, 324, 139, w10);
-  GAGEN_SCATTER(J, 324, 140, w10);
-  GAGEN_SCATTER(J, 324, 141, w10);
-  GAGEN_SCATTER(J, 324, 142, w10);
-  GAGEN_SCATTER(J, 324, 143, w10);
-  GAGEN_SCATTER(J, 324, 144, w10);
-  GAGEN_SCATTER(J, 324, 145, w10);
-  GAGEN_SCATTER(J, 324, 146, w10);
-  GAGEN_SCATTER(J, 324, 147, w10);
-  GAGEN_SCATTER(J, 324, 148, w10);
-  GAGEN_SCATTER(J, 324, 149, w10);
+  GAGEN_SCATTER(out_J, 324, 134, w4);
+  GAGEN_SCATTER(out_J, 324, 135, w10);
+  GAGEN_SCATTER(out_J, 324, 136, w10);
+  GAGEN_SCATTER(out_J, 324, 137, w10);
+  GAGEN_SCATTER(out_J, 324, 138, w10);
+  GAGEN_SCATTER(out_J, 324, 139, w10);
+  GAGEN_SCATTER(out_J, 324, 140, w10);
+  GAGEN_SCATTER(out_J, 324, 141, w10);
+  GAGEN_SCATTER(out_J, 324, 142, w10);
+  GAGEN_SCATTER(out_J, 324, 143, w10);
+  GAGEN_SCATTER(out_J, 324, 144, w10);
+  GAGEN_SCATTER(out_J, 324, 145, w10);
+  GAGEN_SCATTER(out_J, 324, 146, w10);
+  GAGEN_SCATTER(out_J, 324, 147, w10);
+  GAGEN_SCATTER(out_J, 324, 148, w10);
+  GAGEN_SCATTER(out_J, 324, 149, w10);
   w46 = w5 * w46;
   w47 = w47 + w46;
   w44 = w44 * w25;
   w44 = w44 * w23;
   w44 = w17 * w44;
   w47 = w47 - w44;
-  GAGEN_SCATTER(J, 324, 150, w47);
+  GAGEN_SCATTER(out_J, 324, 150, w47);
   w43 = w43 * w25;
   w43 = w43 * w23;
   w43 = w17 * w43;
   w43 = w43 + w39;
-  GAGEN_SCATTER(J, 324, 151, w43);
+  GAGEN_SCATTER(out_J, 324, 151, w43);
   w43 = gagen_v_splat(0.146076951546);
   w38 = w43 + w38;
   w38 = w38 + w45;
@@ -11735,54 +11735,54 @@ static void hexapod_body_fk_cga_block(const double *restrict q, double *restrict
   w35 = w5 * w35;
   w38 = w38 - w35;
   w38 = w38 - w42;
-  GAGEN_SCATTER(J, 324, 152, w38);
-  GAGEN_SCATTER(J, 324, 153, w10);
-  GAGEN_SCATTER(J, 324, 154, w10);
-  GAGEN_SCATTER(J, 324, 155, w10);
-  GAGEN_SCATTER(J, 324, 156, w10);
-  GAGEN_SCATTER(J, 324, 157, w10);
-  GAGEN_SCATTER(J, 324, 158, w10);
-  GAGEN_SCATTER(J, 324, 159, w10);
-  GAGEN_SCATTER(J, 324, 160, w10);
-  GAGEN_SCATTER(J, 324, 161, w10);
-  GAGEN_SCATTER(J, 324, 162, w10);
-  GAGEN_SCATTER(J, 324, 163, w10);
-  GAGEN_SCATTER(J, 324, 164, w10);
-  GAGEN_SCATTER(J, 324, 165, w10);
-  GAGEN_SCATTER(J, 324, 166, w10);
-  GAGEN_SCATTER(J, 324, 167, w10);
-  GAGEN_SCATTER(J, 324, 168, w10);
-  GAGEN_SCATTER(J, 324, 169, w10);
-  GAGEN_SCATTER(J, 324, 170, w10);
+  GAGEN_SCATTER(out_J, 324, 152, w38);
+  GAGEN_SCATTER(out_J, 324, 153, w10);
+  GAGEN_SCATTER(out_J, 324, 154, w10);
+  GAGEN_SCATTER(out_J, 324, 155, w10);
+  GAGEN_SCATTER(out_J, 324, 156, w10);
+  GAGEN_SCATTER(out_J, 324, 157, w10);
+  GAGEN_SCATTER(out_J, 324, 158, w10);
+  GAGEN_SCATTER(out_J, 324, 159, w10);
+  GAGEN_SCATTER(out_J, 324, 160, w10);
+  GAGEN_SCATTER(out_J, 324, 161, w10);
+  GAGEN_SCATTER(out_J, 324, 162, w10);
+  GAGEN_SCATTER(out_J, 324, 163, w10);
+  GAGEN_SCATTER(out_J, 324, 164, w10);
+  GAGEN_SCATTER(out_J, 324, 165, w10);
+  GAGEN_SCATTER(out_J, 324, 166, w10);
+  GAGEN_SCATTER(out_J, 324, 167, w10);
+  GAGEN_SCATTER(out_J, 324, 168, w10);
+  GAGEN_SCATTER(out_J, 324, 169, w10);
+  GAGEN_SCATTER(out_J, 324, 170, w10);
   w57 = -w57;
-  GAGEN_SCATTER(J, 324, 171, w57);
+  GAGEN_SCATTER(out_J, 324, 171, w57);
   w54 = w15 + w54;
   w54 = w54 - w52;
   w54 = w54 - w59;
-  GAGEN_SCATTER(J, 324, 172, w54);
-  GAGEN_SCATTER(J, 324, 173, w10);
-  GAGEN_SCATTER(J, 324, 174, w10);
-  GAGEN_SCATTER(J, 324, 175, w10);
-  GAGEN_SCATTER(J, 324, 176, w10);
-  GAGEN_SCATTER(J, 324, 177, w10);
-  GAGEN_SCATTER(J, 324, 178, w10);
-  GAGEN_SCATTER(J, 324, 179, w10);
-  GAGEN_SCATTER(J, 324, 180, w10);
-  GAGEN_SCATTER(J, 324, 181, w10);
-  GAGEN_SCATTER(J, 324, 182, w10);
-  GAGEN_SCATTER(J, 324, 183, w10);
-  GAGEN_SCATTER(J, 324, 184, w10);
-  GAGEN_SCATTER(J, 324, 185, w10);
-  GAGEN_SCATTER(J, 324, 186, w10);
-  GAGEN_SCATTER(J, 324, 187, w10);
-  GAGEN_SCATTER(J, 324, 188, w10);
+  GAGEN_SCATTER(out_J, 324, 172, w54);
+  GAGEN_SCATTER(out_J, 324, 173, w10);
+  GAGEN_SCATTER(out_J, 324, 174, w10);
+  GAGEN_SCATTER(out_J, 324, 175, w10);
+  GAGEN_SCATTER(out_J, 324, 176, w10);
+  GAGEN_SCATTER(out_J, 324, 177, w10);
+  GAGEN_SCATTER(out_J, 324, 178, w10);
+  GAGEN_SCATTER(out_J, 324, 179, w10);
+  GAGEN_SCATTER(out_J, 324, 180, w10);
+  GAGEN_SCATTER(out_J, 324, 181, w10);
+  GAGEN_SCATTER(out_J, 324, 182, w10);
+  GAGEN_SCATTER(out_J, 324, 183, w10);
+  GAGEN_SCATTER(out_J, 324, 184, w10);
+  GAGEN_SCATTER(out_J, 324, 185, w10);
+  GAGEN_SCATTER(out_J, 324, 186, w10);
+  GAGEN_SCATTER(out_J, 324, 187, w10);
+  GAGEN_SCATTER(out_J, 324, 188, w10);
   w54 = w56 + w56;
   w54 = w19 - w54;
   w59 = w54 * w53;
-  GAGEN_SCATTER(J, 324, 189, w59);
+  GAGEN_SCATTER(out_J, 324, 189, w59);
   w53 = w41 * w53;
   w53 = w53 + w53;
-  GAGEN_SCATTER(J, 324, 190, w53);
+  GAGEN_SCATTER(out_J, 324, 190, w53);
   w52 = w20 * w56;
   w54 = w54 * w24;
   w24 = w52 - w54;
@@ -11792,85 +11792,85 @@ static void hexapod_body_fk_cga_block(const double *restrict q, double *restrict
   w55 = w41 * w55;
   w55 = w55 + w55;
   w24 = w24 - w55;
-  GAGEN_SCATTER(J, 324, 191, w24);
-  GAGEN_SCATTER(J, 324, 192, w10);
-  GAGEN_SCATTER(J, 324, 193, w10);
-  GAGEN_SCATTER(J, 324, 194, w10);
-  GAGEN_SCATTER(J, 324, 195, w10);
-  GAGEN_SCATTER(J, 324, 196, w10);
-  GAGEN_SCATTER(J, 324, 197, w10);
-  GAGEN_SCATTER(J, 324, 198, w10);
-  GAGEN_SCATTER(J, 324, 199, w10);
-  GAGEN_SCATTER(J, 324, 200, w10);
-  GAGEN_SCATTER(J, 324, 201, w10);
-  GAGEN_SCATTER(J, 324, 202, w10);
-  GAGEN_SCATTER(J, 324, 203, w10);
-  GAGEN_SCATTER(J, 324, 204, w10);
-  GAGEN_SCATTER(J, 324, 205, w10);
-  GAGEN_SCATTER(J, 324, 206, w10);
+  GAGEN_SCATTER(out_J, 324, 191, w24);
+  GAGEN_SCATTER(out_J, 324, 192, w10);
+  GAGEN_SCATTER(out_J, 324, 193, w10);
+  GAGEN_SCATTER(out_J, 324, 194, w10);
+  GAGEN_SCATTER(out_J, 324, 195, w10);
+  GAGEN_SCATTER(out_J, 324, 196, w10);
+  GAGEN_SCATTER(out_J, 324, 197, w10);
+  GAGEN_SCATTER(out_J, 324, 198, w10);
+  GAGEN_SCATTER(out_J, 324, 199, w10);
+  GAGEN_SCATTER(out_J, 324, 200, w10);
+  GAGEN_SCATTER(out_J, 324, 201, w10);
+  GAGEN_SCATTER(out_J, 324, 202, w10);
+  GAGEN_SCATTER(out_J, 324, 203, w10);
+  GAGEN_SCATTER(out_J, 324, 204, w10);
+  GAGEN_SCATTER(out_J, 324, 205, w10);
+  GAGEN_SCATTER(out_J, 324, 206, w10);
   w58 = w5 * w58;
   w59 = w59 + w58;
   w56 = w56 * w36;
   w56 = w56 * w37;
   w56 = w17 * w56;
   w59 = w59 - w56;
-  GAGEN_SCATTER(J, 324, 207, w59);
+  GAGEN_SCATTER(out_J, 324, 207, w59);
   w41 = w41 * w36;
   w41 = w41 * w37;
   w41 = w17 * w41;
   w41 = w41 + w53;
-  GAGEN_SCATTER(J, 324, 208, w41);
+  GAGEN_SCATTER(out_J, 324, 208, w41);
   w43 = w43 + w52;
   w43 = w43 - w54;
   w49 = w5 * w49;
   w43 = w43 - w49;
   w43 = w43 - w48;
   w43 = w43 - w55;
-  GAGEN_SCATTER(J, 324, 209, w43);
-  GAGEN_SCATTER(J, 324, 210, w10);
-  GAGEN_SCATTER(J, 324, 211, w10);
-  GAGEN_SCATTER(J, 324, 212, w10);
-  GAGEN_SCATTER(J, 324, 213, w10);
-  GAGEN_SCATTER(J, 324, 214, w10);
-  GAGEN_SCATTER(J, 324, 215, w10);
-  GAGEN_SCATTER(J, 324, 216, w10);
-  GAGEN_SCATTER(J, 324, 217, w10);
-  GAGEN_SCATTER(J, 324, 218, w10);
-  GAGEN_SCATTER(J, 324, 219, w10);
-  GAGEN_SCATTER(J, 324, 220, w10);
-  GAGEN_SCATTER(J, 324, 221, w10);
-  GAGEN_SCATTER(J, 324, 222, w10);
-  GAGEN_SCATTER(J, 324, 223, w10);
-  GAGEN_SCATTER(J, 324, 224, w10);
-  GAGEN_SCATTER(J, 324, 225, w10);
-  GAGEN_SCATTER(J, 324, 226, w10);
-  GAGEN_SCATTER(J, 324, 227, w10);
+  GAGEN_SCATTER(out_J, 324, 209, w43);
+  GAGEN_SCATTER(out_J, 324, 210, w10);
+  GAGEN_SCATTER(out_J, 324, 211, w10);
+  GAGEN_SCATTER(out_J, 324, 212, w10);
+  GAGEN_SCATTER(out_J, 324, 213, w10);
+  GAGEN_SCATTER(out_J, 324, 214, w10);
+  GAGEN_SCATTER(out_J, 324, 215, w10);
+  GAGEN_SCATTER(out_J, 324, 216, w10);
+  GAGEN_SCATTER(out_J, 324, 217, w10);
+  GAGEN_SCATTER(out_J, 324, 218, w10);
+  GAGEN_SCATTER(out_J, 324, 219, w10);
+  GAGEN_SCATTER(out_J, 324, 220, w10);
+  GAGEN_SCATTER(out_J, 324, 221, w10);
+  GAGEN_SCATTER(out_J, 324, 222, w10);
+  GAGEN_SCATTER(out_J, 324, 223, w10);
+  GAGEN_SCATTER(out_J, 324, 224, w10);
+  GAGEN_SCATTER(out_J, 324, 225, w10);
+  GAGEN_SCATTER(out_J, 324, 226, w10);
+  GAGEN_SCATTER(out_J, 324, 227, w10);
   w68 = -w68;
-  GAGEN_SCATTER(J, 324, 228, w68);
-  GAGEN_SCATTER(J, 324, 229, w65);
-  GAGEN_SCATTER(J, 324, 230, w10);
-  GAGEN_SCATTER(J, 324, 231, w10);
-  GAGEN_SCATTER(J, 324, 232, w10);
-  GAGEN_SCATTER(J, 324, 233, w10);
-  GAGEN_SCATTER(J, 324, 234, w10);
-  GAGEN_SCATTER(J, 324, 235, w10);
-  GAGEN_SCATTER(J, 324, 236, w10);
-  GAGEN_SCATTER(J, 324, 237, w10);
-  GAGEN_SCATTER(J, 324, 238, w10);
-  GAGEN_SCATTER(J, 324, 239, w10);
-  GAGEN_SCATTER(J, 324, 240, w10);
-  GAGEN_SCATTER(J, 324, 241, w10);
-  GAGEN_SCATTER(J, 324, 242, w10);
-  GAGEN_SCATTER(J, 324, 243, w10);
-  GAGEN_SCATTER(J, 324, 244, w10);
-  GAGEN_SCATTER(J, 324, 245, w10);
+  GAGEN_SCATTER(out_J, 324, 228, w68);
+  GAGEN_SCATTER(out_J, 324, 229, w65);
+  GAGEN_SCATTER(out_J, 324, 230, w10);
+  GAGEN_SCATTER(out_J, 324, 231, w10);
+  GAGEN_SCATTER(out_J, 324, 232, w10);
+  GAGEN_SCATTER(out_J, 324, 233, w10);
+  GAGEN_SCATTER(out_J, 324, 234, w10);
+  GAGEN_SCATTER(out_J, 324, 235, w10);
+  GAGEN_SCATTER(out_J, 324, 236, w10);
+  GAGEN_SCATTER(out_J, 324, 237, w10);
+  GAGEN_SCATTER(out_J, 324, 238, w10);
+  GAGEN_SCATTER(out_J, 324, 239, w10);
+  GAGEN_SCATTER(out_J, 324, 240, w10);
+  GAGEN_SCATTER(out_J, 324, 241, w10);
+  GAGEN_SCATTER(out_J, 324, 242, w10);
+  GAGEN_SCATTER(out_J, 324, 243, w10);
+  GAGEN_SCATTER(out_J, 324, 244, w10);
+  GAGEN_SCATTER(out_J, 324, 245, w10);
   w68 = w67 + w67;
   w68 = w19 - w68;
   w43 = w68 * w64;
-  GAGEN_SCATTER(J, 324, 246, w43);
+  GAGEN_SCATTER(out_J, 324, 246, w43);
   w64 = w28 * w64;
   w64 = w64 + w64;
-  GAGEN_SCATTER(J, 324, 247, w64);
+  GAGEN_SCATTER(out_J, 324, 247, w64);
   w68 = w68 * w65;
   w12 = w12 - w68;
   w79 = w79 * w28;
@@ -11878,87 +11878,87 @@ static void hexapod_body_fk_cga_block(const double *restrict q, double *restrict
   w66 = w28 * w66;
   w66 = w66 + w66;
   w12 = w12 - w66;
-  GAGEN_SCATTER(J, 324, 248, w12);
-  GAGEN_SCATTER(J, 324, 249, w10);
-  GAGEN_SCATTER(J, 324, 250, w10);
-  GAGEN_SCATTER(J, 324, 251, w10);
-  GAGEN_SCATTER(J, 324, 252, w10);
-  GAGEN_SCATTER(J, 324, 253, w10);
-  GAGEN_SCATTER(J, 324, 254, w10);
-  GAGEN_SCATTER(J, 324, 255, w10);
-  GAGEN_SCATTER(J, 324, 256, w10);
-  GAGEN_SCATTER(J, 324, 257, w10);
-  GAGEN_SCATTER(J, 324, 258, w10);
-  GAGEN_SCATTER(J, 324, 259, w10);
-  GAGEN_SCATTER(J, 324, 260, w10);
-  GAGEN_SCATTER(J, 324, 261, w10);
-  GAGEN_SCATTER(J, 324, 262, w10);
-  GAGEN_SCATTER(J, 324, 263, w10);
+  GAGEN_SCATTER(out_J, 324, 248, w12);
+  GAGEN_SCATTER(out_J, 324, 249, w10);
+  GAGEN_SCATTER(out_J, 324, 250, w10);
+  GAGEN_SCATTER(out_J, 324, 251, w10);
+  GAGEN_SCATTER(out_J, 324, 252, w10);
+  GAGEN_SCATTER(out_J, 324, 253, w10);
+  GAGEN_SCATTER(out_J, 324, 254, w10);
+  GAGEN_SCATTER(out_J, 324, 255, w10);
+  GAGEN_SCATTER(out_J, 324, 256, w10);
+  GAGEN_SCATTER(out_J, 324, 257, w10);
+  GAGEN_SCATTER(out_J, 324, 258, w10);
+  GAGEN_SCATTER(out_J, 324, 259, w10);
+  GAGEN_SCATTER(out_J, 324, 260, w10);
+  GAGEN_SCATTER(out_J, 324, 261, w10);
+  GAGEN_SCATTER(out_J, 324, 262, w10);
+  GAGEN_SCATTER(out_J, 324, 263, w10);
   w69 = w5 * w69;
   w43 = w43 + w69;
   w67 = w67 * w50;
   w67 = w67 * w51;
   w67 = w17 * w67;
   w43 = w43 - w67;
-  GAGEN_SCATTER(J, 324, 264, w43);
+  GAGEN_SCATTER(out_J, 324, 264, w43);
   w28 = w28 * w50;
   w28 = w28 * w51;
   w28 = w17 * w28;
   w28 = w28 + w64;
-  GAGEN_SCATTER(J, 324, 265, w28);
+  GAGEN_SCATTER(out_J, 324, 265, w28);
   w30 = w30 - w68;
   w60 = w5 * w60;
   w30 = w30 - w60;
   w30 = w30 - w79;
   w30 = w30 - w66;
-  GAGEN_SCATTER(J, 324, 266, w30);
-  GAGEN_SCATTER(J, 324, 267, w10);
-  GAGEN_SCATTER(J, 324, 268, w10);
-  GAGEN_SCATTER(J, 324, 269, w10);
-  GAGEN_SCATTER(J, 324, 270, w10);
-  GAGEN_SCATTER(J, 324, 271, w10);
-  GAGEN_SCATTER(J, 324, 272, w10);
-  GAGEN_SCATTER(J, 324, 273, w10);
-  GAGEN_SCATTER(J, 324, 274, w10);
-  GAGEN_SCATTER(J, 324, 275, w10);
-  GAGEN_SCATTER(J, 324, 276, w10);
-  GAGEN_SCATTER(J, 324, 277, w10);
-  GAGEN_SCATTER(J, 324, 278, w10);
-  GAGEN_SCATTER(J, 324, 279, w10);
-  GAGEN_SCATTER(J, 324, 280, w10);
-  GAGEN_SCATTER(J, 324, 281, w10);
-  GAGEN_SCATTER(J, 324, 282, w10);
-  GAGEN_SCATTER(J, 324, 283, w10);
-  GAGEN_SCATTER(J, 324, 284, w10);
+  GAGEN_SCATTER(out_J, 324, 266, w30);
+  GAGEN_SCATTER(out_J, 324, 267, w10);
+  GAGEN_SCATTER(out_J, 324, 268, w10);
+  GAGEN_SCATTER(out_J, 324, 269, w10);
+  GAGEN_SCATTER(out_J, 324, 270, w10);
+  GAGEN_SCATTER(out_J, 324, 271, w10);
+  GAGEN_SCATTER(out_J, 324, 272, w10);
+  GAGEN_SCATTER(out_J, 324, 273, w10);
+  GAGEN_SCATTER(out_J, 324, 274, w10);
+  GAGEN_SCATTER(out_J, 324, 275, w10);
+  GAGEN_SCATTER(out_J, 324, 276, w10);
+  GAGEN_SCATTER(out_J, 324, 277, w10);
+  GAGEN_SCATTER(out_J, 324, 278, w10);
+  GAGEN_SCATTER(out_J, 324, 279, w10);
+  GAGEN_SCATTER(out_J, 324, 280, w10);
+  GAGEN_SCATTER(out_J, 324, 281, w10);
+  GAGEN_SCATTER(out_J, 324, 282, w10);
+  GAGEN_SCATTER(out_J, 324, 283, w10);
+  GAGEN_SCATTER(out_J, 324, 284, w10);
   w76 = -w76;
-  GAGEN_SCATTER(J, 324, 285, w76);
+  GAGEN_SCATTER(out_J, 324, 285, w76);
   w15 = w15 + w74;
   w15 = w15 - w72;
   w15 = w15 - w78;
-  GAGEN_SCATTER(J, 324, 286, w15);
-  GAGEN_SCATTER(J, 324, 287, w10);
-  GAGEN_SCATTER(J, 324, 288, w10);
-  GAGEN_SCATTER(J, 324, 289, w10);
-  GAGEN_SCATTER(J, 324, 290, w10);
-  GAGEN_SCATTER(J, 324, 291, w10);
-  GAGEN_SCATTER(J, 324, 292, w10);
-  GAGEN_SCATTER(J, 324, 293, w10);
-  GAGEN_SCATTER(J, 324, 294, w10);
-  GAGEN_SCATTER(J, 324, 295, w10);
-  GAGEN_SCATTER(J, 324, 296, w10);
-  GAGEN_SCATTER(J, 324, 297, w10);
-  GAGEN_SCATTER(J, 324, 298, w10);
-  GAGEN_SCATTER(J, 324, 299, w10);
-  GAGEN_SCATTER(J, 324, 300, w10);
-  GAGEN_SCATTER(J, 324, 301, w10);
-  GAGEN_SCATTER(J, 324, 302, w10);
+  GAGEN_SCATTER(out_J, 324, 286, w15);
+  GAGEN_SCATTER(out_J, 324, 287, w10);
+  GAGEN_SCATTER(out_J, 324, 288, w10);
+  GAGEN_SCATTER(out_J, 324, 289, w10);
+  GAGEN_SCATTER(out_J, 324, 290, w10);
+  GAGEN_SCATTER(out_J, 324, 291, w10);
+  GAGEN_SCATTER(out_J, 324, 292, w10);
+  GAGEN_SCATTER(out_J, 324, 293, w10);
+  GAGEN_SCATTER(out_J, 324, 294, w10);
+  GAGEN_SCATTER(out_J, 324, 295, w10);
+  GAGEN_SCATTER(out_J, 324, 296, w10);
+  GAGEN_SCATTER(out_J, 324, 297, w10);
+  GAGEN_SCATTER(out_J, 324, 298, w10);
+  GAGEN_SCATTER(out_J, 324, 299, w10);
+  GAGEN_SCATTER(out_J, 324, 300, w10);
+  GAGEN_SCATTER(out_J, 324, 301, w10);
+  GAGEN_SCATTER(out_J, 324, 302, w10);
   w15 = w75 + w75;
   w19 = w19 - w15;
   w15 = w19 * w73;
-  GAGEN_SCATTER(J, 324, 303, w15);
+  GAGEN_SCATTER(out_J, 324, 303, w15);
   w73 = w11 * w73;
   w73 = w73 + w73;
-  GAGEN_SCATTER(J, 324, 304, w73);
+  GAGEN_SCATTER(out_J, 324, 304, w73);
   w19 = w19 * w0;
   w71 = w71 - w19;
   w34 = w34 * w11;
@@ -11968,58 +11968,58 @@ static void hexapod_body_fk_cga_block(const double *restrict q, double *restrict
   w21 = w11 * w21;
   w21 = w21 + w21;
   w71 = w71 - w21;
-  GAGEN_SCATTER(J, 324, 305, w71);
-  GAGEN_SCATTER(J, 324, 306, w10);
-  GAGEN_SCATTER(J, 324, 307, w10);
-  GAGEN_SCATTER(J, 324, 308, w10);
-  GAGEN_SCATTER(J, 324, 309, w10);
-  GAGEN_SCATTER(J, 324, 310, w10);
-  GAGEN_SCATTER(J, 324, 311, w10);
-  GAGEN_SCATTER(J, 324, 312, w10);
-  GAGEN_SCATTER(J, 324, 313, w10);
-  GAGEN_SCATTER(J, 324, 314, w10);
-  GAGEN_SCATTER(J, 324, 315, w10);
-  GAGEN_SCATTER(J, 324, 316, w10);
-  GAGEN_SCATTER(J, 324, 317, w10);
-  GAGEN_SCATTER(J, 324, 318, w10);
-  GAGEN_SCATTER(J, 324, 319, w10);
-  GAGEN_SCATTER(J, 324, 320, w10);
+  GAGEN_SCATTER(out_J, 324, 305, w71);
+  GAGEN_SCATTER(out_J, 324, 306, w10);
+  GAGEN_SCATTER(out_J, 324, 307, w10);
+  GAGEN_SCATTER(out_J, 324, 308, w10);
+  GAGEN_SCATTER(out_J, 324, 309, w10);
+  GAGEN_SCATTER(out_J, 324, 310, w10);
+  GAGEN_SCATTER(out_J, 324, 311, w10);
+  GAGEN_SCATTER(out_J, 324, 312, w10);
+  GAGEN_SCATTER(out_J, 324, 313, w10);
+  GAGEN_SCATTER(out_J, 324, 314, w10);
+  GAGEN_SCATTER(out_J, 324, 315, w10);
+  GAGEN_SCATTER(out_J, 324, 316, w10);
+  GAGEN_SCATTER(out_J, 324, 317, w10);
+  GAGEN_SCATTER(out_J, 324, 318, w10);
+  GAGEN_SCATTER(out_J, 324, 319, w10);
+  GAGEN_SCATTER(out_J, 324, 320, w10);
   w77 = w5 * w77;
   w15 = w15 + w77;
   w75 = w75 * w61;
   w75 = w75 * w62;
   w75 = w17 * w75;
   w15 = w15 - w75;
-  GAGEN_SCATTER(J, 324, 321, w15);
+  GAGEN_SCATTER(out_J, 324, 321, w15);
   w11 = w11 * w61;
   w11 = w11 * w62;
   w17 = w17 * w11;
   w17 = w17 + w73;
-  GAGEN_SCATTER(J, 324, 322, w17);
+  GAGEN_SCATTER(out_J, 324, 322, w17);
   w13 = w13 - w19;
   w5 = w5 * w70;
   w13 = w13 - w5;
   w13 = w13 - w34;
   w13 = w13 - w20;
   w13 = w13 - w21;
-  GAGEN_SCATTER(J, 324, 323, w13);
+  GAGEN_SCATTER(out_J, 324, 323, w13);
 }
 #endif
 
-void hexapod_body_fk_cga_batch(long n, const double *restrict q, double *restrict p, double *restrict J) {
-  long s = 0;
+void hexapod_body_fk_cga_batch(long gagen_n, const double *restrict in_q, double *restrict out_p, double *restrict out_J) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 18 * GAGEN_W + 7; o += 8) __builtin_prefetch(p + 18 * a + o, 1, 0);
-      for (int o = 0; o < 324 * GAGEN_W + 7; o += 8) __builtin_prefetch(J + 324 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 18 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_p + 18 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 324 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J + 324 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_body_fk_cga_block(q + 18 * s, p + 18 * s, J + 324 * s);
+    hexapod_body_fk_cga_block(in_q + 18 * gagen_s, out_p + 18 * gagen_s, out_J + 324 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_body_fk_cga(q + 18 * s, p + 18 * s, J + 324 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_body_fk_cga(in_q + 18 * gagen_s, out_p + 18 * gagen_s, out_J + 324 * gagen_s);
   }
 }
 
@@ -12029,7 +12029,7 @@ void hexapod_body_fk_cga_batch(long n, const double *restrict q, double *restric
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict p, double *restrict J) {
+static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_p, double *restrict out_J) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -12039,12 +12039,12 @@ static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, c
   gagen_v w72, w73, w74, w75, w76, w77, w78, w79;
   w0 = gagen_v_splat(0.553923048454);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 18, 1);
+  w2 = GAGEN_GATHER(in_q, 18, 1);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
   w4 = w3 * w3;
   w5 = gagen_v_splat(0.4);
-  w6 = GAGEN_GATHER(q, 18, 2);
+  w6 = GAGEN_GATHER(in_q, 18, 2);
   w6 = w1 * w6;
   w7 = gagen_v_sin(w6);
   w8 = w7 * w7;
@@ -12052,7 +12052,7 @@ static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, c
   w9 = w8 - w5;
   w10 = w4 * w9;
   w11 = gagen_v_splat(0.2617993877991494);
-  w12 = GAGEN_GATHER(q, 18, 0);
+  w12 = GAGEN_GATHER(in_q, 18, 0);
   w12 = w1 * w12;
   w12 = w11 + w12;
   w13 = gagen_v_sin(w12);
@@ -12075,14 +12075,14 @@ static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, c
   w20 = w0 + w10;
   w20 = w20 - w8;
   w20 = w20 - w19;
-  GAGEN_SCATTER(p, 18, 0, w20);
+  GAGEN_SCATTER(out_p, 18, 0, w20);
   w21 = gagen_v_splat(0.06);
   w12 = gagen_v_cos(w12);
   w13 = w13 * w12;
   w16 = w13 * w16;
   w16 = w16 + w16;
   w12 = w21 + w16;
-  GAGEN_SCATTER(p, 18, 1, w12);
+  GAGEN_SCATTER(out_p, 18, 1, w12);
   w9 = w18 * w9;
   w9 = w9 + w9;
   w22 = w4 * w7;
@@ -12092,12 +12092,12 @@ static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, c
   w7 = w7 * w6;
   w7 = w5 * w7;
   w9 = w9 - w7;
-  GAGEN_SCATTER(p, 18, 2, w9);
-  w7 = GAGEN_GATHER(q, 18, 4);
+  GAGEN_SCATTER(out_p, 18, 2, w9);
+  w7 = GAGEN_GATHER(in_q, 18, 4);
   w7 = w1 * w7;
   w6 = gagen_v_sin(w7);
   w22 = w6 * w6;
-  w23 = GAGEN_GATHER(q, 18, 5);
+  w23 = GAGEN_GATHER(in_q, 18, 5);
   w23 = w1 * w23;
   w24 = gagen_v_sin(w23);
   w25 = w24 * w24;
@@ -12105,7 +12105,7 @@ static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, c
   w26 = w25 - w5;
   w27 = w22 * w26;
   w28 = gagen_v_splat(0.7853981633974483);
-  w29 = GAGEN_GATHER(q, 18, 3);
+  w29 = GAGEN_GATHER(in_q, 18, 3);
   w29 = w1 * w29;
   w29 = w28 + w29;
   w30 = gagen_v_sin(w29);
@@ -12126,14 +12126,14 @@ static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, c
   w27 = w15 + w27;
   w27 = w27 - w25;
   w27 = w27 - w34;
-  GAGEN_SCATTER(p, 18, 3, w27);
+  GAGEN_SCATTER(out_p, 18, 3, w27);
   w34 = gagen_v_splat(0.12);
   w29 = gagen_v_cos(w29);
   w30 = w30 * w29;
   w32 = w30 * w32;
   w32 = w32 + w32;
   w29 = w34 + w32;
-  GAGEN_SCATTER(p, 18, 4, w29);
+  GAGEN_SCATTER(out_p, 18, 4, w29);
   w26 = w33 * w26;
   w26 = w26 + w26;
   w25 = w22 * w24;
@@ -12143,13 +12143,13 @@ static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, c
   w24 = w24 * w23;
   w24 = w5 * w24;
   w26 = w26 - w24;
-  GAGEN_SCATTER(p, 18, 5, w26);
+  GAGEN_SCATTER(out_p, 18, 5, w26);
   w24 = gagen_v_splat(0.34607695154600004);
-  w23 = GAGEN_GATHER(q, 18, 7);
+  w23 = GAGEN_GATHER(in_q, 18, 7);
   w23 = w1 * w23;
   w25 = gagen_v_sin(w23);
   w35 = w25 * w25;
-  w36 = GAGEN_GATHER(q, 18, 8);
+  w36 = GAGEN_GATHER(in_q, 18, 8);
   w36 = w1 * w36;
   w37 = gagen_v_sin(w36);
   w38 = w37 * w37;
@@ -12157,7 +12157,7 @@ static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, c
   w39 = w38 - w5;
   w40 = w35 * w39;
   w41 = gagen_v_splat(1.3089969389957472);
-  w42 = GAGEN_GATHER(q, 18, 6);
+  w42 = GAGEN_GATHER(in_q, 18, 6);
   w42 = w1 * w42;
   w42 = w41 + w42;
   w43 = gagen_v_sin(w42);
@@ -12178,13 +12178,13 @@ static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, c
   w48 = w24 + w40;
   w48 = w48 - w38;
   w48 = w48 - w47;
-  GAGEN_SCATTER(p, 18, 6, w48);
+  GAGEN_SCATTER(out_p, 18, 6, w48);
   w42 = gagen_v_cos(w42);
   w43 = w43 * w42;
   w45 = w43 * w45;
   w45 = w45 + w45;
   w42 = w21 + w45;
-  GAGEN_SCATTER(p, 18, 7, w42);
+  GAGEN_SCATTER(out_p, 18, 7, w42);
   w39 = w46 * w39;
   w39 = w39 + w39;
   w49 = w35 * w37;
@@ -12194,19 +12194,19 @@ static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, c
   w37 = w37 * w36;
   w37 = w5 * w37;
   w39 = w39 - w37;
-  GAGEN_SCATTER(p, 18, 8, w39);
-  w37 = GAGEN_GATHER(q, 18, 10);
+  GAGEN_SCATTER(out_p, 18, 8, w39);
+  w37 = GAGEN_GATHER(in_q, 18, 10);
   w37 = w1 * w37;
   w36 = gagen_v_sin(w37);
   w49 = w36 * w36;
-  w50 = GAGEN_GATHER(q, 18, 11);
+  w50 = GAGEN_GATHER(in_q, 18, 11);
   w50 = w1 * w50;
   w51 = gagen_v_sin(w50);
   w52 = w51 * w51;
   w52 = w5 * w52;
   w53 = w52 - w5;
   w54 = w49 * w53;
-  w55 = GAGEN_GATHER(q, 18, 9);
+  w55 = GAGEN_GATHER(in_q, 18, 9);
   w55 = w1 * w55;
   w55 = w55 - w41;
   w41 = gagen_v_sin(w55);
@@ -12227,13 +12227,13 @@ static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, c
   w24 = w24 + w54;
   w24 = w24 - w52;
   w24 = w24 - w59;
-  GAGEN_SCATTER(p, 18, 9, w24);
+  GAGEN_SCATTER(out_p, 18, 9, w24);
   w55 = gagen_v_cos(w55);
   w41 = w41 * w55;
   w57 = w41 * w57;
   w57 = w57 + w57;
   w55 = w57 - w21;
-  GAGEN_SCATTER(p, 18, 10, w55);
+  GAGEN_SCATTER(out_p, 18, 10, w55);
   w53 = w58 * w53;
   w53 = w53 + w53;
   w60 = w49 * w51;
@@ -12243,19 +12243,19 @@ static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, c
   w51 = w51 * w50;
   w51 = w5 * w51;
   w53 = w53 - w51;
-  GAGEN_SCATTER(p, 18, 11, w53);
-  w51 = GAGEN_GATHER(q, 18, 13);
+  GAGEN_SCATTER(out_p, 18, 11, w53);
+  w51 = GAGEN_GATHER(in_q, 18, 13);
   w51 = w1 * w51;
   w50 = gagen_v_sin(w51);
   w60 = w50 * w50;
-  w61 = GAGEN_GATHER(q, 18, 14);
+  w61 = GAGEN_GATHER(in_q, 18, 14);
   w61 = w1 * w61;
   w62 = gagen_v_sin(w61);
   w63 = w62 * w62;
   w63 = w5 * w63;
   w64 = w63 - w5;
   w65 = w60 * w64;
-  w66 = GAGEN_GATHER(q, 18, 12);
+  w66 = GAGEN_GATHER(in_q, 18, 12);
   w66 = w1 * w66;
   w66 = w66 - w28;
   w28 = gagen_v_sin(w66);
@@ -12276,13 +12276,13 @@ static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, c
   w65 = w15 + w65;
   w65 = w65 - w63;
   w65 = w65 - w70;
-  GAGEN_SCATTER(p, 18, 12, w65);
+  GAGEN_SCATTER(out_p, 18, 12, w65);
   w66 = gagen_v_cos(w66);
   w28 = w28 * w66;
   w68 = w28 * w68;
   w68 = w68 + w68;
   w66 = w68 - w34;
-  GAGEN_SCATTER(p, 18, 13, w66);
+  GAGEN_SCATTER(out_p, 18, 13, w66);
   w64 = w69 * w64;
   w64 = w64 + w64;
   w70 = w60 * w62;
@@ -12292,19 +12292,19 @@ static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, c
   w62 = w62 * w61;
   w62 = w5 * w62;
   w64 = w64 - w62;
-  GAGEN_SCATTER(p, 18, 14, w64);
-  w62 = GAGEN_GATHER(q, 18, 16);
+  GAGEN_SCATTER(out_p, 18, 14, w64);
+  w62 = GAGEN_GATHER(in_q, 18, 16);
   w62 = w1 * w62;
   w61 = gagen_v_sin(w62);
   w70 = w61 * w61;
-  w63 = GAGEN_GATHER(q, 18, 17);
+  w63 = GAGEN_GATHER(in_q, 18, 17);
   w63 = w1 * w63;
   w71 = gagen_v_sin(w63);
   w72 = w71 * w71;
   w72 = w5 * w72;
   w73 = w72 - w5;
   w74 = w70 * w73;
-  w75 = GAGEN_GATHER(q, 18, 15);
+  w75 = GAGEN_GATHER(in_q, 18, 15);
   w1 = w1 * w75;
   w1 = w1 - w11;
   w11 = gagen_v_sin(w1);
@@ -12325,13 +12325,13 @@ static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, c
   w0 = w0 + w74;
   w0 = w0 - w72;
   w0 = w0 - w78;
-  GAGEN_SCATTER(p, 18, 15, w0);
+  GAGEN_SCATTER(out_p, 18, 15, w0);
   w1 = gagen_v_cos(w1);
   w11 = w11 * w1;
   w76 = w11 * w76;
   w76 = w76 + w76;
   w21 = w76 - w21;
-  GAGEN_SCATTER(p, 18, 16, w21);
+  GAGEN_SCATTER(out_p, 18, 16, w21);
   w73 = w77 * w73;
   w73 = w73 + w73;
   w1 = w70 * w71;
@@ -12341,38 +12341,38 @@ static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, c
   w71 = w71 * w63;
   w71 = w5 * w71;
   w73 = w73 - w71;
-  GAGEN_SCATTER(p, 18, 17, w73);
+  GAGEN_SCATTER(out_p, 18, 17, w73);
   w16 = -w16;
-  GAGEN_SCATTER(J, 324, 0, w16);
+  GAGEN_SCATTER(out_J, 324, 0, w16);
   w10 = w15 + w10;
   w10 = w10 - w8;
   w10 = w10 - w19;
-  GAGEN_SCATTER(J, 324, 1, w10);
+  GAGEN_SCATTER(out_J, 324, 1, w10);
   w10 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 324, 2, w10);
-  GAGEN_SCATTER(J, 324, 3, w10);
-  GAGEN_SCATTER(J, 324, 4, w10);
-  GAGEN_SCATTER(J, 324, 5, w10);
-  GAGEN_SCATTER(J, 324, 6, w10);
-  GAGEN_SCATTER(J, 324, 7, w10);
-  GAGEN_SCATTER(J, 324, 8, w10);
-  GAGEN_SCATTER(J, 324, 9, w10);
-  GAGEN_SCATTER(J, 324, 10, w10);
-  GAGEN_SCATTER(J, 324, 11, w10);
-  GAGEN_SCATTER(J, 324, 12, w10);
-  GAGEN_SCATTER(J, 324, 13, w10);
-  GAGEN_SCATTER(J, 324, 14, w10);
-  GAGEN_SCATTER(J, 324, 15, w10);
-  GAGEN_SCATTER(J, 324, 16, w10);
-  GAGEN_SCATTER(J, 324, 17, w10);
+  GAGEN_SCATTER(out_J, 324, 2, w10);
+  GAGEN_SCATTER(out_J, 324, 3, w10);
+  GAGEN_SCATTER(out_J, 324, 4, w10);
+  GAGEN_SCATTER(out_J, 324, 5, w10);
+  GAGEN_SCATTER(out_J, 324, 6, w10);
+  GAGEN_SCATTER(out_J, 324, 7, w10);
+  GAGEN_SCATTER(out_J, 324, 8, w10);
+  GAGEN_SCATTER(out_J, 324, 9, w10);
+  GAGEN_SCATTER(out_J, 324, 10, w10);
+  GAGEN_SCATTER(out_J, 324, 11, w10);
+  GAGEN_SCATTER(out_J, 324, 12, w10);
+  GAGEN_SCATTER(out_J, 324, 13, w10);
+  GAGEN_SCATTER(out_J, 324, 14, w10);
+  GAGEN_SCATTER(out_J, 324, 15, w10);
+  GAGEN_SCATTER(out_J, 324, 16, w10);
+  GAGEN_SCATTER(out_J, 324, 17, w10);
   w19 = gagen_v_splat(1.0);
   w8 = w14 + w14;
   w8 = w19 - w8;
   w16 = w8 * w9;
-  GAGEN_SCATTER(J, 324, 18, w16);
+  GAGEN_SCATTER(out_J, 324, 18, w16);
   w9 = w13 * w9;
   w9 = w9 + w9;
-  GAGEN_SCATTER(J, 324, 19, w9);
+  GAGEN_SCATTER(out_J, 324, 19, w9);
   w71 = gagen_v_splat(0.153923048454);
   w63 = w34 * w13;
   w1 = w71 + w63;
@@ -12384,34 +12384,34 @@ static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, c
   w12 = w13 * w12;
   w12 = w12 + w12;
   w1 = w1 - w12;
-  GAGEN_SCATTER(J, 324, 20, w1);
-  GAGEN_SCATTER(J, 324, 21, w10);
-  GAGEN_SCATTER(J, 324, 22, w10);
-  GAGEN_SCATTER(J, 324, 23, w10);
-  GAGEN_SCATTER(J, 324, 24, w10);
-  GAGEN_SCATTER(J, 324, 25, w10);
-  GAGEN_SCATTER(J, 324, 26, w10);
-  GAGEN_SCATTER(J, 324, 27, w10);
-  GAGEN_SCATTER(J, 324, 28, w10);
-  GAGEN_SCATTER(J, 324, 29, w10);
-  GAGEN_SCATTER(J, 324, 30, w10);
-  GAGEN_SCATTER(J, 324, 31, w10);
-  GAGEN_SCATTER(J, 324, 32, w10);
-  GAGEN_SCATTER(J, 324, 33, w10);
-  GAGEN_SCATTER(J, 324, 34, w10);
-  GAGEN_SCATTER(J, 324, 35, w10);
+  GAGEN_SCATTER(out_J, 324, 20, w1);
+  GAGEN_SCATTER(out_J, 324, 21, w10);
+  GAGEN_SCATTER(out_J, 324, 22, w10);
+  GAGEN_SCATTER(out_J, 324, 23, w10);
+  GAGEN_SCATTER(out_J, 324, 24, w10);
+  GAGEN_SCATTER(out_J, 324, 25, w10);
+  GAGEN_SCATTER(out_J, 324, 26, w10);
+  GAGEN_SCATTER(out_J, 324, 27, w10);
+  GAGEN_SCATTER(out_J, 324, 28, w10);
+  GAGEN_SCATTER(out_J, 324, 29, w10);
+  GAGEN_SCATTER(out_J, 324, 30, w10);
+  GAGEN_SCATTER(out_J, 324, 31, w10);
+  GAGEN_SCATTER(out_J, 324, 32, w10);
+  GAGEN_SCATTER(out_J, 324, 33, w10);
+  GAGEN_SCATTER(out_J, 324, 34, w10);
+  GAGEN_SCATTER(out_J, 324, 35, w10);
   w18 = w5 * w18;
   w16 = w16 + w18;
   w14 = w14 * w3;
   w14 = w14 * w2;
   w14 = w17 * w14;
   w16 = w16 - w14;
-  GAGEN_SCATTER(J, 324, 36, w16);
+  GAGEN_SCATTER(out_J, 324, 36, w16);
   w13 = w13 * w3;
   w13 = w13 * w2;
   w13 = w17 * w13;
   w13 = w13 + w9;
-  GAGEN_SCATTER(J, 324, 37, w13);
+  GAGEN_SCATTER(out_J, 324, 37, w13);
   w13 = gagen_v_splat(0.353923048454);
   w63 = w13 + w63;
   w63 = w63 - w8;
@@ -12419,51 +12419,51 @@ static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, c
   w63 = w63 - w4;
   w63 = w63 - w79;
   w63 = w63 - w12;
-  GAGEN_SCATTER(J, 324, 38, w63);
-  GAGEN_SCATTER(J, 324, 39, w10);
-  GAGEN_SCATTER(J, 324, 40, w10);
-  GAGEN_SCATTER(J, 324, 41, w10);
-  GAGEN_SCATTER(J, 324, 42, w10);
-  GAGEN_SCATTER(J, 324, 43, w10);
-  GAGEN_SCATTER(J, 324, 44, w10);
-  GAGEN_SCATTER(J, 324, 45, w10);
-  GAGEN_SCATTER(J, 324, 46, w10);
-  GAGEN_SCATTER(J, 324, 47, w10);
-  GAGEN_SCATTER(J, 324, 48, w10);
-  GAGEN_SCATTER(J, 324, 49, w10);
-  GAGEN_SCATTER(J, 324, 50, w10);
-  GAGEN_SCATTER(J, 324, 51, w10);
-  GAGEN_SCATTER(J, 324, 52, w10);
-  GAGEN_SCATTER(J, 324, 53, w10);
-  GAGEN_SCATTER(J, 324, 54, w10);
-  GAGEN_SCATTER(J, 324, 55, w10);
-  GAGEN_SCATTER(J, 324, 56, w10);
+  GAGEN_SCATTER(out_J, 324, 38, w63);
+  GAGEN_SCATTER(out_J, 324, 39, w10);
+  GAGEN_SCATTER(out_J, 324, 40, w10);
+  GAGEN_SCATTER(out_J, 324, 41, w10);
+  GAGEN_SCATTER(out_J, 324, 42, w10);
+  GAGEN_SCATTER(out_J, 324, 43, w10);
+  GAGEN_SCATTER(out_J, 324, 44, w10);
+  GAGEN_SCATTER(out_J, 324, 45, w10);
+  GAGEN_SCATTER(out_J, 324, 46, w10);
+  GAGEN_SCATTER(out_J, 324, 47, w10);
+  GAGEN_SCATTER(out_J, 324, 48, w10);
+  GAGEN_SCATTER(out_J, 324, 49, w10);
+  GAGEN_SCATTER(out_J, 324, 50, w10);
+  GAGEN_SCATTER(out_J, 324, 51, w10);
+  GAGEN_SCATTER(out_J, 324, 52, w10);
+  GAGEN_SCATTER(out_J, 324, 53, w10);
+  GAGEN_SCATTER(out_J, 324, 54, w10);
+  GAGEN_SCATTER(out_J, 324, 55, w10);
+  GAGEN_SCATTER(out_J, 324, 56, w10);
   w32 = -w32;
-  GAGEN_SCATTER(J, 324, 57, w32);
-  GAGEN_SCATTER(J, 324, 58, w27);
-  GAGEN_SCATTER(J, 324, 59, w10);
-  GAGEN_SCATTER(J, 324, 60, w10);
-  GAGEN_SCATTER(J, 324, 61, w10);
-  GAGEN_SCATTER(J, 324, 62, w10);
-  GAGEN_SCATTER(J, 324, 63, w10);
-  GAGEN_SCATTER(J, 324, 64, w10);
-  GAGEN_SCATTER(J, 324, 65, w10);
-  GAGEN_SCATTER(J, 324, 66, w10);
-  GAGEN_SCATTER(J, 324, 67, w10);
-  GAGEN_SCATTER(J, 324, 68, w10);
-  GAGEN_SCATTER(J, 324, 69, w10);
-  GAGEN_SCATTER(J, 324, 70, w10);
-  GAGEN_SCATTER(J, 324, 71, w10);
-  GAGEN_SCATTER(J, 324, 72, w10);
-  GAGEN_SCATTER(J, 324, 73, w10);
-  GAGEN_SCATTER(J, 324, 74, w10);
+  GAGEN_SCATTER(out_J, 324, 57, w32);
+  GAGEN_SCATTER(out_J, 324, 58, w27);
+  GAGEN_SCATTER(out_J, 324, 59, w10);
+  GAGEN_SCATTER(out_J, 324, 60, w10);
+  GAGEN_SCATTER(out_J, 324, 61, w10);
+  GAGEN_SCATTER(out_J, 324, 62, w10);
+  GAGEN_SCATTER(out_J, 324, 63, w10);
+  GAGEN_SCATTER(out_J, 324, 64, w10);
+  GAGEN_SCATTER(out_J, 324, 65, w10);
+  GAGEN_SCATTER(out_J, 324, 66, w10);
+  GAGEN_SCATTER(out_J, 324, 67, w10);
+  GAGEN_SCATTER(out_J, 324, 68, w10);
+  GAGEN_SCATTER(out_J, 324, 69, w10);
+  GAGEN_SCATTER(out_J, 324, 70, w10);
+  GAGEN_SCATTER(out_J, 324, 71, w10);
+  GAGEN_SCATTER(out_J, 324, 72, w10);
+  GAGEN_SCATTER(out_J, 324, 73, w10);
+  GAGEN_SCATTER(out_J, 324, 74, w10);
   w32 = w31 + w31;
   w32 = w19 - w32;
   w63 = w32 * w26;
-  GAGEN_SCATTER(J, 324, 75, w63);
+  GAGEN_SCATTER(out_J, 324, 75, w63);
   w26 = w30 * w26;
   w26 = w26 + w26;
-  GAGEN_SCATTER(J, 324, 76, w26);
+  GAGEN_SCATTER(out_J, 324, 76, w26);
   w12 = gagen_v_splat(0.05);
   w79 = gagen_v_splat(0.24);
   w4 = w79 * w30;
@@ -12473,88 +12473,88 @@ static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, c
   w29 = w30 * w29;
   w29 = w29 + w29;
   w8 = w8 - w29;
-  GAGEN_SCATTER(J, 324, 77, w8);
-  GAGEN_SCATTER(J, 324, 78, w10);
-  GAGEN_SCATTER(J, 324, 79, w10);
-  GAGEN_SCATTER(J, 324, 80, w10);
-  GAGEN_SCATTER(J, 324, 81, w10);
-  GAGEN_SCATTER(J, 324, 82, w10);
-  GAGEN_SCATTER(J, 324, 83, w10);
-  GAGEN_SCATTER(J, 324, 84, w10);
-  GAGEN_SCATTER(J, 324, 85, w10);
-  GAGEN_SCATTER(J, 324, 86, w10);
-  GAGEN_SCATTER(J, 324, 87, w10);
-  GAGEN_SCATTER(J, 324, 88, w10);
-  GAGEN_SCATTER(J, 324, 89, w10);
-  GAGEN_SCATTER(J, 324, 90, w10);
-  GAGEN_SCATTER(J, 324, 91, w10);
-  GAGEN_SCATTER(J, 324, 92, w10);
+  GAGEN_SCATTER(out_J, 324, 77, w8);
+  GAGEN_SCATTER(out_J, 324, 78, w10);
+  GAGEN_SCATTER(out_J, 324, 79, w10);
+  GAGEN_SCATTER(out_J, 324, 80, w10);
+  GAGEN_SCATTER(out_J, 324, 81, w10);
+  GAGEN_SCATTER(out_J, 324, 82, w10);
+  GAGEN_SCATTER(out_J, 324, 83, w10);
+  GAGEN_SCATTER(out_J, 324, 84, w10);
+  GAGEN_SCATTER(out_J, 324, 85, w10);
+  GAGEN_SCATTER(out_J, 324, 86, w10);
+  GAGEN_SCATTER(out_J, 324, 87, w10);
+  GAGEN_SCATTER(out_J, 324, 88, w10);
+  GAGEN_SCATTER(out_J, 324, 89, w10);
+  GAGEN_SCATTER(out_J, 324, 90, w10);
+  GAGEN_SCATTER(out_J, 324, 91, w10);
+  GAGEN_SCATTER(out_J, 324, 92, w10);
   w33 = w5 * w33;
   w63 = w63 + w33;
   w31 = w31 * w6;
   w31 = w31 * w7;
   w31 = w17 * w31;
   w63 = w63 - w31;
-  GAGEN_SCATTER(J, 324, 93, w63);
+  GAGEN_SCATTER(out_J, 324, 93, w63);
   w30 = w30 * w6;
   w30 = w30 * w7;
   w30 = w17 * w30;
   w30 = w30 + w26;
-  GAGEN_SCATTER(J, 324, 94, w30);
+  GAGEN_SCATTER(out_J, 324, 94, w30);
   w30 = gagen_v_splat(0.25);
   w4 = w30 + w4;
   w4 = w4 - w32;
   w22 = w5 * w22;
   w4 = w4 - w22;
   w4 = w4 - w29;
-  GAGEN_SCATTER(J, 324, 95, w4);
-  GAGEN_SCATTER(J, 324, 96, w10);
-  GAGEN_SCATTER(J, 324, 97, w10);
-  GAGEN_SCATTER(J, 324, 98, w10);
-  GAGEN_SCATTER(J, 324, 99, w10);
-  GAGEN_SCATTER(J, 324, 100, w10);
-  GAGEN_SCATTER(J, 324, 101, w10);
-  GAGEN_SCATTER(J, 324, 102, w10);
-  GAGEN_SCATTER(J, 324, 103, w10);
-  GAGEN_SCATTER(J, 324, 104, w10);
-  GAGEN_SCATTER(J, 324, 105, w10);
-  GAGEN_SCATTER(J, 324, 106, w10);
-  GAGEN_SCATTER(J, 324, 107, w10);
-  GAGEN_SCATTER(J, 324, 108, w10);
-  GAGEN_SCATTER(J, 324, 109, w10);
-  GAGEN_SCATTER(J, 324, 110, w10);
-  GAGEN_SCATTER(J, 324, 111, w10);
-  GAGEN_SCATTER(J, 324, 112, w10);
-  GAGEN_SCATTER(J, 324, 113, w10);
+  GAGEN_SCATTER(out_J, 324, 95, w4);
+  GAGEN_SCATTER(out_J, 324, 96, w10);
+  GAGEN_SCATTER(out_J, 324, 97, w10);
+  GAGEN_SCATTER(out_J, 324, 98, w10);
+  GAGEN_SCATTER(out_J, 324, 99, w10);
+  GAGEN_SCATTER(out_J, 324, 100, w10);
+  GAGEN_SCATTER(out_J, 324, 101, w10);
+  GAGEN_SCATTER(out_J, 324, 102, w10);
+  GAGEN_SCATTER(out_J, 324, 103, w10);
+  GAGEN_SCATTER(out_J, 324, 104, w10);
+  GAGEN_SCATTER(out_J, 324, 105, w10);
+  GAGEN_SCATTER(out_J, 324, 106, w10);
+  GAGEN_SCATTER(out_J, 324, 107, w10);
+  GAGEN_SCATTER(out_J, 324, 108, w10);
+  GAGEN_SCATTER(out_J, 324, 109, w10);
+  GAGEN_SCATTER(out_J, 324, 110, w10);
+  GAGEN_SCATTER(out_J, 324, 111, w10);
+  GAGEN_SCATTER(out_J, 324, 112, w10);
+  GAGEN_SCATTER(out_J, 324, 113, w10);
   w45 = -w45;
-  GAGEN_SCATTER(J, 324, 114, w45);
+  GAGEN_SCATTER(out_J, 324, 114, w45);
   w40 = w15 + w40;
   w40 = w40 - w38;
   w40 = w40 - w47;
-  GAGEN_SCATTER(J, 324, 115, w40);
-  GAGEN_SCATTER(J, 324, 116, w10);
-  GAGEN_SCATTER(J, 324, 117, w10);
-  GAGEN_SCATTER(J, 324, 118, w10);
-  GAGEN_SCATTER(J, 324, 119, w10);
-  GAGEN_SCATTER(J, 324, 120, w10);
-  GAGEN_SCATTER(J, 324, 121, w10);
-  GAGEN_SCATTER(J, 324, 122, w10);
-  GAGEN_SCATTER(J, 324, 123, w10);
-  GAGEN_SCATTER(J, 324, 124, w10);
-  GAGEN_SCATTER(J, 324, 125, w10);
-  GAGEN_SCATTER(J, 324, 126, w10);
-  GAGEN_SCATTER(J, 324, 127, w10);
-  GAGEN_SCATTER(J, 324, 128, w10);
-  GAGEN_SCATTER(J, 324, 129, w10);
-  GAGEN_SCATTER(J, 324, 130, w10);
-  GAGEN_SCATTER(J, 324, 131, w10);
+  GAGEN_SCATTER(out_J, 324, 115, w40);
+  GAGEN_SCATTER(out_J, 324, 116, w10);
+  GAGEN_SCATTER(out_J, 324, 117, w10);
+  GAGEN_SCATTER(out_J, 324, 118, w10);
+  GAGEN_SCATTER(out_J, 324, 119, w10);
+  GAGEN_SCATTER(out_J, 324, 120, w10);
+  GAGEN_SCATTER(out_J, 324, 121, w10);
+  GAGEN_SCATTER(out_J, 324, 122, w10);
+  GAGEN_SCATTER(out_J, 324, 123, w10);
+  GAGEN_SCATTER(out_J, 324, 124, w10);
+  GAGEN_SCATTER(out_J, 324, 125, w10);
+  GAGEN_SCATTER(out_J, 324, 126, w10);
+  GAGEN_SCATTER(out_J, 324, 127, w10);
+  GAGEN_SCATTER(out_J, 324, 128, w10);
+  GAGEN_SCATTER(out_J, 324, 129, w10);
+  GAGEN_SCATTER(out_J, 324, 130, w10);
+  GAGEN_SCATTER(out_J, 324, 131, w10);
   w40 = w44 + w44;
   w40 = w19 - w40;
   w47 = w40 * w39;
-  GAGEN_SCATTER(J, 324, 132, w47);
+  GAGEN_SCATTER(out_J, 324, 132, w47);
   w39 = w43 * w39;
   w39 = w39 + w39;
-  GAGEN_SCATTER(J, 324, 133, w39);
+  GAGEN_SCATTER(out_J, 324, 133, w39);
   w38 = w34 * w43;
   w45 = w20 * w44;
   w4 = w38 + w45;
@@ -12565,34 +12565,34 @@ static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, c
   w42 = w43 * w42;
   w42 = w42 + w42;
   w4 = w4 - w42;
-  GAGEN_SCATTER(J, 324, 134, w4);
-  GAGEN_SCATTER(J, 324, 135, w10);
-  GAGEN_SCATTER(J, 324, 136, w10);
-  GAGEN_SCATTER(J, 324, 137, w10);
-  GAGEN_SCATTER(J, 324, 138, w10);
-  GAGEN_SCATTER(J, 324, 139, w10);
-  GAGEN_SCATTER(J, 324, 140, w10);
-  GAGEN_SCATTER(J, 324, 141, w10);
-  GAGEN_SCATTER(J, 324, 142, w10);
-  GAGEN_SCATTER(J, 324, 143, w10);
-  GAGEN_SCATTER(J, 324, 144, w10);
-  GAGEN_SCATTER(J, 324, 145, w10);
-  GAGEN_SCATTER(J, 324, 146, w10);
-  GAGEN_SCATTER(J, 324, 147, w10);
-  GAGEN_SCATTER(J, 324, 148, w10);
-  GAGEN_SCATTER(J, 324, 149, w10);
+  GAGEN_SCATTER(out_J, 324, 134, w4);
+  GAGEN_SCATTER(out_J, 324, 135, w10);
+  GAGEN_SCATTER(out_J, 324, 136, w10);
+  GAGEN_SCATTER(out_J, 324, 137, w10);
+  GAGEN_SCATTER(out_J, 324, 138, w10);
+  GAGEN_SCATTER(out_J, 324, 139, w10);
+  GAGEN_SCATTER(out_J, 324, 140, w10);
+  GAGEN_SCATTER(out_J, 324, 141, w10);
+  GAGEN_SCATTER(out_J, 324, 142, w10);
+  GAGEN_SCATTER(out_J, 324, 143, w10);
+  GAGEN_SCATTER(out_J, 324, 144, w10);
+  GAGEN_SCATTER(out_J, 324, 145, w10);
+  GAGEN_SCATTER(out_J, 324, 146, w10);
+  GAGEN_SCATTER(out_J, 324, 147, w10);
+  GAGEN_SCATTER(out_J, 324, 148, w10);
+  GAGEN_SCATTER(out_J, 324, 149, w10);
   w46 = w5 * w46;
   w47 = w47 + w46;
   w44 = w44 * w25;
   w44 = w44 * w23;
   w44 = w17 * w44;
   w47 = w47 - w44;
-  GAGEN_SCATTER(J, 324, 150, w47);
+  GAGEN_SCATTER(out_J, 324, 150, w47);
   w43 = w43 * w25;
   w43 = w43 * w23;
   w43 = w17 * w43;
   w43 = w43 + w39;
-  GAGEN_SCATTER(J, 324, 151, w43);
+  GAGEN_SCATTER(out_J, 324, 151, w43);
   w43 = gagen_v_splat(0.146076951546);
   w38 = w43 + w38;
   w38 = w38 + w45;
@@ -12600,54 +12600,54 @@ static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, c
   w35 = w5 * w35;
   w38 = w38 - w35;
   w38 = w38 - w42;
-  GAGEN_SCATTER(J, 324, 152, w38);
-  GAGEN_SCATTER(J, 324, 153, w10);
-  GAGEN_SCATTER(J, 324, 154, w10);
-  GAGEN_SCATTER(J, 324, 155, w10);
-  GAGEN_SCATTER(J, 324, 156, w10);
-  GAGEN_SCATTER(J, 324, 157, w10);
-  GAGEN_SCATTER(J, 324, 158, w10);
-  GAGEN_SCATTER(J, 324, 159, w10);
-  GAGEN_SCATTER(J, 324, 160, w10);
-  GAGEN_SCATTER(J, 324, 161, w10);
-  GAGEN_SCATTER(J, 324, 162, w10);
-  GAGEN_SCATTER(J, 324, 163, w10);
-  GAGEN_SCATTER(J, 324, 164, w10);
-  GAGEN_SCATTER(J, 324, 165, w10);
-  GAGEN_SCATTER(J, 324, 166, w10);
-  GAGEN_SCATTER(J, 324, 167, w10);
-  GAGEN_SCATTER(J, 324, 168, w10);
-  GAGEN_SCATTER(J, 324, 169, w10);
-  GAGEN_SCATTER(J, 324, 170, w10);
+  GAGEN_SCATTER(out_J, 324, 152, w38);
+  GAGEN_SCATTER(out_J, 324, 153, w10);
+  GAGEN_SCATTER(out_J, 324, 154, w10);
+  GAGEN_SCATTER(out_J, 324, 155, w10);
+  GAGEN_SCATTER(out_J, 324, 156, w10);
+  GAGEN_SCATTER(out_J, 324, 157, w10);
+  GAGEN_SCATTER(out_J, 324, 158, w10);
+  GAGEN_SCATTER(out_J, 324, 159, w10);
+  GAGEN_SCATTER(out_J, 324, 160, w10);
+  GAGEN_SCATTER(out_J, 324, 161, w10);
+  GAGEN_SCATTER(out_J, 324, 162, w10);
+  GAGEN_SCATTER(out_J, 324, 163, w10);
+  GAGEN_SCATTER(out_J, 324, 164, w10);
+  GAGEN_SCATTER(out_J, 324, 165, w10);
+  GAGEN_SCATTER(out_J, 324, 166, w10);
+  GAGEN_SCATTER(out_J, 324, 167, w10);
+  GAGEN_SCATTER(out_J, 324, 168, w10);
+  GAGEN_SCATTER(out_J, 324, 169, w10);
+  GAGEN_SCATTER(out_J, 324, 170, w10);
   w57 = -w57;
-  GAGEN_SCATTER(J, 324, 171, w57);
+  GAGEN_SCATTER(out_J, 324, 171, w57);
   w54 = w15 + w54;
   w54 = w54 - w52;
   w54 = w54 - w59;
-  GAGEN_SCATTER(J, 324, 172, w54);
-  GAGEN_SCATTER(J, 324, 173, w10);
-  GAGEN_SCATTER(J, 324, 174, w10);
-  GAGEN_SCATTER(J, 324, 175, w10);
-  GAGEN_SCATTER(J, 324, 176, w10);
-  GAGEN_SCATTER(J, 324, 177, w10);
-  GAGEN_SCATTER(J, 324, 178, w10);
-  GAGEN_SCATTER(J, 324, 179, w10);
-  GAGEN_SCATTER(J, 324, 180, w10);
-  GAGEN_SCATTER(J, 324, 181, w10);
-  GAGEN_SCATTER(J, 324, 182, w10);
-  GAGEN_SCATTER(J, 324, 183, w10);
-  GAGEN_SCATTER(J, 324, 184, w10);
-  GAGEN_SCATTER(J, 324, 185, w10);
-  GAGEN_SCATTER(J, 324, 186, w10);
-  GAGEN_SCATTER(J, 324, 187, w10);
-  GAGEN_SCATTER(J, 324, 188, w10);
+  GAGEN_SCATTER(out_J, 324, 172, w54);
+  GAGEN_SCATTER(out_J, 324, 173, w10);
+  GAGEN_SCATTER(out_J, 324, 174, w10);
+  GAGEN_SCATTER(out_J, 324, 175, w10);
+  GAGEN_SCATTER(out_J, 324, 176, w10);
+  GAGEN_SCATTER(out_J, 324, 177, w10);
+  GAGEN_SCATTER(out_J, 324, 178, w10);
+  GAGEN_SCATTER(out_J, 324, 179, w10);
+  GAGEN_SCATTER(out_J, 324, 180, w10);
+  GAGEN_SCATTER(out_J, 324, 181, w10);
+  GAGEN_SCATTER(out_J, 324, 182, w10);
+  GAGEN_SCATTER(out_J, 324, 183, w10);
+  GAGEN_SCATTER(out_J, 324, 184, w10);
+  GAGEN_SCATTER(out_J, 324, 185, w10);
+  GAGEN_SCATTER(out_J, 324, 186, w10);
+  GAGEN_SCATTER(out_J, 324, 187, w10);
+  GAGEN_SCATTER(out_J, 324, 188, w10);
   w54 = w56 + w56;
   w54 = w19 - w54;
   w59 = w54 * w53;
-  GAGEN_SCATTER(J, 324, 189, w59);
+  GAGEN_SCATTER(out_J, 324, 189, w59);
   w53 = w41 * w53;
   w53 = w53 + w53;
-  GAGEN_SCATTER(J, 324, 190, w53);
+  GAGEN_SCATTER(out_J, 324, 190, w53);
   w52 = w20 * w56;
   w54 = w54 * w24;
   w24 = w52 - w54;
@@ -12657,85 +12657,85 @@ static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, c
   w55 = w41 * w55;
   w55 = w55 + w55;
   w24 = w24 - w55;
-  GAGEN_SCATTER(J, 324, 191, w24);
-  GAGEN_SCATTER(J, 324, 192, w10);
-  GAGEN_SCATTER(J, 324, 193, w10);
-  GAGEN_SCATTER(J, 324, 194, w10);
-  GAGEN_SCATTER(J, 324, 195, w10);
-  GAGEN_SCATTER(J, 324, 196, w10);
-  GAGEN_SCATTER(J, 324, 197, w10);
-  GAGEN_SCATTER(J, 324, 198, w10);
-  GAGEN_SCATTER(J, 324, 199, w10);
-  GAGEN_SCATTER(J, 324, 200, w10);
-  GAGEN_SCATTER(J, 324, 201, w10);
-  GAGEN_SCATTER(J, 324, 202, w10);
-  GAGEN_SCATTER(J, 324, 203, w10);
-  GAGEN_SCATTER(J, 324, 204, w10);
-  GAGEN_SCATTER(J, 324, 205, w10);
-  GAGEN_SCATTER(J, 324, 206, w10);
+  GAGEN_SCATTER(out_J, 324, 191, w24);
+  GAGEN_SCATTER(out_J, 324, 192, w10);
+  GAGEN_SCATTER(out_J, 324, 193, w10);
+  GAGEN_SCATTER(out_J, 324, 194, w10);
+  GAGEN_SCATTER(out_J, 324, 195, w10);
+  GAGEN_SCATTER(out_J, 324, 196, w10);
+  GAGEN_SCATTER(out_J, 324, 197, w10);
+  GAGEN_SCATTER(out_J, 324, 198, w10);
+  GAGEN_SCATTER(out_J, 324, 199, w10);
+  GAGEN_SCATTER(out_J, 324, 200, w10);
+  GAGEN_SCATTER(out_J, 324, 201, w10);
+  GAGEN_SCATTER(out_J, 324, 202, w10);
+  GAGEN_SCATTER(out_J, 324, 203, w10);
+  GAGEN_SCATTER(out_J, 324, 204, w10);
+  GAGEN_SCATTER(out_J, 324, 205, w10);
+  GAGEN_SCATTER(out_J, 324, 206, w10);
   w58 = w5 * w58;
   w59 = w59 + w58;
   w56 = w56 * w36;
   w56 = w56 * w37;
   w56 = w17 * w56;
   w59 = w59 - w56;
-  GAGEN_SCATTER(J, 324, 207, w59);
+  GAGEN_SCATTER(out_J, 324, 207, w59);
   w41 = w41 * w36;
   w41 = w41 * w37;
   w41 = w17 * w41;
   w41 = w41 + w53;
-  GAGEN_SCATTER(J, 324, 208, w41);
+  GAGEN_SCATTER(out_J, 324, 208, w41);
   w43 = w43 + w52;
   w43 = w43 - w54;
   w49 = w5 * w49;
   w43 = w43 - w49;
   w43 = w43 - w48;
   w43 = w43 - w55;
-  GAGEN_SCATTER(J, 324, 209, w43);
-  GAGEN_SCATTER(J, 324, 210, w10);
-  GAGEN_SCATTER(J, 324, 211, w10);
-  GAGEN_SCATTER(J, 324, 212, w10);
-  GAGEN_SCATTER(J, 324, 213, w10);
-  GAGEN_SCATTER(J, 324, 214, w10);
-  GAGEN_SCATTER(J, 324, 215, w10);
-  GAGEN_SCATTER(J, 324, 216, w10);
-  GAGEN_SCATTER(J, 324, 217, w10);
-  GAGEN_SCATTER(J, 324, 218, w10);
-  GAGEN_SCATTER(J, 324, 219, w10);
-  GAGEN_SCATTER(J, 324, 220, w10);
-  GAGEN_SCATTER(J, 324, 221, w10);
-  GAGEN_SCATTER(J, 324, 222, w10);
-  GAGEN_SCATTER(J, 324, 223, w10);
-  GAGEN_SCATTER(J, 324, 224, w10);
-  GAGEN_SCATTER(J, 324, 225, w10);
-  GAGEN_SCATTER(J, 324, 226, w10);
-  GAGEN_SCATTER(J, 324, 227, w10);
+  GAGEN_SCATTER(out_J, 324, 209, w43);
+  GAGEN_SCATTER(out_J, 324, 210, w10);
+  GAGEN_SCATTER(out_J, 324, 211, w10);
+  GAGEN_SCATTER(out_J, 324, 212, w10);
+  GAGEN_SCATTER(out_J, 324, 213, w10);
+  GAGEN_SCATTER(out_J, 324, 214, w10);
+  GAGEN_SCATTER(out_J, 324, 215, w10);
+  GAGEN_SCATTER(out_J, 324, 216, w10);
+  GAGEN_SCATTER(out_J, 324, 217, w10);
+  GAGEN_SCATTER(out_J, 324, 218, w10);
+  GAGEN_SCATTER(out_J, 324, 219, w10);
+  GAGEN_SCATTER(out_J, 324, 220, w10);
+  GAGEN_SCATTER(out_J, 324, 221, w10);
+  GAGEN_SCATTER(out_J, 324, 222, w10);
+  GAGEN_SCATTER(out_J, 324, 223, w10);
+  GAGEN_SCATTER(out_J, 324, 224, w10);
+  GAGEN_SCATTER(out_J, 324, 225, w10);
+  GAGEN_SCATTER(out_J, 324, 226, w10);
+  GAGEN_SCATTER(out_J, 324, 227, w10);
   w68 = -w68;
-  GAGEN_SCATTER(J, 324, 228, w68);
-  GAGEN_SCATTER(J, 324, 229, w65);
-  GAGEN_SCATTER(J, 324, 230, w10);
-  GAGEN_SCATTER(J, 324, 231, w10);
-  GAGEN_SCATTER(J, 324, 232, w10);
-  GAGEN_SCATTER(J, 324, 233, w10);
-  GAGEN_SCATTER(J, 324, 234, w10);
-  GAGEN_SCATTER(J, 324, 235, w10);
-  GAGEN_SCATTER(J, 324, 236, w10);
-  GAGEN_SCATTER(J, 324, 237, w10);
-  GAGEN_SCATTER(J, 324, 238, w10);
-  GAGEN_SCATTER(J, 324, 239, w10);
-  GAGEN_SCATTER(J, 324, 240, w10);
-  GAGEN_SCATTER(J, 324, 241, w10);
-  GAGEN_SCATTER(J, 324, 242, w10);
-  GAGEN_SCATTER(J, 324, 243, w10);
-  GAGEN_SCATTER(J, 324, 244, w10);
-  GAGEN_SCATTER(J, 324, 245, w10);
+  GAGEN_SCATTER(out_J, 324, 228, w68);
+  GAGEN_SCATTER(out_J, 324, 229, w65);
+  GAGEN_SCATTER(out_J, 324, 230, w10);
+  GAGEN_SCATTER(out_J, 324, 231, w10);
+  GAGEN_SCATTER(out_J, 324, 232, w10);
+  GAGEN_SCATTER(out_J, 324, 233, w10);
+  GAGEN_SCATTER(out_J, 324, 234, w10);
+  GAGEN_SCATTER(out_J, 324, 235, w10);
+  GAGEN_SCATTER(out_J, 324, 236, w10);
+  GAGEN_SCATTER(out_J, 324, 237, w10);
+  GAGEN_SCATTER(out_J, 324, 238, w10);
+  GAGEN_SCATTER(out_J, 324, 239, w10);
+  GAGEN_SCATTER(out_J, 324, 240, w10);
+  GAGEN_SCATTER(out_J, 324, 241, w10);
+  GAGEN_SCATTER(out_J, 324, 242, w10);
+  GAGEN_SCATTER(out_J, 324, 243, w10);
+  GAGEN_SCATTER(out_J, 324, 244, w10);
+  GAGEN_SCATTER(out_J, 324, 245, w10);
   w68 = w67 + w67;
   w68 = w19 - w68;
   w43 = w68 * w64;
-  GAGEN_SCATTER(J, 324, 246, w43);
+  GAGEN_SCATTER(out_J, 324, 246, w43);
   w64 = w28 * w64;
   w64 = w64 + w64;
-  GAGEN_SCATTER(J, 324, 247, w64);
+  GAGEN_SCATTER(out_J, 324, 247, w64);
   w68 = w68 * w65;
   w12 = w12 - w68;
   w79 = w79 * w28;
@@ -12743,87 +12743,87 @@ static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, c
   w66 = w28 * w66;
   w66 = w66 + w66;
   w12 = w12 - w66;
-  GAGEN_SCATTER(J, 324, 248, w12);
-  GAGEN_SCATTER(J, 324, 249, w10);
-  GAGEN_SCATTER(J, 324, 250, w10);
-  GAGEN_SCATTER(J, 324, 251, w10);
-  GAGEN_SCATTER(J, 324, 252, w10);
-  GAGEN_SCATTER(J, 324, 253, w10);
-  GAGEN_SCATTER(J, 324, 254, w10);
-  GAGEN_SCATTER(J, 324, 255, w10);
-  GAGEN_SCATTER(J, 324, 256, w10);
-  GAGEN_SCATTER(J, 324, 257, w10);
-  GAGEN_SCATTER(J, 324, 258, w10);
-  GAGEN_SCATTER(J, 324, 259, w10);
-  GAGEN_SCATTER(J, 324, 260, w10);
-  GAGEN_SCATTER(J, 324, 261, w10);
-  GAGEN_SCATTER(J, 324, 262, w10);
-  GAGEN_SCATTER(J, 324, 263, w10);
+  GAGEN_SCATTER(out_J, 324, 248, w12);
+  GAGEN_SCATTER(out_J, 324, 249, w10);
+  GAGEN_SCATTER(out_J, 324, 250, w10);
+  GAGEN_SCATTER(out_J, 324, 251, w10);
+  GAGEN_SCATTER(out_J, 324, 252, w10);
+  GAGEN_SCATTER(out_J, 324, 253, w10);
+  GAGEN_SCATTER(out_J, 324, 254, w10);
+  GAGEN_SCATTER(out_J, 324, 255, w10);
+  GAGEN_SCATTER(out_J, 324, 256, w10);
+  GAGEN_SCATTER(out_J, 324, 257, w10);
+  GAGEN_SCATTER(out_J, 324, 258, w10);
+  GAGEN_SCATTER(out_J, 324, 259, w10);
+  GAGEN_SCATTER(out_J, 324, 260, w10);
+  GAGEN_SCATTER(out_J, 324, 261, w10);
+  GAGEN_SCATTER(out_J, 324, 262, w10);
+  GAGEN_SCATTER(out_J, 324, 263, w10);
   w69 = w5 * w69;
   w43 = w43 + w69;
   w67 = w67 * w50;
   w67 = w67 * w51;
   w67 = w17 * w67;
   w43 = w43 - w67;
-  GAGEN_SCATTER(J, 324, 264, w43);
+  GAGEN_SCATTER(out_J, 324, 264, w43);
   w28 = w28 * w50;
   w28 = w28 * w51;
   w28 = w17 * w28;
   w28 = w28 + w64;
-  GAGEN_SCATTER(J, 324, 265, w28);
+  GAGEN_SCATTER(out_J, 324, 265, w28);
   w30 = w30 - w68;
   w60 = w5 * w60;
   w30 = w30 - w60;
   w30 = w30 - w79;
   w30 = w30 - w66;
-  GAGEN_SCATTER(J, 324, 266, w30);
-  GAGEN_SCATTER(J, 324, 267, w10);
-  GAGEN_SCATTER(J, 324, 268, w10);
-  GAGEN_SCATTER(J, 324, 269, w10);
-  GAGEN_SCATTER(J, 324, 270, w10);
-  GAGEN_SCATTER(J, 324, 271, w10);
-  GAGEN_SCATTER(J, 324, 272, w10);
-  GAGEN_SCATTER(J, 324, 273, w10);
-  GAGEN_SCATTER(J, 324, 274, w10);
-  GAGEN_SCATTER(J, 324, 275, w10);
-  GAGEN_SCATTER(J, 324, 276, w10);
-  GAGEN_SCATTER(J, 324, 277, w10);
-  GAGEN_SCATTER(J, 324, 278, w10);
-  GAGEN_SCATTER(J, 324, 279, w10);
-  GAGEN_SCATTER(J, 324, 280, w10);
-  GAGEN_SCATTER(J, 324, 281, w10);
-  GAGEN_SCATTER(J, 324, 282, w10);
-  GAGEN_SCATTER(J, 324, 283, w10);
-  GAGEN_SCATTER(J, 324, 284, w10);
+  GAGEN_SCATTER(out_J, 324, 266, w30);
+  GAGEN_SCATTER(out_J, 324, 267, w10);
+  GAGEN_SCATTER(out_J, 324, 268, w10);
+  GAGEN_SCATTER(out_J, 324, 269, w10);
+  GAGEN_SCATTER(out_J, 324, 270, w10);
+  GAGEN_SCATTER(out_J, 324, 271, w10);
+  GAGEN_SCATTER(out_J, 324, 272, w10);
+  GAGEN_SCATTER(out_J, 324, 273, w10);
+  GAGEN_SCATTER(out_J, 324, 274, w10);
+  GAGEN_SCATTER(out_J, 324, 275, w10);
+  GAGEN_SCATTER(out_J, 324, 276, w10);
+  GAGEN_SCATTER(out_J, 324, 277, w10);
+  GAGEN_SCATTER(out_J, 324, 278, w10);
+  GAGEN_SCATTER(out_J, 324, 279, w10);
+  GAGEN_SCATTER(out_J, 324, 280, w10);
+  GAGEN_SCATTER(out_J, 324, 281, w10);
+  GAGEN_SCATTER(out_J, 324, 282, w10);
+  GAGEN_SCATTER(out_J, 324, 283, w10);
+  GAGEN_SCATTER(out_J, 324, 284, w10);
   w76 = -w76;
-  GAGEN_SCATTER(J, 324, 285, w76);
+  GAGEN_SCATTER(out_J, 324, 285, w76);
   w15 = w15 + w74;
   w15 = w15 - w72;
   w15 = w15 - w78;
-  GAGEN_SCATTER(J, 324, 286, w15);
-  GAGEN_SCATTER(J, 324, 287, w10);
-  GAGEN_SCATTER(J, 324, 288, w10);
-  GAGEN_SCATTER(J, 324, 289, w10);
-  GAGEN_SCATTER(J, 324, 290, w10);
-  GAGEN_SCATTER(J, 324, 291, w10);
-  GAGEN_SCATTER(J, 324, 292, w10);
-  GAGEN_SCATTER(J, 324, 293, w10);
-  GAGEN_SCATTER(J, 324, 294, w10);
-  GAGEN_SCATTER(J, 324, 295, w10);
-  GAGEN_SCATTER(J, 324, 296, w10);
-  GAGEN_SCATTER(J, 324, 297, w10);
-  GAGEN_SCATTER(J, 324, 298, w10);
-  GAGEN_SCATTER(J, 324, 299, w10);
-  GAGEN_SCATTER(J, 324, 300, w10);
-  GAGEN_SCATTER(J, 324, 301, w10);
-  GAGEN_SCATTER(J, 324, 302, w10);
+  GAGEN_SCATTER(out_J, 324, 286, w15);
+  GAGEN_SCATTER(out_J, 324, 287, w10);
+  GAGEN_SCATTER(out_J, 324, 288, w10);
+  GAGEN_SCATTER(out_J, 324, 289, w10);
+  GAGEN_SCATTER(out_J, 324, 290, w10);
+  GAGEN_SCATTER(out_J, 324, 291, w10);
+  GAGEN_SCATTER(out_J, 324, 292, w10);
+  GAGEN_SCATTER(out_J, 324, 293, w10);
+  GAGEN_SCATTER(out_J, 324, 294, w10);
+  GAGEN_SCATTER(out_J, 324, 295, w10);
+  GAGEN_SCATTER(out_J, 324, 296, w10);
+  GAGEN_SCATTER(out_J, 324, 297, w10);
+  GAGEN_SCATTER(out_J, 324, 298, w10);
+  GAGEN_SCATTER(out_J, 324, 299, w10);
+  GAGEN_SCATTER(out_J, 324, 300, w10);
+  GAGEN_SCATTER(out_J, 324, 301, w10);
+  GAGEN_SCATTER(out_J, 324, 302, w10);
   w15 = w75 + w75;
   w19 = w19 - w15;
   w15 = w19 * w73;
-  GAGEN_SCATTER(J, 324, 303, w15);
+  GAGEN_SCATTER(out_J, 324, 303, w15);
   w73 = w11 * w73;
   w73 = w73 + w73;
-  GAGEN_SCATTER(J, 324, 304, w73);
+  GAGEN_SCATTER(out_J, 324, 304, w73);
   w19 = w19 * w0;
   w71 = w71 - w19;
   w34 = w34 * w11;
@@ -12833,41 +12833,41 @@ static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, c
   w21 = w11 * w21;
   w21 = w21 + w21;
   w71 = w71 - w21;
-  GAGEN_SCATTER(J, 324, 305, w71);
-  GAGEN_SCATTER(J, 324, 306, w10);
-  GAGEN_SCATTER(J, 324, 307, w10);
-  GAGEN_SCATTER(J, 324, 308, w10);
-  GAGEN_SCATTER(J, 324, 309, w10);
-  GAGEN_SCATTER(J, 324, 310, w10);
-  GAGEN_SCATTER(J, 324, 311, w10);
-  GAGEN_SCATTER(J, 324, 312, w10);
-  GAGEN_SCATTER(J, 324, 313, w10);
-  GAGEN_SCATTER(J, 324, 314, w10);
-  GAGEN_SCATTER(J, 324, 315, w10);
-  GAGEN_SCATTER(J, 324, 316, w10);
-  GAGEN_SCATTER(J, 324, 317, w10);
-  GAGEN_SCATTER(J, 324, 318, w10);
-  GAGEN_SCATTER(J, 324, 319, w10);
-  GAGEN_SCATTER(J, 324, 320, w10);
+  GAGEN_SCATTER(out_J, 324, 305, w71);
+  GAGEN_SCATTER(out_J, 324, 306, w10);
+  GAGEN_SCATTER(out_J, 324, 307, w10);
+  GAGEN_SCATTER(out_J, 324, 308, w10);
+  GAGEN_SCATTER(out_J, 324, 309, w10);
+  GAGEN_SCATTER(out_J, 324, 310, w10);
+  GAGEN_SCATTER(out_J, 324, 311, w10);
+  GAGEN_SCATTER(out_J, 324, 312, w10);
+  GAGEN_SCATTER(out_J, 324, 313, w10);
+  GAGEN_SCATTER(out_J, 324, 314, w10);
+  GAGEN_SCATTER(out_J, 324, 315, w10);
+  GAGEN_SCATTER(out_J, 324, 316, w10);
+  GAGEN_SCATTER(out_J, 324, 317, w10);
+  GAGEN_SCATTER(out_J, 324, 318, w10);
+  GAGEN_SCATTER(out_J, 324, 319, w10);
+  GAGEN_SCATTER(out_J, 324, 320, w10);
   w77 = w5 * w77;
   w15 = w15 + w77;
   w75 = w75 * w61;
   w75 = w75 * w62;
   w75 = w17 * w75;
   w15 = w15 - w75;
-  GAGEN_SCATTER(J, 324, 321, w15);
+  GAGEN_SCATTER(out_J, 324, 321, w15);
   w11 = w11 * w61;
   w11 = w11 * w62;
   w17 = w17 * w11;
   w17 = w17 + w73;
-  GAGEN_SCATTER(J, 324, 322, w17);
+  GAGEN_SCATTER(out_J, 324, 322, w17);
   w13 = w13 - w19;
   w5 = w5 * w70;
   w13 = w13 - w5;
   w13 = w13 - w34;
   w13 = w13 - w20;
   w13 = w13 - w21;
-  GAGEN_SCATTER(J, 324, 323, w13);
+  GAGEN_SCATTER(out_J, 324, 323, w13);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -12875,43 +12875,43 @@ static void hexapod_body_fk_cga_block_columns(long gagen_ld, int gagen_stream, c
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_body_fk_cga_batch_columns(long n, long ld, const double *restrict q, double *restrict p, double *restrict J) {
-  long s = 0;
+void hexapod_body_fk_cga_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_p, double *restrict out_J) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 342L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_body_fk_cga_block_columns(ld, stream, q + s, p + s, J + s);
+  const int gagen_stream = gagen_n * 342L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_body_fk_cga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_p + gagen_s, out_J + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_body_fk_cga_columns_from(s, n, ld, q, p, J);
+  hexapod_body_fk_cga_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_p, out_J);
 }
 
 #if GAGEN_SIMD
 /* all legs' analytic IK (knee up) for a body pose (PGA motor, body \u2192 world) and world toe targets: GAGEN_W consecutive samples at once */
-static void hexapod_body_ik_block(const double *restrict pose, const double *restrict toes, double *restrict q, double *restrict reach, double *restrict excess) {
+static void hexapod_body_ik_block(const double *restrict in_pose, const double *restrict in_toes, double *restrict out_q, double *restrict out_reach, double *restrict out_excess) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   gagen_v w36, w37, w38, w39, w40, w41;
   w0 = gagen_v_splat(0.8660254037844387);
-  w1 = GAGEN_GATHER(pose, 8, 5);
-  w2 = GAGEN_GATHER(toes, 18, 1);
+  w1 = GAGEN_GATHER(in_pose, 8, 5);
+  w2 = GAGEN_GATHER(in_toes, 18, 1);
   w3 = w1 * w2;
-  w4 = GAGEN_GATHER(pose, 8, 3);
-  w5 = GAGEN_GATHER(toes, 18, 2);
+  w4 = GAGEN_GATHER(in_pose, 8, 3);
+  w5 = GAGEN_GATHER(in_toes, 18, 2);
   w6 = w4 * w5;
   w3 = w3 - w6;
-  w6 = GAGEN_GATHER(pose, 8, 6);
-  w7 = GAGEN_GATHER(toes, 18, 0);
+  w6 = GAGEN_GATHER(in_pose, 8, 6);
+  w7 = GAGEN_GATHER(in_toes, 18, 0);
   w8 = w6 * w7;
   w3 = w3 - w8;
-  w8 = GAGEN_GATHER(pose, 8, 7);
+  w8 = GAGEN_GATHER(in_pose, 8, 7);
   w3 = w3 - w8;
   w9 = w3 * w1;
-  w10 = GAGEN_GATHER(pose, 8, 0);
+  w10 = GAGEN_GATHER(in_pose, 8, 0);
   w11 = w10 * w5;
-  w12 = GAGEN_GATHER(pose, 8, 4);
+  w12 = GAGEN_GATHER(in_pose, 8, 4);
   w11 = w11 + w12;
   w13 = w1 * w7;
   w11 = w11 + w13;
@@ -12919,11 +12919,11 @@ static void hexapod_body_ik_block(const double *restrict pose, const double *res
   w11 = w11 + w13;
   w13 = w11 * w6;
   w9 = w9 - w13;
-  w13 = GAGEN_GATHER(pose, 8, 1);
+  w13 = GAGEN_GATHER(in_pose, 8, 1);
   w14 = w4 * w13;
   w9 = w9 + w14;
   w15 = w10 * w2;
-  w16 = GAGEN_GATHER(pose, 8, 2);
+  w16 = GAGEN_GATHER(in_pose, 8, 2);
   w15 = w15 + w16;
   w17 = w4 * w7;
   w15 = w15 + w17;
@@ -12993,7 +12993,7 @@ static void hexapod_body_ik_block(const double *restrict pose, const double *res
   w24 = gagen_v_splat(0.11999999999988513);
   w9 = w9 - w24;
   w28 = gagen_v_atan2(w5, w9);
-  GAGEN_SCATTER(q, 18, 0, w28);
+  GAGEN_SCATTER(out_q, 18, 0, w28);
   w28 = w6 * w16;
   w29 = w1 * w13;
   w28 = w28 + w29;
@@ -13035,21 +13035,21 @@ static void hexapod_body_ik_block(const double *restrict pose, const double *res
   w15 = w3 * w9;
   w31 = gagen_v_atan2(w31, w15);
   w11 = w11 - w31;
-  GAGEN_SCATTER(q, 18, 1, w11);
+  GAGEN_SCATTER(out_q, 18, 1, w11);
   w11 = gagen_v_splat(12.499999999999998);
   w2 = w11 * w2;
   w31 = w11 * w9;
   w15 = gagen_v_splat(1.0);
   w31 = w31 - w15;
   w2 = gagen_v_atan2(w2, w31);
-  GAGEN_SCATTER(q, 18, 2, w2);
-  w2 = GAGEN_GATHER(toes, 18, 5);
+  GAGEN_SCATTER(out_q, 18, 2, w2);
+  w2 = GAGEN_GATHER(in_toes, 18, 5);
   w31 = w10 * w2;
   w31 = w31 + w12;
-  w32 = GAGEN_GATHER(toes, 18, 3);
+  w32 = GAGEN_GATHER(in_toes, 18, 3);
   w33 = w1 * w32;
   w31 = w31 + w33;
-  w33 = GAGEN_GATHER(toes, 18, 4);
+  w33 = GAGEN_GATHER(in_toes, 18, 4);
   w34 = w6 * w33;
   w31 = w31 + w34;
   w34 = w31 * w1;
@@ -13098,7 +13098,7 @@ static void hexapod_body_ik_block(const double *restrict pose, const double *res
   w38 = gagen_v_splat(0.12);
   w37 = w37 - w38;
   w2 = gagen_v_atan2(w2, w37);
-  GAGEN_SCATTER(q, 18, 3, w2);
+  GAGEN_SCATTER(out_q, 18, 3, w2);
   w36 = w36 * w6;
   w36 = w28 + w36;
   w36 = w36 + w29;
@@ -13132,18 +13132,18 @@ static void hexapod_body_ik_block(const double *restrict pose, const double *res
   w36 = w3 * w37;
   w32 = gagen_v_atan2(w32, w36);
   w31 = w31 - w32;
-  GAGEN_SCATTER(q, 18, 4, w31);
+  GAGEN_SCATTER(out_q, 18, 4, w31);
   w33 = w11 * w33;
   w31 = w11 * w37;
   w31 = w31 - w15;
   w33 = gagen_v_atan2(w33, w31);
-  GAGEN_SCATTER(q, 18, 5, w33);
-  w33 = GAGEN_GATHER(toes, 18, 7);
+  GAGEN_SCATTER(out_q, 18, 5, w33);
+  w33 = GAGEN_GATHER(in_toes, 18, 7);
   w31 = w1 * w33;
-  w32 = GAGEN_GATHER(toes, 18, 8);
+  w32 = GAGEN_GATHER(in_toes, 18, 8);
   w36 = w4 * w32;
   w31 = w31 - w36;
-  w36 = GAGEN_GATHER(toes, 18, 6);
+  w36 = GAGEN_GATHER(in_toes, 18, 6);
   w34 = w6 * w36;
   w31 = w31 - w34;
   w31 = w31 - w8;
@@ -13198,7 +13198,7 @@ static void hexapod_body_ik_block(const double *restrict pose, const double *res
   w32 = w0 * w32;
   w34 = w34 - w32;
   w32 = gagen_v_atan2(w36, w34);
-  GAGEN_SCATTER(q, 18, 6, w32);
+  GAGEN_SCATTER(out_q, 18, 6, w32);
   w2 = w2 * w6;
   w2 = w28 + w2;
   w2 = w2 + w29;
@@ -13231,19 +13231,19 @@ static void hexapod_body_ik_block(const double *restrict pose, const double *res
   w2 = w3 * w34;
   w36 = gagen_v_atan2(w36, w2);
   w35 = w35 - w36;
-  GAGEN_SCATTER(q, 18, 7, w35);
+  GAGEN_SCATTER(out_q, 18, 7, w35);
   w33 = w11 * w33;
   w35 = w11 * w34;
   w35 = w35 - w15;
   w33 = gagen_v_atan2(w33, w35);
-  GAGEN_SCATTER(q, 18, 8, w33);
-  w33 = GAGEN_GATHER(toes, 18, 11);
+  GAGEN_SCATTER(out_q, 18, 8, w33);
+  w33 = GAGEN_GATHER(in_toes, 18, 11);
   w35 = w10 * w33;
   w35 = w35 + w12;
-  w36 = GAGEN_GATHER(toes, 18, 9);
+  w36 = GAGEN_GATHER(in_toes, 18, 9);
   w2 = w1 * w36;
   w35 = w35 + w2;
-  w2 = GAGEN_GATHER(toes, 18, 10);
+  w2 = GAGEN_GATHER(in_toes, 18, 10);
   w31 = w6 * w2;
   w35 = w35 + w31;
   w31 = w35 * w1;
@@ -13298,7 +13298,7 @@ static void hexapod_body_ik_block(const double *restrict pose, const double *res
   w33 = w33 + w31;
   w31 = -w33;
   w31 = gagen_v_atan2(w36, w31);
-  GAGEN_SCATTER(q, 18, 9, w31);
+  GAGEN_SCATTER(out_q, 18, 9, w31);
   w39 = w39 * w6;
   w39 = w28 + w39;
   w39 = w39 + w29;
@@ -13331,19 +13331,19 @@ static void hexapod_body_ik_block(const double *restrict pose, const double *res
   w39 = w3 * w33;
   w36 = gagen_v_atan2(w36, w39);
   w35 = w35 - w36;
-  GAGEN_SCATTER(q, 18, 10, w35);
+  GAGEN_SCATTER(out_q, 18, 10, w35);
   w2 = w11 * w2;
   w35 = w11 * w33;
   w35 = w35 - w15;
   w2 = gagen_v_atan2(w2, w35);
-  GAGEN_SCATTER(q, 18, 11, w2);
-  w2 = GAGEN_GATHER(toes, 18, 14);
+  GAGEN_SCATTER(out_q, 18, 11, w2);
+  w2 = GAGEN_GATHER(in_toes, 18, 14);
   w35 = w10 * w2;
   w35 = w35 + w12;
-  w36 = GAGEN_GATHER(toes, 18, 12);
+  w36 = GAGEN_GATHER(in_toes, 18, 12);
   w39 = w1 * w36;
   w35 = w35 + w39;
-  w39 = GAGEN_GATHER(toes, 18, 13);
+  w39 = GAGEN_GATHER(in_toes, 18, 13);
   w32 = w6 * w39;
   w35 = w35 + w32;
   w32 = w35 * w1;
@@ -13391,7 +13391,7 @@ static void hexapod_body_ik_block(const double *restrict pose, const double *res
   w2 = w2 + w38;
   w38 = -w2;
   w38 = gagen_v_atan2(w36, w38);
-  GAGEN_SCATTER(q, 18, 12, w38);
+  GAGEN_SCATTER(out_q, 18, 12, w38);
   w40 = w40 * w6;
   w40 = w28 + w40;
   w40 = w40 + w29;
@@ -13425,18 +13425,18 @@ static void hexapod_body_ik_block(const double *restrict pose, const double *res
   w40 = w3 * w2;
   w36 = gagen_v_atan2(w36, w40);
   w35 = w35 - w36;
-  GAGEN_SCATTER(q, 18, 13, w35);
+  GAGEN_SCATTER(out_q, 18, 13, w35);
   w39 = w11 * w39;
   w35 = w11 * w2;
   w35 = w35 - w15;
   w39 = gagen_v_atan2(w39, w35);
-  GAGEN_SCATTER(q, 18, 14, w39);
-  w39 = GAGEN_GATHER(toes, 18, 16);
+  GAGEN_SCATTER(out_q, 18, 14, w39);
+  w39 = GAGEN_GATHER(in_toes, 18, 16);
   w35 = w1 * w39;
-  w36 = GAGEN_GATHER(toes, 18, 17);
+  w36 = GAGEN_GATHER(in_toes, 18, 17);
   w40 = w4 * w36;
   w35 = w35 - w40;
-  w40 = GAGEN_GATHER(toes, 18, 15);
+  w40 = GAGEN_GATHER(in_toes, 18, 15);
   w32 = w6 * w40;
   w35 = w35 - w32;
   w35 = w35 - w8;
@@ -13491,7 +13491,7 @@ static void hexapod_body_ik_block(const double *restrict pose, const double *res
   w22 = w22 * w8;
   w0 = w0 - w22;
   w22 = gagen_v_atan2(w23, w0);
-  GAGEN_SCATTER(q, 18, 15, w22);
+  GAGEN_SCATTER(out_q, 18, 15, w22);
   w14 = w14 * w6;
   w28 = w28 + w14;
   w28 = w28 + w29;
@@ -13524,12 +13524,12 @@ static void hexapod_body_ik_block(const double *restrict pose, const double *res
   w3 = w3 * w0;
   w30 = gagen_v_atan2(w30, w3);
   w1 = w1 - w30;
-  GAGEN_SCATTER(q, 18, 16, w1);
+  GAGEN_SCATTER(out_q, 18, 16, w1);
   w39 = w11 * w39;
   w11 = w11 * w0;
   w11 = w11 - w15;
   w39 = gagen_v_atan2(w39, w11);
-  GAGEN_SCATTER(q, 18, 17, w39);
+  GAGEN_SCATTER(out_q, 18, 17, w39);
   w39 = gagen_v_splat(1e-09);
   w11 = gagen_v_lt(w9, w21);
   w9 = gagen_v_sqrt(w9);
@@ -13546,7 +13546,7 @@ static void hexapod_body_ik_block(const double *restrict pose, const double *res
   w1 = gagen_v_lt(w39, w11);
   w1 = gagen_v_not(w1);
   w1 = gagen_v_if_else_zero(w1, w15);
-  GAGEN_SCATTER(reach, 6, 0, w1);
+  GAGEN_SCATTER(out_reach, 6, 0, w1);
   w1 = gagen_v_lt(w37, w21);
   w37 = gagen_v_sqrt(w37);
   w9 = -w37;
@@ -13561,7 +13561,7 @@ static void hexapod_body_ik_block(const double *restrict pose, const double *res
   w9 = gagen_v_lt(w39, w1);
   w9 = gagen_v_not(w9);
   w9 = gagen_v_if_else_zero(w9, w15);
-  GAGEN_SCATTER(reach, 6, 1, w9);
+  GAGEN_SCATTER(out_reach, 6, 1, w9);
   w9 = gagen_v_lt(w34, w21);
   w34 = gagen_v_sqrt(w34);
   w37 = -w34;
@@ -13576,7 +13576,7 @@ static void hexapod_body_ik_block(const double *restrict pose, const double *res
   w37 = gagen_v_lt(w39, w9);
   w37 = gagen_v_not(w37);
   w37 = gagen_v_if_else_zero(w37, w15);
-  GAGEN_SCATTER(reach, 6, 2, w37);
+  GAGEN_SCATTER(out_reach, 6, 2, w37);
   w37 = gagen_v_lt(w33, w21);
   w33 = gagen_v_sqrt(w33);
   w34 = -w33;
@@ -13591,7 +13591,7 @@ static void hexapod_body_ik_block(const double *restrict pose, const double *res
   w34 = gagen_v_lt(w39, w37);
   w34 = gagen_v_not(w34);
   w34 = gagen_v_if_else_zero(w34, w15);
-  GAGEN_SCATTER(reach, 6, 3, w34);
+  GAGEN_SCATTER(out_reach, 6, 3, w34);
   w34 = gagen_v_lt(w2, w21);
   w2 = gagen_v_sqrt(w2);
   w33 = -w2;
@@ -13606,7 +13606,7 @@ static void hexapod_body_ik_block(const double *restrict pose, const double *res
   w33 = gagen_v_lt(w39, w34);
   w33 = gagen_v_not(w33);
   w33 = gagen_v_if_else_zero(w33, w15);
-  GAGEN_SCATTER(reach, 6, 4, w33);
+  GAGEN_SCATTER(out_reach, 6, 4, w33);
   w33 = gagen_v_lt(w0, w21);
   w0 = gagen_v_sqrt(w0);
   w2 = -w0;
@@ -13621,31 +13621,31 @@ static void hexapod_body_ik_block(const double *restrict pose, const double *res
   w39 = gagen_v_lt(w39, w21);
   w39 = gagen_v_not(w39);
   w39 = gagen_v_if_else_zero(w39, w15);
-  GAGEN_SCATTER(reach, 6, 5, w39);
-  GAGEN_SCATTER(excess, 6, 0, w11);
-  GAGEN_SCATTER(excess, 6, 1, w1);
-  GAGEN_SCATTER(excess, 6, 2, w9);
-  GAGEN_SCATTER(excess, 6, 3, w37);
-  GAGEN_SCATTER(excess, 6, 4, w34);
-  GAGEN_SCATTER(excess, 6, 5, w21);
+  GAGEN_SCATTER(out_reach, 6, 5, w39);
+  GAGEN_SCATTER(out_excess, 6, 0, w11);
+  GAGEN_SCATTER(out_excess, 6, 1, w1);
+  GAGEN_SCATTER(out_excess, 6, 2, w9);
+  GAGEN_SCATTER(out_excess, 6, 3, w37);
+  GAGEN_SCATTER(out_excess, 6, 4, w34);
+  GAGEN_SCATTER(out_excess, 6, 5, w21);
 }
 #endif
 
-void hexapod_body_ik_batch(long n, const double *restrict pose, const double *restrict toes, double *restrict q, double *restrict reach, double *restrict excess) {
-  long s = 0;
+void hexapod_body_ik_batch(long gagen_n, const double *restrict in_pose, const double *restrict in_toes, double *restrict out_q, double *restrict out_reach, double *restrict out_excess) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 18 * GAGEN_W + 7; o += 8) __builtin_prefetch(q + 18 * a + o, 1, 0);
-      for (int o = 0; o < 6 * GAGEN_W + 7; o += 8) __builtin_prefetch(reach + 6 * a + o, 1, 0);
-      for (int o = 0; o < 6 * GAGEN_W + 7; o += 8) __builtin_prefetch(excess + 6 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 18 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_q + 18 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 6 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_reach + 6 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 6 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_excess + 6 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_body_ik_block(pose + 8 * s, toes + 18 * s, q + 18 * s, reach + 6 * s, excess + 6 * s);
+    hexapod_body_ik_block(in_pose + 8 * gagen_s, in_toes + 18 * gagen_s, out_q + 18 * gagen_s, out_reach + 6 * gagen_s, out_excess + 6 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_body_ik(pose + 8 * s, toes + 18 * s, q + 18 * s, reach + 6 * s, excess + 6 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_body_ik(in_pose + 8 * gagen_s, in_toes + 18 * gagen_s, out_q + 18 * gagen_s, out_reach + 6 * gagen_s, out_excess + 6 * gagen_s);
   }
 }
 
@@ -13655,29 +13655,29 @@ void hexapod_body_ik_batch(long n, const double *restrict pose, const double *re
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_body_ik_block_columns(long gagen_ld, int gagen_stream, const double *restrict pose, const double *restrict toes, double *restrict q, double *restrict reach, double *restrict excess) {
+static void hexapod_body_ik_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_pose, const double *restrict in_toes, double *restrict out_q, double *restrict out_reach, double *restrict out_excess) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   gagen_v w36, w37, w38, w39, w40, w41;
   w0 = gagen_v_splat(0.8660254037844387);
-  w1 = GAGEN_GATHER(pose, 8, 5);
-  w2 = GAGEN_GATHER(toes, 18, 1);
+  w1 = GAGEN_GATHER(in_pose, 8, 5);
+  w2 = GAGEN_GATHER(in_toes, 18, 1);
   w3 = w1 * w2;
-  w4 = GAGEN_GATHER(pose, 8, 3);
-  w5 = GAGEN_GATHER(toes, 18, 2);
+  w4 = GAGEN_GATHER(in_pose, 8, 3);
+  w5 = GAGEN_GATHER(in_toes, 18, 2);
   w6 = w4 * w5;
   w3 = w3 - w6;
-  w6 = GAGEN_GATHER(pose, 8, 6);
-  w7 = GAGEN_GATHER(toes, 18, 0);
+  w6 = GAGEN_GATHER(in_pose, 8, 6);
+  w7 = GAGEN_GATHER(in_toes, 18, 0);
   w8 = w6 * w7;
   w3 = w3 - w8;
-  w8 = GAGEN_GATHER(pose, 8, 7);
+  w8 = GAGEN_GATHER(in_pose, 8, 7);
   w3 = w3 - w8;
   w9 = w3 * w1;
-  w10 = GAGEN_GATHER(pose, 8, 0);
+  w10 = GAGEN_GATHER(in_pose, 8, 0);
   w11 = w10 * w5;
-  w12 = GAGEN_GATHER(pose, 8, 4);
+  w12 = GAGEN_GATHER(in_pose, 8, 4);
   w11 = w11 + w12;
   w13 = w1 * w7;
   w11 = w11 + w13;
@@ -13685,11 +13685,11 @@ static void hexapod_body_ik_block_columns(long gagen_ld, int gagen_stream, const
   w11 = w11 + w13;
   w13 = w11 * w6;
   w9 = w9 - w13;
-  w13 = GAGEN_GATHER(pose, 8, 1);
+  w13 = GAGEN_GATHER(in_pose, 8, 1);
   w14 = w4 * w13;
   w9 = w9 + w14;
   w15 = w10 * w2;
-  w16 = GAGEN_GATHER(pose, 8, 2);
+  w16 = GAGEN_GATHER(in_pose, 8, 2);
   w15 = w15 + w16;
   w17 = w4 * w7;
   w15 = w15 + w17;
@@ -13759,7 +13759,7 @@ static void hexapod_body_ik_block_columns(long gagen_ld, int gagen_stream, const
   w24 = gagen_v_splat(0.11999999999988513);
   w9 = w9 - w24;
   w28 = gagen_v_atan2(w5, w9);
-  GAGEN_SCATTER(q, 18, 0, w28);
+  GAGEN_SCATTER(out_q, 18, 0, w28);
   w28 = w6 * w16;
   w29 = w1 * w13;
   w28 = w28 + w29;
@@ -13801,21 +13801,21 @@ static void hexapod_body_ik_block_columns(long gagen_ld, int gagen_stream, const
   w15 = w3 * w9;
   w31 = gagen_v_atan2(w31, w15);
   w11 = w11 - w31;
-  GAGEN_SCATTER(q, 18, 1, w11);
+  GAGEN_SCATTER(out_q, 18, 1, w11);
   w11 = gagen_v_splat(12.499999999999998);
   w2 = w11 * w2;
   w31 = w11 * w9;
   w15 = gagen_v_splat(1.0);
   w31 = w31 - w15;
   w2 = gagen_v_atan2(w2, w31);
-  GAGEN_SCATTER(q, 18, 2, w2);
-  w2 = GAGEN_GATHER(toes, 18, 5);
+  GAGEN_SCATTER(out_q, 18, 2, w2);
+  w2 = GAGEN_GATHER(in_toes, 18, 5);
   w31 = w10 * w2;
   w31 = w31 + w12;
-  w32 = GAGEN_GATHER(toes, 18, 3);
+  w32 = GAGEN_GATHER(in_toes, 18, 3);
   w33 = w1 * w32;
   w31 = w31 + w33;
-  w33 = GAGEN_GATHER(toes, 18, 4);
+  w33 = GAGEN_GATHER(in_toes, 18, 4);
   w34 = w6 * w33;
   w31 = w31 + w34;
   w34 = w31 * w1;
@@ -13864,7 +13864,7 @@ static void hexapod_body_ik_block_columns(long gagen_ld, int gagen_stream, const
   w38 = gagen_v_splat(0.12);
   w37 = w37 - w38;
   w2 = gagen_v_atan2(w2, w37);
-  GAGEN_SCATTER(q, 18, 3, w2);
+  GAGEN_SCATTER(out_q, 18, 3, w2);
   w36 = w36 * w6;
   w36 = w28 + w36;
   w36 = w36 + w29;
@@ -13898,18 +13898,18 @@ static void hexapod_body_ik_block_columns(long gagen_ld, int gagen_stream, const
   w36 = w3 * w37;
   w32 = gagen_v_atan2(w32, w36);
   w31 = w31 - w32;
-  GAGEN_SCATTER(q, 18, 4, w31);
+  GAGEN_SCATTER(out_q, 18, 4, w31);
   w33 = w11 * w33;
   w31 = w11 * w37;
   w31 = w31 - w15;
   w33 = gagen_v_atan2(w33, w31);
-  GAGEN_SCATTER(q, 18, 5, w33);
-  w33 = GAGEN_GATHER(toes, 18, 7);
+  GAGEN_SCATTER(out_q, 18, 5, w33);
+  w33 = GAGEN_GATHER(in_toes, 18, 7);
   w31 = w1 * w33;
-  w32 = GAGEN_GATHER(toes, 18, 8);
+  w32 = GAGEN_GATHER(in_toes, 18, 8);
   w36 = w4 * w32;
   w31 = w31 - w36;
-  w36 = GAGEN_GATHER(toes, 18, 6);
+  w36 = GAGEN_GATHER(in_toes, 18, 6);
   w34 = w6 * w36;
   w31 = w31 - w34;
   w31 = w31 - w8;
@@ -13964,7 +13964,7 @@ static void hexapod_body_ik_block_columns(long gagen_ld, int gagen_stream, const
   w32 = w0 * w32;
   w34 = w34 - w32;
   w32 = gagen_v_atan2(w36, w34);
-  GAGEN_SCATTER(q, 18, 6, w32);
+  GAGEN_SCATTER(out_q, 18, 6, w32);
   w2 = w2 * w6;
   w2 = w28 + w2;
   w2 = w2 + w29;
@@ -13997,19 +13997,19 @@ static void hexapod_body_ik_block_columns(long gagen_ld, int gagen_stream, const
   w2 = w3 * w34;
   w36 = gagen_v_atan2(w36, w2);
   w35 = w35 - w36;
-  GAGEN_SCATTER(q, 18, 7, w35);
+  GAGEN_SCATTER(out_q, 18, 7, w35);
   w33 = w11 * w33;
   w35 = w11 * w34;
   w35 = w35 - w15;
   w33 = gagen_v_atan2(w33, w35);
-  GAGEN_SCATTER(q, 18, 8, w33);
-  w33 = GAGEN_GATHER(toes, 18, 11);
+  GAGEN_SCATTER(out_q, 18, 8, w33);
+  w33 = GAGEN_GATHER(in_toes, 18, 11);
   w35 = w10 * w33;
   w35 = w35 + w12;
-  w36 = GAGEN_GATHER(toes, 18, 9);
+  w36 = GAGEN_GATHER(in_toes, 18, 9);
   w2 = w1 * w36;
   w35 = w35 + w2;
-  w2 = GAGEN_GATHER(toes, 18, 10);
+  w2 = GAGEN_GATHER(in_toes, 18, 10);
   w31 = w6 * w2;
   w35 = w35 + w31;
   w31 = w35 * w1;
@@ -14064,7 +14064,7 @@ static void hexapod_body_ik_block_columns(long gagen_ld, int gagen_stream, const
   w33 = w33 + w31;
   w31 = -w33;
   w31 = gagen_v_atan2(w36, w31);
-  GAGEN_SCATTER(q, 18, 9, w31);
+  GAGEN_SCATTER(out_q, 18, 9, w31);
   w39 = w39 * w6;
   w39 = w28 + w39;
   w39 = w39 + w29;
@@ -14097,19 +14097,19 @@ static void hexapod_body_ik_block_columns(long gagen_ld, int gagen_stream, const
   w39 = w3 * w33;
   w36 = gagen_v_atan2(w36, w39);
   w35 = w35 - w36;
-  GAGEN_SCATTER(q, 18, 10, w35);
+  GAGEN_SCATTER(out_q, 18, 10, w35);
   w2 = w11 * w2;
   w35 = w11 * w33;
   w35 = w35 - w15;
   w2 = gagen_v_atan2(w2, w35);
-  GAGEN_SCATTER(q, 18, 11, w2);
-  w2 = GAGEN_GATHER(toes, 18, 14);
+  GAGEN_SCATTER(out_q, 18, 11, w2);
+  w2 = GAGEN_GATHER(in_toes, 18, 14);
   w35 = w10 * w2;
   w35 = w35 + w12;
-  w36 = GAGEN_GATHER(toes, 18, 12);
+  w36 = GAGEN_GATHER(in_toes, 18, 12);
   w39 = w1 * w36;
   w35 = w35 + w39;
-  w39 = GAGEN_GATHER(toes, 18, 13);
+  w39 = GAGEN_GATHER(in_toes, 18, 13);
   w32 = w6 * w39;
   w35 = w35 + w32;
   w32 = w35 * w1;
@@ -14157,7 +14157,7 @@ static void hexapod_body_ik_block_columns(long gagen_ld, int gagen_stream, const
   w2 = w2 + w38;
   w38 = -w2;
   w38 = gagen_v_atan2(w36, w38);
-  GAGEN_SCATTER(q, 18, 12, w38);
+  GAGEN_SCATTER(out_q, 18, 12, w38);
   w40 = w40 * w6;
   w40 = w28 + w40;
   w40 = w40 + w29;
@@ -14191,18 +14191,18 @@ static void hexapod_body_ik_block_columns(long gagen_ld, int gagen_stream, const
   w40 = w3 * w2;
   w36 = gagen_v_atan2(w36, w40);
   w35 = w35 - w36;
-  GAGEN_SCATTER(q, 18, 13, w35);
+  GAGEN_SCATTER(out_q, 18, 13, w35);
   w39 = w11 * w39;
   w35 = w11 * w2;
   w35 = w35 - w15;
   w39 = gagen_v_atan2(w39, w35);
-  GAGEN_SCATTER(q, 18, 14, w39);
-  w39 = GAGEN_GATHER(toes, 18, 16);
+  GAGEN_SCATTER(out_q, 18, 14, w39);
+  w39 = GAGEN_GATHER(in_toes, 18, 16);
   w35 = w1 * w39;
-  w36 = GAGEN_GATHER(toes, 18, 17);
+  w36 = GAGEN_GATHER(in_toes, 18, 17);
   w40 = w4 * w36;
   w35 = w35 - w40;
-  w40 = GAGEN_GATHER(toes, 18, 15);
+  w40 = GAGEN_GATHER(in_toes, 18, 15);
   w32 = w6 * w40;
   w35 = w35 - w32;
   w35 = w35 - w8;
@@ -14257,7 +14257,7 @@ static void hexapod_body_ik_block_columns(long gagen_ld, int gagen_stream, const
   w22 = w22 * w8;
   w0 = w0 - w22;
   w22 = gagen_v_atan2(w23, w0);
-  GAGEN_SCATTER(q, 18, 15, w22);
+  GAGEN_SCATTER(out_q, 18, 15, w22);
   w14 = w14 * w6;
   w28 = w28 + w14;
   w28 = w28 + w29;
@@ -14290,12 +14290,12 @@ static void hexapod_body_ik_block_columns(long gagen_ld, int gagen_stream, const
   w3 = w3 * w0;
   w30 = gagen_v_atan2(w30, w3);
   w1 = w1 - w30;
-  GAGEN_SCATTER(q, 18, 16, w1);
+  GAGEN_SCATTER(out_q, 18, 16, w1);
   w39 = w11 * w39;
   w11 = w11 * w0;
   w11 = w11 - w15;
   w39 = gagen_v_atan2(w39, w11);
-  GAGEN_SCATTER(q, 18, 17, w39);
+  GAGEN_SCATTER(out_q, 18, 17, w39);
   w39 = gagen_v_splat(1e-09);
   w11 = gagen_v_lt(w9, w21);
   w9 = gagen_v_sqrt(w9);
@@ -14312,7 +14312,7 @@ static void hexapod_body_ik_block_columns(long gagen_ld, int gagen_stream, const
   w1 = gagen_v_lt(w39, w11);
   w1 = gagen_v_not(w1);
   w1 = gagen_v_if_else_zero(w1, w15);
-  GAGEN_SCATTER(reach, 6, 0, w1);
+  GAGEN_SCATTER(out_reach, 6, 0, w1);
   w1 = gagen_v_lt(w37, w21);
   w37 = gagen_v_sqrt(w37);
   w9 = -w37;
@@ -14327,7 +14327,7 @@ static void hexapod_body_ik_block_columns(long gagen_ld, int gagen_stream, const
   w9 = gagen_v_lt(w39, w1);
   w9 = gagen_v_not(w9);
   w9 = gagen_v_if_else_zero(w9, w15);
-  GAGEN_SCATTER(reach, 6, 1, w9);
+  GAGEN_SCATTER(out_reach, 6, 1, w9);
   w9 = gagen_v_lt(w34, w21);
   w34 = gagen_v_sqrt(w34);
   w37 = -w34;
@@ -14342,7 +14342,7 @@ static void hexapod_body_ik_block_columns(long gagen_ld, int gagen_stream, const
   w37 = gagen_v_lt(w39, w9);
   w37 = gagen_v_not(w37);
   w37 = gagen_v_if_else_zero(w37, w15);
-  GAGEN_SCATTER(reach, 6, 2, w37);
+  GAGEN_SCATTER(out_reach, 6, 2, w37);
   w37 = gagen_v_lt(w33, w21);
   w33 = gagen_v_sqrt(w33);
   w34 = -w33;
@@ -14357,7 +14357,7 @@ static void hexapod_body_ik_block_columns(long gagen_ld, int gagen_stream, const
   w34 = gagen_v_lt(w39, w37);
   w34 = gagen_v_not(w34);
   w34 = gagen_v_if_else_zero(w34, w15);
-  GAGEN_SCATTER(reach, 6, 3, w34);
+  GAGEN_SCATTER(out_reach, 6, 3, w34);
   w34 = gagen_v_lt(w2, w21);
   w2 = gagen_v_sqrt(w2);
   w33 = -w2;
@@ -14372,7 +14372,7 @@ static void hexapod_body_ik_block_columns(long gagen_ld, int gagen_stream, const
   w33 = gagen_v_lt(w39, w34);
   w33 = gagen_v_not(w33);
   w33 = gagen_v_if_else_zero(w33, w15);
-  GAGEN_SCATTER(reach, 6, 4, w33);
+  GAGEN_SCATTER(out_reach, 6, 4, w33);
   w33 = gagen_v_lt(w0, w21);
   w0 = gagen_v_sqrt(w0);
   w2 = -w0;
@@ -14387,13 +14387,13 @@ static void hexapod_body_ik_block_columns(long gagen_ld, int gagen_stream, const
   w39 = gagen_v_lt(w39, w21);
   w39 = gagen_v_not(w39);
   w39 = gagen_v_if_else_zero(w39, w15);
-  GAGEN_SCATTER(reach, 6, 5, w39);
-  GAGEN_SCATTER(excess, 6, 0, w11);
-  GAGEN_SCATTER(excess, 6, 1, w1);
-  GAGEN_SCATTER(excess, 6, 2, w9);
-  GAGEN_SCATTER(excess, 6, 3, w37);
-  GAGEN_SCATTER(excess, 6, 4, w34);
-  GAGEN_SCATTER(excess, 6, 5, w21);
+  GAGEN_SCATTER(out_reach, 6, 5, w39);
+  GAGEN_SCATTER(out_excess, 6, 0, w11);
+  GAGEN_SCATTER(out_excess, 6, 1, w1);
+  GAGEN_SCATTER(out_excess, 6, 2, w9);
+  GAGEN_SCATTER(out_excess, 6, 3, w37);
+  GAGEN_SCATTER(out_excess, 6, 4, w34);
+  GAGEN_SCATTER(out_excess, 6, 5, w21);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -14401,49 +14401,49 @@ static void hexapod_body_ik_block_columns(long gagen_ld, int gagen_stream, const
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_body_ik_batch_columns(long n, long ld, const double *restrict pose, const double *restrict toes, double *restrict q, double *restrict reach, double *restrict excess) {
-  long s = 0;
+void hexapod_body_ik_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_pose, const double *restrict in_toes, double *restrict out_q, double *restrict out_reach, double *restrict out_excess) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 30L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_body_ik_block_columns(ld, stream, pose + s, toes + s, q + s, reach + s, excess + s);
+  const int gagen_stream = gagen_n * 30L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_body_ik_block_columns(gagen_ld, gagen_stream, in_pose + gagen_s, in_toes + gagen_s, out_q + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_body_ik_columns_from(s, n, ld, pose, toes, q, reach, excess);
+  hexapod_body_ik_columns_from(gagen_s, gagen_n, gagen_ld, in_pose, in_toes, out_q, out_reach, out_excess);
 }
 
 #if GAGEN_SIMD
 /* each toe's signed distance from the ground plane and its foot on it (PGA3D): GAGEN_W consecutive samples at once */
-static void hexapod_body_contact_pga_block(const double *restrict pose, const double *restrict q, const double *restrict ground, double *restrict distance, double *restrict feet) {
+static void hexapod_body_contact_pga_block(const double *restrict in_pose, const double *restrict in_q, const double *restrict in_ground, double *restrict out_distance, double *restrict out_feet) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   gagen_v w36, w37, w38, w39, w40, w41, w42, w43, w44, w45, w46, w47;
   gagen_v w48, w49, w50, w51, w52, w53, w54, w55, w56, w57, w58;
-  w0 = GAGEN_GATHER(ground, 4, 0);
-  w1 = GAGEN_GATHER(pose, 8, 6);
+  w0 = GAGEN_GATHER(in_ground, 4, 0);
+  w1 = GAGEN_GATHER(in_pose, 8, 6);
   w2 = w1 * w1;
-  w3 = GAGEN_GATHER(pose, 8, 5);
+  w3 = GAGEN_GATHER(in_pose, 8, 5);
   w4 = w3 * w3;
   w2 = w2 + w4;
-  w4 = GAGEN_GATHER(pose, 8, 3);
+  w4 = GAGEN_GATHER(in_pose, 8, 3);
   w5 = w4 * w4;
   w2 = w2 + w5;
-  w5 = GAGEN_GATHER(pose, 8, 0);
+  w5 = GAGEN_GATHER(in_pose, 8, 0);
   w6 = w5 * w5;
   w2 = w2 + w6;
   w6 = w0 * w2;
-  w7 = GAGEN_GATHER(ground, 4, 2);
-  w8 = GAGEN_GATHER(pose, 8, 7);
+  w7 = GAGEN_GATHER(in_ground, 4, 2);
+  w8 = GAGEN_GATHER(in_pose, 8, 7);
   w9 = w3 * w8;
-  w10 = GAGEN_GATHER(pose, 8, 1);
+  w10 = GAGEN_GATHER(in_pose, 8, 1);
   w11 = w4 * w10;
   w9 = w9 + w11;
   w11 = gagen_v_splat(0.06);
   w12 = gagen_v_splat(0.2617993877991494);
   w13 = gagen_v_splat(0.5);
-  w14 = GAGEN_GATHER(q, 18, 0);
+  w14 = GAGEN_GATHER(in_q, 18, 0);
   w14 = w13 * w14;
   w14 = w12 + w14;
   w15 = gagen_v_sin(w14);
@@ -14451,14 +14451,14 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w14 = w15 * w14;
   w16 = gagen_v_splat(0.45);
   w17 = gagen_v_splat(0.4);
-  w18 = GAGEN_GATHER(q, 18, 2);
+  w18 = GAGEN_GATHER(in_q, 18, 2);
   w18 = w13 * w18;
   w19 = gagen_v_sin(w18);
   w20 = w19 * w19;
   w20 = w17 * w20;
   w21 = w16 - w20;
   w22 = gagen_v_splat(0.8);
-  w23 = GAGEN_GATHER(q, 18, 1);
+  w23 = GAGEN_GATHER(in_q, 18, 1);
   w23 = w13 * w23;
   w24 = gagen_v_sin(w23);
   w23 = gagen_v_cos(w23);
@@ -14488,7 +14488,7 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w24 = w24 - w23;
   w23 = w1 * w24;
   w28 = w28 + w23;
-  w23 = GAGEN_GATHER(pose, 8, 2);
+  w23 = GAGEN_GATHER(in_pose, 8, 2);
   w28 = w28 - w23;
   w26 = gagen_v_splat(0.553923048454);
   w20 = w26 - w20;
@@ -14518,7 +14518,7 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w21 = w21 - w8;
   w25 = w21 * w3;
   w27 = w27 - w25;
-  w25 = GAGEN_GATHER(pose, 8, 4);
+  w25 = GAGEN_GATHER(in_pose, 8, 4);
   w19 = w1 * w25;
   w27 = w27 - w19;
   w20 = w3 * w20;
@@ -14533,7 +14533,7 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w27 = w27 - w24;
   w14 = w7 * w27;
   w14 = w6 + w14;
-  w18 = GAGEN_GATHER(ground, 4, 1);
+  w18 = GAGEN_GATHER(in_ground, 4, 1);
   w29 = w1 * w8;
   w30 = w3 * w25;
   w29 = w29 + w30;
@@ -14551,7 +14551,7 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w30 = w30 - w33;
   w33 = w18 * w30;
   w14 = w14 - w33;
-  w33 = GAGEN_GATHER(ground, 4, 3);
+  w33 = GAGEN_GATHER(in_ground, 4, 3);
   w20 = w20 * w5;
   w34 = w4 * w8;
   w20 = w20 + w34;
@@ -14589,22 +14589,22 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w36 = gagen_v_if_else_zero(w36, w41);
   w15 = w15 + w36;
   w14 = w14 / w15;
-  GAGEN_SCATTER(distance, 6, 0, w14);
+  GAGEN_SCATTER(out_distance, 6, 0, w14);
   w14 = gagen_v_splat(0.12);
   w36 = gagen_v_splat(0.7853981633974483);
-  w41 = GAGEN_GATHER(q, 18, 3);
+  w41 = GAGEN_GATHER(in_q, 18, 3);
   w41 = w13 * w41;
   w41 = w36 + w41;
   w39 = gagen_v_sin(w41);
   w41 = gagen_v_cos(w41);
   w41 = w39 * w41;
-  w42 = GAGEN_GATHER(q, 18, 5);
+  w42 = GAGEN_GATHER(in_q, 18, 5);
   w42 = w13 * w42;
   w43 = gagen_v_sin(w42);
   w44 = w43 * w43;
   w44 = w17 * w44;
   w45 = w16 - w44;
-  w46 = GAGEN_GATHER(q, 18, 4);
+  w46 = GAGEN_GATHER(in_q, 18, 4);
   w46 = w13 * w46;
   w47 = gagen_v_sin(w46);
   w46 = gagen_v_cos(w46);
@@ -14698,21 +14698,21 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w39 = w33 * w45;
   w47 = w47 - w39;
   w47 = w47 / w15;
-  GAGEN_SCATTER(distance, 6, 1, w47);
+  GAGEN_SCATTER(out_distance, 6, 1, w47);
   w47 = gagen_v_splat(1.3089969389957472);
-  w39 = GAGEN_GATHER(q, 18, 6);
+  w39 = GAGEN_GATHER(in_q, 18, 6);
   w39 = w13 * w39;
   w39 = w47 + w39;
   w49 = gagen_v_sin(w39);
   w39 = gagen_v_cos(w39);
   w39 = w49 * w39;
-  w50 = GAGEN_GATHER(q, 18, 8);
+  w50 = GAGEN_GATHER(in_q, 18, 8);
   w50 = w13 * w50;
   w46 = gagen_v_sin(w50);
   w44 = w46 * w46;
   w44 = w17 * w44;
   w43 = w16 - w44;
-  w42 = GAGEN_GATHER(q, 18, 7);
+  w42 = GAGEN_GATHER(in_q, 18, 7);
   w42 = w13 * w42;
   w51 = gagen_v_sin(w42);
   w42 = gagen_v_cos(w42);
@@ -14809,20 +14809,20 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w49 = w33 * w44;
   w51 = w51 - w49;
   w51 = w51 / w15;
-  GAGEN_SCATTER(distance, 6, 2, w51);
-  w51 = GAGEN_GATHER(q, 18, 9);
+  GAGEN_SCATTER(out_distance, 6, 2, w51);
+  w51 = GAGEN_GATHER(in_q, 18, 9);
   w51 = w13 * w51;
   w51 = w51 - w47;
   w47 = gagen_v_sin(w51);
   w51 = gagen_v_cos(w51);
   w51 = w47 * w51;
-  w49 = GAGEN_GATHER(q, 18, 11);
+  w49 = GAGEN_GATHER(in_q, 18, 11);
   w49 = w13 * w49;
   w43 = gagen_v_sin(w49);
   w55 = w43 * w43;
   w55 = w17 * w55;
   w52 = w16 - w55;
-  w53 = GAGEN_GATHER(q, 18, 10);
+  w53 = GAGEN_GATHER(in_q, 18, 10);
   w53 = w13 * w53;
   w46 = gagen_v_sin(w53);
   w53 = gagen_v_cos(w53);
@@ -14918,20 +14918,20 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w47 = w33 * w42;
   w46 = w46 - w47;
   w46 = w46 / w15;
-  GAGEN_SCATTER(distance, 6, 3, w46);
-  w46 = GAGEN_GATHER(q, 18, 12);
+  GAGEN_SCATTER(out_distance, 6, 3, w46);
+  w46 = GAGEN_GATHER(in_q, 18, 12);
   w46 = w13 * w46;
   w46 = w46 - w36;
   w36 = gagen_v_sin(w46);
   w46 = gagen_v_cos(w46);
   w46 = w36 * w46;
-  w47 = GAGEN_GATHER(q, 18, 14);
+  w47 = GAGEN_GATHER(in_q, 18, 14);
   w47 = w13 * w47;
   w52 = gagen_v_sin(w47);
   w58 = w52 * w52;
   w58 = w17 * w58;
   w50 = w16 - w58;
-  w55 = GAGEN_GATHER(q, 18, 13);
+  w55 = GAGEN_GATHER(in_q, 18, 13);
   w55 = w13 * w55;
   w53 = gagen_v_sin(w55);
   w55 = gagen_v_cos(w55);
@@ -15025,20 +15025,20 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w36 = w33 * w50;
   w53 = w53 - w36;
   w53 = w53 / w15;
-  GAGEN_SCATTER(distance, 6, 4, w53);
-  w53 = GAGEN_GATHER(q, 18, 15);
+  GAGEN_SCATTER(out_distance, 6, 4, w53);
+  w53 = GAGEN_GATHER(in_q, 18, 15);
   w53 = w13 * w53;
   w53 = w53 - w12;
   w12 = gagen_v_sin(w53);
   w53 = gagen_v_cos(w53);
   w53 = w12 * w53;
-  w36 = GAGEN_GATHER(q, 18, 17);
+  w36 = GAGEN_GATHER(in_q, 18, 17);
   w36 = w13 * w36;
   w43 = gagen_v_sin(w36);
   w14 = w43 * w43;
   w14 = w17 * w14;
   w16 = w16 - w14;
-  w55 = GAGEN_GATHER(q, 18, 16);
+  w55 = GAGEN_GATHER(in_q, 18, 16);
   w13 = w13 * w55;
   w55 = gagen_v_sin(w13);
   w13 = gagen_v_cos(w13);
@@ -15134,7 +15134,7 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w10 = w33 * w25;
   w6 = w6 - w10;
   w6 = w6 / w15;
-  GAGEN_SCATTER(distance, 6, 5, w6);
+  GAGEN_SCATTER(out_distance, 6, 5, w6);
   w6 = w33 * w30;
   w15 = w18 * w20;
   w6 = w6 - w15;
@@ -15176,7 +15176,7 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w21 = w21 + w4;
   w15 = w15 / w21;
   w15 = -w15;
-  GAGEN_SCATTER(feet, 18, 0, w15);
+  GAGEN_SCATTER(out_feet, 18, 0, w15);
   w20 = w7 * w20;
   w27 = w33 * w27;
   w20 = w20 + w27;
@@ -15187,7 +15187,7 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w27 = w27 - w2;
   w27 = w27 / w10;
   w27 = w27 / w21;
-  GAGEN_SCATTER(feet, 18, 1, w27);
+  GAGEN_SCATTER(out_feet, 18, 1, w27);
   w20 = w20 * w7;
   w30 = w30 * w0;
   w20 = w20 + w30;
@@ -15196,7 +15196,7 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w20 = w20 / w10;
   w20 = w20 / w21;
   w20 = -w20;
-  GAGEN_SCATTER(feet, 18, 2, w20);
+  GAGEN_SCATTER(out_feet, 18, 2, w20);
   w20 = w33 * w41;
   w6 = w18 * w45;
   w20 = w20 - w6;
@@ -15210,7 +15210,7 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w6 = w6 / w10;
   w6 = w6 / w21;
   w6 = -w6;
-  GAGEN_SCATTER(feet, 18, 3, w6);
+  GAGEN_SCATTER(out_feet, 18, 3, w6);
   w45 = w7 * w45;
   w48 = w33 * w48;
   w45 = w45 + w48;
@@ -15220,7 +15220,7 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w48 = w48 - w2;
   w48 = w48 / w10;
   w48 = w48 / w21;
-  GAGEN_SCATTER(feet, 18, 4, w48);
+  GAGEN_SCATTER(out_feet, 18, 4, w48);
   w45 = w45 * w7;
   w45 = w45 + w30;
   w20 = w20 * w18;
@@ -15228,7 +15228,7 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w45 = w45 / w10;
   w45 = w45 / w21;
   w45 = -w45;
-  GAGEN_SCATTER(feet, 18, 5, w45);
+  GAGEN_SCATTER(out_feet, 18, 5, w45);
   w45 = w33 * w39;
   w20 = w18 * w44;
   w45 = w45 - w20;
@@ -15242,7 +15242,7 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w20 = w20 / w10;
   w20 = w20 / w21;
   w20 = -w20;
-  GAGEN_SCATTER(feet, 18, 6, w20);
+  GAGEN_SCATTER(out_feet, 18, 6, w20);
   w44 = w7 * w44;
   w54 = w33 * w54;
   w44 = w44 + w54;
@@ -15252,7 +15252,7 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w54 = w54 - w2;
   w54 = w54 / w10;
   w54 = w54 / w21;
-  GAGEN_SCATTER(feet, 18, 7, w54);
+  GAGEN_SCATTER(out_feet, 18, 7, w54);
   w44 = w44 * w7;
   w44 = w44 + w30;
   w45 = w45 * w18;
@@ -15260,7 +15260,7 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w44 = w44 / w10;
   w44 = w44 / w21;
   w44 = -w44;
-  GAGEN_SCATTER(feet, 18, 8, w44);
+  GAGEN_SCATTER(out_feet, 18, 8, w44);
   w44 = w33 * w51;
   w45 = w18 * w42;
   w44 = w44 - w45;
@@ -15274,7 +15274,7 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w45 = w45 / w10;
   w45 = w45 / w21;
   w45 = -w45;
-  GAGEN_SCATTER(feet, 18, 9, w45);
+  GAGEN_SCATTER(out_feet, 18, 9, w45);
   w42 = w7 * w42;
   w57 = w33 * w57;
   w42 = w42 + w57;
@@ -15284,7 +15284,7 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w57 = w57 - w2;
   w57 = w57 / w10;
   w57 = w57 / w21;
-  GAGEN_SCATTER(feet, 18, 10, w57);
+  GAGEN_SCATTER(out_feet, 18, 10, w57);
   w42 = w42 * w7;
   w42 = w42 + w30;
   w44 = w44 * w18;
@@ -15292,7 +15292,7 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w42 = w42 / w10;
   w42 = w42 / w21;
   w42 = -w42;
-  GAGEN_SCATTER(feet, 18, 11, w42);
+  GAGEN_SCATTER(out_feet, 18, 11, w42);
   w42 = w33 * w46;
   w44 = w18 * w50;
   w42 = w42 - w44;
@@ -15306,7 +15306,7 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w44 = w44 / w10;
   w44 = w44 / w21;
   w44 = -w44;
-  GAGEN_SCATTER(feet, 18, 12, w44);
+  GAGEN_SCATTER(out_feet, 18, 12, w44);
   w50 = w7 * w50;
   w56 = w33 * w56;
   w50 = w50 + w56;
@@ -15316,7 +15316,7 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w56 = w56 - w2;
   w56 = w56 / w10;
   w56 = w56 / w21;
-  GAGEN_SCATTER(feet, 18, 13, w56);
+  GAGEN_SCATTER(out_feet, 18, 13, w56);
   w50 = w50 * w7;
   w50 = w50 + w30;
   w42 = w42 * w18;
@@ -15324,7 +15324,7 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w50 = w50 / w10;
   w50 = w50 / w21;
   w50 = -w50;
-  GAGEN_SCATTER(feet, 18, 14, w50);
+  GAGEN_SCATTER(out_feet, 18, 14, w50);
   w50 = w33 * w29;
   w42 = w18 * w25;
   w50 = w50 - w42;
@@ -15338,7 +15338,7 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w42 = w42 / w10;
   w42 = w42 / w21;
   w42 = -w42;
-  GAGEN_SCATTER(feet, 18, 15, w42);
+  GAGEN_SCATTER(out_feet, 18, 15, w42);
   w25 = w7 * w25;
   w9 = w33 * w9;
   w25 = w25 + w9;
@@ -15348,7 +15348,7 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w33 = w33 - w2;
   w33 = w33 / w10;
   w33 = w33 / w21;
-  GAGEN_SCATTER(feet, 18, 16, w33);
+  GAGEN_SCATTER(out_feet, 18, 16, w33);
   w25 = w25 * w7;
   w25 = w25 + w30;
   w50 = w50 * w18;
@@ -15356,24 +15356,24 @@ static void hexapod_body_contact_pga_block(const double *restrict pose, const do
   w25 = w25 / w10;
   w25 = w25 / w21;
   w25 = -w25;
-  GAGEN_SCATTER(feet, 18, 17, w25);
+  GAGEN_SCATTER(out_feet, 18, 17, w25);
 }
 #endif
 
-void hexapod_body_contact_pga_batch(long n, const double *restrict pose, const double *restrict q, const double *restrict ground, double *restrict distance, double *restrict feet) {
-  long s = 0;
+void hexapod_body_contact_pga_batch(long gagen_n, const double *restrict in_pose, const double *restrict in_q, const double *restrict in_ground, double *restrict out_distance, double *restrict out_feet) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 6 * GAGEN_W + 7; o += 8) __builtin_prefetch(distance + 6 * a + o, 1, 0);
-      for (int o = 0; o < 18 * GAGEN_W + 7; o += 8) __builtin_prefetch(feet + 18 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 6 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_distance + 6 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 18 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_feet + 18 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_body_contact_pga_block(pose + 8 * s, q + 18 * s, ground + 4 * s, distance + 6 * s, feet + 18 * s);
+    hexapod_body_contact_pga_block(in_pose + 8 * gagen_s, in_q + 18 * gagen_s, in_ground + 4 * gagen_s, out_distance + 6 * gagen_s, out_feet + 18 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_body_contact_pga(pose + 8 * s, q + 18 * s, ground + 4 * s, distance + 6 * s, feet + 18 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_body_contact_pga(in_pose + 8 * gagen_s, in_q + 18 * gagen_s, in_ground + 4 * gagen_s, out_distance + 6 * gagen_s, out_feet + 18 * gagen_s);
   }
 }
 
@@ -15383,35 +15383,35 @@ void hexapod_body_contact_pga_batch(long n, const double *restrict pose, const d
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stream, const double *restrict pose, const double *restrict q, const double *restrict ground, double *restrict distance, double *restrict feet) {
+static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_pose, const double *restrict in_q, const double *restrict in_ground, double *restrict out_distance, double *restrict out_feet) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   gagen_v w36, w37, w38, w39, w40, w41, w42, w43, w44, w45, w46, w47;
   gagen_v w48, w49, w50, w51, w52, w53, w54, w55, w56, w57, w58;
-  w0 = GAGEN_GATHER(ground, 4, 0);
-  w1 = GAGEN_GATHER(pose, 8, 6);
+  w0 = GAGEN_GATHER(in_ground, 4, 0);
+  w1 = GAGEN_GATHER(in_pose, 8, 6);
   w2 = w1 * w1;
-  w3 = GAGEN_GATHER(pose, 8, 5);
+  w3 = GAGEN_GATHER(in_pose, 8, 5);
   w4 = w3 * w3;
   w2 = w2 + w4;
-  w4 = GAGEN_GATHER(pose, 8, 3);
+  w4 = GAGEN_GATHER(in_pose, 8, 3);
   w5 = w4 * w4;
   w2 = w2 + w5;
-  w5 = GAGEN_GATHER(pose, 8, 0);
+  w5 = GAGEN_GATHER(in_pose, 8, 0);
   w6 = w5 * w5;
   w2 = w2 + w6;
   w6 = w0 * w2;
-  w7 = GAGEN_GATHER(ground, 4, 2);
-  w8 = GAGEN_GATHER(pose, 8, 7);
+  w7 = GAGEN_GATHER(in_ground, 4, 2);
+  w8 = GAGEN_GATHER(in_pose, 8, 7);
   w9 = w3 * w8;
-  w10 = GAGEN_GATHER(pose, 8, 1);
+  w10 = GAGEN_GATHER(in_pose, 8, 1);
   w11 = w4 * w10;
   w9 = w9 + w11;
   w11 = gagen_v_splat(0.06);
   w12 = gagen_v_splat(0.2617993877991494);
   w13 = gagen_v_splat(0.5);
-  w14 = GAGEN_GATHER(q, 18, 0);
+  w14 = GAGEN_GATHER(in_q, 18, 0);
   w14 = w13 * w14;
   w14 = w12 + w14;
   w15 = gagen_v_sin(w14);
@@ -15419,14 +15419,14 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w14 = w15 * w14;
   w16 = gagen_v_splat(0.45);
   w17 = gagen_v_splat(0.4);
-  w18 = GAGEN_GATHER(q, 18, 2);
+  w18 = GAGEN_GATHER(in_q, 18, 2);
   w18 = w13 * w18;
   w19 = gagen_v_sin(w18);
   w20 = w19 * w19;
   w20 = w17 * w20;
   w21 = w16 - w20;
   w22 = gagen_v_splat(0.8);
-  w23 = GAGEN_GATHER(q, 18, 1);
+  w23 = GAGEN_GATHER(in_q, 18, 1);
   w23 = w13 * w23;
   w24 = gagen_v_sin(w23);
   w23 = gagen_v_cos(w23);
@@ -15456,7 +15456,7 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w24 = w24 - w23;
   w23 = w1 * w24;
   w28 = w28 + w23;
-  w23 = GAGEN_GATHER(pose, 8, 2);
+  w23 = GAGEN_GATHER(in_pose, 8, 2);
   w28 = w28 - w23;
   w26 = gagen_v_splat(0.553923048454);
   w20 = w26 - w20;
@@ -15486,7 +15486,7 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w21 = w21 - w8;
   w25 = w21 * w3;
   w27 = w27 - w25;
-  w25 = GAGEN_GATHER(pose, 8, 4);
+  w25 = GAGEN_GATHER(in_pose, 8, 4);
   w19 = w1 * w25;
   w27 = w27 - w19;
   w20 = w3 * w20;
@@ -15501,7 +15501,7 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w27 = w27 - w24;
   w14 = w7 * w27;
   w14 = w6 + w14;
-  w18 = GAGEN_GATHER(ground, 4, 1);
+  w18 = GAGEN_GATHER(in_ground, 4, 1);
   w29 = w1 * w8;
   w30 = w3 * w25;
   w29 = w29 + w30;
@@ -15519,7 +15519,7 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w30 = w30 - w33;
   w33 = w18 * w30;
   w14 = w14 - w33;
-  w33 = GAGEN_GATHER(ground, 4, 3);
+  w33 = GAGEN_GATHER(in_ground, 4, 3);
   w20 = w20 * w5;
   w34 = w4 * w8;
   w20 = w20 + w34;
@@ -15557,22 +15557,22 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w36 = gagen_v_if_else_zero(w36, w41);
   w15 = w15 + w36;
   w14 = w14 / w15;
-  GAGEN_SCATTER(distance, 6, 0, w14);
+  GAGEN_SCATTER(out_distance, 6, 0, w14);
   w14 = gagen_v_splat(0.12);
   w36 = gagen_v_splat(0.7853981633974483);
-  w41 = GAGEN_GATHER(q, 18, 3);
+  w41 = GAGEN_GATHER(in_q, 18, 3);
   w41 = w13 * w41;
   w41 = w36 + w41;
   w39 = gagen_v_sin(w41);
   w41 = gagen_v_cos(w41);
   w41 = w39 * w41;
-  w42 = GAGEN_GATHER(q, 18, 5);
+  w42 = GAGEN_GATHER(in_q, 18, 5);
   w42 = w13 * w42;
   w43 = gagen_v_sin(w42);
   w44 = w43 * w43;
   w44 = w17 * w44;
   w45 = w16 - w44;
-  w46 = GAGEN_GATHER(q, 18, 4);
+  w46 = GAGEN_GATHER(in_q, 18, 4);
   w46 = w13 * w46;
   w47 = gagen_v_sin(w46);
   w46 = gagen_v_cos(w46);
@@ -15666,21 +15666,21 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w39 = w33 * w45;
   w47 = w47 - w39;
   w47 = w47 / w15;
-  GAGEN_SCATTER(distance, 6, 1, w47);
+  GAGEN_SCATTER(out_distance, 6, 1, w47);
   w47 = gagen_v_splat(1.3089969389957472);
-  w39 = GAGEN_GATHER(q, 18, 6);
+  w39 = GAGEN_GATHER(in_q, 18, 6);
   w39 = w13 * w39;
   w39 = w47 + w39;
   w49 = gagen_v_sin(w39);
   w39 = gagen_v_cos(w39);
   w39 = w49 * w39;
-  w50 = GAGEN_GATHER(q, 18, 8);
+  w50 = GAGEN_GATHER(in_q, 18, 8);
   w50 = w13 * w50;
   w46 = gagen_v_sin(w50);
   w44 = w46 * w46;
   w44 = w17 * w44;
   w43 = w16 - w44;
-  w42 = GAGEN_GATHER(q, 18, 7);
+  w42 = GAGEN_GATHER(in_q, 18, 7);
   w42 = w13 * w42;
   w51 = gagen_v_sin(w42);
   w42 = gagen_v_cos(w42);
@@ -15777,20 +15777,20 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w49 = w33 * w44;
   w51 = w51 - w49;
   w51 = w51 / w15;
-  GAGEN_SCATTER(distance, 6, 2, w51);
-  w51 = GAGEN_GATHER(q, 18, 9);
+  GAGEN_SCATTER(out_distance, 6, 2, w51);
+  w51 = GAGEN_GATHER(in_q, 18, 9);
   w51 = w13 * w51;
   w51 = w51 - w47;
   w47 = gagen_v_sin(w51);
   w51 = gagen_v_cos(w51);
   w51 = w47 * w51;
-  w49 = GAGEN_GATHER(q, 18, 11);
+  w49 = GAGEN_GATHER(in_q, 18, 11);
   w49 = w13 * w49;
   w43 = gagen_v_sin(w49);
   w55 = w43 * w43;
   w55 = w17 * w55;
   w52 = w16 - w55;
-  w53 = GAGEN_GATHER(q, 18, 10);
+  w53 = GAGEN_GATHER(in_q, 18, 10);
   w53 = w13 * w53;
   w46 = gagen_v_sin(w53);
   w53 = gagen_v_cos(w53);
@@ -15886,20 +15886,20 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w47 = w33 * w42;
   w46 = w46 - w47;
   w46 = w46 / w15;
-  GAGEN_SCATTER(distance, 6, 3, w46);
-  w46 = GAGEN_GATHER(q, 18, 12);
+  GAGEN_SCATTER(out_distance, 6, 3, w46);
+  w46 = GAGEN_GATHER(in_q, 18, 12);
   w46 = w13 * w46;
   w46 = w46 - w36;
   w36 = gagen_v_sin(w46);
   w46 = gagen_v_cos(w46);
   w46 = w36 * w46;
-  w47 = GAGEN_GATHER(q, 18, 14);
+  w47 = GAGEN_GATHER(in_q, 18, 14);
   w47 = w13 * w47;
   w52 = gagen_v_sin(w47);
   w58 = w52 * w52;
   w58 = w17 * w58;
   w50 = w16 - w58;
-  w55 = GAGEN_GATHER(q, 18, 13);
+  w55 = GAGEN_GATHER(in_q, 18, 13);
   w55 = w13 * w55;
   w53 = gagen_v_sin(w55);
   w55 = gagen_v_cos(w55);
@@ -15993,20 +15993,20 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w36 = w33 * w50;
   w53 = w53 - w36;
   w53 = w53 / w15;
-  GAGEN_SCATTER(distance, 6, 4, w53);
-  w53 = GAGEN_GATHER(q, 18, 15);
+  GAGEN_SCATTER(out_distance, 6, 4, w53);
+  w53 = GAGEN_GATHER(in_q, 18, 15);
   w53 = w13 * w53;
   w53 = w53 - w12;
   w12 = gagen_v_sin(w53);
   w53 = gagen_v_cos(w53);
   w53 = w12 * w53;
-  w36 = GAGEN_GATHER(q, 18, 17);
+  w36 = GAGEN_GATHER(in_q, 18, 17);
   w36 = w13 * w36;
   w43 = gagen_v_sin(w36);
   w14 = w43 * w43;
   w14 = w17 * w14;
   w16 = w16 - w14;
-  w55 = GAGEN_GATHER(q, 18, 16);
+  w55 = GAGEN_GATHER(in_q, 18, 16);
   w13 = w13 * w55;
   w55 = gagen_v_sin(w13);
   w13 = gagen_v_cos(w13);
@@ -16102,7 +16102,7 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w10 = w33 * w25;
   w6 = w6 - w10;
   w6 = w6 / w15;
-  GAGEN_SCATTER(distance, 6, 5, w6);
+  GAGEN_SCATTER(out_distance, 6, 5, w6);
   w6 = w33 * w30;
   w15 = w18 * w20;
   w6 = w6 - w15;
@@ -16144,7 +16144,7 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w21 = w21 + w4;
   w15 = w15 / w21;
   w15 = -w15;
-  GAGEN_SCATTER(feet, 18, 0, w15);
+  GAGEN_SCATTER(out_feet, 18, 0, w15);
   w20 = w7 * w20;
   w27 = w33 * w27;
   w20 = w20 + w27;
@@ -16155,7 +16155,7 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w27 = w27 - w2;
   w27 = w27 / w10;
   w27 = w27 / w21;
-  GAGEN_SCATTER(feet, 18, 1, w27);
+  GAGEN_SCATTER(out_feet, 18, 1, w27);
   w20 = w20 * w7;
   w30 = w30 * w0;
   w20 = w20 + w30;
@@ -16164,7 +16164,7 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w20 = w20 / w10;
   w20 = w20 / w21;
   w20 = -w20;
-  GAGEN_SCATTER(feet, 18, 2, w20);
+  GAGEN_SCATTER(out_feet, 18, 2, w20);
   w20 = w33 * w41;
   w6 = w18 * w45;
   w20 = w20 - w6;
@@ -16178,7 +16178,7 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w6 = w6 / w10;
   w6 = w6 / w21;
   w6 = -w6;
-  GAGEN_SCATTER(feet, 18, 3, w6);
+  GAGEN_SCATTER(out_feet, 18, 3, w6);
   w45 = w7 * w45;
   w48 = w33 * w48;
   w45 = w45 + w48;
@@ -16188,7 +16188,7 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w48 = w48 - w2;
   w48 = w48 / w10;
   w48 = w48 / w21;
-  GAGEN_SCATTER(feet, 18, 4, w48);
+  GAGEN_SCATTER(out_feet, 18, 4, w48);
   w45 = w45 * w7;
   w45 = w45 + w30;
   w20 = w20 * w18;
@@ -16196,7 +16196,7 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w45 = w45 / w10;
   w45 = w45 / w21;
   w45 = -w45;
-  GAGEN_SCATTER(feet, 18, 5, w45);
+  GAGEN_SCATTER(out_feet, 18, 5, w45);
   w45 = w33 * w39;
   w20 = w18 * w44;
   w45 = w45 - w20;
@@ -16210,7 +16210,7 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w20 = w20 / w10;
   w20 = w20 / w21;
   w20 = -w20;
-  GAGEN_SCATTER(feet, 18, 6, w20);
+  GAGEN_SCATTER(out_feet, 18, 6, w20);
   w44 = w7 * w44;
   w54 = w33 * w54;
   w44 = w44 + w54;
@@ -16220,7 +16220,7 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w54 = w54 - w2;
   w54 = w54 / w10;
   w54 = w54 / w21;
-  GAGEN_SCATTER(feet, 18, 7, w54);
+  GAGEN_SCATTER(out_feet, 18, 7, w54);
   w44 = w44 * w7;
   w44 = w44 + w30;
   w45 = w45 * w18;
@@ -16228,7 +16228,7 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w44 = w44 / w10;
   w44 = w44 / w21;
   w44 = -w44;
-  GAGEN_SCATTER(feet, 18, 8, w44);
+  GAGEN_SCATTER(out_feet, 18, 8, w44);
   w44 = w33 * w51;
   w45 = w18 * w42;
   w44 = w44 - w45;
@@ -16242,7 +16242,7 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w45 = w45 / w10;
   w45 = w45 / w21;
   w45 = -w45;
-  GAGEN_SCATTER(feet, 18, 9, w45);
+  GAGEN_SCATTER(out_feet, 18, 9, w45);
   w42 = w7 * w42;
   w57 = w33 * w57;
   w42 = w42 + w57;
@@ -16252,7 +16252,7 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w57 = w57 - w2;
   w57 = w57 / w10;
   w57 = w57 / w21;
-  GAGEN_SCATTER(feet, 18, 10, w57);
+  GAGEN_SCATTER(out_feet, 18, 10, w57);
   w42 = w42 * w7;
   w42 = w42 + w30;
   w44 = w44 * w18;
@@ -16260,7 +16260,7 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w42 = w42 / w10;
   w42 = w42 / w21;
   w42 = -w42;
-  GAGEN_SCATTER(feet, 18, 11, w42);
+  GAGEN_SCATTER(out_feet, 18, 11, w42);
   w42 = w33 * w46;
   w44 = w18 * w50;
   w42 = w42 - w44;
@@ -16274,7 +16274,7 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w44 = w44 / w10;
   w44 = w44 / w21;
   w44 = -w44;
-  GAGEN_SCATTER(feet, 18, 12, w44);
+  GAGEN_SCATTER(out_feet, 18, 12, w44);
   w50 = w7 * w50;
   w56 = w33 * w56;
   w50 = w50 + w56;
@@ -16284,7 +16284,7 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w56 = w56 - w2;
   w56 = w56 / w10;
   w56 = w56 / w21;
-  GAGEN_SCATTER(feet, 18, 13, w56);
+  GAGEN_SCATTER(out_feet, 18, 13, w56);
   w50 = w50 * w7;
   w50 = w50 + w30;
   w42 = w42 * w18;
@@ -16292,7 +16292,7 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w50 = w50 / w10;
   w50 = w50 / w21;
   w50 = -w50;
-  GAGEN_SCATTER(feet, 18, 14, w50);
+  GAGEN_SCATTER(out_feet, 18, 14, w50);
   w50 = w33 * w29;
   w42 = w18 * w25;
   w50 = w50 - w42;
@@ -16306,7 +16306,7 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w42 = w42 / w10;
   w42 = w42 / w21;
   w42 = -w42;
-  GAGEN_SCATTER(feet, 18, 15, w42);
+  GAGEN_SCATTER(out_feet, 18, 15, w42);
   w25 = w7 * w25;
   w9 = w33 * w9;
   w25 = w25 + w9;
@@ -16316,7 +16316,7 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w33 = w33 - w2;
   w33 = w33 / w10;
   w33 = w33 / w21;
-  GAGEN_SCATTER(feet, 18, 16, w33);
+  GAGEN_SCATTER(out_feet, 18, 16, w33);
   w25 = w25 * w7;
   w25 = w25 + w30;
   w50 = w50 * w18;
@@ -16324,7 +16324,7 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
   w25 = w25 / w10;
   w25 = w25 / w21;
   w25 = -w25;
-  GAGEN_SCATTER(feet, 18, 17, w25);
+  GAGEN_SCATTER(out_feet, 18, 17, w25);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -16332,21 +16332,21 @@ static void hexapod_body_contact_pga_block_columns(long gagen_ld, int gagen_stre
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_body_contact_pga_batch_columns(long n, long ld, const double *restrict pose, const double *restrict q, const double *restrict ground, double *restrict distance, double *restrict feet) {
-  long s = 0;
+void hexapod_body_contact_pga_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_pose, const double *restrict in_q, const double *restrict in_ground, double *restrict out_distance, double *restrict out_feet) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 24L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_body_contact_pga_block_columns(ld, stream, pose + s, q + s, ground + s, distance + s, feet + s);
+  const int gagen_stream = gagen_n * 24L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_body_contact_pga_block_columns(gagen_ld, gagen_stream, in_pose + gagen_s, in_q + gagen_s, in_ground + gagen_s, out_distance + gagen_s, out_feet + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_body_contact_pga_columns_from(s, n, ld, pose, q, ground, distance, feet);
+  hexapod_body_contact_pga_columns_from(gagen_s, gagen_n, gagen_ld, in_pose, in_q, in_ground, out_distance, out_feet);
 }
 
 #if GAGEN_SIMD
 /* each toe's signed distance from the ground plane and its foot on it (CGA3D): GAGEN_W consecutive samples at once */
-static void hexapod_body_contact_cga_block(const double *restrict pose, const double *restrict q, const double *restrict ground, double *restrict distance, double *restrict feet) {
+static void hexapod_body_contact_cga_block(const double *restrict in_pose, const double *restrict in_q, const double *restrict in_ground, double *restrict out_distance, double *restrict out_feet) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -16354,24 +16354,24 @@ static void hexapod_body_contact_cga_block(const double *restrict pose, const do
   gagen_v w48, w49, w50, w51, w52, w53, w54, w55, w56, w57, w58, w59;
   gagen_v w60, w61, w62, w63, w64, w65, w66, w67, w68, w69, w70, w71;
   gagen_v w72, w73, w74, w75;
-  w0 = GAGEN_GATHER(ground, 4, 1);
-  w1 = GAGEN_GATHER(pose, 8, 0);
+  w0 = GAGEN_GATHER(in_ground, 4, 1);
+  w1 = GAGEN_GATHER(in_pose, 8, 0);
   w2 = gagen_v_splat(0.06);
   w3 = gagen_v_splat(0.2617993877991494);
   w4 = gagen_v_splat(0.5);
-  w5 = GAGEN_GATHER(q, 18, 0);
+  w5 = GAGEN_GATHER(in_q, 18, 0);
   w5 = w4 * w5;
   w5 = w3 + w5;
   w6 = gagen_v_sin(w5);
   w5 = gagen_v_cos(w5);
   w5 = w6 * w5;
   w7 = gagen_v_splat(0.45);
-  w8 = GAGEN_GATHER(q, 18, 1);
+  w8 = GAGEN_GATHER(in_q, 18, 1);
   w8 = w4 * w8;
   w9 = gagen_v_sin(w8);
   w10 = w9 * w9;
   w11 = gagen_v_splat(0.4);
-  w12 = GAGEN_GATHER(q, 18, 2);
+  w12 = GAGEN_GATHER(in_q, 18, 2);
   w12 = w4 * w12;
   w13 = gagen_v_sin(w12);
   w14 = w13 * w13;
@@ -16393,7 +16393,7 @@ static void hexapod_body_contact_cga_block(const double *restrict pose, const do
   w5 = w5 + w5;
   w5 = w2 + w5;
   w19 = w1 * w5;
-  w20 = GAGEN_GATHER(pose, 8, 3);
+  w20 = GAGEN_GATHER(in_pose, 8, 3);
   w9 = w9 * w15;
   w9 = w9 + w9;
   w10 = w10 * w13;
@@ -16405,7 +16405,7 @@ static void hexapod_body_contact_cga_block(const double *restrict pose, const do
   w9 = w9 - w13;
   w13 = w20 * w9;
   w19 = w19 + w13;
-  w13 = GAGEN_GATHER(pose, 8, 1);
+  w13 = GAGEN_GATHER(in_pose, 8, 1);
   w12 = gagen_v_splat(0.553923048454);
   w6 = w6 * w6;
   w6 = w6 * w17;
@@ -16416,23 +16416,23 @@ static void hexapod_body_contact_cga_block(const double *restrict pose, const do
   w16 = w16 - w8;
   w8 = w13 * w16;
   w19 = w19 - w8;
-  w8 = GAGEN_GATHER(pose, 8, 5);
+  w8 = GAGEN_GATHER(in_pose, 8, 5);
   w19 = w19 - w8;
   w14 = w19 * w1;
-  w6 = GAGEN_GATHER(pose, 8, 4);
+  w6 = GAGEN_GATHER(in_pose, 8, 4);
   w17 = w13 * w6;
   w14 = w14 + w17;
   w10 = w1 * w9;
-  w15 = GAGEN_GATHER(pose, 8, 2);
+  w15 = GAGEN_GATHER(in_pose, 8, 2);
   w21 = w15 * w16;
   w10 = w10 - w21;
   w21 = w20 * w5;
   w10 = w10 - w21;
-  w21 = GAGEN_GATHER(pose, 8, 6);
+  w21 = GAGEN_GATHER(in_pose, 8, 6);
   w10 = w10 - w21;
   w22 = w10 * w20;
   w14 = w14 + w22;
-  w22 = GAGEN_GATHER(pose, 8, 7);
+  w22 = GAGEN_GATHER(in_pose, 8, 7);
   w23 = w15 * w22;
   w14 = w14 + w23;
   w24 = w1 * w8;
@@ -16456,7 +16456,7 @@ static void hexapod_body_contact_cga_block(const double *restrict pose, const do
   w5 = w9 * w15;
   w14 = w14 - w5;
   w5 = w0 * w14;
-  w16 = GAGEN_GATHER(ground, 4, 3);
+  w16 = GAGEN_GATHER(in_ground, 4, 3);
   w27 = w1 * w1;
   w28 = w13 * w13;
   w27 = w27 + w28;
@@ -16466,7 +16466,7 @@ static void hexapod_body_contact_cga_block(const double *restrict pose, const do
   w27 = w27 + w28;
   w16 = w16 * w27;
   w5 = w5 + w16;
-  w28 = GAGEN_GATHER(ground, 4, 0);
+  w28 = GAGEN_GATHER(in_ground, 4, 0);
   w29 = w10 * w1;
   w30 = w15 * w6;
   w29 = w29 + w30;
@@ -16484,7 +16484,7 @@ static void hexapod_body_contact_cga_block(const double *restrict pose, const do
   w33 = w33 - w36;
   w33 = w28 * w33;
   w5 = w5 - w33;
-  w33 = GAGEN_GATHER(ground, 4, 2);
+  w33 = GAGEN_GATHER(in_ground, 4, 2);
   w25 = w25 * w1;
   w19 = w19 * w13;
   w25 = w25 + w19;
@@ -16522,20 +16522,20 @@ static void hexapod_body_contact_cga_block(const double *restrict pose, const do
   w40 = gagen_v_if_else_zero(w40, w45);
   w39 = w39 + w40;
   w40 = w5 / w39;
-  GAGEN_SCATTER(distance, 6, 0, w40);
+  GAGEN_SCATTER(out_distance, 6, 0, w40);
   w40 = gagen_v_splat(0.12);
   w45 = gagen_v_splat(0.7853981633974483);
-  w43 = GAGEN_GATHER(q, 18, 3);
+  w43 = GAGEN_GATHER(in_q, 18, 3);
   w43 = w4 * w43;
   w43 = w45 + w43;
   w46 = gagen_v_sin(w43);
   w43 = gagen_v_cos(w43);
   w43 = w46 * w43;
-  w47 = GAGEN_GATHER(q, 18, 4);
+  w47 = GAGEN_GATHER(in_q, 18, 4);
   w47 = w4 * w47;
   w48 = gagen_v_sin(w47);
   w49 = w48 * w48;
-  w50 = GAGEN_GATHER(q, 18, 5);
+  w50 = GAGEN_GATHER(in_q, 18, 5);
   w50 = w4 * w50;
   w51 = gagen_v_sin(w50);
   w52 = w51 * w51;
@@ -16635,19 +16635,19 @@ static void hexapod_body_contact_cga_block(const double *restrict pose, const do
   w48 = w33 * w48;
   w43 = w43 - w48;
   w48 = w43 / w39;
-  GAGEN_SCATTER(distance, 6, 1, w48);
+  GAGEN_SCATTER(out_distance, 6, 1, w48);
   w48 = gagen_v_splat(1.3089969389957472);
-  w52 = GAGEN_GATHER(q, 18, 6);
+  w52 = GAGEN_GATHER(in_q, 18, 6);
   w52 = w4 * w52;
   w52 = w48 + w52;
   w56 = gagen_v_sin(w52);
   w52 = gagen_v_cos(w52);
   w52 = w56 * w52;
-  w55 = GAGEN_GATHER(q, 18, 7);
+  w55 = GAGEN_GATHER(in_q, 18, 7);
   w55 = w4 * w55;
   w49 = gagen_v_sin(w55);
   w53 = w49 * w49;
-  w57 = GAGEN_GATHER(q, 18, 8);
+  w57 = GAGEN_GATHER(in_q, 18, 8);
   w57 = w4 * w57;
   w58 = gagen_v_sin(w57);
   w59 = w58 * w58;
@@ -16748,18 +16748,18 @@ static void hexapod_body_contact_cga_block(const double *restrict pose, const do
   w49 = w33 * w49;
   w52 = w52 - w49;
   w49 = w52 / w39;
-  GAGEN_SCATTER(distance, 6, 2, w49);
-  w49 = GAGEN_GATHER(q, 18, 9);
+  GAGEN_SCATTER(out_distance, 6, 2, w49);
+  w49 = GAGEN_GATHER(in_q, 18, 9);
   w49 = w4 * w49;
   w49 = w49 - w48;
   w48 = gagen_v_sin(w49);
   w49 = gagen_v_cos(w49);
   w49 = w48 * w49;
-  w59 = GAGEN_GATHER(q, 18, 10);
+  w59 = GAGEN_GATHER(in_q, 18, 10);
   w59 = w4 * w59;
   w63 = gagen_v_sin(w59);
   w62 = w63 * w63;
-  w60 = GAGEN_GATHER(q, 18, 11);
+  w60 = GAGEN_GATHER(in_q, 18, 11);
   w60 = w4 * w60;
   w64 = gagen_v_sin(w60);
   w65 = w64 * w64;
@@ -16859,18 +16859,18 @@ static void hexapod_body_contact_cga_block(const double *restrict pose, const do
   w63 = w33 * w63;
   w49 = w49 - w63;
   w63 = w49 / w39;
-  GAGEN_SCATTER(distance, 6, 3, w63);
-  w63 = GAGEN_GATHER(q, 18, 12);
+  GAGEN_SCATTER(out_distance, 6, 3, w63);
+  w63 = GAGEN_GATHER(in_q, 18, 12);
   w63 = w4 * w63;
   w63 = w63 - w45;
   w45 = gagen_v_sin(w63);
   w63 = gagen_v_cos(w63);
   w63 = w45 * w63;
-  w65 = GAGEN_GATHER(q, 18, 13);
+  w65 = GAGEN_GATHER(in_q, 18, 13);
   w65 = w4 * w65;
   w69 = gagen_v_sin(w65);
   w48 = w69 * w69;
-  w60 = GAGEN_GATHER(q, 18, 14);
+  w60 = GAGEN_GATHER(in_q, 18, 14);
   w60 = w4 * w60;
   w62 = gagen_v_sin(w60);
   w66 = w62 * w62;
@@ -16970,18 +16970,18 @@ static void hexapod_body_contact_cga_block(const double *restrict pose, const do
   w69 = w33 * w69;
   w63 = w63 - w69;
   w69 = w63 / w39;
-  GAGEN_SCATTER(distance, 6, 4, w69);
-  w69 = GAGEN_GATHER(q, 18, 15);
+  GAGEN_SCATTER(out_distance, 6, 4, w69);
+  w69 = GAGEN_GATHER(in_q, 18, 15);
   w69 = w4 * w69;
   w69 = w69 - w3;
   w3 = gagen_v_sin(w69);
   w69 = gagen_v_cos(w69);
   w69 = w3 * w69;
-  w66 = GAGEN_GATHER(q, 18, 16);
+  w66 = GAGEN_GATHER(in_q, 18, 16);
   w66 = w4 * w66;
   w40 = gagen_v_sin(w66);
   w72 = w40 * w40;
-  w48 = GAGEN_GATHER(q, 18, 17);
+  w48 = GAGEN_GATHER(in_q, 18, 17);
   w4 = w4 * w48;
   w48 = gagen_v_sin(w4);
   w70 = w48 * w48;
@@ -17081,7 +17081,7 @@ static void hexapod_body_contact_cga_block(const double *restrict pose, const do
   w40 = w33 * w40;
   w22 = w22 - w40;
   w39 = w22 / w39;
-  GAGEN_SCATTER(distance, 6, 5, w39);
+  GAGEN_SCATTER(out_distance, 6, 5, w39);
   w39 = gagen_v_fabs(w10);
   w39 = gagen_v_lt(w39, w41);
   w40 = gagen_v_lt(w10, w42);
@@ -17108,11 +17108,11 @@ static void hexapod_body_contact_cga_block(const double *restrict pose, const do
   w39 = gagen_v_if_else_zero(w39, w44);
   w27 = w27 + w39;
   w25 = w25 / w27;
-  GAGEN_SCATTER(feet, 18, 0, w25);
+  GAGEN_SCATTER(out_feet, 18, 0, w25);
   w25 = w5 * w0;
   w14 = w14 - w25;
   w14 = w14 / w27;
-  GAGEN_SCATTER(feet, 18, 1, w14);
+  GAGEN_SCATTER(out_feet, 18, 1, w14);
   w5 = w5 * w28;
   w29 = w29 + w5;
   w29 = w29 - w32;
@@ -17120,7 +17120,7 @@ static void hexapod_body_contact_cga_block(const double *restrict pose, const do
   w29 = w29 - w35;
   w29 = w29 - w36;
   w29 = w29 / w27;
-  GAGEN_SCATTER(feet, 18, 2, w29);
+  GAGEN_SCATTER(out_feet, 18, 2, w29);
   w43 = w43 / w10;
   w29 = w43 * w33;
   w46 = w46 + w29;
@@ -17129,11 +17129,11 @@ static void hexapod_body_contact_cga_block(const double *restrict pose, const do
   w46 = w46 - w37;
   w46 = w46 - w38;
   w46 = w46 / w27;
-  GAGEN_SCATTER(feet, 18, 3, w46);
+  GAGEN_SCATTER(out_feet, 18, 3, w46);
   w46 = w43 * w0;
   w47 = w47 - w46;
   w47 = w47 / w27;
-  GAGEN_SCATTER(feet, 18, 4, w47);
+  GAGEN_SCATTER(out_feet, 18, 4, w47);
   w43 = w43 * w28;
   w54 = w54 + w43;
   w54 = w54 - w32;
@@ -17141,7 +17141,7 @@ static void hexapod_body_contact_cga_block(const double *restrict pose, const do
   w54 = w54 - w50;
   w54 = w54 - w36;
   w54 = w54 / w27;
-  GAGEN_SCATTER(feet, 18, 5, w54);
+  GAGEN_SCATTER(out_feet, 18, 5, w54);
   w52 = w52 / w10;
   w54 = w52 * w33;
   w56 = w56 + w54;
@@ -17150,11 +17150,11 @@ static void hexapod_body_contact_cga_block(const double *restrict pose, const do
   w56 = w56 - w37;
   w56 = w56 - w38;
   w56 = w56 / w27;
-  GAGEN_SCATTER(feet, 18, 6, w56);
+  GAGEN_SCATTER(out_feet, 18, 6, w56);
   w56 = w52 * w0;
   w55 = w55 - w56;
   w55 = w55 / w27;
-  GAGEN_SCATTER(feet, 18, 7, w55);
+  GAGEN_SCATTER(out_feet, 18, 7, w55);
   w52 = w52 * w28;
   w61 = w61 + w52;
   w61 = w61 - w32;
@@ -17162,7 +17162,7 @@ static void hexapod_body_contact_cga_block(const double *restrict pose, const do
   w61 = w61 - w53;
   w61 = w61 - w36;
   w61 = w61 / w27;
-  GAGEN_SCATTER(feet, 18, 8, w61);
+  GAGEN_SCATTER(out_feet, 18, 8, w61);
   w49 = w49 / w10;
   w61 = w49 * w33;
   w67 = w67 + w61;
@@ -17171,11 +17171,11 @@ static void hexapod_body_contact_cga_block(const double *restrict pose, const do
   w67 = w67 - w37;
   w67 = w67 - w38;
   w67 = w67 / w27;
-  GAGEN_SCATTER(feet, 18, 9, w67);
+  GAGEN_SCATTER(out_feet, 18, 9, w67);
   w67 = w49 * w0;
   w59 = w59 - w67;
   w59 = w59 / w27;
-  GAGEN_SCATTER(feet, 18, 10, w59);
+  GAGEN_SCATTER(out_feet, 18, 10, w59);
   w49 = w49 * w28;
   w58 = w58 + w49;
   w58 = w58 - w32;
@@ -17183,7 +17183,7 @@ static void hexapod_body_contact_cga_block(const double *restrict pose, const do
   w58 = w58 - w64;
   w58 = w58 - w36;
   w58 = w58 / w27;
-  GAGEN_SCATTER(feet, 18, 11, w58);
+  GAGEN_SCATTER(out_feet, 18, 11, w58);
   w63 = w63 / w10;
   w58 = w63 * w33;
   w45 = w45 + w58;
@@ -17192,11 +17192,11 @@ static void hexapod_body_contact_cga_block(const double *restrict pose, const do
   w45 = w45 - w37;
   w45 = w45 - w38;
   w45 = w45 / w27;
-  GAGEN_SCATTER(feet, 18, 12, w45);
+  GAGEN_SCATTER(out_feet, 18, 12, w45);
   w45 = w63 * w0;
   w65 = w65 - w45;
   w65 = w65 / w27;
-  GAGEN_SCATTER(feet, 18, 13, w65);
+  GAGEN_SCATTER(out_feet, 18, 13, w65);
   w63 = w63 * w28;
   w71 = w71 + w63;
   w71 = w71 - w32;
@@ -17204,7 +17204,7 @@ static void hexapod_body_contact_cga_block(const double *restrict pose, const do
   w71 = w71 - w60;
   w71 = w71 - w36;
   w71 = w71 / w27;
-  GAGEN_SCATTER(feet, 18, 14, w71);
+  GAGEN_SCATTER(out_feet, 18, 14, w71);
   w22 = w22 / w10;
   w33 = w22 * w33;
   w24 = w24 + w33;
@@ -17213,11 +17213,11 @@ static void hexapod_body_contact_cga_block(const double *restrict pose, const do
   w24 = w24 - w37;
   w24 = w24 - w38;
   w24 = w24 / w27;
-  GAGEN_SCATTER(feet, 18, 15, w24);
+  GAGEN_SCATTER(out_feet, 18, 15, w24);
   w0 = w22 * w0;
   w8 = w8 - w0;
   w8 = w8 / w27;
-  GAGEN_SCATTER(feet, 18, 16, w8);
+  GAGEN_SCATTER(out_feet, 18, 16, w8);
   w22 = w22 * w28;
   w16 = w16 + w22;
   w16 = w16 - w32;
@@ -17225,24 +17225,24 @@ static void hexapod_body_contact_cga_block(const double *restrict pose, const do
   w16 = w16 - w69;
   w16 = w16 - w36;
   w16 = w16 / w27;
-  GAGEN_SCATTER(feet, 18, 17, w16);
+  GAGEN_SCATTER(out_feet, 18, 17, w16);
 }
 #endif
 
-void hexapod_body_contact_cga_batch(long n, const double *restrict pose, const double *restrict q, const double *restrict ground, double *restrict distance, double *restrict feet) {
-  long s = 0;
+void hexapod_body_contact_cga_batch(long gagen_n, const double *restrict in_pose, const double *restrict in_q, const double *restrict in_ground, double *restrict out_distance, double *restrict out_feet) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 6 * GAGEN_W + 7; o += 8) __builtin_prefetch(distance + 6 * a + o, 1, 0);
-      for (int o = 0; o < 18 * GAGEN_W + 7; o += 8) __builtin_prefetch(feet + 18 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 6 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_distance + 6 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 18 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_feet + 18 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_body_contact_cga_block(pose + 8 * s, q + 18 * s, ground + 4 * s, distance + 6 * s, feet + 18 * s);
+    hexapod_body_contact_cga_block(in_pose + 8 * gagen_s, in_q + 18 * gagen_s, in_ground + 4 * gagen_s, out_distance + 6 * gagen_s, out_feet + 18 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_body_contact_cga(pose + 8 * s, q + 18 * s, ground + 4 * s, distance + 6 * s, feet + 18 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_body_contact_cga(in_pose + 8 * gagen_s, in_q + 18 * gagen_s, in_ground + 4 * gagen_s, out_distance + 6 * gagen_s, out_feet + 18 * gagen_s);
   }
 }
 
@@ -17252,7 +17252,7 @@ void hexapod_body_contact_cga_batch(long n, const double *restrict pose, const d
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stream, const double *restrict pose, const double *restrict q, const double *restrict ground, double *restrict distance, double *restrict feet) {
+static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_pose, const double *restrict in_q, const double *restrict in_ground, double *restrict out_distance, double *restrict out_feet) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -17260,24 +17260,24 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
   gagen_v w48, w49, w50, w51, w52, w53, w54, w55, w56, w57, w58, w59;
   gagen_v w60, w61, w62, w63, w64, w65, w66, w67, w68, w69, w70, w71;
   gagen_v w72, w73, w74, w75;
-  w0 = GAGEN_GATHER(ground, 4, 1);
-  w1 = GAGEN_GATHER(pose, 8, 0);
+  w0 = GAGEN_GATHER(in_ground, 4, 1);
+  w1 = GAGEN_GATHER(in_pose, 8, 0);
   w2 = gagen_v_splat(0.06);
   w3 = gagen_v_splat(0.2617993877991494);
   w4 = gagen_v_splat(0.5);
-  w5 = GAGEN_GATHER(q, 18, 0);
+  w5 = GAGEN_GATHER(in_q, 18, 0);
   w5 = w4 * w5;
   w5 = w3 + w5;
   w6 = gagen_v_sin(w5);
   w5 = gagen_v_cos(w5);
   w5 = w6 * w5;
   w7 = gagen_v_splat(0.45);
-  w8 = GAGEN_GATHER(q, 18, 1);
+  w8 = GAGEN_GATHER(in_q, 18, 1);
   w8 = w4 * w8;
   w9 = gagen_v_sin(w8);
   w10 = w9 * w9;
   w11 = gagen_v_splat(0.4);
-  w12 = GAGEN_GATHER(q, 18, 2);
+  w12 = GAGEN_GATHER(in_q, 18, 2);
   w12 = w4 * w12;
   w13 = gagen_v_sin(w12);
   w14 = w13 * w13;
@@ -17299,7 +17299,7 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
   w5 = w5 + w5;
   w5 = w2 + w5;
   w19 = w1 * w5;
-  w20 = GAGEN_GATHER(pose, 8, 3);
+  w20 = GAGEN_GATHER(in_pose, 8, 3);
   w9 = w9 * w15;
   w9 = w9 + w9;
   w10 = w10 * w13;
@@ -17311,7 +17311,7 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
   w9 = w9 - w13;
   w13 = w20 * w9;
   w19 = w19 + w13;
-  w13 = GAGEN_GATHER(pose, 8, 1);
+  w13 = GAGEN_GATHER(in_pose, 8, 1);
   w12 = gagen_v_splat(0.553923048454);
   w6 = w6 * w6;
   w6 = w6 * w17;
@@ -17322,23 +17322,23 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
   w16 = w16 - w8;
   w8 = w13 * w16;
   w19 = w19 - w8;
-  w8 = GAGEN_GATHER(pose, 8, 5);
+  w8 = GAGEN_GATHER(in_pose, 8, 5);
   w19 = w19 - w8;
   w14 = w19 * w1;
-  w6 = GAGEN_GATHER(pose, 8, 4);
+  w6 = GAGEN_GATHER(in_pose, 8, 4);
   w17 = w13 * w6;
   w14 = w14 + w17;
   w10 = w1 * w9;
-  w15 = GAGEN_GATHER(pose, 8, 2);
+  w15 = GAGEN_GATHER(in_pose, 8, 2);
   w21 = w15 * w16;
   w10 = w10 - w21;
   w21 = w20 * w5;
   w10 = w10 - w21;
-  w21 = GAGEN_GATHER(pose, 8, 6);
+  w21 = GAGEN_GATHER(in_pose, 8, 6);
   w10 = w10 - w21;
   w22 = w10 * w20;
   w14 = w14 + w22;
-  w22 = GAGEN_GATHER(pose, 8, 7);
+  w22 = GAGEN_GATHER(in_pose, 8, 7);
   w23 = w15 * w22;
   w14 = w14 + w23;
   w24 = w1 * w8;
@@ -17362,7 +17362,7 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
   w5 = w9 * w15;
   w14 = w14 - w5;
   w5 = w0 * w14;
-  w16 = GAGEN_GATHER(ground, 4, 3);
+  w16 = GAGEN_GATHER(in_ground, 4, 3);
   w27 = w1 * w1;
   w28 = w13 * w13;
   w27 = w27 + w28;
@@ -17372,7 +17372,7 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
   w27 = w27 + w28;
   w16 = w16 * w27;
   w5 = w5 + w16;
-  w28 = GAGEN_GATHER(ground, 4, 0);
+  w28 = GAGEN_GATHER(in_ground, 4, 0);
   w29 = w10 * w1;
   w30 = w15 * w6;
   w29 = w29 + w30;
@@ -17390,7 +17390,7 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
   w33 = w33 - w36;
   w33 = w28 * w33;
   w5 = w5 - w33;
-  w33 = GAGEN_GATHER(ground, 4, 2);
+  w33 = GAGEN_GATHER(in_ground, 4, 2);
   w25 = w25 * w1;
   w19 = w19 * w13;
   w25 = w25 + w19;
@@ -17428,20 +17428,20 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
   w40 = gagen_v_if_else_zero(w40, w45);
   w39 = w39 + w40;
   w40 = w5 / w39;
-  GAGEN_SCATTER(distance, 6, 0, w40);
+  GAGEN_SCATTER(out_distance, 6, 0, w40);
   w40 = gagen_v_splat(0.12);
   w45 = gagen_v_splat(0.7853981633974483);
-  w43 = GAGEN_GATHER(q, 18, 3);
+  w43 = GAGEN_GATHER(in_q, 18, 3);
   w43 = w4 * w43;
   w43 = w45 + w43;
   w46 = gagen_v_sin(w43);
   w43 = gagen_v_cos(w43);
   w43 = w46 * w43;
-  w47 = GAGEN_GATHER(q, 18, 4);
+  w47 = GAGEN_GATHER(in_q, 18, 4);
   w47 = w4 * w47;
   w48 = gagen_v_sin(w47);
   w49 = w48 * w48;
-  w50 = GAGEN_GATHER(q, 18, 5);
+  w50 = GAGEN_GATHER(in_q, 18, 5);
   w50 = w4 * w50;
   w51 = gagen_v_sin(w50);
   w52 = w51 * w51;
@@ -17541,19 +17541,19 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
   w48 = w33 * w48;
   w43 = w43 - w48;
   w48 = w43 / w39;
-  GAGEN_SCATTER(distance, 6, 1, w48);
+  GAGEN_SCATTER(out_distance, 6, 1, w48);
   w48 = gagen_v_splat(1.3089969389957472);
-  w52 = GAGEN_GATHER(q, 18, 6);
+  w52 = GAGEN_GATHER(in_q, 18, 6);
   w52 = w4 * w52;
   w52 = w48 + w52;
   w56 = gagen_v_sin(w52);
   w52 = gagen_v_cos(w52);
   w52 = w56 * w52;
-  w55 = GAGEN_GATHER(q, 18, 7);
+  w55 = GAGEN_GATHER(in_q, 18, 7);
   w55 = w4 * w55;
   w49 = gagen_v_sin(w55);
   w53 = w49 * w49;
-  w57 = GAGEN_GATHER(q, 18, 8);
+  w57 = GAGEN_GATHER(in_q, 18, 8);
   w57 = w4 * w57;
   w58 = gagen_v_sin(w57);
   w59 = w58 * w58;
@@ -17654,18 +17654,18 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
   w49 = w33 * w49;
   w52 = w52 - w49;
   w49 = w52 / w39;
-  GAGEN_SCATTER(distance, 6, 2, w49);
-  w49 = GAGEN_GATHER(q, 18, 9);
+  GAGEN_SCATTER(out_distance, 6, 2, w49);
+  w49 = GAGEN_GATHER(in_q, 18, 9);
   w49 = w4 * w49;
   w49 = w49 - w48;
   w48 = gagen_v_sin(w49);
   w49 = gagen_v_cos(w49);
   w49 = w48 * w49;
-  w59 = GAGEN_GATHER(q, 18, 10);
+  w59 = GAGEN_GATHER(in_q, 18, 10);
   w59 = w4 * w59;
   w63 = gagen_v_sin(w59);
   w62 = w63 * w63;
-  w60 = GAGEN_GATHER(q, 18, 11);
+  w60 = GAGEN_GATHER(in_q, 18, 11);
   w60 = w4 * w60;
   w64 = gagen_v_sin(w60);
   w65 = w64 * w64;
@@ -17765,18 +17765,18 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
   w63 = w33 * w63;
   w49 = w49 - w63;
   w63 = w49 / w39;
-  GAGEN_SCATTER(distance, 6, 3, w63);
-  w63 = GAGEN_GATHER(q, 18, 12);
+  GAGEN_SCATTER(out_distance, 6, 3, w63);
+  w63 = GAGEN_GATHER(in_q, 18, 12);
   w63 = w4 * w63;
   w63 = w63 - w45;
   w45 = gagen_v_sin(w63);
   w63 = gagen_v_cos(w63);
   w63 = w45 * w63;
-  w65 = GAGEN_GATHER(q, 18, 13);
+  w65 = GAGEN_GATHER(in_q, 18, 13);
   w65 = w4 * w65;
   w69 = gagen_v_sin(w65);
   w48 = w69 * w69;
-  w60 = GAGEN_GATHER(q, 18, 14);
+  w60 = GAGEN_GATHER(in_q, 18, 14);
   w60 = w4 * w60;
   w62 = gagen_v_sin(w60);
   w66 = w62 * w62;
@@ -17876,18 +17876,18 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
   w69 = w33 * w69;
   w63 = w63 - w69;
   w69 = w63 / w39;
-  GAGEN_SCATTER(distance, 6, 4, w69);
-  w69 = GAGEN_GATHER(q, 18, 15);
+  GAGEN_SCATTER(out_distance, 6, 4, w69);
+  w69 = GAGEN_GATHER(in_q, 18, 15);
   w69 = w4 * w69;
   w69 = w69 - w3;
   w3 = gagen_v_sin(w69);
   w69 = gagen_v_cos(w69);
   w69 = w3 * w69;
-  w66 = GAGEN_GATHER(q, 18, 16);
+  w66 = GAGEN_GATHER(in_q, 18, 16);
   w66 = w4 * w66;
   w40 = gagen_v_sin(w66);
   w72 = w40 * w40;
-  w48 = GAGEN_GATHER(q, 18, 17);
+  w48 = GAGEN_GATHER(in_q, 18, 17);
   w4 = w4 * w48;
   w48 = gagen_v_sin(w4);
   w70 = w48 * w48;
@@ -17987,7 +17987,7 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
   w40 = w33 * w40;
   w22 = w22 - w40;
   w39 = w22 / w39;
-  GAGEN_SCATTER(distance, 6, 5, w39);
+  GAGEN_SCATTER(out_distance, 6, 5, w39);
   w39 = gagen_v_fabs(w10);
   w39 = gagen_v_lt(w39, w41);
   w40 = gagen_v_lt(w10, w42);
@@ -18014,11 +18014,11 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
   w39 = gagen_v_if_else_zero(w39, w44);
   w27 = w27 + w39;
   w25 = w25 / w27;
-  GAGEN_SCATTER(feet, 18, 0, w25);
+  GAGEN_SCATTER(out_feet, 18, 0, w25);
   w25 = w5 * w0;
   w14 = w14 - w25;
   w14 = w14 / w27;
-  GAGEN_SCATTER(feet, 18, 1, w14);
+  GAGEN_SCATTER(out_feet, 18, 1, w14);
   w5 = w5 * w28;
   w29 = w29 + w5;
   w29 = w29 - w32;
@@ -18026,7 +18026,7 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
   w29 = w29 - w35;
   w29 = w29 - w36;
   w29 = w29 / w27;
-  GAGEN_SCATTER(feet, 18, 2, w29);
+  GAGEN_SCATTER(out_feet, 18, 2, w29);
   w43 = w43 / w10;
   w29 = w43 * w33;
   w46 = w46 + w29;
@@ -18035,11 +18035,11 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
   w46 = w46 - w37;
   w46 = w46 - w38;
   w46 = w46 / w27;
-  GAGEN_SCATTER(feet, 18, 3, w46);
+  GAGEN_SCATTER(out_feet, 18, 3, w46);
   w46 = w43 * w0;
   w47 = w47 - w46;
   w47 = w47 / w27;
-  GAGEN_SCATTER(feet, 18, 4, w47);
+  GAGEN_SCATTER(out_feet, 18, 4, w47);
   w43 = w43 * w28;
   w54 = w54 + w43;
   w54 = w54 - w32;
@@ -18047,7 +18047,7 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
   w54 = w54 - w50;
   w54 = w54 - w36;
   w54 = w54 / w27;
-  GAGEN_SCATTER(feet, 18, 5, w54);
+  GAGEN_SCATTER(out_feet, 18, 5, w54);
   w52 = w52 / w10;
   w54 = w52 * w33;
   w56 = w56 + w54;
@@ -18056,11 +18056,11 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
   w56 = w56 - w37;
   w56 = w56 - w38;
   w56 = w56 / w27;
-  GAGEN_SCATTER(feet, 18, 6, w56);
+  GAGEN_SCATTER(out_feet, 18, 6, w56);
   w56 = w52 * w0;
   w55 = w55 - w56;
   w55 = w55 / w27;
-  GAGEN_SCATTER(feet, 18, 7, w55);
+  GAGEN_SCATTER(out_feet, 18, 7, w55);
   w52 = w52 * w28;
   w61 = w61 + w52;
   w61 = w61 - w32;
@@ -18068,7 +18068,7 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
   w61 = w61 - w53;
   w61 = w61 - w36;
   w61 = w61 / w27;
-  GAGEN_SCATTER(feet, 18, 8, w61);
+  GAGEN_SCATTER(out_feet, 18, 8, w61);
   w49 = w49 / w10;
   w61 = w49 * w33;
   w67 = w67 + w61;
@@ -18077,11 +18077,11 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
   w67 = w67 - w37;
   w67 = w67 - w38;
   w67 = w67 / w27;
-  GAGEN_SCATTER(feet, 18, 9, w67);
+  GAGEN_SCATTER(out_feet, 18, 9, w67);
   w67 = w49 * w0;
   w59 = w59 - w67;
   w59 = w59 / w27;
-  GAGEN_SCATTER(feet, 18, 10, w59);
+  GAGEN_SCATTER(out_feet, 18, 10, w59);
   w49 = w49 * w28;
   w58 = w58 + w49;
   w58 = w58 - w32;
@@ -18089,7 +18089,7 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
   w58 = w58 - w64;
   w58 = w58 - w36;
   w58 = w58 / w27;
-  GAGEN_SCATTER(feet, 18, 11, w58);
+  GAGEN_SCATTER(out_feet, 18, 11, w58);
   w63 = w63 / w10;
   w58 = w63 * w33;
   w45 = w45 + w58;
@@ -18098,11 +18098,11 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
   w45 = w45 - w37;
   w45 = w45 - w38;
   w45 = w45 / w27;
-  GAGEN_SCATTER(feet, 18, 12, w45);
+  GAGEN_SCATTER(out_feet, 18, 12, w45);
   w45 = w63 * w0;
   w65 = w65 - w45;
   w65 = w65 / w27;
-  GAGEN_SCATTER(feet, 18, 13, w65);
+  GAGEN_SCATTER(out_feet, 18, 13, w65);
   w63 = w63 * w28;
   w71 = w71 + w63;
   w71 = w71 - w32;
@@ -18110,7 +18110,7 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
   w71 = w71 - w60;
   w71 = w71 - w36;
   w71 = w71 / w27;
-  GAGEN_SCATTER(feet, 18, 14, w71);
+  GAGEN_SCATTER(out_feet, 18, 14, w71);
   w22 = w22 / w10;
   w33 = w22 * w33;
   w24 = w24 + w33;
@@ -18119,11 +18119,11 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
   w24 = w24 - w37;
   w24 = w24 - w38;
   w24 = w24 / w27;
-  GAGEN_SCATTER(feet, 18, 15, w24);
+  GAGEN_SCATTER(out_feet, 18, 15, w24);
   w0 = w22 * w0;
   w8 = w8 - w0;
   w8 = w8 / w27;
-  GAGEN_SCATTER(feet, 18, 16, w8);
+  GAGEN_SCATTER(out_feet, 18, 16, w8);
   w22 = w22 * w28;
   w16 = w16 + w22;
   w16 = w16 - w32;
@@ -18131,7 +18131,7 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
   w16 = w16 - w69;
   w16 = w16 - w36;
   w16 = w16 / w27;
-  GAGEN_SCATTER(feet, 18, 17, w16);
+  GAGEN_SCATTER(out_feet, 18, 17, w16);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -18139,36 +18139,36 @@ static void hexapod_body_contact_cga_block_columns(long gagen_ld, int gagen_stre
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_body_contact_cga_batch_columns(long n, long ld, const double *restrict pose, const double *restrict q, const double *restrict ground, double *restrict distance, double *restrict feet) {
-  long s = 0;
+void hexapod_body_contact_cga_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_pose, const double *restrict in_q, const double *restrict in_ground, double *restrict out_distance, double *restrict out_feet) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 24L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_body_contact_cga_block_columns(ld, stream, pose + s, q + s, ground + s, distance + s, feet + s);
+  const int gagen_stream = gagen_n * 24L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_body_contact_cga_block_columns(gagen_ld, gagen_stream, in_pose + gagen_s, in_q + gagen_s, in_ground + gagen_s, out_distance + gagen_s, out_feet + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_body_contact_cga_columns_from(s, n, ld, pose, q, ground, distance, feet);
+  hexapod_body_contact_cga_columns_from(gagen_s, gagen_n, gagen_ld, in_pose, in_q, in_ground, out_distance, out_feet);
 }
 
 #if GAGEN_SIMD
 /* a point against a plane in PGA3D: signed distance, foot of the perpendicular and the incidence \u03a0 \u2227 P: GAGEN_W consecutive samples at once */
-static void hexapod_ground_pga_block(const double *restrict plane, const double *restrict toe, double *restrict distance, double *restrict foot, double *restrict incidence) {
+static void hexapod_ground_pga_block(const double *restrict in_plane, const double *restrict in_toe, double *restrict out_distance, double *restrict out_foot, double *restrict out_incidence) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16;
-  w0 = GAGEN_GATHER(plane, 4, 0);
-  w1 = GAGEN_GATHER(toe, 4, 3);
+  w0 = GAGEN_GATHER(in_plane, 4, 0);
+  w1 = GAGEN_GATHER(in_toe, 4, 3);
   w2 = w0 * w1;
-  w3 = GAGEN_GATHER(plane, 4, 2);
-  w4 = GAGEN_GATHER(toe, 4, 1);
+  w3 = GAGEN_GATHER(in_plane, 4, 2);
+  w4 = GAGEN_GATHER(in_toe, 4, 1);
   w5 = w3 * w4;
   w2 = w2 + w5;
-  w5 = GAGEN_GATHER(plane, 4, 1);
-  w6 = GAGEN_GATHER(toe, 4, 2);
+  w5 = GAGEN_GATHER(in_plane, 4, 1);
+  w6 = GAGEN_GATHER(in_toe, 4, 2);
   w7 = w5 * w6;
   w2 = w2 - w7;
-  w7 = GAGEN_GATHER(plane, 4, 3);
-  w8 = GAGEN_GATHER(toe, 4, 0);
+  w7 = GAGEN_GATHER(in_plane, 4, 3);
+  w8 = GAGEN_GATHER(in_toe, 4, 0);
   w9 = w7 * w8;
   w2 = w2 - w9;
   w9 = w5 * w5;
@@ -18191,7 +18191,7 @@ static void hexapod_ground_pga_block(const double *restrict plane, const double 
   w10 = gagen_v_if_else_zero(w10, w15);
   w9 = w9 + w10;
   w9 = w2 / w9;
-  GAGEN_SCATTER(distance, 1, 0, w9);
+  GAGEN_SCATTER(out_distance, 1, 0, w9);
   w9 = w3 * w8;
   w10 = w7 * w4;
   w9 = w9 + w10;
@@ -18221,7 +18221,7 @@ static void hexapod_ground_pga_block(const double *restrict plane, const double 
   w16 = gagen_v_if_else_zero(w16, w14);
   w16 = w15 + w16;
   w10 = w10 / w16;
-  GAGEN_SCATTER(foot, 4, 0, w10);
+  GAGEN_SCATTER(out_foot, 4, 0, w10);
   w9 = w9 * w7;
   w4 = w5 * w4;
   w6 = w3 * w6;
@@ -18231,35 +18231,35 @@ static void hexapod_ground_pga_block(const double *restrict plane, const double 
   w8 = w8 * w0;
   w9 = w9 - w8;
   w9 = w9 / w16;
-  GAGEN_SCATTER(foot, 4, 1, w9);
+  GAGEN_SCATTER(out_foot, 4, 1, w9);
   w13 = w13 * w7;
   w1 = w1 * w0;
   w13 = w13 + w1;
   w4 = w4 * w3;
   w13 = w13 + w4;
   w13 = w13 / w16;
-  GAGEN_SCATTER(foot, 4, 2, w13);
+  GAGEN_SCATTER(out_foot, 4, 2, w13);
   w15 = w15 / w16;
-  GAGEN_SCATTER(foot, 4, 3, w15);
-  GAGEN_SCATTER(incidence, 1, 0, w2);
+  GAGEN_SCATTER(out_foot, 4, 3, w15);
+  GAGEN_SCATTER(out_incidence, 1, 0, w2);
 }
 #endif
 
-void hexapod_ground_pga_batch(long n, const double *restrict plane, const double *restrict toe, double *restrict distance, double *restrict foot, double *restrict incidence) {
-  long s = 0;
+void hexapod_ground_pga_batch(long gagen_n, const double *restrict in_plane, const double *restrict in_toe, double *restrict out_distance, double *restrict out_foot, double *restrict out_incidence) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 1 * GAGEN_W + 7; o += 8) __builtin_prefetch(distance + 1 * a + o, 1, 0);
-      for (int o = 0; o < 4 * GAGEN_W + 7; o += 8) __builtin_prefetch(foot + 4 * a + o, 1, 0);
-      for (int o = 0; o < 1 * GAGEN_W + 7; o += 8) __builtin_prefetch(incidence + 1 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 1 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_distance + 1 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 4 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_foot + 4 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 1 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_incidence + 1 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_ground_pga_block(plane + 4 * s, toe + 4 * s, distance + 1 * s, foot + 4 * s, incidence + 1 * s);
+    hexapod_ground_pga_block(in_plane + 4 * gagen_s, in_toe + 4 * gagen_s, out_distance + 1 * gagen_s, out_foot + 4 * gagen_s, out_incidence + 1 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_ground_pga(plane + 4 * s, toe + 4 * s, distance + 1 * s, foot + 4 * s, incidence + 1 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_ground_pga(in_plane + 4 * gagen_s, in_toe + 4 * gagen_s, out_distance + 1 * gagen_s, out_foot + 4 * gagen_s, out_incidence + 1 * gagen_s);
   }
 }
 
@@ -18269,22 +18269,22 @@ void hexapod_ground_pga_batch(long n, const double *restrict plane, const double
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_ground_pga_block_columns(long gagen_ld, int gagen_stream, const double *restrict plane, const double *restrict toe, double *restrict distance, double *restrict foot, double *restrict incidence) {
+static void hexapod_ground_pga_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_plane, const double *restrict in_toe, double *restrict out_distance, double *restrict out_foot, double *restrict out_incidence) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16;
-  w0 = GAGEN_GATHER(plane, 4, 0);
-  w1 = GAGEN_GATHER(toe, 4, 3);
+  w0 = GAGEN_GATHER(in_plane, 4, 0);
+  w1 = GAGEN_GATHER(in_toe, 4, 3);
   w2 = w0 * w1;
-  w3 = GAGEN_GATHER(plane, 4, 2);
-  w4 = GAGEN_GATHER(toe, 4, 1);
+  w3 = GAGEN_GATHER(in_plane, 4, 2);
+  w4 = GAGEN_GATHER(in_toe, 4, 1);
   w5 = w3 * w4;
   w2 = w2 + w5;
-  w5 = GAGEN_GATHER(plane, 4, 1);
-  w6 = GAGEN_GATHER(toe, 4, 2);
+  w5 = GAGEN_GATHER(in_plane, 4, 1);
+  w6 = GAGEN_GATHER(in_toe, 4, 2);
   w7 = w5 * w6;
   w2 = w2 - w7;
-  w7 = GAGEN_GATHER(plane, 4, 3);
-  w8 = GAGEN_GATHER(toe, 4, 0);
+  w7 = GAGEN_GATHER(in_plane, 4, 3);
+  w8 = GAGEN_GATHER(in_toe, 4, 0);
   w9 = w7 * w8;
   w2 = w2 - w9;
   w9 = w5 * w5;
@@ -18307,7 +18307,7 @@ static void hexapod_ground_pga_block_columns(long gagen_ld, int gagen_stream, co
   w10 = gagen_v_if_else_zero(w10, w15);
   w9 = w9 + w10;
   w9 = w2 / w9;
-  GAGEN_SCATTER(distance, 1, 0, w9);
+  GAGEN_SCATTER(out_distance, 1, 0, w9);
   w9 = w3 * w8;
   w10 = w7 * w4;
   w9 = w9 + w10;
@@ -18337,7 +18337,7 @@ static void hexapod_ground_pga_block_columns(long gagen_ld, int gagen_stream, co
   w16 = gagen_v_if_else_zero(w16, w14);
   w16 = w15 + w16;
   w10 = w10 / w16;
-  GAGEN_SCATTER(foot, 4, 0, w10);
+  GAGEN_SCATTER(out_foot, 4, 0, w10);
   w9 = w9 * w7;
   w4 = w5 * w4;
   w6 = w3 * w6;
@@ -18347,17 +18347,17 @@ static void hexapod_ground_pga_block_columns(long gagen_ld, int gagen_stream, co
   w8 = w8 * w0;
   w9 = w9 - w8;
   w9 = w9 / w16;
-  GAGEN_SCATTER(foot, 4, 1, w9);
+  GAGEN_SCATTER(out_foot, 4, 1, w9);
   w13 = w13 * w7;
   w1 = w1 * w0;
   w13 = w13 + w1;
   w4 = w4 * w3;
   w13 = w13 + w4;
   w13 = w13 / w16;
-  GAGEN_SCATTER(foot, 4, 2, w13);
+  GAGEN_SCATTER(out_foot, 4, 2, w13);
   w15 = w15 / w16;
-  GAGEN_SCATTER(foot, 4, 3, w15);
-  GAGEN_SCATTER(incidence, 1, 0, w2);
+  GAGEN_SCATTER(out_foot, 4, 3, w15);
+  GAGEN_SCATTER(out_incidence, 1, 0, w2);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -18365,36 +18365,36 @@ static void hexapod_ground_pga_block_columns(long gagen_ld, int gagen_stream, co
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_ground_pga_batch_columns(long n, long ld, const double *restrict plane, const double *restrict toe, double *restrict distance, double *restrict foot, double *restrict incidence) {
-  long s = 0;
+void hexapod_ground_pga_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_plane, const double *restrict in_toe, double *restrict out_distance, double *restrict out_foot, double *restrict out_incidence) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 6L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_ground_pga_block_columns(ld, stream, plane + s, toe + s, distance + s, foot + s, incidence + s);
+  const int gagen_stream = gagen_n * 6L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_ground_pga_block_columns(gagen_ld, gagen_stream, in_plane + gagen_s, in_toe + gagen_s, out_distance + gagen_s, out_foot + gagen_s, out_incidence + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_ground_pga_columns_from(s, n, ld, plane, toe, distance, foot, incidence);
+  hexapod_ground_pga_columns_from(gagen_s, gagen_n, gagen_ld, in_plane, in_toe, out_distance, out_foot, out_incidence);
 }
 
 #if GAGEN_SIMD
 /* a point against a plane in CGA3D: signed distance, foot of the perpendicular and the incidence \u03a0 \u2227 P: GAGEN_W consecutive samples at once */
-static void hexapod_ground_cga_block(const double *restrict plane, const double *restrict toe, double *restrict distance, double *restrict foot, double *restrict incidence) {
+static void hexapod_ground_cga_block(const double *restrict in_plane, const double *restrict in_toe, double *restrict out_distance, double *restrict out_foot, double *restrict out_incidence) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15;
-  w0 = GAGEN_GATHER(plane, 4, 1);
-  w1 = GAGEN_GATHER(toe, 5, 2);
+  w0 = GAGEN_GATHER(in_plane, 4, 1);
+  w1 = GAGEN_GATHER(in_toe, 5, 2);
   w2 = w0 * w1;
-  w3 = GAGEN_GATHER(plane, 4, 3);
-  w4 = GAGEN_GATHER(toe, 5, 0);
+  w3 = GAGEN_GATHER(in_plane, 4, 3);
+  w4 = GAGEN_GATHER(in_toe, 5, 0);
   w3 = w3 * w4;
   w2 = w2 + w3;
-  w3 = GAGEN_GATHER(plane, 4, 0);
-  w5 = GAGEN_GATHER(toe, 5, 3);
+  w3 = GAGEN_GATHER(in_plane, 4, 0);
+  w5 = GAGEN_GATHER(in_toe, 5, 3);
   w6 = w3 * w5;
   w2 = w2 - w6;
-  w6 = GAGEN_GATHER(plane, 4, 2);
-  w7 = GAGEN_GATHER(toe, 5, 1);
+  w6 = GAGEN_GATHER(in_plane, 4, 2);
+  w7 = GAGEN_GATHER(in_toe, 5, 1);
   w8 = w6 * w7;
   w2 = w2 - w8;
   w8 = w6 * w6;
@@ -18417,9 +18417,9 @@ static void hexapod_ground_cga_block(const double *restrict plane, const double 
   w10 = gagen_v_if_else_zero(w10, w15);
   w9 = w9 + w10;
   w9 = w2 / w9;
-  GAGEN_SCATTER(distance, 1, 0, w9);
+  GAGEN_SCATTER(out_distance, 1, 0, w9);
   w9 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(foot, 5, 0, w9);
+  GAGEN_SCATTER(out_foot, 5, 0, w9);
   w9 = gagen_v_fabs(w8);
   w9 = gagen_v_lt(w9, w11);
   w10 = gagen_v_lt(w8, w12);
@@ -18442,15 +18442,15 @@ static void hexapod_ground_cga_block(const double *restrict plane, const double 
   w6 = gagen_v_if_else_zero(w6, w14);
   w4 = w4 + w6;
   w6 = w7 / w4;
-  GAGEN_SCATTER(foot, 5, 1, w6);
+  GAGEN_SCATTER(out_foot, 5, 1, w6);
   w0 = w8 * w0;
   w1 = w1 - w0;
   w0 = w1 / w4;
-  GAGEN_SCATTER(foot, 5, 2, w0);
+  GAGEN_SCATTER(out_foot, 5, 2, w0);
   w8 = w8 * w3;
   w5 = w5 + w8;
   w8 = w5 / w4;
-  GAGEN_SCATTER(foot, 5, 3, w8);
+  GAGEN_SCATTER(out_foot, 5, 3, w8);
   w3 = gagen_v_splat(0.5);
   w6 = w6 / w4;
   w6 = w6 * w7;
@@ -18461,26 +18461,26 @@ static void hexapod_ground_cga_block(const double *restrict plane, const double 
   w8 = w8 * w5;
   w6 = w6 + w8;
   w3 = w3 * w6;
-  GAGEN_SCATTER(foot, 5, 4, w3);
-  GAGEN_SCATTER(incidence, 1, 0, w2);
+  GAGEN_SCATTER(out_foot, 5, 4, w3);
+  GAGEN_SCATTER(out_incidence, 1, 0, w2);
 }
 #endif
 
-void hexapod_ground_cga_batch(long n, const double *restrict plane, const double *restrict toe, double *restrict distance, double *restrict foot, double *restrict incidence) {
-  long s = 0;
+void hexapod_ground_cga_batch(long gagen_n, const double *restrict in_plane, const double *restrict in_toe, double *restrict out_distance, double *restrict out_foot, double *restrict out_incidence) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 1 * GAGEN_W + 7; o += 8) __builtin_prefetch(distance + 1 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(foot + 5 * a + o, 1, 0);
-      for (int o = 0; o < 1 * GAGEN_W + 7; o += 8) __builtin_prefetch(incidence + 1 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 1 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_distance + 1 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_foot + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 1 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_incidence + 1 * gagen_a + gagen_o, 1, 0);
     }
-    hexapod_ground_cga_block(plane + 4 * s, toe + 5 * s, distance + 1 * s, foot + 5 * s, incidence + 1 * s);
+    hexapod_ground_cga_block(in_plane + 4 * gagen_s, in_toe + 5 * gagen_s, out_distance + 1 * gagen_s, out_foot + 5 * gagen_s, out_incidence + 1 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    hexapod_ground_cga(plane + 4 * s, toe + 5 * s, distance + 1 * s, foot + 5 * s, incidence + 1 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    hexapod_ground_cga(in_plane + 4 * gagen_s, in_toe + 5 * gagen_s, out_distance + 1 * gagen_s, out_foot + 5 * gagen_s, out_incidence + 1 * gagen_s);
   }
 }
 
@@ -18490,22 +18490,22 @@ void hexapod_ground_cga_batch(long n, const double *restrict plane, const double
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void hexapod_ground_cga_block_columns(long gagen_ld, int gagen_stream, const double *restrict plane, const double *restrict toe, double *restrict distance, double *restrict foot, double *restrict incidence) {
+static void hexapod_ground_cga_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_plane, const double *restrict in_toe, double *restrict out_distance, double *restrict out_foot, double *restrict out_incidence) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15;
-  w0 = GAGEN_GATHER(plane, 4, 1);
-  w1 = GAGEN_GATHER(toe, 5, 2);
+  w0 = GAGEN_GATHER(in_plane, 4, 1);
+  w1 = GAGEN_GATHER(in_toe, 5, 2);
   w2 = w0 * w1;
-  w3 = GAGEN_GATHER(plane, 4, 3);
-  w4 = GAGEN_GATHER(toe, 5, 0);
+  w3 = GAGEN_GATHER(in_plane, 4, 3);
+  w4 = GAGEN_GATHER(in_toe, 5, 0);
   w3 = w3 * w4;
   w2 = w2 + w3;
-  w3 = GAGEN_GATHER(plane, 4, 0);
-  w5 = GAGEN_GATHER(toe, 5, 3);
+  w3 = GAGEN_GATHER(in_plane, 4, 0);
+  w5 = GAGEN_GATHER(in_toe, 5, 3);
   w6 = w3 * w5;
   w2 = w2 - w6;
-  w6 = GAGEN_GATHER(plane, 4, 2);
-  w7 = GAGEN_GATHER(toe, 5, 1);
+  w6 = GAGEN_GATHER(in_plane, 4, 2);
+  w7 = GAGEN_GATHER(in_toe, 5, 1);
   w8 = w6 * w7;
   w2 = w2 - w8;
   w8 = w6 * w6;
@@ -18528,9 +18528,9 @@ static void hexapod_ground_cga_block_columns(long gagen_ld, int gagen_stream, co
   w10 = gagen_v_if_else_zero(w10, w15);
   w9 = w9 + w10;
   w9 = w2 / w9;
-  GAGEN_SCATTER(distance, 1, 0, w9);
+  GAGEN_SCATTER(out_distance, 1, 0, w9);
   w9 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(foot, 5, 0, w9);
+  GAGEN_SCATTER(out_foot, 5, 0, w9);
   w9 = gagen_v_fabs(w8);
   w9 = gagen_v_lt(w9, w11);
   w10 = gagen_v_lt(w8, w12);
@@ -18553,15 +18553,15 @@ static void hexapod_ground_cga_block_columns(long gagen_ld, int gagen_stream, co
   w6 = gagen_v_if_else_zero(w6, w14);
   w4 = w4 + w6;
   w6 = w7 / w4;
-  GAGEN_SCATTER(foot, 5, 1, w6);
+  GAGEN_SCATTER(out_foot, 5, 1, w6);
   w0 = w8 * w0;
   w1 = w1 - w0;
   w0 = w1 / w4;
-  GAGEN_SCATTER(foot, 5, 2, w0);
+  GAGEN_SCATTER(out_foot, 5, 2, w0);
   w8 = w8 * w3;
   w5 = w5 + w8;
   w8 = w5 / w4;
-  GAGEN_SCATTER(foot, 5, 3, w8);
+  GAGEN_SCATTER(out_foot, 5, 3, w8);
   w3 = gagen_v_splat(0.5);
   w6 = w6 / w4;
   w6 = w6 * w7;
@@ -18572,8 +18572,8 @@ static void hexapod_ground_cga_block_columns(long gagen_ld, int gagen_stream, co
   w8 = w8 * w5;
   w6 = w6 + w8;
   w3 = w3 * w6;
-  GAGEN_SCATTER(foot, 5, 4, w3);
-  GAGEN_SCATTER(incidence, 1, 0, w2);
+  GAGEN_SCATTER(out_foot, 5, 4, w3);
+  GAGEN_SCATTER(out_incidence, 1, 0, w2);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -18581,14 +18581,14 @@ static void hexapod_ground_cga_block_columns(long gagen_ld, int gagen_stream, co
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void hexapod_ground_cga_batch_columns(long n, long ld, const double *restrict plane, const double *restrict toe, double *restrict distance, double *restrict foot, double *restrict incidence) {
-  long s = 0;
+void hexapod_ground_cga_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_plane, const double *restrict in_toe, double *restrict out_distance, double *restrict out_foot, double *restrict out_incidence) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 7L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    hexapod_ground_cga_block_columns(ld, stream, plane + s, toe + s, distance + s, foot + s, incidence + s);
+  const int gagen_stream = gagen_n * 7L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    hexapod_ground_cga_block_columns(gagen_ld, gagen_stream, in_plane + gagen_s, in_toe + gagen_s, out_distance + gagen_s, out_foot + gagen_s, out_incidence + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  hexapod_ground_cga_columns_from(s, n, ld, plane, toe, distance, foot, incidence);
+  hexapod_ground_cga_columns_from(gagen_s, gagen_n, gagen_ld, in_plane, in_toe, out_distance, out_foot, out_incidence);
 }

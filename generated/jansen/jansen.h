@@ -15,8 +15,8 @@
  * Operation counts (flops = mul + add + neg + div; calls listed apart):
  *   jansen_constraints           mul=142 add=224 neg=6 div=0 cos=1 sin=1 (flops=372)
  *   jansen_positions             mul=138 add=137 neg=0 div=0 cos=1 sin=1 (flops=275)
- *   jansen_retract               mul=114 add=60 neg=0 div=0 cos=6 sin=6 (flops=174)
- *   jansen_newton_step           mul=1677 add=1508 neg=6 div=186 cos=7 fabs=18 fmax=17 sin=7 sqrt=18 (flops=3377)
+ *   jansen_retract               mul=138 add=72 neg=0 div=54 sqrt=6 (flops=264)
+ *   jansen_newton_step           mul=502 add=456 neg=0 div=96 cos=1 fabs=18 fmax=17 sin=1 sqrt=12 (flops=1054)
  */
 #ifndef GAGEN_JANSEN_H
 #define GAGEN_JANSEN_H
@@ -38,13 +38,13 @@ extern "C" {
 #define JANSEN_CONSTRAINTS_THETA_SIZE 1
 #define JANSEN_CONSTRAINTS_F_SIZE 18
 #define JANSEN_CONSTRAINTS_J_SIZE 324
-void jansen_constraints(const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT F, double *GAGEN_RESTRICT J);
-void jansen_constraints_batch(long n, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT F, double *GAGEN_RESTRICT J);
+void jansen_constraints(const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_F, double *GAGEN_RESTRICT out_J);
+void jansen_constraints_batch(long gagen_n, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_F, double *GAGEN_RESTRICT out_J);
 void jansen_constraints_argv(const double *const *arg, double *const *res);
 void jansen_constraints_batch_argv(long n, const double *const *arg, double *const *res);
-void jansen_constraints_batch_columns(long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT F, double *GAGEN_RESTRICT J);
+void jansen_constraints_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_F, double *GAGEN_RESTRICT out_J);
 void jansen_constraints_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void jansen_constraints_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT F, double *GAGEN_RESTRICT J);
+void jansen_constraints_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_F, double *GAGEN_RESTRICT out_J);
 
 /* jansen: every body point in the world
  *   in  R            [24] bar_j_1, bar_j_e12, bar_j_e1inf, bar_j_e2inf, bar_k_1, bar_k_e12,...
@@ -54,15 +54,15 @@ void jansen_constraints_columns_from(long s0, long n, long ld, const double *GAG
 #define JANSEN_POSITIONS_R_SIZE 24
 #define JANSEN_POSITIONS_THETA_SIZE 1
 #define JANSEN_POSITIONS_P_SIZE 32
-void jansen_positions(const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT P);
-void jansen_positions_batch(long n, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT P);
+void jansen_positions(const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_P);
+void jansen_positions_batch(long gagen_n, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_P);
 void jansen_positions_argv(const double *const *arg, double *const *res);
 void jansen_positions_batch_argv(long n, const double *const *arg, double *const *res);
-void jansen_positions_batch_columns(long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT P);
+void jansen_positions_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_P);
 void jansen_positions_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void jansen_positions_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT P);
+void jansen_positions_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_P);
 
-/* jansen: the Newton update R \u2190 T(\u0394t) R(\u0394\u03b8) R of every moving body
+/* jansen: the Newton update R \u2190 T(\u0394t) C(\u0394\u03b8) R of every moving body
  *   in  R            [24] bar_j_1, bar_j_e12, bar_j_e1inf, bar_j_e2inf, bar_k_1, bar_k_e12,...
  *   in  dB           [18] bar_j_w, bar_j_x, bar_j_y, bar_k_w, bar_k_x, bar_k_y, triangle_bde_w,...
  *   out R_next       [24] bar_j_1, bar_j_e12, bar_j_e1inf, bar_j_e2inf, bar_k_1, bar_k_e12,...
@@ -70,15 +70,15 @@ void jansen_positions_columns_from(long s0, long n, long ld, const double *GAGEN
 #define JANSEN_RETRACT_R_SIZE 24
 #define JANSEN_RETRACT_DB_SIZE 18
 #define JANSEN_RETRACT_R_NEXT_SIZE 24
-void jansen_retract(const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT dB, double *GAGEN_RESTRICT R_next);
-void jansen_retract_batch(long n, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT dB, double *GAGEN_RESTRICT R_next);
+void jansen_retract(const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_dB, double *GAGEN_RESTRICT out_R_next);
+void jansen_retract_batch(long gagen_n, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_dB, double *GAGEN_RESTRICT out_R_next);
 void jansen_retract_argv(const double *const *arg, double *const *res);
 void jansen_retract_batch_argv(long n, const double *const *arg, double *const *res);
-void jansen_retract_batch_columns(long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT dB, double *GAGEN_RESTRICT R_next);
+void jansen_retract_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_dB, double *GAGEN_RESTRICT out_R_next);
 void jansen_retract_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void jansen_retract_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT dB, double *GAGEN_RESTRICT R_next);
+void jansen_retract_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_dB, double *GAGEN_RESTRICT out_R_next);
 
-/* jansen: one Newton step at crank angle theta, and max |F| before it
+/* jansen: one Newton step at the driver's theta, and max |F| before it
  *   in  R            [24] bar_j_1, bar_j_e12, bar_j_e1inf, bar_j_e2inf, bar_k_1, bar_k_e12,...
  *   in  theta        [1] theta
  *   out R_next       [24] bar_j_1, bar_j_e12, bar_j_e1inf, bar_j_e2inf, bar_k_1, bar_k_e12,...
@@ -88,13 +88,13 @@ void jansen_retract_columns_from(long s0, long n, long ld, const double *GAGEN_R
 #define JANSEN_NEWTON_STEP_THETA_SIZE 1
 #define JANSEN_NEWTON_STEP_R_NEXT_SIZE 24
 #define JANSEN_NEWTON_STEP_RESIDUAL_SIZE 1
-void jansen_newton_step(const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT R_next, double *GAGEN_RESTRICT residual);
-void jansen_newton_step_batch(long n, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT R_next, double *GAGEN_RESTRICT residual);
+void jansen_newton_step(const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_R_next, double *GAGEN_RESTRICT out_residual);
+void jansen_newton_step_batch(long gagen_n, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_R_next, double *GAGEN_RESTRICT out_residual);
 void jansen_newton_step_argv(const double *const *arg, double *const *res);
 void jansen_newton_step_batch_argv(long n, const double *const *arg, double *const *res);
-void jansen_newton_step_batch_columns(long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT R_next, double *GAGEN_RESTRICT residual);
+void jansen_newton_step_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_R_next, double *GAGEN_RESTRICT out_residual);
 void jansen_newton_step_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void jansen_newton_step_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT R_next, double *GAGEN_RESTRICT residual);
+void jansen_newton_step_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_R_next, double *GAGEN_RESTRICT out_residual);
 
 #ifdef __cplusplus
 }

@@ -48,13 +48,13 @@ extern "C" {
 #define LEAP_HAND_SPHERE_INDEX_FK_Q_SIZE 4
 #define LEAP_HAND_SPHERE_INDEX_FK_M_SIZE 8
 #define LEAP_HAND_SPHERE_INDEX_FK_P_SIZE 5
-void leap_hand_sphere_index_fk(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
-void leap_hand_sphere_index_fk_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void leap_hand_sphere_index_fk(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
+void leap_hand_sphere_index_fk_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void leap_hand_sphere_index_fk_argv(const double *const *arg, double *const *res);
 void leap_hand_sphere_index_fk_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_hand_sphere_index_fk_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void leap_hand_sphere_index_fk_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void leap_hand_sphere_index_fk_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_hand_sphere_index_fk_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void leap_hand_sphere_index_fk_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 
 /* chain index: motor, end point and spatial (geometric) Jacobian
  *   in  q            [4] leap/1, leap/0, leap/2, leap/3
@@ -66,13 +66,13 @@ void leap_hand_sphere_index_fk_columns_from(long s0, long n, long ld, const doub
 #define LEAP_HAND_SPHERE_INDEX_FK_JACOBIAN_M_SIZE 8
 #define LEAP_HAND_SPHERE_INDEX_FK_JACOBIAN_P_SIZE 5
 #define LEAP_HAND_SPHERE_INDEX_FK_JACOBIAN_J_S_SIZE 24
-void leap_hand_sphere_index_fk_jacobian(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
-void leap_hand_sphere_index_fk_jacobian_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void leap_hand_sphere_index_fk_jacobian(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
+void leap_hand_sphere_index_fk_jacobian_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void leap_hand_sphere_index_fk_jacobian_argv(const double *const *arg, double *const *res);
 void leap_hand_sphere_index_fk_jacobian_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_hand_sphere_index_fk_jacobian_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void leap_hand_sphere_index_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void leap_hand_sphere_index_fk_jacobian_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_hand_sphere_index_fk_jacobian_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void leap_hand_sphere_index_fk_jacobian_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 
 /* chain index: motor, end point, every Jacobian and the tool z-axis line
  *   in  q            [4] leap/1, leap/0, leap/2, leap/3
@@ -94,13 +94,13 @@ void leap_hand_sphere_index_fk_jacobian_columns_from(long s0, long n, long ld, c
 #define LEAP_HAND_SPHERE_INDEX_JACOBIANS_J_P_SIZE 20
 #define LEAP_HAND_SPHERE_INDEX_JACOBIANS_L_SIZE 6
 #define LEAP_HAND_SPHERE_INDEX_JACOBIANS_J_L_SIZE 24
-void leap_hand_sphere_index_jacobians(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
-void leap_hand_sphere_index_jacobians_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void leap_hand_sphere_index_jacobians(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
+void leap_hand_sphere_index_jacobians_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void leap_hand_sphere_index_jacobians_argv(const double *const *arg, double *const *res);
 void leap_hand_sphere_index_jacobians_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_hand_sphere_index_jacobians_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void leap_hand_sphere_index_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void leap_hand_sphere_index_jacobians_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_hand_sphere_index_jacobians_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void leap_hand_sphere_index_jacobians_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 
 /* chain middle: motor and end point
  *   in  q            [4] leap/5, leap/4, leap/6, leap/7
@@ -110,13 +110,13 @@ void leap_hand_sphere_index_jacobians_columns_from(long s0, long n, long ld, con
 #define LEAP_HAND_SPHERE_MIDDLE_FK_Q_SIZE 4
 #define LEAP_HAND_SPHERE_MIDDLE_FK_M_SIZE 8
 #define LEAP_HAND_SPHERE_MIDDLE_FK_P_SIZE 5
-void leap_hand_sphere_middle_fk(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
-void leap_hand_sphere_middle_fk_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void leap_hand_sphere_middle_fk(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
+void leap_hand_sphere_middle_fk_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void leap_hand_sphere_middle_fk_argv(const double *const *arg, double *const *res);
 void leap_hand_sphere_middle_fk_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_hand_sphere_middle_fk_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void leap_hand_sphere_middle_fk_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void leap_hand_sphere_middle_fk_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_hand_sphere_middle_fk_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void leap_hand_sphere_middle_fk_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 
 /* chain middle: motor, end point and spatial (geometric) Jacobian
  *   in  q            [4] leap/5, leap/4, leap/6, leap/7
@@ -128,13 +128,13 @@ void leap_hand_sphere_middle_fk_columns_from(long s0, long n, long ld, const dou
 #define LEAP_HAND_SPHERE_MIDDLE_FK_JACOBIAN_M_SIZE 8
 #define LEAP_HAND_SPHERE_MIDDLE_FK_JACOBIAN_P_SIZE 5
 #define LEAP_HAND_SPHERE_MIDDLE_FK_JACOBIAN_J_S_SIZE 24
-void leap_hand_sphere_middle_fk_jacobian(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
-void leap_hand_sphere_middle_fk_jacobian_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void leap_hand_sphere_middle_fk_jacobian(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
+void leap_hand_sphere_middle_fk_jacobian_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void leap_hand_sphere_middle_fk_jacobian_argv(const double *const *arg, double *const *res);
 void leap_hand_sphere_middle_fk_jacobian_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_hand_sphere_middle_fk_jacobian_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void leap_hand_sphere_middle_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void leap_hand_sphere_middle_fk_jacobian_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_hand_sphere_middle_fk_jacobian_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void leap_hand_sphere_middle_fk_jacobian_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 
 /* chain middle: motor, end point, every Jacobian and the tool z-axis line
  *   in  q            [4] leap/5, leap/4, leap/6, leap/7
@@ -156,13 +156,13 @@ void leap_hand_sphere_middle_fk_jacobian_columns_from(long s0, long n, long ld, 
 #define LEAP_HAND_SPHERE_MIDDLE_JACOBIANS_J_P_SIZE 20
 #define LEAP_HAND_SPHERE_MIDDLE_JACOBIANS_L_SIZE 6
 #define LEAP_HAND_SPHERE_MIDDLE_JACOBIANS_J_L_SIZE 24
-void leap_hand_sphere_middle_jacobians(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
-void leap_hand_sphere_middle_jacobians_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void leap_hand_sphere_middle_jacobians(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
+void leap_hand_sphere_middle_jacobians_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void leap_hand_sphere_middle_jacobians_argv(const double *const *arg, double *const *res);
 void leap_hand_sphere_middle_jacobians_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_hand_sphere_middle_jacobians_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void leap_hand_sphere_middle_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void leap_hand_sphere_middle_jacobians_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_hand_sphere_middle_jacobians_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void leap_hand_sphere_middle_jacobians_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 
 /* chain ring: motor and end point
  *   in  q            [4] leap/9, leap/8, leap/10, leap/11
@@ -172,13 +172,13 @@ void leap_hand_sphere_middle_jacobians_columns_from(long s0, long n, long ld, co
 #define LEAP_HAND_SPHERE_RING_FK_Q_SIZE 4
 #define LEAP_HAND_SPHERE_RING_FK_M_SIZE 8
 #define LEAP_HAND_SPHERE_RING_FK_P_SIZE 5
-void leap_hand_sphere_ring_fk(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
-void leap_hand_sphere_ring_fk_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void leap_hand_sphere_ring_fk(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
+void leap_hand_sphere_ring_fk_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void leap_hand_sphere_ring_fk_argv(const double *const *arg, double *const *res);
 void leap_hand_sphere_ring_fk_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_hand_sphere_ring_fk_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void leap_hand_sphere_ring_fk_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void leap_hand_sphere_ring_fk_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_hand_sphere_ring_fk_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void leap_hand_sphere_ring_fk_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 
 /* chain ring: motor, end point and spatial (geometric) Jacobian
  *   in  q            [4] leap/9, leap/8, leap/10, leap/11
@@ -190,13 +190,13 @@ void leap_hand_sphere_ring_fk_columns_from(long s0, long n, long ld, const doubl
 #define LEAP_HAND_SPHERE_RING_FK_JACOBIAN_M_SIZE 8
 #define LEAP_HAND_SPHERE_RING_FK_JACOBIAN_P_SIZE 5
 #define LEAP_HAND_SPHERE_RING_FK_JACOBIAN_J_S_SIZE 24
-void leap_hand_sphere_ring_fk_jacobian(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
-void leap_hand_sphere_ring_fk_jacobian_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void leap_hand_sphere_ring_fk_jacobian(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
+void leap_hand_sphere_ring_fk_jacobian_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void leap_hand_sphere_ring_fk_jacobian_argv(const double *const *arg, double *const *res);
 void leap_hand_sphere_ring_fk_jacobian_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_hand_sphere_ring_fk_jacobian_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void leap_hand_sphere_ring_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void leap_hand_sphere_ring_fk_jacobian_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_hand_sphere_ring_fk_jacobian_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void leap_hand_sphere_ring_fk_jacobian_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 
 /* chain ring: motor, end point, every Jacobian and the tool z-axis line
  *   in  q            [4] leap/9, leap/8, leap/10, leap/11
@@ -218,13 +218,13 @@ void leap_hand_sphere_ring_fk_jacobian_columns_from(long s0, long n, long ld, co
 #define LEAP_HAND_SPHERE_RING_JACOBIANS_J_P_SIZE 20
 #define LEAP_HAND_SPHERE_RING_JACOBIANS_L_SIZE 6
 #define LEAP_HAND_SPHERE_RING_JACOBIANS_J_L_SIZE 24
-void leap_hand_sphere_ring_jacobians(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
-void leap_hand_sphere_ring_jacobians_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void leap_hand_sphere_ring_jacobians(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
+void leap_hand_sphere_ring_jacobians_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void leap_hand_sphere_ring_jacobians_argv(const double *const *arg, double *const *res);
 void leap_hand_sphere_ring_jacobians_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_hand_sphere_ring_jacobians_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void leap_hand_sphere_ring_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void leap_hand_sphere_ring_jacobians_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_hand_sphere_ring_jacobians_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void leap_hand_sphere_ring_jacobians_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 
 /* chain thumb: motor and end point
  *   in  q            [4] leap/12, leap/13, leap/14, leap/15
@@ -234,13 +234,13 @@ void leap_hand_sphere_ring_jacobians_columns_from(long s0, long n, long ld, cons
 #define LEAP_HAND_SPHERE_THUMB_FK_Q_SIZE 4
 #define LEAP_HAND_SPHERE_THUMB_FK_M_SIZE 8
 #define LEAP_HAND_SPHERE_THUMB_FK_P_SIZE 5
-void leap_hand_sphere_thumb_fk(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
-void leap_hand_sphere_thumb_fk_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void leap_hand_sphere_thumb_fk(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
+void leap_hand_sphere_thumb_fk_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void leap_hand_sphere_thumb_fk_argv(const double *const *arg, double *const *res);
 void leap_hand_sphere_thumb_fk_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_hand_sphere_thumb_fk_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void leap_hand_sphere_thumb_fk_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void leap_hand_sphere_thumb_fk_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_hand_sphere_thumb_fk_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void leap_hand_sphere_thumb_fk_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 
 /* chain thumb: motor, end point and spatial (geometric) Jacobian
  *   in  q            [4] leap/12, leap/13, leap/14, leap/15
@@ -252,13 +252,13 @@ void leap_hand_sphere_thumb_fk_columns_from(long s0, long n, long ld, const doub
 #define LEAP_HAND_SPHERE_THUMB_FK_JACOBIAN_M_SIZE 8
 #define LEAP_HAND_SPHERE_THUMB_FK_JACOBIAN_P_SIZE 5
 #define LEAP_HAND_SPHERE_THUMB_FK_JACOBIAN_J_S_SIZE 24
-void leap_hand_sphere_thumb_fk_jacobian(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
-void leap_hand_sphere_thumb_fk_jacobian_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void leap_hand_sphere_thumb_fk_jacobian(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
+void leap_hand_sphere_thumb_fk_jacobian_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void leap_hand_sphere_thumb_fk_jacobian_argv(const double *const *arg, double *const *res);
 void leap_hand_sphere_thumb_fk_jacobian_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_hand_sphere_thumb_fk_jacobian_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void leap_hand_sphere_thumb_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void leap_hand_sphere_thumb_fk_jacobian_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_hand_sphere_thumb_fk_jacobian_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void leap_hand_sphere_thumb_fk_jacobian_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 
 /* chain thumb: motor, end point, every Jacobian and the tool z-axis line
  *   in  q            [4] leap/12, leap/13, leap/14, leap/15
@@ -280,13 +280,13 @@ void leap_hand_sphere_thumb_fk_jacobian_columns_from(long s0, long n, long ld, c
 #define LEAP_HAND_SPHERE_THUMB_JACOBIANS_J_P_SIZE 20
 #define LEAP_HAND_SPHERE_THUMB_JACOBIANS_L_SIZE 6
 #define LEAP_HAND_SPHERE_THUMB_JACOBIANS_J_L_SIZE 24
-void leap_hand_sphere_thumb_jacobians(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
-void leap_hand_sphere_thumb_jacobians_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void leap_hand_sphere_thumb_jacobians(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
+void leap_hand_sphere_thumb_jacobians_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void leap_hand_sphere_thumb_jacobians_argv(const double *const *arg, double *const *res);
 void leap_hand_sphere_thumb_jacobians_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_hand_sphere_thumb_jacobians_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void leap_hand_sphere_thumb_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void leap_hand_sphere_thumb_jacobians_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_hand_sphere_thumb_jacobians_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void leap_hand_sphere_thumb_jacobians_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 
 /* the cooperative sphere X_c(q) and J_c
  *   in  q            [16] leap/1, leap/0, leap/2, leap/3, leap/5, leap/4, leap/6, leap/7, leap/9,...
@@ -296,13 +296,13 @@ void leap_hand_sphere_thumb_jacobians_columns_from(long s0, long n, long ld, con
 #define LEAP_HAND_SPHERE_PRIMITIVE_Q_SIZE 16
 #define LEAP_HAND_SPHERE_PRIMITIVE_X_C_SIZE 5
 #define LEAP_HAND_SPHERE_PRIMITIVE_J_C_SIZE 80
-void leap_hand_sphere_primitive(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT X_c, double *GAGEN_RESTRICT J_c);
-void leap_hand_sphere_primitive_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT X_c, double *GAGEN_RESTRICT J_c);
+void leap_hand_sphere_primitive(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_X_c, double *GAGEN_RESTRICT out_J_c);
+void leap_hand_sphere_primitive_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_X_c, double *GAGEN_RESTRICT out_J_c);
 void leap_hand_sphere_primitive_argv(const double *const *arg, double *const *res);
 void leap_hand_sphere_primitive_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_hand_sphere_primitive_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT X_c, double *GAGEN_RESTRICT J_c);
+void leap_hand_sphere_primitive_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_X_c, double *GAGEN_RESTRICT out_J_c);
 void leap_hand_sphere_primitive_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_hand_sphere_primitive_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT X_c, double *GAGEN_RESTRICT J_c);
+void leap_hand_sphere_primitive_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_X_c, double *GAGEN_RESTRICT out_J_c);
 
 /* V_Sc(q), its conditioning and J_G,Sc
  *   in  q            [16] leap/1, leap/0, leap/2, leap/3, leap/5, leap/4, leap/6, leap/7, leap/9,...
@@ -314,13 +314,13 @@ void leap_hand_sphere_primitive_columns_from(long s0, long n, long ld, const dou
 #define LEAP_HAND_SPHERE_SIMILARITY_V_SC_SIZE 12
 #define LEAP_HAND_SPHERE_SIMILARITY_CONDITIONING_SIZE 1
 #define LEAP_HAND_SPHERE_SIMILARITY_J_G_SIZE 112
-void leap_hand_sphere_similarity(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT V_Sc, double *GAGEN_RESTRICT conditioning, double *GAGEN_RESTRICT J_G);
-void leap_hand_sphere_similarity_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT V_Sc, double *GAGEN_RESTRICT conditioning, double *GAGEN_RESTRICT J_G);
+void leap_hand_sphere_similarity(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_V_Sc, double *GAGEN_RESTRICT out_conditioning, double *GAGEN_RESTRICT out_J_G);
+void leap_hand_sphere_similarity_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_V_Sc, double *GAGEN_RESTRICT out_conditioning, double *GAGEN_RESTRICT out_J_G);
 void leap_hand_sphere_similarity_argv(const double *const *arg, double *const *res);
 void leap_hand_sphere_similarity_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_hand_sphere_similarity_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT V_Sc, double *GAGEN_RESTRICT conditioning, double *GAGEN_RESTRICT J_G);
+void leap_hand_sphere_similarity_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_V_Sc, double *GAGEN_RESTRICT out_conditioning, double *GAGEN_RESTRICT out_J_G);
 void leap_hand_sphere_similarity_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_hand_sphere_similarity_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT V_Sc, double *GAGEN_RESTRICT conditioning, double *GAGEN_RESTRICT J_G);
+void leap_hand_sphere_similarity_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_V_Sc, double *GAGEN_RESTRICT out_conditioning, double *GAGEN_RESTRICT out_J_G);
 
 /* J_A,Sc = dV_Sc/dq, log V_Sc and J_B = d log V_Sc/dq
  *   in  q            [16] leap/1, leap/0, leap/2, leap/3, leap/5, leap/4, leap/6, leap/7, leap/9,...
@@ -332,13 +332,13 @@ void leap_hand_sphere_similarity_columns_from(long s0, long n, long ld, const do
 #define LEAP_HAND_SPHERE_SIMILARITY_JACOBIANS_J_A_SIZE 192
 #define LEAP_HAND_SPHERE_SIMILARITY_JACOBIANS_LOG_V_SIZE 7
 #define LEAP_HAND_SPHERE_SIMILARITY_JACOBIANS_J_B_SIZE 112
-void leap_hand_sphere_similarity_jacobians(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT log_V, double *GAGEN_RESTRICT J_B);
-void leap_hand_sphere_similarity_jacobians_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT log_V, double *GAGEN_RESTRICT J_B);
+void leap_hand_sphere_similarity_jacobians(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_log_V, double *GAGEN_RESTRICT out_J_B);
+void leap_hand_sphere_similarity_jacobians_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_log_V, double *GAGEN_RESTRICT out_J_B);
 void leap_hand_sphere_similarity_jacobians_argv(const double *const *arg, double *const *res);
 void leap_hand_sphere_similarity_jacobians_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_hand_sphere_similarity_jacobians_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT log_V, double *GAGEN_RESTRICT J_B);
+void leap_hand_sphere_similarity_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_log_V, double *GAGEN_RESTRICT out_J_B);
 void leap_hand_sphere_similarity_jacobians_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_hand_sphere_similarity_jacobians_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT log_V, double *GAGEN_RESTRICT J_B);
+void leap_hand_sphere_similarity_jacobians_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_log_V, double *GAGEN_RESTRICT out_J_B);
 
 /* task error e = log(V_Sc~ V_Sd) and J_Be
  *   in  q            [16] leap/1, leap/0, leap/2, leap/3, leap/5, leap/4, leap/6, leap/7, leap/9,...
@@ -350,13 +350,13 @@ void leap_hand_sphere_similarity_jacobians_columns_from(long s0, long n, long ld
 #define LEAP_HAND_SPHERE_TASK_V_SD_SIZE 12
 #define LEAP_HAND_SPHERE_TASK_E_SIZE 7
 #define LEAP_HAND_SPHERE_TASK_J_BE_SIZE 112
-void leap_hand_sphere_task(const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT V_Sd, double *GAGEN_RESTRICT e, double *GAGEN_RESTRICT J_Be);
-void leap_hand_sphere_task_batch(long n, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT V_Sd, double *GAGEN_RESTRICT e, double *GAGEN_RESTRICT J_Be);
+void leap_hand_sphere_task(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
+void leap_hand_sphere_task_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 void leap_hand_sphere_task_argv(const double *const *arg, double *const *res);
 void leap_hand_sphere_task_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_hand_sphere_task_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT V_Sd, double *GAGEN_RESTRICT e, double *GAGEN_RESTRICT J_Be);
+void leap_hand_sphere_task_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 void leap_hand_sphere_task_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_hand_sphere_task_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT V_Sd, double *GAGEN_RESTRICT e, double *GAGEN_RESTRICT J_Be);
+void leap_hand_sphere_task_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 
 #ifdef __cplusplus
 }

@@ -149,17 +149,17 @@ static inline void gagen_stream_fence(int stream) {
 
 #if GAGEN_SIMD
 /* chain index: motor and end point: GAGEN_W consecutive samples at once */
-static void leap_hand_sphere_index_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void leap_hand_sphere_index_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(4.0);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 4, 0);
+  w3 = GAGEN_GATHER(in_q, 4, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
-  w5 = GAGEN_GATHER(q, 4, 1);
+  w5 = GAGEN_GATHER(in_q, 4, 1);
   w5 = w2 * w5;
   w6 = gagen_v_sin(w5);
   w7 = w4 * w6;
@@ -172,7 +172,7 @@ static void leap_hand_sphere_index_fk_block(const double *restrict q, double *re
   w11 = w3 * w5;
   w9 = w9 - w11;
   w9 = w1 * w9;
-  w12 = GAGEN_GATHER(q, 4, 2);
+  w12 = GAGEN_GATHER(in_q, 4, 2);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w14 = w9 * w13;
@@ -183,7 +183,7 @@ static void leap_hand_sphere_index_fk_block(const double *restrict q, double *re
   w12 = gagen_v_sin(w12);
   w16 = w15 * w12;
   w14 = w14 - w16;
-  w16 = GAGEN_GATHER(q, 4, 3);
+  w16 = GAGEN_GATHER(in_q, 4, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -194,12 +194,12 @@ static void leap_hand_sphere_index_fk_block(const double *restrict q, double *re
   w15 = w9 * w16;
   w18 = w18 - w15;
   w18 = w0 * w18;
-  GAGEN_SCATTER(M, 8, 0, w18);
+  GAGEN_SCATTER(out_M, 8, 0, w18);
   w14 = w14 * w16;
   w9 = w9 * w17;
   w14 = w14 + w9;
   w14 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 1, w14);
+  GAGEN_SCATTER(out_M, 8, 1, w14);
   w9 = w10 + w8;
   w9 = w9 - w7;
   w9 = w9 - w11;
@@ -218,12 +218,12 @@ static void leap_hand_sphere_index_fk_block(const double *restrict q, double *re
   w1 = w9 * w16;
   w7 = w7 - w1;
   w7 = w0 * w7;
-  GAGEN_SCATTER(M, 8, 2, w7);
+  GAGEN_SCATTER(out_M, 8, 2, w7);
   w15 = w15 * w16;
   w9 = w9 * w17;
   w15 = w15 + w9;
   w0 = w0 * w15;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w15 = gagen_v_splat(0.0009000000000001732);
   w9 = w5 * w5;
   w1 = w6 * w6;
@@ -332,14 +332,14 @@ static void leap_hand_sphere_index_fk_block(const double *restrict q, double *re
   w12 = w22 * w18;
   w19 = w19 - w12;
   w19 = w2 * w19;
-  GAGEN_SCATTER(M, 8, 4, w19);
+  GAGEN_SCATTER(out_M, 8, 4, w19);
   w19 = w16 * w0;
   w12 = w22 * w14;
   w19 = w19 - w12;
   w12 = w1 * w18;
   w19 = w19 - w12;
   w19 = w2 * w19;
-  GAGEN_SCATTER(M, 8, 5, w19);
+  GAGEN_SCATTER(out_M, 8, 5, w19);
   w19 = w22 * w7;
   w12 = w1 * w0;
   w19 = w19 + w12;
@@ -347,43 +347,43 @@ static void leap_hand_sphere_index_fk_block(const double *restrict q, double *re
   w19 = w19 + w18;
   w19 = w2 * w19;
   w19 = -w19;
-  GAGEN_SCATTER(M, 8, 6, w19);
+  GAGEN_SCATTER(out_M, 8, 6, w19);
   w7 = w1 * w7;
   w0 = w22 * w0;
   w7 = w7 - w0;
   w14 = w16 * w14;
   w7 = w7 - w14;
   w7 = w2 * w7;
-  GAGEN_SCATTER(M, 8, 7, w7);
+  GAGEN_SCATTER(out_M, 8, 7, w7);
   w7 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w7);
-  GAGEN_SCATTER(P, 5, 1, w22);
-  GAGEN_SCATTER(P, 5, 2, w1);
-  GAGEN_SCATTER(P, 5, 3, w16);
+  GAGEN_SCATTER(out_P, 5, 0, w7);
+  GAGEN_SCATTER(out_P, 5, 1, w22);
+  GAGEN_SCATTER(out_P, 5, 2, w1);
+  GAGEN_SCATTER(out_P, 5, 3, w16);
   w22 = w22 * w22;
   w1 = w1 * w1;
   w22 = w22 + w1;
   w16 = w16 * w16;
   w22 = w22 + w16;
   w2 = w2 * w22;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #endif
 
-void leap_hand_sphere_index_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void leap_hand_sphere_index_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    leap_hand_sphere_index_fk_block(q + 4 * s, M + 8 * s, P + 5 * s);
+    leap_hand_sphere_index_fk_block(in_q + 4 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    leap_hand_sphere_index_fk(q + 4 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    leap_hand_sphere_index_fk(in_q + 4 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -393,17 +393,17 @@ void leap_hand_sphere_index_fk_batch(long n, const double *restrict q, double *r
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void leap_hand_sphere_index_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void leap_hand_sphere_index_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(4.0);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 4, 0);
+  w3 = GAGEN_GATHER(in_q, 4, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
-  w5 = GAGEN_GATHER(q, 4, 1);
+  w5 = GAGEN_GATHER(in_q, 4, 1);
   w5 = w2 * w5;
   w6 = gagen_v_sin(w5);
   w7 = w4 * w6;
@@ -416,7 +416,7 @@ static void leap_hand_sphere_index_fk_block_columns(long gagen_ld, int gagen_str
   w11 = w3 * w5;
   w9 = w9 - w11;
   w9 = w1 * w9;
-  w12 = GAGEN_GATHER(q, 4, 2);
+  w12 = GAGEN_GATHER(in_q, 4, 2);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w14 = w9 * w13;
@@ -427,7 +427,7 @@ static void leap_hand_sphere_index_fk_block_columns(long gagen_ld, int gagen_str
   w12 = gagen_v_sin(w12);
   w16 = w15 * w12;
   w14 = w14 - w16;
-  w16 = GAGEN_GATHER(q, 4, 3);
+  w16 = GAGEN_GATHER(in_q, 4, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -438,12 +438,12 @@ static void leap_hand_sphere_index_fk_block_columns(long gagen_ld, int gagen_str
   w15 = w9 * w16;
   w18 = w18 - w15;
   w18 = w0 * w18;
-  GAGEN_SCATTER(M, 8, 0, w18);
+  GAGEN_SCATTER(out_M, 8, 0, w18);
   w14 = w14 * w16;
   w9 = w9 * w17;
   w14 = w14 + w9;
   w14 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 1, w14);
+  GAGEN_SCATTER(out_M, 8, 1, w14);
   w9 = w10 + w8;
   w9 = w9 - w7;
   w9 = w9 - w11;
@@ -462,12 +462,12 @@ static void leap_hand_sphere_index_fk_block_columns(long gagen_ld, int gagen_str
   w1 = w9 * w16;
   w7 = w7 - w1;
   w7 = w0 * w7;
-  GAGEN_SCATTER(M, 8, 2, w7);
+  GAGEN_SCATTER(out_M, 8, 2, w7);
   w15 = w15 * w16;
   w9 = w9 * w17;
   w15 = w15 + w9;
   w0 = w0 * w15;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w15 = gagen_v_splat(0.0009000000000001732);
   w9 = w5 * w5;
   w1 = w6 * w6;
@@ -576,14 +576,14 @@ static void leap_hand_sphere_index_fk_block_columns(long gagen_ld, int gagen_str
   w12 = w22 * w18;
   w19 = w19 - w12;
   w19 = w2 * w19;
-  GAGEN_SCATTER(M, 8, 4, w19);
+  GAGEN_SCATTER(out_M, 8, 4, w19);
   w19 = w16 * w0;
   w12 = w22 * w14;
   w19 = w19 - w12;
   w12 = w1 * w18;
   w19 = w19 - w12;
   w19 = w2 * w19;
-  GAGEN_SCATTER(M, 8, 5, w19);
+  GAGEN_SCATTER(out_M, 8, 5, w19);
   w19 = w22 * w7;
   w12 = w1 * w0;
   w19 = w19 + w12;
@@ -591,26 +591,26 @@ static void leap_hand_sphere_index_fk_block_columns(long gagen_ld, int gagen_str
   w19 = w19 + w18;
   w19 = w2 * w19;
   w19 = -w19;
-  GAGEN_SCATTER(M, 8, 6, w19);
+  GAGEN_SCATTER(out_M, 8, 6, w19);
   w7 = w1 * w7;
   w0 = w22 * w0;
   w7 = w7 - w0;
   w14 = w16 * w14;
   w7 = w7 - w14;
   w7 = w2 * w7;
-  GAGEN_SCATTER(M, 8, 7, w7);
+  GAGEN_SCATTER(out_M, 8, 7, w7);
   w7 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w7);
-  GAGEN_SCATTER(P, 5, 1, w22);
-  GAGEN_SCATTER(P, 5, 2, w1);
-  GAGEN_SCATTER(P, 5, 3, w16);
+  GAGEN_SCATTER(out_P, 5, 0, w7);
+  GAGEN_SCATTER(out_P, 5, 1, w22);
+  GAGEN_SCATTER(out_P, 5, 2, w1);
+  GAGEN_SCATTER(out_P, 5, 3, w16);
   w22 = w22 * w22;
   w1 = w1 * w1;
   w22 = w22 + w1;
   w16 = w16 * w16;
   w22 = w22 + w16;
   w2 = w2 * w22;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -618,21 +618,21 @@ static void leap_hand_sphere_index_fk_block_columns(long gagen_ld, int gagen_str
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void leap_hand_sphere_index_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void leap_hand_sphere_index_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    leap_hand_sphere_index_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    leap_hand_sphere_index_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  leap_hand_sphere_index_fk_columns_from(s, n, ld, q, M, P);
+  leap_hand_sphere_index_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain index: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void leap_hand_sphere_index_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void leap_hand_sphere_index_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -640,10 +640,10 @@ static void leap_hand_sphere_index_fk_jacobian_block(const double *restrict q, d
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(4.0);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 4, 0);
+  w3 = GAGEN_GATHER(in_q, 4, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
-  w5 = GAGEN_GATHER(q, 4, 1);
+  w5 = GAGEN_GATHER(in_q, 4, 1);
   w5 = w2 * w5;
   w6 = gagen_v_sin(w5);
   w7 = w4 * w6;
@@ -656,7 +656,7 @@ static void leap_hand_sphere_index_fk_jacobian_block(const double *restrict q, d
   w11 = w3 * w5;
   w9 = w9 - w11;
   w9 = w1 * w9;
-  w12 = GAGEN_GATHER(q, 4, 2);
+  w12 = GAGEN_GATHER(in_q, 4, 2);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w14 = w9 * w13;
@@ -667,7 +667,7 @@ static void leap_hand_sphere_index_fk_jacobian_block(const double *restrict q, d
   w12 = gagen_v_sin(w12);
   w16 = w15 * w12;
   w14 = w14 - w16;
-  w16 = GAGEN_GATHER(q, 4, 3);
+  w16 = GAGEN_GATHER(in_q, 4, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -678,12 +678,12 @@ static void leap_hand_sphere_index_fk_jacobian_block(const double *restrict q, d
   w15 = w9 * w16;
   w18 = w18 - w15;
   w18 = w0 * w18;
-  GAGEN_SCATTER(M, 8, 0, w18);
+  GAGEN_SCATTER(out_M, 8, 0, w18);
   w14 = w14 * w16;
   w9 = w9 * w17;
   w14 = w14 + w9;
   w14 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 1, w14);
+  GAGEN_SCATTER(out_M, 8, 1, w14);
   w9 = w10 + w8;
   w9 = w9 - w7;
   w9 = w9 - w11;
@@ -702,12 +702,12 @@ static void leap_hand_sphere_index_fk_jacobian_block(const double *restrict q, d
   w1 = w9 * w16;
   w7 = w7 - w1;
   w7 = w0 * w7;
-  GAGEN_SCATTER(M, 8, 2, w7);
+  GAGEN_SCATTER(out_M, 8, 2, w7);
   w15 = w15 * w16;
   w9 = w9 * w17;
   w15 = w15 + w9;
   w0 = w0 * w15;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w15 = gagen_v_splat(0.0009000000000001732);
   w9 = w5 * w5;
   w1 = w6 * w6;
@@ -816,14 +816,14 @@ static void leap_hand_sphere_index_fk_jacobian_block(const double *restrict q, d
   w22 = w29 * w18;
   w24 = w24 - w22;
   w24 = w2 * w24;
-  GAGEN_SCATTER(M, 8, 4, w24);
+  GAGEN_SCATTER(out_M, 8, 4, w24);
   w24 = w31 * w0;
   w22 = w29 * w14;
   w24 = w24 - w22;
   w22 = w1 * w18;
   w24 = w24 - w22;
   w24 = w2 * w24;
-  GAGEN_SCATTER(M, 8, 5, w24);
+  GAGEN_SCATTER(out_M, 8, 5, w24);
   w24 = w29 * w7;
   w22 = w1 * w0;
   w24 = w24 + w22;
@@ -831,40 +831,40 @@ static void leap_hand_sphere_index_fk_jacobian_block(const double *restrict q, d
   w24 = w24 + w18;
   w24 = w2 * w24;
   w24 = -w24;
-  GAGEN_SCATTER(M, 8, 6, w24);
+  GAGEN_SCATTER(out_M, 8, 6, w24);
   w7 = w1 * w7;
   w0 = w29 * w0;
   w7 = w7 - w0;
   w14 = w31 * w14;
   w7 = w7 - w14;
   w7 = w2 * w7;
-  GAGEN_SCATTER(M, 8, 7, w7);
+  GAGEN_SCATTER(out_M, 8, 7, w7);
   w7 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w7);
-  GAGEN_SCATTER(P, 5, 1, w29);
-  GAGEN_SCATTER(P, 5, 2, w1);
-  GAGEN_SCATTER(P, 5, 3, w31);
+  GAGEN_SCATTER(out_P, 5, 0, w7);
+  GAGEN_SCATTER(out_P, 5, 1, w29);
+  GAGEN_SCATTER(out_P, 5, 2, w1);
+  GAGEN_SCATTER(out_P, 5, 3, w31);
   w29 = w29 * w29;
   w1 = w1 * w1;
   w29 = w29 + w1;
   w31 = w31 * w31;
   w29 = w29 + w31;
   w2 = w2 * w29;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
   w2 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 24, 0, w2);
-  GAGEN_SCATTER(J_S, 24, 1, w7);
-  GAGEN_SCATTER(J_S, 24, 2, w2);
-  GAGEN_SCATTER(J_S, 24, 3, w16);
-  GAGEN_SCATTER(J_S, 24, 4, w2);
-  GAGEN_SCATTER(J_S, 24, 5, w10);
-  GAGEN_SCATTER(J_S, 24, 6, w26);
-  GAGEN_SCATTER(J_S, 24, 7, w2);
+  GAGEN_SCATTER(out_J_S, 24, 0, w2);
+  GAGEN_SCATTER(out_J_S, 24, 1, w7);
+  GAGEN_SCATTER(out_J_S, 24, 2, w2);
+  GAGEN_SCATTER(out_J_S, 24, 3, w16);
+  GAGEN_SCATTER(out_J_S, 24, 4, w2);
+  GAGEN_SCATTER(out_J_S, 24, 5, w10);
+  GAGEN_SCATTER(out_J_S, 24, 6, w26);
+  GAGEN_SCATTER(out_J_S, 24, 7, w2);
   w2 = -w4;
-  GAGEN_SCATTER(J_S, 24, 8, w2);
+  GAGEN_SCATTER(out_J_S, 24, 8, w2);
   w2 = w11 * w26;
   w2 = -w2;
-  GAGEN_SCATTER(J_S, 24, 9, w2);
+  GAGEN_SCATTER(out_J_S, 24, 9, w2);
   w2 = gagen_v_splat(0.003547624826431273);
   w16 = gagen_v_splat(0.012200000000000008);
   w16 = w16 * w3;
@@ -882,14 +882,14 @@ static void leap_hand_sphere_index_fk_jacobian_block(const double *restrict q, d
   w4 = w4 * w16;
   w2 = w2 + w4;
   w2 = w2 + w2;
-  GAGEN_SCATTER(J_S, 24, 10, w2);
+  GAGEN_SCATTER(out_J_S, 24, 10, w2);
   w2 = gagen_v_splat(0.017115512269798943);
   w2 = w2 * w3;
   w2 = -w2;
-  GAGEN_SCATTER(J_S, 24, 11, w2);
-  GAGEN_SCATTER(J_S, 24, 12, w35);
-  GAGEN_SCATTER(J_S, 24, 13, w9);
-  GAGEN_SCATTER(J_S, 24, 14, w19);
+  GAGEN_SCATTER(out_J_S, 24, 11, w2);
+  GAGEN_SCATTER(out_J_S, 24, 12, w35);
+  GAGEN_SCATTER(out_J_S, 24, 13, w9);
+  GAGEN_SCATTER(out_J_S, 24, 14, w19);
   w2 = gagen_v_splat(0.014299999999999905);
   w3 = w2 * w35;
   w3 = w25 + w3;
@@ -903,22 +903,22 @@ static void leap_hand_sphere_index_fk_jacobian_block(const double *restrict q, d
   w27 = w35 * w16;
   w27 = w27 + w27;
   w4 = w4 - w27;
-  GAGEN_SCATTER(J_S, 24, 15, w4);
+  GAGEN_SCATTER(out_J_S, 24, 15, w4);
   w3 = w19 * w3;
   w2 = w2 * w19;
   w2 = w32 + w2;
   w2 = w2 - w10;
   w4 = w35 * w2;
   w3 = w3 - w4;
-  GAGEN_SCATTER(J_S, 24, 16, w3);
+  GAGEN_SCATTER(out_J_S, 24, 16, w3);
   w16 = w19 * w16;
   w16 = w16 + w16;
   w2 = w9 * w2;
   w16 = w16 - w2;
-  GAGEN_SCATTER(J_S, 24, 17, w16);
-  GAGEN_SCATTER(J_S, 24, 18, w35);
-  GAGEN_SCATTER(J_S, 24, 19, w9);
-  GAGEN_SCATTER(J_S, 24, 20, w19);
+  GAGEN_SCATTER(out_J_S, 24, 17, w16);
+  GAGEN_SCATTER(out_J_S, 24, 18, w35);
+  GAGEN_SCATTER(out_J_S, 24, 19, w9);
+  GAGEN_SCATTER(out_J_S, 24, 20, w19);
   w16 = gagen_v_splat(0.014099999999999826);
   w2 = w16 * w35;
   w25 = w25 + w2;
@@ -932,7 +932,7 @@ static void leap_hand_sphere_index_fk_jacobian_block(const double *restrict q, d
   w11 = w11 - w12;
   w12 = w35 * w11;
   w34 = w34 - w12;
-  GAGEN_SCATTER(J_S, 24, 21, w34);
+  GAGEN_SCATTER(out_J_S, 24, 21, w34);
   w25 = w19 * w25;
   w16 = w16 * w19;
   w32 = w32 + w16;
@@ -941,30 +941,30 @@ static void leap_hand_sphere_index_fk_jacobian_block(const double *restrict q, d
   w32 = w32 - w10;
   w35 = w35 * w32;
   w25 = w25 - w35;
-  GAGEN_SCATTER(J_S, 24, 22, w25);
+  GAGEN_SCATTER(out_J_S, 24, 22, w25);
   w9 = w9 * w32;
   w19 = w19 * w11;
   w9 = w9 - w19;
   w9 = -w9;
-  GAGEN_SCATTER(J_S, 24, 23, w9);
+  GAGEN_SCATTER(out_J_S, 24, 23, w9);
 }
 #endif
 
-void leap_hand_sphere_index_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void leap_hand_sphere_index_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 24 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 24 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 24 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 24 * gagen_a + gagen_o, 1, 0);
     }
-    leap_hand_sphere_index_fk_jacobian_block(q + 4 * s, M + 8 * s, P + 5 * s, J_S + 24 * s);
+    leap_hand_sphere_index_fk_jacobian_block(in_q + 4 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 24 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    leap_hand_sphere_index_fk_jacobian(q + 4 * s, M + 8 * s, P + 5 * s, J_S + 24 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    leap_hand_sphere_index_fk_jacobian(in_q + 4 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 24 * gagen_s);
   }
 }
 
@@ -974,7 +974,7 @@ void leap_hand_sphere_index_fk_jacobian_batch(long n, const double *restrict q, 
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void leap_hand_sphere_index_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void leap_hand_sphere_index_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -982,10 +982,10 @@ static void leap_hand_sphere_index_fk_jacobian_block_columns(long gagen_ld, int 
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(4.0);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 4, 0);
+  w3 = GAGEN_GATHER(in_q, 4, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
-  w5 = GAGEN_GATHER(q, 4, 1);
+  w5 = GAGEN_GATHER(in_q, 4, 1);
   w5 = w2 * w5;
   w6 = gagen_v_sin(w5);
   w7 = w4 * w6;
@@ -998,7 +998,7 @@ static void leap_hand_sphere_index_fk_jacobian_block_columns(long gagen_ld, int 
   w11 = w3 * w5;
   w9 = w9 - w11;
   w9 = w1 * w9;
-  w12 = GAGEN_GATHER(q, 4, 2);
+  w12 = GAGEN_GATHER(in_q, 4, 2);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w14 = w9 * w13;
@@ -1009,7 +1009,7 @@ static void leap_hand_sphere_index_fk_jacobian_block_columns(long gagen_ld, int 
   w12 = gagen_v_sin(w12);
   w16 = w15 * w12;
   w14 = w14 - w16;
-  w16 = GAGEN_GATHER(q, 4, 3);
+  w16 = GAGEN_GATHER(in_q, 4, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -1020,12 +1020,12 @@ static void leap_hand_sphere_index_fk_jacobian_block_columns(long gagen_ld, int 
   w15 = w9 * w16;
   w18 = w18 - w15;
   w18 = w0 * w18;
-  GAGEN_SCATTER(M, 8, 0, w18);
+  GAGEN_SCATTER(out_M, 8, 0, w18);
   w14 = w14 * w16;
   w9 = w9 * w17;
   w14 = w14 + w9;
   w14 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 1, w14);
+  GAGEN_SCATTER(out_M, 8, 1, w14);
   w9 = w10 + w8;
   w9 = w9 - w7;
   w9 = w9 - w11;
@@ -1044,12 +1044,12 @@ static void leap_hand_sphere_index_fk_jacobian_block_columns(long gagen_ld, int 
   w1 = w9 * w16;
   w7 = w7 - w1;
   w7 = w0 * w7;
-  GAGEN_SCATTER(M, 8, 2, w7);
+  GAGEN_SCATTER(out_M, 8, 2, w7);
   w15 = w15 * w16;
   w9 = w9 * w17;
   w15 = w15 + w9;
   w0 = w0 * w15;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w15 = gagen_v_splat(0.0009000000000001732);
   w9 = w5 * w5;
   w1 = w6 * w6;
@@ -1158,14 +1158,14 @@ static void leap_hand_sphere_index_fk_jacobian_block_columns(long gagen_ld, int 
   w22 = w29 * w18;
   w24 = w24 - w22;
   w24 = w2 * w24;
-  GAGEN_SCATTER(M, 8, 4, w24);
+  GAGEN_SCATTER(out_M, 8, 4, w24);
   w24 = w31 * w0;
   w22 = w29 * w14;
   w24 = w24 - w22;
   w22 = w1 * w18;
   w24 = w24 - w22;
   w24 = w2 * w24;
-  GAGEN_SCATTER(M, 8, 5, w24);
+  GAGEN_SCATTER(out_M, 8, 5, w24);
   w24 = w29 * w7;
   w22 = w1 * w0;
   w24 = w24 + w22;
@@ -1173,40 +1173,40 @@ static void leap_hand_sphere_index_fk_jacobian_block_columns(long gagen_ld, int 
   w24 = w24 + w18;
   w24 = w2 * w24;
   w24 = -w24;
-  GAGEN_SCATTER(M, 8, 6, w24);
+  GAGEN_SCATTER(out_M, 8, 6, w24);
   w7 = w1 * w7;
   w0 = w29 * w0;
   w7 = w7 - w0;
   w14 = w31 * w14;
   w7 = w7 - w14;
   w7 = w2 * w7;
-  GAGEN_SCATTER(M, 8, 7, w7);
+  GAGEN_SCATTER(out_M, 8, 7, w7);
   w7 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w7);
-  GAGEN_SCATTER(P, 5, 1, w29);
-  GAGEN_SCATTER(P, 5, 2, w1);
-  GAGEN_SCATTER(P, 5, 3, w31);
+  GAGEN_SCATTER(out_P, 5, 0, w7);
+  GAGEN_SCATTER(out_P, 5, 1, w29);
+  GAGEN_SCATTER(out_P, 5, 2, w1);
+  GAGEN_SCATTER(out_P, 5, 3, w31);
   w29 = w29 * w29;
   w1 = w1 * w1;
   w29 = w29 + w1;
   w31 = w31 * w31;
   w29 = w29 + w31;
   w2 = w2 * w29;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
   w2 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 24, 0, w2);
-  GAGEN_SCATTER(J_S, 24, 1, w7);
-  GAGEN_SCATTER(J_S, 24, 2, w2);
-  GAGEN_SCATTER(J_S, 24, 3, w16);
-  GAGEN_SCATTER(J_S, 24, 4, w2);
-  GAGEN_SCATTER(J_S, 24, 5, w10);
-  GAGEN_SCATTER(J_S, 24, 6, w26);
-  GAGEN_SCATTER(J_S, 24, 7, w2);
+  GAGEN_SCATTER(out_J_S, 24, 0, w2);
+  GAGEN_SCATTER(out_J_S, 24, 1, w7);
+  GAGEN_SCATTER(out_J_S, 24, 2, w2);
+  GAGEN_SCATTER(out_J_S, 24, 3, w16);
+  GAGEN_SCATTER(out_J_S, 24, 4, w2);
+  GAGEN_SCATTER(out_J_S, 24, 5, w10);
+  GAGEN_SCATTER(out_J_S, 24, 6, w26);
+  GAGEN_SCATTER(out_J_S, 24, 7, w2);
   w2 = -w4;
-  GAGEN_SCATTER(J_S, 24, 8, w2);
+  GAGEN_SCATTER(out_J_S, 24, 8, w2);
   w2 = w11 * w26;
   w2 = -w2;
-  GAGEN_SCATTER(J_S, 24, 9, w2);
+  GAGEN_SCATTER(out_J_S, 24, 9, w2);
   w2 = gagen_v_splat(0.003547624826431273);
   w16 = gagen_v_splat(0.012200000000000008);
   w16 = w16 * w3;
@@ -1224,14 +1224,14 @@ static void leap_hand_sphere_index_fk_jacobian_block_columns(long gagen_ld, int 
   w4 = w4 * w16;
   w2 = w2 + w4;
   w2 = w2 + w2;
-  GAGEN_SCATTER(J_S, 24, 10, w2);
+  GAGEN_SCATTER(out_J_S, 24, 10, w2);
   w2 = gagen_v_splat(0.017115512269798943);
   w2 = w2 * w3;
   w2 = -w2;
-  GAGEN_SCATTER(J_S, 24, 11, w2);
-  GAGEN_SCATTER(J_S, 24, 12, w35);
-  GAGEN_SCATTER(J_S, 24, 13, w9);
-  GAGEN_SCATTER(J_S, 24, 14, w19);
+  GAGEN_SCATTER(out_J_S, 24, 11, w2);
+  GAGEN_SCATTER(out_J_S, 24, 12, w35);
+  GAGEN_SCATTER(out_J_S, 24, 13, w9);
+  GAGEN_SCATTER(out_J_S, 24, 14, w19);
   w2 = gagen_v_splat(0.014299999999999905);
   w3 = w2 * w35;
   w3 = w25 + w3;
@@ -1245,22 +1245,22 @@ static void leap_hand_sphere_index_fk_jacobian_block_columns(long gagen_ld, int 
   w27 = w35 * w16;
   w27 = w27 + w27;
   w4 = w4 - w27;
-  GAGEN_SCATTER(J_S, 24, 15, w4);
+  GAGEN_SCATTER(out_J_S, 24, 15, w4);
   w3 = w19 * w3;
   w2 = w2 * w19;
   w2 = w32 + w2;
   w2 = w2 - w10;
   w4 = w35 * w2;
   w3 = w3 - w4;
-  GAGEN_SCATTER(J_S, 24, 16, w3);
+  GAGEN_SCATTER(out_J_S, 24, 16, w3);
   w16 = w19 * w16;
   w16 = w16 + w16;
   w2 = w9 * w2;
   w16 = w16 - w2;
-  GAGEN_SCATTER(J_S, 24, 17, w16);
-  GAGEN_SCATTER(J_S, 24, 18, w35);
-  GAGEN_SCATTER(J_S, 24, 19, w9);
-  GAGEN_SCATTER(J_S, 24, 20, w19);
+  GAGEN_SCATTER(out_J_S, 24, 17, w16);
+  GAGEN_SCATTER(out_J_S, 24, 18, w35);
+  GAGEN_SCATTER(out_J_S, 24, 19, w9);
+  GAGEN_SCATTER(out_J_S, 24, 20, w19);
   w16 = gagen_v_splat(0.014099999999999826);
   w2 = w16 * w35;
   w25 = w25 + w2;
@@ -1274,7 +1274,7 @@ static void leap_hand_sphere_index_fk_jacobian_block_columns(long gagen_ld, int 
   w11 = w11 - w12;
   w12 = w35 * w11;
   w34 = w34 - w12;
-  GAGEN_SCATTER(J_S, 24, 21, w34);
+  GAGEN_SCATTER(out_J_S, 24, 21, w34);
   w25 = w19 * w25;
   w16 = w16 * w19;
   w32 = w32 + w16;
@@ -1283,12 +1283,12 @@ static void leap_hand_sphere_index_fk_jacobian_block_columns(long gagen_ld, int 
   w32 = w32 - w10;
   w35 = w35 * w32;
   w25 = w25 - w35;
-  GAGEN_SCATTER(J_S, 24, 22, w25);
+  GAGEN_SCATTER(out_J_S, 24, 22, w25);
   w9 = w9 * w32;
   w19 = w19 * w11;
   w9 = w9 - w19;
   w9 = -w9;
-  GAGEN_SCATTER(J_S, 24, 23, w9);
+  GAGEN_SCATTER(out_J_S, 24, 23, w9);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -1296,21 +1296,21 @@ static void leap_hand_sphere_index_fk_jacobian_block_columns(long gagen_ld, int 
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void leap_hand_sphere_index_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void leap_hand_sphere_index_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 37L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    leap_hand_sphere_index_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 37L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    leap_hand_sphere_index_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  leap_hand_sphere_index_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  leap_hand_sphere_index_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }
 
 #if GAGEN_SIMD
 /* chain index: motor, end point, every Jacobian and the tool z-axis line: GAGEN_W consecutive samples at once */
-static void leap_hand_sphere_index_jacobians_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S, double *restrict J_b, double *restrict J_A, double *restrict J_P, double *restrict L, double *restrict J_L) {
+static void leap_hand_sphere_index_jacobians_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S, double *restrict out_J_b, double *restrict out_J_A, double *restrict out_J_P, double *restrict out_L, double *restrict out_J_L) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -1324,10 +1324,10 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(4.0);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 4, 0);
+  w3 = GAGEN_GATHER(in_q, 4, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
-  w5 = GAGEN_GATHER(q, 4, 1);
+  w5 = GAGEN_GATHER(in_q, 4, 1);
   w5 = w2 * w5;
   w6 = gagen_v_sin(w5);
   w7 = w4 * w6;
@@ -1340,7 +1340,7 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w11 = w3 * w5;
   w9 = w9 - w11;
   w9 = w1 * w9;
-  w12 = GAGEN_GATHER(q, 4, 2);
+  w12 = GAGEN_GATHER(in_q, 4, 2);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w14 = w9 * w13;
@@ -1351,7 +1351,7 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w12 = gagen_v_sin(w12);
   w16 = w15 * w12;
   w14 = w14 - w16;
-  w16 = GAGEN_GATHER(q, 4, 3);
+  w16 = GAGEN_GATHER(in_q, 4, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -1362,12 +1362,12 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w15 = w9 * w16;
   w18 = w18 - w15;
   w15 = w0 * w18;
-  GAGEN_SCATTER(M, 8, 0, w15);
+  GAGEN_SCATTER(out_M, 8, 0, w15);
   w14 = w14 * w16;
   w9 = w9 * w17;
   w14 = w14 + w9;
   w9 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 1, w9);
+  GAGEN_SCATTER(out_M, 8, 1, w9);
   w19 = w10 + w8;
   w19 = w19 - w7;
   w19 = w19 - w11;
@@ -1386,12 +1386,12 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w1 = w19 * w16;
   w11 = w7 - w1;
   w8 = w0 * w11;
-  GAGEN_SCATTER(M, 8, 2, w8);
+  GAGEN_SCATTER(out_M, 8, 2, w8);
   w20 = w20 * w16;
   w19 = w19 * w17;
   w20 = w20 + w19;
   w0 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w19 = gagen_v_splat(0.0009000000000001732);
   w10 = w5 * w5;
   w21 = w6 * w6;
@@ -1500,14 +1500,14 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w29 = w49 * w15;
   w46 = w46 - w29;
   w46 = w2 * w46;
-  GAGEN_SCATTER(M, 8, 4, w46);
+  GAGEN_SCATTER(out_M, 8, 4, w46);
   w17 = w40 * w0;
   w42 = w49 * w9;
   w17 = w17 - w42;
   w42 = w21 * w15;
   w17 = w17 - w42;
   w17 = w2 * w17;
-  GAGEN_SCATTER(M, 8, 5, w17);
+  GAGEN_SCATTER(out_M, 8, 5, w17);
   w42 = w49 * w8;
   w13 = w21 * w0;
   w42 = w42 + w13;
@@ -1515,40 +1515,40 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w42 = w42 + w13;
   w42 = w2 * w42;
   w13 = -w42;
-  GAGEN_SCATTER(M, 8, 6, w13);
+  GAGEN_SCATTER(out_M, 8, 6, w13);
   w13 = w21 * w8;
   w51 = w49 * w0;
   w13 = w13 - w51;
   w51 = w40 * w9;
   w13 = w13 - w51;
   w13 = w2 * w13;
-  GAGEN_SCATTER(M, 8, 7, w13);
+  GAGEN_SCATTER(out_M, 8, 7, w13);
   w51 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w51);
-  GAGEN_SCATTER(P, 5, 1, w49);
-  GAGEN_SCATTER(P, 5, 2, w21);
-  GAGEN_SCATTER(P, 5, 3, w40);
+  GAGEN_SCATTER(out_P, 5, 0, w51);
+  GAGEN_SCATTER(out_P, 5, 1, w49);
+  GAGEN_SCATTER(out_P, 5, 2, w21);
+  GAGEN_SCATTER(out_P, 5, 3, w40);
   w52 = w49 * w49;
   w53 = w21 * w21;
   w52 = w52 + w53;
   w53 = w40 * w40;
   w52 = w52 + w53;
   w52 = w2 * w52;
-  GAGEN_SCATTER(P, 5, 4, w52);
+  GAGEN_SCATTER(out_P, 5, 4, w52);
   w52 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 24, 0, w52);
-  GAGEN_SCATTER(J_S, 24, 1, w51);
-  GAGEN_SCATTER(J_S, 24, 2, w52);
-  GAGEN_SCATTER(J_S, 24, 3, w16);
-  GAGEN_SCATTER(J_S, 24, 4, w52);
-  GAGEN_SCATTER(J_S, 24, 5, w24);
-  GAGEN_SCATTER(J_S, 24, 6, w32);
-  GAGEN_SCATTER(J_S, 24, 7, w52);
+  GAGEN_SCATTER(out_J_S, 24, 0, w52);
+  GAGEN_SCATTER(out_J_S, 24, 1, w51);
+  GAGEN_SCATTER(out_J_S, 24, 2, w52);
+  GAGEN_SCATTER(out_J_S, 24, 3, w16);
+  GAGEN_SCATTER(out_J_S, 24, 4, w52);
+  GAGEN_SCATTER(out_J_S, 24, 5, w24);
+  GAGEN_SCATTER(out_J_S, 24, 6, w32);
+  GAGEN_SCATTER(out_J_S, 24, 7, w52);
   w51 = -w35;
-  GAGEN_SCATTER(J_S, 24, 8, w51);
+  GAGEN_SCATTER(out_J_S, 24, 8, w51);
   w51 = w22 * w32;
   w53 = -w51;
-  GAGEN_SCATTER(J_S, 24, 9, w53);
+  GAGEN_SCATTER(out_J_S, 24, 9, w53);
   w53 = gagen_v_splat(0.003547624826431273);
   w54 = gagen_v_splat(0.012200000000000008);
   w54 = w54 * w3;
@@ -1566,14 +1566,14 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w54 = w35 * w54;
   w53 = w53 + w54;
   w53 = w53 + w53;
-  GAGEN_SCATTER(J_S, 24, 10, w53);
+  GAGEN_SCATTER(out_J_S, 24, 10, w53);
   w54 = gagen_v_splat(0.017115512269798943);
   w54 = w54 * w3;
   w3 = -w54;
-  GAGEN_SCATTER(J_S, 24, 11, w3);
-  GAGEN_SCATTER(J_S, 24, 12, w44);
-  GAGEN_SCATTER(J_S, 24, 13, w10);
-  GAGEN_SCATTER(J_S, 24, 14, w50);
+  GAGEN_SCATTER(out_J_S, 24, 11, w3);
+  GAGEN_SCATTER(out_J_S, 24, 12, w44);
+  GAGEN_SCATTER(out_J_S, 24, 13, w10);
+  GAGEN_SCATTER(out_J_S, 24, 14, w50);
   w3 = gagen_v_splat(0.014299999999999905);
   w47 = w3 * w44;
   w47 = w33 + w47;
@@ -1587,22 +1587,22 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w4 = w44 * w56;
   w4 = w4 + w4;
   w5 = w55 - w4;
-  GAGEN_SCATTER(J_S, 24, 15, w5);
+  GAGEN_SCATTER(out_J_S, 24, 15, w5);
   w47 = w50 * w47;
   w3 = w3 * w50;
   w3 = w48 + w3;
   w3 = w3 - w24;
   w57 = w44 * w3;
   w58 = w47 - w57;
-  GAGEN_SCATTER(J_S, 24, 16, w58);
+  GAGEN_SCATTER(out_J_S, 24, 16, w58);
   w56 = w50 * w56;
   w56 = w56 + w56;
   w3 = w10 * w3;
   w59 = w56 - w3;
-  GAGEN_SCATTER(J_S, 24, 17, w59);
-  GAGEN_SCATTER(J_S, 24, 18, w44);
-  GAGEN_SCATTER(J_S, 24, 19, w10);
-  GAGEN_SCATTER(J_S, 24, 20, w50);
+  GAGEN_SCATTER(out_J_S, 24, 17, w59);
+  GAGEN_SCATTER(out_J_S, 24, 18, w44);
+  GAGEN_SCATTER(out_J_S, 24, 19, w10);
+  GAGEN_SCATTER(out_J_S, 24, 20, w50);
   w60 = gagen_v_splat(0.014099999999999826);
   w61 = w60 * w44;
   w33 = w33 + w61;
@@ -1616,7 +1616,7 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w23 = w23 - w12;
   w12 = w44 * w23;
   w61 = w61 - w12;
-  GAGEN_SCATTER(J_S, 24, 21, w61);
+  GAGEN_SCATTER(out_J_S, 24, 21, w61);
   w33 = w50 * w33;
   w60 = w60 * w50;
   w48 = w48 + w60;
@@ -1625,17 +1625,17 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w48 = w48 - w24;
   w44 = w44 * w48;
   w27 = w33 - w44;
-  GAGEN_SCATTER(J_S, 24, 22, w27);
+  GAGEN_SCATTER(out_J_S, 24, 22, w27);
   w48 = w10 * w48;
   w50 = w50 * w23;
   w23 = w48 - w50;
   w6 = -w23;
-  GAGEN_SCATTER(J_S, 24, 23, w6);
+  GAGEN_SCATTER(out_J_S, 24, 23, w6);
   w6 = w9 * w8;
   w60 = w15 * w0;
   w12 = w6 - w60;
   w26 = w12 + w12;
-  GAGEN_SCATTER(J_b, 24, 0, w26);
+  GAGEN_SCATTER(out_J_b, 24, 0, w26);
   w62 = w8 * w8;
   w63 = w15 * w15;
   w64 = w62 + w63;
@@ -1643,12 +1643,12 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w64 = w64 - w65;
   w66 = w9 * w9;
   w64 = w64 - w66;
-  GAGEN_SCATTER(J_b, 24, 1, w64);
+  GAGEN_SCATTER(out_J_b, 24, 1, w64);
   w64 = w8 * w0;
   w67 = w15 * w9;
   w64 = w64 + w67;
   w64 = w64 + w64;
-  GAGEN_SCATTER(J_b, 24, 2, w64);
+  GAGEN_SCATTER(out_J_b, 24, 2, w64);
   w64 = w8 * w46;
   w67 = w15 * w42;
   w64 = w64 - w67;
@@ -1686,7 +1686,7 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w69 = w69 - w67;
   w67 = w69 * w0;
   w64 = w64 - w67;
-  GAGEN_SCATTER(J_b, 24, 3, w64);
+  GAGEN_SCATTER(out_J_b, 24, 3, w64);
   w64 = w8 * w17;
   w67 = w0 * w46;
   w29 = w64 + w67;
@@ -1702,7 +1702,7 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w29 = w29 + w70;
   w70 = w7 * w0;
   w29 = w29 - w70;
-  GAGEN_SCATTER(J_b, 24, 4, w29);
+  GAGEN_SCATTER(out_J_b, 24, 4, w29);
   w29 = w0 * w13;
   w70 = w8 * w42;
   w71 = w29 - w70;
@@ -1718,7 +1718,7 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w71 = w71 - w73;
   w74 = w69 * w9;
   w71 = w71 - w74;
-  GAGEN_SCATTER(J_b, 24, 5, w71);
+  GAGEN_SCATTER(out_J_b, 24, 5, w71);
   w71 = w9 * w32;
   w74 = w0 * w35;
   w71 = w71 - w74;
@@ -1738,7 +1738,7 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w77 = w77 + w78;
   w78 = w77 * w0;
   w74 = w74 - w78;
-  GAGEN_SCATTER(J_b, 24, 6, w74);
+  GAGEN_SCATTER(out_J_b, 24, 6, w74);
   w74 = w71 * w8;
   w78 = w75 * w0;
   w74 = w74 + w78;
@@ -1746,7 +1746,7 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w74 = w74 + w78;
   w78 = w76 * w9;
   w74 = w74 + w78;
-  GAGEN_SCATTER(J_b, 24, 7, w74);
+  GAGEN_SCATTER(out_J_b, 24, 7, w74);
   w74 = w71 * w0;
   w78 = w77 * w9;
   w74 = w74 + w78;
@@ -1754,7 +1754,7 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w74 = w74 - w78;
   w78 = w75 * w8;
   w74 = w74 - w78;
-  GAGEN_SCATTER(J_b, 24, 8, w74);
+  GAGEN_SCATTER(out_J_b, 24, 8, w74);
   w74 = w71 * w46;
   w78 = w75 * w17;
   w74 = w74 + w78;
@@ -1798,7 +1798,7 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w81 = w81 + w82;
   w82 = w81 * w0;
   w74 = w74 - w82;
-  GAGEN_SCATTER(J_b, 24, 9, w74);
+  GAGEN_SCATTER(out_J_b, 24, 9, w74);
   w74 = w71 * w17;
   w82 = w77 * w13;
   w74 = w74 + w82;
@@ -1814,7 +1814,7 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w74 = w74 - w82;
   w82 = w80 * w0;
   w74 = w74 - w82;
-  GAGEN_SCATTER(J_b, 24, 10, w74);
+  GAGEN_SCATTER(out_J_b, 24, 10, w74);
   w74 = w78 * w8;
   w82 = w71 * w42;
   w74 = w74 - w82;
@@ -1830,7 +1830,7 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w74 = w74 + w82;
   w82 = w81 * w9;
   w74 = w74 - w82;
-  GAGEN_SCATTER(J_b, 24, 11, w74);
+  GAGEN_SCATTER(out_J_b, 24, 11, w74);
   w74 = w9 * w25;
   w82 = w74 * w35;
   w83 = w8 * w10;
@@ -1862,7 +1862,7 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w87 = w87 - w74;
   w74 = w87 * w0;
   w84 = w84 - w74;
-  GAGEN_SCATTER(J_b, 24, 12, w84);
+  GAGEN_SCATTER(out_J_b, 24, 12, w84);
   w74 = w82 * w8;
   w83 = w86 * w0;
   w74 = w74 + w83;
@@ -1870,7 +1870,7 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w74 = w74 + w83;
   w83 = w85 * w9;
   w74 = w74 - w83;
-  GAGEN_SCATTER(J_b, 24, 13, w74);
+  GAGEN_SCATTER(out_J_b, 24, 13, w74);
   w83 = w82 * w0;
   w88 = w87 * w9;
   w83 = w83 + w88;
@@ -1878,7 +1878,7 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w83 = w83 + w88;
   w88 = w86 * w8;
   w83 = w83 - w88;
-  GAGEN_SCATTER(J_b, 24, 14, w83);
+  GAGEN_SCATTER(out_J_b, 24, 14, w83);
   w88 = w82 * w46;
   w89 = w86 * w17;
   w88 = w88 + w89;
@@ -1942,7 +1942,7 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w105 = w105 + w98;
   w107 = w105 * w0;
   w95 = w95 - w107;
-  GAGEN_SCATTER(J_b, 24, 15, w95);
+  GAGEN_SCATTER(out_J_b, 24, 15, w95);
   w95 = w82 * w17;
   w107 = w87 * w13;
   w95 = w95 + w107;
@@ -1958,7 +1958,7 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w107 = w107 - w108;
   w109 = w103 * w0;
   w107 = w107 - w109;
-  GAGEN_SCATTER(J_b, 24, 16, w107);
+  GAGEN_SCATTER(out_J_b, 24, 16, w107);
   w107 = w89 * w8;
   w109 = w82 * w42;
   w107 = w107 - w109;
@@ -1974,10 +1974,10 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w107 = w107 - w112;
   w113 = w105 * w9;
   w107 = w107 - w113;
-  GAGEN_SCATTER(J_b, 24, 17, w107);
-  GAGEN_SCATTER(J_b, 24, 18, w84);
-  GAGEN_SCATTER(J_b, 24, 19, w74);
-  GAGEN_SCATTER(J_b, 24, 20, w83);
+  GAGEN_SCATTER(out_J_b, 24, 17, w107);
+  GAGEN_SCATTER(out_J_b, 24, 18, w84);
+  GAGEN_SCATTER(out_J_b, 24, 19, w74);
+  GAGEN_SCATTER(out_J_b, 24, 20, w83);
   w83 = w15 * w61;
   w83 = w83 + w91;
   w83 = w83 - w92;
@@ -2019,7 +2019,7 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w93 = w93 + w98;
   w98 = w93 * w0;
   w88 = w88 - w98;
-  GAGEN_SCATTER(J_b, 24, 21, w88);
+  GAGEN_SCATTER(out_J_b, 24, 21, w88);
   w88 = w83 * w9;
   w95 = w95 + w88;
   w88 = w96 * w15;
@@ -2029,7 +2029,7 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w95 = w95 - w108;
   w108 = w102 * w0;
   w95 = w95 - w108;
-  GAGEN_SCATTER(J_b, 24, 22, w95);
+  GAGEN_SCATTER(out_J_b, 24, 22, w95);
   w95 = w83 * w8;
   w95 = w95 - w109;
   w109 = w96 * w0;
@@ -2041,130 +2041,130 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w95 = w95 - w112;
   w112 = w93 * w9;
   w95 = w95 - w112;
-  GAGEN_SCATTER(J_b, 24, 23, w95);
+  GAGEN_SCATTER(out_J_b, 24, 23, w95);
   w95 = gagen_v_splat(0.0625);
   w11 = w95 * w11;
-  GAGEN_SCATTER(J_A, 32, 0, w11);
+  GAGEN_SCATTER(out_J_A, 32, 0, w11);
   w20 = w95 * w20;
-  GAGEN_SCATTER(J_A, 32, 1, w20);
+  GAGEN_SCATTER(out_J_A, 32, 1, w20);
   w18 = w95 * w18;
   w18 = -w18;
-  GAGEN_SCATTER(J_A, 32, 2, w18);
+  GAGEN_SCATTER(out_J_A, 32, 2, w18);
   w95 = w95 * w14;
   w95 = -w95;
-  GAGEN_SCATTER(J_A, 32, 3, w95);
+  GAGEN_SCATTER(out_J_A, 32, 3, w95);
   w68 = w2 * w68;
   w68 = -w68;
-  GAGEN_SCATTER(J_A, 32, 4, w68);
+  GAGEN_SCATTER(out_J_A, 32, 4, w68);
   w1 = w2 * w1;
   w1 = -w1;
-  GAGEN_SCATTER(J_A, 32, 5, w1);
+  GAGEN_SCATTER(out_J_A, 32, 5, w1);
   w7 = w2 * w7;
   w7 = -w7;
-  GAGEN_SCATTER(J_A, 32, 6, w7);
+  GAGEN_SCATTER(out_J_A, 32, 6, w7);
   w69 = w2 * w69;
-  GAGEN_SCATTER(J_A, 32, 7, w69);
+  GAGEN_SCATTER(out_J_A, 32, 7, w69);
   w71 = w2 * w71;
-  GAGEN_SCATTER(J_A, 32, 8, w71);
+  GAGEN_SCATTER(out_J_A, 32, 8, w71);
   w75 = w2 * w75;
   w75 = -w75;
-  GAGEN_SCATTER(J_A, 32, 9, w75);
+  GAGEN_SCATTER(out_J_A, 32, 9, w75);
   w77 = w2 * w77;
   w77 = -w77;
-  GAGEN_SCATTER(J_A, 32, 10, w77);
+  GAGEN_SCATTER(out_J_A, 32, 10, w77);
   w76 = w2 * w76;
-  GAGEN_SCATTER(J_A, 32, 11, w76);
+  GAGEN_SCATTER(out_J_A, 32, 11, w76);
   w78 = w2 * w78;
   w78 = -w78;
-  GAGEN_SCATTER(J_A, 32, 12, w78);
+  GAGEN_SCATTER(out_J_A, 32, 12, w78);
   w79 = w2 * w79;
   w79 = -w79;
-  GAGEN_SCATTER(J_A, 32, 13, w79);
+  GAGEN_SCATTER(out_J_A, 32, 13, w79);
   w80 = w2 * w80;
   w80 = -w80;
-  GAGEN_SCATTER(J_A, 32, 14, w80);
+  GAGEN_SCATTER(out_J_A, 32, 14, w80);
   w81 = w2 * w81;
-  GAGEN_SCATTER(J_A, 32, 15, w81);
+  GAGEN_SCATTER(out_J_A, 32, 15, w81);
   w82 = w2 * w82;
-  GAGEN_SCATTER(J_A, 32, 16, w82);
+  GAGEN_SCATTER(out_J_A, 32, 16, w82);
   w86 = w2 * w86;
   w86 = -w86;
-  GAGEN_SCATTER(J_A, 32, 17, w86);
+  GAGEN_SCATTER(out_J_A, 32, 17, w86);
   w87 = w2 * w87;
   w87 = -w87;
-  GAGEN_SCATTER(J_A, 32, 18, w87);
+  GAGEN_SCATTER(out_J_A, 32, 18, w87);
   w85 = w2 * w85;
   w85 = -w85;
-  GAGEN_SCATTER(J_A, 32, 19, w85);
+  GAGEN_SCATTER(out_J_A, 32, 19, w85);
   w89 = w2 * w89;
   w89 = -w89;
-  GAGEN_SCATTER(J_A, 32, 20, w89);
+  GAGEN_SCATTER(out_J_A, 32, 20, w89);
   w97 = w2 * w97;
   w97 = -w97;
-  GAGEN_SCATTER(J_A, 32, 21, w97);
+  GAGEN_SCATTER(out_J_A, 32, 21, w97);
   w103 = w2 * w103;
   w103 = -w103;
-  GAGEN_SCATTER(J_A, 32, 22, w103);
+  GAGEN_SCATTER(out_J_A, 32, 22, w103);
   w105 = w2 * w105;
-  GAGEN_SCATTER(J_A, 32, 23, w105);
-  GAGEN_SCATTER(J_A, 32, 24, w82);
-  GAGEN_SCATTER(J_A, 32, 25, w86);
-  GAGEN_SCATTER(J_A, 32, 26, w87);
-  GAGEN_SCATTER(J_A, 32, 27, w85);
+  GAGEN_SCATTER(out_J_A, 32, 23, w105);
+  GAGEN_SCATTER(out_J_A, 32, 24, w82);
+  GAGEN_SCATTER(out_J_A, 32, 25, w86);
+  GAGEN_SCATTER(out_J_A, 32, 26, w87);
+  GAGEN_SCATTER(out_J_A, 32, 27, w85);
   w83 = w2 * w83;
   w83 = -w83;
-  GAGEN_SCATTER(J_A, 32, 28, w83);
+  GAGEN_SCATTER(out_J_A, 32, 28, w83);
   w96 = w2 * w96;
   w96 = -w96;
-  GAGEN_SCATTER(J_A, 32, 29, w96);
+  GAGEN_SCATTER(out_J_A, 32, 29, w96);
   w102 = w2 * w102;
   w102 = -w102;
-  GAGEN_SCATTER(J_A, 32, 30, w102);
+  GAGEN_SCATTER(out_J_A, 32, 30, w102);
   w2 = w2 * w93;
-  GAGEN_SCATTER(J_A, 32, 31, w2);
-  GAGEN_SCATTER(J_P, 20, 0, w52);
+  GAGEN_SCATTER(out_J_A, 32, 31, w2);
+  GAGEN_SCATTER(out_J_P, 20, 0, w52);
   w45 = w45 - w37;
   w45 = w45 - w31;
   w45 = w45 - w34;
   w45 = w45 - w36;
   w45 = w45 - w39;
   w45 = w45 - w43;
-  GAGEN_SCATTER(J_P, 20, 1, w45);
-  GAGEN_SCATTER(J_P, 20, 2, w52);
+  GAGEN_SCATTER(out_J_P, 20, 1, w45);
+  GAGEN_SCATTER(out_J_P, 20, 2, w52);
   w38 = w38 - w19;
   w38 = w38 - w28;
-  GAGEN_SCATTER(J_P, 20, 3, w38);
+  GAGEN_SCATTER(out_J_P, 20, 3, w38);
   w38 = w16 * w49;
   w24 = w24 * w40;
   w38 = w38 + w24;
-  GAGEN_SCATTER(J_P, 20, 4, w38);
-  GAGEN_SCATTER(J_P, 20, 5, w52);
+  GAGEN_SCATTER(out_J_P, 20, 4, w38);
+  GAGEN_SCATTER(out_J_P, 20, 5, w52);
   w38 = w21 * w32;
   w38 = w38 + w51;
   w38 = -w38;
-  GAGEN_SCATTER(J_P, 20, 6, w38);
+  GAGEN_SCATTER(out_J_P, 20, 6, w38);
   w38 = w49 * w32;
   w51 = w38 + w53;
   w24 = w40 * w35;
   w51 = w51 + w24;
-  GAGEN_SCATTER(J_P, 20, 7, w51);
+  GAGEN_SCATTER(out_J_P, 20, 7, w51);
   w51 = w21 * w35;
   w51 = w51 + w54;
   w51 = -w51;
-  GAGEN_SCATTER(J_P, 20, 8, w51);
+  GAGEN_SCATTER(out_J_P, 20, 8, w51);
   w51 = w21 * w53;
   w24 = w24 + w38;
   w24 = w22 * w24;
   w51 = w51 - w24;
-  GAGEN_SCATTER(J_P, 20, 9, w51);
-  GAGEN_SCATTER(J_P, 20, 10, w52);
+  GAGEN_SCATTER(out_J_P, 20, 9, w51);
+  GAGEN_SCATTER(out_J_P, 20, 10, w52);
   w51 = w21 * w25;
   w24 = w51 * w35;
   w55 = w55 - w24;
   w38 = w40 * w10;
   w55 = w55 - w38;
   w55 = w55 - w4;
-  GAGEN_SCATTER(J_P, 20, 11, w55);
+  GAGEN_SCATTER(out_J_P, 20, 11, w55);
   w55 = w49 * w25;
   w55 = w55 * w35;
   w47 = w47 + w55;
@@ -2172,46 +2172,46 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w57 = w40 * w25;
   w57 = w57 * w32;
   w47 = w47 - w57;
-  GAGEN_SCATTER(J_P, 20, 12, w47);
+  GAGEN_SCATTER(out_J_P, 20, 12, w47);
   w47 = w49 * w10;
   w51 = w51 * w32;
   w47 = w47 + w51;
   w56 = w47 + w56;
   w56 = w56 - w3;
-  GAGEN_SCATTER(J_P, 20, 13, w56);
+  GAGEN_SCATTER(out_J_P, 20, 13, w56);
   w56 = w49 * w5;
   w3 = w21 * w58;
   w56 = w56 + w3;
   w3 = w40 * w59;
   w56 = w56 + w3;
-  GAGEN_SCATTER(J_P, 20, 14, w56);
-  GAGEN_SCATTER(J_P, 20, 15, w52);
+  GAGEN_SCATTER(out_J_P, 20, 14, w56);
+  GAGEN_SCATTER(out_J_P, 20, 15, w52);
   w24 = w61 - w24;
   w24 = w24 - w38;
-  GAGEN_SCATTER(J_P, 20, 16, w24);
+  GAGEN_SCATTER(out_J_P, 20, 16, w24);
   w33 = w33 + w55;
   w33 = w33 - w44;
   w33 = w33 - w57;
-  GAGEN_SCATTER(J_P, 20, 17, w33);
+  GAGEN_SCATTER(out_J_P, 20, 17, w33);
   w47 = w47 - w48;
   w47 = w47 + w50;
-  GAGEN_SCATTER(J_P, 20, 18, w47);
+  GAGEN_SCATTER(out_J_P, 20, 18, w47);
   w49 = w49 * w61;
   w21 = w21 * w27;
   w49 = w49 + w21;
   w40 = w40 * w23;
   w49 = w49 - w40;
-  GAGEN_SCATTER(J_P, 20, 19, w49);
+  GAGEN_SCATTER(out_J_P, 20, 19, w49);
   w49 = w66 + w63;
   w49 = w49 - w65;
   w49 = w49 - w62;
-  GAGEN_SCATTER(L, 6, 0, w49);
-  GAGEN_SCATTER(L, 6, 1, w26);
+  GAGEN_SCATTER(out_L, 6, 0, w49);
+  GAGEN_SCATTER(out_L, 6, 1, w26);
   w40 = w9 * w0;
   w21 = w15 * w8;
   w40 = w40 + w21;
   w21 = w40 + w40;
-  GAGEN_SCATTER(L, 6, 2, w21);
+  GAGEN_SCATTER(out_L, 6, 2, w21);
   w9 = w9 * w46;
   w0 = w0 * w42;
   w9 = w9 - w0;
@@ -2220,21 +2220,21 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w8 = w8 * w13;
   w9 = w9 - w8;
   w9 = w9 + w9;
-  GAGEN_SCATTER(L, 6, 3, w9);
+  GAGEN_SCATTER(out_L, 6, 3, w9);
   w73 = w73 + w72;
   w73 = w73 - w29;
   w73 = w73 + w70;
   w73 = w73 + w73;
-  GAGEN_SCATTER(L, 6, 4, w73);
+  GAGEN_SCATTER(out_L, 6, 4, w73);
   w70 = w64 - w30;
   w70 = w70 - w41;
   w70 = w70 - w67;
   w70 = w70 + w70;
-  GAGEN_SCATTER(L, 6, 5, w70);
-  GAGEN_SCATTER(J_L, 24, 0, w21);
-  GAGEN_SCATTER(J_L, 24, 1, w52);
+  GAGEN_SCATTER(out_L, 6, 5, w70);
+  GAGEN_SCATTER(out_J_L, 24, 0, w21);
+  GAGEN_SCATTER(out_J_L, 24, 1, w52);
   w52 = -w49;
-  GAGEN_SCATTER(J_L, 24, 2, w52);
+  GAGEN_SCATTER(out_J_L, 24, 2, w52);
   w52 = gagen_v_splat(0.014190499305725092);
   w12 = w52 * w12;
   w41 = w41 + w67;
@@ -2242,34 +2242,34 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w41 = w41 - w64;
   w41 = w41 + w41;
   w12 = w12 + w41;
-  GAGEN_SCATTER(J_L, 24, 3, w12);
+  GAGEN_SCATTER(out_J_L, 24, 3, w12);
   w65 = w65 + w62;
   w65 = w65 - w66;
   w65 = w65 - w63;
   w16 = w16 * w65;
   w52 = w52 * w40;
   w16 = w16 + w52;
-  GAGEN_SCATTER(J_L, 24, 4, w16);
+  GAGEN_SCATTER(out_J_L, 24, 4, w16);
   w16 = gagen_v_splat(0.03744480715692044);
   w60 = w60 - w6;
   w16 = w16 * w60;
   w16 = w16 + w9;
-  GAGEN_SCATTER(J_L, 24, 5, w16);
+  GAGEN_SCATTER(out_J_L, 24, 5, w16);
   w16 = w26 * w35;
-  GAGEN_SCATTER(J_L, 24, 6, w16);
+  GAGEN_SCATTER(out_J_L, 24, 6, w16);
   w60 = w49 * w35;
   w6 = w21 * w32;
   w60 = w60 + w6;
   w60 = -w60;
-  GAGEN_SCATTER(J_L, 24, 7, w60);
+  GAGEN_SCATTER(out_J_L, 24, 7, w60);
   w60 = w26 * w32;
-  GAGEN_SCATTER(J_L, 24, 8, w60);
+  GAGEN_SCATTER(out_J_L, 24, 8, w60);
   w6 = w49 * w53;
   w16 = w22 * w16;
   w6 = w6 - w16;
   w16 = w73 * w32;
   w6 = w6 - w16;
-  GAGEN_SCATTER(J_L, 24, 9, w6);
+  GAGEN_SCATTER(out_J_L, 24, 9, w6);
   w6 = w9 * w32;
   w16 = w49 * w32;
   w52 = w21 * w35;
@@ -2278,28 +2278,28 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w6 = w6 + w16;
   w16 = w70 * w35;
   w6 = w6 + w16;
-  GAGEN_SCATTER(J_L, 24, 10, w6);
+  GAGEN_SCATTER(out_J_L, 24, 10, w6);
   w22 = w22 * w60;
   w60 = w73 * w35;
   w22 = w22 - w60;
   w53 = w21 * w53;
   w22 = w22 - w53;
-  GAGEN_SCATTER(J_L, 24, 11, w22);
+  GAGEN_SCATTER(out_J_L, 24, 11, w22);
   w22 = w21 * w10;
   w53 = w26 * w25;
   w60 = w53 * w32;
   w22 = w22 - w60;
-  GAGEN_SCATTER(J_L, 24, 12, w22);
+  GAGEN_SCATTER(out_J_L, 24, 12, w22);
   w60 = w49 * w25;
   w60 = w60 * w32;
   w6 = w21 * w25;
   w6 = w6 * w35;
   w60 = w60 - w6;
-  GAGEN_SCATTER(J_L, 24, 13, w60);
+  GAGEN_SCATTER(out_J_L, 24, 13, w60);
   w53 = w53 * w35;
   w6 = w49 * w10;
   w53 = w53 - w6;
-  GAGEN_SCATTER(J_L, 24, 14, w53);
+  GAGEN_SCATTER(out_J_L, 24, 14, w53);
   w6 = w49 * w58;
   w16 = w26 * w59;
   w6 = w6 + w16;
@@ -2308,7 +2308,7 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w6 = w6 - w16;
   w52 = w70 * w10;
   w6 = w6 - w52;
-  GAGEN_SCATTER(J_L, 24, 15, w6);
+  GAGEN_SCATTER(out_J_L, 24, 15, w6);
   w59 = w21 * w59;
   w6 = w9 * w25;
   w6 = w6 * w35;
@@ -2318,7 +2318,7 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w70 = w70 * w25;
   w70 = w70 * w32;
   w59 = w59 - w70;
-  GAGEN_SCATTER(J_L, 24, 16, w59);
+  GAGEN_SCATTER(out_J_L, 24, 16, w59);
   w9 = w9 * w10;
   w73 = w73 * w32;
   w9 = w9 + w73;
@@ -2326,50 +2326,50 @@ static void leap_hand_sphere_index_jacobians_block(const double *restrict q, dou
   w5 = w9 - w5;
   w58 = w21 * w58;
   w5 = w5 - w58;
-  GAGEN_SCATTER(J_L, 24, 17, w5);
-  GAGEN_SCATTER(J_L, 24, 18, w22);
-  GAGEN_SCATTER(J_L, 24, 19, w60);
-  GAGEN_SCATTER(J_L, 24, 20, w53);
+  GAGEN_SCATTER(out_J_L, 24, 17, w5);
+  GAGEN_SCATTER(out_J_L, 24, 18, w22);
+  GAGEN_SCATTER(out_J_L, 24, 19, w60);
+  GAGEN_SCATTER(out_J_L, 24, 20, w53);
   w53 = w49 * w27;
   w60 = w26 * w23;
   w53 = w53 - w60;
   w53 = w53 - w16;
   w53 = w53 - w52;
-  GAGEN_SCATTER(J_L, 24, 21, w53);
+  GAGEN_SCATTER(out_J_L, 24, 21, w53);
   w23 = w21 * w23;
   w6 = w6 - w23;
   w49 = w49 * w61;
   w6 = w6 - w49;
   w6 = w6 - w70;
-  GAGEN_SCATTER(J_L, 24, 22, w6);
+  GAGEN_SCATTER(out_J_L, 24, 22, w6);
   w26 = w26 * w61;
   w9 = w9 - w26;
   w21 = w21 * w27;
   w9 = w9 - w21;
-  GAGEN_SCATTER(J_L, 24, 23, w9);
+  GAGEN_SCATTER(out_J_L, 24, 23, w9);
 }
 #endif
 
-void leap_hand_sphere_index_jacobians_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S, double *restrict J_b, double *restrict J_A, double *restrict J_P, double *restrict L, double *restrict J_L) {
-  long s = 0;
+void leap_hand_sphere_index_jacobians_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S, double *restrict out_J_b, double *restrict out_J_A, double *restrict out_J_P, double *restrict out_L, double *restrict out_J_L) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 24 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 24 * a + o, 1, 0);
-      for (int o = 0; o < 24 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_b + 24 * a + o, 1, 0);
-      for (int o = 0; o < 32 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_A + 32 * a + o, 1, 0);
-      for (int o = 0; o < 20 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_P + 20 * a + o, 1, 0);
-      for (int o = 0; o < 6 * GAGEN_W + 7; o += 8) __builtin_prefetch(L + 6 * a + o, 1, 0);
-      for (int o = 0; o < 24 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_L + 24 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 24 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 24 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 24 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_b + 24 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 32 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_A + 32 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 20 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_P + 20 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 6 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_L + 6 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 24 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_L + 24 * gagen_a + gagen_o, 1, 0);
     }
-    leap_hand_sphere_index_jacobians_block(q + 4 * s, M + 8 * s, P + 5 * s, J_S + 24 * s, J_b + 24 * s, J_A + 32 * s, J_P + 20 * s, L + 6 * s, J_L + 24 * s);
+    leap_hand_sphere_index_jacobians_block(in_q + 4 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 24 * gagen_s, out_J_b + 24 * gagen_s, out_J_A + 32 * gagen_s, out_J_P + 20 * gagen_s, out_L + 6 * gagen_s, out_J_L + 24 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    leap_hand_sphere_index_jacobians(q + 4 * s, M + 8 * s, P + 5 * s, J_S + 24 * s, J_b + 24 * s, J_A + 32 * s, J_P + 20 * s, L + 6 * s, J_L + 24 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    leap_hand_sphere_index_jacobians(in_q + 4 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 24 * gagen_s, out_J_b + 24 * gagen_s, out_J_A + 32 * gagen_s, out_J_P + 20 * gagen_s, out_L + 6 * gagen_s, out_J_L + 24 * gagen_s);
   }
 }
 
@@ -2379,7 +2379,7 @@ void leap_hand_sphere_index_jacobians_batch(long n, const double *restrict q, do
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S, double *restrict J_b, double *restrict J_A, double *restrict J_P, double *restrict L, double *restrict J_L) {
+static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S, double *restrict out_J_b, double *restrict out_J_A, double *restrict out_J_P, double *restrict out_L, double *restrict out_J_L) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -2393,10 +2393,10 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(4.0);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 4, 0);
+  w3 = GAGEN_GATHER(in_q, 4, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
-  w5 = GAGEN_GATHER(q, 4, 1);
+  w5 = GAGEN_GATHER(in_q, 4, 1);
   w5 = w2 * w5;
   w6 = gagen_v_sin(w5);
   w7 = w4 * w6;
@@ -2409,7 +2409,7 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w11 = w3 * w5;
   w9 = w9 - w11;
   w9 = w1 * w9;
-  w12 = GAGEN_GATHER(q, 4, 2);
+  w12 = GAGEN_GATHER(in_q, 4, 2);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w14 = w9 * w13;
@@ -2420,7 +2420,7 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w12 = gagen_v_sin(w12);
   w16 = w15 * w12;
   w14 = w14 - w16;
-  w16 = GAGEN_GATHER(q, 4, 3);
+  w16 = GAGEN_GATHER(in_q, 4, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -2431,12 +2431,12 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w15 = w9 * w16;
   w18 = w18 - w15;
   w15 = w0 * w18;
-  GAGEN_SCATTER(M, 8, 0, w15);
+  GAGEN_SCATTER(out_M, 8, 0, w15);
   w14 = w14 * w16;
   w9 = w9 * w17;
   w14 = w14 + w9;
   w9 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 1, w9);
+  GAGEN_SCATTER(out_M, 8, 1, w9);
   w19 = w10 + w8;
   w19 = w19 - w7;
   w19 = w19 - w11;
@@ -2455,12 +2455,12 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w1 = w19 * w16;
   w11 = w7 - w1;
   w8 = w0 * w11;
-  GAGEN_SCATTER(M, 8, 2, w8);
+  GAGEN_SCATTER(out_M, 8, 2, w8);
   w20 = w20 * w16;
   w19 = w19 * w17;
   w20 = w20 + w19;
   w0 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w19 = gagen_v_splat(0.0009000000000001732);
   w10 = w5 * w5;
   w21 = w6 * w6;
@@ -2569,14 +2569,14 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w29 = w49 * w15;
   w46 = w46 - w29;
   w46 = w2 * w46;
-  GAGEN_SCATTER(M, 8, 4, w46);
+  GAGEN_SCATTER(out_M, 8, 4, w46);
   w17 = w40 * w0;
   w42 = w49 * w9;
   w17 = w17 - w42;
   w42 = w21 * w15;
   w17 = w17 - w42;
   w17 = w2 * w17;
-  GAGEN_SCATTER(M, 8, 5, w17);
+  GAGEN_SCATTER(out_M, 8, 5, w17);
   w42 = w49 * w8;
   w13 = w21 * w0;
   w42 = w42 + w13;
@@ -2584,40 +2584,40 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w42 = w42 + w13;
   w42 = w2 * w42;
   w13 = -w42;
-  GAGEN_SCATTER(M, 8, 6, w13);
+  GAGEN_SCATTER(out_M, 8, 6, w13);
   w13 = w21 * w8;
   w51 = w49 * w0;
   w13 = w13 - w51;
   w51 = w40 * w9;
   w13 = w13 - w51;
   w13 = w2 * w13;
-  GAGEN_SCATTER(M, 8, 7, w13);
+  GAGEN_SCATTER(out_M, 8, 7, w13);
   w51 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w51);
-  GAGEN_SCATTER(P, 5, 1, w49);
-  GAGEN_SCATTER(P, 5, 2, w21);
-  GAGEN_SCATTER(P, 5, 3, w40);
+  GAGEN_SCATTER(out_P, 5, 0, w51);
+  GAGEN_SCATTER(out_P, 5, 1, w49);
+  GAGEN_SCATTER(out_P, 5, 2, w21);
+  GAGEN_SCATTER(out_P, 5, 3, w40);
   w52 = w49 * w49;
   w53 = w21 * w21;
   w52 = w52 + w53;
   w53 = w40 * w40;
   w52 = w52 + w53;
   w52 = w2 * w52;
-  GAGEN_SCATTER(P, 5, 4, w52);
+  GAGEN_SCATTER(out_P, 5, 4, w52);
   w52 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 24, 0, w52);
-  GAGEN_SCATTER(J_S, 24, 1, w51);
-  GAGEN_SCATTER(J_S, 24, 2, w52);
-  GAGEN_SCATTER(J_S, 24, 3, w16);
-  GAGEN_SCATTER(J_S, 24, 4, w52);
-  GAGEN_SCATTER(J_S, 24, 5, w24);
-  GAGEN_SCATTER(J_S, 24, 6, w32);
-  GAGEN_SCATTER(J_S, 24, 7, w52);
+  GAGEN_SCATTER(out_J_S, 24, 0, w52);
+  GAGEN_SCATTER(out_J_S, 24, 1, w51);
+  GAGEN_SCATTER(out_J_S, 24, 2, w52);
+  GAGEN_SCATTER(out_J_S, 24, 3, w16);
+  GAGEN_SCATTER(out_J_S, 24, 4, w52);
+  GAGEN_SCATTER(out_J_S, 24, 5, w24);
+  GAGEN_SCATTER(out_J_S, 24, 6, w32);
+  GAGEN_SCATTER(out_J_S, 24, 7, w52);
   w51 = -w35;
-  GAGEN_SCATTER(J_S, 24, 8, w51);
+  GAGEN_SCATTER(out_J_S, 24, 8, w51);
   w51 = w22 * w32;
   w53 = -w51;
-  GAGEN_SCATTER(J_S, 24, 9, w53);
+  GAGEN_SCATTER(out_J_S, 24, 9, w53);
   w53 = gagen_v_splat(0.003547624826431273);
   w54 = gagen_v_splat(0.012200000000000008);
   w54 = w54 * w3;
@@ -2635,14 +2635,14 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w54 = w35 * w54;
   w53 = w53 + w54;
   w53 = w53 + w53;
-  GAGEN_SCATTER(J_S, 24, 10, w53);
+  GAGEN_SCATTER(out_J_S, 24, 10, w53);
   w54 = gagen_v_splat(0.017115512269798943);
   w54 = w54 * w3;
   w3 = -w54;
-  GAGEN_SCATTER(J_S, 24, 11, w3);
-  GAGEN_SCATTER(J_S, 24, 12, w44);
-  GAGEN_SCATTER(J_S, 24, 13, w10);
-  GAGEN_SCATTER(J_S, 24, 14, w50);
+  GAGEN_SCATTER(out_J_S, 24, 11, w3);
+  GAGEN_SCATTER(out_J_S, 24, 12, w44);
+  GAGEN_SCATTER(out_J_S, 24, 13, w10);
+  GAGEN_SCATTER(out_J_S, 24, 14, w50);
   w3 = gagen_v_splat(0.014299999999999905);
   w47 = w3 * w44;
   w47 = w33 + w47;
@@ -2656,22 +2656,22 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w4 = w44 * w56;
   w4 = w4 + w4;
   w5 = w55 - w4;
-  GAGEN_SCATTER(J_S, 24, 15, w5);
+  GAGEN_SCATTER(out_J_S, 24, 15, w5);
   w47 = w50 * w47;
   w3 = w3 * w50;
   w3 = w48 + w3;
   w3 = w3 - w24;
   w57 = w44 * w3;
   w58 = w47 - w57;
-  GAGEN_SCATTER(J_S, 24, 16, w58);
+  GAGEN_SCATTER(out_J_S, 24, 16, w58);
   w56 = w50 * w56;
   w56 = w56 + w56;
   w3 = w10 * w3;
   w59 = w56 - w3;
-  GAGEN_SCATTER(J_S, 24, 17, w59);
-  GAGEN_SCATTER(J_S, 24, 18, w44);
-  GAGEN_SCATTER(J_S, 24, 19, w10);
-  GAGEN_SCATTER(J_S, 24, 20, w50);
+  GAGEN_SCATTER(out_J_S, 24, 17, w59);
+  GAGEN_SCATTER(out_J_S, 24, 18, w44);
+  GAGEN_SCATTER(out_J_S, 24, 19, w10);
+  GAGEN_SCATTER(out_J_S, 24, 20, w50);
   w60 = gagen_v_splat(0.014099999999999826);
   w61 = w60 * w44;
   w33 = w33 + w61;
@@ -2685,7 +2685,7 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w23 = w23 - w12;
   w12 = w44 * w23;
   w61 = w61 - w12;
-  GAGEN_SCATTER(J_S, 24, 21, w61);
+  GAGEN_SCATTER(out_J_S, 24, 21, w61);
   w33 = w50 * w33;
   w60 = w60 * w50;
   w48 = w48 + w60;
@@ -2694,17 +2694,17 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w48 = w48 - w24;
   w44 = w44 * w48;
   w27 = w33 - w44;
-  GAGEN_SCATTER(J_S, 24, 22, w27);
+  GAGEN_SCATTER(out_J_S, 24, 22, w27);
   w48 = w10 * w48;
   w50 = w50 * w23;
   w23 = w48 - w50;
   w6 = -w23;
-  GAGEN_SCATTER(J_S, 24, 23, w6);
+  GAGEN_SCATTER(out_J_S, 24, 23, w6);
   w6 = w9 * w8;
   w60 = w15 * w0;
   w12 = w6 - w60;
   w26 = w12 + w12;
-  GAGEN_SCATTER(J_b, 24, 0, w26);
+  GAGEN_SCATTER(out_J_b, 24, 0, w26);
   w62 = w8 * w8;
   w63 = w15 * w15;
   w64 = w62 + w63;
@@ -2712,12 +2712,12 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w64 = w64 - w65;
   w66 = w9 * w9;
   w64 = w64 - w66;
-  GAGEN_SCATTER(J_b, 24, 1, w64);
+  GAGEN_SCATTER(out_J_b, 24, 1, w64);
   w64 = w8 * w0;
   w67 = w15 * w9;
   w64 = w64 + w67;
   w64 = w64 + w64;
-  GAGEN_SCATTER(J_b, 24, 2, w64);
+  GAGEN_SCATTER(out_J_b, 24, 2, w64);
   w64 = w8 * w46;
   w67 = w15 * w42;
   w64 = w64 - w67;
@@ -2755,7 +2755,7 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w69 = w69 - w67;
   w67 = w69 * w0;
   w64 = w64 - w67;
-  GAGEN_SCATTER(J_b, 24, 3, w64);
+  GAGEN_SCATTER(out_J_b, 24, 3, w64);
   w64 = w8 * w17;
   w67 = w0 * w46;
   w29 = w64 + w67;
@@ -2771,7 +2771,7 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w29 = w29 + w70;
   w70 = w7 * w0;
   w29 = w29 - w70;
-  GAGEN_SCATTER(J_b, 24, 4, w29);
+  GAGEN_SCATTER(out_J_b, 24, 4, w29);
   w29 = w0 * w13;
   w70 = w8 * w42;
   w71 = w29 - w70;
@@ -2787,7 +2787,7 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w71 = w71 - w73;
   w74 = w69 * w9;
   w71 = w71 - w74;
-  GAGEN_SCATTER(J_b, 24, 5, w71);
+  GAGEN_SCATTER(out_J_b, 24, 5, w71);
   w71 = w9 * w32;
   w74 = w0 * w35;
   w71 = w71 - w74;
@@ -2807,7 +2807,7 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w77 = w77 + w78;
   w78 = w77 * w0;
   w74 = w74 - w78;
-  GAGEN_SCATTER(J_b, 24, 6, w74);
+  GAGEN_SCATTER(out_J_b, 24, 6, w74);
   w74 = w71 * w8;
   w78 = w75 * w0;
   w74 = w74 + w78;
@@ -2815,7 +2815,7 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w74 = w74 + w78;
   w78 = w76 * w9;
   w74 = w74 + w78;
-  GAGEN_SCATTER(J_b, 24, 7, w74);
+  GAGEN_SCATTER(out_J_b, 24, 7, w74);
   w74 = w71 * w0;
   w78 = w77 * w9;
   w74 = w74 + w78;
@@ -2823,7 +2823,7 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w74 = w74 - w78;
   w78 = w75 * w8;
   w74 = w74 - w78;
-  GAGEN_SCATTER(J_b, 24, 8, w74);
+  GAGEN_SCATTER(out_J_b, 24, 8, w74);
   w74 = w71 * w46;
   w78 = w75 * w17;
   w74 = w74 + w78;
@@ -2867,7 +2867,7 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w81 = w81 + w82;
   w82 = w81 * w0;
   w74 = w74 - w82;
-  GAGEN_SCATTER(J_b, 24, 9, w74);
+  GAGEN_SCATTER(out_J_b, 24, 9, w74);
   w74 = w71 * w17;
   w82 = w77 * w13;
   w74 = w74 + w82;
@@ -2883,7 +2883,7 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w74 = w74 - w82;
   w82 = w80 * w0;
   w74 = w74 - w82;
-  GAGEN_SCATTER(J_b, 24, 10, w74);
+  GAGEN_SCATTER(out_J_b, 24, 10, w74);
   w74 = w78 * w8;
   w82 = w71 * w42;
   w74 = w74 - w82;
@@ -2899,7 +2899,7 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w74 = w74 + w82;
   w82 = w81 * w9;
   w74 = w74 - w82;
-  GAGEN_SCATTER(J_b, 24, 11, w74);
+  GAGEN_SCATTER(out_J_b, 24, 11, w74);
   w74 = w9 * w25;
   w82 = w74 * w35;
   w83 = w8 * w10;
@@ -2931,7 +2931,7 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w87 = w87 - w74;
   w74 = w87 * w0;
   w84 = w84 - w74;
-  GAGEN_SCATTER(J_b, 24, 12, w84);
+  GAGEN_SCATTER(out_J_b, 24, 12, w84);
   w74 = w82 * w8;
   w83 = w86 * w0;
   w74 = w74 + w83;
@@ -2939,7 +2939,7 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w74 = w74 + w83;
   w83 = w85 * w9;
   w74 = w74 - w83;
-  GAGEN_SCATTER(J_b, 24, 13, w74);
+  GAGEN_SCATTER(out_J_b, 24, 13, w74);
   w83 = w82 * w0;
   w88 = w87 * w9;
   w83 = w83 + w88;
@@ -2947,7 +2947,7 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w83 = w83 + w88;
   w88 = w86 * w8;
   w83 = w83 - w88;
-  GAGEN_SCATTER(J_b, 24, 14, w83);
+  GAGEN_SCATTER(out_J_b, 24, 14, w83);
   w88 = w82 * w46;
   w89 = w86 * w17;
   w88 = w88 + w89;
@@ -3011,7 +3011,7 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w105 = w105 + w98;
   w107 = w105 * w0;
   w95 = w95 - w107;
-  GAGEN_SCATTER(J_b, 24, 15, w95);
+  GAGEN_SCATTER(out_J_b, 24, 15, w95);
   w95 = w82 * w17;
   w107 = w87 * w13;
   w95 = w95 + w107;
@@ -3027,7 +3027,7 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w107 = w107 - w108;
   w109 = w103 * w0;
   w107 = w107 - w109;
-  GAGEN_SCATTER(J_b, 24, 16, w107);
+  GAGEN_SCATTER(out_J_b, 24, 16, w107);
   w107 = w89 * w8;
   w109 = w82 * w42;
   w107 = w107 - w109;
@@ -3043,10 +3043,10 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w107 = w107 - w112;
   w113 = w105 * w9;
   w107 = w107 - w113;
-  GAGEN_SCATTER(J_b, 24, 17, w107);
-  GAGEN_SCATTER(J_b, 24, 18, w84);
-  GAGEN_SCATTER(J_b, 24, 19, w74);
-  GAGEN_SCATTER(J_b, 24, 20, w83);
+  GAGEN_SCATTER(out_J_b, 24, 17, w107);
+  GAGEN_SCATTER(out_J_b, 24, 18, w84);
+  GAGEN_SCATTER(out_J_b, 24, 19, w74);
+  GAGEN_SCATTER(out_J_b, 24, 20, w83);
   w83 = w15 * w61;
   w83 = w83 + w91;
   w83 = w83 - w92;
@@ -3088,7 +3088,7 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w93 = w93 + w98;
   w98 = w93 * w0;
   w88 = w88 - w98;
-  GAGEN_SCATTER(J_b, 24, 21, w88);
+  GAGEN_SCATTER(out_J_b, 24, 21, w88);
   w88 = w83 * w9;
   w95 = w95 + w88;
   w88 = w96 * w15;
@@ -3098,7 +3098,7 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w95 = w95 - w108;
   w108 = w102 * w0;
   w95 = w95 - w108;
-  GAGEN_SCATTER(J_b, 24, 22, w95);
+  GAGEN_SCATTER(out_J_b, 24, 22, w95);
   w95 = w83 * w8;
   w95 = w95 - w109;
   w109 = w96 * w0;
@@ -3110,130 +3110,130 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w95 = w95 - w112;
   w112 = w93 * w9;
   w95 = w95 - w112;
-  GAGEN_SCATTER(J_b, 24, 23, w95);
+  GAGEN_SCATTER(out_J_b, 24, 23, w95);
   w95 = gagen_v_splat(0.0625);
   w11 = w95 * w11;
-  GAGEN_SCATTER(J_A, 32, 0, w11);
+  GAGEN_SCATTER(out_J_A, 32, 0, w11);
   w20 = w95 * w20;
-  GAGEN_SCATTER(J_A, 32, 1, w20);
+  GAGEN_SCATTER(out_J_A, 32, 1, w20);
   w18 = w95 * w18;
   w18 = -w18;
-  GAGEN_SCATTER(J_A, 32, 2, w18);
+  GAGEN_SCATTER(out_J_A, 32, 2, w18);
   w95 = w95 * w14;
   w95 = -w95;
-  GAGEN_SCATTER(J_A, 32, 3, w95);
+  GAGEN_SCATTER(out_J_A, 32, 3, w95);
   w68 = w2 * w68;
   w68 = -w68;
-  GAGEN_SCATTER(J_A, 32, 4, w68);
+  GAGEN_SCATTER(out_J_A, 32, 4, w68);
   w1 = w2 * w1;
   w1 = -w1;
-  GAGEN_SCATTER(J_A, 32, 5, w1);
+  GAGEN_SCATTER(out_J_A, 32, 5, w1);
   w7 = w2 * w7;
   w7 = -w7;
-  GAGEN_SCATTER(J_A, 32, 6, w7);
+  GAGEN_SCATTER(out_J_A, 32, 6, w7);
   w69 = w2 * w69;
-  GAGEN_SCATTER(J_A, 32, 7, w69);
+  GAGEN_SCATTER(out_J_A, 32, 7, w69);
   w71 = w2 * w71;
-  GAGEN_SCATTER(J_A, 32, 8, w71);
+  GAGEN_SCATTER(out_J_A, 32, 8, w71);
   w75 = w2 * w75;
   w75 = -w75;
-  GAGEN_SCATTER(J_A, 32, 9, w75);
+  GAGEN_SCATTER(out_J_A, 32, 9, w75);
   w77 = w2 * w77;
   w77 = -w77;
-  GAGEN_SCATTER(J_A, 32, 10, w77);
+  GAGEN_SCATTER(out_J_A, 32, 10, w77);
   w76 = w2 * w76;
-  GAGEN_SCATTER(J_A, 32, 11, w76);
+  GAGEN_SCATTER(out_J_A, 32, 11, w76);
   w78 = w2 * w78;
   w78 = -w78;
-  GAGEN_SCATTER(J_A, 32, 12, w78);
+  GAGEN_SCATTER(out_J_A, 32, 12, w78);
   w79 = w2 * w79;
   w79 = -w79;
-  GAGEN_SCATTER(J_A, 32, 13, w79);
+  GAGEN_SCATTER(out_J_A, 32, 13, w79);
   w80 = w2 * w80;
   w80 = -w80;
-  GAGEN_SCATTER(J_A, 32, 14, w80);
+  GAGEN_SCATTER(out_J_A, 32, 14, w80);
   w81 = w2 * w81;
-  GAGEN_SCATTER(J_A, 32, 15, w81);
+  GAGEN_SCATTER(out_J_A, 32, 15, w81);
   w82 = w2 * w82;
-  GAGEN_SCATTER(J_A, 32, 16, w82);
+  GAGEN_SCATTER(out_J_A, 32, 16, w82);
   w86 = w2 * w86;
   w86 = -w86;
-  GAGEN_SCATTER(J_A, 32, 17, w86);
+  GAGEN_SCATTER(out_J_A, 32, 17, w86);
   w87 = w2 * w87;
   w87 = -w87;
-  GAGEN_SCATTER(J_A, 32, 18, w87);
+  GAGEN_SCATTER(out_J_A, 32, 18, w87);
   w85 = w2 * w85;
   w85 = -w85;
-  GAGEN_SCATTER(J_A, 32, 19, w85);
+  GAGEN_SCATTER(out_J_A, 32, 19, w85);
   w89 = w2 * w89;
   w89 = -w89;
-  GAGEN_SCATTER(J_A, 32, 20, w89);
+  GAGEN_SCATTER(out_J_A, 32, 20, w89);
   w97 = w2 * w97;
   w97 = -w97;
-  GAGEN_SCATTER(J_A, 32, 21, w97);
+  GAGEN_SCATTER(out_J_A, 32, 21, w97);
   w103 = w2 * w103;
   w103 = -w103;
-  GAGEN_SCATTER(J_A, 32, 22, w103);
+  GAGEN_SCATTER(out_J_A, 32, 22, w103);
   w105 = w2 * w105;
-  GAGEN_SCATTER(J_A, 32, 23, w105);
-  GAGEN_SCATTER(J_A, 32, 24, w82);
-  GAGEN_SCATTER(J_A, 32, 25, w86);
-  GAGEN_SCATTER(J_A, 32, 26, w87);
-  GAGEN_SCATTER(J_A, 32, 27, w85);
+  GAGEN_SCATTER(out_J_A, 32, 23, w105);
+  GAGEN_SCATTER(out_J_A, 32, 24, w82);
+  GAGEN_SCATTER(out_J_A, 32, 25, w86);
+  GAGEN_SCATTER(out_J_A, 32, 26, w87);
+  GAGEN_SCATTER(out_J_A, 32, 27, w85);
   w83 = w2 * w83;
   w83 = -w83;
-  GAGEN_SCATTER(J_A, 32, 28, w83);
+  GAGEN_SCATTER(out_J_A, 32, 28, w83);
   w96 = w2 * w96;
   w96 = -w96;
-  GAGEN_SCATTER(J_A, 32, 29, w96);
+  GAGEN_SCATTER(out_J_A, 32, 29, w96);
   w102 = w2 * w102;
   w102 = -w102;
-  GAGEN_SCATTER(J_A, 32, 30, w102);
+  GAGEN_SCATTER(out_J_A, 32, 30, w102);
   w2 = w2 * w93;
-  GAGEN_SCATTER(J_A, 32, 31, w2);
-  GAGEN_SCATTER(J_P, 20, 0, w52);
+  GAGEN_SCATTER(out_J_A, 32, 31, w2);
+  GAGEN_SCATTER(out_J_P, 20, 0, w52);
   w45 = w45 - w37;
   w45 = w45 - w31;
   w45 = w45 - w34;
   w45 = w45 - w36;
   w45 = w45 - w39;
   w45 = w45 - w43;
-  GAGEN_SCATTER(J_P, 20, 1, w45);
-  GAGEN_SCATTER(J_P, 20, 2, w52);
+  GAGEN_SCATTER(out_J_P, 20, 1, w45);
+  GAGEN_SCATTER(out_J_P, 20, 2, w52);
   w38 = w38 - w19;
   w38 = w38 - w28;
-  GAGEN_SCATTER(J_P, 20, 3, w38);
+  GAGEN_SCATTER(out_J_P, 20, 3, w38);
   w38 = w16 * w49;
   w24 = w24 * w40;
   w38 = w38 + w24;
-  GAGEN_SCATTER(J_P, 20, 4, w38);
-  GAGEN_SCATTER(J_P, 20, 5, w52);
+  GAGEN_SCATTER(out_J_P, 20, 4, w38);
+  GAGEN_SCATTER(out_J_P, 20, 5, w52);
   w38 = w21 * w32;
   w38 = w38 + w51;
   w38 = -w38;
-  GAGEN_SCATTER(J_P, 20, 6, w38);
+  GAGEN_SCATTER(out_J_P, 20, 6, w38);
   w38 = w49 * w32;
   w51 = w38 + w53;
   w24 = w40 * w35;
   w51 = w51 + w24;
-  GAGEN_SCATTER(J_P, 20, 7, w51);
+  GAGEN_SCATTER(out_J_P, 20, 7, w51);
   w51 = w21 * w35;
   w51 = w51 + w54;
   w51 = -w51;
-  GAGEN_SCATTER(J_P, 20, 8, w51);
+  GAGEN_SCATTER(out_J_P, 20, 8, w51);
   w51 = w21 * w53;
   w24 = w24 + w38;
   w24 = w22 * w24;
   w51 = w51 - w24;
-  GAGEN_SCATTER(J_P, 20, 9, w51);
-  GAGEN_SCATTER(J_P, 20, 10, w52);
+  GAGEN_SCATTER(out_J_P, 20, 9, w51);
+  GAGEN_SCATTER(out_J_P, 20, 10, w52);
   w51 = w21 * w25;
   w24 = w51 * w35;
   w55 = w55 - w24;
   w38 = w40 * w10;
   w55 = w55 - w38;
   w55 = w55 - w4;
-  GAGEN_SCATTER(J_P, 20, 11, w55);
+  GAGEN_SCATTER(out_J_P, 20, 11, w55);
   w55 = w49 * w25;
   w55 = w55 * w35;
   w47 = w47 + w55;
@@ -3241,46 +3241,46 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w57 = w40 * w25;
   w57 = w57 * w32;
   w47 = w47 - w57;
-  GAGEN_SCATTER(J_P, 20, 12, w47);
+  GAGEN_SCATTER(out_J_P, 20, 12, w47);
   w47 = w49 * w10;
   w51 = w51 * w32;
   w47 = w47 + w51;
   w56 = w47 + w56;
   w56 = w56 - w3;
-  GAGEN_SCATTER(J_P, 20, 13, w56);
+  GAGEN_SCATTER(out_J_P, 20, 13, w56);
   w56 = w49 * w5;
   w3 = w21 * w58;
   w56 = w56 + w3;
   w3 = w40 * w59;
   w56 = w56 + w3;
-  GAGEN_SCATTER(J_P, 20, 14, w56);
-  GAGEN_SCATTER(J_P, 20, 15, w52);
+  GAGEN_SCATTER(out_J_P, 20, 14, w56);
+  GAGEN_SCATTER(out_J_P, 20, 15, w52);
   w24 = w61 - w24;
   w24 = w24 - w38;
-  GAGEN_SCATTER(J_P, 20, 16, w24);
+  GAGEN_SCATTER(out_J_P, 20, 16, w24);
   w33 = w33 + w55;
   w33 = w33 - w44;
   w33 = w33 - w57;
-  GAGEN_SCATTER(J_P, 20, 17, w33);
+  GAGEN_SCATTER(out_J_P, 20, 17, w33);
   w47 = w47 - w48;
   w47 = w47 + w50;
-  GAGEN_SCATTER(J_P, 20, 18, w47);
+  GAGEN_SCATTER(out_J_P, 20, 18, w47);
   w49 = w49 * w61;
   w21 = w21 * w27;
   w49 = w49 + w21;
   w40 = w40 * w23;
   w49 = w49 - w40;
-  GAGEN_SCATTER(J_P, 20, 19, w49);
+  GAGEN_SCATTER(out_J_P, 20, 19, w49);
   w49 = w66 + w63;
   w49 = w49 - w65;
   w49 = w49 - w62;
-  GAGEN_SCATTER(L, 6, 0, w49);
-  GAGEN_SCATTER(L, 6, 1, w26);
+  GAGEN_SCATTER(out_L, 6, 0, w49);
+  GAGEN_SCATTER(out_L, 6, 1, w26);
   w40 = w9 * w0;
   w21 = w15 * w8;
   w40 = w40 + w21;
   w21 = w40 + w40;
-  GAGEN_SCATTER(L, 6, 2, w21);
+  GAGEN_SCATTER(out_L, 6, 2, w21);
   w9 = w9 * w46;
   w0 = w0 * w42;
   w9 = w9 - w0;
@@ -3289,21 +3289,21 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w8 = w8 * w13;
   w9 = w9 - w8;
   w9 = w9 + w9;
-  GAGEN_SCATTER(L, 6, 3, w9);
+  GAGEN_SCATTER(out_L, 6, 3, w9);
   w73 = w73 + w72;
   w73 = w73 - w29;
   w73 = w73 + w70;
   w73 = w73 + w73;
-  GAGEN_SCATTER(L, 6, 4, w73);
+  GAGEN_SCATTER(out_L, 6, 4, w73);
   w70 = w64 - w30;
   w70 = w70 - w41;
   w70 = w70 - w67;
   w70 = w70 + w70;
-  GAGEN_SCATTER(L, 6, 5, w70);
-  GAGEN_SCATTER(J_L, 24, 0, w21);
-  GAGEN_SCATTER(J_L, 24, 1, w52);
+  GAGEN_SCATTER(out_L, 6, 5, w70);
+  GAGEN_SCATTER(out_J_L, 24, 0, w21);
+  GAGEN_SCATTER(out_J_L, 24, 1, w52);
   w52 = -w49;
-  GAGEN_SCATTER(J_L, 24, 2, w52);
+  GAGEN_SCATTER(out_J_L, 24, 2, w52);
   w52 = gagen_v_splat(0.014190499305725092);
   w12 = w52 * w12;
   w41 = w41 + w67;
@@ -3311,34 +3311,34 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w41 = w41 - w64;
   w41 = w41 + w41;
   w12 = w12 + w41;
-  GAGEN_SCATTER(J_L, 24, 3, w12);
+  GAGEN_SCATTER(out_J_L, 24, 3, w12);
   w65 = w65 + w62;
   w65 = w65 - w66;
   w65 = w65 - w63;
   w16 = w16 * w65;
   w52 = w52 * w40;
   w16 = w16 + w52;
-  GAGEN_SCATTER(J_L, 24, 4, w16);
+  GAGEN_SCATTER(out_J_L, 24, 4, w16);
   w16 = gagen_v_splat(0.03744480715692044);
   w60 = w60 - w6;
   w16 = w16 * w60;
   w16 = w16 + w9;
-  GAGEN_SCATTER(J_L, 24, 5, w16);
+  GAGEN_SCATTER(out_J_L, 24, 5, w16);
   w16 = w26 * w35;
-  GAGEN_SCATTER(J_L, 24, 6, w16);
+  GAGEN_SCATTER(out_J_L, 24, 6, w16);
   w60 = w49 * w35;
   w6 = w21 * w32;
   w60 = w60 + w6;
   w60 = -w60;
-  GAGEN_SCATTER(J_L, 24, 7, w60);
+  GAGEN_SCATTER(out_J_L, 24, 7, w60);
   w60 = w26 * w32;
-  GAGEN_SCATTER(J_L, 24, 8, w60);
+  GAGEN_SCATTER(out_J_L, 24, 8, w60);
   w6 = w49 * w53;
   w16 = w22 * w16;
   w6 = w6 - w16;
   w16 = w73 * w32;
   w6 = w6 - w16;
-  GAGEN_SCATTER(J_L, 24, 9, w6);
+  GAGEN_SCATTER(out_J_L, 24, 9, w6);
   w6 = w9 * w32;
   w16 = w49 * w32;
   w52 = w21 * w35;
@@ -3347,28 +3347,28 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w6 = w6 + w16;
   w16 = w70 * w35;
   w6 = w6 + w16;
-  GAGEN_SCATTER(J_L, 24, 10, w6);
+  GAGEN_SCATTER(out_J_L, 24, 10, w6);
   w22 = w22 * w60;
   w60 = w73 * w35;
   w22 = w22 - w60;
   w53 = w21 * w53;
   w22 = w22 - w53;
-  GAGEN_SCATTER(J_L, 24, 11, w22);
+  GAGEN_SCATTER(out_J_L, 24, 11, w22);
   w22 = w21 * w10;
   w53 = w26 * w25;
   w60 = w53 * w32;
   w22 = w22 - w60;
-  GAGEN_SCATTER(J_L, 24, 12, w22);
+  GAGEN_SCATTER(out_J_L, 24, 12, w22);
   w60 = w49 * w25;
   w60 = w60 * w32;
   w6 = w21 * w25;
   w6 = w6 * w35;
   w60 = w60 - w6;
-  GAGEN_SCATTER(J_L, 24, 13, w60);
+  GAGEN_SCATTER(out_J_L, 24, 13, w60);
   w53 = w53 * w35;
   w6 = w49 * w10;
   w53 = w53 - w6;
-  GAGEN_SCATTER(J_L, 24, 14, w53);
+  GAGEN_SCATTER(out_J_L, 24, 14, w53);
   w6 = w49 * w58;
   w16 = w26 * w59;
   w6 = w6 + w16;
@@ -3377,7 +3377,7 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w6 = w6 - w16;
   w52 = w70 * w10;
   w6 = w6 - w52;
-  GAGEN_SCATTER(J_L, 24, 15, w6);
+  GAGEN_SCATTER(out_J_L, 24, 15, w6);
   w59 = w21 * w59;
   w6 = w9 * w25;
   w6 = w6 * w35;
@@ -3387,7 +3387,7 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w70 = w70 * w25;
   w70 = w70 * w32;
   w59 = w59 - w70;
-  GAGEN_SCATTER(J_L, 24, 16, w59);
+  GAGEN_SCATTER(out_J_L, 24, 16, w59);
   w9 = w9 * w10;
   w73 = w73 * w32;
   w9 = w9 + w73;
@@ -3395,27 +3395,27 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
   w5 = w9 - w5;
   w58 = w21 * w58;
   w5 = w5 - w58;
-  GAGEN_SCATTER(J_L, 24, 17, w5);
-  GAGEN_SCATTER(J_L, 24, 18, w22);
-  GAGEN_SCATTER(J_L, 24, 19, w60);
-  GAGEN_SCATTER(J_L, 24, 20, w53);
+  GAGEN_SCATTER(out_J_L, 24, 17, w5);
+  GAGEN_SCATTER(out_J_L, 24, 18, w22);
+  GAGEN_SCATTER(out_J_L, 24, 19, w60);
+  GAGEN_SCATTER(out_J_L, 24, 20, w53);
   w53 = w49 * w27;
   w60 = w26 * w23;
   w53 = w53 - w60;
   w53 = w53 - w16;
   w53 = w53 - w52;
-  GAGEN_SCATTER(J_L, 24, 21, w53);
+  GAGEN_SCATTER(out_J_L, 24, 21, w53);
   w23 = w21 * w23;
   w6 = w6 - w23;
   w49 = w49 * w61;
   w6 = w6 - w49;
   w6 = w6 - w70;
-  GAGEN_SCATTER(J_L, 24, 22, w6);
+  GAGEN_SCATTER(out_J_L, 24, 22, w6);
   w26 = w26 * w61;
   w9 = w9 - w26;
   w21 = w21 * w27;
   w9 = w9 - w21;
-  GAGEN_SCATTER(J_L, 24, 23, w9);
+  GAGEN_SCATTER(out_J_L, 24, 23, w9);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -3423,31 +3423,31 @@ static void leap_hand_sphere_index_jacobians_block_columns(long gagen_ld, int ga
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void leap_hand_sphere_index_jacobians_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S, double *restrict J_b, double *restrict J_A, double *restrict J_P, double *restrict L, double *restrict J_L) {
-  long s = 0;
+void leap_hand_sphere_index_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S, double *restrict out_J_b, double *restrict out_J_A, double *restrict out_J_P, double *restrict out_L, double *restrict out_J_L) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 143L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    leap_hand_sphere_index_jacobians_block_columns(ld, stream, q + s, M + s, P + s, J_S + s, J_b + s, J_A + s, J_P + s, L + s, J_L + s);
+  const int gagen_stream = gagen_n * 143L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    leap_hand_sphere_index_jacobians_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s, out_J_b + gagen_s, out_J_A + gagen_s, out_J_P + gagen_s, out_L + gagen_s, out_J_L + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  leap_hand_sphere_index_jacobians_columns_from(s, n, ld, q, M, P, J_S, J_b, J_A, J_P, L, J_L);
+  leap_hand_sphere_index_jacobians_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S, out_J_b, out_J_A, out_J_P, out_L, out_J_L);
 }
 
 #if GAGEN_SIMD
 /* chain middle: motor and end point: GAGEN_W consecutive samples at once */
-static void leap_hand_sphere_middle_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void leap_hand_sphere_middle_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(4.0);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 4, 0);
+  w3 = GAGEN_GATHER(in_q, 4, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
-  w5 = GAGEN_GATHER(q, 4, 1);
+  w5 = GAGEN_GATHER(in_q, 4, 1);
   w5 = w2 * w5;
   w6 = gagen_v_sin(w5);
   w7 = w4 * w6;
@@ -3460,7 +3460,7 @@ static void leap_hand_sphere_middle_fk_block(const double *restrict q, double *r
   w11 = w3 * w5;
   w9 = w9 - w11;
   w9 = w1 * w9;
-  w12 = GAGEN_GATHER(q, 4, 2);
+  w12 = GAGEN_GATHER(in_q, 4, 2);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w14 = w9 * w13;
@@ -3471,7 +3471,7 @@ static void leap_hand_sphere_middle_fk_block(const double *restrict q, double *r
   w12 = gagen_v_sin(w12);
   w16 = w15 * w12;
   w14 = w14 - w16;
-  w16 = GAGEN_GATHER(q, 4, 3);
+  w16 = GAGEN_GATHER(in_q, 4, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -3482,12 +3482,12 @@ static void leap_hand_sphere_middle_fk_block(const double *restrict q, double *r
   w15 = w9 * w16;
   w18 = w18 - w15;
   w18 = w0 * w18;
-  GAGEN_SCATTER(M, 8, 0, w18);
+  GAGEN_SCATTER(out_M, 8, 0, w18);
   w14 = w14 * w16;
   w9 = w9 * w17;
   w14 = w14 + w9;
   w14 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 1, w14);
+  GAGEN_SCATTER(out_M, 8, 1, w14);
   w9 = w10 + w8;
   w9 = w9 - w7;
   w9 = w9 - w11;
@@ -3506,12 +3506,12 @@ static void leap_hand_sphere_middle_fk_block(const double *restrict q, double *r
   w1 = w9 * w16;
   w7 = w7 - w1;
   w7 = w0 * w7;
-  GAGEN_SCATTER(M, 8, 2, w7);
+  GAGEN_SCATTER(out_M, 8, 2, w7);
   w15 = w15 * w16;
   w9 = w9 * w17;
   w15 = w15 + w9;
   w0 = w0 * w15;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w15 = gagen_v_splat(0.03689224386510053);
   w9 = gagen_v_splat(0.0009000000000000778);
   w1 = w5 * w5;
@@ -3620,14 +3620,14 @@ static void leap_hand_sphere_middle_fk_block(const double *restrict q, double *r
   w12 = w24 * w18;
   w19 = w19 - w12;
   w19 = w2 * w19;
-  GAGEN_SCATTER(M, 8, 4, w19);
+  GAGEN_SCATTER(out_M, 8, 4, w19);
   w19 = w16 * w0;
   w12 = w24 * w14;
   w19 = w19 - w12;
   w12 = w15 * w18;
   w19 = w19 - w12;
   w19 = w2 * w19;
-  GAGEN_SCATTER(M, 8, 5, w19);
+  GAGEN_SCATTER(out_M, 8, 5, w19);
   w19 = w24 * w7;
   w12 = w15 * w0;
   w19 = w19 + w12;
@@ -3635,43 +3635,43 @@ static void leap_hand_sphere_middle_fk_block(const double *restrict q, double *r
   w19 = w19 + w18;
   w19 = w2 * w19;
   w19 = -w19;
-  GAGEN_SCATTER(M, 8, 6, w19);
+  GAGEN_SCATTER(out_M, 8, 6, w19);
   w7 = w15 * w7;
   w0 = w24 * w0;
   w7 = w7 - w0;
   w14 = w16 * w14;
   w7 = w7 - w14;
   w7 = w2 * w7;
-  GAGEN_SCATTER(M, 8, 7, w7);
+  GAGEN_SCATTER(out_M, 8, 7, w7);
   w7 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w7);
-  GAGEN_SCATTER(P, 5, 1, w24);
-  GAGEN_SCATTER(P, 5, 2, w15);
-  GAGEN_SCATTER(P, 5, 3, w16);
+  GAGEN_SCATTER(out_P, 5, 0, w7);
+  GAGEN_SCATTER(out_P, 5, 1, w24);
+  GAGEN_SCATTER(out_P, 5, 2, w15);
+  GAGEN_SCATTER(out_P, 5, 3, w16);
   w24 = w24 * w24;
   w15 = w15 * w15;
   w24 = w24 + w15;
   w16 = w16 * w16;
   w24 = w24 + w16;
   w2 = w2 * w24;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #endif
 
-void leap_hand_sphere_middle_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void leap_hand_sphere_middle_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    leap_hand_sphere_middle_fk_block(q + 4 * s, M + 8 * s, P + 5 * s);
+    leap_hand_sphere_middle_fk_block(in_q + 4 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    leap_hand_sphere_middle_fk(q + 4 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    leap_hand_sphere_middle_fk(in_q + 4 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -3681,17 +3681,17 @@ void leap_hand_sphere_middle_fk_batch(long n, const double *restrict q, double *
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void leap_hand_sphere_middle_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void leap_hand_sphere_middle_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(4.0);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 4, 0);
+  w3 = GAGEN_GATHER(in_q, 4, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
-  w5 = GAGEN_GATHER(q, 4, 1);
+  w5 = GAGEN_GATHER(in_q, 4, 1);
   w5 = w2 * w5;
   w6 = gagen_v_sin(w5);
   w7 = w4 * w6;
@@ -3704,7 +3704,7 @@ static void leap_hand_sphere_middle_fk_block_columns(long gagen_ld, int gagen_st
   w11 = w3 * w5;
   w9 = w9 - w11;
   w9 = w1 * w9;
-  w12 = GAGEN_GATHER(q, 4, 2);
+  w12 = GAGEN_GATHER(in_q, 4, 2);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w14 = w9 * w13;
@@ -3715,7 +3715,7 @@ static void leap_hand_sphere_middle_fk_block_columns(long gagen_ld, int gagen_st
   w12 = gagen_v_sin(w12);
   w16 = w15 * w12;
   w14 = w14 - w16;
-  w16 = GAGEN_GATHER(q, 4, 3);
+  w16 = GAGEN_GATHER(in_q, 4, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -3726,12 +3726,12 @@ static void leap_hand_sphere_middle_fk_block_columns(long gagen_ld, int gagen_st
   w15 = w9 * w16;
   w18 = w18 - w15;
   w18 = w0 * w18;
-  GAGEN_SCATTER(M, 8, 0, w18);
+  GAGEN_SCATTER(out_M, 8, 0, w18);
   w14 = w14 * w16;
   w9 = w9 * w17;
   w14 = w14 + w9;
   w14 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 1, w14);
+  GAGEN_SCATTER(out_M, 8, 1, w14);
   w9 = w10 + w8;
   w9 = w9 - w7;
   w9 = w9 - w11;
@@ -3750,12 +3750,12 @@ static void leap_hand_sphere_middle_fk_block_columns(long gagen_ld, int gagen_st
   w1 = w9 * w16;
   w7 = w7 - w1;
   w7 = w0 * w7;
-  GAGEN_SCATTER(M, 8, 2, w7);
+  GAGEN_SCATTER(out_M, 8, 2, w7);
   w15 = w15 * w16;
   w9 = w9 * w17;
   w15 = w15 + w9;
   w0 = w0 * w15;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w15 = gagen_v_splat(0.03689224386510053);
   w9 = gagen_v_splat(0.0009000000000000778);
   w1 = w5 * w5;
@@ -3864,14 +3864,14 @@ static void leap_hand_sphere_middle_fk_block_columns(long gagen_ld, int gagen_st
   w12 = w24 * w18;
   w19 = w19 - w12;
   w19 = w2 * w19;
-  GAGEN_SCATTER(M, 8, 4, w19);
+  GAGEN_SCATTER(out_M, 8, 4, w19);
   w19 = w16 * w0;
   w12 = w24 * w14;
   w19 = w19 - w12;
   w12 = w15 * w18;
   w19 = w19 - w12;
   w19 = w2 * w19;
-  GAGEN_SCATTER(M, 8, 5, w19);
+  GAGEN_SCATTER(out_M, 8, 5, w19);
   w19 = w24 * w7;
   w12 = w15 * w0;
   w19 = w19 + w12;
@@ -3879,26 +3879,26 @@ static void leap_hand_sphere_middle_fk_block_columns(long gagen_ld, int gagen_st
   w19 = w19 + w18;
   w19 = w2 * w19;
   w19 = -w19;
-  GAGEN_SCATTER(M, 8, 6, w19);
+  GAGEN_SCATTER(out_M, 8, 6, w19);
   w7 = w15 * w7;
   w0 = w24 * w0;
   w7 = w7 - w0;
   w14 = w16 * w14;
   w7 = w7 - w14;
   w7 = w2 * w7;
-  GAGEN_SCATTER(M, 8, 7, w7);
+  GAGEN_SCATTER(out_M, 8, 7, w7);
   w7 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w7);
-  GAGEN_SCATTER(P, 5, 1, w24);
-  GAGEN_SCATTER(P, 5, 2, w15);
-  GAGEN_SCATTER(P, 5, 3, w16);
+  GAGEN_SCATTER(out_P, 5, 0, w7);
+  GAGEN_SCATTER(out_P, 5, 1, w24);
+  GAGEN_SCATTER(out_P, 5, 2, w15);
+  GAGEN_SCATTER(out_P, 5, 3, w16);
   w24 = w24 * w24;
   w15 = w15 * w15;
   w24 = w24 + w15;
   w16 = w16 * w16;
   w24 = w24 + w16;
   w2 = w2 * w24;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -3906,21 +3906,21 @@ static void leap_hand_sphere_middle_fk_block_columns(long gagen_ld, int gagen_st
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void leap_hand_sphere_middle_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void leap_hand_sphere_middle_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    leap_hand_sphere_middle_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    leap_hand_sphere_middle_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  leap_hand_sphere_middle_fk_columns_from(s, n, ld, q, M, P);
+  leap_hand_sphere_middle_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain middle: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void leap_hand_sphere_middle_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void leap_hand_sphere_middle_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -3928,10 +3928,10 @@ static void leap_hand_sphere_middle_fk_jacobian_block(const double *restrict q, 
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(4.0);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 4, 0);
+  w3 = GAGEN_GATHER(in_q, 4, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
-  w5 = GAGEN_GATHER(q, 4, 1);
+  w5 = GAGEN_GATHER(in_q, 4, 1);
   w5 = w2 * w5;
   w6 = gagen_v_sin(w5);
   w7 = w4 * w6;
@@ -3944,7 +3944,7 @@ static void leap_hand_sphere_middle_fk_jacobian_block(const double *restrict q, 
   w11 = w3 * w5;
   w9 = w9 - w11;
   w9 = w1 * w9;
-  w12 = GAGEN_GATHER(q, 4, 2);
+  w12 = GAGEN_GATHER(in_q, 4, 2);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w14 = w9 * w13;
@@ -3955,7 +3955,7 @@ static void leap_hand_sphere_middle_fk_jacobian_block(const double *restrict q, 
   w12 = gagen_v_sin(w12);
   w16 = w15 * w12;
   w14 = w14 - w16;
-  w16 = GAGEN_GATHER(q, 4, 3);
+  w16 = GAGEN_GATHER(in_q, 4, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -3966,12 +3966,12 @@ static void leap_hand_sphere_middle_fk_jacobian_block(const double *restrict q, 
   w15 = w9 * w16;
   w18 = w18 - w15;
   w18 = w0 * w18;
-  GAGEN_SCATTER(M, 8, 0, w18);
+  GAGEN_SCATTER(out_M, 8, 0, w18);
   w14 = w14 * w16;
   w9 = w9 * w17;
   w14 = w14 + w9;
   w14 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 1, w14);
+  GAGEN_SCATTER(out_M, 8, 1, w14);
   w9 = w10 + w8;
   w9 = w9 - w7;
   w9 = w9 - w11;
@@ -3990,12 +3990,12 @@ static void leap_hand_sphere_middle_fk_jacobian_block(const double *restrict q, 
   w1 = w9 * w16;
   w7 = w7 - w1;
   w7 = w0 * w7;
-  GAGEN_SCATTER(M, 8, 2, w7);
+  GAGEN_SCATTER(out_M, 8, 2, w7);
   w15 = w15 * w16;
   w9 = w9 * w17;
   w15 = w15 + w9;
   w0 = w0 * w15;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w15 = gagen_v_splat(0.03689224386510053);
   w9 = gagen_v_splat(0.0009000000000000778);
   w1 = w5 * w5;
@@ -4104,14 +4104,14 @@ static void leap_hand_sphere_middle_fk_jacobian_block(const double *restrict q, 
   w22 = w10 * w18;
   w24 = w24 - w22;
   w24 = w2 * w24;
-  GAGEN_SCATTER(M, 8, 4, w24);
+  GAGEN_SCATTER(out_M, 8, 4, w24);
   w24 = w31 * w0;
   w22 = w10 * w14;
   w24 = w24 - w22;
   w22 = w11 * w18;
   w24 = w24 - w22;
   w24 = w2 * w24;
-  GAGEN_SCATTER(M, 8, 5, w24);
+  GAGEN_SCATTER(out_M, 8, 5, w24);
   w24 = w10 * w7;
   w22 = w11 * w0;
   w24 = w24 + w22;
@@ -4119,39 +4119,39 @@ static void leap_hand_sphere_middle_fk_jacobian_block(const double *restrict q, 
   w24 = w24 + w18;
   w24 = w2 * w24;
   w24 = -w24;
-  GAGEN_SCATTER(M, 8, 6, w24);
+  GAGEN_SCATTER(out_M, 8, 6, w24);
   w7 = w11 * w7;
   w0 = w10 * w0;
   w7 = w7 - w0;
   w14 = w31 * w14;
   w7 = w7 - w14;
   w7 = w2 * w7;
-  GAGEN_SCATTER(M, 8, 7, w7);
+  GAGEN_SCATTER(out_M, 8, 7, w7);
   w7 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w7);
-  GAGEN_SCATTER(P, 5, 1, w10);
-  GAGEN_SCATTER(P, 5, 2, w11);
-  GAGEN_SCATTER(P, 5, 3, w31);
+  GAGEN_SCATTER(out_P, 5, 0, w7);
+  GAGEN_SCATTER(out_P, 5, 1, w10);
+  GAGEN_SCATTER(out_P, 5, 2, w11);
+  GAGEN_SCATTER(out_P, 5, 3, w31);
   w10 = w10 * w10;
   w11 = w11 * w11;
   w10 = w10 + w11;
   w31 = w31 * w31;
   w10 = w10 + w31;
   w2 = w2 * w10;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
   w2 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 24, 0, w2);
-  GAGEN_SCATTER(J_S, 24, 1, w7);
-  GAGEN_SCATTER(J_S, 24, 2, w2);
-  GAGEN_SCATTER(J_S, 24, 3, w16);
-  GAGEN_SCATTER(J_S, 24, 4, w2);
-  GAGEN_SCATTER(J_S, 24, 5, w36);
-  GAGEN_SCATTER(J_S, 24, 6, w26);
-  GAGEN_SCATTER(J_S, 24, 7, w2);
+  GAGEN_SCATTER(out_J_S, 24, 0, w2);
+  GAGEN_SCATTER(out_J_S, 24, 1, w7);
+  GAGEN_SCATTER(out_J_S, 24, 2, w2);
+  GAGEN_SCATTER(out_J_S, 24, 3, w16);
+  GAGEN_SCATTER(out_J_S, 24, 4, w2);
+  GAGEN_SCATTER(out_J_S, 24, 5, w36);
+  GAGEN_SCATTER(out_J_S, 24, 6, w26);
+  GAGEN_SCATTER(out_J_S, 24, 7, w2);
   w2 = -w4;
-  GAGEN_SCATTER(J_S, 24, 8, w2);
+  GAGEN_SCATTER(out_J_S, 24, 8, w2);
   w2 = w15 * w26;
-  GAGEN_SCATTER(J_S, 24, 9, w2);
+  GAGEN_SCATTER(out_J_S, 24, 9, w2);
   w2 = gagen_v_splat(0.0035476248264312694);
   w16 = gagen_v_splat(0.01220000000000002);
   w16 = w16 * w3;
@@ -4169,13 +4169,13 @@ static void leap_hand_sphere_middle_fk_jacobian_block(const double *restrict q, 
   w4 = w4 * w16;
   w2 = w2 + w4;
   w2 = w2 + w2;
-  GAGEN_SCATTER(J_S, 24, 10, w2);
+  GAGEN_SCATTER(out_J_S, 24, 10, w2);
   w2 = gagen_v_splat(0.07378448773020106);
   w2 = w2 * w3;
-  GAGEN_SCATTER(J_S, 24, 11, w2);
-  GAGEN_SCATTER(J_S, 24, 12, w32);
-  GAGEN_SCATTER(J_S, 24, 13, w1);
-  GAGEN_SCATTER(J_S, 24, 14, w6);
+  GAGEN_SCATTER(out_J_S, 24, 11, w2);
+  GAGEN_SCATTER(out_J_S, 24, 12, w32);
+  GAGEN_SCATTER(out_J_S, 24, 13, w1);
+  GAGEN_SCATTER(out_J_S, 24, 14, w6);
   w2 = gagen_v_splat(0.0143);
   w3 = w2 * w32;
   w3 = w25 + w3;
@@ -4189,22 +4189,22 @@ static void leap_hand_sphere_middle_fk_jacobian_block(const double *restrict q, 
   w27 = w32 * w16;
   w27 = w27 + w27;
   w4 = w4 - w27;
-  GAGEN_SCATTER(J_S, 24, 15, w4);
+  GAGEN_SCATTER(out_J_S, 24, 15, w4);
   w3 = w6 * w3;
   w2 = w2 * w6;
   w2 = w28 + w2;
   w2 = w2 - w36;
   w4 = w32 * w2;
   w3 = w3 - w4;
-  GAGEN_SCATTER(J_S, 24, 16, w3);
+  GAGEN_SCATTER(out_J_S, 24, 16, w3);
   w16 = w6 * w16;
   w16 = w16 + w16;
   w2 = w1 * w2;
   w16 = w16 - w2;
-  GAGEN_SCATTER(J_S, 24, 17, w16);
-  GAGEN_SCATTER(J_S, 24, 18, w32);
-  GAGEN_SCATTER(J_S, 24, 19, w1);
-  GAGEN_SCATTER(J_S, 24, 20, w6);
+  GAGEN_SCATTER(out_J_S, 24, 17, w16);
+  GAGEN_SCATTER(out_J_S, 24, 18, w32);
+  GAGEN_SCATTER(out_J_S, 24, 19, w1);
+  GAGEN_SCATTER(out_J_S, 24, 20, w6);
   w15 = w15 + w19;
   w15 = w15 + w20;
   w20 = gagen_v_splat(0.014099999999999922);
@@ -4218,7 +4218,7 @@ static void leap_hand_sphere_middle_fk_jacobian_block(const double *restrict q, 
   w25 = w25 - w35;
   w35 = w1 * w25;
   w12 = w12 + w35;
-  GAGEN_SCATTER(J_S, 24, 21, w12);
+  GAGEN_SCATTER(out_J_S, 24, 21, w12);
   w25 = w6 * w25;
   w20 = w20 * w6;
   w28 = w28 + w20;
@@ -4227,30 +4227,30 @@ static void leap_hand_sphere_middle_fk_jacobian_block(const double *restrict q, 
   w28 = w28 + w8;
   w32 = w32 * w28;
   w25 = w25 - w32;
-  GAGEN_SCATTER(J_S, 24, 22, w25);
+  GAGEN_SCATTER(out_J_S, 24, 22, w25);
   w1 = w1 * w28;
   w6 = w6 * w15;
   w1 = w1 + w6;
   w1 = -w1;
-  GAGEN_SCATTER(J_S, 24, 23, w1);
+  GAGEN_SCATTER(out_J_S, 24, 23, w1);
 }
 #endif
 
-void leap_hand_sphere_middle_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void leap_hand_sphere_middle_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 24 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 24 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 24 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 24 * gagen_a + gagen_o, 1, 0);
     }
-    leap_hand_sphere_middle_fk_jacobian_block(q + 4 * s, M + 8 * s, P + 5 * s, J_S + 24 * s);
+    leap_hand_sphere_middle_fk_jacobian_block(in_q + 4 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 24 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    leap_hand_sphere_middle_fk_jacobian(q + 4 * s, M + 8 * s, P + 5 * s, J_S + 24 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    leap_hand_sphere_middle_fk_jacobian(in_q + 4 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 24 * gagen_s);
   }
 }
 
@@ -4260,7 +4260,7 @@ void leap_hand_sphere_middle_fk_jacobian_batch(long n, const double *restrict q,
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void leap_hand_sphere_middle_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void leap_hand_sphere_middle_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -4268,10 +4268,10 @@ static void leap_hand_sphere_middle_fk_jacobian_block_columns(long gagen_ld, int
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(4.0);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 4, 0);
+  w3 = GAGEN_GATHER(in_q, 4, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
-  w5 = GAGEN_GATHER(q, 4, 1);
+  w5 = GAGEN_GATHER(in_q, 4, 1);
   w5 = w2 * w5;
   w6 = gagen_v_sin(w5);
   w7 = w4 * w6;
@@ -4284,7 +4284,7 @@ static void leap_hand_sphere_middle_fk_jacobian_block_columns(long gagen_ld, int
   w11 = w3 * w5;
   w9 = w9 - w11;
   w9 = w1 * w9;
-  w12 = GAGEN_GATHER(q, 4, 2);
+  w12 = GAGEN_GATHER(in_q, 4, 2);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w14 = w9 * w13;
@@ -4295,7 +4295,7 @@ static void leap_hand_sphere_middle_fk_jacobian_block_columns(long gagen_ld, int
   w12 = gagen_v_sin(w12);
   w16 = w15 * w12;
   w14 = w14 - w16;
-  w16 = GAGEN_GATHER(q, 4, 3);
+  w16 = GAGEN_GATHER(in_q, 4, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -4306,12 +4306,12 @@ static void leap_hand_sphere_middle_fk_jacobian_block_columns(long gagen_ld, int
   w15 = w9 * w16;
   w18 = w18 - w15;
   w18 = w0 * w18;
-  GAGEN_SCATTER(M, 8, 0, w18);
+  GAGEN_SCATTER(out_M, 8, 0, w18);
   w14 = w14 * w16;
   w9 = w9 * w17;
   w14 = w14 + w9;
   w14 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 1, w14);
+  GAGEN_SCATTER(out_M, 8, 1, w14);
   w9 = w10 + w8;
   w9 = w9 - w7;
   w9 = w9 - w11;
@@ -4330,12 +4330,12 @@ static void leap_hand_sphere_middle_fk_jacobian_block_columns(long gagen_ld, int
   w1 = w9 * w16;
   w7 = w7 - w1;
   w7 = w0 * w7;
-  GAGEN_SCATTER(M, 8, 2, w7);
+  GAGEN_SCATTER(out_M, 8, 2, w7);
   w15 = w15 * w16;
   w9 = w9 * w17;
   w15 = w15 + w9;
   w0 = w0 * w15;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w15 = gagen_v_splat(0.03689224386510053);
   w9 = gagen_v_splat(0.0009000000000000778);
   w1 = w5 * w5;
@@ -4444,14 +4444,14 @@ static void leap_hand_sphere_middle_fk_jacobian_block_columns(long gagen_ld, int
   w22 = w10 * w18;
   w24 = w24 - w22;
   w24 = w2 * w24;
-  GAGEN_SCATTER(M, 8, 4, w24);
+  GAGEN_SCATTER(out_M, 8, 4, w24);
   w24 = w31 * w0;
   w22 = w10 * w14;
   w24 = w24 - w22;
   w22 = w11 * w18;
   w24 = w24 - w22;
   w24 = w2 * w24;
-  GAGEN_SCATTER(M, 8, 5, w24);
+  GAGEN_SCATTER(out_M, 8, 5, w24);
   w24 = w10 * w7;
   w22 = w11 * w0;
   w24 = w24 + w22;
@@ -4459,39 +4459,39 @@ static void leap_hand_sphere_middle_fk_jacobian_block_columns(long gagen_ld, int
   w24 = w24 + w18;
   w24 = w2 * w24;
   w24 = -w24;
-  GAGEN_SCATTER(M, 8, 6, w24);
+  GAGEN_SCATTER(out_M, 8, 6, w24);
   w7 = w11 * w7;
   w0 = w10 * w0;
   w7 = w7 - w0;
   w14 = w31 * w14;
   w7 = w7 - w14;
   w7 = w2 * w7;
-  GAGEN_SCATTER(M, 8, 7, w7);
+  GAGEN_SCATTER(out_M, 8, 7, w7);
   w7 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w7);
-  GAGEN_SCATTER(P, 5, 1, w10);
-  GAGEN_SCATTER(P, 5, 2, w11);
-  GAGEN_SCATTER(P, 5, 3, w31);
+  GAGEN_SCATTER(out_P, 5, 0, w7);
+  GAGEN_SCATTER(out_P, 5, 1, w10);
+  GAGEN_SCATTER(out_P, 5, 2, w11);
+  GAGEN_SCATTER(out_P, 5, 3, w31);
   w10 = w10 * w10;
   w11 = w11 * w11;
   w10 = w10 + w11;
   w31 = w31 * w31;
   w10 = w10 + w31;
   w2 = w2 * w10;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
   w2 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 24, 0, w2);
-  GAGEN_SCATTER(J_S, 24, 1, w7);
-  GAGEN_SCATTER(J_S, 24, 2, w2);
-  GAGEN_SCATTER(J_S, 24, 3, w16);
-  GAGEN_SCATTER(J_S, 24, 4, w2);
-  GAGEN_SCATTER(J_S, 24, 5, w36);
-  GAGEN_SCATTER(J_S, 24, 6, w26);
-  GAGEN_SCATTER(J_S, 24, 7, w2);
+  GAGEN_SCATTER(out_J_S, 24, 0, w2);
+  GAGEN_SCATTER(out_J_S, 24, 1, w7);
+  GAGEN_SCATTER(out_J_S, 24, 2, w2);
+  GAGEN_SCATTER(out_J_S, 24, 3, w16);
+  GAGEN_SCATTER(out_J_S, 24, 4, w2);
+  GAGEN_SCATTER(out_J_S, 24, 5, w36);
+  GAGEN_SCATTER(out_J_S, 24, 6, w26);
+  GAGEN_SCATTER(out_J_S, 24, 7, w2);
   w2 = -w4;
-  GAGEN_SCATTER(J_S, 24, 8, w2);
+  GAGEN_SCATTER(out_J_S, 24, 8, w2);
   w2 = w15 * w26;
-  GAGEN_SCATTER(J_S, 24, 9, w2);
+  GAGEN_SCATTER(out_J_S, 24, 9, w2);
   w2 = gagen_v_splat(0.0035476248264312694);
   w16 = gagen_v_splat(0.01220000000000002);
   w16 = w16 * w3;
@@ -4509,13 +4509,13 @@ static void leap_hand_sphere_middle_fk_jacobian_block_columns(long gagen_ld, int
   w4 = w4 * w16;
   w2 = w2 + w4;
   w2 = w2 + w2;
-  GAGEN_SCATTER(J_S, 24, 10, w2);
+  GAGEN_SCATTER(out_J_S, 24, 10, w2);
   w2 = gagen_v_splat(0.07378448773020106);
   w2 = w2 * w3;
-  GAGEN_SCATTER(J_S, 24, 11, w2);
-  GAGEN_SCATTER(J_S, 24, 12, w32);
-  GAGEN_SCATTER(J_S, 24, 13, w1);
-  GAGEN_SCATTER(J_S, 24, 14, w6);
+  GAGEN_SCATTER(out_J_S, 24, 11, w2);
+  GAGEN_SCATTER(out_J_S, 24, 12, w32);
+  GAGEN_SCATTER(out_J_S, 24, 13, w1);
+  GAGEN_SCATTER(out_J_S, 24, 14, w6);
   w2 = gagen_v_splat(0.0143);
   w3 = w2 * w32;
   w3 = w25 + w3;
@@ -4529,22 +4529,22 @@ static void leap_hand_sphere_middle_fk_jacobian_block_columns(long gagen_ld, int
   w27 = w32 * w16;
   w27 = w27 + w27;
   w4 = w4 - w27;
-  GAGEN_SCATTER(J_S, 24, 15, w4);
+  GAGEN_SCATTER(out_J_S, 24, 15, w4);
   w3 = w6 * w3;
   w2 = w2 * w6;
   w2 = w28 + w2;
   w2 = w2 - w36;
   w4 = w32 * w2;
   w3 = w3 - w4;
-  GAGEN_SCATTER(J_S, 24, 16, w3);
+  GAGEN_SCATTER(out_J_S, 24, 16, w3);
   w16 = w6 * w16;
   w16 = w16 + w16;
   w2 = w1 * w2;
   w16 = w16 - w2;
-  GAGEN_SCATTER(J_S, 24, 17, w16);
-  GAGEN_SCATTER(J_S, 24, 18, w32);
-  GAGEN_SCATTER(J_S, 24, 19, w1);
-  GAGEN_SCATTER(J_S, 24, 20, w6);
+  GAGEN_SCATTER(out_J_S, 24, 17, w16);
+  GAGEN_SCATTER(out_J_S, 24, 18, w32);
+  GAGEN_SCATTER(out_J_S, 24, 19, w1);
+  GAGEN_SCATTER(out_J_S, 24, 20, w6);
   w15 = w15 + w19;
   w15 = w15 + w20;
   w20 = gagen_v_splat(0.014099999999999922);
@@ -4558,7 +4558,7 @@ static void leap_hand_sphere_middle_fk_jacobian_block_columns(long gagen_ld, int
   w25 = w25 - w35;
   w35 = w1 * w25;
   w12 = w12 + w35;
-  GAGEN_SCATTER(J_S, 24, 21, w12);
+  GAGEN_SCATTER(out_J_S, 24, 21, w12);
   w25 = w6 * w25;
   w20 = w20 * w6;
   w28 = w28 + w20;
@@ -4567,12 +4567,12 @@ static void leap_hand_sphere_middle_fk_jacobian_block_columns(long gagen_ld, int
   w28 = w28 + w8;
   w32 = w32 * w28;
   w25 = w25 - w32;
-  GAGEN_SCATTER(J_S, 24, 22, w25);
+  GAGEN_SCATTER(out_J_S, 24, 22, w25);
   w1 = w1 * w28;
   w6 = w6 * w15;
   w1 = w1 + w6;
   w1 = -w1;
-  GAGEN_SCATTER(J_S, 24, 23, w1);
+  GAGEN_SCATTER(out_J_S, 24, 23, w1);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -4580,21 +4580,21 @@ static void leap_hand_sphere_middle_fk_jacobian_block_columns(long gagen_ld, int
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void leap_hand_sphere_middle_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void leap_hand_sphere_middle_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 37L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    leap_hand_sphere_middle_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 37L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    leap_hand_sphere_middle_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  leap_hand_sphere_middle_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  leap_hand_sphere_middle_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }
 
 #if GAGEN_SIMD
 /* chain middle: motor, end point, every Jacobian and the tool z-axis line: GAGEN_W consecutive samples at once */
-static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S, double *restrict J_b, double *restrict J_A, double *restrict J_P, double *restrict L, double *restrict J_L) {
+static void leap_hand_sphere_middle_jacobians_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S, double *restrict out_J_b, double *restrict out_J_A, double *restrict out_J_P, double *restrict out_L, double *restrict out_J_L) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -4608,10 +4608,10 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(4.0);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 4, 0);
+  w3 = GAGEN_GATHER(in_q, 4, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
-  w5 = GAGEN_GATHER(q, 4, 1);
+  w5 = GAGEN_GATHER(in_q, 4, 1);
   w5 = w2 * w5;
   w6 = gagen_v_sin(w5);
   w7 = w4 * w6;
@@ -4624,7 +4624,7 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w11 = w3 * w5;
   w9 = w9 - w11;
   w9 = w1 * w9;
-  w12 = GAGEN_GATHER(q, 4, 2);
+  w12 = GAGEN_GATHER(in_q, 4, 2);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w14 = w9 * w13;
@@ -4635,7 +4635,7 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w12 = gagen_v_sin(w12);
   w16 = w15 * w12;
   w14 = w14 - w16;
-  w16 = GAGEN_GATHER(q, 4, 3);
+  w16 = GAGEN_GATHER(in_q, 4, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -4646,12 +4646,12 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w15 = w9 * w16;
   w18 = w18 - w15;
   w15 = w0 * w18;
-  GAGEN_SCATTER(M, 8, 0, w15);
+  GAGEN_SCATTER(out_M, 8, 0, w15);
   w14 = w14 * w16;
   w9 = w9 * w17;
   w14 = w14 + w9;
   w9 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 1, w9);
+  GAGEN_SCATTER(out_M, 8, 1, w9);
   w19 = w10 + w8;
   w19 = w19 - w7;
   w19 = w19 - w11;
@@ -4670,12 +4670,12 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w1 = w19 * w16;
   w11 = w7 - w1;
   w8 = w0 * w11;
-  GAGEN_SCATTER(M, 8, 2, w8);
+  GAGEN_SCATTER(out_M, 8, 2, w8);
   w20 = w20 * w16;
   w19 = w19 * w17;
   w20 = w20 + w19;
   w0 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w19 = gagen_v_splat(0.03689224386510053);
   w10 = gagen_v_splat(0.0009000000000000778);
   w21 = w5 * w5;
@@ -4784,14 +4784,14 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w29 = w50 * w15;
   w46 = w46 - w29;
   w46 = w2 * w46;
-  GAGEN_SCATTER(M, 8, 4, w46);
+  GAGEN_SCATTER(out_M, 8, 4, w46);
   w17 = w40 * w0;
   w38 = w50 * w9;
   w17 = w17 - w38;
   w38 = w22 * w15;
   w17 = w17 - w38;
   w17 = w2 * w17;
-  GAGEN_SCATTER(M, 8, 5, w17);
+  GAGEN_SCATTER(out_M, 8, 5, w17);
   w38 = w50 * w8;
   w13 = w22 * w0;
   w38 = w38 + w13;
@@ -4799,39 +4799,39 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w38 = w38 + w13;
   w38 = w2 * w38;
   w13 = -w38;
-  GAGEN_SCATTER(M, 8, 6, w13);
+  GAGEN_SCATTER(out_M, 8, 6, w13);
   w13 = w22 * w8;
   w44 = w50 * w0;
   w13 = w13 - w44;
   w44 = w40 * w9;
   w13 = w13 - w44;
   w13 = w2 * w13;
-  GAGEN_SCATTER(M, 8, 7, w13);
+  GAGEN_SCATTER(out_M, 8, 7, w13);
   w44 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w44);
-  GAGEN_SCATTER(P, 5, 1, w50);
-  GAGEN_SCATTER(P, 5, 2, w22);
-  GAGEN_SCATTER(P, 5, 3, w40);
+  GAGEN_SCATTER(out_P, 5, 0, w44);
+  GAGEN_SCATTER(out_P, 5, 1, w50);
+  GAGEN_SCATTER(out_P, 5, 2, w22);
+  GAGEN_SCATTER(out_P, 5, 3, w40);
   w52 = w50 * w50;
   w53 = w22 * w22;
   w52 = w52 + w53;
   w53 = w40 * w40;
   w52 = w52 + w53;
   w52 = w2 * w52;
-  GAGEN_SCATTER(P, 5, 4, w52);
+  GAGEN_SCATTER(out_P, 5, 4, w52);
   w52 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 24, 0, w52);
-  GAGEN_SCATTER(J_S, 24, 1, w44);
-  GAGEN_SCATTER(J_S, 24, 2, w52);
-  GAGEN_SCATTER(J_S, 24, 3, w16);
-  GAGEN_SCATTER(J_S, 24, 4, w52);
-  GAGEN_SCATTER(J_S, 24, 5, w49);
-  GAGEN_SCATTER(J_S, 24, 6, w32);
-  GAGEN_SCATTER(J_S, 24, 7, w52);
+  GAGEN_SCATTER(out_J_S, 24, 0, w52);
+  GAGEN_SCATTER(out_J_S, 24, 1, w44);
+  GAGEN_SCATTER(out_J_S, 24, 2, w52);
+  GAGEN_SCATTER(out_J_S, 24, 3, w16);
+  GAGEN_SCATTER(out_J_S, 24, 4, w52);
+  GAGEN_SCATTER(out_J_S, 24, 5, w49);
+  GAGEN_SCATTER(out_J_S, 24, 6, w32);
+  GAGEN_SCATTER(out_J_S, 24, 7, w52);
   w44 = -w35;
-  GAGEN_SCATTER(J_S, 24, 8, w44);
+  GAGEN_SCATTER(out_J_S, 24, 8, w44);
   w44 = w19 * w32;
-  GAGEN_SCATTER(J_S, 24, 9, w44);
+  GAGEN_SCATTER(out_J_S, 24, 9, w44);
   w53 = gagen_v_splat(0.0035476248264312694);
   w54 = gagen_v_splat(0.01220000000000002);
   w54 = w54 * w3;
@@ -4849,13 +4849,13 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w54 = w35 * w54;
   w53 = w53 + w54;
   w53 = w53 + w53;
-  GAGEN_SCATTER(J_S, 24, 10, w53);
+  GAGEN_SCATTER(out_J_S, 24, 10, w53);
   w54 = gagen_v_splat(0.07378448773020106);
   w54 = w54 * w3;
-  GAGEN_SCATTER(J_S, 24, 11, w54);
-  GAGEN_SCATTER(J_S, 24, 12, w41);
-  GAGEN_SCATTER(J_S, 24, 13, w21);
-  GAGEN_SCATTER(J_S, 24, 14, w51);
+  GAGEN_SCATTER(out_J_S, 24, 11, w54);
+  GAGEN_SCATTER(out_J_S, 24, 12, w41);
+  GAGEN_SCATTER(out_J_S, 24, 13, w21);
+  GAGEN_SCATTER(out_J_S, 24, 14, w51);
   w3 = gagen_v_splat(0.0143);
   w47 = w3 * w41;
   w47 = w33 + w47;
@@ -4869,22 +4869,22 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w4 = w41 * w56;
   w4 = w4 + w4;
   w5 = w55 - w4;
-  GAGEN_SCATTER(J_S, 24, 15, w5);
+  GAGEN_SCATTER(out_J_S, 24, 15, w5);
   w47 = w51 * w47;
   w3 = w3 * w51;
   w3 = w48 + w3;
   w3 = w3 - w49;
   w57 = w41 * w3;
   w58 = w47 - w57;
-  GAGEN_SCATTER(J_S, 24, 16, w58);
+  GAGEN_SCATTER(out_J_S, 24, 16, w58);
   w56 = w51 * w56;
   w56 = w56 + w56;
   w3 = w21 * w3;
   w59 = w56 - w3;
-  GAGEN_SCATTER(J_S, 24, 17, w59);
-  GAGEN_SCATTER(J_S, 24, 18, w41);
-  GAGEN_SCATTER(J_S, 24, 19, w21);
-  GAGEN_SCATTER(J_S, 24, 20, w51);
+  GAGEN_SCATTER(out_J_S, 24, 17, w59);
+  GAGEN_SCATTER(out_J_S, 24, 18, w41);
+  GAGEN_SCATTER(out_J_S, 24, 19, w21);
+  GAGEN_SCATTER(out_J_S, 24, 20, w51);
   w25 = w19 + w25;
   w25 = w25 + w26;
   w26 = gagen_v_splat(0.014099999999999922);
@@ -4898,7 +4898,7 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w33 = w33 - w45;
   w60 = w21 * w33;
   w12 = w12 + w60;
-  GAGEN_SCATTER(J_S, 24, 21, w12);
+  GAGEN_SCATTER(out_J_S, 24, 21, w12);
   w33 = w51 * w33;
   w26 = w26 * w51;
   w48 = w48 + w26;
@@ -4907,17 +4907,17 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w48 = w48 + w23;
   w41 = w41 * w48;
   w27 = w33 - w41;
-  GAGEN_SCATTER(J_S, 24, 22, w27);
+  GAGEN_SCATTER(out_J_S, 24, 22, w27);
   w48 = w21 * w48;
   w51 = w51 * w25;
   w25 = w48 + w51;
   w26 = -w25;
-  GAGEN_SCATTER(J_S, 24, 23, w26);
+  GAGEN_SCATTER(out_J_S, 24, 23, w26);
   w26 = w9 * w8;
   w60 = w15 * w0;
   w61 = w26 - w60;
   w62 = w61 + w61;
-  GAGEN_SCATTER(J_b, 24, 0, w62);
+  GAGEN_SCATTER(out_J_b, 24, 0, w62);
   w63 = w8 * w8;
   w64 = w15 * w15;
   w65 = w63 + w64;
@@ -4925,12 +4925,12 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w65 = w65 - w66;
   w67 = w9 * w9;
   w65 = w65 - w67;
-  GAGEN_SCATTER(J_b, 24, 1, w65);
+  GAGEN_SCATTER(out_J_b, 24, 1, w65);
   w65 = w8 * w0;
   w68 = w15 * w9;
   w65 = w65 + w68;
   w65 = w65 + w65;
-  GAGEN_SCATTER(J_b, 24, 2, w65);
+  GAGEN_SCATTER(out_J_b, 24, 2, w65);
   w65 = w8 * w46;
   w68 = w15 * w38;
   w65 = w65 - w68;
@@ -4968,7 +4968,7 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w70 = w70 - w68;
   w68 = w70 * w0;
   w65 = w65 - w68;
-  GAGEN_SCATTER(J_b, 24, 3, w65);
+  GAGEN_SCATTER(out_J_b, 24, 3, w65);
   w65 = w8 * w17;
   w68 = w0 * w46;
   w29 = w65 + w68;
@@ -4984,7 +4984,7 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w29 = w29 + w71;
   w71 = w7 * w0;
   w29 = w29 - w71;
-  GAGEN_SCATTER(J_b, 24, 4, w29);
+  GAGEN_SCATTER(out_J_b, 24, 4, w29);
   w29 = w0 * w13;
   w71 = w8 * w38;
   w72 = w29 - w71;
@@ -5000,7 +5000,7 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w72 = w72 - w74;
   w75 = w70 * w9;
   w72 = w72 - w75;
-  GAGEN_SCATTER(J_b, 24, 5, w72);
+  GAGEN_SCATTER(out_J_b, 24, 5, w72);
   w72 = w9 * w32;
   w75 = w0 * w35;
   w72 = w72 - w75;
@@ -5020,7 +5020,7 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w82 = w80 + w81;
   w83 = w82 * w0;
   w75 = w75 - w83;
-  GAGEN_SCATTER(J_b, 24, 6, w75);
+  GAGEN_SCATTER(out_J_b, 24, 6, w75);
   w75 = w72 * w8;
   w83 = w76 * w0;
   w75 = w75 + w83;
@@ -5028,7 +5028,7 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w75 = w75 + w83;
   w83 = w79 * w9;
   w75 = w75 + w83;
-  GAGEN_SCATTER(J_b, 24, 7, w75);
+  GAGEN_SCATTER(out_J_b, 24, 7, w75);
   w75 = w72 * w0;
   w83 = w82 * w9;
   w75 = w75 + w83;
@@ -5036,7 +5036,7 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w75 = w75 - w83;
   w83 = w76 * w8;
   w75 = w75 - w83;
-  GAGEN_SCATTER(J_b, 24, 8, w75);
+  GAGEN_SCATTER(out_J_b, 24, 8, w75);
   w75 = w72 * w46;
   w83 = w76 * w17;
   w75 = w75 + w83;
@@ -5082,7 +5082,7 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w78 = w78 + w81;
   w81 = w78 * w0;
   w75 = w75 - w81;
-  GAGEN_SCATTER(J_b, 24, 9, w75);
+  GAGEN_SCATTER(out_J_b, 24, 9, w75);
   w75 = w72 * w17;
   w81 = w82 * w13;
   w75 = w75 + w81;
@@ -5098,7 +5098,7 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w75 = w75 - w81;
   w81 = w85 * w0;
   w75 = w75 - w81;
-  GAGEN_SCATTER(J_b, 24, 10, w75);
+  GAGEN_SCATTER(out_J_b, 24, 10, w75);
   w75 = w83 * w8;
   w81 = w72 * w38;
   w75 = w75 - w81;
@@ -5114,7 +5114,7 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w75 = w75 + w81;
   w81 = w78 * w9;
   w75 = w75 - w81;
-  GAGEN_SCATTER(J_b, 24, 11, w75);
+  GAGEN_SCATTER(out_J_b, 24, 11, w75);
   w75 = w9 * w6;
   w81 = w75 * w35;
   w80 = w8 * w21;
@@ -5146,7 +5146,7 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w88 = w88 - w75;
   w75 = w88 * w0;
   w77 = w77 - w75;
-  GAGEN_SCATTER(J_b, 24, 12, w77);
+  GAGEN_SCATTER(out_J_b, 24, 12, w77);
   w75 = w81 * w8;
   w80 = w87 * w0;
   w75 = w75 + w80;
@@ -5154,7 +5154,7 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w75 = w75 + w80;
   w80 = w86 * w9;
   w75 = w75 - w80;
-  GAGEN_SCATTER(J_b, 24, 13, w75);
+  GAGEN_SCATTER(out_J_b, 24, 13, w75);
   w80 = w81 * w0;
   w89 = w88 * w9;
   w80 = w80 + w89;
@@ -5162,7 +5162,7 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w80 = w80 + w89;
   w89 = w87 * w8;
   w80 = w80 - w89;
-  GAGEN_SCATTER(J_b, 24, 14, w80);
+  GAGEN_SCATTER(out_J_b, 24, 14, w80);
   w89 = w81 * w46;
   w90 = w87 * w17;
   w89 = w89 + w90;
@@ -5226,7 +5226,7 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w106 = w106 + w99;
   w108 = w106 * w0;
   w96 = w96 - w108;
-  GAGEN_SCATTER(J_b, 24, 15, w96);
+  GAGEN_SCATTER(out_J_b, 24, 15, w96);
   w96 = w81 * w17;
   w108 = w88 * w13;
   w96 = w96 + w108;
@@ -5242,7 +5242,7 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w108 = w108 - w109;
   w110 = w104 * w0;
   w108 = w108 - w110;
-  GAGEN_SCATTER(J_b, 24, 16, w108);
+  GAGEN_SCATTER(out_J_b, 24, 16, w108);
   w108 = w90 * w8;
   w110 = w81 * w38;
   w108 = w108 - w110;
@@ -5258,10 +5258,10 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w108 = w108 - w113;
   w114 = w106 * w9;
   w108 = w108 - w114;
-  GAGEN_SCATTER(J_b, 24, 17, w108);
-  GAGEN_SCATTER(J_b, 24, 18, w77);
-  GAGEN_SCATTER(J_b, 24, 19, w75);
-  GAGEN_SCATTER(J_b, 24, 20, w80);
+  GAGEN_SCATTER(out_J_b, 24, 17, w108);
+  GAGEN_SCATTER(out_J_b, 24, 18, w77);
+  GAGEN_SCATTER(out_J_b, 24, 19, w75);
+  GAGEN_SCATTER(out_J_b, 24, 20, w80);
   w80 = w15 * w12;
   w80 = w80 + w92;
   w80 = w80 - w93;
@@ -5303,7 +5303,7 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w94 = w94 + w99;
   w99 = w94 * w0;
   w89 = w89 - w99;
-  GAGEN_SCATTER(J_b, 24, 21, w89);
+  GAGEN_SCATTER(out_J_b, 24, 21, w89);
   w89 = w80 * w9;
   w96 = w96 + w89;
   w89 = w97 * w15;
@@ -5313,7 +5313,7 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w96 = w96 - w109;
   w109 = w103 * w0;
   w96 = w96 - w109;
-  GAGEN_SCATTER(J_b, 24, 22, w96);
+  GAGEN_SCATTER(out_J_b, 24, 22, w96);
   w96 = w80 * w8;
   w96 = w96 - w110;
   w110 = w97 * w0;
@@ -5325,129 +5325,129 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w96 = w96 - w113;
   w113 = w94 * w9;
   w96 = w96 - w113;
-  GAGEN_SCATTER(J_b, 24, 23, w96);
+  GAGEN_SCATTER(out_J_b, 24, 23, w96);
   w96 = gagen_v_splat(0.0625);
   w11 = w96 * w11;
-  GAGEN_SCATTER(J_A, 32, 0, w11);
+  GAGEN_SCATTER(out_J_A, 32, 0, w11);
   w20 = w96 * w20;
-  GAGEN_SCATTER(J_A, 32, 1, w20);
+  GAGEN_SCATTER(out_J_A, 32, 1, w20);
   w18 = w96 * w18;
   w18 = -w18;
-  GAGEN_SCATTER(J_A, 32, 2, w18);
+  GAGEN_SCATTER(out_J_A, 32, 2, w18);
   w96 = w96 * w14;
   w96 = -w96;
-  GAGEN_SCATTER(J_A, 32, 3, w96);
+  GAGEN_SCATTER(out_J_A, 32, 3, w96);
   w69 = w2 * w69;
   w69 = -w69;
-  GAGEN_SCATTER(J_A, 32, 4, w69);
+  GAGEN_SCATTER(out_J_A, 32, 4, w69);
   w1 = w2 * w1;
   w1 = -w1;
-  GAGEN_SCATTER(J_A, 32, 5, w1);
+  GAGEN_SCATTER(out_J_A, 32, 5, w1);
   w7 = w2 * w7;
   w7 = -w7;
-  GAGEN_SCATTER(J_A, 32, 6, w7);
+  GAGEN_SCATTER(out_J_A, 32, 6, w7);
   w70 = w2 * w70;
-  GAGEN_SCATTER(J_A, 32, 7, w70);
+  GAGEN_SCATTER(out_J_A, 32, 7, w70);
   w72 = w2 * w72;
-  GAGEN_SCATTER(J_A, 32, 8, w72);
+  GAGEN_SCATTER(out_J_A, 32, 8, w72);
   w76 = w2 * w76;
   w76 = -w76;
-  GAGEN_SCATTER(J_A, 32, 9, w76);
+  GAGEN_SCATTER(out_J_A, 32, 9, w76);
   w82 = w2 * w82;
   w82 = -w82;
-  GAGEN_SCATTER(J_A, 32, 10, w82);
+  GAGEN_SCATTER(out_J_A, 32, 10, w82);
   w79 = w2 * w79;
-  GAGEN_SCATTER(J_A, 32, 11, w79);
+  GAGEN_SCATTER(out_J_A, 32, 11, w79);
   w83 = w2 * w83;
   w83 = -w83;
-  GAGEN_SCATTER(J_A, 32, 12, w83);
+  GAGEN_SCATTER(out_J_A, 32, 12, w83);
   w84 = w2 * w84;
   w84 = -w84;
-  GAGEN_SCATTER(J_A, 32, 13, w84);
+  GAGEN_SCATTER(out_J_A, 32, 13, w84);
   w85 = w2 * w85;
   w85 = -w85;
-  GAGEN_SCATTER(J_A, 32, 14, w85);
+  GAGEN_SCATTER(out_J_A, 32, 14, w85);
   w78 = w2 * w78;
-  GAGEN_SCATTER(J_A, 32, 15, w78);
+  GAGEN_SCATTER(out_J_A, 32, 15, w78);
   w81 = w2 * w81;
-  GAGEN_SCATTER(J_A, 32, 16, w81);
+  GAGEN_SCATTER(out_J_A, 32, 16, w81);
   w87 = w2 * w87;
   w87 = -w87;
-  GAGEN_SCATTER(J_A, 32, 17, w87);
+  GAGEN_SCATTER(out_J_A, 32, 17, w87);
   w88 = w2 * w88;
   w88 = -w88;
-  GAGEN_SCATTER(J_A, 32, 18, w88);
+  GAGEN_SCATTER(out_J_A, 32, 18, w88);
   w86 = w2 * w86;
   w86 = -w86;
-  GAGEN_SCATTER(J_A, 32, 19, w86);
+  GAGEN_SCATTER(out_J_A, 32, 19, w86);
   w90 = w2 * w90;
   w90 = -w90;
-  GAGEN_SCATTER(J_A, 32, 20, w90);
+  GAGEN_SCATTER(out_J_A, 32, 20, w90);
   w98 = w2 * w98;
   w98 = -w98;
-  GAGEN_SCATTER(J_A, 32, 21, w98);
+  GAGEN_SCATTER(out_J_A, 32, 21, w98);
   w104 = w2 * w104;
   w104 = -w104;
-  GAGEN_SCATTER(J_A, 32, 22, w104);
+  GAGEN_SCATTER(out_J_A, 32, 22, w104);
   w106 = w2 * w106;
-  GAGEN_SCATTER(J_A, 32, 23, w106);
-  GAGEN_SCATTER(J_A, 32, 24, w81);
-  GAGEN_SCATTER(J_A, 32, 25, w87);
-  GAGEN_SCATTER(J_A, 32, 26, w88);
-  GAGEN_SCATTER(J_A, 32, 27, w86);
+  GAGEN_SCATTER(out_J_A, 32, 23, w106);
+  GAGEN_SCATTER(out_J_A, 32, 24, w81);
+  GAGEN_SCATTER(out_J_A, 32, 25, w87);
+  GAGEN_SCATTER(out_J_A, 32, 26, w88);
+  GAGEN_SCATTER(out_J_A, 32, 27, w86);
   w80 = w2 * w80;
   w80 = -w80;
-  GAGEN_SCATTER(J_A, 32, 28, w80);
+  GAGEN_SCATTER(out_J_A, 32, 28, w80);
   w97 = w2 * w97;
   w97 = -w97;
-  GAGEN_SCATTER(J_A, 32, 29, w97);
+  GAGEN_SCATTER(out_J_A, 32, 29, w97);
   w103 = w2 * w103;
   w103 = -w103;
-  GAGEN_SCATTER(J_A, 32, 30, w103);
+  GAGEN_SCATTER(out_J_A, 32, 30, w103);
   w2 = w2 * w94;
-  GAGEN_SCATTER(J_A, 32, 31, w2);
-  GAGEN_SCATTER(J_P, 20, 0, w52);
+  GAGEN_SCATTER(out_J_A, 32, 31, w2);
+  GAGEN_SCATTER(out_J_P, 20, 0, w52);
   w42 = w42 + w45;
   w42 = w42 - w43;
   w42 = w42 - w31;
   w42 = w42 - w34;
   w42 = w42 - w36;
   w42 = w42 - w39;
-  GAGEN_SCATTER(J_P, 20, 1, w42);
-  GAGEN_SCATTER(J_P, 20, 2, w52);
+  GAGEN_SCATTER(out_J_P, 20, 1, w42);
+  GAGEN_SCATTER(out_J_P, 20, 2, w52);
   w24 = w24 - w10;
   w24 = w24 + w23;
   w24 = w24 - w28;
-  GAGEN_SCATTER(J_P, 20, 3, w24);
+  GAGEN_SCATTER(out_J_P, 20, 3, w24);
   w24 = w16 * w50;
   w49 = w49 * w40;
   w24 = w24 + w49;
-  GAGEN_SCATTER(J_P, 20, 4, w24);
-  GAGEN_SCATTER(J_P, 20, 5, w52);
+  GAGEN_SCATTER(out_J_P, 20, 4, w24);
+  GAGEN_SCATTER(out_J_P, 20, 5, w52);
   w24 = w22 * w32;
   w44 = w44 - w24;
-  GAGEN_SCATTER(J_P, 20, 6, w44);
+  GAGEN_SCATTER(out_J_P, 20, 6, w44);
   w44 = w50 * w32;
   w24 = w44 + w53;
   w49 = w40 * w35;
   w24 = w24 + w49;
-  GAGEN_SCATTER(J_P, 20, 7, w24);
+  GAGEN_SCATTER(out_J_P, 20, 7, w24);
   w24 = w22 * w35;
   w54 = w54 - w24;
-  GAGEN_SCATTER(J_P, 20, 8, w54);
+  GAGEN_SCATTER(out_J_P, 20, 8, w54);
   w54 = w22 * w53;
   w44 = w44 + w49;
   w44 = w19 * w44;
   w54 = w54 + w44;
-  GAGEN_SCATTER(J_P, 20, 9, w54);
-  GAGEN_SCATTER(J_P, 20, 10, w52);
+  GAGEN_SCATTER(out_J_P, 20, 9, w54);
+  GAGEN_SCATTER(out_J_P, 20, 10, w52);
   w54 = w22 * w6;
   w44 = w54 * w35;
   w55 = w55 - w44;
   w49 = w40 * w21;
   w55 = w55 - w49;
   w55 = w55 - w4;
-  GAGEN_SCATTER(J_P, 20, 11, w55);
+  GAGEN_SCATTER(out_J_P, 20, 11, w55);
   w55 = w50 * w6;
   w55 = w55 * w35;
   w47 = w47 + w55;
@@ -5455,46 +5455,46 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w57 = w40 * w6;
   w57 = w57 * w32;
   w47 = w47 - w57;
-  GAGEN_SCATTER(J_P, 20, 12, w47);
+  GAGEN_SCATTER(out_J_P, 20, 12, w47);
   w47 = w50 * w21;
   w54 = w54 * w32;
   w47 = w47 + w54;
   w56 = w47 + w56;
   w56 = w56 - w3;
-  GAGEN_SCATTER(J_P, 20, 13, w56);
+  GAGEN_SCATTER(out_J_P, 20, 13, w56);
   w56 = w50 * w5;
   w3 = w22 * w58;
   w56 = w56 + w3;
   w3 = w40 * w59;
   w56 = w56 + w3;
-  GAGEN_SCATTER(J_P, 20, 14, w56);
-  GAGEN_SCATTER(J_P, 20, 15, w52);
+  GAGEN_SCATTER(out_J_P, 20, 14, w56);
+  GAGEN_SCATTER(out_J_P, 20, 15, w52);
   w44 = w12 - w44;
   w44 = w44 - w49;
-  GAGEN_SCATTER(J_P, 20, 16, w44);
+  GAGEN_SCATTER(out_J_P, 20, 16, w44);
   w33 = w33 + w55;
   w33 = w33 - w41;
   w33 = w33 - w57;
-  GAGEN_SCATTER(J_P, 20, 17, w33);
+  GAGEN_SCATTER(out_J_P, 20, 17, w33);
   w47 = w47 - w48;
   w47 = w47 - w51;
-  GAGEN_SCATTER(J_P, 20, 18, w47);
+  GAGEN_SCATTER(out_J_P, 20, 18, w47);
   w50 = w50 * w12;
   w22 = w22 * w27;
   w50 = w50 + w22;
   w40 = w40 * w25;
   w50 = w50 - w40;
-  GAGEN_SCATTER(J_P, 20, 19, w50);
+  GAGEN_SCATTER(out_J_P, 20, 19, w50);
   w50 = w67 + w64;
   w50 = w50 - w66;
   w50 = w50 - w63;
-  GAGEN_SCATTER(L, 6, 0, w50);
-  GAGEN_SCATTER(L, 6, 1, w62);
+  GAGEN_SCATTER(out_L, 6, 0, w50);
+  GAGEN_SCATTER(out_L, 6, 1, w62);
   w40 = w9 * w0;
   w22 = w15 * w8;
   w40 = w40 + w22;
   w22 = w40 + w40;
-  GAGEN_SCATTER(L, 6, 2, w22);
+  GAGEN_SCATTER(out_L, 6, 2, w22);
   w9 = w9 * w46;
   w0 = w0 * w38;
   w9 = w9 - w0;
@@ -5503,21 +5503,21 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w8 = w8 * w13;
   w9 = w9 - w8;
   w9 = w9 + w9;
-  GAGEN_SCATTER(L, 6, 3, w9);
+  GAGEN_SCATTER(out_L, 6, 3, w9);
   w74 = w74 + w73;
   w74 = w74 - w29;
   w74 = w74 + w71;
   w74 = w74 + w74;
-  GAGEN_SCATTER(L, 6, 4, w74);
+  GAGEN_SCATTER(out_L, 6, 4, w74);
   w71 = w65 - w30;
   w71 = w71 - w37;
   w71 = w71 - w68;
   w71 = w71 + w71;
-  GAGEN_SCATTER(L, 6, 5, w71);
-  GAGEN_SCATTER(J_L, 24, 0, w22);
-  GAGEN_SCATTER(J_L, 24, 1, w52);
+  GAGEN_SCATTER(out_L, 6, 5, w71);
+  GAGEN_SCATTER(out_J_L, 24, 0, w22);
+  GAGEN_SCATTER(out_J_L, 24, 1, w52);
   w52 = -w50;
-  GAGEN_SCATTER(J_L, 24, 2, w52);
+  GAGEN_SCATTER(out_J_L, 24, 2, w52);
   w52 = gagen_v_splat(0.014190499305725078);
   w61 = w52 * w61;
   w37 = w37 + w68;
@@ -5525,34 +5525,34 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w37 = w37 - w65;
   w37 = w37 + w37;
   w61 = w61 + w37;
-  GAGEN_SCATTER(J_L, 24, 3, w61);
+  GAGEN_SCATTER(out_J_L, 24, 3, w61);
   w66 = w66 + w63;
   w66 = w66 - w67;
   w66 = w66 - w64;
   w16 = w16 * w66;
   w52 = w52 * w40;
   w16 = w16 + w52;
-  GAGEN_SCATTER(J_L, 24, 4, w16);
+  GAGEN_SCATTER(out_J_L, 24, 4, w16);
   w16 = gagen_v_splat(0.03744480715692046);
   w60 = w60 - w26;
   w16 = w16 * w60;
   w16 = w16 + w9;
-  GAGEN_SCATTER(J_L, 24, 5, w16);
+  GAGEN_SCATTER(out_J_L, 24, 5, w16);
   w16 = w62 * w35;
-  GAGEN_SCATTER(J_L, 24, 6, w16);
+  GAGEN_SCATTER(out_J_L, 24, 6, w16);
   w60 = w50 * w35;
   w26 = w22 * w32;
   w60 = w60 + w26;
   w60 = -w60;
-  GAGEN_SCATTER(J_L, 24, 7, w60);
+  GAGEN_SCATTER(out_J_L, 24, 7, w60);
   w60 = w62 * w32;
-  GAGEN_SCATTER(J_L, 24, 8, w60);
+  GAGEN_SCATTER(out_J_L, 24, 8, w60);
   w26 = w50 * w53;
   w52 = w74 * w32;
   w26 = w26 - w52;
   w16 = w19 * w16;
   w26 = w26 + w16;
-  GAGEN_SCATTER(J_L, 24, 9, w26);
+  GAGEN_SCATTER(out_J_L, 24, 9, w26);
   w26 = w9 * w32;
   w16 = w71 * w35;
   w26 = w26 + w16;
@@ -5561,29 +5561,29 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w16 = w16 - w52;
   w16 = w19 * w16;
   w26 = w26 - w16;
-  GAGEN_SCATTER(J_L, 24, 10, w26);
+  GAGEN_SCATTER(out_J_L, 24, 10, w26);
   w26 = w74 * w35;
   w53 = w22 * w53;
   w26 = w26 + w53;
   w19 = w19 * w60;
   w26 = w26 + w19;
   w26 = -w26;
-  GAGEN_SCATTER(J_L, 24, 11, w26);
+  GAGEN_SCATTER(out_J_L, 24, 11, w26);
   w26 = w22 * w21;
   w19 = w62 * w6;
   w60 = w19 * w32;
   w26 = w26 - w60;
-  GAGEN_SCATTER(J_L, 24, 12, w26);
+  GAGEN_SCATTER(out_J_L, 24, 12, w26);
   w60 = w50 * w6;
   w60 = w60 * w32;
   w53 = w22 * w6;
   w53 = w53 * w35;
   w60 = w60 - w53;
-  GAGEN_SCATTER(J_L, 24, 13, w60);
+  GAGEN_SCATTER(out_J_L, 24, 13, w60);
   w19 = w19 * w35;
   w53 = w50 * w21;
   w19 = w19 - w53;
-  GAGEN_SCATTER(J_L, 24, 14, w19);
+  GAGEN_SCATTER(out_J_L, 24, 14, w19);
   w53 = w50 * w58;
   w16 = w62 * w59;
   w53 = w53 + w16;
@@ -5592,7 +5592,7 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w53 = w53 - w16;
   w52 = w71 * w21;
   w53 = w53 - w52;
-  GAGEN_SCATTER(J_L, 24, 15, w53);
+  GAGEN_SCATTER(out_J_L, 24, 15, w53);
   w59 = w22 * w59;
   w53 = w9 * w6;
   w53 = w53 * w35;
@@ -5602,7 +5602,7 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w71 = w71 * w6;
   w71 = w71 * w32;
   w59 = w59 - w71;
-  GAGEN_SCATTER(J_L, 24, 16, w59);
+  GAGEN_SCATTER(out_J_L, 24, 16, w59);
   w9 = w9 * w21;
   w74 = w74 * w32;
   w9 = w9 + w74;
@@ -5610,50 +5610,50 @@ static void leap_hand_sphere_middle_jacobians_block(const double *restrict q, do
   w5 = w9 - w5;
   w58 = w22 * w58;
   w5 = w5 - w58;
-  GAGEN_SCATTER(J_L, 24, 17, w5);
-  GAGEN_SCATTER(J_L, 24, 18, w26);
-  GAGEN_SCATTER(J_L, 24, 19, w60);
-  GAGEN_SCATTER(J_L, 24, 20, w19);
+  GAGEN_SCATTER(out_J_L, 24, 17, w5);
+  GAGEN_SCATTER(out_J_L, 24, 18, w26);
+  GAGEN_SCATTER(out_J_L, 24, 19, w60);
+  GAGEN_SCATTER(out_J_L, 24, 20, w19);
   w19 = w50 * w27;
   w60 = w62 * w25;
   w19 = w19 - w60;
   w19 = w19 - w16;
   w19 = w19 - w52;
-  GAGEN_SCATTER(J_L, 24, 21, w19);
+  GAGEN_SCATTER(out_J_L, 24, 21, w19);
   w25 = w22 * w25;
   w53 = w53 - w25;
   w50 = w50 * w12;
   w53 = w53 - w50;
   w53 = w53 - w71;
-  GAGEN_SCATTER(J_L, 24, 22, w53);
+  GAGEN_SCATTER(out_J_L, 24, 22, w53);
   w62 = w62 * w12;
   w9 = w9 - w62;
   w22 = w22 * w27;
   w9 = w9 - w22;
-  GAGEN_SCATTER(J_L, 24, 23, w9);
+  GAGEN_SCATTER(out_J_L, 24, 23, w9);
 }
 #endif
 
-void leap_hand_sphere_middle_jacobians_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S, double *restrict J_b, double *restrict J_A, double *restrict J_P, double *restrict L, double *restrict J_L) {
-  long s = 0;
+void leap_hand_sphere_middle_jacobians_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S, double *restrict out_J_b, double *restrict out_J_A, double *restrict out_J_P, double *restrict out_L, double *restrict out_J_L) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 24 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 24 * a + o, 1, 0);
-      for (int o = 0; o < 24 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_b + 24 * a + o, 1, 0);
-      for (int o = 0; o < 32 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_A + 32 * a + o, 1, 0);
-      for (int o = 0; o < 20 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_P + 20 * a + o, 1, 0);
-      for (int o = 0; o < 6 * GAGEN_W + 7; o += 8) __builtin_prefetch(L + 6 * a + o, 1, 0);
-      for (int o = 0; o < 24 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_L + 24 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 24 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 24 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 24 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_b + 24 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 32 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_A + 32 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 20 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_P + 20 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 6 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_L + 6 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 24 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_L + 24 * gagen_a + gagen_o, 1, 0);
     }
-    leap_hand_sphere_middle_jacobians_block(q + 4 * s, M + 8 * s, P + 5 * s, J_S + 24 * s, J_b + 24 * s, J_A + 32 * s, J_P + 20 * s, L + 6 * s, J_L + 24 * s);
+    leap_hand_sphere_middle_jacobians_block(in_q + 4 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 24 * gagen_s, out_J_b + 24 * gagen_s, out_J_A + 32 * gagen_s, out_J_P + 20 * gagen_s, out_L + 6 * gagen_s, out_J_L + 24 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    leap_hand_sphere_middle_jacobians(q + 4 * s, M + 8 * s, P + 5 * s, J_S + 24 * s, J_b + 24 * s, J_A + 32 * s, J_P + 20 * s, L + 6 * s, J_L + 24 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    leap_hand_sphere_middle_jacobians(in_q + 4 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 24 * gagen_s, out_J_b + 24 * gagen_s, out_J_A + 32 * gagen_s, out_J_P + 20 * gagen_s, out_L + 6 * gagen_s, out_J_L + 24 * gagen_s);
   }
 }
 
@@ -5663,7 +5663,7 @@ void leap_hand_sphere_middle_jacobians_batch(long n, const double *restrict q, d
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S, double *restrict J_b, double *restrict J_A, double *restrict J_P, double *restrict L, double *restrict J_L) {
+static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S, double *restrict out_J_b, double *restrict out_J_A, double *restrict out_J_P, double *restrict out_L, double *restrict out_J_L) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -5677,10 +5677,10 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(4.0);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 4, 0);
+  w3 = GAGEN_GATHER(in_q, 4, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
-  w5 = GAGEN_GATHER(q, 4, 1);
+  w5 = GAGEN_GATHER(in_q, 4, 1);
   w5 = w2 * w5;
   w6 = gagen_v_sin(w5);
   w7 = w4 * w6;
@@ -5693,7 +5693,7 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w11 = w3 * w5;
   w9 = w9 - w11;
   w9 = w1 * w9;
-  w12 = GAGEN_GATHER(q, 4, 2);
+  w12 = GAGEN_GATHER(in_q, 4, 2);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w14 = w9 * w13;
@@ -5704,7 +5704,7 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w12 = gagen_v_sin(w12);
   w16 = w15 * w12;
   w14 = w14 - w16;
-  w16 = GAGEN_GATHER(q, 4, 3);
+  w16 = GAGEN_GATHER(in_q, 4, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -5715,12 +5715,12 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w15 = w9 * w16;
   w18 = w18 - w15;
   w15 = w0 * w18;
-  GAGEN_SCATTER(M, 8, 0, w15);
+  GAGEN_SCATTER(out_M, 8, 0, w15);
   w14 = w14 * w16;
   w9 = w9 * w17;
   w14 = w14 + w9;
   w9 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 1, w9);
+  GAGEN_SCATTER(out_M, 8, 1, w9);
   w19 = w10 + w8;
   w19 = w19 - w7;
   w19 = w19 - w11;
@@ -5739,12 +5739,12 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w1 = w19 * w16;
   w11 = w7 - w1;
   w8 = w0 * w11;
-  GAGEN_SCATTER(M, 8, 2, w8);
+  GAGEN_SCATTER(out_M, 8, 2, w8);
   w20 = w20 * w16;
   w19 = w19 * w17;
   w20 = w20 + w19;
   w0 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w19 = gagen_v_splat(0.03689224386510053);
   w10 = gagen_v_splat(0.0009000000000000778);
   w21 = w5 * w5;
@@ -5853,14 +5853,14 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w29 = w50 * w15;
   w46 = w46 - w29;
   w46 = w2 * w46;
-  GAGEN_SCATTER(M, 8, 4, w46);
+  GAGEN_SCATTER(out_M, 8, 4, w46);
   w17 = w40 * w0;
   w38 = w50 * w9;
   w17 = w17 - w38;
   w38 = w22 * w15;
   w17 = w17 - w38;
   w17 = w2 * w17;
-  GAGEN_SCATTER(M, 8, 5, w17);
+  GAGEN_SCATTER(out_M, 8, 5, w17);
   w38 = w50 * w8;
   w13 = w22 * w0;
   w38 = w38 + w13;
@@ -5868,39 +5868,39 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w38 = w38 + w13;
   w38 = w2 * w38;
   w13 = -w38;
-  GAGEN_SCATTER(M, 8, 6, w13);
+  GAGEN_SCATTER(out_M, 8, 6, w13);
   w13 = w22 * w8;
   w44 = w50 * w0;
   w13 = w13 - w44;
   w44 = w40 * w9;
   w13 = w13 - w44;
   w13 = w2 * w13;
-  GAGEN_SCATTER(M, 8, 7, w13);
+  GAGEN_SCATTER(out_M, 8, 7, w13);
   w44 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w44);
-  GAGEN_SCATTER(P, 5, 1, w50);
-  GAGEN_SCATTER(P, 5, 2, w22);
-  GAGEN_SCATTER(P, 5, 3, w40);
+  GAGEN_SCATTER(out_P, 5, 0, w44);
+  GAGEN_SCATTER(out_P, 5, 1, w50);
+  GAGEN_SCATTER(out_P, 5, 2, w22);
+  GAGEN_SCATTER(out_P, 5, 3, w40);
   w52 = w50 * w50;
   w53 = w22 * w22;
   w52 = w52 + w53;
   w53 = w40 * w40;
   w52 = w52 + w53;
   w52 = w2 * w52;
-  GAGEN_SCATTER(P, 5, 4, w52);
+  GAGEN_SCATTER(out_P, 5, 4, w52);
   w52 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 24, 0, w52);
-  GAGEN_SCATTER(J_S, 24, 1, w44);
-  GAGEN_SCATTER(J_S, 24, 2, w52);
-  GAGEN_SCATTER(J_S, 24, 3, w16);
-  GAGEN_SCATTER(J_S, 24, 4, w52);
-  GAGEN_SCATTER(J_S, 24, 5, w49);
-  GAGEN_SCATTER(J_S, 24, 6, w32);
-  GAGEN_SCATTER(J_S, 24, 7, w52);
+  GAGEN_SCATTER(out_J_S, 24, 0, w52);
+  GAGEN_SCATTER(out_J_S, 24, 1, w44);
+  GAGEN_SCATTER(out_J_S, 24, 2, w52);
+  GAGEN_SCATTER(out_J_S, 24, 3, w16);
+  GAGEN_SCATTER(out_J_S, 24, 4, w52);
+  GAGEN_SCATTER(out_J_S, 24, 5, w49);
+  GAGEN_SCATTER(out_J_S, 24, 6, w32);
+  GAGEN_SCATTER(out_J_S, 24, 7, w52);
   w44 = -w35;
-  GAGEN_SCATTER(J_S, 24, 8, w44);
+  GAGEN_SCATTER(out_J_S, 24, 8, w44);
   w44 = w19 * w32;
-  GAGEN_SCATTER(J_S, 24, 9, w44);
+  GAGEN_SCATTER(out_J_S, 24, 9, w44);
   w53 = gagen_v_splat(0.0035476248264312694);
   w54 = gagen_v_splat(0.01220000000000002);
   w54 = w54 * w3;
@@ -5918,13 +5918,13 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w54 = w35 * w54;
   w53 = w53 + w54;
   w53 = w53 + w53;
-  GAGEN_SCATTER(J_S, 24, 10, w53);
+  GAGEN_SCATTER(out_J_S, 24, 10, w53);
   w54 = gagen_v_splat(0.07378448773020106);
   w54 = w54 * w3;
-  GAGEN_SCATTER(J_S, 24, 11, w54);
-  GAGEN_SCATTER(J_S, 24, 12, w41);
-  GAGEN_SCATTER(J_S, 24, 13, w21);
-  GAGEN_SCATTER(J_S, 24, 14, w51);
+  GAGEN_SCATTER(out_J_S, 24, 11, w54);
+  GAGEN_SCATTER(out_J_S, 24, 12, w41);
+  GAGEN_SCATTER(out_J_S, 24, 13, w21);
+  GAGEN_SCATTER(out_J_S, 24, 14, w51);
   w3 = gagen_v_splat(0.0143);
   w47 = w3 * w41;
   w47 = w33 + w47;
@@ -5938,22 +5938,22 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w4 = w41 * w56;
   w4 = w4 + w4;
   w5 = w55 - w4;
-  GAGEN_SCATTER(J_S, 24, 15, w5);
+  GAGEN_SCATTER(out_J_S, 24, 15, w5);
   w47 = w51 * w47;
   w3 = w3 * w51;
   w3 = w48 + w3;
   w3 = w3 - w49;
   w57 = w41 * w3;
   w58 = w47 - w57;
-  GAGEN_SCATTER(J_S, 24, 16, w58);
+  GAGEN_SCATTER(out_J_S, 24, 16, w58);
   w56 = w51 * w56;
   w56 = w56 + w56;
   w3 = w21 * w3;
   w59 = w56 - w3;
-  GAGEN_SCATTER(J_S, 24, 17, w59);
-  GAGEN_SCATTER(J_S, 24, 18, w41);
-  GAGEN_SCATTER(J_S, 24, 19, w21);
-  GAGEN_SCATTER(J_S, 24, 20, w51);
+  GAGEN_SCATTER(out_J_S, 24, 17, w59);
+  GAGEN_SCATTER(out_J_S, 24, 18, w41);
+  GAGEN_SCATTER(out_J_S, 24, 19, w21);
+  GAGEN_SCATTER(out_J_S, 24, 20, w51);
   w25 = w19 + w25;
   w25 = w25 + w26;
   w26 = gagen_v_splat(0.014099999999999922);
@@ -5967,7 +5967,7 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w33 = w33 - w45;
   w60 = w21 * w33;
   w12 = w12 + w60;
-  GAGEN_SCATTER(J_S, 24, 21, w12);
+  GAGEN_SCATTER(out_J_S, 24, 21, w12);
   w33 = w51 * w33;
   w26 = w26 * w51;
   w48 = w48 + w26;
@@ -5976,17 +5976,17 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w48 = w48 + w23;
   w41 = w41 * w48;
   w27 = w33 - w41;
-  GAGEN_SCATTER(J_S, 24, 22, w27);
+  GAGEN_SCATTER(out_J_S, 24, 22, w27);
   w48 = w21 * w48;
   w51 = w51 * w25;
   w25 = w48 + w51;
   w26 = -w25;
-  GAGEN_SCATTER(J_S, 24, 23, w26);
+  GAGEN_SCATTER(out_J_S, 24, 23, w26);
   w26 = w9 * w8;
   w60 = w15 * w0;
   w61 = w26 - w60;
   w62 = w61 + w61;
-  GAGEN_SCATTER(J_b, 24, 0, w62);
+  GAGEN_SCATTER(out_J_b, 24, 0, w62);
   w63 = w8 * w8;
   w64 = w15 * w15;
   w65 = w63 + w64;
@@ -5994,12 +5994,12 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w65 = w65 - w66;
   w67 = w9 * w9;
   w65 = w65 - w67;
-  GAGEN_SCATTER(J_b, 24, 1, w65);
+  GAGEN_SCATTER(out_J_b, 24, 1, w65);
   w65 = w8 * w0;
   w68 = w15 * w9;
   w65 = w65 + w68;
   w65 = w65 + w65;
-  GAGEN_SCATTER(J_b, 24, 2, w65);
+  GAGEN_SCATTER(out_J_b, 24, 2, w65);
   w65 = w8 * w46;
   w68 = w15 * w38;
   w65 = w65 - w68;
@@ -6037,7 +6037,7 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w70 = w70 - w68;
   w68 = w70 * w0;
   w65 = w65 - w68;
-  GAGEN_SCATTER(J_b, 24, 3, w65);
+  GAGEN_SCATTER(out_J_b, 24, 3, w65);
   w65 = w8 * w17;
   w68 = w0 * w46;
   w29 = w65 + w68;
@@ -6053,7 +6053,7 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w29 = w29 + w71;
   w71 = w7 * w0;
   w29 = w29 - w71;
-  GAGEN_SCATTER(J_b, 24, 4, w29);
+  GAGEN_SCATTER(out_J_b, 24, 4, w29);
   w29 = w0 * w13;
   w71 = w8 * w38;
   w72 = w29 - w71;
@@ -6069,7 +6069,7 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w72 = w72 - w74;
   w75 = w70 * w9;
   w72 = w72 - w75;
-  GAGEN_SCATTER(J_b, 24, 5, w72);
+  GAGEN_SCATTER(out_J_b, 24, 5, w72);
   w72 = w9 * w32;
   w75 = w0 * w35;
   w72 = w72 - w75;
@@ -6089,7 +6089,7 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w82 = w80 + w81;
   w83 = w82 * w0;
   w75 = w75 - w83;
-  GAGEN_SCATTER(J_b, 24, 6, w75);
+  GAGEN_SCATTER(out_J_b, 24, 6, w75);
   w75 = w72 * w8;
   w83 = w76 * w0;
   w75 = w75 + w83;
@@ -6097,7 +6097,7 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w75 = w75 + w83;
   w83 = w79 * w9;
   w75 = w75 + w83;
-  GAGEN_SCATTER(J_b, 24, 7, w75);
+  GAGEN_SCATTER(out_J_b, 24, 7, w75);
   w75 = w72 * w0;
   w83 = w82 * w9;
   w75 = w75 + w83;
@@ -6105,7 +6105,7 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w75 = w75 - w83;
   w83 = w76 * w8;
   w75 = w75 - w83;
-  GAGEN_SCATTER(J_b, 24, 8, w75);
+  GAGEN_SCATTER(out_J_b, 24, 8, w75);
   w75 = w72 * w46;
   w83 = w76 * w17;
   w75 = w75 + w83;
@@ -6151,7 +6151,7 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w78 = w78 + w81;
   w81 = w78 * w0;
   w75 = w75 - w81;
-  GAGEN_SCATTER(J_b, 24, 9, w75);
+  GAGEN_SCATTER(out_J_b, 24, 9, w75);
   w75 = w72 * w17;
   w81 = w82 * w13;
   w75 = w75 + w81;
@@ -6167,7 +6167,7 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w75 = w75 - w81;
   w81 = w85 * w0;
   w75 = w75 - w81;
-  GAGEN_SCATTER(J_b, 24, 10, w75);
+  GAGEN_SCATTER(out_J_b, 24, 10, w75);
   w75 = w83 * w8;
   w81 = w72 * w38;
   w75 = w75 - w81;
@@ -6183,7 +6183,7 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w75 = w75 + w81;
   w81 = w78 * w9;
   w75 = w75 - w81;
-  GAGEN_SCATTER(J_b, 24, 11, w75);
+  GAGEN_SCATTER(out_J_b, 24, 11, w75);
   w75 = w9 * w6;
   w81 = w75 * w35;
   w80 = w8 * w21;
@@ -6215,7 +6215,7 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w88 = w88 - w75;
   w75 = w88 * w0;
   w77 = w77 - w75;
-  GAGEN_SCATTER(J_b, 24, 12, w77);
+  GAGEN_SCATTER(out_J_b, 24, 12, w77);
   w75 = w81 * w8;
   w80 = w87 * w0;
   w75 = w75 + w80;
@@ -6223,7 +6223,7 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w75 = w75 + w80;
   w80 = w86 * w9;
   w75 = w75 - w80;
-  GAGEN_SCATTER(J_b, 24, 13, w75);
+  GAGEN_SCATTER(out_J_b, 24, 13, w75);
   w80 = w81 * w0;
   w89 = w88 * w9;
   w80 = w80 + w89;
@@ -6231,7 +6231,7 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w80 = w80 + w89;
   w89 = w87 * w8;
   w80 = w80 - w89;
-  GAGEN_SCATTER(J_b, 24, 14, w80);
+  GAGEN_SCATTER(out_J_b, 24, 14, w80);
   w89 = w81 * w46;
   w90 = w87 * w17;
   w89 = w89 + w90;
@@ -6295,7 +6295,7 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w106 = w106 + w99;
   w108 = w106 * w0;
   w96 = w96 - w108;
-  GAGEN_SCATTER(J_b, 24, 15, w96);
+  GAGEN_SCATTER(out_J_b, 24, 15, w96);
   w96 = w81 * w17;
   w108 = w88 * w13;
   w96 = w96 + w108;
@@ -6311,7 +6311,7 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w108 = w108 - w109;
   w110 = w104 * w0;
   w108 = w108 - w110;
-  GAGEN_SCATTER(J_b, 24, 16, w108);
+  GAGEN_SCATTER(out_J_b, 24, 16, w108);
   w108 = w90 * w8;
   w110 = w81 * w38;
   w108 = w108 - w110;
@@ -6327,10 +6327,10 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w108 = w108 - w113;
   w114 = w106 * w9;
   w108 = w108 - w114;
-  GAGEN_SCATTER(J_b, 24, 17, w108);
-  GAGEN_SCATTER(J_b, 24, 18, w77);
-  GAGEN_SCATTER(J_b, 24, 19, w75);
-  GAGEN_SCATTER(J_b, 24, 20, w80);
+  GAGEN_SCATTER(out_J_b, 24, 17, w108);
+  GAGEN_SCATTER(out_J_b, 24, 18, w77);
+  GAGEN_SCATTER(out_J_b, 24, 19, w75);
+  GAGEN_SCATTER(out_J_b, 24, 20, w80);
   w80 = w15 * w12;
   w80 = w80 + w92;
   w80 = w80 - w93;
@@ -6372,7 +6372,7 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w94 = w94 + w99;
   w99 = w94 * w0;
   w89 = w89 - w99;
-  GAGEN_SCATTER(J_b, 24, 21, w89);
+  GAGEN_SCATTER(out_J_b, 24, 21, w89);
   w89 = w80 * w9;
   w96 = w96 + w89;
   w89 = w97 * w15;
@@ -6382,7 +6382,7 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w96 = w96 - w109;
   w109 = w103 * w0;
   w96 = w96 - w109;
-  GAGEN_SCATTER(J_b, 24, 22, w96);
+  GAGEN_SCATTER(out_J_b, 24, 22, w96);
   w96 = w80 * w8;
   w96 = w96 - w110;
   w110 = w97 * w0;
@@ -6394,129 +6394,129 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w96 = w96 - w113;
   w113 = w94 * w9;
   w96 = w96 - w113;
-  GAGEN_SCATTER(J_b, 24, 23, w96);
+  GAGEN_SCATTER(out_J_b, 24, 23, w96);
   w96 = gagen_v_splat(0.0625);
   w11 = w96 * w11;
-  GAGEN_SCATTER(J_A, 32, 0, w11);
+  GAGEN_SCATTER(out_J_A, 32, 0, w11);
   w20 = w96 * w20;
-  GAGEN_SCATTER(J_A, 32, 1, w20);
+  GAGEN_SCATTER(out_J_A, 32, 1, w20);
   w18 = w96 * w18;
   w18 = -w18;
-  GAGEN_SCATTER(J_A, 32, 2, w18);
+  GAGEN_SCATTER(out_J_A, 32, 2, w18);
   w96 = w96 * w14;
   w96 = -w96;
-  GAGEN_SCATTER(J_A, 32, 3, w96);
+  GAGEN_SCATTER(out_J_A, 32, 3, w96);
   w69 = w2 * w69;
   w69 = -w69;
-  GAGEN_SCATTER(J_A, 32, 4, w69);
+  GAGEN_SCATTER(out_J_A, 32, 4, w69);
   w1 = w2 * w1;
   w1 = -w1;
-  GAGEN_SCATTER(J_A, 32, 5, w1);
+  GAGEN_SCATTER(out_J_A, 32, 5, w1);
   w7 = w2 * w7;
   w7 = -w7;
-  GAGEN_SCATTER(J_A, 32, 6, w7);
+  GAGEN_SCATTER(out_J_A, 32, 6, w7);
   w70 = w2 * w70;
-  GAGEN_SCATTER(J_A, 32, 7, w70);
+  GAGEN_SCATTER(out_J_A, 32, 7, w70);
   w72 = w2 * w72;
-  GAGEN_SCATTER(J_A, 32, 8, w72);
+  GAGEN_SCATTER(out_J_A, 32, 8, w72);
   w76 = w2 * w76;
   w76 = -w76;
-  GAGEN_SCATTER(J_A, 32, 9, w76);
+  GAGEN_SCATTER(out_J_A, 32, 9, w76);
   w82 = w2 * w82;
   w82 = -w82;
-  GAGEN_SCATTER(J_A, 32, 10, w82);
+  GAGEN_SCATTER(out_J_A, 32, 10, w82);
   w79 = w2 * w79;
-  GAGEN_SCATTER(J_A, 32, 11, w79);
+  GAGEN_SCATTER(out_J_A, 32, 11, w79);
   w83 = w2 * w83;
   w83 = -w83;
-  GAGEN_SCATTER(J_A, 32, 12, w83);
+  GAGEN_SCATTER(out_J_A, 32, 12, w83);
   w84 = w2 * w84;
   w84 = -w84;
-  GAGEN_SCATTER(J_A, 32, 13, w84);
+  GAGEN_SCATTER(out_J_A, 32, 13, w84);
   w85 = w2 * w85;
   w85 = -w85;
-  GAGEN_SCATTER(J_A, 32, 14, w85);
+  GAGEN_SCATTER(out_J_A, 32, 14, w85);
   w78 = w2 * w78;
-  GAGEN_SCATTER(J_A, 32, 15, w78);
+  GAGEN_SCATTER(out_J_A, 32, 15, w78);
   w81 = w2 * w81;
-  GAGEN_SCATTER(J_A, 32, 16, w81);
+  GAGEN_SCATTER(out_J_A, 32, 16, w81);
   w87 = w2 * w87;
   w87 = -w87;
-  GAGEN_SCATTER(J_A, 32, 17, w87);
+  GAGEN_SCATTER(out_J_A, 32, 17, w87);
   w88 = w2 * w88;
   w88 = -w88;
-  GAGEN_SCATTER(J_A, 32, 18, w88);
+  GAGEN_SCATTER(out_J_A, 32, 18, w88);
   w86 = w2 * w86;
   w86 = -w86;
-  GAGEN_SCATTER(J_A, 32, 19, w86);
+  GAGEN_SCATTER(out_J_A, 32, 19, w86);
   w90 = w2 * w90;
   w90 = -w90;
-  GAGEN_SCATTER(J_A, 32, 20, w90);
+  GAGEN_SCATTER(out_J_A, 32, 20, w90);
   w98 = w2 * w98;
   w98 = -w98;
-  GAGEN_SCATTER(J_A, 32, 21, w98);
+  GAGEN_SCATTER(out_J_A, 32, 21, w98);
   w104 = w2 * w104;
   w104 = -w104;
-  GAGEN_SCATTER(J_A, 32, 22, w104);
+  GAGEN_SCATTER(out_J_A, 32, 22, w104);
   w106 = w2 * w106;
-  GAGEN_SCATTER(J_A, 32, 23, w106);
-  GAGEN_SCATTER(J_A, 32, 24, w81);
-  GAGEN_SCATTER(J_A, 32, 25, w87);
-  GAGEN_SCATTER(J_A, 32, 26, w88);
-  GAGEN_SCATTER(J_A, 32, 27, w86);
+  GAGEN_SCATTER(out_J_A, 32, 23, w106);
+  GAGEN_SCATTER(out_J_A, 32, 24, w81);
+  GAGEN_SCATTER(out_J_A, 32, 25, w87);
+  GAGEN_SCATTER(out_J_A, 32, 26, w88);
+  GAGEN_SCATTER(out_J_A, 32, 27, w86);
   w80 = w2 * w80;
   w80 = -w80;
-  GAGEN_SCATTER(J_A, 32, 28, w80);
+  GAGEN_SCATTER(out_J_A, 32, 28, w80);
   w97 = w2 * w97;
   w97 = -w97;
-  GAGEN_SCATTER(J_A, 32, 29, w97);
+  GAGEN_SCATTER(out_J_A, 32, 29, w97);
   w103 = w2 * w103;
   w103 = -w103;
-  GAGEN_SCATTER(J_A, 32, 30, w103);
+  GAGEN_SCATTER(out_J_A, 32, 30, w103);
   w2 = w2 * w94;
-  GAGEN_SCATTER(J_A, 32, 31, w2);
-  GAGEN_SCATTER(J_P, 20, 0, w52);
+  GAGEN_SCATTER(out_J_A, 32, 31, w2);
+  GAGEN_SCATTER(out_J_P, 20, 0, w52);
   w42 = w42 + w45;
   w42 = w42 - w43;
   w42 = w42 - w31;
   w42 = w42 - w34;
   w42 = w42 - w36;
   w42 = w42 - w39;
-  GAGEN_SCATTER(J_P, 20, 1, w42);
-  GAGEN_SCATTER(J_P, 20, 2, w52);
+  GAGEN_SCATTER(out_J_P, 20, 1, w42);
+  GAGEN_SCATTER(out_J_P, 20, 2, w52);
   w24 = w24 - w10;
   w24 = w24 + w23;
   w24 = w24 - w28;
-  GAGEN_SCATTER(J_P, 20, 3, w24);
+  GAGEN_SCATTER(out_J_P, 20, 3, w24);
   w24 = w16 * w50;
   w49 = w49 * w40;
   w24 = w24 + w49;
-  GAGEN_SCATTER(J_P, 20, 4, w24);
-  GAGEN_SCATTER(J_P, 20, 5, w52);
+  GAGEN_SCATTER(out_J_P, 20, 4, w24);
+  GAGEN_SCATTER(out_J_P, 20, 5, w52);
   w24 = w22 * w32;
   w44 = w44 - w24;
-  GAGEN_SCATTER(J_P, 20, 6, w44);
+  GAGEN_SCATTER(out_J_P, 20, 6, w44);
   w44 = w50 * w32;
   w24 = w44 + w53;
   w49 = w40 * w35;
   w24 = w24 + w49;
-  GAGEN_SCATTER(J_P, 20, 7, w24);
+  GAGEN_SCATTER(out_J_P, 20, 7, w24);
   w24 = w22 * w35;
   w54 = w54 - w24;
-  GAGEN_SCATTER(J_P, 20, 8, w54);
+  GAGEN_SCATTER(out_J_P, 20, 8, w54);
   w54 = w22 * w53;
   w44 = w44 + w49;
   w44 = w19 * w44;
   w54 = w54 + w44;
-  GAGEN_SCATTER(J_P, 20, 9, w54);
-  GAGEN_SCATTER(J_P, 20, 10, w52);
+  GAGEN_SCATTER(out_J_P, 20, 9, w54);
+  GAGEN_SCATTER(out_J_P, 20, 10, w52);
   w54 = w22 * w6;
   w44 = w54 * w35;
   w55 = w55 - w44;
   w49 = w40 * w21;
   w55 = w55 - w49;
   w55 = w55 - w4;
-  GAGEN_SCATTER(J_P, 20, 11, w55);
+  GAGEN_SCATTER(out_J_P, 20, 11, w55);
   w55 = w50 * w6;
   w55 = w55 * w35;
   w47 = w47 + w55;
@@ -6524,46 +6524,46 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w57 = w40 * w6;
   w57 = w57 * w32;
   w47 = w47 - w57;
-  GAGEN_SCATTER(J_P, 20, 12, w47);
+  GAGEN_SCATTER(out_J_P, 20, 12, w47);
   w47 = w50 * w21;
   w54 = w54 * w32;
   w47 = w47 + w54;
   w56 = w47 + w56;
   w56 = w56 - w3;
-  GAGEN_SCATTER(J_P, 20, 13, w56);
+  GAGEN_SCATTER(out_J_P, 20, 13, w56);
   w56 = w50 * w5;
   w3 = w22 * w58;
   w56 = w56 + w3;
   w3 = w40 * w59;
   w56 = w56 + w3;
-  GAGEN_SCATTER(J_P, 20, 14, w56);
-  GAGEN_SCATTER(J_P, 20, 15, w52);
+  GAGEN_SCATTER(out_J_P, 20, 14, w56);
+  GAGEN_SCATTER(out_J_P, 20, 15, w52);
   w44 = w12 - w44;
   w44 = w44 - w49;
-  GAGEN_SCATTER(J_P, 20, 16, w44);
+  GAGEN_SCATTER(out_J_P, 20, 16, w44);
   w33 = w33 + w55;
   w33 = w33 - w41;
   w33 = w33 - w57;
-  GAGEN_SCATTER(J_P, 20, 17, w33);
+  GAGEN_SCATTER(out_J_P, 20, 17, w33);
   w47 = w47 - w48;
   w47 = w47 - w51;
-  GAGEN_SCATTER(J_P, 20, 18, w47);
+  GAGEN_SCATTER(out_J_P, 20, 18, w47);
   w50 = w50 * w12;
   w22 = w22 * w27;
   w50 = w50 + w22;
   w40 = w40 * w25;
   w50 = w50 - w40;
-  GAGEN_SCATTER(J_P, 20, 19, w50);
+  GAGEN_SCATTER(out_J_P, 20, 19, w50);
   w50 = w67 + w64;
   w50 = w50 - w66;
   w50 = w50 - w63;
-  GAGEN_SCATTER(L, 6, 0, w50);
-  GAGEN_SCATTER(L, 6, 1, w62);
+  GAGEN_SCATTER(out_L, 6, 0, w50);
+  GAGEN_SCATTER(out_L, 6, 1, w62);
   w40 = w9 * w0;
   w22 = w15 * w8;
   w40 = w40 + w22;
   w22 = w40 + w40;
-  GAGEN_SCATTER(L, 6, 2, w22);
+  GAGEN_SCATTER(out_L, 6, 2, w22);
   w9 = w9 * w46;
   w0 = w0 * w38;
   w9 = w9 - w0;
@@ -6572,21 +6572,21 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w8 = w8 * w13;
   w9 = w9 - w8;
   w9 = w9 + w9;
-  GAGEN_SCATTER(L, 6, 3, w9);
+  GAGEN_SCATTER(out_L, 6, 3, w9);
   w74 = w74 + w73;
   w74 = w74 - w29;
   w74 = w74 + w71;
   w74 = w74 + w74;
-  GAGEN_SCATTER(L, 6, 4, w74);
+  GAGEN_SCATTER(out_L, 6, 4, w74);
   w71 = w65 - w30;
   w71 = w71 - w37;
   w71 = w71 - w68;
   w71 = w71 + w71;
-  GAGEN_SCATTER(L, 6, 5, w71);
-  GAGEN_SCATTER(J_L, 24, 0, w22);
-  GAGEN_SCATTER(J_L, 24, 1, w52);
+  GAGEN_SCATTER(out_L, 6, 5, w71);
+  GAGEN_SCATTER(out_J_L, 24, 0, w22);
+  GAGEN_SCATTER(out_J_L, 24, 1, w52);
   w52 = -w50;
-  GAGEN_SCATTER(J_L, 24, 2, w52);
+  GAGEN_SCATTER(out_J_L, 24, 2, w52);
   w52 = gagen_v_splat(0.014190499305725078);
   w61 = w52 * w61;
   w37 = w37 + w68;
@@ -6594,34 +6594,34 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w37 = w37 - w65;
   w37 = w37 + w37;
   w61 = w61 + w37;
-  GAGEN_SCATTER(J_L, 24, 3, w61);
+  GAGEN_SCATTER(out_J_L, 24, 3, w61);
   w66 = w66 + w63;
   w66 = w66 - w67;
   w66 = w66 - w64;
   w16 = w16 * w66;
   w52 = w52 * w40;
   w16 = w16 + w52;
-  GAGEN_SCATTER(J_L, 24, 4, w16);
+  GAGEN_SCATTER(out_J_L, 24, 4, w16);
   w16 = gagen_v_splat(0.03744480715692046);
   w60 = w60 - w26;
   w16 = w16 * w60;
   w16 = w16 + w9;
-  GAGEN_SCATTER(J_L, 24, 5, w16);
+  GAGEN_SCATTER(out_J_L, 24, 5, w16);
   w16 = w62 * w35;
-  GAGEN_SCATTER(J_L, 24, 6, w16);
+  GAGEN_SCATTER(out_J_L, 24, 6, w16);
   w60 = w50 * w35;
   w26 = w22 * w32;
   w60 = w60 + w26;
   w60 = -w60;
-  GAGEN_SCATTER(J_L, 24, 7, w60);
+  GAGEN_SCATTER(out_J_L, 24, 7, w60);
   w60 = w62 * w32;
-  GAGEN_SCATTER(J_L, 24, 8, w60);
+  GAGEN_SCATTER(out_J_L, 24, 8, w60);
   w26 = w50 * w53;
   w52 = w74 * w32;
   w26 = w26 - w52;
   w16 = w19 * w16;
   w26 = w26 + w16;
-  GAGEN_SCATTER(J_L, 24, 9, w26);
+  GAGEN_SCATTER(out_J_L, 24, 9, w26);
   w26 = w9 * w32;
   w16 = w71 * w35;
   w26 = w26 + w16;
@@ -6630,29 +6630,29 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w16 = w16 - w52;
   w16 = w19 * w16;
   w26 = w26 - w16;
-  GAGEN_SCATTER(J_L, 24, 10, w26);
+  GAGEN_SCATTER(out_J_L, 24, 10, w26);
   w26 = w74 * w35;
   w53 = w22 * w53;
   w26 = w26 + w53;
   w19 = w19 * w60;
   w26 = w26 + w19;
   w26 = -w26;
-  GAGEN_SCATTER(J_L, 24, 11, w26);
+  GAGEN_SCATTER(out_J_L, 24, 11, w26);
   w26 = w22 * w21;
   w19 = w62 * w6;
   w60 = w19 * w32;
   w26 = w26 - w60;
-  GAGEN_SCATTER(J_L, 24, 12, w26);
+  GAGEN_SCATTER(out_J_L, 24, 12, w26);
   w60 = w50 * w6;
   w60 = w60 * w32;
   w53 = w22 * w6;
   w53 = w53 * w35;
   w60 = w60 - w53;
-  GAGEN_SCATTER(J_L, 24, 13, w60);
+  GAGEN_SCATTER(out_J_L, 24, 13, w60);
   w19 = w19 * w35;
   w53 = w50 * w21;
   w19 = w19 - w53;
-  GAGEN_SCATTER(J_L, 24, 14, w19);
+  GAGEN_SCATTER(out_J_L, 24, 14, w19);
   w53 = w50 * w58;
   w16 = w62 * w59;
   w53 = w53 + w16;
@@ -6661,7 +6661,7 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w53 = w53 - w16;
   w52 = w71 * w21;
   w53 = w53 - w52;
-  GAGEN_SCATTER(J_L, 24, 15, w53);
+  GAGEN_SCATTER(out_J_L, 24, 15, w53);
   w59 = w22 * w59;
   w53 = w9 * w6;
   w53 = w53 * w35;
@@ -6671,7 +6671,7 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w71 = w71 * w6;
   w71 = w71 * w32;
   w59 = w59 - w71;
-  GAGEN_SCATTER(J_L, 24, 16, w59);
+  GAGEN_SCATTER(out_J_L, 24, 16, w59);
   w9 = w9 * w21;
   w74 = w74 * w32;
   w9 = w9 + w74;
@@ -6679,27 +6679,27 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
   w5 = w9 - w5;
   w58 = w22 * w58;
   w5 = w5 - w58;
-  GAGEN_SCATTER(J_L, 24, 17, w5);
-  GAGEN_SCATTER(J_L, 24, 18, w26);
-  GAGEN_SCATTER(J_L, 24, 19, w60);
-  GAGEN_SCATTER(J_L, 24, 20, w19);
+  GAGEN_SCATTER(out_J_L, 24, 17, w5);
+  GAGEN_SCATTER(out_J_L, 24, 18, w26);
+  GAGEN_SCATTER(out_J_L, 24, 19, w60);
+  GAGEN_SCATTER(out_J_L, 24, 20, w19);
   w19 = w50 * w27;
   w60 = w62 * w25;
   w19 = w19 - w60;
   w19 = w19 - w16;
   w19 = w19 - w52;
-  GAGEN_SCATTER(J_L, 24, 21, w19);
+  GAGEN_SCATTER(out_J_L, 24, 21, w19);
   w25 = w22 * w25;
   w53 = w53 - w25;
   w50 = w50 * w12;
   w53 = w53 - w50;
   w53 = w53 - w71;
-  GAGEN_SCATTER(J_L, 24, 22, w53);
+  GAGEN_SCATTER(out_J_L, 24, 22, w53);
   w62 = w62 * w12;
   w9 = w9 - w62;
   w22 = w22 * w27;
   w9 = w9 - w22;
-  GAGEN_SCATTER(J_L, 24, 23, w9);
+  GAGEN_SCATTER(out_J_L, 24, 23, w9);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -6707,31 +6707,31 @@ static void leap_hand_sphere_middle_jacobians_block_columns(long gagen_ld, int g
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void leap_hand_sphere_middle_jacobians_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S, double *restrict J_b, double *restrict J_A, double *restrict J_P, double *restrict L, double *restrict J_L) {
-  long s = 0;
+void leap_hand_sphere_middle_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S, double *restrict out_J_b, double *restrict out_J_A, double *restrict out_J_P, double *restrict out_L, double *restrict out_J_L) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 143L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    leap_hand_sphere_middle_jacobians_block_columns(ld, stream, q + s, M + s, P + s, J_S + s, J_b + s, J_A + s, J_P + s, L + s, J_L + s);
+  const int gagen_stream = gagen_n * 143L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    leap_hand_sphere_middle_jacobians_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s, out_J_b + gagen_s, out_J_A + gagen_s, out_J_P + gagen_s, out_L + gagen_s, out_J_L + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  leap_hand_sphere_middle_jacobians_columns_from(s, n, ld, q, M, P, J_S, J_b, J_A, J_P, L, J_L);
+  leap_hand_sphere_middle_jacobians_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S, out_J_b, out_J_A, out_J_P, out_L, out_J_L);
 }
 
 #if GAGEN_SIMD
 /* chain ring: motor and end point: GAGEN_W consecutive samples at once */
-static void leap_hand_sphere_ring_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void leap_hand_sphere_ring_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(4.0);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 4, 0);
+  w3 = GAGEN_GATHER(in_q, 4, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
-  w5 = GAGEN_GATHER(q, 4, 1);
+  w5 = GAGEN_GATHER(in_q, 4, 1);
   w5 = w2 * w5;
   w6 = gagen_v_sin(w5);
   w7 = w4 * w6;
@@ -6744,7 +6744,7 @@ static void leap_hand_sphere_ring_fk_block(const double *restrict q, double *res
   w11 = w3 * w5;
   w9 = w9 - w11;
   w9 = w1 * w9;
-  w12 = GAGEN_GATHER(q, 4, 2);
+  w12 = GAGEN_GATHER(in_q, 4, 2);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w14 = w9 * w13;
@@ -6755,7 +6755,7 @@ static void leap_hand_sphere_ring_fk_block(const double *restrict q, double *res
   w12 = gagen_v_sin(w12);
   w16 = w15 * w12;
   w14 = w14 - w16;
-  w16 = GAGEN_GATHER(q, 4, 3);
+  w16 = GAGEN_GATHER(in_q, 4, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -6766,12 +6766,12 @@ static void leap_hand_sphere_ring_fk_block(const double *restrict q, double *res
   w15 = w9 * w16;
   w18 = w18 - w15;
   w18 = w0 * w18;
-  GAGEN_SCATTER(M, 8, 0, w18);
+  GAGEN_SCATTER(out_M, 8, 0, w18);
   w14 = w14 * w16;
   w9 = w9 * w17;
   w14 = w14 + w9;
   w14 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 1, w14);
+  GAGEN_SCATTER(out_M, 8, 1, w14);
   w9 = w10 + w8;
   w9 = w9 - w7;
   w9 = w9 - w11;
@@ -6790,12 +6790,12 @@ static void leap_hand_sphere_ring_fk_block(const double *restrict q, double *res
   w1 = w9 * w16;
   w7 = w7 - w1;
   w7 = w0 * w7;
-  GAGEN_SCATTER(M, 8, 2, w7);
+  GAGEN_SCATTER(out_M, 8, 2, w7);
   w15 = w15 * w16;
   w9 = w9 * w17;
   w15 = w15 + w9;
   w0 = w0 * w15;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w15 = gagen_v_splat(0.08234224386510051);
   w9 = gagen_v_splat(0.0009000000000001229);
   w1 = w5 * w5;
@@ -6904,14 +6904,14 @@ static void leap_hand_sphere_ring_fk_block(const double *restrict q, double *res
   w12 = w24 * w18;
   w19 = w19 - w12;
   w19 = w2 * w19;
-  GAGEN_SCATTER(M, 8, 4, w19);
+  GAGEN_SCATTER(out_M, 8, 4, w19);
   w19 = w16 * w0;
   w12 = w24 * w14;
   w19 = w19 - w12;
   w12 = w15 * w18;
   w19 = w19 - w12;
   w19 = w2 * w19;
-  GAGEN_SCATTER(M, 8, 5, w19);
+  GAGEN_SCATTER(out_M, 8, 5, w19);
   w19 = w24 * w7;
   w12 = w15 * w0;
   w19 = w19 + w12;
@@ -6919,43 +6919,43 @@ static void leap_hand_sphere_ring_fk_block(const double *restrict q, double *res
   w19 = w19 + w18;
   w19 = w2 * w19;
   w19 = -w19;
-  GAGEN_SCATTER(M, 8, 6, w19);
+  GAGEN_SCATTER(out_M, 8, 6, w19);
   w7 = w15 * w7;
   w0 = w24 * w0;
   w7 = w7 - w0;
   w14 = w16 * w14;
   w7 = w7 - w14;
   w7 = w2 * w7;
-  GAGEN_SCATTER(M, 8, 7, w7);
+  GAGEN_SCATTER(out_M, 8, 7, w7);
   w7 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w7);
-  GAGEN_SCATTER(P, 5, 1, w24);
-  GAGEN_SCATTER(P, 5, 2, w15);
-  GAGEN_SCATTER(P, 5, 3, w16);
+  GAGEN_SCATTER(out_P, 5, 0, w7);
+  GAGEN_SCATTER(out_P, 5, 1, w24);
+  GAGEN_SCATTER(out_P, 5, 2, w15);
+  GAGEN_SCATTER(out_P, 5, 3, w16);
   w24 = w24 * w24;
   w15 = w15 * w15;
   w24 = w24 + w15;
   w16 = w16 * w16;
   w24 = w24 + w16;
   w2 = w2 * w24;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #endif
 
-void leap_hand_sphere_ring_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void leap_hand_sphere_ring_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    leap_hand_sphere_ring_fk_block(q + 4 * s, M + 8 * s, P + 5 * s);
+    leap_hand_sphere_ring_fk_block(in_q + 4 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    leap_hand_sphere_ring_fk(q + 4 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    leap_hand_sphere_ring_fk(in_q + 4 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -6965,17 +6965,17 @@ void leap_hand_sphere_ring_fk_batch(long n, const double *restrict q, double *re
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void leap_hand_sphere_ring_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void leap_hand_sphere_ring_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(4.0);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 4, 0);
+  w3 = GAGEN_GATHER(in_q, 4, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
-  w5 = GAGEN_GATHER(q, 4, 1);
+  w5 = GAGEN_GATHER(in_q, 4, 1);
   w5 = w2 * w5;
   w6 = gagen_v_sin(w5);
   w7 = w4 * w6;
@@ -6988,7 +6988,7 @@ static void leap_hand_sphere_ring_fk_block_columns(long gagen_ld, int gagen_stre
   w11 = w3 * w5;
   w9 = w9 - w11;
   w9 = w1 * w9;
-  w12 = GAGEN_GATHER(q, 4, 2);
+  w12 = GAGEN_GATHER(in_q, 4, 2);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w14 = w9 * w13;
@@ -6999,7 +6999,7 @@ static void leap_hand_sphere_ring_fk_block_columns(long gagen_ld, int gagen_stre
   w12 = gagen_v_sin(w12);
   w16 = w15 * w12;
   w14 = w14 - w16;
-  w16 = GAGEN_GATHER(q, 4, 3);
+  w16 = GAGEN_GATHER(in_q, 4, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -7010,12 +7010,12 @@ static void leap_hand_sphere_ring_fk_block_columns(long gagen_ld, int gagen_stre
   w15 = w9 * w16;
   w18 = w18 - w15;
   w18 = w0 * w18;
-  GAGEN_SCATTER(M, 8, 0, w18);
+  GAGEN_SCATTER(out_M, 8, 0, w18);
   w14 = w14 * w16;
   w9 = w9 * w17;
   w14 = w14 + w9;
   w14 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 1, w14);
+  GAGEN_SCATTER(out_M, 8, 1, w14);
   w9 = w10 + w8;
   w9 = w9 - w7;
   w9 = w9 - w11;
@@ -7034,12 +7034,12 @@ static void leap_hand_sphere_ring_fk_block_columns(long gagen_ld, int gagen_stre
   w1 = w9 * w16;
   w7 = w7 - w1;
   w7 = w0 * w7;
-  GAGEN_SCATTER(M, 8, 2, w7);
+  GAGEN_SCATTER(out_M, 8, 2, w7);
   w15 = w15 * w16;
   w9 = w9 * w17;
   w15 = w15 + w9;
   w0 = w0 * w15;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w15 = gagen_v_splat(0.08234224386510051);
   w9 = gagen_v_splat(0.0009000000000001229);
   w1 = w5 * w5;
@@ -7148,14 +7148,14 @@ static void leap_hand_sphere_ring_fk_block_columns(long gagen_ld, int gagen_stre
   w12 = w24 * w18;
   w19 = w19 - w12;
   w19 = w2 * w19;
-  GAGEN_SCATTER(M, 8, 4, w19);
+  GAGEN_SCATTER(out_M, 8, 4, w19);
   w19 = w16 * w0;
   w12 = w24 * w14;
   w19 = w19 - w12;
   w12 = w15 * w18;
   w19 = w19 - w12;
   w19 = w2 * w19;
-  GAGEN_SCATTER(M, 8, 5, w19);
+  GAGEN_SCATTER(out_M, 8, 5, w19);
   w19 = w24 * w7;
   w12 = w15 * w0;
   w19 = w19 + w12;
@@ -7163,26 +7163,26 @@ static void leap_hand_sphere_ring_fk_block_columns(long gagen_ld, int gagen_stre
   w19 = w19 + w18;
   w19 = w2 * w19;
   w19 = -w19;
-  GAGEN_SCATTER(M, 8, 6, w19);
+  GAGEN_SCATTER(out_M, 8, 6, w19);
   w7 = w15 * w7;
   w0 = w24 * w0;
   w7 = w7 - w0;
   w14 = w16 * w14;
   w7 = w7 - w14;
   w7 = w2 * w7;
-  GAGEN_SCATTER(M, 8, 7, w7);
+  GAGEN_SCATTER(out_M, 8, 7, w7);
   w7 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w7);
-  GAGEN_SCATTER(P, 5, 1, w24);
-  GAGEN_SCATTER(P, 5, 2, w15);
-  GAGEN_SCATTER(P, 5, 3, w16);
+  GAGEN_SCATTER(out_P, 5, 0, w7);
+  GAGEN_SCATTER(out_P, 5, 1, w24);
+  GAGEN_SCATTER(out_P, 5, 2, w15);
+  GAGEN_SCATTER(out_P, 5, 3, w16);
   w24 = w24 * w24;
   w15 = w15 * w15;
   w24 = w24 + w15;
   w16 = w16 * w16;
   w24 = w24 + w16;
   w2 = w2 * w24;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -7190,21 +7190,21 @@ static void leap_hand_sphere_ring_fk_block_columns(long gagen_ld, int gagen_stre
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void leap_hand_sphere_ring_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void leap_hand_sphere_ring_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    leap_hand_sphere_ring_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    leap_hand_sphere_ring_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  leap_hand_sphere_ring_fk_columns_from(s, n, ld, q, M, P);
+  leap_hand_sphere_ring_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain ring: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void leap_hand_sphere_ring_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void leap_hand_sphere_ring_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -7212,10 +7212,10 @@ static void leap_hand_sphere_ring_fk_jacobian_block(const double *restrict q, do
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(4.0);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 4, 0);
+  w3 = GAGEN_GATHER(in_q, 4, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
-  w5 = GAGEN_GATHER(q, 4, 1);
+  w5 = GAGEN_GATHER(in_q, 4, 1);
   w5 = w2 * w5;
   w6 = gagen_v_sin(w5);
   w7 = w4 * w6;
@@ -7228,7 +7228,7 @@ static void leap_hand_sphere_ring_fk_jacobian_block(const double *restrict q, do
   w11 = w3 * w5;
   w9 = w9 - w11;
   w9 = w1 * w9;
-  w12 = GAGEN_GATHER(q, 4, 2);
+  w12 = GAGEN_GATHER(in_q, 4, 2);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w14 = w9 * w13;
@@ -7239,7 +7239,7 @@ static void leap_hand_sphere_ring_fk_jacobian_block(const double *restrict q, do
   w12 = gagen_v_sin(w12);
   w16 = w15 * w12;
   w14 = w14 - w16;
-  w16 = GAGEN_GATHER(q, 4, 3);
+  w16 = GAGEN_GATHER(in_q, 4, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -7250,12 +7250,12 @@ static void leap_hand_sphere_ring_fk_jacobian_block(const double *restrict q, do
   w15 = w9 * w16;
   w18 = w18 - w15;
   w18 = w0 * w18;
-  GAGEN_SCATTER(M, 8, 0, w18);
+  GAGEN_SCATTER(out_M, 8, 0, w18);
   w14 = w14 * w16;
   w9 = w9 * w17;
   w14 = w14 + w9;
   w14 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 1, w14);
+  GAGEN_SCATTER(out_M, 8, 1, w14);
   w9 = w10 + w8;
   w9 = w9 - w7;
   w9 = w9 - w11;
@@ -7274,12 +7274,12 @@ static void leap_hand_sphere_ring_fk_jacobian_block(const double *restrict q, do
   w1 = w9 * w16;
   w7 = w7 - w1;
   w7 = w0 * w7;
-  GAGEN_SCATTER(M, 8, 2, w7);
+  GAGEN_SCATTER(out_M, 8, 2, w7);
   w15 = w15 * w16;
   w9 = w9 * w17;
   w15 = w15 + w9;
   w0 = w0 * w15;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w15 = gagen_v_splat(0.08234224386510051);
   w9 = gagen_v_splat(0.0009000000000001229);
   w1 = w5 * w5;
@@ -7388,14 +7388,14 @@ static void leap_hand_sphere_ring_fk_jacobian_block(const double *restrict q, do
   w22 = w10 * w18;
   w24 = w24 - w22;
   w24 = w2 * w24;
-  GAGEN_SCATTER(M, 8, 4, w24);
+  GAGEN_SCATTER(out_M, 8, 4, w24);
   w24 = w31 * w0;
   w22 = w10 * w14;
   w24 = w24 - w22;
   w22 = w11 * w18;
   w24 = w24 - w22;
   w24 = w2 * w24;
-  GAGEN_SCATTER(M, 8, 5, w24);
+  GAGEN_SCATTER(out_M, 8, 5, w24);
   w24 = w10 * w7;
   w22 = w11 * w0;
   w24 = w24 + w22;
@@ -7403,39 +7403,39 @@ static void leap_hand_sphere_ring_fk_jacobian_block(const double *restrict q, do
   w24 = w24 + w18;
   w24 = w2 * w24;
   w24 = -w24;
-  GAGEN_SCATTER(M, 8, 6, w24);
+  GAGEN_SCATTER(out_M, 8, 6, w24);
   w7 = w11 * w7;
   w0 = w10 * w0;
   w7 = w7 - w0;
   w14 = w31 * w14;
   w7 = w7 - w14;
   w7 = w2 * w7;
-  GAGEN_SCATTER(M, 8, 7, w7);
+  GAGEN_SCATTER(out_M, 8, 7, w7);
   w7 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w7);
-  GAGEN_SCATTER(P, 5, 1, w10);
-  GAGEN_SCATTER(P, 5, 2, w11);
-  GAGEN_SCATTER(P, 5, 3, w31);
+  GAGEN_SCATTER(out_P, 5, 0, w7);
+  GAGEN_SCATTER(out_P, 5, 1, w10);
+  GAGEN_SCATTER(out_P, 5, 2, w11);
+  GAGEN_SCATTER(out_P, 5, 3, w31);
   w10 = w10 * w10;
   w11 = w11 * w11;
   w10 = w10 + w11;
   w31 = w31 * w31;
   w10 = w10 + w31;
   w2 = w2 * w10;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
   w2 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 24, 0, w2);
-  GAGEN_SCATTER(J_S, 24, 1, w7);
-  GAGEN_SCATTER(J_S, 24, 2, w2);
-  GAGEN_SCATTER(J_S, 24, 3, w16);
-  GAGEN_SCATTER(J_S, 24, 4, w2);
-  GAGEN_SCATTER(J_S, 24, 5, w36);
-  GAGEN_SCATTER(J_S, 24, 6, w26);
-  GAGEN_SCATTER(J_S, 24, 7, w2);
+  GAGEN_SCATTER(out_J_S, 24, 0, w2);
+  GAGEN_SCATTER(out_J_S, 24, 1, w7);
+  GAGEN_SCATTER(out_J_S, 24, 2, w2);
+  GAGEN_SCATTER(out_J_S, 24, 3, w16);
+  GAGEN_SCATTER(out_J_S, 24, 4, w2);
+  GAGEN_SCATTER(out_J_S, 24, 5, w36);
+  GAGEN_SCATTER(out_J_S, 24, 6, w26);
+  GAGEN_SCATTER(out_J_S, 24, 7, w2);
   w2 = -w4;
-  GAGEN_SCATTER(J_S, 24, 8, w2);
+  GAGEN_SCATTER(out_J_S, 24, 8, w2);
   w2 = w15 * w26;
-  GAGEN_SCATTER(J_S, 24, 9, w2);
+  GAGEN_SCATTER(out_J_S, 24, 9, w2);
   w2 = gagen_v_splat(0.0035476227213199186);
   w16 = gagen_v_splat(0.012200000000000004);
   w16 = w16 * w3;
@@ -7453,13 +7453,13 @@ static void leap_hand_sphere_ring_fk_jacobian_block(const double *restrict q, do
   w4 = w4 * w16;
   w2 = w2 + w4;
   w2 = w2 + w2;
-  GAGEN_SCATTER(J_S, 24, 10, w2);
+  GAGEN_SCATTER(out_J_S, 24, 10, w2);
   w2 = gagen_v_splat(0.16468448773020103);
   w2 = w2 * w3;
-  GAGEN_SCATTER(J_S, 24, 11, w2);
-  GAGEN_SCATTER(J_S, 24, 12, w32);
-  GAGEN_SCATTER(J_S, 24, 13, w1);
-  GAGEN_SCATTER(J_S, 24, 14, w6);
+  GAGEN_SCATTER(out_J_S, 24, 11, w2);
+  GAGEN_SCATTER(out_J_S, 24, 12, w32);
+  GAGEN_SCATTER(out_J_S, 24, 13, w1);
+  GAGEN_SCATTER(out_J_S, 24, 14, w6);
   w2 = gagen_v_splat(0.014299999999999952);
   w3 = w2 * w32;
   w3 = w25 + w3;
@@ -7473,22 +7473,22 @@ static void leap_hand_sphere_ring_fk_jacobian_block(const double *restrict q, do
   w27 = w32 * w16;
   w27 = w27 + w27;
   w4 = w4 - w27;
-  GAGEN_SCATTER(J_S, 24, 15, w4);
+  GAGEN_SCATTER(out_J_S, 24, 15, w4);
   w3 = w6 * w3;
   w2 = w2 * w6;
   w2 = w28 + w2;
   w2 = w2 - w36;
   w4 = w32 * w2;
   w3 = w3 - w4;
-  GAGEN_SCATTER(J_S, 24, 16, w3);
+  GAGEN_SCATTER(out_J_S, 24, 16, w3);
   w16 = w6 * w16;
   w16 = w16 + w16;
   w2 = w1 * w2;
   w16 = w16 - w2;
-  GAGEN_SCATTER(J_S, 24, 17, w16);
-  GAGEN_SCATTER(J_S, 24, 18, w32);
-  GAGEN_SCATTER(J_S, 24, 19, w1);
-  GAGEN_SCATTER(J_S, 24, 20, w6);
+  GAGEN_SCATTER(out_J_S, 24, 17, w16);
+  GAGEN_SCATTER(out_J_S, 24, 18, w32);
+  GAGEN_SCATTER(out_J_S, 24, 19, w1);
+  GAGEN_SCATTER(out_J_S, 24, 20, w6);
   w15 = w15 + w19;
   w15 = w15 + w20;
   w20 = gagen_v_splat(0.014099999999999877);
@@ -7502,7 +7502,7 @@ static void leap_hand_sphere_ring_fk_jacobian_block(const double *restrict q, do
   w25 = w25 - w35;
   w35 = w1 * w25;
   w12 = w12 + w35;
-  GAGEN_SCATTER(J_S, 24, 21, w12);
+  GAGEN_SCATTER(out_J_S, 24, 21, w12);
   w25 = w6 * w25;
   w20 = w20 * w6;
   w28 = w28 + w20;
@@ -7511,30 +7511,30 @@ static void leap_hand_sphere_ring_fk_jacobian_block(const double *restrict q, do
   w28 = w28 + w8;
   w32 = w32 * w28;
   w25 = w25 - w32;
-  GAGEN_SCATTER(J_S, 24, 22, w25);
+  GAGEN_SCATTER(out_J_S, 24, 22, w25);
   w1 = w1 * w28;
   w6 = w6 * w15;
   w1 = w1 + w6;
   w1 = -w1;
-  GAGEN_SCATTER(J_S, 24, 23, w1);
+  GAGEN_SCATTER(out_J_S, 24, 23, w1);
 }
 #endif
 
-void leap_hand_sphere_ring_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void leap_hand_sphere_ring_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 24 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 24 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 24 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 24 * gagen_a + gagen_o, 1, 0);
     }
-    leap_hand_sphere_ring_fk_jacobian_block(q + 4 * s, M + 8 * s, P + 5 * s, J_S + 24 * s);
+    leap_hand_sphere_ring_fk_jacobian_block(in_q + 4 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 24 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    leap_hand_sphere_ring_fk_jacobian(q + 4 * s, M + 8 * s, P + 5 * s, J_S + 24 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    leap_hand_sphere_ring_fk_jacobian(in_q + 4 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 24 * gagen_s);
   }
 }
 
@@ -7544,7 +7544,7 @@ void leap_hand_sphere_ring_fk_jacobian_batch(long n, const double *restrict q, d
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void leap_hand_sphere_ring_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void leap_hand_sphere_ring_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -7552,10 +7552,10 @@ static void leap_hand_sphere_ring_fk_jacobian_block_columns(long gagen_ld, int g
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(4.0);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 4, 0);
+  w3 = GAGEN_GATHER(in_q, 4, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
-  w5 = GAGEN_GATHER(q, 4, 1);
+  w5 = GAGEN_GATHER(in_q, 4, 1);
   w5 = w2 * w5;
   w6 = gagen_v_sin(w5);
   w7 = w4 * w6;
@@ -7568,7 +7568,7 @@ static void leap_hand_sphere_ring_fk_jacobian_block_columns(long gagen_ld, int g
   w11 = w3 * w5;
   w9 = w9 - w11;
   w9 = w1 * w9;
-  w12 = GAGEN_GATHER(q, 4, 2);
+  w12 = GAGEN_GATHER(in_q, 4, 2);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w14 = w9 * w13;
@@ -7579,7 +7579,7 @@ static void leap_hand_sphere_ring_fk_jacobian_block_columns(long gagen_ld, int g
   w12 = gagen_v_sin(w12);
   w16 = w15 * w12;
   w14 = w14 - w16;
-  w16 = GAGEN_GATHER(q, 4, 3);
+  w16 = GAGEN_GATHER(in_q, 4, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -7590,12 +7590,12 @@ static void leap_hand_sphere_ring_fk_jacobian_block_columns(long gagen_ld, int g
   w15 = w9 * w16;
   w18 = w18 - w15;
   w18 = w0 * w18;
-  GAGEN_SCATTER(M, 8, 0, w18);
+  GAGEN_SCATTER(out_M, 8, 0, w18);
   w14 = w14 * w16;
   w9 = w9 * w17;
   w14 = w14 + w9;
   w14 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 1, w14);
+  GAGEN_SCATTER(out_M, 8, 1, w14);
   w9 = w10 + w8;
   w9 = w9 - w7;
   w9 = w9 - w11;
@@ -7614,12 +7614,12 @@ static void leap_hand_sphere_ring_fk_jacobian_block_columns(long gagen_ld, int g
   w1 = w9 * w16;
   w7 = w7 - w1;
   w7 = w0 * w7;
-  GAGEN_SCATTER(M, 8, 2, w7);
+  GAGEN_SCATTER(out_M, 8, 2, w7);
   w15 = w15 * w16;
   w9 = w9 * w17;
   w15 = w15 + w9;
   w0 = w0 * w15;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w15 = gagen_v_splat(0.08234224386510051);
   w9 = gagen_v_splat(0.0009000000000001229);
   w1 = w5 * w5;
@@ -7728,14 +7728,14 @@ static void leap_hand_sphere_ring_fk_jacobian_block_columns(long gagen_ld, int g
   w22 = w10 * w18;
   w24 = w24 - w22;
   w24 = w2 * w24;
-  GAGEN_SCATTER(M, 8, 4, w24);
+  GAGEN_SCATTER(out_M, 8, 4, w24);
   w24 = w31 * w0;
   w22 = w10 * w14;
   w24 = w24 - w22;
   w22 = w11 * w18;
   w24 = w24 - w22;
   w24 = w2 * w24;
-  GAGEN_SCATTER(M, 8, 5, w24);
+  GAGEN_SCATTER(out_M, 8, 5, w24);
   w24 = w10 * w7;
   w22 = w11 * w0;
   w24 = w24 + w22;
@@ -7743,39 +7743,39 @@ static void leap_hand_sphere_ring_fk_jacobian_block_columns(long gagen_ld, int g
   w24 = w24 + w18;
   w24 = w2 * w24;
   w24 = -w24;
-  GAGEN_SCATTER(M, 8, 6, w24);
+  GAGEN_SCATTER(out_M, 8, 6, w24);
   w7 = w11 * w7;
   w0 = w10 * w0;
   w7 = w7 - w0;
   w14 = w31 * w14;
   w7 = w7 - w14;
   w7 = w2 * w7;
-  GAGEN_SCATTER(M, 8, 7, w7);
+  GAGEN_SCATTER(out_M, 8, 7, w7);
   w7 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w7);
-  GAGEN_SCATTER(P, 5, 1, w10);
-  GAGEN_SCATTER(P, 5, 2, w11);
-  GAGEN_SCATTER(P, 5, 3, w31);
+  GAGEN_SCATTER(out_P, 5, 0, w7);
+  GAGEN_SCATTER(out_P, 5, 1, w10);
+  GAGEN_SCATTER(out_P, 5, 2, w11);
+  GAGEN_SCATTER(out_P, 5, 3, w31);
   w10 = w10 * w10;
   w11 = w11 * w11;
   w10 = w10 + w11;
   w31 = w31 * w31;
   w10 = w10 + w31;
   w2 = w2 * w10;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
   w2 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 24, 0, w2);
-  GAGEN_SCATTER(J_S, 24, 1, w7);
-  GAGEN_SCATTER(J_S, 24, 2, w2);
-  GAGEN_SCATTER(J_S, 24, 3, w16);
-  GAGEN_SCATTER(J_S, 24, 4, w2);
-  GAGEN_SCATTER(J_S, 24, 5, w36);
-  GAGEN_SCATTER(J_S, 24, 6, w26);
-  GAGEN_SCATTER(J_S, 24, 7, w2);
+  GAGEN_SCATTER(out_J_S, 24, 0, w2);
+  GAGEN_SCATTER(out_J_S, 24, 1, w7);
+  GAGEN_SCATTER(out_J_S, 24, 2, w2);
+  GAGEN_SCATTER(out_J_S, 24, 3, w16);
+  GAGEN_SCATTER(out_J_S, 24, 4, w2);
+  GAGEN_SCATTER(out_J_S, 24, 5, w36);
+  GAGEN_SCATTER(out_J_S, 24, 6, w26);
+  GAGEN_SCATTER(out_J_S, 24, 7, w2);
   w2 = -w4;
-  GAGEN_SCATTER(J_S, 24, 8, w2);
+  GAGEN_SCATTER(out_J_S, 24, 8, w2);
   w2 = w15 * w26;
-  GAGEN_SCATTER(J_S, 24, 9, w2);
+  GAGEN_SCATTER(out_J_S, 24, 9, w2);
   w2 = gagen_v_splat(0.0035476227213199186);
   w16 = gagen_v_splat(0.012200000000000004);
   w16 = w16 * w3;
@@ -7793,13 +7793,13 @@ static void leap_hand_sphere_ring_fk_jacobian_block_columns(long gagen_ld, int g
   w4 = w4 * w16;
   w2 = w2 + w4;
   w2 = w2 + w2;
-  GAGEN_SCATTER(J_S, 24, 10, w2);
+  GAGEN_SCATTER(out_J_S, 24, 10, w2);
   w2 = gagen_v_splat(0.16468448773020103);
   w2 = w2 * w3;
-  GAGEN_SCATTER(J_S, 24, 11, w2);
-  GAGEN_SCATTER(J_S, 24, 12, w32);
-  GAGEN_SCATTER(J_S, 24, 13, w1);
-  GAGEN_SCATTER(J_S, 24, 14, w6);
+  GAGEN_SCATTER(out_J_S, 24, 11, w2);
+  GAGEN_SCATTER(out_J_S, 24, 12, w32);
+  GAGEN_SCATTER(out_J_S, 24, 13, w1);
+  GAGEN_SCATTER(out_J_S, 24, 14, w6);
   w2 = gagen_v_splat(0.014299999999999952);
   w3 = w2 * w32;
   w3 = w25 + w3;
@@ -7813,22 +7813,22 @@ static void leap_hand_sphere_ring_fk_jacobian_block_columns(long gagen_ld, int g
   w27 = w32 * w16;
   w27 = w27 + w27;
   w4 = w4 - w27;
-  GAGEN_SCATTER(J_S, 24, 15, w4);
+  GAGEN_SCATTER(out_J_S, 24, 15, w4);
   w3 = w6 * w3;
   w2 = w2 * w6;
   w2 = w28 + w2;
   w2 = w2 - w36;
   w4 = w32 * w2;
   w3 = w3 - w4;
-  GAGEN_SCATTER(J_S, 24, 16, w3);
+  GAGEN_SCATTER(out_J_S, 24, 16, w3);
   w16 = w6 * w16;
   w16 = w16 + w16;
   w2 = w1 * w2;
   w16 = w16 - w2;
-  GAGEN_SCATTER(J_S, 24, 17, w16);
-  GAGEN_SCATTER(J_S, 24, 18, w32);
-  GAGEN_SCATTER(J_S, 24, 19, w1);
-  GAGEN_SCATTER(J_S, 24, 20, w6);
+  GAGEN_SCATTER(out_J_S, 24, 17, w16);
+  GAGEN_SCATTER(out_J_S, 24, 18, w32);
+  GAGEN_SCATTER(out_J_S, 24, 19, w1);
+  GAGEN_SCATTER(out_J_S, 24, 20, w6);
   w15 = w15 + w19;
   w15 = w15 + w20;
   w20 = gagen_v_splat(0.014099999999999877);
@@ -7842,7 +7842,7 @@ static void leap_hand_sphere_ring_fk_jacobian_block_columns(long gagen_ld, int g
   w25 = w25 - w35;
   w35 = w1 * w25;
   w12 = w12 + w35;
-  GAGEN_SCATTER(J_S, 24, 21, w12);
+  GAGEN_SCATTER(out_J_S, 24, 21, w12);
   w25 = w6 * w25;
   w20 = w20 * w6;
   w28 = w28 + w20;
@@ -7851,12 +7851,12 @@ static void leap_hand_sphere_ring_fk_jacobian_block_columns(long gagen_ld, int g
   w28 = w28 + w8;
   w32 = w32 * w28;
   w25 = w25 - w32;
-  GAGEN_SCATTER(J_S, 24, 22, w25);
+  GAGEN_SCATTER(out_J_S, 24, 22, w25);
   w1 = w1 * w28;
   w6 = w6 * w15;
   w1 = w1 + w6;
   w1 = -w1;
-  GAGEN_SCATTER(J_S, 24, 23, w1);
+  GAGEN_SCATTER(out_J_S, 24, 23, w1);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -7864,21 +7864,21 @@ static void leap_hand_sphere_ring_fk_jacobian_block_columns(long gagen_ld, int g
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void leap_hand_sphere_ring_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void leap_hand_sphere_ring_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 37L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    leap_hand_sphere_ring_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 37L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    leap_hand_sphere_ring_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  leap_hand_sphere_ring_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  leap_hand_sphere_ring_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }
 
 #if GAGEN_SIMD
 /* chain ring: motor, end point, every Jacobian and the tool z-axis line: GAGEN_W consecutive samples at once */
-static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S, double *restrict J_b, double *restrict J_A, double *restrict J_P, double *restrict L, double *restrict J_L) {
+static void leap_hand_sphere_ring_jacobians_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S, double *restrict out_J_b, double *restrict out_J_A, double *restrict out_J_P, double *restrict out_L, double *restrict out_J_L) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -7892,10 +7892,10 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(4.0);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 4, 0);
+  w3 = GAGEN_GATHER(in_q, 4, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
-  w5 = GAGEN_GATHER(q, 4, 1);
+  w5 = GAGEN_GATHER(in_q, 4, 1);
   w5 = w2 * w5;
   w6 = gagen_v_sin(w5);
   w7 = w4 * w6;
@@ -7908,7 +7908,7 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w11 = w3 * w5;
   w9 = w9 - w11;
   w9 = w1 * w9;
-  w12 = GAGEN_GATHER(q, 4, 2);
+  w12 = GAGEN_GATHER(in_q, 4, 2);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w14 = w9 * w13;
@@ -7919,7 +7919,7 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w12 = gagen_v_sin(w12);
   w16 = w15 * w12;
   w14 = w14 - w16;
-  w16 = GAGEN_GATHER(q, 4, 3);
+  w16 = GAGEN_GATHER(in_q, 4, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -7930,12 +7930,12 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w15 = w9 * w16;
   w18 = w18 - w15;
   w15 = w0 * w18;
-  GAGEN_SCATTER(M, 8, 0, w15);
+  GAGEN_SCATTER(out_M, 8, 0, w15);
   w14 = w14 * w16;
   w9 = w9 * w17;
   w14 = w14 + w9;
   w9 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 1, w9);
+  GAGEN_SCATTER(out_M, 8, 1, w9);
   w19 = w10 + w8;
   w19 = w19 - w7;
   w19 = w19 - w11;
@@ -7954,12 +7954,12 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w1 = w19 * w16;
   w11 = w7 - w1;
   w8 = w0 * w11;
-  GAGEN_SCATTER(M, 8, 2, w8);
+  GAGEN_SCATTER(out_M, 8, 2, w8);
   w20 = w20 * w16;
   w19 = w19 * w17;
   w20 = w20 + w19;
   w0 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w19 = gagen_v_splat(0.08234224386510051);
   w10 = gagen_v_splat(0.0009000000000001229);
   w21 = w5 * w5;
@@ -8068,14 +8068,14 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w29 = w50 * w15;
   w46 = w46 - w29;
   w46 = w2 * w46;
-  GAGEN_SCATTER(M, 8, 4, w46);
+  GAGEN_SCATTER(out_M, 8, 4, w46);
   w17 = w40 * w0;
   w38 = w50 * w9;
   w17 = w17 - w38;
   w38 = w22 * w15;
   w17 = w17 - w38;
   w17 = w2 * w17;
-  GAGEN_SCATTER(M, 8, 5, w17);
+  GAGEN_SCATTER(out_M, 8, 5, w17);
   w38 = w50 * w8;
   w13 = w22 * w0;
   w38 = w38 + w13;
@@ -8083,39 +8083,39 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w38 = w38 + w13;
   w38 = w2 * w38;
   w13 = -w38;
-  GAGEN_SCATTER(M, 8, 6, w13);
+  GAGEN_SCATTER(out_M, 8, 6, w13);
   w13 = w22 * w8;
   w44 = w50 * w0;
   w13 = w13 - w44;
   w44 = w40 * w9;
   w13 = w13 - w44;
   w13 = w2 * w13;
-  GAGEN_SCATTER(M, 8, 7, w13);
+  GAGEN_SCATTER(out_M, 8, 7, w13);
   w44 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w44);
-  GAGEN_SCATTER(P, 5, 1, w50);
-  GAGEN_SCATTER(P, 5, 2, w22);
-  GAGEN_SCATTER(P, 5, 3, w40);
+  GAGEN_SCATTER(out_P, 5, 0, w44);
+  GAGEN_SCATTER(out_P, 5, 1, w50);
+  GAGEN_SCATTER(out_P, 5, 2, w22);
+  GAGEN_SCATTER(out_P, 5, 3, w40);
   w52 = w50 * w50;
   w53 = w22 * w22;
   w52 = w52 + w53;
   w53 = w40 * w40;
   w52 = w52 + w53;
   w52 = w2 * w52;
-  GAGEN_SCATTER(P, 5, 4, w52);
+  GAGEN_SCATTER(out_P, 5, 4, w52);
   w52 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 24, 0, w52);
-  GAGEN_SCATTER(J_S, 24, 1, w44);
-  GAGEN_SCATTER(J_S, 24, 2, w52);
-  GAGEN_SCATTER(J_S, 24, 3, w16);
-  GAGEN_SCATTER(J_S, 24, 4, w52);
-  GAGEN_SCATTER(J_S, 24, 5, w49);
-  GAGEN_SCATTER(J_S, 24, 6, w32);
-  GAGEN_SCATTER(J_S, 24, 7, w52);
+  GAGEN_SCATTER(out_J_S, 24, 0, w52);
+  GAGEN_SCATTER(out_J_S, 24, 1, w44);
+  GAGEN_SCATTER(out_J_S, 24, 2, w52);
+  GAGEN_SCATTER(out_J_S, 24, 3, w16);
+  GAGEN_SCATTER(out_J_S, 24, 4, w52);
+  GAGEN_SCATTER(out_J_S, 24, 5, w49);
+  GAGEN_SCATTER(out_J_S, 24, 6, w32);
+  GAGEN_SCATTER(out_J_S, 24, 7, w52);
   w44 = -w35;
-  GAGEN_SCATTER(J_S, 24, 8, w44);
+  GAGEN_SCATTER(out_J_S, 24, 8, w44);
   w44 = w19 * w32;
-  GAGEN_SCATTER(J_S, 24, 9, w44);
+  GAGEN_SCATTER(out_J_S, 24, 9, w44);
   w53 = gagen_v_splat(0.0035476227213199186);
   w54 = gagen_v_splat(0.012200000000000004);
   w54 = w54 * w3;
@@ -8133,13 +8133,13 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w54 = w35 * w54;
   w53 = w53 + w54;
   w53 = w53 + w53;
-  GAGEN_SCATTER(J_S, 24, 10, w53);
+  GAGEN_SCATTER(out_J_S, 24, 10, w53);
   w54 = gagen_v_splat(0.16468448773020103);
   w54 = w54 * w3;
-  GAGEN_SCATTER(J_S, 24, 11, w54);
-  GAGEN_SCATTER(J_S, 24, 12, w41);
-  GAGEN_SCATTER(J_S, 24, 13, w21);
-  GAGEN_SCATTER(J_S, 24, 14, w51);
+  GAGEN_SCATTER(out_J_S, 24, 11, w54);
+  GAGEN_SCATTER(out_J_S, 24, 12, w41);
+  GAGEN_SCATTER(out_J_S, 24, 13, w21);
+  GAGEN_SCATTER(out_J_S, 24, 14, w51);
   w3 = gagen_v_splat(0.014299999999999952);
   w47 = w3 * w41;
   w47 = w33 + w47;
@@ -8153,22 +8153,22 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w4 = w41 * w56;
   w4 = w4 + w4;
   w5 = w55 - w4;
-  GAGEN_SCATTER(J_S, 24, 15, w5);
+  GAGEN_SCATTER(out_J_S, 24, 15, w5);
   w47 = w51 * w47;
   w3 = w3 * w51;
   w3 = w48 + w3;
   w3 = w3 - w49;
   w57 = w41 * w3;
   w58 = w47 - w57;
-  GAGEN_SCATTER(J_S, 24, 16, w58);
+  GAGEN_SCATTER(out_J_S, 24, 16, w58);
   w56 = w51 * w56;
   w56 = w56 + w56;
   w3 = w21 * w3;
   w59 = w56 - w3;
-  GAGEN_SCATTER(J_S, 24, 17, w59);
-  GAGEN_SCATTER(J_S, 24, 18, w41);
-  GAGEN_SCATTER(J_S, 24, 19, w21);
-  GAGEN_SCATTER(J_S, 24, 20, w51);
+  GAGEN_SCATTER(out_J_S, 24, 17, w59);
+  GAGEN_SCATTER(out_J_S, 24, 18, w41);
+  GAGEN_SCATTER(out_J_S, 24, 19, w21);
+  GAGEN_SCATTER(out_J_S, 24, 20, w51);
   w25 = w19 + w25;
   w25 = w25 + w26;
   w26 = gagen_v_splat(0.014099999999999877);
@@ -8182,7 +8182,7 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w33 = w33 - w45;
   w60 = w21 * w33;
   w12 = w12 + w60;
-  GAGEN_SCATTER(J_S, 24, 21, w12);
+  GAGEN_SCATTER(out_J_S, 24, 21, w12);
   w33 = w51 * w33;
   w26 = w26 * w51;
   w48 = w48 + w26;
@@ -8191,17 +8191,17 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w48 = w48 + w23;
   w41 = w41 * w48;
   w27 = w33 - w41;
-  GAGEN_SCATTER(J_S, 24, 22, w27);
+  GAGEN_SCATTER(out_J_S, 24, 22, w27);
   w48 = w21 * w48;
   w51 = w51 * w25;
   w25 = w48 + w51;
   w26 = -w25;
-  GAGEN_SCATTER(J_S, 24, 23, w26);
+  GAGEN_SCATTER(out_J_S, 24, 23, w26);
   w26 = w9 * w8;
   w60 = w15 * w0;
   w61 = w26 - w60;
   w62 = w61 + w61;
-  GAGEN_SCATTER(J_b, 24, 0, w62);
+  GAGEN_SCATTER(out_J_b, 24, 0, w62);
   w63 = w8 * w8;
   w64 = w15 * w15;
   w65 = w63 + w64;
@@ -8209,12 +8209,12 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w65 = w65 - w66;
   w67 = w9 * w9;
   w65 = w65 - w67;
-  GAGEN_SCATTER(J_b, 24, 1, w65);
+  GAGEN_SCATTER(out_J_b, 24, 1, w65);
   w65 = w8 * w0;
   w68 = w15 * w9;
   w65 = w65 + w68;
   w65 = w65 + w65;
-  GAGEN_SCATTER(J_b, 24, 2, w65);
+  GAGEN_SCATTER(out_J_b, 24, 2, w65);
   w65 = w8 * w46;
   w68 = w15 * w38;
   w65 = w65 - w68;
@@ -8252,7 +8252,7 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w70 = w70 - w68;
   w68 = w70 * w0;
   w65 = w65 - w68;
-  GAGEN_SCATTER(J_b, 24, 3, w65);
+  GAGEN_SCATTER(out_J_b, 24, 3, w65);
   w65 = w8 * w17;
   w68 = w0 * w46;
   w29 = w65 + w68;
@@ -8268,7 +8268,7 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w29 = w29 + w71;
   w71 = w7 * w0;
   w29 = w29 - w71;
-  GAGEN_SCATTER(J_b, 24, 4, w29);
+  GAGEN_SCATTER(out_J_b, 24, 4, w29);
   w29 = w0 * w13;
   w71 = w8 * w38;
   w72 = w29 - w71;
@@ -8284,7 +8284,7 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w72 = w72 - w74;
   w75 = w70 * w9;
   w72 = w72 - w75;
-  GAGEN_SCATTER(J_b, 24, 5, w72);
+  GAGEN_SCATTER(out_J_b, 24, 5, w72);
   w72 = w9 * w32;
   w75 = w0 * w35;
   w72 = w72 - w75;
@@ -8304,7 +8304,7 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w82 = w80 + w81;
   w83 = w82 * w0;
   w75 = w75 - w83;
-  GAGEN_SCATTER(J_b, 24, 6, w75);
+  GAGEN_SCATTER(out_J_b, 24, 6, w75);
   w75 = w72 * w8;
   w83 = w76 * w0;
   w75 = w75 + w83;
@@ -8312,7 +8312,7 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w75 = w75 + w83;
   w83 = w79 * w9;
   w75 = w75 + w83;
-  GAGEN_SCATTER(J_b, 24, 7, w75);
+  GAGEN_SCATTER(out_J_b, 24, 7, w75);
   w75 = w72 * w0;
   w83 = w82 * w9;
   w75 = w75 + w83;
@@ -8320,7 +8320,7 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w75 = w75 - w83;
   w83 = w76 * w8;
   w75 = w75 - w83;
-  GAGEN_SCATTER(J_b, 24, 8, w75);
+  GAGEN_SCATTER(out_J_b, 24, 8, w75);
   w75 = w72 * w46;
   w83 = w76 * w17;
   w75 = w75 + w83;
@@ -8366,7 +8366,7 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w78 = w78 + w81;
   w81 = w78 * w0;
   w75 = w75 - w81;
-  GAGEN_SCATTER(J_b, 24, 9, w75);
+  GAGEN_SCATTER(out_J_b, 24, 9, w75);
   w75 = w72 * w17;
   w81 = w82 * w13;
   w75 = w75 + w81;
@@ -8382,7 +8382,7 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w75 = w75 - w81;
   w81 = w85 * w0;
   w75 = w75 - w81;
-  GAGEN_SCATTER(J_b, 24, 10, w75);
+  GAGEN_SCATTER(out_J_b, 24, 10, w75);
   w75 = w83 * w8;
   w81 = w72 * w38;
   w75 = w75 - w81;
@@ -8398,7 +8398,7 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w75 = w75 + w81;
   w81 = w78 * w9;
   w75 = w75 - w81;
-  GAGEN_SCATTER(J_b, 24, 11, w75);
+  GAGEN_SCATTER(out_J_b, 24, 11, w75);
   w75 = w9 * w6;
   w81 = w75 * w35;
   w80 = w8 * w21;
@@ -8430,7 +8430,7 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w88 = w88 - w75;
   w75 = w88 * w0;
   w77 = w77 - w75;
-  GAGEN_SCATTER(J_b, 24, 12, w77);
+  GAGEN_SCATTER(out_J_b, 24, 12, w77);
   w75 = w81 * w8;
   w80 = w87 * w0;
   w75 = w75 + w80;
@@ -8438,7 +8438,7 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w75 = w75 + w80;
   w80 = w86 * w9;
   w75 = w75 - w80;
-  GAGEN_SCATTER(J_b, 24, 13, w75);
+  GAGEN_SCATTER(out_J_b, 24, 13, w75);
   w80 = w81 * w0;
   w89 = w88 * w9;
   w80 = w80 + w89;
@@ -8446,7 +8446,7 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w80 = w80 + w89;
   w89 = w87 * w8;
   w80 = w80 - w89;
-  GAGEN_SCATTER(J_b, 24, 14, w80);
+  GAGEN_SCATTER(out_J_b, 24, 14, w80);
   w89 = w81 * w46;
   w90 = w87 * w17;
   w89 = w89 + w90;
@@ -8510,7 +8510,7 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w106 = w106 + w99;
   w108 = w106 * w0;
   w96 = w96 - w108;
-  GAGEN_SCATTER(J_b, 24, 15, w96);
+  GAGEN_SCATTER(out_J_b, 24, 15, w96);
   w96 = w81 * w17;
   w108 = w88 * w13;
   w96 = w96 + w108;
@@ -8526,7 +8526,7 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w108 = w108 - w109;
   w110 = w104 * w0;
   w108 = w108 - w110;
-  GAGEN_SCATTER(J_b, 24, 16, w108);
+  GAGEN_SCATTER(out_J_b, 24, 16, w108);
   w108 = w90 * w8;
   w110 = w81 * w38;
   w108 = w108 - w110;
@@ -8542,10 +8542,10 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w108 = w108 - w113;
   w114 = w106 * w9;
   w108 = w108 - w114;
-  GAGEN_SCATTER(J_b, 24, 17, w108);
-  GAGEN_SCATTER(J_b, 24, 18, w77);
-  GAGEN_SCATTER(J_b, 24, 19, w75);
-  GAGEN_SCATTER(J_b, 24, 20, w80);
+  GAGEN_SCATTER(out_J_b, 24, 17, w108);
+  GAGEN_SCATTER(out_J_b, 24, 18, w77);
+  GAGEN_SCATTER(out_J_b, 24, 19, w75);
+  GAGEN_SCATTER(out_J_b, 24, 20, w80);
   w80 = w15 * w12;
   w80 = w80 + w92;
   w80 = w80 - w93;
@@ -8587,7 +8587,7 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w94 = w94 + w99;
   w99 = w94 * w0;
   w89 = w89 - w99;
-  GAGEN_SCATTER(J_b, 24, 21, w89);
+  GAGEN_SCATTER(out_J_b, 24, 21, w89);
   w89 = w80 * w9;
   w96 = w96 + w89;
   w89 = w97 * w15;
@@ -8597,7 +8597,7 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w96 = w96 - w109;
   w109 = w103 * w0;
   w96 = w96 - w109;
-  GAGEN_SCATTER(J_b, 24, 22, w96);
+  GAGEN_SCATTER(out_J_b, 24, 22, w96);
   w96 = w80 * w8;
   w96 = w96 - w110;
   w110 = w97 * w0;
@@ -8609,129 +8609,129 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w96 = w96 - w113;
   w113 = w94 * w9;
   w96 = w96 - w113;
-  GAGEN_SCATTER(J_b, 24, 23, w96);
+  GAGEN_SCATTER(out_J_b, 24, 23, w96);
   w96 = gagen_v_splat(0.0625);
   w11 = w96 * w11;
-  GAGEN_SCATTER(J_A, 32, 0, w11);
+  GAGEN_SCATTER(out_J_A, 32, 0, w11);
   w20 = w96 * w20;
-  GAGEN_SCATTER(J_A, 32, 1, w20);
+  GAGEN_SCATTER(out_J_A, 32, 1, w20);
   w18 = w96 * w18;
   w18 = -w18;
-  GAGEN_SCATTER(J_A, 32, 2, w18);
+  GAGEN_SCATTER(out_J_A, 32, 2, w18);
   w96 = w96 * w14;
   w96 = -w96;
-  GAGEN_SCATTER(J_A, 32, 3, w96);
+  GAGEN_SCATTER(out_J_A, 32, 3, w96);
   w69 = w2 * w69;
   w69 = -w69;
-  GAGEN_SCATTER(J_A, 32, 4, w69);
+  GAGEN_SCATTER(out_J_A, 32, 4, w69);
   w1 = w2 * w1;
   w1 = -w1;
-  GAGEN_SCATTER(J_A, 32, 5, w1);
+  GAGEN_SCATTER(out_J_A, 32, 5, w1);
   w7 = w2 * w7;
   w7 = -w7;
-  GAGEN_SCATTER(J_A, 32, 6, w7);
+  GAGEN_SCATTER(out_J_A, 32, 6, w7);
   w70 = w2 * w70;
-  GAGEN_SCATTER(J_A, 32, 7, w70);
+  GAGEN_SCATTER(out_J_A, 32, 7, w70);
   w72 = w2 * w72;
-  GAGEN_SCATTER(J_A, 32, 8, w72);
+  GAGEN_SCATTER(out_J_A, 32, 8, w72);
   w76 = w2 * w76;
   w76 = -w76;
-  GAGEN_SCATTER(J_A, 32, 9, w76);
+  GAGEN_SCATTER(out_J_A, 32, 9, w76);
   w82 = w2 * w82;
   w82 = -w82;
-  GAGEN_SCATTER(J_A, 32, 10, w82);
+  GAGEN_SCATTER(out_J_A, 32, 10, w82);
   w79 = w2 * w79;
-  GAGEN_SCATTER(J_A, 32, 11, w79);
+  GAGEN_SCATTER(out_J_A, 32, 11, w79);
   w83 = w2 * w83;
   w83 = -w83;
-  GAGEN_SCATTER(J_A, 32, 12, w83);
+  GAGEN_SCATTER(out_J_A, 32, 12, w83);
   w84 = w2 * w84;
   w84 = -w84;
-  GAGEN_SCATTER(J_A, 32, 13, w84);
+  GAGEN_SCATTER(out_J_A, 32, 13, w84);
   w85 = w2 * w85;
   w85 = -w85;
-  GAGEN_SCATTER(J_A, 32, 14, w85);
+  GAGEN_SCATTER(out_J_A, 32, 14, w85);
   w78 = w2 * w78;
-  GAGEN_SCATTER(J_A, 32, 15, w78);
+  GAGEN_SCATTER(out_J_A, 32, 15, w78);
   w81 = w2 * w81;
-  GAGEN_SCATTER(J_A, 32, 16, w81);
+  GAGEN_SCATTER(out_J_A, 32, 16, w81);
   w87 = w2 * w87;
   w87 = -w87;
-  GAGEN_SCATTER(J_A, 32, 17, w87);
+  GAGEN_SCATTER(out_J_A, 32, 17, w87);
   w88 = w2 * w88;
   w88 = -w88;
-  GAGEN_SCATTER(J_A, 32, 18, w88);
+  GAGEN_SCATTER(out_J_A, 32, 18, w88);
   w86 = w2 * w86;
   w86 = -w86;
-  GAGEN_SCATTER(J_A, 32, 19, w86);
+  GAGEN_SCATTER(out_J_A, 32, 19, w86);
   w90 = w2 * w90;
   w90 = -w90;
-  GAGEN_SCATTER(J_A, 32, 20, w90);
+  GAGEN_SCATTER(out_J_A, 32, 20, w90);
   w98 = w2 * w98;
   w98 = -w98;
-  GAGEN_SCATTER(J_A, 32, 21, w98);
+  GAGEN_SCATTER(out_J_A, 32, 21, w98);
   w104 = w2 * w104;
   w104 = -w104;
-  GAGEN_SCATTER(J_A, 32, 22, w104);
+  GAGEN_SCATTER(out_J_A, 32, 22, w104);
   w106 = w2 * w106;
-  GAGEN_SCATTER(J_A, 32, 23, w106);
-  GAGEN_SCATTER(J_A, 32, 24, w81);
-  GAGEN_SCATTER(J_A, 32, 25, w87);
-  GAGEN_SCATTER(J_A, 32, 26, w88);
-  GAGEN_SCATTER(J_A, 32, 27, w86);
+  GAGEN_SCATTER(out_J_A, 32, 23, w106);
+  GAGEN_SCATTER(out_J_A, 32, 24, w81);
+  GAGEN_SCATTER(out_J_A, 32, 25, w87);
+  GAGEN_SCATTER(out_J_A, 32, 26, w88);
+  GAGEN_SCATTER(out_J_A, 32, 27, w86);
   w80 = w2 * w80;
   w80 = -w80;
-  GAGEN_SCATTER(J_A, 32, 28, w80);
+  GAGEN_SCATTER(out_J_A, 32, 28, w80);
   w97 = w2 * w97;
   w97 = -w97;
-  GAGEN_SCATTER(J_A, 32, 29, w97);
+  GAGEN_SCATTER(out_J_A, 32, 29, w97);
   w103 = w2 * w103;
   w103 = -w103;
-  GAGEN_SCATTER(J_A, 32, 30, w103);
+  GAGEN_SCATTER(out_J_A, 32, 30, w103);
   w2 = w2 * w94;
-  GAGEN_SCATTER(J_A, 32, 31, w2);
-  GAGEN_SCATTER(J_P, 20, 0, w52);
+  GAGEN_SCATTER(out_J_A, 32, 31, w2);
+  GAGEN_SCATTER(out_J_P, 20, 0, w52);
   w42 = w42 + w45;
   w42 = w42 - w43;
   w42 = w42 - w31;
   w42 = w42 - w34;
   w42 = w42 - w36;
   w42 = w42 - w39;
-  GAGEN_SCATTER(J_P, 20, 1, w42);
-  GAGEN_SCATTER(J_P, 20, 2, w52);
+  GAGEN_SCATTER(out_J_P, 20, 1, w42);
+  GAGEN_SCATTER(out_J_P, 20, 2, w52);
   w24 = w24 - w10;
   w24 = w24 + w23;
   w24 = w24 - w28;
-  GAGEN_SCATTER(J_P, 20, 3, w24);
+  GAGEN_SCATTER(out_J_P, 20, 3, w24);
   w24 = w16 * w50;
   w49 = w49 * w40;
   w24 = w24 + w49;
-  GAGEN_SCATTER(J_P, 20, 4, w24);
-  GAGEN_SCATTER(J_P, 20, 5, w52);
+  GAGEN_SCATTER(out_J_P, 20, 4, w24);
+  GAGEN_SCATTER(out_J_P, 20, 5, w52);
   w24 = w22 * w32;
   w44 = w44 - w24;
-  GAGEN_SCATTER(J_P, 20, 6, w44);
+  GAGEN_SCATTER(out_J_P, 20, 6, w44);
   w44 = w50 * w32;
   w24 = w44 + w53;
   w49 = w40 * w35;
   w24 = w24 + w49;
-  GAGEN_SCATTER(J_P, 20, 7, w24);
+  GAGEN_SCATTER(out_J_P, 20, 7, w24);
   w24 = w22 * w35;
   w54 = w54 - w24;
-  GAGEN_SCATTER(J_P, 20, 8, w54);
+  GAGEN_SCATTER(out_J_P, 20, 8, w54);
   w54 = w22 * w53;
   w44 = w44 + w49;
   w44 = w19 * w44;
   w54 = w54 + w44;
-  GAGEN_SCATTER(J_P, 20, 9, w54);
-  GAGEN_SCATTER(J_P, 20, 10, w52);
+  GAGEN_SCATTER(out_J_P, 20, 9, w54);
+  GAGEN_SCATTER(out_J_P, 20, 10, w52);
   w54 = w22 * w6;
   w44 = w54 * w35;
   w55 = w55 - w44;
   w49 = w40 * w21;
   w55 = w55 - w49;
   w55 = w55 - w4;
-  GAGEN_SCATTER(J_P, 20, 11, w55);
+  GAGEN_SCATTER(out_J_P, 20, 11, w55);
   w55 = w50 * w6;
   w55 = w55 * w35;
   w47 = w47 + w55;
@@ -8739,46 +8739,46 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w57 = w40 * w6;
   w57 = w57 * w32;
   w47 = w47 - w57;
-  GAGEN_SCATTER(J_P, 20, 12, w47);
+  GAGEN_SCATTER(out_J_P, 20, 12, w47);
   w47 = w50 * w21;
   w54 = w54 * w32;
   w47 = w47 + w54;
   w56 = w47 + w56;
   w56 = w56 - w3;
-  GAGEN_SCATTER(J_P, 20, 13, w56);
+  GAGEN_SCATTER(out_J_P, 20, 13, w56);
   w56 = w50 * w5;
   w3 = w22 * w58;
   w56 = w56 + w3;
   w3 = w40 * w59;
   w56 = w56 + w3;
-  GAGEN_SCATTER(J_P, 20, 14, w56);
-  GAGEN_SCATTER(J_P, 20, 15, w52);
+  GAGEN_SCATTER(out_J_P, 20, 14, w56);
+  GAGEN_SCATTER(out_J_P, 20, 15, w52);
   w44 = w12 - w44;
   w44 = w44 - w49;
-  GAGEN_SCATTER(J_P, 20, 16, w44);
+  GAGEN_SCATTER(out_J_P, 20, 16, w44);
   w33 = w33 + w55;
   w33 = w33 - w41;
   w33 = w33 - w57;
-  GAGEN_SCATTER(J_P, 20, 17, w33);
+  GAGEN_SCATTER(out_J_P, 20, 17, w33);
   w47 = w47 - w48;
   w47 = w47 - w51;
-  GAGEN_SCATTER(J_P, 20, 18, w47);
+  GAGEN_SCATTER(out_J_P, 20, 18, w47);
   w50 = w50 * w12;
   w22 = w22 * w27;
   w50 = w50 + w22;
   w40 = w40 * w25;
   w50 = w50 - w40;
-  GAGEN_SCATTER(J_P, 20, 19, w50);
+  GAGEN_SCATTER(out_J_P, 20, 19, w50);
   w50 = w67 + w64;
   w50 = w50 - w66;
   w50 = w50 - w63;
-  GAGEN_SCATTER(L, 6, 0, w50);
-  GAGEN_SCATTER(L, 6, 1, w62);
+  GAGEN_SCATTER(out_L, 6, 0, w50);
+  GAGEN_SCATTER(out_L, 6, 1, w62);
   w40 = w9 * w0;
   w22 = w15 * w8;
   w40 = w40 + w22;
   w22 = w40 + w40;
-  GAGEN_SCATTER(L, 6, 2, w22);
+  GAGEN_SCATTER(out_L, 6, 2, w22);
   w9 = w9 * w46;
   w0 = w0 * w38;
   w9 = w9 - w0;
@@ -8787,21 +8787,21 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w8 = w8 * w13;
   w9 = w9 - w8;
   w9 = w9 + w9;
-  GAGEN_SCATTER(L, 6, 3, w9);
+  GAGEN_SCATTER(out_L, 6, 3, w9);
   w74 = w74 + w73;
   w74 = w74 - w29;
   w74 = w74 + w71;
   w74 = w74 + w74;
-  GAGEN_SCATTER(L, 6, 4, w74);
+  GAGEN_SCATTER(out_L, 6, 4, w74);
   w71 = w65 - w30;
   w71 = w71 - w37;
   w71 = w71 - w68;
   w71 = w71 + w71;
-  GAGEN_SCATTER(L, 6, 5, w71);
-  GAGEN_SCATTER(J_L, 24, 0, w22);
-  GAGEN_SCATTER(J_L, 24, 1, w52);
+  GAGEN_SCATTER(out_L, 6, 5, w71);
+  GAGEN_SCATTER(out_J_L, 24, 0, w22);
+  GAGEN_SCATTER(out_J_L, 24, 1, w52);
   w52 = -w50;
-  GAGEN_SCATTER(J_L, 24, 2, w52);
+  GAGEN_SCATTER(out_J_L, 24, 2, w52);
   w52 = gagen_v_splat(0.014190490885279674);
   w61 = w52 * w61;
   w37 = w37 + w68;
@@ -8809,34 +8809,34 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w37 = w37 - w65;
   w37 = w37 + w37;
   w61 = w61 + w37;
-  GAGEN_SCATTER(J_L, 24, 3, w61);
+  GAGEN_SCATTER(out_J_L, 24, 3, w61);
   w66 = w66 + w63;
   w66 = w66 - w67;
   w66 = w66 - w64;
   w16 = w16 * w66;
   w52 = w52 * w40;
   w16 = w16 + w52;
-  GAGEN_SCATTER(J_L, 24, 4, w16);
+  GAGEN_SCATTER(out_J_L, 24, 4, w16);
   w16 = gagen_v_splat(0.037444815332805866);
   w60 = w60 - w26;
   w16 = w16 * w60;
   w16 = w16 + w9;
-  GAGEN_SCATTER(J_L, 24, 5, w16);
+  GAGEN_SCATTER(out_J_L, 24, 5, w16);
   w16 = w62 * w35;
-  GAGEN_SCATTER(J_L, 24, 6, w16);
+  GAGEN_SCATTER(out_J_L, 24, 6, w16);
   w60 = w50 * w35;
   w26 = w22 * w32;
   w60 = w60 + w26;
   w60 = -w60;
-  GAGEN_SCATTER(J_L, 24, 7, w60);
+  GAGEN_SCATTER(out_J_L, 24, 7, w60);
   w60 = w62 * w32;
-  GAGEN_SCATTER(J_L, 24, 8, w60);
+  GAGEN_SCATTER(out_J_L, 24, 8, w60);
   w26 = w50 * w53;
   w52 = w74 * w32;
   w26 = w26 - w52;
   w16 = w19 * w16;
   w26 = w26 + w16;
-  GAGEN_SCATTER(J_L, 24, 9, w26);
+  GAGEN_SCATTER(out_J_L, 24, 9, w26);
   w26 = w9 * w32;
   w16 = w71 * w35;
   w26 = w26 + w16;
@@ -8845,29 +8845,29 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w16 = w16 - w52;
   w16 = w19 * w16;
   w26 = w26 - w16;
-  GAGEN_SCATTER(J_L, 24, 10, w26);
+  GAGEN_SCATTER(out_J_L, 24, 10, w26);
   w26 = w74 * w35;
   w53 = w22 * w53;
   w26 = w26 + w53;
   w19 = w19 * w60;
   w26 = w26 + w19;
   w26 = -w26;
-  GAGEN_SCATTER(J_L, 24, 11, w26);
+  GAGEN_SCATTER(out_J_L, 24, 11, w26);
   w26 = w22 * w21;
   w19 = w62 * w6;
   w60 = w19 * w32;
   w26 = w26 - w60;
-  GAGEN_SCATTER(J_L, 24, 12, w26);
+  GAGEN_SCATTER(out_J_L, 24, 12, w26);
   w60 = w50 * w6;
   w60 = w60 * w32;
   w53 = w22 * w6;
   w53 = w53 * w35;
   w60 = w60 - w53;
-  GAGEN_SCATTER(J_L, 24, 13, w60);
+  GAGEN_SCATTER(out_J_L, 24, 13, w60);
   w19 = w19 * w35;
   w53 = w50 * w21;
   w19 = w19 - w53;
-  GAGEN_SCATTER(J_L, 24, 14, w19);
+  GAGEN_SCATTER(out_J_L, 24, 14, w19);
   w53 = w50 * w58;
   w16 = w62 * w59;
   w53 = w53 + w16;
@@ -8876,7 +8876,7 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w53 = w53 - w16;
   w52 = w71 * w21;
   w53 = w53 - w52;
-  GAGEN_SCATTER(J_L, 24, 15, w53);
+  GAGEN_SCATTER(out_J_L, 24, 15, w53);
   w59 = w22 * w59;
   w53 = w9 * w6;
   w53 = w53 * w35;
@@ -8886,7 +8886,7 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w71 = w71 * w6;
   w71 = w71 * w32;
   w59 = w59 - w71;
-  GAGEN_SCATTER(J_L, 24, 16, w59);
+  GAGEN_SCATTER(out_J_L, 24, 16, w59);
   w9 = w9 * w21;
   w74 = w74 * w32;
   w9 = w9 + w74;
@@ -8894,50 +8894,50 @@ static void leap_hand_sphere_ring_jacobians_block(const double *restrict q, doub
   w5 = w9 - w5;
   w58 = w22 * w58;
   w5 = w5 - w58;
-  GAGEN_SCATTER(J_L, 24, 17, w5);
-  GAGEN_SCATTER(J_L, 24, 18, w26);
-  GAGEN_SCATTER(J_L, 24, 19, w60);
-  GAGEN_SCATTER(J_L, 24, 20, w19);
+  GAGEN_SCATTER(out_J_L, 24, 17, w5);
+  GAGEN_SCATTER(out_J_L, 24, 18, w26);
+  GAGEN_SCATTER(out_J_L, 24, 19, w60);
+  GAGEN_SCATTER(out_J_L, 24, 20, w19);
   w19 = w50 * w27;
   w60 = w62 * w25;
   w19 = w19 - w60;
   w19 = w19 - w16;
   w19 = w19 - w52;
-  GAGEN_SCATTER(J_L, 24, 21, w19);
+  GAGEN_SCATTER(out_J_L, 24, 21, w19);
   w25 = w22 * w25;
   w53 = w53 - w25;
   w50 = w50 * w12;
   w53 = w53 - w50;
   w53 = w53 - w71;
-  GAGEN_SCATTER(J_L, 24, 22, w53);
+  GAGEN_SCATTER(out_J_L, 24, 22, w53);
   w62 = w62 * w12;
   w9 = w9 - w62;
   w22 = w22 * w27;
   w9 = w9 - w22;
-  GAGEN_SCATTER(J_L, 24, 23, w9);
+  GAGEN_SCATTER(out_J_L, 24, 23, w9);
 }
 #endif
 
-void leap_hand_sphere_ring_jacobians_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S, double *restrict J_b, double *restrict J_A, double *restrict J_P, double *restrict L, double *restrict J_L) {
-  long s = 0;
+void leap_hand_sphere_ring_jacobians_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S, double *restrict out_J_b, double *restrict out_J_A, double *restrict out_J_P, double *restrict out_L, double *restrict out_J_L) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 24 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 24 * a + o, 1, 0);
-      for (int o = 0; o < 24 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_b + 24 * a + o, 1, 0);
-      for (int o = 0; o < 32 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_A + 32 * a + o, 1, 0);
-      for (int o = 0; o < 20 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_P + 20 * a + o, 1, 0);
-      for (int o = 0; o < 6 * GAGEN_W + 7; o += 8) __builtin_prefetch(L + 6 * a + o, 1, 0);
-      for (int o = 0; o < 24 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_L + 24 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 24 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 24 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 24 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_b + 24 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 32 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_A + 32 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 20 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_P + 20 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 6 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_L + 6 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 24 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_L + 24 * gagen_a + gagen_o, 1, 0);
     }
-    leap_hand_sphere_ring_jacobians_block(q + 4 * s, M + 8 * s, P + 5 * s, J_S + 24 * s, J_b + 24 * s, J_A + 32 * s, J_P + 20 * s, L + 6 * s, J_L + 24 * s);
+    leap_hand_sphere_ring_jacobians_block(in_q + 4 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 24 * gagen_s, out_J_b + 24 * gagen_s, out_J_A + 32 * gagen_s, out_J_P + 20 * gagen_s, out_L + 6 * gagen_s, out_J_L + 24 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    leap_hand_sphere_ring_jacobians(q + 4 * s, M + 8 * s, P + 5 * s, J_S + 24 * s, J_b + 24 * s, J_A + 32 * s, J_P + 20 * s, L + 6 * s, J_L + 24 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    leap_hand_sphere_ring_jacobians(in_q + 4 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 24 * gagen_s, out_J_b + 24 * gagen_s, out_J_A + 32 * gagen_s, out_J_P + 20 * gagen_s, out_L + 6 * gagen_s, out_J_L + 24 * gagen_s);
   }
 }
 
@@ -8947,7 +8947,7 @@ void leap_hand_sphere_ring_jacobians_batch(long n, const double *restrict q, dou
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S, double *restrict J_b, double *restrict J_A, double *restrict J_P, double *restrict L, double *restrict J_L) {
+static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S, double *restrict out_J_b, double *restrict out_J_A, double *restrict out_J_P, double *restrict out_L, double *restrict out_J_L) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -8961,10 +8961,10 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(4.0);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 4, 0);
+  w3 = GAGEN_GATHER(in_q, 4, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
-  w5 = GAGEN_GATHER(q, 4, 1);
+  w5 = GAGEN_GATHER(in_q, 4, 1);
   w5 = w2 * w5;
   w6 = gagen_v_sin(w5);
   w7 = w4 * w6;
@@ -8977,7 +8977,7 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w11 = w3 * w5;
   w9 = w9 - w11;
   w9 = w1 * w9;
-  w12 = GAGEN_GATHER(q, 4, 2);
+  w12 = GAGEN_GATHER(in_q, 4, 2);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w14 = w9 * w13;
@@ -8988,7 +8988,7 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w12 = gagen_v_sin(w12);
   w16 = w15 * w12;
   w14 = w14 - w16;
-  w16 = GAGEN_GATHER(q, 4, 3);
+  w16 = GAGEN_GATHER(in_q, 4, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -8999,12 +8999,12 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w15 = w9 * w16;
   w18 = w18 - w15;
   w15 = w0 * w18;
-  GAGEN_SCATTER(M, 8, 0, w15);
+  GAGEN_SCATTER(out_M, 8, 0, w15);
   w14 = w14 * w16;
   w9 = w9 * w17;
   w14 = w14 + w9;
   w9 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 1, w9);
+  GAGEN_SCATTER(out_M, 8, 1, w9);
   w19 = w10 + w8;
   w19 = w19 - w7;
   w19 = w19 - w11;
@@ -9023,12 +9023,12 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w1 = w19 * w16;
   w11 = w7 - w1;
   w8 = w0 * w11;
-  GAGEN_SCATTER(M, 8, 2, w8);
+  GAGEN_SCATTER(out_M, 8, 2, w8);
   w20 = w20 * w16;
   w19 = w19 * w17;
   w20 = w20 + w19;
   w0 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w19 = gagen_v_splat(0.08234224386510051);
   w10 = gagen_v_splat(0.0009000000000001229);
   w21 = w5 * w5;
@@ -9137,14 +9137,14 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w29 = w50 * w15;
   w46 = w46 - w29;
   w46 = w2 * w46;
-  GAGEN_SCATTER(M, 8, 4, w46);
+  GAGEN_SCATTER(out_M, 8, 4, w46);
   w17 = w40 * w0;
   w38 = w50 * w9;
   w17 = w17 - w38;
   w38 = w22 * w15;
   w17 = w17 - w38;
   w17 = w2 * w17;
-  GAGEN_SCATTER(M, 8, 5, w17);
+  GAGEN_SCATTER(out_M, 8, 5, w17);
   w38 = w50 * w8;
   w13 = w22 * w0;
   w38 = w38 + w13;
@@ -9152,39 +9152,39 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w38 = w38 + w13;
   w38 = w2 * w38;
   w13 = -w38;
-  GAGEN_SCATTER(M, 8, 6, w13);
+  GAGEN_SCATTER(out_M, 8, 6, w13);
   w13 = w22 * w8;
   w44 = w50 * w0;
   w13 = w13 - w44;
   w44 = w40 * w9;
   w13 = w13 - w44;
   w13 = w2 * w13;
-  GAGEN_SCATTER(M, 8, 7, w13);
+  GAGEN_SCATTER(out_M, 8, 7, w13);
   w44 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w44);
-  GAGEN_SCATTER(P, 5, 1, w50);
-  GAGEN_SCATTER(P, 5, 2, w22);
-  GAGEN_SCATTER(P, 5, 3, w40);
+  GAGEN_SCATTER(out_P, 5, 0, w44);
+  GAGEN_SCATTER(out_P, 5, 1, w50);
+  GAGEN_SCATTER(out_P, 5, 2, w22);
+  GAGEN_SCATTER(out_P, 5, 3, w40);
   w52 = w50 * w50;
   w53 = w22 * w22;
   w52 = w52 + w53;
   w53 = w40 * w40;
   w52 = w52 + w53;
   w52 = w2 * w52;
-  GAGEN_SCATTER(P, 5, 4, w52);
+  GAGEN_SCATTER(out_P, 5, 4, w52);
   w52 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 24, 0, w52);
-  GAGEN_SCATTER(J_S, 24, 1, w44);
-  GAGEN_SCATTER(J_S, 24, 2, w52);
-  GAGEN_SCATTER(J_S, 24, 3, w16);
-  GAGEN_SCATTER(J_S, 24, 4, w52);
-  GAGEN_SCATTER(J_S, 24, 5, w49);
-  GAGEN_SCATTER(J_S, 24, 6, w32);
-  GAGEN_SCATTER(J_S, 24, 7, w52);
+  GAGEN_SCATTER(out_J_S, 24, 0, w52);
+  GAGEN_SCATTER(out_J_S, 24, 1, w44);
+  GAGEN_SCATTER(out_J_S, 24, 2, w52);
+  GAGEN_SCATTER(out_J_S, 24, 3, w16);
+  GAGEN_SCATTER(out_J_S, 24, 4, w52);
+  GAGEN_SCATTER(out_J_S, 24, 5, w49);
+  GAGEN_SCATTER(out_J_S, 24, 6, w32);
+  GAGEN_SCATTER(out_J_S, 24, 7, w52);
   w44 = -w35;
-  GAGEN_SCATTER(J_S, 24, 8, w44);
+  GAGEN_SCATTER(out_J_S, 24, 8, w44);
   w44 = w19 * w32;
-  GAGEN_SCATTER(J_S, 24, 9, w44);
+  GAGEN_SCATTER(out_J_S, 24, 9, w44);
   w53 = gagen_v_splat(0.0035476227213199186);
   w54 = gagen_v_splat(0.012200000000000004);
   w54 = w54 * w3;
@@ -9202,13 +9202,13 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w54 = w35 * w54;
   w53 = w53 + w54;
   w53 = w53 + w53;
-  GAGEN_SCATTER(J_S, 24, 10, w53);
+  GAGEN_SCATTER(out_J_S, 24, 10, w53);
   w54 = gagen_v_splat(0.16468448773020103);
   w54 = w54 * w3;
-  GAGEN_SCATTER(J_S, 24, 11, w54);
-  GAGEN_SCATTER(J_S, 24, 12, w41);
-  GAGEN_SCATTER(J_S, 24, 13, w21);
-  GAGEN_SCATTER(J_S, 24, 14, w51);
+  GAGEN_SCATTER(out_J_S, 24, 11, w54);
+  GAGEN_SCATTER(out_J_S, 24, 12, w41);
+  GAGEN_SCATTER(out_J_S, 24, 13, w21);
+  GAGEN_SCATTER(out_J_S, 24, 14, w51);
   w3 = gagen_v_splat(0.014299999999999952);
   w47 = w3 * w41;
   w47 = w33 + w47;
@@ -9222,22 +9222,22 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w4 = w41 * w56;
   w4 = w4 + w4;
   w5 = w55 - w4;
-  GAGEN_SCATTER(J_S, 24, 15, w5);
+  GAGEN_SCATTER(out_J_S, 24, 15, w5);
   w47 = w51 * w47;
   w3 = w3 * w51;
   w3 = w48 + w3;
   w3 = w3 - w49;
   w57 = w41 * w3;
   w58 = w47 - w57;
-  GAGEN_SCATTER(J_S, 24, 16, w58);
+  GAGEN_SCATTER(out_J_S, 24, 16, w58);
   w56 = w51 * w56;
   w56 = w56 + w56;
   w3 = w21 * w3;
   w59 = w56 - w3;
-  GAGEN_SCATTER(J_S, 24, 17, w59);
-  GAGEN_SCATTER(J_S, 24, 18, w41);
-  GAGEN_SCATTER(J_S, 24, 19, w21);
-  GAGEN_SCATTER(J_S, 24, 20, w51);
+  GAGEN_SCATTER(out_J_S, 24, 17, w59);
+  GAGEN_SCATTER(out_J_S, 24, 18, w41);
+  GAGEN_SCATTER(out_J_S, 24, 19, w21);
+  GAGEN_SCATTER(out_J_S, 24, 20, w51);
   w25 = w19 + w25;
   w25 = w25 + w26;
   w26 = gagen_v_splat(0.014099999999999877);
@@ -9251,7 +9251,7 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w33 = w33 - w45;
   w60 = w21 * w33;
   w12 = w12 + w60;
-  GAGEN_SCATTER(J_S, 24, 21, w12);
+  GAGEN_SCATTER(out_J_S, 24, 21, w12);
   w33 = w51 * w33;
   w26 = w26 * w51;
   w48 = w48 + w26;
@@ -9260,17 +9260,17 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w48 = w48 + w23;
   w41 = w41 * w48;
   w27 = w33 - w41;
-  GAGEN_SCATTER(J_S, 24, 22, w27);
+  GAGEN_SCATTER(out_J_S, 24, 22, w27);
   w48 = w21 * w48;
   w51 = w51 * w25;
   w25 = w48 + w51;
   w26 = -w25;
-  GAGEN_SCATTER(J_S, 24, 23, w26);
+  GAGEN_SCATTER(out_J_S, 24, 23, w26);
   w26 = w9 * w8;
   w60 = w15 * w0;
   w61 = w26 - w60;
   w62 = w61 + w61;
-  GAGEN_SCATTER(J_b, 24, 0, w62);
+  GAGEN_SCATTER(out_J_b, 24, 0, w62);
   w63 = w8 * w8;
   w64 = w15 * w15;
   w65 = w63 + w64;
@@ -9278,12 +9278,12 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w65 = w65 - w66;
   w67 = w9 * w9;
   w65 = w65 - w67;
-  GAGEN_SCATTER(J_b, 24, 1, w65);
+  GAGEN_SCATTER(out_J_b, 24, 1, w65);
   w65 = w8 * w0;
   w68 = w15 * w9;
   w65 = w65 + w68;
   w65 = w65 + w65;
-  GAGEN_SCATTER(J_b, 24, 2, w65);
+  GAGEN_SCATTER(out_J_b, 24, 2, w65);
   w65 = w8 * w46;
   w68 = w15 * w38;
   w65 = w65 - w68;
@@ -9321,7 +9321,7 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w70 = w70 - w68;
   w68 = w70 * w0;
   w65 = w65 - w68;
-  GAGEN_SCATTER(J_b, 24, 3, w65);
+  GAGEN_SCATTER(out_J_b, 24, 3, w65);
   w65 = w8 * w17;
   w68 = w0 * w46;
   w29 = w65 + w68;
@@ -9337,7 +9337,7 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w29 = w29 + w71;
   w71 = w7 * w0;
   w29 = w29 - w71;
-  GAGEN_SCATTER(J_b, 24, 4, w29);
+  GAGEN_SCATTER(out_J_b, 24, 4, w29);
   w29 = w0 * w13;
   w71 = w8 * w38;
   w72 = w29 - w71;
@@ -9353,7 +9353,7 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w72 = w72 - w74;
   w75 = w70 * w9;
   w72 = w72 - w75;
-  GAGEN_SCATTER(J_b, 24, 5, w72);
+  GAGEN_SCATTER(out_J_b, 24, 5, w72);
   w72 = w9 * w32;
   w75 = w0 * w35;
   w72 = w72 - w75;
@@ -9373,7 +9373,7 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w82 = w80 + w81;
   w83 = w82 * w0;
   w75 = w75 - w83;
-  GAGEN_SCATTER(J_b, 24, 6, w75);
+  GAGEN_SCATTER(out_J_b, 24, 6, w75);
   w75 = w72 * w8;
   w83 = w76 * w0;
   w75 = w75 + w83;
@@ -9381,7 +9381,7 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w75 = w75 + w83;
   w83 = w79 * w9;
   w75 = w75 + w83;
-  GAGEN_SCATTER(J_b, 24, 7, w75);
+  GAGEN_SCATTER(out_J_b, 24, 7, w75);
   w75 = w72 * w0;
   w83 = w82 * w9;
   w75 = w75 + w83;
@@ -9389,7 +9389,7 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w75 = w75 - w83;
   w83 = w76 * w8;
   w75 = w75 - w83;
-  GAGEN_SCATTER(J_b, 24, 8, w75);
+  GAGEN_SCATTER(out_J_b, 24, 8, w75);
   w75 = w72 * w46;
   w83 = w76 * w17;
   w75 = w75 + w83;
@@ -9435,7 +9435,7 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w78 = w78 + w81;
   w81 = w78 * w0;
   w75 = w75 - w81;
-  GAGEN_SCATTER(J_b, 24, 9, w75);
+  GAGEN_SCATTER(out_J_b, 24, 9, w75);
   w75 = w72 * w17;
   w81 = w82 * w13;
   w75 = w75 + w81;
@@ -9451,7 +9451,7 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w75 = w75 - w81;
   w81 = w85 * w0;
   w75 = w75 - w81;
-  GAGEN_SCATTER(J_b, 24, 10, w75);
+  GAGEN_SCATTER(out_J_b, 24, 10, w75);
   w75 = w83 * w8;
   w81 = w72 * w38;
   w75 = w75 - w81;
@@ -9467,7 +9467,7 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w75 = w75 + w81;
   w81 = w78 * w9;
   w75 = w75 - w81;
-  GAGEN_SCATTER(J_b, 24, 11, w75);
+  GAGEN_SCATTER(out_J_b, 24, 11, w75);
   w75 = w9 * w6;
   w81 = w75 * w35;
   w80 = w8 * w21;
@@ -9499,7 +9499,7 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w88 = w88 - w75;
   w75 = w88 * w0;
   w77 = w77 - w75;
-  GAGEN_SCATTER(J_b, 24, 12, w77);
+  GAGEN_SCATTER(out_J_b, 24, 12, w77);
   w75 = w81 * w8;
   w80 = w87 * w0;
   w75 = w75 + w80;
@@ -9507,7 +9507,7 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w75 = w75 + w80;
   w80 = w86 * w9;
   w75 = w75 - w80;
-  GAGEN_SCATTER(J_b, 24, 13, w75);
+  GAGEN_SCATTER(out_J_b, 24, 13, w75);
   w80 = w81 * w0;
   w89 = w88 * w9;
   w80 = w80 + w89;
@@ -9515,7 +9515,7 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w80 = w80 + w89;
   w89 = w87 * w8;
   w80 = w80 - w89;
-  GAGEN_SCATTER(J_b, 24, 14, w80);
+  GAGEN_SCATTER(out_J_b, 24, 14, w80);
   w89 = w81 * w46;
   w90 = w87 * w17;
   w89 = w89 + w90;
@@ -9579,7 +9579,7 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w106 = w106 + w99;
   w108 = w106 * w0;
   w96 = w96 - w108;
-  GAGEN_SCATTER(J_b, 24, 15, w96);
+  GAGEN_SCATTER(out_J_b, 24, 15, w96);
   w96 = w81 * w17;
   w108 = w88 * w13;
   w96 = w96 + w108;
@@ -9595,7 +9595,7 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w108 = w108 - w109;
   w110 = w104 * w0;
   w108 = w108 - w110;
-  GAGEN_SCATTER(J_b, 24, 16, w108);
+  GAGEN_SCATTER(out_J_b, 24, 16, w108);
   w108 = w90 * w8;
   w110 = w81 * w38;
   w108 = w108 - w110;
@@ -9611,10 +9611,10 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w108 = w108 - w113;
   w114 = w106 * w9;
   w108 = w108 - w114;
-  GAGEN_SCATTER(J_b, 24, 17, w108);
-  GAGEN_SCATTER(J_b, 24, 18, w77);
-  GAGEN_SCATTER(J_b, 24, 19, w75);
-  GAGEN_SCATTER(J_b, 24, 20, w80);
+  GAGEN_SCATTER(out_J_b, 24, 17, w108);
+  GAGEN_SCATTER(out_J_b, 24, 18, w77);
+  GAGEN_SCATTER(out_J_b, 24, 19, w75);
+  GAGEN_SCATTER(out_J_b, 24, 20, w80);
   w80 = w15 * w12;
   w80 = w80 + w92;
   w80 = w80 - w93;
@@ -9656,7 +9656,7 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w94 = w94 + w99;
   w99 = w94 * w0;
   w89 = w89 - w99;
-  GAGEN_SCATTER(J_b, 24, 21, w89);
+  GAGEN_SCATTER(out_J_b, 24, 21, w89);
   w89 = w80 * w9;
   w96 = w96 + w89;
   w89 = w97 * w15;
@@ -9666,7 +9666,7 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w96 = w96 - w109;
   w109 = w103 * w0;
   w96 = w96 - w109;
-  GAGEN_SCATTER(J_b, 24, 22, w96);
+  GAGEN_SCATTER(out_J_b, 24, 22, w96);
   w96 = w80 * w8;
   w96 = w96 - w110;
   w110 = w97 * w0;
@@ -9678,129 +9678,129 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w96 = w96 - w113;
   w113 = w94 * w9;
   w96 = w96 - w113;
-  GAGEN_SCATTER(J_b, 24, 23, w96);
+  GAGEN_SCATTER(out_J_b, 24, 23, w96);
   w96 = gagen_v_splat(0.0625);
   w11 = w96 * w11;
-  GAGEN_SCATTER(J_A, 32, 0, w11);
+  GAGEN_SCATTER(out_J_A, 32, 0, w11);
   w20 = w96 * w20;
-  GAGEN_SCATTER(J_A, 32, 1, w20);
+  GAGEN_SCATTER(out_J_A, 32, 1, w20);
   w18 = w96 * w18;
   w18 = -w18;
-  GAGEN_SCATTER(J_A, 32, 2, w18);
+  GAGEN_SCATTER(out_J_A, 32, 2, w18);
   w96 = w96 * w14;
   w96 = -w96;
-  GAGEN_SCATTER(J_A, 32, 3, w96);
+  GAGEN_SCATTER(out_J_A, 32, 3, w96);
   w69 = w2 * w69;
   w69 = -w69;
-  GAGEN_SCATTER(J_A, 32, 4, w69);
+  GAGEN_SCATTER(out_J_A, 32, 4, w69);
   w1 = w2 * w1;
   w1 = -w1;
-  GAGEN_SCATTER(J_A, 32, 5, w1);
+  GAGEN_SCATTER(out_J_A, 32, 5, w1);
   w7 = w2 * w7;
   w7 = -w7;
-  GAGEN_SCATTER(J_A, 32, 6, w7);
+  GAGEN_SCATTER(out_J_A, 32, 6, w7);
   w70 = w2 * w70;
-  GAGEN_SCATTER(J_A, 32, 7, w70);
+  GAGEN_SCATTER(out_J_A, 32, 7, w70);
   w72 = w2 * w72;
-  GAGEN_SCATTER(J_A, 32, 8, w72);
+  GAGEN_SCATTER(out_J_A, 32, 8, w72);
   w76 = w2 * w76;
   w76 = -w76;
-  GAGEN_SCATTER(J_A, 32, 9, w76);
+  GAGEN_SCATTER(out_J_A, 32, 9, w76);
   w82 = w2 * w82;
   w82 = -w82;
-  GAGEN_SCATTER(J_A, 32, 10, w82);
+  GAGEN_SCATTER(out_J_A, 32, 10, w82);
   w79 = w2 * w79;
-  GAGEN_SCATTER(J_A, 32, 11, w79);
+  GAGEN_SCATTER(out_J_A, 32, 11, w79);
   w83 = w2 * w83;
   w83 = -w83;
-  GAGEN_SCATTER(J_A, 32, 12, w83);
+  GAGEN_SCATTER(out_J_A, 32, 12, w83);
   w84 = w2 * w84;
   w84 = -w84;
-  GAGEN_SCATTER(J_A, 32, 13, w84);
+  GAGEN_SCATTER(out_J_A, 32, 13, w84);
   w85 = w2 * w85;
   w85 = -w85;
-  GAGEN_SCATTER(J_A, 32, 14, w85);
+  GAGEN_SCATTER(out_J_A, 32, 14, w85);
   w78 = w2 * w78;
-  GAGEN_SCATTER(J_A, 32, 15, w78);
+  GAGEN_SCATTER(out_J_A, 32, 15, w78);
   w81 = w2 * w81;
-  GAGEN_SCATTER(J_A, 32, 16, w81);
+  GAGEN_SCATTER(out_J_A, 32, 16, w81);
   w87 = w2 * w87;
   w87 = -w87;
-  GAGEN_SCATTER(J_A, 32, 17, w87);
+  GAGEN_SCATTER(out_J_A, 32, 17, w87);
   w88 = w2 * w88;
   w88 = -w88;
-  GAGEN_SCATTER(J_A, 32, 18, w88);
+  GAGEN_SCATTER(out_J_A, 32, 18, w88);
   w86 = w2 * w86;
   w86 = -w86;
-  GAGEN_SCATTER(J_A, 32, 19, w86);
+  GAGEN_SCATTER(out_J_A, 32, 19, w86);
   w90 = w2 * w90;
   w90 = -w90;
-  GAGEN_SCATTER(J_A, 32, 20, w90);
+  GAGEN_SCATTER(out_J_A, 32, 20, w90);
   w98 = w2 * w98;
   w98 = -w98;
-  GAGEN_SCATTER(J_A, 32, 21, w98);
+  GAGEN_SCATTER(out_J_A, 32, 21, w98);
   w104 = w2 * w104;
   w104 = -w104;
-  GAGEN_SCATTER(J_A, 32, 22, w104);
+  GAGEN_SCATTER(out_J_A, 32, 22, w104);
   w106 = w2 * w106;
-  GAGEN_SCATTER(J_A, 32, 23, w106);
-  GAGEN_SCATTER(J_A, 32, 24, w81);
-  GAGEN_SCATTER(J_A, 32, 25, w87);
-  GAGEN_SCATTER(J_A, 32, 26, w88);
-  GAGEN_SCATTER(J_A, 32, 27, w86);
+  GAGEN_SCATTER(out_J_A, 32, 23, w106);
+  GAGEN_SCATTER(out_J_A, 32, 24, w81);
+  GAGEN_SCATTER(out_J_A, 32, 25, w87);
+  GAGEN_SCATTER(out_J_A, 32, 26, w88);
+  GAGEN_SCATTER(out_J_A, 32, 27, w86);
   w80 = w2 * w80;
   w80 = -w80;
-  GAGEN_SCATTER(J_A, 32, 28, w80);
+  GAGEN_SCATTER(out_J_A, 32, 28, w80);
   w97 = w2 * w97;
   w97 = -w97;
-  GAGEN_SCATTER(J_A, 32, 29, w97);
+  GAGEN_SCATTER(out_J_A, 32, 29, w97);
   w103 = w2 * w103;
   w103 = -w103;
-  GAGEN_SCATTER(J_A, 32, 30, w103);
+  GAGEN_SCATTER(out_J_A, 32, 30, w103);
   w2 = w2 * w94;
-  GAGEN_SCATTER(J_A, 32, 31, w2);
-  GAGEN_SCATTER(J_P, 20, 0, w52);
+  GAGEN_SCATTER(out_J_A, 32, 31, w2);
+  GAGEN_SCATTER(out_J_P, 20, 0, w52);
   w42 = w42 + w45;
   w42 = w42 - w43;
   w42 = w42 - w31;
   w42 = w42 - w34;
   w42 = w42 - w36;
   w42 = w42 - w39;
-  GAGEN_SCATTER(J_P, 20, 1, w42);
-  GAGEN_SCATTER(J_P, 20, 2, w52);
+  GAGEN_SCATTER(out_J_P, 20, 1, w42);
+  GAGEN_SCATTER(out_J_P, 20, 2, w52);
   w24 = w24 - w10;
   w24 = w24 + w23;
   w24 = w24 - w28;
-  GAGEN_SCATTER(J_P, 20, 3, w24);
+  GAGEN_SCATTER(out_J_P, 20, 3, w24);
   w24 = w16 * w50;
   w49 = w49 * w40;
   w24 = w24 + w49;
-  GAGEN_SCATTER(J_P, 20, 4, w24);
-  GAGEN_SCATTER(J_P, 20, 5, w52);
+  GAGEN_SCATTER(out_J_P, 20, 4, w24);
+  GAGEN_SCATTER(out_J_P, 20, 5, w52);
   w24 = w22 * w32;
   w44 = w44 - w24;
-  GAGEN_SCATTER(J_P, 20, 6, w44);
+  GAGEN_SCATTER(out_J_P, 20, 6, w44);
   w44 = w50 * w32;
   w24 = w44 + w53;
   w49 = w40 * w35;
   w24 = w24 + w49;
-  GAGEN_SCATTER(J_P, 20, 7, w24);
+  GAGEN_SCATTER(out_J_P, 20, 7, w24);
   w24 = w22 * w35;
   w54 = w54 - w24;
-  GAGEN_SCATTER(J_P, 20, 8, w54);
+  GAGEN_SCATTER(out_J_P, 20, 8, w54);
   w54 = w22 * w53;
   w44 = w44 + w49;
   w44 = w19 * w44;
   w54 = w54 + w44;
-  GAGEN_SCATTER(J_P, 20, 9, w54);
-  GAGEN_SCATTER(J_P, 20, 10, w52);
+  GAGEN_SCATTER(out_J_P, 20, 9, w54);
+  GAGEN_SCATTER(out_J_P, 20, 10, w52);
   w54 = w22 * w6;
   w44 = w54 * w35;
   w55 = w55 - w44;
   w49 = w40 * w21;
   w55 = w55 - w49;
   w55 = w55 - w4;
-  GAGEN_SCATTER(J_P, 20, 11, w55);
+  GAGEN_SCATTER(out_J_P, 20, 11, w55);
   w55 = w50 * w6;
   w55 = w55 * w35;
   w47 = w47 + w55;
@@ -9808,46 +9808,46 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w57 = w40 * w6;
   w57 = w57 * w32;
   w47 = w47 - w57;
-  GAGEN_SCATTER(J_P, 20, 12, w47);
+  GAGEN_SCATTER(out_J_P, 20, 12, w47);
   w47 = w50 * w21;
   w54 = w54 * w32;
   w47 = w47 + w54;
   w56 = w47 + w56;
   w56 = w56 - w3;
-  GAGEN_SCATTER(J_P, 20, 13, w56);
+  GAGEN_SCATTER(out_J_P, 20, 13, w56);
   w56 = w50 * w5;
   w3 = w22 * w58;
   w56 = w56 + w3;
   w3 = w40 * w59;
   w56 = w56 + w3;
-  GAGEN_SCATTER(J_P, 20, 14, w56);
-  GAGEN_SCATTER(J_P, 20, 15, w52);
+  GAGEN_SCATTER(out_J_P, 20, 14, w56);
+  GAGEN_SCATTER(out_J_P, 20, 15, w52);
   w44 = w12 - w44;
   w44 = w44 - w49;
-  GAGEN_SCATTER(J_P, 20, 16, w44);
+  GAGEN_SCATTER(out_J_P, 20, 16, w44);
   w33 = w33 + w55;
   w33 = w33 - w41;
   w33 = w33 - w57;
-  GAGEN_SCATTER(J_P, 20, 17, w33);
+  GAGEN_SCATTER(out_J_P, 20, 17, w33);
   w47 = w47 - w48;
   w47 = w47 - w51;
-  GAGEN_SCATTER(J_P, 20, 18, w47);
+  GAGEN_SCATTER(out_J_P, 20, 18, w47);
   w50 = w50 * w12;
   w22 = w22 * w27;
   w50 = w50 + w22;
   w40 = w40 * w25;
   w50 = w50 - w40;
-  GAGEN_SCATTER(J_P, 20, 19, w50);
+  GAGEN_SCATTER(out_J_P, 20, 19, w50);
   w50 = w67 + w64;
   w50 = w50 - w66;
   w50 = w50 - w63;
-  GAGEN_SCATTER(L, 6, 0, w50);
-  GAGEN_SCATTER(L, 6, 1, w62);
+  GAGEN_SCATTER(out_L, 6, 0, w50);
+  GAGEN_SCATTER(out_L, 6, 1, w62);
   w40 = w9 * w0;
   w22 = w15 * w8;
   w40 = w40 + w22;
   w22 = w40 + w40;
-  GAGEN_SCATTER(L, 6, 2, w22);
+  GAGEN_SCATTER(out_L, 6, 2, w22);
   w9 = w9 * w46;
   w0 = w0 * w38;
   w9 = w9 - w0;
@@ -9856,21 +9856,21 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w8 = w8 * w13;
   w9 = w9 - w8;
   w9 = w9 + w9;
-  GAGEN_SCATTER(L, 6, 3, w9);
+  GAGEN_SCATTER(out_L, 6, 3, w9);
   w74 = w74 + w73;
   w74 = w74 - w29;
   w74 = w74 + w71;
   w74 = w74 + w74;
-  GAGEN_SCATTER(L, 6, 4, w74);
+  GAGEN_SCATTER(out_L, 6, 4, w74);
   w71 = w65 - w30;
   w71 = w71 - w37;
   w71 = w71 - w68;
   w71 = w71 + w71;
-  GAGEN_SCATTER(L, 6, 5, w71);
-  GAGEN_SCATTER(J_L, 24, 0, w22);
-  GAGEN_SCATTER(J_L, 24, 1, w52);
+  GAGEN_SCATTER(out_L, 6, 5, w71);
+  GAGEN_SCATTER(out_J_L, 24, 0, w22);
+  GAGEN_SCATTER(out_J_L, 24, 1, w52);
   w52 = -w50;
-  GAGEN_SCATTER(J_L, 24, 2, w52);
+  GAGEN_SCATTER(out_J_L, 24, 2, w52);
   w52 = gagen_v_splat(0.014190490885279674);
   w61 = w52 * w61;
   w37 = w37 + w68;
@@ -9878,34 +9878,34 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w37 = w37 - w65;
   w37 = w37 + w37;
   w61 = w61 + w37;
-  GAGEN_SCATTER(J_L, 24, 3, w61);
+  GAGEN_SCATTER(out_J_L, 24, 3, w61);
   w66 = w66 + w63;
   w66 = w66 - w67;
   w66 = w66 - w64;
   w16 = w16 * w66;
   w52 = w52 * w40;
   w16 = w16 + w52;
-  GAGEN_SCATTER(J_L, 24, 4, w16);
+  GAGEN_SCATTER(out_J_L, 24, 4, w16);
   w16 = gagen_v_splat(0.037444815332805866);
   w60 = w60 - w26;
   w16 = w16 * w60;
   w16 = w16 + w9;
-  GAGEN_SCATTER(J_L, 24, 5, w16);
+  GAGEN_SCATTER(out_J_L, 24, 5, w16);
   w16 = w62 * w35;
-  GAGEN_SCATTER(J_L, 24, 6, w16);
+  GAGEN_SCATTER(out_J_L, 24, 6, w16);
   w60 = w50 * w35;
   w26 = w22 * w32;
   w60 = w60 + w26;
   w60 = -w60;
-  GAGEN_SCATTER(J_L, 24, 7, w60);
+  GAGEN_SCATTER(out_J_L, 24, 7, w60);
   w60 = w62 * w32;
-  GAGEN_SCATTER(J_L, 24, 8, w60);
+  GAGEN_SCATTER(out_J_L, 24, 8, w60);
   w26 = w50 * w53;
   w52 = w74 * w32;
   w26 = w26 - w52;
   w16 = w19 * w16;
   w26 = w26 + w16;
-  GAGEN_SCATTER(J_L, 24, 9, w26);
+  GAGEN_SCATTER(out_J_L, 24, 9, w26);
   w26 = w9 * w32;
   w16 = w71 * w35;
   w26 = w26 + w16;
@@ -9914,29 +9914,29 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w16 = w16 - w52;
   w16 = w19 * w16;
   w26 = w26 - w16;
-  GAGEN_SCATTER(J_L, 24, 10, w26);
+  GAGEN_SCATTER(out_J_L, 24, 10, w26);
   w26 = w74 * w35;
   w53 = w22 * w53;
   w26 = w26 + w53;
   w19 = w19 * w60;
   w26 = w26 + w19;
   w26 = -w26;
-  GAGEN_SCATTER(J_L, 24, 11, w26);
+  GAGEN_SCATTER(out_J_L, 24, 11, w26);
   w26 = w22 * w21;
   w19 = w62 * w6;
   w60 = w19 * w32;
   w26 = w26 - w60;
-  GAGEN_SCATTER(J_L, 24, 12, w26);
+  GAGEN_SCATTER(out_J_L, 24, 12, w26);
   w60 = w50 * w6;
   w60 = w60 * w32;
   w53 = w22 * w6;
   w53 = w53 * w35;
   w60 = w60 - w53;
-  GAGEN_SCATTER(J_L, 24, 13, w60);
+  GAGEN_SCATTER(out_J_L, 24, 13, w60);
   w19 = w19 * w35;
   w53 = w50 * w21;
   w19 = w19 - w53;
-  GAGEN_SCATTER(J_L, 24, 14, w19);
+  GAGEN_SCATTER(out_J_L, 24, 14, w19);
   w53 = w50 * w58;
   w16 = w62 * w59;
   w53 = w53 + w16;
@@ -9945,7 +9945,7 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w53 = w53 - w16;
   w52 = w71 * w21;
   w53 = w53 - w52;
-  GAGEN_SCATTER(J_L, 24, 15, w53);
+  GAGEN_SCATTER(out_J_L, 24, 15, w53);
   w59 = w22 * w59;
   w53 = w9 * w6;
   w53 = w53 * w35;
@@ -9955,7 +9955,7 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w71 = w71 * w6;
   w71 = w71 * w32;
   w59 = w59 - w71;
-  GAGEN_SCATTER(J_L, 24, 16, w59);
+  GAGEN_SCATTER(out_J_L, 24, 16, w59);
   w9 = w9 * w21;
   w74 = w74 * w32;
   w9 = w9 + w74;
@@ -9963,27 +9963,27 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
   w5 = w9 - w5;
   w58 = w22 * w58;
   w5 = w5 - w58;
-  GAGEN_SCATTER(J_L, 24, 17, w5);
-  GAGEN_SCATTER(J_L, 24, 18, w26);
-  GAGEN_SCATTER(J_L, 24, 19, w60);
-  GAGEN_SCATTER(J_L, 24, 20, w19);
+  GAGEN_SCATTER(out_J_L, 24, 17, w5);
+  GAGEN_SCATTER(out_J_L, 24, 18, w26);
+  GAGEN_SCATTER(out_J_L, 24, 19, w60);
+  GAGEN_SCATTER(out_J_L, 24, 20, w19);
   w19 = w50 * w27;
   w60 = w62 * w25;
   w19 = w19 - w60;
   w19 = w19 - w16;
   w19 = w19 - w52;
-  GAGEN_SCATTER(J_L, 24, 21, w19);
+  GAGEN_SCATTER(out_J_L, 24, 21, w19);
   w25 = w22 * w25;
   w53 = w53 - w25;
   w50 = w50 * w12;
   w53 = w53 - w50;
   w53 = w53 - w71;
-  GAGEN_SCATTER(J_L, 24, 22, w53);
+  GAGEN_SCATTER(out_J_L, 24, 22, w53);
   w62 = w62 * w12;
   w9 = w9 - w62;
   w22 = w22 * w27;
   w9 = w9 - w22;
-  GAGEN_SCATTER(J_L, 24, 23, w9);
+  GAGEN_SCATTER(out_J_L, 24, 23, w9);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -9991,33 +9991,33 @@ static void leap_hand_sphere_ring_jacobians_block_columns(long gagen_ld, int gag
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void leap_hand_sphere_ring_jacobians_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S, double *restrict J_b, double *restrict J_A, double *restrict J_P, double *restrict L, double *restrict J_L) {
-  long s = 0;
+void leap_hand_sphere_ring_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S, double *restrict out_J_b, double *restrict out_J_A, double *restrict out_J_P, double *restrict out_L, double *restrict out_J_L) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 143L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    leap_hand_sphere_ring_jacobians_block_columns(ld, stream, q + s, M + s, P + s, J_S + s, J_b + s, J_A + s, J_P + s, L + s, J_L + s);
+  const int gagen_stream = gagen_n * 143L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    leap_hand_sphere_ring_jacobians_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s, out_J_b + gagen_s, out_J_A + gagen_s, out_J_P + gagen_s, out_L + gagen_s, out_J_L + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  leap_hand_sphere_ring_jacobians_columns_from(s, n, ld, q, M, P, J_S, J_b, J_A, J_P, L, J_L);
+  leap_hand_sphere_ring_jacobians_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S, out_J_b, out_J_A, out_J_P, out_L, out_J_L);
 }
 
 #if GAGEN_SIMD
 /* chain thumb: motor and end point: GAGEN_W consecutive samples at once */
-static void leap_hand_sphere_thumb_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void leap_hand_sphere_thumb_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25;
   w0 = gagen_v_splat(0.25);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 4, 0);
+  w2 = GAGEN_GATHER(in_q, 4, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
   w2 = gagen_v_cos(w2);
   w4 = w3 - w2;
   w4 = w4 + w4;
-  w5 = GAGEN_GATHER(q, 4, 1);
+  w5 = GAGEN_GATHER(in_q, 4, 1);
   w5 = w1 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
@@ -10025,7 +10025,7 @@ static void leap_hand_sphere_thumb_fk_block(const double *restrict q, double *re
   w8 = w8 + w8;
   w9 = w8 * w6;
   w10 = w7 + w9;
-  w11 = GAGEN_GATHER(q, 4, 2);
+  w11 = GAGEN_GATHER(in_q, 4, 2);
   w11 = w1 * w11;
   w12 = gagen_v_sin(w11);
   w13 = w10 * w12;
@@ -10036,7 +10036,7 @@ static void leap_hand_sphere_thumb_fk_block(const double *restrict q, double *re
   w11 = gagen_v_cos(w11);
   w15 = w14 * w11;
   w13 = w13 + w15;
-  w15 = GAGEN_GATHER(q, 4, 3);
+  w15 = GAGEN_GATHER(in_q, 4, 3);
   w15 = w1 * w15;
   w16 = gagen_v_cos(w15);
   w17 = w13 * w16;
@@ -10047,12 +10047,12 @@ static void leap_hand_sphere_thumb_fk_block(const double *restrict q, double *re
   w10 = w14 * w15;
   w17 = w17 - w10;
   w17 = w0 * w17;
-  GAGEN_SCATTER(M, 8, 0, w17);
+  GAGEN_SCATTER(out_M, 8, 0, w17);
   w13 = w13 * w15;
   w14 = w14 * w16;
   w13 = w13 + w14;
   w13 = w0 * w13;
-  GAGEN_SCATTER(M, 8, 1, w13);
+  GAGEN_SCATTER(out_M, 8, 1, w13);
   w4 = w4 + w8;
   w8 = w4 * w12;
   w7 = w7 - w9;
@@ -10065,12 +10065,12 @@ static void leap_hand_sphere_thumb_fk_block(const double *restrict q, double *re
   w4 = w7 * w15;
   w9 = w9 - w4;
   w9 = w0 * w9;
-  GAGEN_SCATTER(M, 8, 2, w9);
+  GAGEN_SCATTER(out_M, 8, 2, w9);
   w8 = w8 * w15;
   w7 = w7 * w16;
   w8 = w8 + w7;
   w0 = w0 * w8;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w8 = gagen_v_splat(0.0012422438651005258);
   w7 = gagen_v_splat(5.551115123125783e-17);
   w4 = w2 * w3;
@@ -10172,14 +10172,14 @@ static void leap_hand_sphere_thumb_fk_block(const double *restrict q, double *re
   w7 = w20 * w17;
   w22 = w22 - w7;
   w22 = w1 * w22;
-  GAGEN_SCATTER(M, 8, 4, w22);
+  GAGEN_SCATTER(out_M, 8, 4, w22);
   w22 = w3 * w0;
   w7 = w20 * w13;
   w22 = w22 - w7;
   w7 = w8 * w17;
   w22 = w22 - w7;
   w22 = w1 * w22;
-  GAGEN_SCATTER(M, 8, 5, w22);
+  GAGEN_SCATTER(out_M, 8, 5, w22);
   w22 = w20 * w9;
   w7 = w8 * w0;
   w22 = w22 + w7;
@@ -10187,43 +10187,43 @@ static void leap_hand_sphere_thumb_fk_block(const double *restrict q, double *re
   w22 = w22 + w17;
   w22 = w1 * w22;
   w22 = -w22;
-  GAGEN_SCATTER(M, 8, 6, w22);
+  GAGEN_SCATTER(out_M, 8, 6, w22);
   w9 = w8 * w9;
   w0 = w20 * w0;
   w9 = w9 - w0;
   w13 = w3 * w13;
   w9 = w9 - w13;
   w9 = w1 * w9;
-  GAGEN_SCATTER(M, 8, 7, w9);
+  GAGEN_SCATTER(out_M, 8, 7, w9);
   w9 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w9);
-  GAGEN_SCATTER(P, 5, 1, w20);
-  GAGEN_SCATTER(P, 5, 2, w8);
-  GAGEN_SCATTER(P, 5, 3, w3);
+  GAGEN_SCATTER(out_P, 5, 0, w9);
+  GAGEN_SCATTER(out_P, 5, 1, w20);
+  GAGEN_SCATTER(out_P, 5, 2, w8);
+  GAGEN_SCATTER(out_P, 5, 3, w3);
   w20 = w20 * w20;
   w8 = w8 * w8;
   w20 = w20 + w8;
   w3 = w3 * w3;
   w20 = w20 + w3;
   w1 = w1 * w20;
-  GAGEN_SCATTER(P, 5, 4, w1);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
 }
 #endif
 
-void leap_hand_sphere_thumb_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void leap_hand_sphere_thumb_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    leap_hand_sphere_thumb_fk_block(q + 4 * s, M + 8 * s, P + 5 * s);
+    leap_hand_sphere_thumb_fk_block(in_q + 4 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    leap_hand_sphere_thumb_fk(q + 4 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    leap_hand_sphere_thumb_fk(in_q + 4 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -10233,19 +10233,19 @@ void leap_hand_sphere_thumb_fk_batch(long n, const double *restrict q, double *r
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void leap_hand_sphere_thumb_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void leap_hand_sphere_thumb_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25;
   w0 = gagen_v_splat(0.25);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 4, 0);
+  w2 = GAGEN_GATHER(in_q, 4, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
   w2 = gagen_v_cos(w2);
   w4 = w3 - w2;
   w4 = w4 + w4;
-  w5 = GAGEN_GATHER(q, 4, 1);
+  w5 = GAGEN_GATHER(in_q, 4, 1);
   w5 = w1 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
@@ -10253,7 +10253,7 @@ static void leap_hand_sphere_thumb_fk_block_columns(long gagen_ld, int gagen_str
   w8 = w8 + w8;
   w9 = w8 * w6;
   w10 = w7 + w9;
-  w11 = GAGEN_GATHER(q, 4, 2);
+  w11 = GAGEN_GATHER(in_q, 4, 2);
   w11 = w1 * w11;
   w12 = gagen_v_sin(w11);
   w13 = w10 * w12;
@@ -10264,7 +10264,7 @@ static void leap_hand_sphere_thumb_fk_block_columns(long gagen_ld, int gagen_str
   w11 = gagen_v_cos(w11);
   w15 = w14 * w11;
   w13 = w13 + w15;
-  w15 = GAGEN_GATHER(q, 4, 3);
+  w15 = GAGEN_GATHER(in_q, 4, 3);
   w15 = w1 * w15;
   w16 = gagen_v_cos(w15);
   w17 = w13 * w16;
@@ -10275,12 +10275,12 @@ static void leap_hand_sphere_thumb_fk_block_columns(long gagen_ld, int gagen_str
   w10 = w14 * w15;
   w17 = w17 - w10;
   w17 = w0 * w17;
-  GAGEN_SCATTER(M, 8, 0, w17);
+  GAGEN_SCATTER(out_M, 8, 0, w17);
   w13 = w13 * w15;
   w14 = w14 * w16;
   w13 = w13 + w14;
   w13 = w0 * w13;
-  GAGEN_SCATTER(M, 8, 1, w13);
+  GAGEN_SCATTER(out_M, 8, 1, w13);
   w4 = w4 + w8;
   w8 = w4 * w12;
   w7 = w7 - w9;
@@ -10293,12 +10293,12 @@ static void leap_hand_sphere_thumb_fk_block_columns(long gagen_ld, int gagen_str
   w4 = w7 * w15;
   w9 = w9 - w4;
   w9 = w0 * w9;
-  GAGEN_SCATTER(M, 8, 2, w9);
+  GAGEN_SCATTER(out_M, 8, 2, w9);
   w8 = w8 * w15;
   w7 = w7 * w16;
   w8 = w8 + w7;
   w0 = w0 * w8;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w8 = gagen_v_splat(0.0012422438651005258);
   w7 = gagen_v_splat(5.551115123125783e-17);
   w4 = w2 * w3;
@@ -10400,14 +10400,14 @@ static void leap_hand_sphere_thumb_fk_block_columns(long gagen_ld, int gagen_str
   w7 = w20 * w17;
   w22 = w22 - w7;
   w22 = w1 * w22;
-  GAGEN_SCATTER(M, 8, 4, w22);
+  GAGEN_SCATTER(out_M, 8, 4, w22);
   w22 = w3 * w0;
   w7 = w20 * w13;
   w22 = w22 - w7;
   w7 = w8 * w17;
   w22 = w22 - w7;
   w22 = w1 * w22;
-  GAGEN_SCATTER(M, 8, 5, w22);
+  GAGEN_SCATTER(out_M, 8, 5, w22);
   w22 = w20 * w9;
   w7 = w8 * w0;
   w22 = w22 + w7;
@@ -10415,26 +10415,26 @@ static void leap_hand_sphere_thumb_fk_block_columns(long gagen_ld, int gagen_str
   w22 = w22 + w17;
   w22 = w1 * w22;
   w22 = -w22;
-  GAGEN_SCATTER(M, 8, 6, w22);
+  GAGEN_SCATTER(out_M, 8, 6, w22);
   w9 = w8 * w9;
   w0 = w20 * w0;
   w9 = w9 - w0;
   w13 = w3 * w13;
   w9 = w9 - w13;
   w9 = w1 * w9;
-  GAGEN_SCATTER(M, 8, 7, w9);
+  GAGEN_SCATTER(out_M, 8, 7, w9);
   w9 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w9);
-  GAGEN_SCATTER(P, 5, 1, w20);
-  GAGEN_SCATTER(P, 5, 2, w8);
-  GAGEN_SCATTER(P, 5, 3, w3);
+  GAGEN_SCATTER(out_P, 5, 0, w9);
+  GAGEN_SCATTER(out_P, 5, 1, w20);
+  GAGEN_SCATTER(out_P, 5, 2, w8);
+  GAGEN_SCATTER(out_P, 5, 3, w3);
   w20 = w20 * w20;
   w8 = w8 * w8;
   w20 = w20 + w8;
   w3 = w3 * w3;
   w20 = w20 + w3;
   w1 = w1 * w20;
-  GAGEN_SCATTER(P, 5, 4, w1);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -10442,34 +10442,34 @@ static void leap_hand_sphere_thumb_fk_block_columns(long gagen_ld, int gagen_str
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void leap_hand_sphere_thumb_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void leap_hand_sphere_thumb_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    leap_hand_sphere_thumb_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    leap_hand_sphere_thumb_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  leap_hand_sphere_thumb_fk_columns_from(s, n, ld, q, M, P);
+  leap_hand_sphere_thumb_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain thumb: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void leap_hand_sphere_thumb_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void leap_hand_sphere_thumb_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   gagen_v w36;
   w0 = gagen_v_splat(0.25);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 4, 0);
+  w2 = GAGEN_GATHER(in_q, 4, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
   w2 = gagen_v_cos(w2);
   w4 = w3 - w2;
   w4 = w4 + w4;
-  w5 = GAGEN_GATHER(q, 4, 1);
+  w5 = GAGEN_GATHER(in_q, 4, 1);
   w5 = w1 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
@@ -10477,7 +10477,7 @@ static void leap_hand_sphere_thumb_fk_jacobian_block(const double *restrict q, d
   w8 = w8 + w8;
   w9 = w8 * w6;
   w10 = w7 + w9;
-  w11 = GAGEN_GATHER(q, 4, 2);
+  w11 = GAGEN_GATHER(in_q, 4, 2);
   w11 = w1 * w11;
   w12 = gagen_v_sin(w11);
   w13 = w10 * w12;
@@ -10488,7 +10488,7 @@ static void leap_hand_sphere_thumb_fk_jacobian_block(const double *restrict q, d
   w11 = gagen_v_cos(w11);
   w15 = w14 * w11;
   w13 = w13 + w15;
-  w15 = GAGEN_GATHER(q, 4, 3);
+  w15 = GAGEN_GATHER(in_q, 4, 3);
   w15 = w1 * w15;
   w16 = gagen_v_cos(w15);
   w17 = w13 * w16;
@@ -10499,12 +10499,12 @@ static void leap_hand_sphere_thumb_fk_jacobian_block(const double *restrict q, d
   w10 = w14 * w15;
   w17 = w17 - w10;
   w17 = w0 * w17;
-  GAGEN_SCATTER(M, 8, 0, w17);
+  GAGEN_SCATTER(out_M, 8, 0, w17);
   w13 = w13 * w15;
   w14 = w14 * w16;
   w13 = w13 + w14;
   w13 = w0 * w13;
-  GAGEN_SCATTER(M, 8, 1, w13);
+  GAGEN_SCATTER(out_M, 8, 1, w13);
   w4 = w4 + w8;
   w8 = w4 * w12;
   w7 = w7 - w9;
@@ -10517,12 +10517,12 @@ static void leap_hand_sphere_thumb_fk_jacobian_block(const double *restrict q, d
   w4 = w7 * w15;
   w9 = w9 - w4;
   w9 = w0 * w9;
-  GAGEN_SCATTER(M, 8, 2, w9);
+  GAGEN_SCATTER(out_M, 8, 2, w9);
   w8 = w8 * w15;
   w7 = w7 * w16;
   w8 = w8 + w7;
   w0 = w0 * w8;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w8 = gagen_v_splat(0.0012422438651005258);
   w7 = gagen_v_splat(5.551115123125783e-17);
   w4 = w2 * w3;
@@ -10624,14 +10624,14 @@ static void leap_hand_sphere_thumb_fk_jacobian_block(const double *restrict q, d
   w14 = w23 * w17;
   w26 = w26 - w14;
   w26 = w1 * w26;
-  GAGEN_SCATTER(M, 8, 4, w26);
+  GAGEN_SCATTER(out_M, 8, 4, w26);
   w26 = w30 * w0;
   w14 = w23 * w13;
   w26 = w26 - w14;
   w14 = w22 * w17;
   w26 = w26 - w14;
   w26 = w1 * w26;
-  GAGEN_SCATTER(M, 8, 5, w26);
+  GAGEN_SCATTER(out_M, 8, 5, w26);
   w26 = w23 * w9;
   w14 = w22 * w0;
   w26 = w26 + w14;
@@ -10639,38 +10639,38 @@ static void leap_hand_sphere_thumb_fk_jacobian_block(const double *restrict q, d
   w26 = w26 + w17;
   w26 = w1 * w26;
   w26 = -w26;
-  GAGEN_SCATTER(M, 8, 6, w26);
+  GAGEN_SCATTER(out_M, 8, 6, w26);
   w9 = w22 * w9;
   w0 = w23 * w0;
   w9 = w9 - w0;
   w13 = w30 * w13;
   w9 = w9 - w13;
   w9 = w1 * w9;
-  GAGEN_SCATTER(M, 8, 7, w9);
+  GAGEN_SCATTER(out_M, 8, 7, w9);
   w9 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w9);
-  GAGEN_SCATTER(P, 5, 1, w23);
-  GAGEN_SCATTER(P, 5, 2, w22);
-  GAGEN_SCATTER(P, 5, 3, w30);
+  GAGEN_SCATTER(out_P, 5, 0, w9);
+  GAGEN_SCATTER(out_P, 5, 1, w23);
+  GAGEN_SCATTER(out_P, 5, 2, w22);
+  GAGEN_SCATTER(out_P, 5, 3, w30);
   w23 = w23 * w23;
   w22 = w22 * w22;
   w23 = w23 + w22;
   w30 = w30 * w30;
   w23 = w23 + w30;
   w1 = w1 * w23;
-  GAGEN_SCATTER(P, 5, 4, w1);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
   w1 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 24, 0, w1);
-  GAGEN_SCATTER(J_S, 24, 1, w1);
+  GAGEN_SCATTER(out_J_S, 24, 0, w1);
+  GAGEN_SCATTER(out_J_S, 24, 1, w1);
   w23 = gagen_v_splat((-1.0));
-  GAGEN_SCATTER(J_S, 24, 2, w23);
-  GAGEN_SCATTER(J_S, 24, 3, w1);
+  GAGEN_SCATTER(out_J_S, 24, 2, w23);
+  GAGEN_SCATTER(out_J_S, 24, 3, w1);
   w23 = gagen_v_splat((-0.021622403578460216));
-  GAGEN_SCATTER(J_S, 24, 4, w23);
-  GAGEN_SCATTER(J_S, 24, 5, w8);
-  GAGEN_SCATTER(J_S, 24, 6, w20);
-  GAGEN_SCATTER(J_S, 24, 7, w2);
-  GAGEN_SCATTER(J_S, 24, 8, w1);
+  GAGEN_SCATTER(out_J_S, 24, 4, w23);
+  GAGEN_SCATTER(out_J_S, 24, 5, w8);
+  GAGEN_SCATTER(out_J_S, 24, 6, w20);
+  GAGEN_SCATTER(out_J_S, 24, 7, w2);
+  GAGEN_SCATTER(out_J_S, 24, 8, w1);
   w1 = gagen_v_splat(0.007150000000000003);
   w1 = w1 * w2;
   w8 = gagen_v_splat(0.0006211219325502629);
@@ -10689,17 +10689,17 @@ static void leap_hand_sphere_thumb_fk_jacobian_block(const double *restrict q, d
   w20 = w20 + w30;
   w20 = w20 + w20;
   w20 = -w20;
-  GAGEN_SCATTER(J_S, 24, 9, w20);
+  GAGEN_SCATTER(out_J_S, 24, 9, w20);
   w20 = gagen_v_splat(0.1647904993057251);
   w20 = w20 * w4;
-  GAGEN_SCATTER(J_S, 24, 10, w20);
+  GAGEN_SCATTER(out_J_S, 24, 10, w20);
   w31 = w31 * w2;
-  GAGEN_SCATTER(J_S, 24, 11, w31);
-  GAGEN_SCATTER(J_S, 24, 12, w15);
+  GAGEN_SCATTER(out_J_S, 24, 11, w31);
+  GAGEN_SCATTER(out_J_S, 24, 12, w15);
   w31 = -w5;
-  GAGEN_SCATTER(J_S, 24, 13, w31);
+  GAGEN_SCATTER(out_J_S, 24, 13, w31);
   w20 = -w18;
-  GAGEN_SCATTER(J_S, 24, 14, w20);
+  GAGEN_SCATTER(out_J_S, 24, 14, w20);
   w30 = gagen_v_splat(0.01565000000000003);
   w30 = w30 * w2;
   w30 = w30 - w8;
@@ -10717,7 +10717,7 @@ static void leap_hand_sphere_thumb_fk_jacobian_block(const double *restrict q, d
   w8 = w8 - w28;
   w8 = w8 + w8;
   w8 = -w8;
-  GAGEN_SCATTER(J_S, 24, 15, w8);
+  GAGEN_SCATTER(out_J_S, 24, 15, w8);
   w8 = gagen_v_splat(0.04119762482643127);
   w28 = gagen_v_splat(0.014499999999999966);
   w28 = w28 * w12;
@@ -10726,16 +10726,16 @@ static void leap_hand_sphere_thumb_fk_jacobian_block(const double *restrict q, d
   w1 = w18 * w1;
   w4 = w4 + w1;
   w4 = w4 + w4;
-  GAGEN_SCATTER(J_S, 24, 16, w4);
+  GAGEN_SCATTER(out_J_S, 24, 16, w4);
   w28 = w5 * w28;
   w30 = w18 * w30;
   w28 = w28 + w30;
   w28 = -w28;
   w28 = w28 + w28;
-  GAGEN_SCATTER(J_S, 24, 17, w28);
-  GAGEN_SCATTER(J_S, 24, 18, w15);
-  GAGEN_SCATTER(J_S, 24, 19, w31);
-  GAGEN_SCATTER(J_S, 24, 20, w20);
+  GAGEN_SCATTER(out_J_S, 24, 17, w28);
+  GAGEN_SCATTER(out_J_S, 24, 18, w15);
+  GAGEN_SCATTER(out_J_S, 24, 19, w31);
+  GAGEN_SCATTER(out_J_S, 24, 20, w20);
   w20 = gagen_v_splat(0.014699999999999942);
   w31 = w20 * w5;
   w7 = w7 - w31;
@@ -10750,7 +10750,7 @@ static void leap_hand_sphere_thumb_fk_jacobian_block(const double *restrict q, d
   w3 = w3 - w36;
   w36 = w5 * w3;
   w29 = w29 - w36;
-  GAGEN_SCATTER(J_S, 24, 21, w29);
+  GAGEN_SCATTER(out_J_S, 24, 21, w29);
   w29 = gagen_v_splat(6.245004513516506e-17);
   w29 = w29 * w11;
   w8 = w8 + w29;
@@ -10763,31 +10763,31 @@ static void leap_hand_sphere_thumb_fk_jacobian_block(const double *restrict q, d
   w15 = w15 + w15;
   w3 = w18 * w3;
   w15 = w15 - w3;
-  GAGEN_SCATTER(J_S, 24, 22, w15);
+  GAGEN_SCATTER(out_J_S, 24, 22, w15);
   w18 = w18 * w7;
   w5 = w5 * w8;
   w5 = -w5;
   w5 = w5 + w5;
   w18 = w18 + w5;
-  GAGEN_SCATTER(J_S, 24, 23, w18);
+  GAGEN_SCATTER(out_J_S, 24, 23, w18);
 }
 #endif
 
-void leap_hand_sphere_thumb_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void leap_hand_sphere_thumb_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 24 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 24 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 24 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 24 * gagen_a + gagen_o, 1, 0);
     }
-    leap_hand_sphere_thumb_fk_jacobian_block(q + 4 * s, M + 8 * s, P + 5 * s, J_S + 24 * s);
+    leap_hand_sphere_thumb_fk_jacobian_block(in_q + 4 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 24 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    leap_hand_sphere_thumb_fk_jacobian(q + 4 * s, M + 8 * s, P + 5 * s, J_S + 24 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    leap_hand_sphere_thumb_fk_jacobian(in_q + 4 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 24 * gagen_s);
   }
 }
 
@@ -10797,20 +10797,20 @@ void leap_hand_sphere_thumb_fk_jacobian_batch(long n, const double *restrict q, 
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void leap_hand_sphere_thumb_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void leap_hand_sphere_thumb_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   gagen_v w36;
   w0 = gagen_v_splat(0.25);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 4, 0);
+  w2 = GAGEN_GATHER(in_q, 4, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
   w2 = gagen_v_cos(w2);
   w4 = w3 - w2;
   w4 = w4 + w4;
-  w5 = GAGEN_GATHER(q, 4, 1);
+  w5 = GAGEN_GATHER(in_q, 4, 1);
   w5 = w1 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
@@ -10818,7 +10818,7 @@ static void leap_hand_sphere_thumb_fk_jacobian_block_columns(long gagen_ld, int 
   w8 = w8 + w8;
   w9 = w8 * w6;
   w10 = w7 + w9;
-  w11 = GAGEN_GATHER(q, 4, 2);
+  w11 = GAGEN_GATHER(in_q, 4, 2);
   w11 = w1 * w11;
   w12 = gagen_v_sin(w11);
   w13 = w10 * w12;
@@ -10829,7 +10829,7 @@ static void leap_hand_sphere_thumb_fk_jacobian_block_columns(long gagen_ld, int 
   w11 = gagen_v_cos(w11);
   w15 = w14 * w11;
   w13 = w13 + w15;
-  w15 = GAGEN_GATHER(q, 4, 3);
+  w15 = GAGEN_GATHER(in_q, 4, 3);
   w15 = w1 * w15;
   w16 = gagen_v_cos(w15);
   w17 = w13 * w16;
@@ -10840,12 +10840,12 @@ static void leap_hand_sphere_thumb_fk_jacobian_block_columns(long gagen_ld, int 
   w10 = w14 * w15;
   w17 = w17 - w10;
   w17 = w0 * w17;
-  GAGEN_SCATTER(M, 8, 0, w17);
+  GAGEN_SCATTER(out_M, 8, 0, w17);
   w13 = w13 * w15;
   w14 = w14 * w16;
   w13 = w13 + w14;
   w13 = w0 * w13;
-  GAGEN_SCATTER(M, 8, 1, w13);
+  GAGEN_SCATTER(out_M, 8, 1, w13);
   w4 = w4 + w8;
   w8 = w4 * w12;
   w7 = w7 - w9;
@@ -10858,12 +10858,12 @@ static void leap_hand_sphere_thumb_fk_jacobian_block_columns(long gagen_ld, int 
   w4 = w7 * w15;
   w9 = w9 - w4;
   w9 = w0 * w9;
-  GAGEN_SCATTER(M, 8, 2, w9);
+  GAGEN_SCATTER(out_M, 8, 2, w9);
   w8 = w8 * w15;
   w7 = w7 * w16;
   w8 = w8 + w7;
   w0 = w0 * w8;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w8 = gagen_v_splat(0.0012422438651005258);
   w7 = gagen_v_splat(5.551115123125783e-17);
   w4 = w2 * w3;
@@ -10965,14 +10965,14 @@ static void leap_hand_sphere_thumb_fk_jacobian_block_columns(long gagen_ld, int 
   w14 = w23 * w17;
   w26 = w26 - w14;
   w26 = w1 * w26;
-  GAGEN_SCATTER(M, 8, 4, w26);
+  GAGEN_SCATTER(out_M, 8, 4, w26);
   w26 = w30 * w0;
   w14 = w23 * w13;
   w26 = w26 - w14;
   w14 = w22 * w17;
   w26 = w26 - w14;
   w26 = w1 * w26;
-  GAGEN_SCATTER(M, 8, 5, w26);
+  GAGEN_SCATTER(out_M, 8, 5, w26);
   w26 = w23 * w9;
   w14 = w22 * w0;
   w26 = w26 + w14;
@@ -10980,38 +10980,38 @@ static void leap_hand_sphere_thumb_fk_jacobian_block_columns(long gagen_ld, int 
   w26 = w26 + w17;
   w26 = w1 * w26;
   w26 = -w26;
-  GAGEN_SCATTER(M, 8, 6, w26);
+  GAGEN_SCATTER(out_M, 8, 6, w26);
   w9 = w22 * w9;
   w0 = w23 * w0;
   w9 = w9 - w0;
   w13 = w30 * w13;
   w9 = w9 - w13;
   w9 = w1 * w9;
-  GAGEN_SCATTER(M, 8, 7, w9);
+  GAGEN_SCATTER(out_M, 8, 7, w9);
   w9 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w9);
-  GAGEN_SCATTER(P, 5, 1, w23);
-  GAGEN_SCATTER(P, 5, 2, w22);
-  GAGEN_SCATTER(P, 5, 3, w30);
+  GAGEN_SCATTER(out_P, 5, 0, w9);
+  GAGEN_SCATTER(out_P, 5, 1, w23);
+  GAGEN_SCATTER(out_P, 5, 2, w22);
+  GAGEN_SCATTER(out_P, 5, 3, w30);
   w23 = w23 * w23;
   w22 = w22 * w22;
   w23 = w23 + w22;
   w30 = w30 * w30;
   w23 = w23 + w30;
   w1 = w1 * w23;
-  GAGEN_SCATTER(P, 5, 4, w1);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
   w1 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 24, 0, w1);
-  GAGEN_SCATTER(J_S, 24, 1, w1);
+  GAGEN_SCATTER(out_J_S, 24, 0, w1);
+  GAGEN_SCATTER(out_J_S, 24, 1, w1);
   w23 = gagen_v_splat((-1.0));
-  GAGEN_SCATTER(J_S, 24, 2, w23);
-  GAGEN_SCATTER(J_S, 24, 3, w1);
+  GAGEN_SCATTER(out_J_S, 24, 2, w23);
+  GAGEN_SCATTER(out_J_S, 24, 3, w1);
   w23 = gagen_v_splat((-0.021622403578460216));
-  GAGEN_SCATTER(J_S, 24, 4, w23);
-  GAGEN_SCATTER(J_S, 24, 5, w8);
-  GAGEN_SCATTER(J_S, 24, 6, w20);
-  GAGEN_SCATTER(J_S, 24, 7, w2);
-  GAGEN_SCATTER(J_S, 24, 8, w1);
+  GAGEN_SCATTER(out_J_S, 24, 4, w23);
+  GAGEN_SCATTER(out_J_S, 24, 5, w8);
+  GAGEN_SCATTER(out_J_S, 24, 6, w20);
+  GAGEN_SCATTER(out_J_S, 24, 7, w2);
+  GAGEN_SCATTER(out_J_S, 24, 8, w1);
   w1 = gagen_v_splat(0.007150000000000003);
   w1 = w1 * w2;
   w8 = gagen_v_splat(0.0006211219325502629);
@@ -11030,17 +11030,17 @@ static void leap_hand_sphere_thumb_fk_jacobian_block_columns(long gagen_ld, int 
   w20 = w20 + w30;
   w20 = w20 + w20;
   w20 = -w20;
-  GAGEN_SCATTER(J_S, 24, 9, w20);
+  GAGEN_SCATTER(out_J_S, 24, 9, w20);
   w20 = gagen_v_splat(0.1647904993057251);
   w20 = w20 * w4;
-  GAGEN_SCATTER(J_S, 24, 10, w20);
+  GAGEN_SCATTER(out_J_S, 24, 10, w20);
   w31 = w31 * w2;
-  GAGEN_SCATTER(J_S, 24, 11, w31);
-  GAGEN_SCATTER(J_S, 24, 12, w15);
+  GAGEN_SCATTER(out_J_S, 24, 11, w31);
+  GAGEN_SCATTER(out_J_S, 24, 12, w15);
   w31 = -w5;
-  GAGEN_SCATTER(J_S, 24, 13, w31);
+  GAGEN_SCATTER(out_J_S, 24, 13, w31);
   w20 = -w18;
-  GAGEN_SCATTER(J_S, 24, 14, w20);
+  GAGEN_SCATTER(out_J_S, 24, 14, w20);
   w30 = gagen_v_splat(0.01565000000000003);
   w30 = w30 * w2;
   w30 = w30 - w8;
@@ -11058,7 +11058,7 @@ static void leap_hand_sphere_thumb_fk_jacobian_block_columns(long gagen_ld, int 
   w8 = w8 - w28;
   w8 = w8 + w8;
   w8 = -w8;
-  GAGEN_SCATTER(J_S, 24, 15, w8);
+  GAGEN_SCATTER(out_J_S, 24, 15, w8);
   w8 = gagen_v_splat(0.04119762482643127);
   w28 = gagen_v_splat(0.014499999999999966);
   w28 = w28 * w12;
@@ -11067,16 +11067,16 @@ static void leap_hand_sphere_thumb_fk_jacobian_block_columns(long gagen_ld, int 
   w1 = w18 * w1;
   w4 = w4 + w1;
   w4 = w4 + w4;
-  GAGEN_SCATTER(J_S, 24, 16, w4);
+  GAGEN_SCATTER(out_J_S, 24, 16, w4);
   w28 = w5 * w28;
   w30 = w18 * w30;
   w28 = w28 + w30;
   w28 = -w28;
   w28 = w28 + w28;
-  GAGEN_SCATTER(J_S, 24, 17, w28);
-  GAGEN_SCATTER(J_S, 24, 18, w15);
-  GAGEN_SCATTER(J_S, 24, 19, w31);
-  GAGEN_SCATTER(J_S, 24, 20, w20);
+  GAGEN_SCATTER(out_J_S, 24, 17, w28);
+  GAGEN_SCATTER(out_J_S, 24, 18, w15);
+  GAGEN_SCATTER(out_J_S, 24, 19, w31);
+  GAGEN_SCATTER(out_J_S, 24, 20, w20);
   w20 = gagen_v_splat(0.014699999999999942);
   w31 = w20 * w5;
   w7 = w7 - w31;
@@ -11091,7 +11091,7 @@ static void leap_hand_sphere_thumb_fk_jacobian_block_columns(long gagen_ld, int 
   w3 = w3 - w36;
   w36 = w5 * w3;
   w29 = w29 - w36;
-  GAGEN_SCATTER(J_S, 24, 21, w29);
+  GAGEN_SCATTER(out_J_S, 24, 21, w29);
   w29 = gagen_v_splat(6.245004513516506e-17);
   w29 = w29 * w11;
   w8 = w8 + w29;
@@ -11104,13 +11104,13 @@ static void leap_hand_sphere_thumb_fk_jacobian_block_columns(long gagen_ld, int 
   w15 = w15 + w15;
   w3 = w18 * w3;
   w15 = w15 - w3;
-  GAGEN_SCATTER(J_S, 24, 22, w15);
+  GAGEN_SCATTER(out_J_S, 24, 22, w15);
   w18 = w18 * w7;
   w5 = w5 * w8;
   w5 = -w5;
   w5 = w5 + w5;
   w18 = w18 + w5;
-  GAGEN_SCATTER(J_S, 24, 23, w18);
+  GAGEN_SCATTER(out_J_S, 24, 23, w18);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -11118,21 +11118,21 @@ static void leap_hand_sphere_thumb_fk_jacobian_block_columns(long gagen_ld, int 
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void leap_hand_sphere_thumb_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void leap_hand_sphere_thumb_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 37L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    leap_hand_sphere_thumb_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 37L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    leap_hand_sphere_thumb_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  leap_hand_sphere_thumb_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  leap_hand_sphere_thumb_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }
 
 #if GAGEN_SIMD
 /* chain thumb: motor, end point, every Jacobian and the tool z-axis line: GAGEN_W consecutive samples at once */
-static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S, double *restrict J_b, double *restrict J_A, double *restrict J_P, double *restrict L, double *restrict J_L) {
+static void leap_hand_sphere_thumb_jacobians_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S, double *restrict out_J_b, double *restrict out_J_A, double *restrict out_J_P, double *restrict out_L, double *restrict out_J_L) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -11145,13 +11145,13 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   gagen_v w108, w109, w110;
   w0 = gagen_v_splat(0.25);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 4, 0);
+  w2 = GAGEN_GATHER(in_q, 4, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
   w2 = gagen_v_cos(w2);
   w4 = w3 - w2;
   w4 = w4 + w4;
-  w5 = GAGEN_GATHER(q, 4, 1);
+  w5 = GAGEN_GATHER(in_q, 4, 1);
   w5 = w1 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
@@ -11159,7 +11159,7 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w8 = w8 + w8;
   w9 = w8 * w6;
   w10 = w7 + w9;
-  w11 = GAGEN_GATHER(q, 4, 2);
+  w11 = GAGEN_GATHER(in_q, 4, 2);
   w11 = w1 * w11;
   w12 = gagen_v_sin(w11);
   w13 = w10 * w12;
@@ -11170,7 +11170,7 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w11 = gagen_v_cos(w11);
   w15 = w14 * w11;
   w13 = w13 + w15;
-  w15 = GAGEN_GATHER(q, 4, 3);
+  w15 = GAGEN_GATHER(in_q, 4, 3);
   w15 = w1 * w15;
   w16 = gagen_v_cos(w15);
   w17 = w13 * w16;
@@ -11181,12 +11181,12 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w10 = w14 * w15;
   w18 = w17 - w10;
   w19 = w0 * w18;
-  GAGEN_SCATTER(M, 8, 0, w19);
+  GAGEN_SCATTER(out_M, 8, 0, w19);
   w13 = w13 * w15;
   w14 = w14 * w16;
   w13 = w13 + w14;
   w14 = w0 * w13;
-  GAGEN_SCATTER(M, 8, 1, w14);
+  GAGEN_SCATTER(out_M, 8, 1, w14);
   w4 = w4 + w8;
   w8 = w4 * w12;
   w7 = w7 - w9;
@@ -11199,12 +11199,12 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w4 = w7 * w15;
   w20 = w9 - w4;
   w21 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 2, w21);
+  GAGEN_SCATTER(out_M, 8, 2, w21);
   w8 = w8 * w15;
   w7 = w7 * w16;
   w8 = w8 + w7;
   w0 = w0 * w8;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w7 = gagen_v_splat(0.0012422438651005258);
   w22 = gagen_v_splat(5.551115123125783e-17);
   w23 = w2 * w3;
@@ -11306,14 +11306,14 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w16 = w50 * w19;
   w31 = w31 - w16;
   w31 = w1 * w31;
-  GAGEN_SCATTER(M, 8, 4, w31);
+  GAGEN_SCATTER(out_M, 8, 4, w31);
   w16 = w48 * w0;
   w44 = w50 * w14;
   w16 = w16 - w44;
   w44 = w33 * w19;
   w16 = w16 - w44;
   w16 = w1 * w16;
-  GAGEN_SCATTER(M, 8, 5, w16);
+  GAGEN_SCATTER(out_M, 8, 5, w16);
   w44 = w50 * w21;
   w26 = w33 * w0;
   w44 = w44 + w26;
@@ -11321,38 +11321,38 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w44 = w44 + w26;
   w44 = w1 * w44;
   w26 = -w44;
-  GAGEN_SCATTER(M, 8, 6, w26);
+  GAGEN_SCATTER(out_M, 8, 6, w26);
   w26 = w33 * w21;
   w54 = w50 * w0;
   w26 = w26 - w54;
   w54 = w48 * w14;
   w26 = w26 - w54;
   w26 = w1 * w26;
-  GAGEN_SCATTER(M, 8, 7, w26);
+  GAGEN_SCATTER(out_M, 8, 7, w26);
   w54 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w54);
-  GAGEN_SCATTER(P, 5, 1, w50);
-  GAGEN_SCATTER(P, 5, 2, w33);
-  GAGEN_SCATTER(P, 5, 3, w48);
+  GAGEN_SCATTER(out_P, 5, 0, w54);
+  GAGEN_SCATTER(out_P, 5, 1, w50);
+  GAGEN_SCATTER(out_P, 5, 2, w33);
+  GAGEN_SCATTER(out_P, 5, 3, w48);
   w54 = w50 * w50;
   w55 = w33 * w33;
   w54 = w54 + w55;
   w55 = w48 * w48;
   w54 = w54 + w55;
   w54 = w1 * w54;
-  GAGEN_SCATTER(P, 5, 4, w54);
+  GAGEN_SCATTER(out_P, 5, 4, w54);
   w54 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 24, 0, w54);
-  GAGEN_SCATTER(J_S, 24, 1, w54);
+  GAGEN_SCATTER(out_J_S, 24, 0, w54);
+  GAGEN_SCATTER(out_J_S, 24, 1, w54);
   w55 = gagen_v_splat((-1.0));
-  GAGEN_SCATTER(J_S, 24, 2, w55);
-  GAGEN_SCATTER(J_S, 24, 3, w54);
+  GAGEN_SCATTER(out_J_S, 24, 2, w55);
+  GAGEN_SCATTER(out_J_S, 24, 3, w54);
   w55 = gagen_v_splat((-0.021622403578460216));
-  GAGEN_SCATTER(J_S, 24, 4, w55);
-  GAGEN_SCATTER(J_S, 24, 5, w7);
-  GAGEN_SCATTER(J_S, 24, 6, w29);
-  GAGEN_SCATTER(J_S, 24, 7, w2);
-  GAGEN_SCATTER(J_S, 24, 8, w54);
+  GAGEN_SCATTER(out_J_S, 24, 4, w55);
+  GAGEN_SCATTER(out_J_S, 24, 5, w7);
+  GAGEN_SCATTER(out_J_S, 24, 6, w29);
+  GAGEN_SCATTER(out_J_S, 24, 7, w2);
+  GAGEN_SCATTER(out_J_S, 24, 8, w54);
   w55 = gagen_v_splat(0.007150000000000003);
   w55 = w55 * w2;
   w56 = gagen_v_splat(0.0006211219325502629);
@@ -11371,17 +11371,17 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w55 = w55 + w59;
   w55 = w55 + w55;
   w59 = -w55;
-  GAGEN_SCATTER(J_S, 24, 9, w59);
+  GAGEN_SCATTER(out_J_S, 24, 9, w59);
   w59 = gagen_v_splat(0.1647904993057251);
   w59 = w59 * w23;
-  GAGEN_SCATTER(J_S, 24, 10, w59);
+  GAGEN_SCATTER(out_J_S, 24, 10, w59);
   w60 = w43 * w2;
-  GAGEN_SCATTER(J_S, 24, 11, w60);
-  GAGEN_SCATTER(J_S, 24, 12, w47);
+  GAGEN_SCATTER(out_J_S, 24, 11, w60);
+  GAGEN_SCATTER(out_J_S, 24, 12, w47);
   w61 = -w5;
-  GAGEN_SCATTER(J_S, 24, 13, w61);
+  GAGEN_SCATTER(out_J_S, 24, 13, w61);
   w62 = -w27;
-  GAGEN_SCATTER(J_S, 24, 14, w62);
+  GAGEN_SCATTER(out_J_S, 24, 14, w62);
   w63 = gagen_v_splat(0.01565000000000003);
   w63 = w63 * w2;
   w63 = w63 - w56;
@@ -11399,7 +11399,7 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w56 = w56 - w39;
   w56 = w56 + w56;
   w39 = -w56;
-  GAGEN_SCATTER(J_S, 24, 15, w39);
+  GAGEN_SCATTER(out_J_S, 24, 15, w39);
   w39 = gagen_v_splat(0.04119762482643127);
   w23 = gagen_v_splat(0.014499999999999966);
   w23 = w23 * w12;
@@ -11408,16 +11408,16 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w57 = w27 * w57;
   w58 = w58 + w57;
   w58 = w58 + w58;
-  GAGEN_SCATTER(J_S, 24, 16, w58);
+  GAGEN_SCATTER(out_J_S, 24, 16, w58);
   w23 = w5 * w23;
   w63 = w27 * w63;
   w23 = w23 + w63;
   w23 = -w23;
   w23 = w23 + w23;
-  GAGEN_SCATTER(J_S, 24, 17, w23);
-  GAGEN_SCATTER(J_S, 24, 18, w47);
-  GAGEN_SCATTER(J_S, 24, 19, w61);
-  GAGEN_SCATTER(J_S, 24, 20, w62);
+  GAGEN_SCATTER(out_J_S, 24, 17, w23);
+  GAGEN_SCATTER(out_J_S, 24, 18, w47);
+  GAGEN_SCATTER(out_J_S, 24, 19, w61);
+  GAGEN_SCATTER(out_J_S, 24, 20, w62);
   w62 = gagen_v_splat(0.014699999999999942);
   w61 = w62 * w5;
   w24 = w24 - w61;
@@ -11432,7 +11432,7 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w46 = w46 - w32;
   w32 = w5 * w46;
   w38 = w38 - w32;
-  GAGEN_SCATTER(J_S, 24, 21, w38);
+  GAGEN_SCATTER(out_J_S, 24, 21, w38);
   w32 = gagen_v_splat(6.245004513516506e-17);
   w32 = w32 * w11;
   w39 = w39 + w32;
@@ -11445,24 +11445,24 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w47 = w47 + w47;
   w46 = w27 * w46;
   w62 = w47 - w46;
-  GAGEN_SCATTER(J_S, 24, 22, w62);
+  GAGEN_SCATTER(out_J_S, 24, 22, w62);
   w24 = w27 * w24;
   w5 = w5 * w39;
   w5 = -w5;
   w5 = w5 + w5;
   w39 = w24 + w5;
-  GAGEN_SCATTER(J_S, 24, 23, w39);
+  GAGEN_SCATTER(out_J_S, 24, 23, w39);
   w35 = w14 * w0;
   w12 = w19 * w21;
   w35 = w35 + w12;
   w12 = w35 + w35;
   w32 = -w12;
-  GAGEN_SCATTER(J_b, 24, 0, w32);
+  GAGEN_SCATTER(out_J_b, 24, 0, w32);
   w32 = w14 * w19;
   w11 = w0 * w21;
   w32 = w32 - w11;
   w32 = w32 + w32;
-  GAGEN_SCATTER(J_b, 24, 1, w32);
+  GAGEN_SCATTER(out_J_b, 24, 1, w32);
   w32 = w21 * w21;
   w11 = w14 * w14;
   w61 = w32 + w11;
@@ -11470,7 +11470,7 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w61 = w61 - w63;
   w57 = w19 * w19;
   w61 = w61 - w57;
-  GAGEN_SCATTER(J_b, 24, 2, w61);
+  GAGEN_SCATTER(out_J_b, 24, 2, w61);
   w61 = w19 * w26;
   w52 = w14 * w44;
   w64 = w61 - w52;
@@ -11506,7 +11506,7 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w65 = w65 - w67;
   w67 = w65 * w0;
   w64 = w64 - w67;
-  GAGEN_SCATTER(J_b, 24, 3, w64);
+  GAGEN_SCATTER(out_J_b, 24, 3, w64);
   w64 = w21 * w31;
   w67 = w14 * w26;
   w64 = w64 + w67;
@@ -11522,7 +11522,7 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w64 = w64 + w67;
   w67 = w17 * w0;
   w64 = w64 - w67;
-  GAGEN_SCATTER(J_b, 24, 4, w64);
+  GAGEN_SCATTER(out_J_b, 24, 4, w64);
   w64 = w21 * w26;
   w67 = w19 * w16;
   w4 = w64 + w67;
@@ -11538,7 +11538,7 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w4 = w4 - w70;
   w71 = w65 * w14;
   w4 = w4 - w71;
-  GAGEN_SCATTER(J_b, 24, 5, w4);
+  GAGEN_SCATTER(out_J_b, 24, 5, w4);
   w4 = w14 * w29;
   w71 = w21 * w2;
   w4 = w4 + w71;
@@ -11558,7 +11558,7 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w76 = w76 + w77;
   w77 = w76 * w0;
   w71 = w71 - w77;
-  GAGEN_SCATTER(J_b, 24, 6, w71);
+  GAGEN_SCATTER(out_J_b, 24, 6, w71);
   w71 = w4 * w21;
   w77 = w72 * w0;
   w71 = w71 + w77;
@@ -11566,7 +11566,7 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w71 = w71 + w77;
   w77 = w75 * w14;
   w71 = w71 - w77;
-  GAGEN_SCATTER(J_b, 24, 7, w71);
+  GAGEN_SCATTER(out_J_b, 24, 7, w71);
   w71 = w4 * w0;
   w77 = w76 * w14;
   w71 = w71 + w77;
@@ -11574,7 +11574,7 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w71 = w71 + w77;
   w77 = w72 * w21;
   w71 = w71 - w77;
-  GAGEN_SCATTER(J_b, 24, 8, w71);
+  GAGEN_SCATTER(out_J_b, 24, 8, w71);
   w71 = w4 * w31;
   w77 = w72 * w16;
   w71 = w71 + w77;
@@ -11619,7 +11619,7 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w80 = w80 + w74;
   w74 = w80 * w0;
   w71 = w71 - w74;
-  GAGEN_SCATTER(J_b, 24, 9, w71);
+  GAGEN_SCATTER(out_J_b, 24, 9, w71);
   w71 = w4 * w16;
   w74 = w76 * w26;
   w71 = w71 + w74;
@@ -11635,7 +11635,7 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w71 = w71 - w74;
   w74 = w79 * w0;
   w71 = w71 - w74;
-  GAGEN_SCATTER(J_b, 24, 10, w71);
+  GAGEN_SCATTER(out_J_b, 24, 10, w71);
   w71 = w77 * w21;
   w74 = w4 * w44;
   w71 = w71 - w74;
@@ -11651,7 +11651,7 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w71 = w71 - w74;
   w74 = w80 * w14;
   w71 = w71 - w74;
-  GAGEN_SCATTER(J_b, 24, 11, w71);
+  GAGEN_SCATTER(out_J_b, 24, 11, w71);
   w71 = w14 * w6;
   w74 = w71 * w2;
   w73 = w21 * w6;
@@ -11683,7 +11683,7 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w73 = w73 + w84;
   w84 = w73 * w0;
   w81 = w81 - w84;
-  GAGEN_SCATTER(J_b, 24, 12, w81);
+  GAGEN_SCATTER(out_J_b, 24, 12, w81);
   w84 = w74 * w21;
   w82 = w83 * w0;
   w84 = w84 + w82;
@@ -11691,7 +11691,7 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w84 = w84 + w82;
   w82 = w71 * w14;
   w84 = w84 + w82;
-  GAGEN_SCATTER(J_b, 24, 13, w84);
+  GAGEN_SCATTER(out_J_b, 24, 13, w84);
   w82 = w74 * w0;
   w85 = w73 * w14;
   w82 = w82 + w85;
@@ -11699,7 +11699,7 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w82 = w82 - w85;
   w85 = w83 * w21;
   w82 = w82 - w85;
-  GAGEN_SCATTER(J_b, 24, 14, w82);
+  GAGEN_SCATTER(out_J_b, 24, 14, w82);
   w85 = w74 * w31;
   w86 = w83 * w16;
   w85 = w85 + w86;
@@ -11763,7 +11763,7 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w102 = w102 + w89;
   w104 = w102 * w0;
   w92 = w92 - w104;
-  GAGEN_SCATTER(J_b, 24, 15, w92);
+  GAGEN_SCATTER(out_J_b, 24, 15, w92);
   w92 = w74 * w16;
   w104 = w73 * w26;
   w92 = w92 + w104;
@@ -11779,7 +11779,7 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w104 = w104 - w105;
   w106 = w100 * w0;
   w104 = w104 - w106;
-  GAGEN_SCATTER(J_b, 24, 16, w104);
+  GAGEN_SCATTER(out_J_b, 24, 16, w104);
   w104 = w88 * w21;
   w106 = w74 * w44;
   w104 = w104 - w106;
@@ -11795,10 +11795,10 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w104 = w104 + w109;
   w110 = w102 * w14;
   w104 = w104 - w110;
-  GAGEN_SCATTER(J_b, 24, 17, w104);
-  GAGEN_SCATTER(J_b, 24, 18, w81);
-  GAGEN_SCATTER(J_b, 24, 19, w84);
-  GAGEN_SCATTER(J_b, 24, 20, w82);
+  GAGEN_SCATTER(out_J_b, 24, 17, w104);
+  GAGEN_SCATTER(out_J_b, 24, 18, w81);
+  GAGEN_SCATTER(out_J_b, 24, 19, w84);
+  GAGEN_SCATTER(out_J_b, 24, 20, w82);
   w82 = w19 * w38;
   w82 = w82 + w87;
   w82 = w82 + w90;
@@ -11840,7 +11840,7 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w95 = w95 + w89;
   w89 = w95 * w0;
   w85 = w85 - w89;
-  GAGEN_SCATTER(J_b, 24, 21, w85);
+  GAGEN_SCATTER(out_J_b, 24, 21, w85);
   w85 = w82 * w14;
   w92 = w92 + w85;
   w85 = w93 * w19;
@@ -11850,7 +11850,7 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w92 = w92 - w105;
   w105 = w99 * w0;
   w92 = w92 - w105;
-  GAGEN_SCATTER(J_b, 24, 22, w92);
+  GAGEN_SCATTER(out_J_b, 24, 22, w92);
   w92 = w82 * w21;
   w92 = w92 - w106;
   w106 = w93 * w0;
@@ -11862,95 +11862,95 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w92 = w92 + w109;
   w109 = w95 * w14;
   w92 = w92 - w109;
-  GAGEN_SCATTER(J_b, 24, 23, w92);
+  GAGEN_SCATTER(out_J_b, 24, 23, w92);
   w92 = gagen_v_splat(0.125);
   w8 = w92 * w8;
   w8 = -w8;
-  GAGEN_SCATTER(J_A, 32, 0, w8);
+  GAGEN_SCATTER(out_J_A, 32, 0, w8);
   w20 = w92 * w20;
-  GAGEN_SCATTER(J_A, 32, 1, w20);
+  GAGEN_SCATTER(out_J_A, 32, 1, w20);
   w13 = w92 * w13;
   w13 = -w13;
-  GAGEN_SCATTER(J_A, 32, 2, w13);
+  GAGEN_SCATTER(out_J_A, 32, 2, w13);
   w92 = w92 * w18;
-  GAGEN_SCATTER(J_A, 32, 3, w92);
+  GAGEN_SCATTER(out_J_A, 32, 3, w92);
   w66 = w1 * w66;
   w66 = -w66;
-  GAGEN_SCATTER(J_A, 32, 4, w66);
+  GAGEN_SCATTER(out_J_A, 32, 4, w66);
   w10 = w1 * w10;
   w10 = -w10;
-  GAGEN_SCATTER(J_A, 32, 5, w10);
+  GAGEN_SCATTER(out_J_A, 32, 5, w10);
   w17 = w1 * w17;
   w17 = -w17;
-  GAGEN_SCATTER(J_A, 32, 6, w17);
+  GAGEN_SCATTER(out_J_A, 32, 6, w17);
   w65 = w1 * w65;
-  GAGEN_SCATTER(J_A, 32, 7, w65);
+  GAGEN_SCATTER(out_J_A, 32, 7, w65);
   w4 = w1 * w4;
-  GAGEN_SCATTER(J_A, 32, 8, w4);
+  GAGEN_SCATTER(out_J_A, 32, 8, w4);
   w72 = w1 * w72;
   w72 = -w72;
-  GAGEN_SCATTER(J_A, 32, 9, w72);
+  GAGEN_SCATTER(out_J_A, 32, 9, w72);
   w76 = w1 * w76;
   w76 = -w76;
-  GAGEN_SCATTER(J_A, 32, 10, w76);
+  GAGEN_SCATTER(out_J_A, 32, 10, w76);
   w75 = w1 * w75;
   w75 = -w75;
-  GAGEN_SCATTER(J_A, 32, 11, w75);
+  GAGEN_SCATTER(out_J_A, 32, 11, w75);
   w77 = w1 * w77;
   w77 = -w77;
-  GAGEN_SCATTER(J_A, 32, 12, w77);
+  GAGEN_SCATTER(out_J_A, 32, 12, w77);
   w78 = w1 * w78;
   w78 = -w78;
-  GAGEN_SCATTER(J_A, 32, 13, w78);
+  GAGEN_SCATTER(out_J_A, 32, 13, w78);
   w79 = w1 * w79;
   w79 = -w79;
-  GAGEN_SCATTER(J_A, 32, 14, w79);
+  GAGEN_SCATTER(out_J_A, 32, 14, w79);
   w80 = w1 * w80;
-  GAGEN_SCATTER(J_A, 32, 15, w80);
+  GAGEN_SCATTER(out_J_A, 32, 15, w80);
   w74 = w1 * w74;
-  GAGEN_SCATTER(J_A, 32, 16, w74);
+  GAGEN_SCATTER(out_J_A, 32, 16, w74);
   w83 = w1 * w83;
   w83 = -w83;
-  GAGEN_SCATTER(J_A, 32, 17, w83);
+  GAGEN_SCATTER(out_J_A, 32, 17, w83);
   w73 = w1 * w73;
   w73 = -w73;
-  GAGEN_SCATTER(J_A, 32, 18, w73);
+  GAGEN_SCATTER(out_J_A, 32, 18, w73);
   w71 = w1 * w71;
-  GAGEN_SCATTER(J_A, 32, 19, w71);
+  GAGEN_SCATTER(out_J_A, 32, 19, w71);
   w88 = w1 * w88;
   w88 = -w88;
-  GAGEN_SCATTER(J_A, 32, 20, w88);
+  GAGEN_SCATTER(out_J_A, 32, 20, w88);
   w94 = w1 * w94;
   w94 = -w94;
-  GAGEN_SCATTER(J_A, 32, 21, w94);
+  GAGEN_SCATTER(out_J_A, 32, 21, w94);
   w100 = w1 * w100;
   w100 = -w100;
-  GAGEN_SCATTER(J_A, 32, 22, w100);
+  GAGEN_SCATTER(out_J_A, 32, 22, w100);
   w102 = w1 * w102;
-  GAGEN_SCATTER(J_A, 32, 23, w102);
-  GAGEN_SCATTER(J_A, 32, 24, w74);
-  GAGEN_SCATTER(J_A, 32, 25, w83);
-  GAGEN_SCATTER(J_A, 32, 26, w73);
-  GAGEN_SCATTER(J_A, 32, 27, w71);
+  GAGEN_SCATTER(out_J_A, 32, 23, w102);
+  GAGEN_SCATTER(out_J_A, 32, 24, w74);
+  GAGEN_SCATTER(out_J_A, 32, 25, w83);
+  GAGEN_SCATTER(out_J_A, 32, 26, w73);
+  GAGEN_SCATTER(out_J_A, 32, 27, w71);
   w82 = w1 * w82;
   w82 = -w82;
-  GAGEN_SCATTER(J_A, 32, 28, w82);
+  GAGEN_SCATTER(out_J_A, 32, 28, w82);
   w93 = w1 * w93;
   w93 = -w93;
-  GAGEN_SCATTER(J_A, 32, 29, w93);
+  GAGEN_SCATTER(out_J_A, 32, 29, w93);
   w99 = w1 * w99;
   w99 = -w99;
-  GAGEN_SCATTER(J_A, 32, 30, w99);
+  GAGEN_SCATTER(out_J_A, 32, 30, w99);
   w1 = w1 * w95;
-  GAGEN_SCATTER(J_A, 32, 31, w1);
-  GAGEN_SCATTER(J_P, 20, 0, w54);
-  GAGEN_SCATTER(J_P, 20, 1, w54);
+  GAGEN_SCATTER(out_J_A, 32, 31, w1);
+  GAGEN_SCATTER(out_J_P, 20, 0, w54);
+  GAGEN_SCATTER(out_J_P, 20, 1, w54);
   w45 = w45 + w41;
   w45 = w45 + w28;
   w45 = w45 + w51;
   w45 = w45 - w53;
   w45 = w45 - w49;
-  GAGEN_SCATTER(J_P, 20, 2, w45);
+  GAGEN_SCATTER(out_J_P, 20, 2, w45);
   w40 = w40 - w42;
   w30 = w30 + w3;
   w25 = w25 * w30;
@@ -11959,29 +11959,29 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w40 = w40 + w34;
   w40 = w40 + w36;
   w40 = w40 + w22;
-  GAGEN_SCATTER(J_P, 20, 3, w40);
+  GAGEN_SCATTER(out_J_P, 20, 3, w40);
   w7 = w7 * w48;
   w40 = w15 * w33;
   w7 = w7 - w40;
-  GAGEN_SCATTER(J_P, 20, 4, w7);
-  GAGEN_SCATTER(J_P, 20, 5, w54);
+  GAGEN_SCATTER(out_J_P, 20, 4, w7);
+  GAGEN_SCATTER(out_J_P, 20, 5, w54);
   w7 = w33 * w29;
   w40 = w48 * w2;
   w7 = w7 + w40;
   w40 = w7 + w55;
   w40 = -w40;
-  GAGEN_SCATTER(J_P, 20, 6, w40);
+  GAGEN_SCATTER(out_J_P, 20, 6, w40);
   w40 = w50 * w29;
   w40 = w40 + w59;
-  GAGEN_SCATTER(J_P, 20, 7, w40);
+  GAGEN_SCATTER(out_J_P, 20, 7, w40);
   w40 = w50 * w2;
   w40 = w40 + w60;
-  GAGEN_SCATTER(J_P, 20, 8, w40);
+  GAGEN_SCATTER(out_J_P, 20, 8, w40);
   w7 = w43 * w7;
   w40 = w50 * w55;
   w7 = w7 - w40;
-  GAGEN_SCATTER(J_P, 20, 9, w7);
-  GAGEN_SCATTER(J_P, 20, 10, w54);
+  GAGEN_SCATTER(out_J_P, 20, 9, w7);
+  GAGEN_SCATTER(out_J_P, 20, 10, w54);
   w7 = w33 * w6;
   w7 = w7 * w2;
   w40 = w48 * w6;
@@ -11989,56 +11989,56 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w60 = w7 - w40;
   w60 = w60 + w56;
   w60 = -w60;
-  GAGEN_SCATTER(J_P, 20, 11, w60);
+  GAGEN_SCATTER(out_J_P, 20, 11, w60);
   w60 = w50 * w6;
   w59 = w60 * w2;
   w22 = w48 * w27;
   w59 = w59 + w22;
   w22 = w59 + w58;
-  GAGEN_SCATTER(J_P, 20, 12, w22);
+  GAGEN_SCATTER(out_J_P, 20, 12, w22);
   w60 = w60 * w29;
   w22 = w23 - w60;
   w36 = w33 * w27;
   w22 = w22 - w36;
-  GAGEN_SCATTER(J_P, 20, 13, w22);
+  GAGEN_SCATTER(out_J_P, 20, 13, w22);
   w22 = w33 * w58;
   w34 = w50 * w56;
   w22 = w22 - w34;
   w34 = w48 * w23;
   w22 = w22 + w34;
-  GAGEN_SCATTER(J_P, 20, 14, w22);
-  GAGEN_SCATTER(J_P, 20, 15, w54);
+  GAGEN_SCATTER(out_J_P, 20, 14, w22);
+  GAGEN_SCATTER(out_J_P, 20, 15, w54);
   w7 = w38 - w7;
   w7 = w7 + w40;
-  GAGEN_SCATTER(J_P, 20, 16, w7);
+  GAGEN_SCATTER(out_J_P, 20, 16, w7);
   w59 = w59 + w47;
   w59 = w59 - w46;
-  GAGEN_SCATTER(J_P, 20, 17, w59);
+  GAGEN_SCATTER(out_J_P, 20, 17, w59);
   w24 = w24 - w60;
   w24 = w24 + w5;
   w24 = w24 - w36;
-  GAGEN_SCATTER(J_P, 20, 18, w24);
+  GAGEN_SCATTER(out_J_P, 20, 18, w24);
   w50 = w50 * w38;
   w33 = w33 * w62;
   w50 = w50 + w33;
   w48 = w48 * w39;
   w50 = w50 + w48;
-  GAGEN_SCATTER(J_P, 20, 19, w50);
+  GAGEN_SCATTER(out_J_P, 20, 19, w50);
   w50 = w11 + w57;
   w50 = w50 - w63;
   w50 = w50 - w32;
-  GAGEN_SCATTER(L, 6, 0, w50);
+  GAGEN_SCATTER(out_L, 6, 0, w50);
   w48 = w14 * w21;
   w33 = w19 * w0;
   w48 = w48 - w33;
   w33 = w48 + w48;
-  GAGEN_SCATTER(L, 6, 1, w33);
-  GAGEN_SCATTER(L, 6, 2, w12);
+  GAGEN_SCATTER(out_L, 6, 1, w33);
+  GAGEN_SCATTER(out_L, 6, 2, w12);
   w70 = w70 - w69;
   w70 = w70 - w67;
   w70 = w70 - w64;
   w70 = w70 + w70;
-  GAGEN_SCATTER(L, 6, 3, w70);
+  GAGEN_SCATTER(out_L, 6, 3, w70);
   w14 = w14 * w16;
   w19 = w19 * w31;
   w31 = w14 + w19;
@@ -12047,16 +12047,16 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w21 = w21 * w44;
   w31 = w31 + w21;
   w31 = w31 + w31;
-  GAGEN_SCATTER(L, 6, 4, w31);
+  GAGEN_SCATTER(out_L, 6, 4, w31);
   w68 = w68 - w52;
   w68 = w68 - w61;
   w68 = w68 - w9;
   w68 = w68 + w68;
-  GAGEN_SCATTER(L, 6, 5, w68);
-  GAGEN_SCATTER(J_L, 24, 0, w33);
+  GAGEN_SCATTER(out_L, 6, 5, w68);
+  GAGEN_SCATTER(out_J_L, 24, 0, w33);
   w9 = -w50;
-  GAGEN_SCATTER(J_L, 24, 1, w9);
-  GAGEN_SCATTER(J_L, 24, 2, w54);
+  GAGEN_SCATTER(out_J_L, 24, 1, w9);
+  GAGEN_SCATTER(out_J_L, 24, 2, w54);
   w63 = w63 + w32;
   w63 = w63 - w11;
   w63 = w63 - w57;
@@ -12064,10 +12064,10 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w63 = gagen_v_splat(0.0024844877302010516);
   w48 = w63 * w48;
   w15 = w15 + w48;
-  GAGEN_SCATTER(J_L, 24, 3, w15);
+  GAGEN_SCATTER(out_J_L, 24, 3, w15);
   w63 = w63 * w35;
   w63 = w63 + w68;
-  GAGEN_SCATTER(J_L, 24, 4, w63);
+  GAGEN_SCATTER(out_J_L, 24, 4, w63);
   w63 = gagen_v_splat(0.04324480715692043);
   w63 = w63 * w35;
   w0 = w0 - w21;
@@ -12075,16 +12075,16 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w0 = w0 - w19;
   w0 = w0 + w0;
   w63 = w63 + w0;
-  GAGEN_SCATTER(J_L, 24, 5, w63);
+  GAGEN_SCATTER(out_J_L, 24, 5, w63);
   w63 = w12 * w2;
-  GAGEN_SCATTER(J_L, 24, 6, w63);
+  GAGEN_SCATTER(out_J_L, 24, 6, w63);
   w0 = w12 * w29;
   w19 = -w0;
-  GAGEN_SCATTER(J_L, 24, 7, w19);
+  GAGEN_SCATTER(out_J_L, 24, 7, w19);
   w19 = w33 * w29;
   w14 = w50 * w2;
   w19 = w19 - w14;
-  GAGEN_SCATTER(J_L, 24, 8, w19);
+  GAGEN_SCATTER(out_J_L, 24, 8, w19);
   w19 = w50 * w29;
   w14 = w33 * w2;
   w19 = w19 + w14;
@@ -12093,35 +12093,35 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w19 = w19 - w14;
   w14 = w68 * w2;
   w19 = w19 - w14;
-  GAGEN_SCATTER(J_L, 24, 9, w19);
+  GAGEN_SCATTER(out_J_L, 24, 9, w19);
   w19 = w70 * w29;
   w63 = w43 * w63;
   w19 = w19 + w63;
   w63 = w50 * w55;
   w19 = w19 + w63;
-  GAGEN_SCATTER(J_L, 24, 10, w19);
+  GAGEN_SCATTER(out_J_L, 24, 10, w19);
   w19 = w70 * w2;
   w55 = w33 * w55;
   w19 = w19 + w55;
   w43 = w43 * w0;
   w19 = w19 - w43;
-  GAGEN_SCATTER(J_L, 24, 11, w19);
+  GAGEN_SCATTER(out_J_L, 24, 11, w19);
   w19 = w33 * w27;
   w43 = w12 * w6;
   w0 = w43 * w29;
   w19 = w19 - w0;
-  GAGEN_SCATTER(J_L, 24, 12, w19);
+  GAGEN_SCATTER(out_J_L, 24, 12, w19);
   w0 = w50 * w27;
   w43 = w43 * w2;
   w0 = w0 + w43;
   w0 = -w0;
-  GAGEN_SCATTER(J_L, 24, 13, w0);
+  GAGEN_SCATTER(out_J_L, 24, 13, w0);
   w43 = w33 * w6;
   w43 = w43 * w2;
   w55 = w50 * w6;
   w55 = w55 * w29;
   w43 = w43 + w55;
-  GAGEN_SCATTER(J_L, 24, 14, w43);
+  GAGEN_SCATTER(out_J_L, 24, 14, w43);
   w55 = w50 * w58;
   w63 = w33 * w23;
   w55 = w55 + w63;
@@ -12131,7 +12131,7 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w14 = w68 * w6;
   w14 = w14 * w29;
   w55 = w55 + w14;
-  GAGEN_SCATTER(J_L, 24, 15, w55);
+  GAGEN_SCATTER(out_J_L, 24, 15, w55);
   w23 = w12 * w23;
   w70 = w70 * w6;
   w2 = w70 * w2;
@@ -12140,7 +12140,7 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w23 = w23 + w68;
   w6 = w50 * w56;
   w23 = w23 + w6;
-  GAGEN_SCATTER(J_L, 24, 16, w23);
+  GAGEN_SCATTER(out_J_L, 24, 16, w23);
   w56 = w33 * w56;
   w70 = w70 * w29;
   w56 = w56 - w70;
@@ -12148,52 +12148,52 @@ static void leap_hand_sphere_thumb_jacobians_block(const double *restrict q, dou
   w56 = w56 - w58;
   w31 = w31 * w27;
   w56 = w56 - w31;
-  GAGEN_SCATTER(J_L, 24, 17, w56);
-  GAGEN_SCATTER(J_L, 24, 18, w19);
-  GAGEN_SCATTER(J_L, 24, 19, w0);
-  GAGEN_SCATTER(J_L, 24, 20, w43);
+  GAGEN_SCATTER(out_J_L, 24, 17, w56);
+  GAGEN_SCATTER(out_J_L, 24, 18, w19);
+  GAGEN_SCATTER(out_J_L, 24, 19, w0);
+  GAGEN_SCATTER(out_J_L, 24, 20, w43);
   w43 = w50 * w62;
   w0 = w33 * w39;
   w43 = w43 + w0;
   w43 = w43 - w63;
   w43 = w43 + w14;
-  GAGEN_SCATTER(J_L, 24, 21, w43);
+  GAGEN_SCATTER(out_J_L, 24, 21, w43);
   w39 = w12 * w39;
   w39 = w39 + w2;
   w39 = w39 + w68;
   w50 = w50 * w38;
   w39 = w39 - w50;
-  GAGEN_SCATTER(J_L, 24, 22, w39);
+  GAGEN_SCATTER(out_J_L, 24, 22, w39);
   w33 = w33 * w38;
   w70 = w70 + w33;
   w12 = w12 * w62;
   w70 = w70 + w12;
   w70 = w70 + w31;
   w70 = -w70;
-  GAGEN_SCATTER(J_L, 24, 23, w70);
+  GAGEN_SCATTER(out_J_L, 24, 23, w70);
 }
 #endif
 
-void leap_hand_sphere_thumb_jacobians_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S, double *restrict J_b, double *restrict J_A, double *restrict J_P, double *restrict L, double *restrict J_L) {
-  long s = 0;
+void leap_hand_sphere_thumb_jacobians_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S, double *restrict out_J_b, double *restrict out_J_A, double *restrict out_J_P, double *restrict out_L, double *restrict out_J_L) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 24 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 24 * a + o, 1, 0);
-      for (int o = 0; o < 24 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_b + 24 * a + o, 1, 0);
-      for (int o = 0; o < 32 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_A + 32 * a + o, 1, 0);
-      for (int o = 0; o < 20 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_P + 20 * a + o, 1, 0);
-      for (int o = 0; o < 6 * GAGEN_W + 7; o += 8) __builtin_prefetch(L + 6 * a + o, 1, 0);
-      for (int o = 0; o < 24 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_L + 24 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 24 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 24 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 24 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_b + 24 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 32 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_A + 32 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 20 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_P + 20 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 6 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_L + 6 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 24 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_L + 24 * gagen_a + gagen_o, 1, 0);
     }
-    leap_hand_sphere_thumb_jacobians_block(q + 4 * s, M + 8 * s, P + 5 * s, J_S + 24 * s, J_b + 24 * s, J_A + 32 * s, J_P + 20 * s, L + 6 * s, J_L + 24 * s);
+    leap_hand_sphere_thumb_jacobians_block(in_q + 4 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 24 * gagen_s, out_J_b + 24 * gagen_s, out_J_A + 32 * gagen_s, out_J_P + 20 * gagen_s, out_L + 6 * gagen_s, out_J_L + 24 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    leap_hand_sphere_thumb_jacobians(q + 4 * s, M + 8 * s, P + 5 * s, J_S + 24 * s, J_b + 24 * s, J_A + 32 * s, J_P + 20 * s, L + 6 * s, J_L + 24 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    leap_hand_sphere_thumb_jacobians(in_q + 4 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 24 * gagen_s, out_J_b + 24 * gagen_s, out_J_A + 32 * gagen_s, out_J_P + 20 * gagen_s, out_L + 6 * gagen_s, out_J_L + 24 * gagen_s);
   }
 }
 
@@ -12203,7 +12203,7 @@ void leap_hand_sphere_thumb_jacobians_batch(long n, const double *restrict q, do
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S, double *restrict J_b, double *restrict J_A, double *restrict J_P, double *restrict L, double *restrict J_L) {
+static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S, double *restrict out_J_b, double *restrict out_J_A, double *restrict out_J_P, double *restrict out_L, double *restrict out_J_L) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -12216,13 +12216,13 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   gagen_v w108, w109, w110;
   w0 = gagen_v_splat(0.25);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 4, 0);
+  w2 = GAGEN_GATHER(in_q, 4, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
   w2 = gagen_v_cos(w2);
   w4 = w3 - w2;
   w4 = w4 + w4;
-  w5 = GAGEN_GATHER(q, 4, 1);
+  w5 = GAGEN_GATHER(in_q, 4, 1);
   w5 = w1 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
@@ -12230,7 +12230,7 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w8 = w8 + w8;
   w9 = w8 * w6;
   w10 = w7 + w9;
-  w11 = GAGEN_GATHER(q, 4, 2);
+  w11 = GAGEN_GATHER(in_q, 4, 2);
   w11 = w1 * w11;
   w12 = gagen_v_sin(w11);
   w13 = w10 * w12;
@@ -12241,7 +12241,7 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w11 = gagen_v_cos(w11);
   w15 = w14 * w11;
   w13 = w13 + w15;
-  w15 = GAGEN_GATHER(q, 4, 3);
+  w15 = GAGEN_GATHER(in_q, 4, 3);
   w15 = w1 * w15;
   w16 = gagen_v_cos(w15);
   w17 = w13 * w16;
@@ -12252,12 +12252,12 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w10 = w14 * w15;
   w18 = w17 - w10;
   w19 = w0 * w18;
-  GAGEN_SCATTER(M, 8, 0, w19);
+  GAGEN_SCATTER(out_M, 8, 0, w19);
   w13 = w13 * w15;
   w14 = w14 * w16;
   w13 = w13 + w14;
   w14 = w0 * w13;
-  GAGEN_SCATTER(M, 8, 1, w14);
+  GAGEN_SCATTER(out_M, 8, 1, w14);
   w4 = w4 + w8;
   w8 = w4 * w12;
   w7 = w7 - w9;
@@ -12270,12 +12270,12 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w4 = w7 * w15;
   w20 = w9 - w4;
   w21 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 2, w21);
+  GAGEN_SCATTER(out_M, 8, 2, w21);
   w8 = w8 * w15;
   w7 = w7 * w16;
   w8 = w8 + w7;
   w0 = w0 * w8;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w7 = gagen_v_splat(0.0012422438651005258);
   w22 = gagen_v_splat(5.551115123125783e-17);
   w23 = w2 * w3;
@@ -12377,14 +12377,14 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w16 = w50 * w19;
   w31 = w31 - w16;
   w31 = w1 * w31;
-  GAGEN_SCATTER(M, 8, 4, w31);
+  GAGEN_SCATTER(out_M, 8, 4, w31);
   w16 = w48 * w0;
   w44 = w50 * w14;
   w16 = w16 - w44;
   w44 = w33 * w19;
   w16 = w16 - w44;
   w16 = w1 * w16;
-  GAGEN_SCATTER(M, 8, 5, w16);
+  GAGEN_SCATTER(out_M, 8, 5, w16);
   w44 = w50 * w21;
   w26 = w33 * w0;
   w44 = w44 + w26;
@@ -12392,38 +12392,38 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w44 = w44 + w26;
   w44 = w1 * w44;
   w26 = -w44;
-  GAGEN_SCATTER(M, 8, 6, w26);
+  GAGEN_SCATTER(out_M, 8, 6, w26);
   w26 = w33 * w21;
   w54 = w50 * w0;
   w26 = w26 - w54;
   w54 = w48 * w14;
   w26 = w26 - w54;
   w26 = w1 * w26;
-  GAGEN_SCATTER(M, 8, 7, w26);
+  GAGEN_SCATTER(out_M, 8, 7, w26);
   w54 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w54);
-  GAGEN_SCATTER(P, 5, 1, w50);
-  GAGEN_SCATTER(P, 5, 2, w33);
-  GAGEN_SCATTER(P, 5, 3, w48);
+  GAGEN_SCATTER(out_P, 5, 0, w54);
+  GAGEN_SCATTER(out_P, 5, 1, w50);
+  GAGEN_SCATTER(out_P, 5, 2, w33);
+  GAGEN_SCATTER(out_P, 5, 3, w48);
   w54 = w50 * w50;
   w55 = w33 * w33;
   w54 = w54 + w55;
   w55 = w48 * w48;
   w54 = w54 + w55;
   w54 = w1 * w54;
-  GAGEN_SCATTER(P, 5, 4, w54);
+  GAGEN_SCATTER(out_P, 5, 4, w54);
   w54 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 24, 0, w54);
-  GAGEN_SCATTER(J_S, 24, 1, w54);
+  GAGEN_SCATTER(out_J_S, 24, 0, w54);
+  GAGEN_SCATTER(out_J_S, 24, 1, w54);
   w55 = gagen_v_splat((-1.0));
-  GAGEN_SCATTER(J_S, 24, 2, w55);
-  GAGEN_SCATTER(J_S, 24, 3, w54);
+  GAGEN_SCATTER(out_J_S, 24, 2, w55);
+  GAGEN_SCATTER(out_J_S, 24, 3, w54);
   w55 = gagen_v_splat((-0.021622403578460216));
-  GAGEN_SCATTER(J_S, 24, 4, w55);
-  GAGEN_SCATTER(J_S, 24, 5, w7);
-  GAGEN_SCATTER(J_S, 24, 6, w29);
-  GAGEN_SCATTER(J_S, 24, 7, w2);
-  GAGEN_SCATTER(J_S, 24, 8, w54);
+  GAGEN_SCATTER(out_J_S, 24, 4, w55);
+  GAGEN_SCATTER(out_J_S, 24, 5, w7);
+  GAGEN_SCATTER(out_J_S, 24, 6, w29);
+  GAGEN_SCATTER(out_J_S, 24, 7, w2);
+  GAGEN_SCATTER(out_J_S, 24, 8, w54);
   w55 = gagen_v_splat(0.007150000000000003);
   w55 = w55 * w2;
   w56 = gagen_v_splat(0.0006211219325502629);
@@ -12442,17 +12442,17 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w55 = w55 + w59;
   w55 = w55 + w55;
   w59 = -w55;
-  GAGEN_SCATTER(J_S, 24, 9, w59);
+  GAGEN_SCATTER(out_J_S, 24, 9, w59);
   w59 = gagen_v_splat(0.1647904993057251);
   w59 = w59 * w23;
-  GAGEN_SCATTER(J_S, 24, 10, w59);
+  GAGEN_SCATTER(out_J_S, 24, 10, w59);
   w60 = w43 * w2;
-  GAGEN_SCATTER(J_S, 24, 11, w60);
-  GAGEN_SCATTER(J_S, 24, 12, w47);
+  GAGEN_SCATTER(out_J_S, 24, 11, w60);
+  GAGEN_SCATTER(out_J_S, 24, 12, w47);
   w61 = -w5;
-  GAGEN_SCATTER(J_S, 24, 13, w61);
+  GAGEN_SCATTER(out_J_S, 24, 13, w61);
   w62 = -w27;
-  GAGEN_SCATTER(J_S, 24, 14, w62);
+  GAGEN_SCATTER(out_J_S, 24, 14, w62);
   w63 = gagen_v_splat(0.01565000000000003);
   w63 = w63 * w2;
   w63 = w63 - w56;
@@ -12470,7 +12470,7 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w56 = w56 - w39;
   w56 = w56 + w56;
   w39 = -w56;
-  GAGEN_SCATTER(J_S, 24, 15, w39);
+  GAGEN_SCATTER(out_J_S, 24, 15, w39);
   w39 = gagen_v_splat(0.04119762482643127);
   w23 = gagen_v_splat(0.014499999999999966);
   w23 = w23 * w12;
@@ -12479,16 +12479,16 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w57 = w27 * w57;
   w58 = w58 + w57;
   w58 = w58 + w58;
-  GAGEN_SCATTER(J_S, 24, 16, w58);
+  GAGEN_SCATTER(out_J_S, 24, 16, w58);
   w23 = w5 * w23;
   w63 = w27 * w63;
   w23 = w23 + w63;
   w23 = -w23;
   w23 = w23 + w23;
-  GAGEN_SCATTER(J_S, 24, 17, w23);
-  GAGEN_SCATTER(J_S, 24, 18, w47);
-  GAGEN_SCATTER(J_S, 24, 19, w61);
-  GAGEN_SCATTER(J_S, 24, 20, w62);
+  GAGEN_SCATTER(out_J_S, 24, 17, w23);
+  GAGEN_SCATTER(out_J_S, 24, 18, w47);
+  GAGEN_SCATTER(out_J_S, 24, 19, w61);
+  GAGEN_SCATTER(out_J_S, 24, 20, w62);
   w62 = gagen_v_splat(0.014699999999999942);
   w61 = w62 * w5;
   w24 = w24 - w61;
@@ -12503,7 +12503,7 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w46 = w46 - w32;
   w32 = w5 * w46;
   w38 = w38 - w32;
-  GAGEN_SCATTER(J_S, 24, 21, w38);
+  GAGEN_SCATTER(out_J_S, 24, 21, w38);
   w32 = gagen_v_splat(6.245004513516506e-17);
   w32 = w32 * w11;
   w39 = w39 + w32;
@@ -12516,24 +12516,24 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w47 = w47 + w47;
   w46 = w27 * w46;
   w62 = w47 - w46;
-  GAGEN_SCATTER(J_S, 24, 22, w62);
+  GAGEN_SCATTER(out_J_S, 24, 22, w62);
   w24 = w27 * w24;
   w5 = w5 * w39;
   w5 = -w5;
   w5 = w5 + w5;
   w39 = w24 + w5;
-  GAGEN_SCATTER(J_S, 24, 23, w39);
+  GAGEN_SCATTER(out_J_S, 24, 23, w39);
   w35 = w14 * w0;
   w12 = w19 * w21;
   w35 = w35 + w12;
   w12 = w35 + w35;
   w32 = -w12;
-  GAGEN_SCATTER(J_b, 24, 0, w32);
+  GAGEN_SCATTER(out_J_b, 24, 0, w32);
   w32 = w14 * w19;
   w11 = w0 * w21;
   w32 = w32 - w11;
   w32 = w32 + w32;
-  GAGEN_SCATTER(J_b, 24, 1, w32);
+  GAGEN_SCATTER(out_J_b, 24, 1, w32);
   w32 = w21 * w21;
   w11 = w14 * w14;
   w61 = w32 + w11;
@@ -12541,7 +12541,7 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w61 = w61 - w63;
   w57 = w19 * w19;
   w61 = w61 - w57;
-  GAGEN_SCATTER(J_b, 24, 2, w61);
+  GAGEN_SCATTER(out_J_b, 24, 2, w61);
   w61 = w19 * w26;
   w52 = w14 * w44;
   w64 = w61 - w52;
@@ -12577,7 +12577,7 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w65 = w65 - w67;
   w67 = w65 * w0;
   w64 = w64 - w67;
-  GAGEN_SCATTER(J_b, 24, 3, w64);
+  GAGEN_SCATTER(out_J_b, 24, 3, w64);
   w64 = w21 * w31;
   w67 = w14 * w26;
   w64 = w64 + w67;
@@ -12593,7 +12593,7 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w64 = w64 + w67;
   w67 = w17 * w0;
   w64 = w64 - w67;
-  GAGEN_SCATTER(J_b, 24, 4, w64);
+  GAGEN_SCATTER(out_J_b, 24, 4, w64);
   w64 = w21 * w26;
   w67 = w19 * w16;
   w4 = w64 + w67;
@@ -12609,7 +12609,7 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w4 = w4 - w70;
   w71 = w65 * w14;
   w4 = w4 - w71;
-  GAGEN_SCATTER(J_b, 24, 5, w4);
+  GAGEN_SCATTER(out_J_b, 24, 5, w4);
   w4 = w14 * w29;
   w71 = w21 * w2;
   w4 = w4 + w71;
@@ -12629,7 +12629,7 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w76 = w76 + w77;
   w77 = w76 * w0;
   w71 = w71 - w77;
-  GAGEN_SCATTER(J_b, 24, 6, w71);
+  GAGEN_SCATTER(out_J_b, 24, 6, w71);
   w71 = w4 * w21;
   w77 = w72 * w0;
   w71 = w71 + w77;
@@ -12637,7 +12637,7 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w71 = w71 + w77;
   w77 = w75 * w14;
   w71 = w71 - w77;
-  GAGEN_SCATTER(J_b, 24, 7, w71);
+  GAGEN_SCATTER(out_J_b, 24, 7, w71);
   w71 = w4 * w0;
   w77 = w76 * w14;
   w71 = w71 + w77;
@@ -12645,7 +12645,7 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w71 = w71 + w77;
   w77 = w72 * w21;
   w71 = w71 - w77;
-  GAGEN_SCATTER(J_b, 24, 8, w71);
+  GAGEN_SCATTER(out_J_b, 24, 8, w71);
   w71 = w4 * w31;
   w77 = w72 * w16;
   w71 = w71 + w77;
@@ -12690,7 +12690,7 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w80 = w80 + w74;
   w74 = w80 * w0;
   w71 = w71 - w74;
-  GAGEN_SCATTER(J_b, 24, 9, w71);
+  GAGEN_SCATTER(out_J_b, 24, 9, w71);
   w71 = w4 * w16;
   w74 = w76 * w26;
   w71 = w71 + w74;
@@ -12706,7 +12706,7 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w71 = w71 - w74;
   w74 = w79 * w0;
   w71 = w71 - w74;
-  GAGEN_SCATTER(J_b, 24, 10, w71);
+  GAGEN_SCATTER(out_J_b, 24, 10, w71);
   w71 = w77 * w21;
   w74 = w4 * w44;
   w71 = w71 - w74;
@@ -12722,7 +12722,7 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w71 = w71 - w74;
   w74 = w80 * w14;
   w71 = w71 - w74;
-  GAGEN_SCATTER(J_b, 24, 11, w71);
+  GAGEN_SCATTER(out_J_b, 24, 11, w71);
   w71 = w14 * w6;
   w74 = w71 * w2;
   w73 = w21 * w6;
@@ -12754,7 +12754,7 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w73 = w73 + w84;
   w84 = w73 * w0;
   w81 = w81 - w84;
-  GAGEN_SCATTER(J_b, 24, 12, w81);
+  GAGEN_SCATTER(out_J_b, 24, 12, w81);
   w84 = w74 * w21;
   w82 = w83 * w0;
   w84 = w84 + w82;
@@ -12762,7 +12762,7 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w84 = w84 + w82;
   w82 = w71 * w14;
   w84 = w84 + w82;
-  GAGEN_SCATTER(J_b, 24, 13, w84);
+  GAGEN_SCATTER(out_J_b, 24, 13, w84);
   w82 = w74 * w0;
   w85 = w73 * w14;
   w82 = w82 + w85;
@@ -12770,7 +12770,7 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w82 = w82 - w85;
   w85 = w83 * w21;
   w82 = w82 - w85;
-  GAGEN_SCATTER(J_b, 24, 14, w82);
+  GAGEN_SCATTER(out_J_b, 24, 14, w82);
   w85 = w74 * w31;
   w86 = w83 * w16;
   w85 = w85 + w86;
@@ -12834,7 +12834,7 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w102 = w102 + w89;
   w104 = w102 * w0;
   w92 = w92 - w104;
-  GAGEN_SCATTER(J_b, 24, 15, w92);
+  GAGEN_SCATTER(out_J_b, 24, 15, w92);
   w92 = w74 * w16;
   w104 = w73 * w26;
   w92 = w92 + w104;
@@ -12850,7 +12850,7 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w104 = w104 - w105;
   w106 = w100 * w0;
   w104 = w104 - w106;
-  GAGEN_SCATTER(J_b, 24, 16, w104);
+  GAGEN_SCATTER(out_J_b, 24, 16, w104);
   w104 = w88 * w21;
   w106 = w74 * w44;
   w104 = w104 - w106;
@@ -12866,10 +12866,10 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w104 = w104 + w109;
   w110 = w102 * w14;
   w104 = w104 - w110;
-  GAGEN_SCATTER(J_b, 24, 17, w104);
-  GAGEN_SCATTER(J_b, 24, 18, w81);
-  GAGEN_SCATTER(J_b, 24, 19, w84);
-  GAGEN_SCATTER(J_b, 24, 20, w82);
+  GAGEN_SCATTER(out_J_b, 24, 17, w104);
+  GAGEN_SCATTER(out_J_b, 24, 18, w81);
+  GAGEN_SCATTER(out_J_b, 24, 19, w84);
+  GAGEN_SCATTER(out_J_b, 24, 20, w82);
   w82 = w19 * w38;
   w82 = w82 + w87;
   w82 = w82 + w90;
@@ -12911,7 +12911,7 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w95 = w95 + w89;
   w89 = w95 * w0;
   w85 = w85 - w89;
-  GAGEN_SCATTER(J_b, 24, 21, w85);
+  GAGEN_SCATTER(out_J_b, 24, 21, w85);
   w85 = w82 * w14;
   w92 = w92 + w85;
   w85 = w93 * w19;
@@ -12921,7 +12921,7 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w92 = w92 - w105;
   w105 = w99 * w0;
   w92 = w92 - w105;
-  GAGEN_SCATTER(J_b, 24, 22, w92);
+  GAGEN_SCATTER(out_J_b, 24, 22, w92);
   w92 = w82 * w21;
   w92 = w92 - w106;
   w106 = w93 * w0;
@@ -12933,95 +12933,95 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w92 = w92 + w109;
   w109 = w95 * w14;
   w92 = w92 - w109;
-  GAGEN_SCATTER(J_b, 24, 23, w92);
+  GAGEN_SCATTER(out_J_b, 24, 23, w92);
   w92 = gagen_v_splat(0.125);
   w8 = w92 * w8;
   w8 = -w8;
-  GAGEN_SCATTER(J_A, 32, 0, w8);
+  GAGEN_SCATTER(out_J_A, 32, 0, w8);
   w20 = w92 * w20;
-  GAGEN_SCATTER(J_A, 32, 1, w20);
+  GAGEN_SCATTER(out_J_A, 32, 1, w20);
   w13 = w92 * w13;
   w13 = -w13;
-  GAGEN_SCATTER(J_A, 32, 2, w13);
+  GAGEN_SCATTER(out_J_A, 32, 2, w13);
   w92 = w92 * w18;
-  GAGEN_SCATTER(J_A, 32, 3, w92);
+  GAGEN_SCATTER(out_J_A, 32, 3, w92);
   w66 = w1 * w66;
   w66 = -w66;
-  GAGEN_SCATTER(J_A, 32, 4, w66);
+  GAGEN_SCATTER(out_J_A, 32, 4, w66);
   w10 = w1 * w10;
   w10 = -w10;
-  GAGEN_SCATTER(J_A, 32, 5, w10);
+  GAGEN_SCATTER(out_J_A, 32, 5, w10);
   w17 = w1 * w17;
   w17 = -w17;
-  GAGEN_SCATTER(J_A, 32, 6, w17);
+  GAGEN_SCATTER(out_J_A, 32, 6, w17);
   w65 = w1 * w65;
-  GAGEN_SCATTER(J_A, 32, 7, w65);
+  GAGEN_SCATTER(out_J_A, 32, 7, w65);
   w4 = w1 * w4;
-  GAGEN_SCATTER(J_A, 32, 8, w4);
+  GAGEN_SCATTER(out_J_A, 32, 8, w4);
   w72 = w1 * w72;
   w72 = -w72;
-  GAGEN_SCATTER(J_A, 32, 9, w72);
+  GAGEN_SCATTER(out_J_A, 32, 9, w72);
   w76 = w1 * w76;
   w76 = -w76;
-  GAGEN_SCATTER(J_A, 32, 10, w76);
+  GAGEN_SCATTER(out_J_A, 32, 10, w76);
   w75 = w1 * w75;
   w75 = -w75;
-  GAGEN_SCATTER(J_A, 32, 11, w75);
+  GAGEN_SCATTER(out_J_A, 32, 11, w75);
   w77 = w1 * w77;
   w77 = -w77;
-  GAGEN_SCATTER(J_A, 32, 12, w77);
+  GAGEN_SCATTER(out_J_A, 32, 12, w77);
   w78 = w1 * w78;
   w78 = -w78;
-  GAGEN_SCATTER(J_A, 32, 13, w78);
+  GAGEN_SCATTER(out_J_A, 32, 13, w78);
   w79 = w1 * w79;
   w79 = -w79;
-  GAGEN_SCATTER(J_A, 32, 14, w79);
+  GAGEN_SCATTER(out_J_A, 32, 14, w79);
   w80 = w1 * w80;
-  GAGEN_SCATTER(J_A, 32, 15, w80);
+  GAGEN_SCATTER(out_J_A, 32, 15, w80);
   w74 = w1 * w74;
-  GAGEN_SCATTER(J_A, 32, 16, w74);
+  GAGEN_SCATTER(out_J_A, 32, 16, w74);
   w83 = w1 * w83;
   w83 = -w83;
-  GAGEN_SCATTER(J_A, 32, 17, w83);
+  GAGEN_SCATTER(out_J_A, 32, 17, w83);
   w73 = w1 * w73;
   w73 = -w73;
-  GAGEN_SCATTER(J_A, 32, 18, w73);
+  GAGEN_SCATTER(out_J_A, 32, 18, w73);
   w71 = w1 * w71;
-  GAGEN_SCATTER(J_A, 32, 19, w71);
+  GAGEN_SCATTER(out_J_A, 32, 19, w71);
   w88 = w1 * w88;
   w88 = -w88;
-  GAGEN_SCATTER(J_A, 32, 20, w88);
+  GAGEN_SCATTER(out_J_A, 32, 20, w88);
   w94 = w1 * w94;
   w94 = -w94;
-  GAGEN_SCATTER(J_A, 32, 21, w94);
+  GAGEN_SCATTER(out_J_A, 32, 21, w94);
   w100 = w1 * w100;
   w100 = -w100;
-  GAGEN_SCATTER(J_A, 32, 22, w100);
+  GAGEN_SCATTER(out_J_A, 32, 22, w100);
   w102 = w1 * w102;
-  GAGEN_SCATTER(J_A, 32, 23, w102);
-  GAGEN_SCATTER(J_A, 32, 24, w74);
-  GAGEN_SCATTER(J_A, 32, 25, w83);
-  GAGEN_SCATTER(J_A, 32, 26, w73);
-  GAGEN_SCATTER(J_A, 32, 27, w71);
+  GAGEN_SCATTER(out_J_A, 32, 23, w102);
+  GAGEN_SCATTER(out_J_A, 32, 24, w74);
+  GAGEN_SCATTER(out_J_A, 32, 25, w83);
+  GAGEN_SCATTER(out_J_A, 32, 26, w73);
+  GAGEN_SCATTER(out_J_A, 32, 27, w71);
   w82 = w1 * w82;
   w82 = -w82;
-  GAGEN_SCATTER(J_A, 32, 28, w82);
+  GAGEN_SCATTER(out_J_A, 32, 28, w82);
   w93 = w1 * w93;
   w93 = -w93;
-  GAGEN_SCATTER(J_A, 32, 29, w93);
+  GAGEN_SCATTER(out_J_A, 32, 29, w93);
   w99 = w1 * w99;
   w99 = -w99;
-  GAGEN_SCATTER(J_A, 32, 30, w99);
+  GAGEN_SCATTER(out_J_A, 32, 30, w99);
   w1 = w1 * w95;
-  GAGEN_SCATTER(J_A, 32, 31, w1);
-  GAGEN_SCATTER(J_P, 20, 0, w54);
-  GAGEN_SCATTER(J_P, 20, 1, w54);
+  GAGEN_SCATTER(out_J_A, 32, 31, w1);
+  GAGEN_SCATTER(out_J_P, 20, 0, w54);
+  GAGEN_SCATTER(out_J_P, 20, 1, w54);
   w45 = w45 + w41;
   w45 = w45 + w28;
   w45 = w45 + w51;
   w45 = w45 - w53;
   w45 = w45 - w49;
-  GAGEN_SCATTER(J_P, 20, 2, w45);
+  GAGEN_SCATTER(out_J_P, 20, 2, w45);
   w40 = w40 - w42;
   w30 = w30 + w3;
   w25 = w25 * w30;
@@ -13030,29 +13030,29 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w40 = w40 + w34;
   w40 = w40 + w36;
   w40 = w40 + w22;
-  GAGEN_SCATTER(J_P, 20, 3, w40);
+  GAGEN_SCATTER(out_J_P, 20, 3, w40);
   w7 = w7 * w48;
   w40 = w15 * w33;
   w7 = w7 - w40;
-  GAGEN_SCATTER(J_P, 20, 4, w7);
-  GAGEN_SCATTER(J_P, 20, 5, w54);
+  GAGEN_SCATTER(out_J_P, 20, 4, w7);
+  GAGEN_SCATTER(out_J_P, 20, 5, w54);
   w7 = w33 * w29;
   w40 = w48 * w2;
   w7 = w7 + w40;
   w40 = w7 + w55;
   w40 = -w40;
-  GAGEN_SCATTER(J_P, 20, 6, w40);
+  GAGEN_SCATTER(out_J_P, 20, 6, w40);
   w40 = w50 * w29;
   w40 = w40 + w59;
-  GAGEN_SCATTER(J_P, 20, 7, w40);
+  GAGEN_SCATTER(out_J_P, 20, 7, w40);
   w40 = w50 * w2;
   w40 = w40 + w60;
-  GAGEN_SCATTER(J_P, 20, 8, w40);
+  GAGEN_SCATTER(out_J_P, 20, 8, w40);
   w7 = w43 * w7;
   w40 = w50 * w55;
   w7 = w7 - w40;
-  GAGEN_SCATTER(J_P, 20, 9, w7);
-  GAGEN_SCATTER(J_P, 20, 10, w54);
+  GAGEN_SCATTER(out_J_P, 20, 9, w7);
+  GAGEN_SCATTER(out_J_P, 20, 10, w54);
   w7 = w33 * w6;
   w7 = w7 * w2;
   w40 = w48 * w6;
@@ -13060,56 +13060,56 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w60 = w7 - w40;
   w60 = w60 + w56;
   w60 = -w60;
-  GAGEN_SCATTER(J_P, 20, 11, w60);
+  GAGEN_SCATTER(out_J_P, 20, 11, w60);
   w60 = w50 * w6;
   w59 = w60 * w2;
   w22 = w48 * w27;
   w59 = w59 + w22;
   w22 = w59 + w58;
-  GAGEN_SCATTER(J_P, 20, 12, w22);
+  GAGEN_SCATTER(out_J_P, 20, 12, w22);
   w60 = w60 * w29;
   w22 = w23 - w60;
   w36 = w33 * w27;
   w22 = w22 - w36;
-  GAGEN_SCATTER(J_P, 20, 13, w22);
+  GAGEN_SCATTER(out_J_P, 20, 13, w22);
   w22 = w33 * w58;
   w34 = w50 * w56;
   w22 = w22 - w34;
   w34 = w48 * w23;
   w22 = w22 + w34;
-  GAGEN_SCATTER(J_P, 20, 14, w22);
-  GAGEN_SCATTER(J_P, 20, 15, w54);
+  GAGEN_SCATTER(out_J_P, 20, 14, w22);
+  GAGEN_SCATTER(out_J_P, 20, 15, w54);
   w7 = w38 - w7;
   w7 = w7 + w40;
-  GAGEN_SCATTER(J_P, 20, 16, w7);
+  GAGEN_SCATTER(out_J_P, 20, 16, w7);
   w59 = w59 + w47;
   w59 = w59 - w46;
-  GAGEN_SCATTER(J_P, 20, 17, w59);
+  GAGEN_SCATTER(out_J_P, 20, 17, w59);
   w24 = w24 - w60;
   w24 = w24 + w5;
   w24 = w24 - w36;
-  GAGEN_SCATTER(J_P, 20, 18, w24);
+  GAGEN_SCATTER(out_J_P, 20, 18, w24);
   w50 = w50 * w38;
   w33 = w33 * w62;
   w50 = w50 + w33;
   w48 = w48 * w39;
   w50 = w50 + w48;
-  GAGEN_SCATTER(J_P, 20, 19, w50);
+  GAGEN_SCATTER(out_J_P, 20, 19, w50);
   w50 = w11 + w57;
   w50 = w50 - w63;
   w50 = w50 - w32;
-  GAGEN_SCATTER(L, 6, 0, w50);
+  GAGEN_SCATTER(out_L, 6, 0, w50);
   w48 = w14 * w21;
   w33 = w19 * w0;
   w48 = w48 - w33;
   w33 = w48 + w48;
-  GAGEN_SCATTER(L, 6, 1, w33);
-  GAGEN_SCATTER(L, 6, 2, w12);
+  GAGEN_SCATTER(out_L, 6, 1, w33);
+  GAGEN_SCATTER(out_L, 6, 2, w12);
   w70 = w70 - w69;
   w70 = w70 - w67;
   w70 = w70 - w64;
   w70 = w70 + w70;
-  GAGEN_SCATTER(L, 6, 3, w70);
+  GAGEN_SCATTER(out_L, 6, 3, w70);
   w14 = w14 * w16;
   w19 = w19 * w31;
   w31 = w14 + w19;
@@ -13118,16 +13118,16 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w21 = w21 * w44;
   w31 = w31 + w21;
   w31 = w31 + w31;
-  GAGEN_SCATTER(L, 6, 4, w31);
+  GAGEN_SCATTER(out_L, 6, 4, w31);
   w68 = w68 - w52;
   w68 = w68 - w61;
   w68 = w68 - w9;
   w68 = w68 + w68;
-  GAGEN_SCATTER(L, 6, 5, w68);
-  GAGEN_SCATTER(J_L, 24, 0, w33);
+  GAGEN_SCATTER(out_L, 6, 5, w68);
+  GAGEN_SCATTER(out_J_L, 24, 0, w33);
   w9 = -w50;
-  GAGEN_SCATTER(J_L, 24, 1, w9);
-  GAGEN_SCATTER(J_L, 24, 2, w54);
+  GAGEN_SCATTER(out_J_L, 24, 1, w9);
+  GAGEN_SCATTER(out_J_L, 24, 2, w54);
   w63 = w63 + w32;
   w63 = w63 - w11;
   w63 = w63 - w57;
@@ -13135,10 +13135,10 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w63 = gagen_v_splat(0.0024844877302010516);
   w48 = w63 * w48;
   w15 = w15 + w48;
-  GAGEN_SCATTER(J_L, 24, 3, w15);
+  GAGEN_SCATTER(out_J_L, 24, 3, w15);
   w63 = w63 * w35;
   w63 = w63 + w68;
-  GAGEN_SCATTER(J_L, 24, 4, w63);
+  GAGEN_SCATTER(out_J_L, 24, 4, w63);
   w63 = gagen_v_splat(0.04324480715692043);
   w63 = w63 * w35;
   w0 = w0 - w21;
@@ -13146,16 +13146,16 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w0 = w0 - w19;
   w0 = w0 + w0;
   w63 = w63 + w0;
-  GAGEN_SCATTER(J_L, 24, 5, w63);
+  GAGEN_SCATTER(out_J_L, 24, 5, w63);
   w63 = w12 * w2;
-  GAGEN_SCATTER(J_L, 24, 6, w63);
+  GAGEN_SCATTER(out_J_L, 24, 6, w63);
   w0 = w12 * w29;
   w19 = -w0;
-  GAGEN_SCATTER(J_L, 24, 7, w19);
+  GAGEN_SCATTER(out_J_L, 24, 7, w19);
   w19 = w33 * w29;
   w14 = w50 * w2;
   w19 = w19 - w14;
-  GAGEN_SCATTER(J_L, 24, 8, w19);
+  GAGEN_SCATTER(out_J_L, 24, 8, w19);
   w19 = w50 * w29;
   w14 = w33 * w2;
   w19 = w19 + w14;
@@ -13164,35 +13164,35 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w19 = w19 - w14;
   w14 = w68 * w2;
   w19 = w19 - w14;
-  GAGEN_SCATTER(J_L, 24, 9, w19);
+  GAGEN_SCATTER(out_J_L, 24, 9, w19);
   w19 = w70 * w29;
   w63 = w43 * w63;
   w19 = w19 + w63;
   w63 = w50 * w55;
   w19 = w19 + w63;
-  GAGEN_SCATTER(J_L, 24, 10, w19);
+  GAGEN_SCATTER(out_J_L, 24, 10, w19);
   w19 = w70 * w2;
   w55 = w33 * w55;
   w19 = w19 + w55;
   w43 = w43 * w0;
   w19 = w19 - w43;
-  GAGEN_SCATTER(J_L, 24, 11, w19);
+  GAGEN_SCATTER(out_J_L, 24, 11, w19);
   w19 = w33 * w27;
   w43 = w12 * w6;
   w0 = w43 * w29;
   w19 = w19 - w0;
-  GAGEN_SCATTER(J_L, 24, 12, w19);
+  GAGEN_SCATTER(out_J_L, 24, 12, w19);
   w0 = w50 * w27;
   w43 = w43 * w2;
   w0 = w0 + w43;
   w0 = -w0;
-  GAGEN_SCATTER(J_L, 24, 13, w0);
+  GAGEN_SCATTER(out_J_L, 24, 13, w0);
   w43 = w33 * w6;
   w43 = w43 * w2;
   w55 = w50 * w6;
   w55 = w55 * w29;
   w43 = w43 + w55;
-  GAGEN_SCATTER(J_L, 24, 14, w43);
+  GAGEN_SCATTER(out_J_L, 24, 14, w43);
   w55 = w50 * w58;
   w63 = w33 * w23;
   w55 = w55 + w63;
@@ -13202,7 +13202,7 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w14 = w68 * w6;
   w14 = w14 * w29;
   w55 = w55 + w14;
-  GAGEN_SCATTER(J_L, 24, 15, w55);
+  GAGEN_SCATTER(out_J_L, 24, 15, w55);
   w23 = w12 * w23;
   w70 = w70 * w6;
   w2 = w70 * w2;
@@ -13211,7 +13211,7 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w23 = w23 + w68;
   w6 = w50 * w56;
   w23 = w23 + w6;
-  GAGEN_SCATTER(J_L, 24, 16, w23);
+  GAGEN_SCATTER(out_J_L, 24, 16, w23);
   w56 = w33 * w56;
   w70 = w70 * w29;
   w56 = w56 - w70;
@@ -13219,29 +13219,29 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
   w56 = w56 - w58;
   w31 = w31 * w27;
   w56 = w56 - w31;
-  GAGEN_SCATTER(J_L, 24, 17, w56);
-  GAGEN_SCATTER(J_L, 24, 18, w19);
-  GAGEN_SCATTER(J_L, 24, 19, w0);
-  GAGEN_SCATTER(J_L, 24, 20, w43);
+  GAGEN_SCATTER(out_J_L, 24, 17, w56);
+  GAGEN_SCATTER(out_J_L, 24, 18, w19);
+  GAGEN_SCATTER(out_J_L, 24, 19, w0);
+  GAGEN_SCATTER(out_J_L, 24, 20, w43);
   w43 = w50 * w62;
   w0 = w33 * w39;
   w43 = w43 + w0;
   w43 = w43 - w63;
   w43 = w43 + w14;
-  GAGEN_SCATTER(J_L, 24, 21, w43);
+  GAGEN_SCATTER(out_J_L, 24, 21, w43);
   w39 = w12 * w39;
   w39 = w39 + w2;
   w39 = w39 + w68;
   w50 = w50 * w38;
   w39 = w39 - w50;
-  GAGEN_SCATTER(J_L, 24, 22, w39);
+  GAGEN_SCATTER(out_J_L, 24, 22, w39);
   w33 = w33 * w38;
   w70 = w70 + w33;
   w12 = w12 * w62;
   w70 = w70 + w12;
   w70 = w70 + w31;
   w70 = -w70;
-  GAGEN_SCATTER(J_L, 24, 23, w70);
+  GAGEN_SCATTER(out_J_L, 24, 23, w70);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -13249,14 +13249,14 @@ static void leap_hand_sphere_thumb_jacobians_block_columns(long gagen_ld, int ga
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void leap_hand_sphere_thumb_jacobians_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S, double *restrict J_b, double *restrict J_A, double *restrict J_P, double *restrict L, double *restrict J_L) {
-  long s = 0;
+void leap_hand_sphere_thumb_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S, double *restrict out_J_b, double *restrict out_J_A, double *restrict out_J_P, double *restrict out_L, double *restrict out_J_L) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 143L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    leap_hand_sphere_thumb_jacobians_block_columns(ld, stream, q + s, M + s, P + s, J_S + s, J_b + s, J_A + s, J_P + s, L + s, J_L + s);
+  const int gagen_stream = gagen_n * 143L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    leap_hand_sphere_thumb_jacobians_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s, out_J_b + gagen_s, out_J_A + gagen_s, out_J_P + gagen_s, out_L + gagen_s, out_J_L + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  leap_hand_sphere_thumb_jacobians_columns_from(s, n, ld, q, M, P, J_S, J_b, J_A, J_P, L, J_L);
+  leap_hand_sphere_thumb_jacobians_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S, out_J_b, out_J_A, out_J_P, out_L, out_J_L);
 }

@@ -45,13 +45,13 @@ extern "C" {
 #define LEAP_THREE_FINGERS_PLANE_INDEX_FK_Q_SIZE 4
 #define LEAP_THREE_FINGERS_PLANE_INDEX_FK_M_SIZE 8
 #define LEAP_THREE_FINGERS_PLANE_INDEX_FK_P_SIZE 5
-void leap_three_fingers_plane_index_fk(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
-void leap_three_fingers_plane_index_fk_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void leap_three_fingers_plane_index_fk(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
+void leap_three_fingers_plane_index_fk_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void leap_three_fingers_plane_index_fk_argv(const double *const *arg, double *const *res);
 void leap_three_fingers_plane_index_fk_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_index_fk_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void leap_three_fingers_plane_index_fk_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void leap_three_fingers_plane_index_fk_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_index_fk_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void leap_three_fingers_plane_index_fk_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 
 /* chain index: motor, end point and spatial (geometric) Jacobian
  *   in  q            [4] leap/1, leap/0, leap/2, leap/3
@@ -63,13 +63,13 @@ void leap_three_fingers_plane_index_fk_columns_from(long s0, long n, long ld, co
 #define LEAP_THREE_FINGERS_PLANE_INDEX_FK_JACOBIAN_M_SIZE 8
 #define LEAP_THREE_FINGERS_PLANE_INDEX_FK_JACOBIAN_P_SIZE 5
 #define LEAP_THREE_FINGERS_PLANE_INDEX_FK_JACOBIAN_J_S_SIZE 24
-void leap_three_fingers_plane_index_fk_jacobian(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
-void leap_three_fingers_plane_index_fk_jacobian_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void leap_three_fingers_plane_index_fk_jacobian(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
+void leap_three_fingers_plane_index_fk_jacobian_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void leap_three_fingers_plane_index_fk_jacobian_argv(const double *const *arg, double *const *res);
 void leap_three_fingers_plane_index_fk_jacobian_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_index_fk_jacobian_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void leap_three_fingers_plane_index_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void leap_three_fingers_plane_index_fk_jacobian_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_index_fk_jacobian_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void leap_three_fingers_plane_index_fk_jacobian_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 
 /* chain index: motor, end point, every Jacobian and the tool z-axis line
  *   in  q            [4] leap/1, leap/0, leap/2, leap/3
@@ -91,13 +91,13 @@ void leap_three_fingers_plane_index_fk_jacobian_columns_from(long s0, long n, lo
 #define LEAP_THREE_FINGERS_PLANE_INDEX_JACOBIANS_J_P_SIZE 20
 #define LEAP_THREE_FINGERS_PLANE_INDEX_JACOBIANS_L_SIZE 6
 #define LEAP_THREE_FINGERS_PLANE_INDEX_JACOBIANS_J_L_SIZE 24
-void leap_three_fingers_plane_index_jacobians(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
-void leap_three_fingers_plane_index_jacobians_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void leap_three_fingers_plane_index_jacobians(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
+void leap_three_fingers_plane_index_jacobians_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void leap_three_fingers_plane_index_jacobians_argv(const double *const *arg, double *const *res);
 void leap_three_fingers_plane_index_jacobians_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_index_jacobians_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void leap_three_fingers_plane_index_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void leap_three_fingers_plane_index_jacobians_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_index_jacobians_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void leap_three_fingers_plane_index_jacobians_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 
 /* chain middle: motor and end point
  *   in  q            [4] leap/5, leap/4, leap/6, leap/7
@@ -107,13 +107,13 @@ void leap_three_fingers_plane_index_jacobians_columns_from(long s0, long n, long
 #define LEAP_THREE_FINGERS_PLANE_MIDDLE_FK_Q_SIZE 4
 #define LEAP_THREE_FINGERS_PLANE_MIDDLE_FK_M_SIZE 8
 #define LEAP_THREE_FINGERS_PLANE_MIDDLE_FK_P_SIZE 5
-void leap_three_fingers_plane_middle_fk(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
-void leap_three_fingers_plane_middle_fk_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void leap_three_fingers_plane_middle_fk(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
+void leap_three_fingers_plane_middle_fk_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void leap_three_fingers_plane_middle_fk_argv(const double *const *arg, double *const *res);
 void leap_three_fingers_plane_middle_fk_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_middle_fk_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void leap_three_fingers_plane_middle_fk_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void leap_three_fingers_plane_middle_fk_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_middle_fk_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void leap_three_fingers_plane_middle_fk_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 
 /* chain middle: motor, end point and spatial (geometric) Jacobian
  *   in  q            [4] leap/5, leap/4, leap/6, leap/7
@@ -125,13 +125,13 @@ void leap_three_fingers_plane_middle_fk_columns_from(long s0, long n, long ld, c
 #define LEAP_THREE_FINGERS_PLANE_MIDDLE_FK_JACOBIAN_M_SIZE 8
 #define LEAP_THREE_FINGERS_PLANE_MIDDLE_FK_JACOBIAN_P_SIZE 5
 #define LEAP_THREE_FINGERS_PLANE_MIDDLE_FK_JACOBIAN_J_S_SIZE 24
-void leap_three_fingers_plane_middle_fk_jacobian(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
-void leap_three_fingers_plane_middle_fk_jacobian_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void leap_three_fingers_plane_middle_fk_jacobian(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
+void leap_three_fingers_plane_middle_fk_jacobian_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void leap_three_fingers_plane_middle_fk_jacobian_argv(const double *const *arg, double *const *res);
 void leap_three_fingers_plane_middle_fk_jacobian_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_middle_fk_jacobian_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void leap_three_fingers_plane_middle_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void leap_three_fingers_plane_middle_fk_jacobian_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_middle_fk_jacobian_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void leap_three_fingers_plane_middle_fk_jacobian_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 
 /* chain middle: motor, end point, every Jacobian and the tool z-axis line
  *   in  q            [4] leap/5, leap/4, leap/6, leap/7
@@ -153,13 +153,13 @@ void leap_three_fingers_plane_middle_fk_jacobian_columns_from(long s0, long n, l
 #define LEAP_THREE_FINGERS_PLANE_MIDDLE_JACOBIANS_J_P_SIZE 20
 #define LEAP_THREE_FINGERS_PLANE_MIDDLE_JACOBIANS_L_SIZE 6
 #define LEAP_THREE_FINGERS_PLANE_MIDDLE_JACOBIANS_J_L_SIZE 24
-void leap_three_fingers_plane_middle_jacobians(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
-void leap_three_fingers_plane_middle_jacobians_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void leap_three_fingers_plane_middle_jacobians(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
+void leap_three_fingers_plane_middle_jacobians_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void leap_three_fingers_plane_middle_jacobians_argv(const double *const *arg, double *const *res);
 void leap_three_fingers_plane_middle_jacobians_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_middle_jacobians_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void leap_three_fingers_plane_middle_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void leap_three_fingers_plane_middle_jacobians_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_middle_jacobians_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void leap_three_fingers_plane_middle_jacobians_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 
 /* chain thumb: motor and end point
  *   in  q            [4] leap/12, leap/13, leap/14, leap/15
@@ -169,13 +169,13 @@ void leap_three_fingers_plane_middle_jacobians_columns_from(long s0, long n, lon
 #define LEAP_THREE_FINGERS_PLANE_THUMB_FK_Q_SIZE 4
 #define LEAP_THREE_FINGERS_PLANE_THUMB_FK_M_SIZE 8
 #define LEAP_THREE_FINGERS_PLANE_THUMB_FK_P_SIZE 5
-void leap_three_fingers_plane_thumb_fk(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
-void leap_three_fingers_plane_thumb_fk_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void leap_three_fingers_plane_thumb_fk(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
+void leap_three_fingers_plane_thumb_fk_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void leap_three_fingers_plane_thumb_fk_argv(const double *const *arg, double *const *res);
 void leap_three_fingers_plane_thumb_fk_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_thumb_fk_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void leap_three_fingers_plane_thumb_fk_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void leap_three_fingers_plane_thumb_fk_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_thumb_fk_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void leap_three_fingers_plane_thumb_fk_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 
 /* chain thumb: motor, end point and spatial (geometric) Jacobian
  *   in  q            [4] leap/12, leap/13, leap/14, leap/15
@@ -187,13 +187,13 @@ void leap_three_fingers_plane_thumb_fk_columns_from(long s0, long n, long ld, co
 #define LEAP_THREE_FINGERS_PLANE_THUMB_FK_JACOBIAN_M_SIZE 8
 #define LEAP_THREE_FINGERS_PLANE_THUMB_FK_JACOBIAN_P_SIZE 5
 #define LEAP_THREE_FINGERS_PLANE_THUMB_FK_JACOBIAN_J_S_SIZE 24
-void leap_three_fingers_plane_thumb_fk_jacobian(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
-void leap_three_fingers_plane_thumb_fk_jacobian_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void leap_three_fingers_plane_thumb_fk_jacobian(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
+void leap_three_fingers_plane_thumb_fk_jacobian_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void leap_three_fingers_plane_thumb_fk_jacobian_argv(const double *const *arg, double *const *res);
 void leap_three_fingers_plane_thumb_fk_jacobian_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_thumb_fk_jacobian_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void leap_three_fingers_plane_thumb_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void leap_three_fingers_plane_thumb_fk_jacobian_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_thumb_fk_jacobian_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void leap_three_fingers_plane_thumb_fk_jacobian_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 
 /* chain thumb: motor, end point, every Jacobian and the tool z-axis line
  *   in  q            [4] leap/12, leap/13, leap/14, leap/15
@@ -215,13 +215,13 @@ void leap_three_fingers_plane_thumb_fk_jacobian_columns_from(long s0, long n, lo
 #define LEAP_THREE_FINGERS_PLANE_THUMB_JACOBIANS_J_P_SIZE 20
 #define LEAP_THREE_FINGERS_PLANE_THUMB_JACOBIANS_L_SIZE 6
 #define LEAP_THREE_FINGERS_PLANE_THUMB_JACOBIANS_J_L_SIZE 24
-void leap_three_fingers_plane_thumb_jacobians(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
-void leap_three_fingers_plane_thumb_jacobians_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void leap_three_fingers_plane_thumb_jacobians(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
+void leap_three_fingers_plane_thumb_jacobians_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void leap_three_fingers_plane_thumb_jacobians_argv(const double *const *arg, double *const *res);
 void leap_three_fingers_plane_thumb_jacobians_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_thumb_jacobians_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void leap_three_fingers_plane_thumb_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void leap_three_fingers_plane_thumb_jacobians_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_thumb_jacobians_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void leap_three_fingers_plane_thumb_jacobians_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 
 /* the cooperative plane X_c(q) and J_c
  *   in  q            [12] leap/1, leap/0, leap/2, leap/3, leap/5, leap/4, leap/6, leap/7, leap/12,...
@@ -231,13 +231,13 @@ void leap_three_fingers_plane_thumb_jacobians_columns_from(long s0, long n, long
 #define LEAP_THREE_FINGERS_PLANE_PRIMITIVE_Q_SIZE 12
 #define LEAP_THREE_FINGERS_PLANE_PRIMITIVE_X_C_SIZE 4
 #define LEAP_THREE_FINGERS_PLANE_PRIMITIVE_J_C_SIZE 48
-void leap_three_fingers_plane_primitive(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT X_c, double *GAGEN_RESTRICT J_c);
-void leap_three_fingers_plane_primitive_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT X_c, double *GAGEN_RESTRICT J_c);
+void leap_three_fingers_plane_primitive(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_X_c, double *GAGEN_RESTRICT out_J_c);
+void leap_three_fingers_plane_primitive_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_X_c, double *GAGEN_RESTRICT out_J_c);
 void leap_three_fingers_plane_primitive_argv(const double *const *arg, double *const *res);
 void leap_three_fingers_plane_primitive_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_primitive_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT X_c, double *GAGEN_RESTRICT J_c);
+void leap_three_fingers_plane_primitive_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_X_c, double *GAGEN_RESTRICT out_J_c);
 void leap_three_fingers_plane_primitive_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_primitive_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT X_c, double *GAGEN_RESTRICT J_c);
+void leap_three_fingers_plane_primitive_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_X_c, double *GAGEN_RESTRICT out_J_c);
 
 /* V_Sc(q), its conditioning and J_G,Sc
  *   in  q            [12] leap/1, leap/0, leap/2, leap/3, leap/5, leap/4, leap/6, leap/7, leap/12,...
@@ -249,13 +249,13 @@ void leap_three_fingers_plane_primitive_columns_from(long s0, long n, long ld, c
 #define LEAP_THREE_FINGERS_PLANE_SIMILARITY_V_SC_SIZE 12
 #define LEAP_THREE_FINGERS_PLANE_SIMILARITY_CONDITIONING_SIZE 1
 #define LEAP_THREE_FINGERS_PLANE_SIMILARITY_J_G_SIZE 84
-void leap_three_fingers_plane_similarity(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT V_Sc, double *GAGEN_RESTRICT conditioning, double *GAGEN_RESTRICT J_G);
-void leap_three_fingers_plane_similarity_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT V_Sc, double *GAGEN_RESTRICT conditioning, double *GAGEN_RESTRICT J_G);
+void leap_three_fingers_plane_similarity(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_V_Sc, double *GAGEN_RESTRICT out_conditioning, double *GAGEN_RESTRICT out_J_G);
+void leap_three_fingers_plane_similarity_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_V_Sc, double *GAGEN_RESTRICT out_conditioning, double *GAGEN_RESTRICT out_J_G);
 void leap_three_fingers_plane_similarity_argv(const double *const *arg, double *const *res);
 void leap_three_fingers_plane_similarity_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_similarity_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT V_Sc, double *GAGEN_RESTRICT conditioning, double *GAGEN_RESTRICT J_G);
+void leap_three_fingers_plane_similarity_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_V_Sc, double *GAGEN_RESTRICT out_conditioning, double *GAGEN_RESTRICT out_J_G);
 void leap_three_fingers_plane_similarity_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_similarity_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT V_Sc, double *GAGEN_RESTRICT conditioning, double *GAGEN_RESTRICT J_G);
+void leap_three_fingers_plane_similarity_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_V_Sc, double *GAGEN_RESTRICT out_conditioning, double *GAGEN_RESTRICT out_J_G);
 
 /* J_A,Sc = dV_Sc/dq, log V_Sc and J_B = d log V_Sc/dq
  *   in  q            [12] leap/1, leap/0, leap/2, leap/3, leap/5, leap/4, leap/6, leap/7, leap/12,...
@@ -267,13 +267,13 @@ void leap_three_fingers_plane_similarity_columns_from(long s0, long n, long ld, 
 #define LEAP_THREE_FINGERS_PLANE_SIMILARITY_JACOBIANS_J_A_SIZE 144
 #define LEAP_THREE_FINGERS_PLANE_SIMILARITY_JACOBIANS_LOG_V_SIZE 7
 #define LEAP_THREE_FINGERS_PLANE_SIMILARITY_JACOBIANS_J_B_SIZE 84
-void leap_three_fingers_plane_similarity_jacobians(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT log_V, double *GAGEN_RESTRICT J_B);
-void leap_three_fingers_plane_similarity_jacobians_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT log_V, double *GAGEN_RESTRICT J_B);
+void leap_three_fingers_plane_similarity_jacobians(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_log_V, double *GAGEN_RESTRICT out_J_B);
+void leap_three_fingers_plane_similarity_jacobians_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_log_V, double *GAGEN_RESTRICT out_J_B);
 void leap_three_fingers_plane_similarity_jacobians_argv(const double *const *arg, double *const *res);
 void leap_three_fingers_plane_similarity_jacobians_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_similarity_jacobians_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT log_V, double *GAGEN_RESTRICT J_B);
+void leap_three_fingers_plane_similarity_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_log_V, double *GAGEN_RESTRICT out_J_B);
 void leap_three_fingers_plane_similarity_jacobians_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_similarity_jacobians_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT log_V, double *GAGEN_RESTRICT J_B);
+void leap_three_fingers_plane_similarity_jacobians_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_log_V, double *GAGEN_RESTRICT out_J_B);
 
 /* task error e = log(V_Sc~ V_Sd) and J_Be
  *   in  q            [12] leap/1, leap/0, leap/2, leap/3, leap/5, leap/4, leap/6, leap/7, leap/12,...
@@ -285,13 +285,13 @@ void leap_three_fingers_plane_similarity_jacobians_columns_from(long s0, long n,
 #define LEAP_THREE_FINGERS_PLANE_TASK_V_SD_SIZE 12
 #define LEAP_THREE_FINGERS_PLANE_TASK_E_SIZE 7
 #define LEAP_THREE_FINGERS_PLANE_TASK_J_BE_SIZE 84
-void leap_three_fingers_plane_task(const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT V_Sd, double *GAGEN_RESTRICT e, double *GAGEN_RESTRICT J_Be);
-void leap_three_fingers_plane_task_batch(long n, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT V_Sd, double *GAGEN_RESTRICT e, double *GAGEN_RESTRICT J_Be);
+void leap_three_fingers_plane_task(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
+void leap_three_fingers_plane_task_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 void leap_three_fingers_plane_task_argv(const double *const *arg, double *const *res);
 void leap_three_fingers_plane_task_batch_argv(long n, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_task_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT V_Sd, double *GAGEN_RESTRICT e, double *GAGEN_RESTRICT J_Be);
+void leap_three_fingers_plane_task_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 void leap_three_fingers_plane_task_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void leap_three_fingers_plane_task_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT V_Sd, double *GAGEN_RESTRICT e, double *GAGEN_RESTRICT J_Be);
+void leap_three_fingers_plane_task_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 
 #ifdef __cplusplus
 }

@@ -39,13 +39,13 @@ extern "C" {
 #define PANDA_POINT_ARM0_FK_Q_SIZE 7
 #define PANDA_POINT_ARM0_FK_M_SIZE 8
 #define PANDA_POINT_ARM0_FK_P_SIZE 5
-void panda_point_arm0_fk(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
-void panda_point_arm0_fk_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void panda_point_arm0_fk(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
+void panda_point_arm0_fk_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void panda_point_arm0_fk_argv(const double *const *arg, double *const *res);
 void panda_point_arm0_fk_batch_argv(long n, const double *const *arg, double *const *res);
-void panda_point_arm0_fk_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void panda_point_arm0_fk_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void panda_point_arm0_fk_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void panda_point_arm0_fk_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void panda_point_arm0_fk_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 
 /* chain arm0: motor, end point and spatial (geometric) Jacobian
  *   in  q            [7] arm0/panda_joint1, arm0/panda_joint2, arm0/panda_joint3, arm0/panda_joint4,...
@@ -57,13 +57,13 @@ void panda_point_arm0_fk_columns_from(long s0, long n, long ld, const double *GA
 #define PANDA_POINT_ARM0_FK_JACOBIAN_M_SIZE 8
 #define PANDA_POINT_ARM0_FK_JACOBIAN_P_SIZE 5
 #define PANDA_POINT_ARM0_FK_JACOBIAN_J_S_SIZE 42
-void panda_point_arm0_fk_jacobian(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
-void panda_point_arm0_fk_jacobian_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void panda_point_arm0_fk_jacobian(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
+void panda_point_arm0_fk_jacobian_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void panda_point_arm0_fk_jacobian_argv(const double *const *arg, double *const *res);
 void panda_point_arm0_fk_jacobian_batch_argv(long n, const double *const *arg, double *const *res);
-void panda_point_arm0_fk_jacobian_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void panda_point_arm0_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void panda_point_arm0_fk_jacobian_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void panda_point_arm0_fk_jacobian_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void panda_point_arm0_fk_jacobian_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 
 /* chain arm0: motor, end point, every Jacobian and the tool z-axis line
  *   in  q            [7] arm0/panda_joint1, arm0/panda_joint2, arm0/panda_joint3, arm0/panda_joint4,...
@@ -85,13 +85,13 @@ void panda_point_arm0_fk_jacobian_columns_from(long s0, long n, long ld, const d
 #define PANDA_POINT_ARM0_JACOBIANS_J_P_SIZE 35
 #define PANDA_POINT_ARM0_JACOBIANS_L_SIZE 6
 #define PANDA_POINT_ARM0_JACOBIANS_J_L_SIZE 42
-void panda_point_arm0_jacobians(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
-void panda_point_arm0_jacobians_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void panda_point_arm0_jacobians(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
+void panda_point_arm0_jacobians_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void panda_point_arm0_jacobians_argv(const double *const *arg, double *const *res);
 void panda_point_arm0_jacobians_batch_argv(long n, const double *const *arg, double *const *res);
-void panda_point_arm0_jacobians_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void panda_point_arm0_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void panda_point_arm0_jacobians_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void panda_point_arm0_jacobians_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void panda_point_arm0_jacobians_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 
 /* the cooperative point X_c(q) and J_c
  *   in  q            [7] arm0/panda_joint1, arm0/panda_joint2, arm0/panda_joint3, arm0/panda_joint4,...
@@ -101,13 +101,13 @@ void panda_point_arm0_jacobians_columns_from(long s0, long n, long ld, const dou
 #define PANDA_POINT_PRIMITIVE_Q_SIZE 7
 #define PANDA_POINT_PRIMITIVE_X_C_SIZE 5
 #define PANDA_POINT_PRIMITIVE_J_C_SIZE 35
-void panda_point_primitive(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT X_c, double *GAGEN_RESTRICT J_c);
-void panda_point_primitive_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT X_c, double *GAGEN_RESTRICT J_c);
+void panda_point_primitive(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_X_c, double *GAGEN_RESTRICT out_J_c);
+void panda_point_primitive_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_X_c, double *GAGEN_RESTRICT out_J_c);
 void panda_point_primitive_argv(const double *const *arg, double *const *res);
 void panda_point_primitive_batch_argv(long n, const double *const *arg, double *const *res);
-void panda_point_primitive_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT X_c, double *GAGEN_RESTRICT J_c);
+void panda_point_primitive_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_X_c, double *GAGEN_RESTRICT out_J_c);
 void panda_point_primitive_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void panda_point_primitive_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT X_c, double *GAGEN_RESTRICT J_c);
+void panda_point_primitive_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_X_c, double *GAGEN_RESTRICT out_J_c);
 
 /* V_Sc(q), its conditioning and J_G,Sc
  *   in  q            [7] arm0/panda_joint1, arm0/panda_joint2, arm0/panda_joint3, arm0/panda_joint4,...
@@ -119,13 +119,13 @@ void panda_point_primitive_columns_from(long s0, long n, long ld, const double *
 #define PANDA_POINT_SIMILARITY_V_SC_SIZE 12
 #define PANDA_POINT_SIMILARITY_CONDITIONING_SIZE 1
 #define PANDA_POINT_SIMILARITY_J_G_SIZE 49
-void panda_point_similarity(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT V_Sc, double *GAGEN_RESTRICT conditioning, double *GAGEN_RESTRICT J_G);
-void panda_point_similarity_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT V_Sc, double *GAGEN_RESTRICT conditioning, double *GAGEN_RESTRICT J_G);
+void panda_point_similarity(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_V_Sc, double *GAGEN_RESTRICT out_conditioning, double *GAGEN_RESTRICT out_J_G);
+void panda_point_similarity_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_V_Sc, double *GAGEN_RESTRICT out_conditioning, double *GAGEN_RESTRICT out_J_G);
 void panda_point_similarity_argv(const double *const *arg, double *const *res);
 void panda_point_similarity_batch_argv(long n, const double *const *arg, double *const *res);
-void panda_point_similarity_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT V_Sc, double *GAGEN_RESTRICT conditioning, double *GAGEN_RESTRICT J_G);
+void panda_point_similarity_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_V_Sc, double *GAGEN_RESTRICT out_conditioning, double *GAGEN_RESTRICT out_J_G);
 void panda_point_similarity_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void panda_point_similarity_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT V_Sc, double *GAGEN_RESTRICT conditioning, double *GAGEN_RESTRICT J_G);
+void panda_point_similarity_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_V_Sc, double *GAGEN_RESTRICT out_conditioning, double *GAGEN_RESTRICT out_J_G);
 
 /* J_A,Sc = dV_Sc/dq, log V_Sc and J_B = d log V_Sc/dq
  *   in  q            [7] arm0/panda_joint1, arm0/panda_joint2, arm0/panda_joint3, arm0/panda_joint4,...
@@ -137,13 +137,13 @@ void panda_point_similarity_columns_from(long s0, long n, long ld, const double 
 #define PANDA_POINT_SIMILARITY_JACOBIANS_J_A_SIZE 84
 #define PANDA_POINT_SIMILARITY_JACOBIANS_LOG_V_SIZE 7
 #define PANDA_POINT_SIMILARITY_JACOBIANS_J_B_SIZE 49
-void panda_point_similarity_jacobians(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT log_V, double *GAGEN_RESTRICT J_B);
-void panda_point_similarity_jacobians_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT log_V, double *GAGEN_RESTRICT J_B);
+void panda_point_similarity_jacobians(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_log_V, double *GAGEN_RESTRICT out_J_B);
+void panda_point_similarity_jacobians_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_log_V, double *GAGEN_RESTRICT out_J_B);
 void panda_point_similarity_jacobians_argv(const double *const *arg, double *const *res);
 void panda_point_similarity_jacobians_batch_argv(long n, const double *const *arg, double *const *res);
-void panda_point_similarity_jacobians_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT log_V, double *GAGEN_RESTRICT J_B);
+void panda_point_similarity_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_log_V, double *GAGEN_RESTRICT out_J_B);
 void panda_point_similarity_jacobians_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void panda_point_similarity_jacobians_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT log_V, double *GAGEN_RESTRICT J_B);
+void panda_point_similarity_jacobians_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_log_V, double *GAGEN_RESTRICT out_J_B);
 
 /* task error e = log(V_Sc~ V_Sd) and J_Be
  *   in  q            [7] arm0/panda_joint1, arm0/panda_joint2, arm0/panda_joint3, arm0/panda_joint4,...
@@ -155,13 +155,13 @@ void panda_point_similarity_jacobians_columns_from(long s0, long n, long ld, con
 #define PANDA_POINT_TASK_V_SD_SIZE 12
 #define PANDA_POINT_TASK_E_SIZE 7
 #define PANDA_POINT_TASK_J_BE_SIZE 49
-void panda_point_task(const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT V_Sd, double *GAGEN_RESTRICT e, double *GAGEN_RESTRICT J_Be);
-void panda_point_task_batch(long n, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT V_Sd, double *GAGEN_RESTRICT e, double *GAGEN_RESTRICT J_Be);
+void panda_point_task(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
+void panda_point_task_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 void panda_point_task_argv(const double *const *arg, double *const *res);
 void panda_point_task_batch_argv(long n, const double *const *arg, double *const *res);
-void panda_point_task_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT V_Sd, double *GAGEN_RESTRICT e, double *GAGEN_RESTRICT J_Be);
+void panda_point_task_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 void panda_point_task_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void panda_point_task_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT V_Sd, double *GAGEN_RESTRICT e, double *GAGEN_RESTRICT J_Be);
+void panda_point_task_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 
 #ifdef __cplusplus
 }

@@ -216,7 +216,7 @@ static PyObject *run_panda_point_arm0_fk(Kernel *b, PyObject *const *inputs, Py_
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P))b->kernel)(in[0], res[0], res[1]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P))b->kernel)(in[0], res[0], res[1]);
   return result;
 }
 
@@ -284,7 +284,7 @@ static PyObject *run_panda_point_arm0_fk_jacobian(Kernel *b, PyObject *const *in
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S))b->kernel)(in[0], res[0], res[1], res[2]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S))b->kernel)(in[0], res[0], res[1], res[2]);
   return result;
 }
 
@@ -352,7 +352,7 @@ static PyObject *run_panda_point_arm0_jacobians(Kernel *b, PyObject *const *inpu
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4], res[5], res[6], res[7]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L))b->kernel)(in[0], res[0], res[1], res[2], res[3], res[4], res[5], res[6], res[7]);
   return result;
 }
 
@@ -420,7 +420,7 @@ static PyObject *run_panda_point_primitive(Kernel *b, PyObject *const *inputs, P
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT X_c, double *GAGEN_RESTRICT J_c))b->kernel)(in[0], res[0], res[1]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_X_c, double *GAGEN_RESTRICT out_J_c))b->kernel)(in[0], res[0], res[1]);
   return result;
 }
 
@@ -488,7 +488,7 @@ static PyObject *run_panda_point_similarity(Kernel *b, PyObject *const *inputs, 
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT V_Sc, double *GAGEN_RESTRICT conditioning, double *GAGEN_RESTRICT J_G))b->kernel)(in[0], res[0], res[1], res[2]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_V_Sc, double *GAGEN_RESTRICT out_conditioning, double *GAGEN_RESTRICT out_J_G))b->kernel)(in[0], res[0], res[1], res[2]);
   return result;
 }
 
@@ -556,7 +556,7 @@ static PyObject *run_panda_point_similarity_jacobians(Kernel *b, PyObject *const
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT log_V, double *GAGEN_RESTRICT J_B))b->kernel)(in[0], res[0], res[1], res[2]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_log_V, double *GAGEN_RESTRICT out_J_B))b->kernel)(in[0], res[0], res[1], res[2]);
   return result;
 }
 
@@ -624,7 +624,7 @@ static PyObject *run_panda_point_task(Kernel *b, PyObject *const *inputs, Py_ssi
     }
     Py_INCREF(result);
   }
-  ((void (*)(const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT V_Sd, double *GAGEN_RESTRICT e, double *GAGEN_RESTRICT J_Be))b->kernel)(in[0], in[1], res[0], res[1]);
+  ((void (*)(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be))b->kernel)(in[0], in[1], res[0], res[1]);
   return result;
 }
 

@@ -149,20 +149,20 @@ static inline void gagen_stream_fence(int stream) {
 
 #if GAGEN_SIMD
 /* chain arm0: motor and end point: GAGEN_W consecutive samples at once */
-static void panda_point_arm0_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void panda_point_arm0_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_cos(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w6 * w8;
@@ -179,7 +179,7 @@ static void panda_point_arm0_fk_block(const double *restrict q, double *restrict
   w16 = w15 * w7;
   w12 = w12 - w16;
   w12 = w12 + w12;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w1 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w12 * w18;
@@ -206,7 +206,7 @@ static void panda_point_arm0_fk_block(const double *restrict q, double *restrict
   w14 = w14 + w14;
   w16 = w14 * w18;
   w15 = w15 - w16;
-  w9 = GAGEN_GATHER(q, 7, 4);
+  w9 = GAGEN_GATHER(in_q, 7, 4);
   w9 = w1 * w9;
   w11 = gagen_v_cos(w9);
   w13 = w15 * w11;
@@ -229,7 +229,7 @@ static void panda_point_arm0_fk_block(const double *restrict q, double *restrict
   w20 = w20 - w12;
   w12 = w20 * w9;
   w23 = w23 - w12;
-  w14 = GAGEN_GATHER(q, 7, 5);
+  w14 = GAGEN_GATHER(in_q, 7, 5);
   w14 = w1 * w14;
   w6 = gagen_v_cos(w14);
   w16 = w23 * w6;
@@ -253,7 +253,7 @@ static void panda_point_arm0_fk_block(const double *restrict q, double *restrict
   w15 = w15 - w21;
   w21 = w15 * w14;
   w26 = w26 - w21;
-  w19 = GAGEN_GATHER(q, 7, 6);
+  w19 = GAGEN_GATHER(in_q, 7, 6);
   w19 = w1 * w19;
   w20 = gagen_v_cos(w19);
   w22 = w26 * w20;
@@ -268,12 +268,12 @@ static void panda_point_arm0_fk_block(const double *restrict q, double *restrict
   w27 = w13 * w19;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w13 = w13 * w20;
   w26 = w26 * w19;
   w13 = w13 - w26;
   w13 = w0 * w13;
-  GAGEN_SCATTER(M, 8, 1, w13);
+  GAGEN_SCATTER(out_M, 8, 1, w13);
   w23 = w23 + w15;
   w23 = w23 + w10;
   w23 = w23 - w24;
@@ -284,12 +284,12 @@ static void panda_point_arm0_fk_block(const double *restrict q, double *restrict
   w21 = w12 * w19;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w12 = w12 * w20;
   w23 = w23 * w19;
   w12 = w12 - w23;
   w0 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w12 = gagen_v_splat(0.0825);
   w23 = w8 * w8;
   w19 = w7 * w7;
@@ -434,14 +434,14 @@ static void panda_point_arm0_fk_block(const double *restrict q, double *restrict
   w9 = w12 * w22;
   w17 = w17 - w9;
   w17 = w1 * w17;
-  GAGEN_SCATTER(M, 8, 4, w17);
+  GAGEN_SCATTER(out_M, 8, 4, w17);
   w17 = w26 * w0;
   w9 = w12 * w13;
   w17 = w17 - w9;
   w9 = w16 * w22;
   w17 = w17 - w9;
   w17 = w1 * w17;
-  GAGEN_SCATTER(M, 8, 5, w17);
+  GAGEN_SCATTER(out_M, 8, 5, w17);
   w17 = w12 * w24;
   w9 = w16 * w0;
   w17 = w17 + w9;
@@ -449,43 +449,43 @@ static void panda_point_arm0_fk_block(const double *restrict q, double *restrict
   w17 = w17 + w22;
   w17 = w1 * w17;
   w17 = -w17;
-  GAGEN_SCATTER(M, 8, 6, w17);
+  GAGEN_SCATTER(out_M, 8, 6, w17);
   w24 = w16 * w24;
   w0 = w12 * w0;
   w24 = w24 - w0;
   w13 = w26 * w13;
   w24 = w24 - w13;
   w24 = w1 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w12);
-  GAGEN_SCATTER(P, 5, 2, w16);
-  GAGEN_SCATTER(P, 5, 3, w26);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w12);
+  GAGEN_SCATTER(out_P, 5, 2, w16);
+  GAGEN_SCATTER(out_P, 5, 3, w26);
   w12 = w12 * w12;
   w16 = w16 * w16;
   w12 = w12 + w16;
   w26 = w26 * w26;
   w12 = w12 + w26;
   w1 = w1 * w12;
-  GAGEN_SCATTER(P, 5, 4, w1);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
 }
 #endif
 
-void panda_point_arm0_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void panda_point_arm0_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    panda_point_arm0_fk_block(q + 7 * s, M + 8 * s, P + 5 * s);
+    panda_point_arm0_fk_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    panda_point_arm0_fk(q + 7 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    panda_point_arm0_fk(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -495,20 +495,20 @@ void panda_point_arm0_fk_batch(long n, const double *restrict q, double *restric
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void panda_point_arm0_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void panda_point_arm0_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_cos(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w6 * w8;
@@ -525,7 +525,7 @@ static void panda_point_arm0_fk_block_columns(long gagen_ld, int gagen_stream, c
   w16 = w15 * w7;
   w12 = w12 - w16;
   w12 = w12 + w12;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w1 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w12 * w18;
@@ -552,7 +552,7 @@ static void panda_point_arm0_fk_block_columns(long gagen_ld, int gagen_stream, c
   w14 = w14 + w14;
   w16 = w14 * w18;
   w15 = w15 - w16;
-  w9 = GAGEN_GATHER(q, 7, 4);
+  w9 = GAGEN_GATHER(in_q, 7, 4);
   w9 = w1 * w9;
   w11 = gagen_v_cos(w9);
   w13 = w15 * w11;
@@ -575,7 +575,7 @@ static void panda_point_arm0_fk_block_columns(long gagen_ld, int gagen_stream, c
   w20 = w20 - w12;
   w12 = w20 * w9;
   w23 = w23 - w12;
-  w14 = GAGEN_GATHER(q, 7, 5);
+  w14 = GAGEN_GATHER(in_q, 7, 5);
   w14 = w1 * w14;
   w6 = gagen_v_cos(w14);
   w16 = w23 * w6;
@@ -599,7 +599,7 @@ static void panda_point_arm0_fk_block_columns(long gagen_ld, int gagen_stream, c
   w15 = w15 - w21;
   w21 = w15 * w14;
   w26 = w26 - w21;
-  w19 = GAGEN_GATHER(q, 7, 6);
+  w19 = GAGEN_GATHER(in_q, 7, 6);
   w19 = w1 * w19;
   w20 = gagen_v_cos(w19);
   w22 = w26 * w20;
@@ -614,12 +614,12 @@ static void panda_point_arm0_fk_block_columns(long gagen_ld, int gagen_stream, c
   w27 = w13 * w19;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w13 = w13 * w20;
   w26 = w26 * w19;
   w13 = w13 - w26;
   w13 = w0 * w13;
-  GAGEN_SCATTER(M, 8, 1, w13);
+  GAGEN_SCATTER(out_M, 8, 1, w13);
   w23 = w23 + w15;
   w23 = w23 + w10;
   w23 = w23 - w24;
@@ -630,12 +630,12 @@ static void panda_point_arm0_fk_block_columns(long gagen_ld, int gagen_stream, c
   w21 = w12 * w19;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w12 = w12 * w20;
   w23 = w23 * w19;
   w12 = w12 - w23;
   w0 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w12 = gagen_v_splat(0.0825);
   w23 = w8 * w8;
   w19 = w7 * w7;
@@ -780,14 +780,14 @@ static void panda_point_arm0_fk_block_columns(long gagen_ld, int gagen_stream, c
   w9 = w12 * w22;
   w17 = w17 - w9;
   w17 = w1 * w17;
-  GAGEN_SCATTER(M, 8, 4, w17);
+  GAGEN_SCATTER(out_M, 8, 4, w17);
   w17 = w26 * w0;
   w9 = w12 * w13;
   w17 = w17 - w9;
   w9 = w16 * w22;
   w17 = w17 - w9;
   w17 = w1 * w17;
-  GAGEN_SCATTER(M, 8, 5, w17);
+  GAGEN_SCATTER(out_M, 8, 5, w17);
   w17 = w12 * w24;
   w9 = w16 * w0;
   w17 = w17 + w9;
@@ -795,26 +795,26 @@ static void panda_point_arm0_fk_block_columns(long gagen_ld, int gagen_stream, c
   w17 = w17 + w22;
   w17 = w1 * w17;
   w17 = -w17;
-  GAGEN_SCATTER(M, 8, 6, w17);
+  GAGEN_SCATTER(out_M, 8, 6, w17);
   w24 = w16 * w24;
   w0 = w12 * w0;
   w24 = w24 - w0;
   w13 = w26 * w13;
   w24 = w24 - w13;
   w24 = w1 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w12);
-  GAGEN_SCATTER(P, 5, 2, w16);
-  GAGEN_SCATTER(P, 5, 3, w26);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w12);
+  GAGEN_SCATTER(out_P, 5, 2, w16);
+  GAGEN_SCATTER(out_P, 5, 3, w26);
   w12 = w12 * w12;
   w16 = w16 * w16;
   w12 = w12 + w16;
   w26 = w26 * w26;
   w12 = w12 + w26;
   w1 = w1 * w12;
-  GAGEN_SCATTER(P, 5, 4, w1);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -822,35 +822,35 @@ static void panda_point_arm0_fk_block_columns(long gagen_ld, int gagen_stream, c
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void panda_point_arm0_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void panda_point_arm0_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    panda_point_arm0_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    panda_point_arm0_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  panda_point_arm0_fk_columns_from(s, n, ld, q, M, P);
+  panda_point_arm0_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain arm0: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void panda_point_arm0_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void panda_point_arm0_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   gagen_v w36, w37, w38, w39, w40, w41, w42, w43, w44, w45, w46, w47;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_cos(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w6 * w8;
@@ -867,7 +867,7 @@ static void panda_point_arm0_fk_jacobian_block(const double *restrict q, double 
   w16 = w15 * w7;
   w12 = w12 - w16;
   w12 = w12 + w12;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w1 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w12 * w18;
@@ -894,7 +894,7 @@ static void panda_point_arm0_fk_jacobian_block(const double *restrict q, double 
   w14 = w14 + w14;
   w16 = w14 * w18;
   w15 = w15 - w16;
-  w9 = GAGEN_GATHER(q, 7, 4);
+  w9 = GAGEN_GATHER(in_q, 7, 4);
   w9 = w1 * w9;
   w11 = gagen_v_cos(w9);
   w13 = w15 * w11;
@@ -917,7 +917,7 @@ static void panda_point_arm0_fk_jacobian_block(const double *restrict q, double 
   w20 = w20 - w12;
   w12 = w20 * w9;
   w23 = w23 - w12;
-  w14 = GAGEN_GATHER(q, 7, 5);
+  w14 = GAGEN_GATHER(in_q, 7, 5);
   w14 = w1 * w14;
   w6 = gagen_v_cos(w14);
   w16 = w23 * w6;
@@ -941,7 +941,7 @@ static void panda_point_arm0_fk_jacobian_block(const double *restrict q, double 
   w15 = w15 - w21;
   w21 = w15 * w14;
   w26 = w26 - w21;
-  w19 = GAGEN_GATHER(q, 7, 6);
+  w19 = GAGEN_GATHER(in_q, 7, 6);
   w19 = w1 * w19;
   w20 = gagen_v_cos(w19);
   w22 = w26 * w20;
@@ -956,12 +956,12 @@ static void panda_point_arm0_fk_jacobian_block(const double *restrict q, double 
   w27 = w13 * w19;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w13 = w13 * w20;
   w26 = w26 * w19;
   w13 = w13 - w26;
   w13 = w0 * w13;
-  GAGEN_SCATTER(M, 8, 1, w13);
+  GAGEN_SCATTER(out_M, 8, 1, w13);
   w23 = w23 + w15;
   w23 = w23 + w10;
   w23 = w23 - w24;
@@ -972,12 +972,12 @@ static void panda_point_arm0_fk_jacobian_block(const double *restrict q, double 
   w21 = w12 * w19;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w12 = w12 * w20;
   w23 = w23 * w19;
   w12 = w12 - w23;
   w0 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w12 = gagen_v_splat(0.0825);
   w23 = w8 * w8;
   w19 = w7 * w7;
@@ -1122,14 +1122,14 @@ static void panda_point_arm0_fk_jacobian_block(const double *restrict q, double 
   w6 = w27 * w22;
   w38 = w38 - w6;
   w38 = w1 * w38;
-  GAGEN_SCATTER(M, 8, 4, w38);
+  GAGEN_SCATTER(out_M, 8, 4, w38);
   w38 = w41 * w0;
   w6 = w27 * w13;
   w38 = w38 - w6;
   w6 = w34 * w22;
   w38 = w38 - w6;
   w38 = w1 * w38;
-  GAGEN_SCATTER(M, 8, 5, w38);
+  GAGEN_SCATTER(out_M, 8, 5, w38);
   w38 = w27 * w24;
   w6 = w34 * w0;
   w38 = w38 + w6;
@@ -1137,50 +1137,50 @@ static void panda_point_arm0_fk_jacobian_block(const double *restrict q, double 
   w38 = w38 + w22;
   w38 = w1 * w38;
   w38 = -w38;
-  GAGEN_SCATTER(M, 8, 6, w38);
+  GAGEN_SCATTER(out_M, 8, 6, w38);
   w24 = w34 * w24;
   w0 = w27 * w0;
   w24 = w24 - w0;
   w13 = w41 * w13;
   w24 = w24 - w13;
   w24 = w1 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w27);
-  GAGEN_SCATTER(P, 5, 2, w34);
-  GAGEN_SCATTER(P, 5, 3, w41);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w27);
+  GAGEN_SCATTER(out_P, 5, 2, w34);
+  GAGEN_SCATTER(out_P, 5, 3, w41);
   w27 = w27 * w27;
   w34 = w34 * w34;
   w27 = w27 + w34;
   w41 = w41 * w41;
   w27 = w27 + w41;
   w1 = w1 * w27;
-  GAGEN_SCATTER(P, 5, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 0, w24);
   w24 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w24);
-  GAGEN_SCATTER(J_S, 42, 2, w24);
-  GAGEN_SCATTER(J_S, 42, 3, w24);
-  GAGEN_SCATTER(J_S, 42, 4, w24);
-  GAGEN_SCATTER(J_S, 42, 5, w24);
-  GAGEN_SCATTER(J_S, 42, 6, w24);
+  GAGEN_SCATTER(out_J_S, 42, 1, w24);
+  GAGEN_SCATTER(out_J_S, 42, 2, w24);
+  GAGEN_SCATTER(out_J_S, 42, 3, w24);
+  GAGEN_SCATTER(out_J_S, 42, 4, w24);
+  GAGEN_SCATTER(out_J_S, 42, 5, w24);
+  GAGEN_SCATTER(out_J_S, 42, 6, w24);
   w1 = -w3;
-  GAGEN_SCATTER(J_S, 42, 7, w1);
+  GAGEN_SCATTER(out_J_S, 42, 7, w1);
   w1 = -w25;
-  GAGEN_SCATTER(J_S, 42, 8, w1);
+  GAGEN_SCATTER(out_J_S, 42, 8, w1);
   w39 = w39 * w3;
   w39 = -w39;
-  GAGEN_SCATTER(J_S, 42, 9, w39);
+  GAGEN_SCATTER(out_J_S, 42, 9, w39);
   w39 = gagen_v_splat(0.666);
   w39 = w39 * w21;
   w39 = -w39;
-  GAGEN_SCATTER(J_S, 42, 10, w39);
-  GAGEN_SCATTER(J_S, 42, 11, w24);
-  GAGEN_SCATTER(J_S, 42, 12, w19);
+  GAGEN_SCATTER(out_J_S, 42, 10, w39);
+  GAGEN_SCATTER(out_J_S, 42, 11, w24);
+  GAGEN_SCATTER(out_J_S, 42, 12, w19);
   w39 = -w36;
-  GAGEN_SCATTER(J_S, 42, 13, w39);
-  GAGEN_SCATTER(J_S, 42, 14, w23);
+  GAGEN_SCATTER(out_J_S, 42, 13, w39);
+  GAGEN_SCATTER(out_J_S, 42, 14, w23);
   w39 = gagen_v_splat(0.1665);
   w21 = gagen_v_splat(0.158);
   w1 = w21 * w19;
@@ -1192,19 +1192,19 @@ static void panda_point_arm0_fk_jacobian_block(const double *restrict q, double 
   w25 = w35 * w25;
   w41 = w41 - w25;
   w41 = -w41;
-  GAGEN_SCATTER(J_S, 42, 15, w41);
+  GAGEN_SCATTER(out_J_S, 42, 15, w41);
   w27 = w23 * w27;
   w27 = w27 + w27;
   w19 = w19 * w3;
   w35 = w35 * w19;
   w27 = w27 - w35;
-  GAGEN_SCATTER(J_S, 42, 16, w27);
-  GAGEN_SCATTER(J_S, 42, 17, w24);
+  GAGEN_SCATTER(out_J_S, 42, 16, w27);
+  GAGEN_SCATTER(out_J_S, 42, 17, w24);
   w24 = w8 * w5;
   w27 = -w24;
-  GAGEN_SCATTER(J_S, 42, 18, w27);
-  GAGEN_SCATTER(J_S, 42, 19, w9);
-  GAGEN_SCATTER(J_S, 42, 20, w32);
+  GAGEN_SCATTER(out_J_S, 42, 18, w27);
+  GAGEN_SCATTER(out_J_S, 42, 19, w9);
+  GAGEN_SCATTER(out_J_S, 42, 20, w32);
   w36 = w21 * w36;
   w27 = gagen_v_splat(0.04125);
   w16 = w27 * w16;
@@ -1217,7 +1217,7 @@ static void panda_point_arm0_fk_jacobian_block(const double *restrict q, double 
   w16 = w16 + w1;
   w16 = w16 + w16;
   w16 = -w16;
-  GAGEN_SCATTER(J_S, 42, 21, w16);
+  GAGEN_SCATTER(out_J_S, 42, 21, w16);
   w21 = w21 * w23;
   w27 = w27 * w20;
   w21 = w21 + w27;
@@ -1225,96 +1225,96 @@ static void panda_point_arm0_fk_jacobian_block(const double *restrict q, double 
   w42 = w32 * w42;
   w24 = w24 - w42;
   w24 = w24 + w24;
-  GAGEN_SCATTER(J_S, 42, 22, w24);
+  GAGEN_SCATTER(out_J_S, 42, 22, w24);
   w21 = w9 * w21;
   w36 = w32 * w36;
   w21 = w21 + w36;
   w21 = -w21;
   w21 = w21 + w21;
-  GAGEN_SCATTER(J_S, 42, 23, w21);
-  GAGEN_SCATTER(J_S, 42, 24, w43);
-  GAGEN_SCATTER(J_S, 42, 25, w28);
-  GAGEN_SCATTER(J_S, 42, 26, w26);
+  GAGEN_SCATTER(out_J_S, 42, 23, w21);
+  GAGEN_SCATTER(out_J_S, 42, 24, w43);
+  GAGEN_SCATTER(out_J_S, 42, 25, w28);
+  GAGEN_SCATTER(out_J_S, 42, 26, w26);
   w10 = w10 + w37;
   w21 = w43 * w10;
   w36 = w28 * w40;
   w21 = w21 + w36;
-  GAGEN_SCATTER(J_S, 42, 27, w21);
+  GAGEN_SCATTER(out_J_S, 42, 27, w21);
   w21 = w26 * w40;
   w12 = w12 + w15;
   w43 = w43 * w12;
   w21 = w21 - w43;
-  GAGEN_SCATTER(J_S, 42, 28, w21);
+  GAGEN_SCATTER(out_J_S, 42, 28, w21);
   w28 = w28 * w12;
   w26 = w26 * w10;
   w28 = w28 + w26;
   w28 = -w28;
-  GAGEN_SCATTER(J_S, 42, 29, w28);
+  GAGEN_SCATTER(out_J_S, 42, 29, w28);
   w44 = w11 * w44;
   w8 = w31 * w8;
   w8 = w8 * w5;
   w44 = w44 - w8;
-  GAGEN_SCATTER(J_S, 42, 30, w44);
+  GAGEN_SCATTER(out_J_S, 42, 30, w44);
   w9 = w31 * w9;
   w17 = w11 * w17;
   w9 = w9 - w17;
-  GAGEN_SCATTER(J_S, 42, 31, w9);
+  GAGEN_SCATTER(out_J_S, 42, 31, w9);
   w31 = w31 * w32;
   w11 = w11 * w18;
   w31 = w31 + w11;
-  GAGEN_SCATTER(J_S, 42, 32, w31);
+  GAGEN_SCATTER(out_J_S, 42, 32, w31);
   w11 = w44 * w10;
   w18 = w9 * w40;
   w11 = w11 + w18;
-  GAGEN_SCATTER(J_S, 42, 33, w11);
+  GAGEN_SCATTER(out_J_S, 42, 33, w11);
   w40 = w31 * w40;
   w44 = w44 * w12;
   w40 = w40 - w44;
-  GAGEN_SCATTER(J_S, 42, 34, w40);
+  GAGEN_SCATTER(out_J_S, 42, 34, w40);
   w9 = w9 * w12;
   w31 = w31 * w10;
   w9 = w9 + w31;
   w9 = -w9;
-  GAGEN_SCATTER(J_S, 42, 35, w9);
+  GAGEN_SCATTER(out_J_S, 42, 35, w9);
   w9 = -w46;
-  GAGEN_SCATTER(J_S, 42, 36, w9);
+  GAGEN_SCATTER(out_J_S, 42, 36, w9);
   w7 = w7 + w14;
   w14 = -w7;
-  GAGEN_SCATTER(J_S, 42, 37, w14);
+  GAGEN_SCATTER(out_J_S, 42, 37, w14);
   w14 = -w30;
-  GAGEN_SCATTER(J_S, 42, 38, w14);
+  GAGEN_SCATTER(out_J_S, 42, 38, w14);
   w33 = w33 + w37;
   w37 = w46 * w33;
   w14 = w7 * w45;
   w37 = w37 + w14;
   w37 = -w37;
-  GAGEN_SCATTER(J_S, 42, 39, w37);
+  GAGEN_SCATTER(out_J_S, 42, 39, w37);
   w46 = w46 * w29;
   w45 = w30 * w45;
   w46 = w46 - w45;
-  GAGEN_SCATTER(J_S, 42, 40, w46);
+  GAGEN_SCATTER(out_J_S, 42, 40, w46);
   w7 = w7 * w29;
   w30 = w30 * w33;
   w7 = w7 + w30;
-  GAGEN_SCATTER(J_S, 42, 41, w7);
+  GAGEN_SCATTER(out_J_S, 42, 41, w7);
 }
 #endif
 
-void panda_point_arm0_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void panda_point_arm0_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 42 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 42 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 42 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 42 * gagen_a + gagen_o, 1, 0);
     }
-    panda_point_arm0_fk_jacobian_block(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+    panda_point_arm0_fk_jacobian_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    panda_point_arm0_fk_jacobian(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    panda_point_arm0_fk_jacobian(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 }
 
@@ -1324,21 +1324,21 @@ void panda_point_arm0_fk_jacobian_batch(long n, const double *restrict q, double
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void panda_point_arm0_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void panda_point_arm0_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   gagen_v w36, w37, w38, w39, w40, w41, w42, w43, w44, w45, w46, w47;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_cos(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w6 * w8;
@@ -1355,7 +1355,7 @@ static void panda_point_arm0_fk_jacobian_block_columns(long gagen_ld, int gagen_
   w16 = w15 * w7;
   w12 = w12 - w16;
   w12 = w12 + w12;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w1 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w12 * w18;
@@ -1382,7 +1382,7 @@ static void panda_point_arm0_fk_jacobian_block_columns(long gagen_ld, int gagen_
   w14 = w14 + w14;
   w16 = w14 * w18;
   w15 = w15 - w16;
-  w9 = GAGEN_GATHER(q, 7, 4);
+  w9 = GAGEN_GATHER(in_q, 7, 4);
   w9 = w1 * w9;
   w11 = gagen_v_cos(w9);
   w13 = w15 * w11;
@@ -1405,7 +1405,7 @@ static void panda_point_arm0_fk_jacobian_block_columns(long gagen_ld, int gagen_
   w20 = w20 - w12;
   w12 = w20 * w9;
   w23 = w23 - w12;
-  w14 = GAGEN_GATHER(q, 7, 5);
+  w14 = GAGEN_GATHER(in_q, 7, 5);
   w14 = w1 * w14;
   w6 = gagen_v_cos(w14);
   w16 = w23 * w6;
@@ -1429,7 +1429,7 @@ static void panda_point_arm0_fk_jacobian_block_columns(long gagen_ld, int gagen_
   w15 = w15 - w21;
   w21 = w15 * w14;
   w26 = w26 - w21;
-  w19 = GAGEN_GATHER(q, 7, 6);
+  w19 = GAGEN_GATHER(in_q, 7, 6);
   w19 = w1 * w19;
   w20 = gagen_v_cos(w19);
   w22 = w26 * w20;
@@ -1444,12 +1444,12 @@ static void panda_point_arm0_fk_jacobian_block_columns(long gagen_ld, int gagen_
   w27 = w13 * w19;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w13 = w13 * w20;
   w26 = w26 * w19;
   w13 = w13 - w26;
   w13 = w0 * w13;
-  GAGEN_SCATTER(M, 8, 1, w13);
+  GAGEN_SCATTER(out_M, 8, 1, w13);
   w23 = w23 + w15;
   w23 = w23 + w10;
   w23 = w23 - w24;
@@ -1460,12 +1460,12 @@ static void panda_point_arm0_fk_jacobian_block_columns(long gagen_ld, int gagen_
   w21 = w12 * w19;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w12 = w12 * w20;
   w23 = w23 * w19;
   w12 = w12 - w23;
   w0 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w12 = gagen_v_splat(0.0825);
   w23 = w8 * w8;
   w19 = w7 * w7;
@@ -1610,14 +1610,14 @@ static void panda_point_arm0_fk_jacobian_block_columns(long gagen_ld, int gagen_
   w6 = w27 * w22;
   w38 = w38 - w6;
   w38 = w1 * w38;
-  GAGEN_SCATTER(M, 8, 4, w38);
+  GAGEN_SCATTER(out_M, 8, 4, w38);
   w38 = w41 * w0;
   w6 = w27 * w13;
   w38 = w38 - w6;
   w6 = w34 * w22;
   w38 = w38 - w6;
   w38 = w1 * w38;
-  GAGEN_SCATTER(M, 8, 5, w38);
+  GAGEN_SCATTER(out_M, 8, 5, w38);
   w38 = w27 * w24;
   w6 = w34 * w0;
   w38 = w38 + w6;
@@ -1625,50 +1625,50 @@ static void panda_point_arm0_fk_jacobian_block_columns(long gagen_ld, int gagen_
   w38 = w38 + w22;
   w38 = w1 * w38;
   w38 = -w38;
-  GAGEN_SCATTER(M, 8, 6, w38);
+  GAGEN_SCATTER(out_M, 8, 6, w38);
   w24 = w34 * w24;
   w0 = w27 * w0;
   w24 = w24 - w0;
   w13 = w41 * w13;
   w24 = w24 - w13;
   w24 = w1 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w27);
-  GAGEN_SCATTER(P, 5, 2, w34);
-  GAGEN_SCATTER(P, 5, 3, w41);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w27);
+  GAGEN_SCATTER(out_P, 5, 2, w34);
+  GAGEN_SCATTER(out_P, 5, 3, w41);
   w27 = w27 * w27;
   w34 = w34 * w34;
   w27 = w27 + w34;
   w41 = w41 * w41;
   w27 = w27 + w41;
   w1 = w1 * w27;
-  GAGEN_SCATTER(P, 5, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 0, w24);
   w24 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w24);
-  GAGEN_SCATTER(J_S, 42, 2, w24);
-  GAGEN_SCATTER(J_S, 42, 3, w24);
-  GAGEN_SCATTER(J_S, 42, 4, w24);
-  GAGEN_SCATTER(J_S, 42, 5, w24);
-  GAGEN_SCATTER(J_S, 42, 6, w24);
+  GAGEN_SCATTER(out_J_S, 42, 1, w24);
+  GAGEN_SCATTER(out_J_S, 42, 2, w24);
+  GAGEN_SCATTER(out_J_S, 42, 3, w24);
+  GAGEN_SCATTER(out_J_S, 42, 4, w24);
+  GAGEN_SCATTER(out_J_S, 42, 5, w24);
+  GAGEN_SCATTER(out_J_S, 42, 6, w24);
   w1 = -w3;
-  GAGEN_SCATTER(J_S, 42, 7, w1);
+  GAGEN_SCATTER(out_J_S, 42, 7, w1);
   w1 = -w25;
-  GAGEN_SCATTER(J_S, 42, 8, w1);
+  GAGEN_SCATTER(out_J_S, 42, 8, w1);
   w39 = w39 * w3;
   w39 = -w39;
-  GAGEN_SCATTER(J_S, 42, 9, w39);
+  GAGEN_SCATTER(out_J_S, 42, 9, w39);
   w39 = gagen_v_splat(0.666);
   w39 = w39 * w21;
   w39 = -w39;
-  GAGEN_SCATTER(J_S, 42, 10, w39);
-  GAGEN_SCATTER(J_S, 42, 11, w24);
-  GAGEN_SCATTER(J_S, 42, 12, w19);
+  GAGEN_SCATTER(out_J_S, 42, 10, w39);
+  GAGEN_SCATTER(out_J_S, 42, 11, w24);
+  GAGEN_SCATTER(out_J_S, 42, 12, w19);
   w39 = -w36;
-  GAGEN_SCATTER(J_S, 42, 13, w39);
-  GAGEN_SCATTER(J_S, 42, 14, w23);
+  GAGEN_SCATTER(out_J_S, 42, 13, w39);
+  GAGEN_SCATTER(out_J_S, 42, 14, w23);
   w39 = gagen_v_splat(0.1665);
   w21 = gagen_v_splat(0.158);
   w1 = w21 * w19;
@@ -1680,19 +1680,19 @@ static void panda_point_arm0_fk_jacobian_block_columns(long gagen_ld, int gagen_
   w25 = w35 * w25;
   w41 = w41 - w25;
   w41 = -w41;
-  GAGEN_SCATTER(J_S, 42, 15, w41);
+  GAGEN_SCATTER(out_J_S, 42, 15, w41);
   w27 = w23 * w27;
   w27 = w27 + w27;
   w19 = w19 * w3;
   w35 = w35 * w19;
   w27 = w27 - w35;
-  GAGEN_SCATTER(J_S, 42, 16, w27);
-  GAGEN_SCATTER(J_S, 42, 17, w24);
+  GAGEN_SCATTER(out_J_S, 42, 16, w27);
+  GAGEN_SCATTER(out_J_S, 42, 17, w24);
   w24 = w8 * w5;
   w27 = -w24;
-  GAGEN_SCATTER(J_S, 42, 18, w27);
-  GAGEN_SCATTER(J_S, 42, 19, w9);
-  GAGEN_SCATTER(J_S, 42, 20, w32);
+  GAGEN_SCATTER(out_J_S, 42, 18, w27);
+  GAGEN_SCATTER(out_J_S, 42, 19, w9);
+  GAGEN_SCATTER(out_J_S, 42, 20, w32);
   w36 = w21 * w36;
   w27 = gagen_v_splat(0.04125);
   w16 = w27 * w16;
@@ -1705,7 +1705,7 @@ static void panda_point_arm0_fk_jacobian_block_columns(long gagen_ld, int gagen_
   w16 = w16 + w1;
   w16 = w16 + w16;
   w16 = -w16;
-  GAGEN_SCATTER(J_S, 42, 21, w16);
+  GAGEN_SCATTER(out_J_S, 42, 21, w16);
   w21 = w21 * w23;
   w27 = w27 * w20;
   w21 = w21 + w27;
@@ -1713,78 +1713,78 @@ static void panda_point_arm0_fk_jacobian_block_columns(long gagen_ld, int gagen_
   w42 = w32 * w42;
   w24 = w24 - w42;
   w24 = w24 + w24;
-  GAGEN_SCATTER(J_S, 42, 22, w24);
+  GAGEN_SCATTER(out_J_S, 42, 22, w24);
   w21 = w9 * w21;
   w36 = w32 * w36;
   w21 = w21 + w36;
   w21 = -w21;
   w21 = w21 + w21;
-  GAGEN_SCATTER(J_S, 42, 23, w21);
-  GAGEN_SCATTER(J_S, 42, 24, w43);
-  GAGEN_SCATTER(J_S, 42, 25, w28);
-  GAGEN_SCATTER(J_S, 42, 26, w26);
+  GAGEN_SCATTER(out_J_S, 42, 23, w21);
+  GAGEN_SCATTER(out_J_S, 42, 24, w43);
+  GAGEN_SCATTER(out_J_S, 42, 25, w28);
+  GAGEN_SCATTER(out_J_S, 42, 26, w26);
   w10 = w10 + w37;
   w21 = w43 * w10;
   w36 = w28 * w40;
   w21 = w21 + w36;
-  GAGEN_SCATTER(J_S, 42, 27, w21);
+  GAGEN_SCATTER(out_J_S, 42, 27, w21);
   w21 = w26 * w40;
   w12 = w12 + w15;
   w43 = w43 * w12;
   w21 = w21 - w43;
-  GAGEN_SCATTER(J_S, 42, 28, w21);
+  GAGEN_SCATTER(out_J_S, 42, 28, w21);
   w28 = w28 * w12;
   w26 = w26 * w10;
   w28 = w28 + w26;
   w28 = -w28;
-  GAGEN_SCATTER(J_S, 42, 29, w28);
+  GAGEN_SCATTER(out_J_S, 42, 29, w28);
   w44 = w11 * w44;
   w8 = w31 * w8;
   w8 = w8 * w5;
   w44 = w44 - w8;
-  GAGEN_SCATTER(J_S, 42, 30, w44);
+  GAGEN_SCATTER(out_J_S, 42, 30, w44);
   w9 = w31 * w9;
   w17 = w11 * w17;
   w9 = w9 - w17;
-  GAGEN_SCATTER(J_S, 42, 31, w9);
+  GAGEN_SCATTER(out_J_S, 42, 31, w9);
   w31 = w31 * w32;
   w11 = w11 * w18;
   w31 = w31 + w11;
-  GAGEN_SCATTER(J_S, 42, 32, w31);
+  GAGEN_SCATTER(out_J_S, 42, 32, w31);
   w11 = w44 * w10;
   w18 = w9 * w40;
   w11 = w11 + w18;
-  GAGEN_SCATTER(J_S, 42, 33, w11);
+  GAGEN_SCATTER(out_J_S, 42, 33, w11);
   w40 = w31 * w40;
   w44 = w44 * w12;
   w40 = w40 - w44;
-  GAGEN_SCATTER(J_S, 42, 34, w40);
+  GAGEN_SCATTER(out_J_S, 42, 34, w40);
   w9 = w9 * w12;
   w31 = w31 * w10;
   w9 = w9 + w31;
   w9 = -w9;
-  GAGEN_SCATTER(J_S, 42, 35, w9);
+  GAGEN_SCATTER(out_J_S, 42, 35, w9);
   w9 = -w46;
-  GAGEN_SCATTER(J_S, 42, 36, w9);
+  GAGEN_SCATTER(out_J_S, 42, 36, w9);
   w7 = w7 + w14;
   w14 = -w7;
-  GAGEN_SCATTER(J_S, 42, 37, w14);
+  GAGEN_SCATTER(out_J_S, 42, 37, w14);
   w14 = -w30;
-  GAGEN_SCATTER(J_S, 42, 38, w14);
+  GAGEN_SCATTER(out_J_S, 42, 38, w14);
   w33 = w33 + w37;
   w37 = w46 * w33;
   w14 = w7 * w45;
   w37 = w37 + w14;
   w37 = -w37;
-  GAGEN_SCATTER(J_S, 42, 39, w37);
+  GAGEN_SCATTER(out_J_S, 42, 39, w37);
   w46 = w46 * w29;
   w45 = w30 * w45;
   w46 = w46 - w45;
-  GAGEN_SCATTER(J_S, 42, 40, w46);
+  GAGEN_SCATTER(out_J_S, 42, 40, w46);
   w7 = w7 * w29;
   w30 = w30 * w33;
   w7 = w7 + w30;
-  GAGEN_SCATTER(J_S, 42, 41, w7);
+  GAGEN_SCATTER(out_J_S, 42, 41, w7);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -1792,49 +1792,49 @@ static void panda_point_arm0_fk_jacobian_block_columns(long gagen_ld, int gagen_
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void panda_point_arm0_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void panda_point_arm0_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    panda_point_arm0_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    panda_point_arm0_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  panda_point_arm0_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  panda_point_arm0_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }
 
 #if GAGEN_SIMD
 /* the cooperative point X_c(q) and J_c: GAGEN_W consecutive samples at once */
-static void panda_point_primitive_block(const double *restrict q, double *restrict X_c, double *restrict J_c) {
+static void panda_point_primitive_block(const double *restrict in_q, double *restrict out_X_c, double *restrict out_J_c) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   gagen_v w36, w37, w38, w39, w40, w41, w42, w43;
-  GAGEN_SCATTER(J_c, 35, 0, gagen_v_splat(0.0));
-  GAGEN_SCATTER(J_c, 35, 5, gagen_v_splat(0.0));
-  GAGEN_SCATTER(J_c, 35, 10, gagen_v_splat(0.0));
-  GAGEN_SCATTER(J_c, 35, 15, gagen_v_splat(0.0));
-  GAGEN_SCATTER(J_c, 35, 20, gagen_v_splat(0.0));
-  GAGEN_SCATTER(J_c, 35, 25, gagen_v_splat(0.0));
-  GAGEN_SCATTER(J_c, 35, 30, gagen_v_splat(0.0));
+  GAGEN_SCATTER(out_J_c, 35, 0, gagen_v_splat(0.0));
+  GAGEN_SCATTER(out_J_c, 35, 5, gagen_v_splat(0.0));
+  GAGEN_SCATTER(out_J_c, 35, 10, gagen_v_splat(0.0));
+  GAGEN_SCATTER(out_J_c, 35, 15, gagen_v_splat(0.0));
+  GAGEN_SCATTER(out_J_c, 35, 20, gagen_v_splat(0.0));
+  GAGEN_SCATTER(out_J_c, 35, 25, gagen_v_splat(0.0));
+  GAGEN_SCATTER(out_J_c, 35, 30, gagen_v_splat(0.0));
   w0 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(X_c, 5, 0, w0);
+  GAGEN_SCATTER(out_X_c, 5, 0, w0);
   w0 = gagen_v_splat(0.5);
   w1 = gagen_v_splat(0.0825);
-  w2 = GAGEN_GATHER(q, 7, 2);
+  w2 = GAGEN_GATHER(in_q, 7, 2);
   w3 = gagen_v_cos(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 0);
+  w7 = GAGEN_GATHER(in_q, 7, 0);
   w8 = gagen_v_cos(w7);
   w9 = w6 * w8;
   w2 = gagen_v_sin(w2);
   w7 = gagen_v_sin(w7);
   w10 = w2 * w7;
   w9 = w9 - w10;
-  w10 = GAGEN_GATHER(q, 7, 3);
+  w10 = GAGEN_GATHER(in_q, 7, 3);
   w11 = gagen_v_sin(w10);
   w4 = gagen_v_sin(w4);
   w12 = w11 * w4;
@@ -1852,9 +1852,9 @@ static void panda_point_primitive_block(const double *restrict q, double *restri
   w19 = w16 * w18;
   w14 = w14 + w19;
   w19 = gagen_v_splat(0.088);
-  w20 = GAGEN_GATHER(q, 7, 5);
+  w20 = GAGEN_GATHER(in_q, 7, 5);
   w21 = gagen_v_cos(w20);
-  w22 = GAGEN_GATHER(q, 7, 4);
+  w22 = GAGEN_GATHER(in_q, 7, 4);
   w23 = gagen_v_cos(w22);
   w15 = w15 + w13;
   w13 = w23 * w15;
@@ -1885,7 +1885,7 @@ static void panda_point_primitive_block(const double *restrict q, double *restri
   w32 = -w32;
   w32 = w32 + w32;
   w32 = -w32;
-  GAGEN_SCATTER(X_c, 5, 1, w32);
+  GAGEN_SCATTER(out_X_c, 5, 1, w32);
   w6 = w6 * w7;
   w32 = w2 * w8;
   w6 = w6 + w32;
@@ -1924,7 +1924,7 @@ static void panda_point_primitive_block(const double *restrict q, double *restri
   w39 = -w39;
   w39 = w39 + w39;
   w39 = -w39;
-  GAGEN_SCATTER(X_c, 5, 2, w39);
+  GAGEN_SCATTER(out_X_c, 5, 2, w39);
   w39 = gagen_v_splat(0.333);
   w27 = w27 * w5;
   w27 = w39 + w27;
@@ -1961,64 +1961,64 @@ static void panda_point_primitive_block(const double *restrict q, double *restri
   w20 = -w20;
   w20 = w20 + w20;
   w20 = -w20;
-  GAGEN_SCATTER(X_c, 5, 3, w20);
+  GAGEN_SCATTER(out_X_c, 5, 3, w20);
   w20 = w13 * w13;
   w40 = w36 * w36;
   w20 = w20 + w40;
   w40 = w30 * w30;
   w20 = w20 + w40;
   w0 = w0 * w20;
-  GAGEN_SCATTER(X_c, 5, 4, w0);
+  GAGEN_SCATTER(out_X_c, 5, 4, w0);
   w0 = -w36;
-  GAGEN_SCATTER(J_c, 35, 1, w0);
-  GAGEN_SCATTER(J_c, 35, 2, w13);
+  GAGEN_SCATTER(out_J_c, 35, 1, w0);
+  GAGEN_SCATTER(out_J_c, 35, 2, w13);
   w0 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_c, 35, 3, w0);
-  GAGEN_SCATTER(J_c, 35, 4, w0);
+  GAGEN_SCATTER(out_J_c, 35, 3, w0);
+  GAGEN_SCATTER(out_J_c, 35, 4, w0);
   w0 = w30 * w8;
   w20 = w39 * w8;
   w0 = w0 - w20;
-  GAGEN_SCATTER(J_c, 35, 6, w0);
+  GAGEN_SCATTER(out_J_c, 35, 6, w0);
   w20 = w30 * w7;
   w40 = w39 * w7;
   w20 = w20 - w40;
-  GAGEN_SCATTER(J_c, 35, 7, w20);
+  GAGEN_SCATTER(out_J_c, 35, 7, w20);
   w40 = w36 * w7;
   w16 = w13 * w8;
   w40 = w40 + w16;
   w16 = -w40;
-  GAGEN_SCATTER(J_c, 35, 8, w16);
+  GAGEN_SCATTER(out_J_c, 35, 8, w16);
   w0 = w13 * w0;
   w20 = w36 * w20;
   w0 = w0 + w20;
   w40 = w30 * w40;
   w0 = w0 - w40;
-  GAGEN_SCATTER(J_c, 35, 9, w0);
+  GAGEN_SCATTER(out_J_c, 35, 9, w0);
   w0 = w30 * w4;
   w40 = w0 * w7;
   w20 = w39 * w37;
   w16 = w36 * w5;
   w20 = w20 + w16;
   w40 = w40 - w20;
-  GAGEN_SCATTER(J_c, 35, 11, w40);
+  GAGEN_SCATTER(out_J_c, 35, 11, w40);
   w20 = w13 * w5;
   w0 = w0 * w8;
   w20 = w20 - w0;
   w39 = w39 * w28;
   w20 = w20 + w39;
-  GAGEN_SCATTER(J_c, 35, 12, w20);
+  GAGEN_SCATTER(out_J_c, 35, 12, w20);
   w39 = w36 * w4;
   w39 = w39 * w8;
   w8 = w13 * w4;
   w8 = w8 * w7;
   w39 = w39 - w8;
-  GAGEN_SCATTER(J_c, 35, 13, w39);
+  GAGEN_SCATTER(out_J_c, 35, 13, w39);
   w40 = w13 * w40;
   w20 = w36 * w20;
   w40 = w40 + w20;
   w39 = w30 * w39;
   w40 = w40 + w39;
-  GAGEN_SCATTER(J_c, 35, 14, w40);
+  GAGEN_SCATTER(out_J_c, 35, 14, w40);
   w40 = w30 * w35;
   w39 = w36 * w2;
   w39 = w39 * w4;
@@ -2040,7 +2040,7 @@ static void panda_point_primitive_block(const double *restrict q, double *restri
   w6 = w6 + w6;
   w40 = w40 + w6;
   w6 = -w40;
-  GAGEN_SCATTER(J_c, 35, 16, w6);
+  GAGEN_SCATTER(out_J_c, 35, 16, w6);
   w20 = w20 * w28;
   w8 = w8 * w9;
   w20 = w20 + w8;
@@ -2053,7 +2053,7 @@ static void panda_point_primitive_block(const double *restrict q, double *restri
   w39 = w39 - w41;
   w41 = w30 * w25;
   w39 = w39 - w41;
-  GAGEN_SCATTER(J_c, 35, 17, w39);
+  GAGEN_SCATTER(out_J_c, 35, 17, w39);
   w41 = w13 * w35;
   w8 = w36 * w25;
   w41 = w41 + w8;
@@ -2063,13 +2063,13 @@ static void panda_point_primitive_block(const double *restrict q, double *restri
   w20 = -w20;
   w20 = w20 + w20;
   w41 = w41 + w20;
-  GAGEN_SCATTER(J_c, 35, 18, w41);
+  GAGEN_SCATTER(out_J_c, 35, 18, w41);
   w39 = w36 * w39;
   w40 = w13 * w40;
   w39 = w39 - w40;
   w41 = w30 * w41;
   w39 = w39 + w41;
-  GAGEN_SCATTER(J_c, 35, 19, w39);
+  GAGEN_SCATTER(out_J_c, 35, 19, w39);
   w32 = w32 + w38;
   w39 = w10 * w32;
   w41 = w34 * w27;
@@ -2078,7 +2078,7 @@ static void panda_point_primitive_block(const double *restrict q, double *restri
   w39 = w39 - w41;
   w41 = w30 * w34;
   w39 = w39 - w41;
-  GAGEN_SCATTER(J_c, 35, 21, w39);
+  GAGEN_SCATTER(out_J_c, 35, 21, w39);
   w41 = w18 * w27;
   w40 = w13 * w10;
   w41 = w41 + w40;
@@ -2087,7 +2087,7 @@ static void panda_point_primitive_block(const double *restrict q, double *restri
   w41 = w41 - w10;
   w10 = w30 * w18;
   w41 = w41 - w10;
-  GAGEN_SCATTER(J_c, 35, 22, w41);
+  GAGEN_SCATTER(out_J_c, 35, 22, w41);
   w10 = w13 * w34;
   w29 = w36 * w18;
   w10 = w10 + w29;
@@ -2095,13 +2095,13 @@ static void panda_point_primitive_block(const double *restrict q, double *restri
   w10 = w10 - w34;
   w18 = w18 * w32;
   w10 = w10 - w18;
-  GAGEN_SCATTER(J_c, 35, 23, w10);
+  GAGEN_SCATTER(out_J_c, 35, 23, w10);
   w39 = w13 * w39;
   w41 = w36 * w41;
   w39 = w39 + w41;
   w10 = w30 * w10;
   w39 = w39 + w10;
-  GAGEN_SCATTER(J_c, 35, 24, w39);
+  GAGEN_SCATTER(out_J_c, 35, 24, w39);
   w43 = w22 * w43;
   w2 = w23 * w2;
   w2 = w2 * w4;
@@ -2116,7 +2116,7 @@ static void panda_point_primitive_block(const double *restrict q, double *restri
   w2 = w2 - w33;
   w33 = w30 * w35;
   w2 = w2 - w33;
-  GAGEN_SCATTER(J_c, 35, 26, w2);
+  GAGEN_SCATTER(out_J_c, 35, 26, w2);
   w23 = w23 * w25;
   w22 = w22 * w15;
   w23 = w23 + w22;
@@ -2127,7 +2127,7 @@ static void panda_point_primitive_block(const double *restrict q, double *restri
   w27 = w27 - w43;
   w43 = w30 * w23;
   w27 = w27 - w43;
-  GAGEN_SCATTER(J_c, 35, 27, w27);
+  GAGEN_SCATTER(out_J_c, 35, 27, w27);
   w43 = w13 * w35;
   w22 = w36 * w23;
   w43 = w43 + w22;
@@ -2135,13 +2135,13 @@ static void panda_point_primitive_block(const double *restrict q, double *restri
   w43 = w43 - w35;
   w23 = w23 * w32;
   w43 = w43 - w23;
-  GAGEN_SCATTER(J_c, 35, 28, w43);
+  GAGEN_SCATTER(out_J_c, 35, 28, w43);
   w2 = w13 * w2;
   w27 = w36 * w27;
   w2 = w2 + w27;
   w43 = w30 * w43;
   w2 = w2 + w43;
-  GAGEN_SCATTER(J_c, 35, 29, w2);
+  GAGEN_SCATTER(out_J_c, 35, 29, w2);
   w2 = w36 * w21;
   w24 = w24 + w38;
   w38 = w21 * w24;
@@ -2151,7 +2151,7 @@ static void panda_point_primitive_block(const double *restrict q, double *restri
   w2 = w2 - w38;
   w38 = w30 * w12;
   w2 = w2 + w38;
-  GAGEN_SCATTER(J_c, 35, 31, w2);
+  GAGEN_SCATTER(out_J_c, 35, 31, w2);
   w38 = w21 * w26;
   w19 = w31 * w19;
   w21 = w13 * w21;
@@ -2159,7 +2159,7 @@ static void panda_point_primitive_block(const double *restrict q, double *restri
   w38 = w38 - w19;
   w19 = w30 * w31;
   w38 = w38 + w19;
-  GAGEN_SCATTER(J_c, 35, 32, w38);
+  GAGEN_SCATTER(out_J_c, 35, 32, w38);
   w26 = w12 * w26;
   w12 = w13 * w12;
   w19 = w36 * w31;
@@ -2167,30 +2167,30 @@ static void panda_point_primitive_block(const double *restrict q, double *restri
   w26 = w26 - w12;
   w31 = w31 * w24;
   w26 = w26 + w31;
-  GAGEN_SCATTER(J_c, 35, 33, w26);
+  GAGEN_SCATTER(out_J_c, 35, 33, w26);
   w13 = w13 * w2;
   w36 = w36 * w38;
   w13 = w13 + w36;
   w30 = w30 * w26;
   w13 = w13 + w30;
-  GAGEN_SCATTER(J_c, 35, 34, w13);
+  GAGEN_SCATTER(out_J_c, 35, 34, w13);
 }
 #endif
 
-void panda_point_primitive_batch(long n, const double *restrict q, double *restrict X_c, double *restrict J_c) {
-  long s = 0;
+void panda_point_primitive_batch(long gagen_n, const double *restrict in_q, double *restrict out_X_c, double *restrict out_J_c) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(X_c + 5 * a + o, 1, 0);
-      for (int o = 0; o < 35 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_c + 35 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_X_c + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 35 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_c + 35 * gagen_a + gagen_o, 1, 0);
     }
-    panda_point_primitive_block(q + 7 * s, X_c + 5 * s, J_c + 35 * s);
+    panda_point_primitive_block(in_q + 7 * gagen_s, out_X_c + 5 * gagen_s, out_J_c + 35 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    panda_point_primitive(q + 7 * s, X_c + 5 * s, J_c + 35 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    panda_point_primitive(in_q + 7 * gagen_s, out_X_c + 5 * gagen_s, out_J_c + 35 * gagen_s);
   }
 }
 
@@ -2200,35 +2200,35 @@ void panda_point_primitive_batch(long n, const double *restrict q, double *restr
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void panda_point_primitive_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict X_c, double *restrict J_c) {
+static void panda_point_primitive_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_X_c, double *restrict out_J_c) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   gagen_v w36, w37, w38, w39, w40, w41, w42, w43;
-  GAGEN_SCATTER(J_c, 35, 0, gagen_v_splat(0.0));
-  GAGEN_SCATTER(J_c, 35, 5, gagen_v_splat(0.0));
-  GAGEN_SCATTER(J_c, 35, 10, gagen_v_splat(0.0));
-  GAGEN_SCATTER(J_c, 35, 15, gagen_v_splat(0.0));
-  GAGEN_SCATTER(J_c, 35, 20, gagen_v_splat(0.0));
-  GAGEN_SCATTER(J_c, 35, 25, gagen_v_splat(0.0));
-  GAGEN_SCATTER(J_c, 35, 30, gagen_v_splat(0.0));
+  GAGEN_SCATTER(out_J_c, 35, 0, gagen_v_splat(0.0));
+  GAGEN_SCATTER(out_J_c, 35, 5, gagen_v_splat(0.0));
+  GAGEN_SCATTER(out_J_c, 35, 10, gagen_v_splat(0.0));
+  GAGEN_SCATTER(out_J_c, 35, 15, gagen_v_splat(0.0));
+  GAGEN_SCATTER(out_J_c, 35, 20, gagen_v_splat(0.0));
+  GAGEN_SCATTER(out_J_c, 35, 25, gagen_v_splat(0.0));
+  GAGEN_SCATTER(out_J_c, 35, 30, gagen_v_splat(0.0));
   w0 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(X_c, 5, 0, w0);
+  GAGEN_SCATTER(out_X_c, 5, 0, w0);
   w0 = gagen_v_splat(0.5);
   w1 = gagen_v_splat(0.0825);
-  w2 = GAGEN_GATHER(q, 7, 2);
+  w2 = GAGEN_GATHER(in_q, 7, 2);
   w3 = gagen_v_cos(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 0);
+  w7 = GAGEN_GATHER(in_q, 7, 0);
   w8 = gagen_v_cos(w7);
   w9 = w6 * w8;
   w2 = gagen_v_sin(w2);
   w7 = gagen_v_sin(w7);
   w10 = w2 * w7;
   w9 = w9 - w10;
-  w10 = GAGEN_GATHER(q, 7, 3);
+  w10 = GAGEN_GATHER(in_q, 7, 3);
   w11 = gagen_v_sin(w10);
   w4 = gagen_v_sin(w4);
   w12 = w11 * w4;
@@ -2246,9 +2246,9 @@ static void panda_point_primitive_block_columns(long gagen_ld, int gagen_stream,
   w19 = w16 * w18;
   w14 = w14 + w19;
   w19 = gagen_v_splat(0.088);
-  w20 = GAGEN_GATHER(q, 7, 5);
+  w20 = GAGEN_GATHER(in_q, 7, 5);
   w21 = gagen_v_cos(w20);
-  w22 = GAGEN_GATHER(q, 7, 4);
+  w22 = GAGEN_GATHER(in_q, 7, 4);
   w23 = gagen_v_cos(w22);
   w15 = w15 + w13;
   w13 = w23 * w15;
@@ -2279,7 +2279,7 @@ static void panda_point_primitive_block_columns(long gagen_ld, int gagen_stream,
   w32 = -w32;
   w32 = w32 + w32;
   w32 = -w32;
-  GAGEN_SCATTER(X_c, 5, 1, w32);
+  GAGEN_SCATTER(out_X_c, 5, 1, w32);
   w6 = w6 * w7;
   w32 = w2 * w8;
   w6 = w6 + w32;
@@ -2318,7 +2318,7 @@ static void panda_point_primitive_block_columns(long gagen_ld, int gagen_stream,
   w39 = -w39;
   w39 = w39 + w39;
   w39 = -w39;
-  GAGEN_SCATTER(X_c, 5, 2, w39);
+  GAGEN_SCATTER(out_X_c, 5, 2, w39);
   w39 = gagen_v_splat(0.333);
   w27 = w27 * w5;
   w27 = w39 + w27;
@@ -2355,64 +2355,64 @@ static void panda_point_primitive_block_columns(long gagen_ld, int gagen_stream,
   w20 = -w20;
   w20 = w20 + w20;
   w20 = -w20;
-  GAGEN_SCATTER(X_c, 5, 3, w20);
+  GAGEN_SCATTER(out_X_c, 5, 3, w20);
   w20 = w13 * w13;
   w40 = w36 * w36;
   w20 = w20 + w40;
   w40 = w30 * w30;
   w20 = w20 + w40;
   w0 = w0 * w20;
-  GAGEN_SCATTER(X_c, 5, 4, w0);
+  GAGEN_SCATTER(out_X_c, 5, 4, w0);
   w0 = -w36;
-  GAGEN_SCATTER(J_c, 35, 1, w0);
-  GAGEN_SCATTER(J_c, 35, 2, w13);
+  GAGEN_SCATTER(out_J_c, 35, 1, w0);
+  GAGEN_SCATTER(out_J_c, 35, 2, w13);
   w0 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_c, 35, 3, w0);
-  GAGEN_SCATTER(J_c, 35, 4, w0);
+  GAGEN_SCATTER(out_J_c, 35, 3, w0);
+  GAGEN_SCATTER(out_J_c, 35, 4, w0);
   w0 = w30 * w8;
   w20 = w39 * w8;
   w0 = w0 - w20;
-  GAGEN_SCATTER(J_c, 35, 6, w0);
+  GAGEN_SCATTER(out_J_c, 35, 6, w0);
   w20 = w30 * w7;
   w40 = w39 * w7;
   w20 = w20 - w40;
-  GAGEN_SCATTER(J_c, 35, 7, w20);
+  GAGEN_SCATTER(out_J_c, 35, 7, w20);
   w40 = w36 * w7;
   w16 = w13 * w8;
   w40 = w40 + w16;
   w16 = -w40;
-  GAGEN_SCATTER(J_c, 35, 8, w16);
+  GAGEN_SCATTER(out_J_c, 35, 8, w16);
   w0 = w13 * w0;
   w20 = w36 * w20;
   w0 = w0 + w20;
   w40 = w30 * w40;
   w0 = w0 - w40;
-  GAGEN_SCATTER(J_c, 35, 9, w0);
+  GAGEN_SCATTER(out_J_c, 35, 9, w0);
   w0 = w30 * w4;
   w40 = w0 * w7;
   w20 = w39 * w37;
   w16 = w36 * w5;
   w20 = w20 + w16;
   w40 = w40 - w20;
-  GAGEN_SCATTER(J_c, 35, 11, w40);
+  GAGEN_SCATTER(out_J_c, 35, 11, w40);
   w20 = w13 * w5;
   w0 = w0 * w8;
   w20 = w20 - w0;
   w39 = w39 * w28;
   w20 = w20 + w39;
-  GAGEN_SCATTER(J_c, 35, 12, w20);
+  GAGEN_SCATTER(out_J_c, 35, 12, w20);
   w39 = w36 * w4;
   w39 = w39 * w8;
   w8 = w13 * w4;
   w8 = w8 * w7;
   w39 = w39 - w8;
-  GAGEN_SCATTER(J_c, 35, 13, w39);
+  GAGEN_SCATTER(out_J_c, 35, 13, w39);
   w40 = w13 * w40;
   w20 = w36 * w20;
   w40 = w40 + w20;
   w39 = w30 * w39;
   w40 = w40 + w39;
-  GAGEN_SCATTER(J_c, 35, 14, w40);
+  GAGEN_SCATTER(out_J_c, 35, 14, w40);
   w40 = w30 * w35;
   w39 = w36 * w2;
   w39 = w39 * w4;
@@ -2434,7 +2434,7 @@ static void panda_point_primitive_block_columns(long gagen_ld, int gagen_stream,
   w6 = w6 + w6;
   w40 = w40 + w6;
   w6 = -w40;
-  GAGEN_SCATTER(J_c, 35, 16, w6);
+  GAGEN_SCATTER(out_J_c, 35, 16, w6);
   w20 = w20 * w28;
   w8 = w8 * w9;
   w20 = w20 + w8;
@@ -2447,7 +2447,7 @@ static void panda_point_primitive_block_columns(long gagen_ld, int gagen_stream,
   w39 = w39 - w41;
   w41 = w30 * w25;
   w39 = w39 - w41;
-  GAGEN_SCATTER(J_c, 35, 17, w39);
+  GAGEN_SCATTER(out_J_c, 35, 17, w39);
   w41 = w13 * w35;
   w8 = w36 * w25;
   w41 = w41 + w8;
@@ -2457,13 +2457,13 @@ static void panda_point_primitive_block_columns(long gagen_ld, int gagen_stream,
   w20 = -w20;
   w20 = w20 + w20;
   w41 = w41 + w20;
-  GAGEN_SCATTER(J_c, 35, 18, w41);
+  GAGEN_SCATTER(out_J_c, 35, 18, w41);
   w39 = w36 * w39;
   w40 = w13 * w40;
   w39 = w39 - w40;
   w41 = w30 * w41;
   w39 = w39 + w41;
-  GAGEN_SCATTER(J_c, 35, 19, w39);
+  GAGEN_SCATTER(out_J_c, 35, 19, w39);
   w32 = w32 + w38;
   w39 = w10 * w32;
   w41 = w34 * w27;
@@ -2472,7 +2472,7 @@ static void panda_point_primitive_block_columns(long gagen_ld, int gagen_stream,
   w39 = w39 - w41;
   w41 = w30 * w34;
   w39 = w39 - w41;
-  GAGEN_SCATTER(J_c, 35, 21, w39);
+  GAGEN_SCATTER(out_J_c, 35, 21, w39);
   w41 = w18 * w27;
   w40 = w13 * w10;
   w41 = w41 + w40;
@@ -2481,7 +2481,7 @@ static void panda_point_primitive_block_columns(long gagen_ld, int gagen_stream,
   w41 = w41 - w10;
   w10 = w30 * w18;
   w41 = w41 - w10;
-  GAGEN_SCATTER(J_c, 35, 22, w41);
+  GAGEN_SCATTER(out_J_c, 35, 22, w41);
   w10 = w13 * w34;
   w29 = w36 * w18;
   w10 = w10 + w29;
@@ -2489,13 +2489,13 @@ static void panda_point_primitive_block_columns(long gagen_ld, int gagen_stream,
   w10 = w10 - w34;
   w18 = w18 * w32;
   w10 = w10 - w18;
-  GAGEN_SCATTER(J_c, 35, 23, w10);
+  GAGEN_SCATTER(out_J_c, 35, 23, w10);
   w39 = w13 * w39;
   w41 = w36 * w41;
   w39 = w39 + w41;
   w10 = w30 * w10;
   w39 = w39 + w10;
-  GAGEN_SCATTER(J_c, 35, 24, w39);
+  GAGEN_SCATTER(out_J_c, 35, 24, w39);
   w43 = w22 * w43;
   w2 = w23 * w2;
   w2 = w2 * w4;
@@ -2510,7 +2510,7 @@ static void panda_point_primitive_block_columns(long gagen_ld, int gagen_stream,
   w2 = w2 - w33;
   w33 = w30 * w35;
   w2 = w2 - w33;
-  GAGEN_SCATTER(J_c, 35, 26, w2);
+  GAGEN_SCATTER(out_J_c, 35, 26, w2);
   w23 = w23 * w25;
   w22 = w22 * w15;
   w23 = w23 + w22;
@@ -2521,7 +2521,7 @@ static void panda_point_primitive_block_columns(long gagen_ld, int gagen_stream,
   w27 = w27 - w43;
   w43 = w30 * w23;
   w27 = w27 - w43;
-  GAGEN_SCATTER(J_c, 35, 27, w27);
+  GAGEN_SCATTER(out_J_c, 35, 27, w27);
   w43 = w13 * w35;
   w22 = w36 * w23;
   w43 = w43 + w22;
@@ -2529,13 +2529,13 @@ static void panda_point_primitive_block_columns(long gagen_ld, int gagen_stream,
   w43 = w43 - w35;
   w23 = w23 * w32;
   w43 = w43 - w23;
-  GAGEN_SCATTER(J_c, 35, 28, w43);
+  GAGEN_SCATTER(out_J_c, 35, 28, w43);
   w2 = w13 * w2;
   w27 = w36 * w27;
   w2 = w2 + w27;
   w43 = w30 * w43;
   w2 = w2 + w43;
-  GAGEN_SCATTER(J_c, 35, 29, w2);
+  GAGEN_SCATTER(out_J_c, 35, 29, w2);
   w2 = w36 * w21;
   w24 = w24 + w38;
   w38 = w21 * w24;
@@ -2545,7 +2545,7 @@ static void panda_point_primitive_block_columns(long gagen_ld, int gagen_stream,
   w2 = w2 - w38;
   w38 = w30 * w12;
   w2 = w2 + w38;
-  GAGEN_SCATTER(J_c, 35, 31, w2);
+  GAGEN_SCATTER(out_J_c, 35, 31, w2);
   w38 = w21 * w26;
   w19 = w31 * w19;
   w21 = w13 * w21;
@@ -2553,7 +2553,7 @@ static void panda_point_primitive_block_columns(long gagen_ld, int gagen_stream,
   w38 = w38 - w19;
   w19 = w30 * w31;
   w38 = w38 + w19;
-  GAGEN_SCATTER(J_c, 35, 32, w38);
+  GAGEN_SCATTER(out_J_c, 35, 32, w38);
   w26 = w12 * w26;
   w12 = w13 * w12;
   w19 = w36 * w31;
@@ -2561,13 +2561,13 @@ static void panda_point_primitive_block_columns(long gagen_ld, int gagen_stream,
   w26 = w26 - w12;
   w31 = w31 * w24;
   w26 = w26 + w31;
-  GAGEN_SCATTER(J_c, 35, 33, w26);
+  GAGEN_SCATTER(out_J_c, 35, 33, w26);
   w13 = w13 * w2;
   w36 = w36 * w38;
   w13 = w13 + w36;
   w30 = w30 * w26;
   w13 = w13 + w30;
-  GAGEN_SCATTER(J_c, 35, 34, w13);
+  GAGEN_SCATTER(out_J_c, 35, 34, w13);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -2575,47 +2575,47 @@ static void panda_point_primitive_block_columns(long gagen_ld, int gagen_stream,
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void panda_point_primitive_batch_columns(long n, long ld, const double *restrict q, double *restrict X_c, double *restrict J_c) {
-  long s = 0;
+void panda_point_primitive_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_X_c, double *restrict out_J_c) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 40L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    panda_point_primitive_block_columns(ld, stream, q + s, X_c + s, J_c + s);
+  const int gagen_stream = gagen_n * 40L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    panda_point_primitive_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_X_c + gagen_s, out_J_c + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  panda_point_primitive_columns_from(s, n, ld, q, X_c, J_c);
+  panda_point_primitive_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_X_c, out_J_c);
 }
 
 #if GAGEN_SIMD
 /* V_Sc(q), its conditioning and J_G,Sc: GAGEN_W consecutive samples at once */
-static void panda_point_similarity_block(const double *restrict q, double *restrict V_Sc, double *restrict conditioning, double *restrict J_G) {
+static void panda_point_similarity_block(const double *restrict in_q, double *restrict out_V_Sc, double *restrict out_conditioning, double *restrict out_J_G) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   gagen_v w36, w37, w38, w39, w40, w41, w42, w43, w44, w45;
   w0 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(V_Sc, 12, 0, w0);
+  GAGEN_SCATTER(out_V_Sc, 12, 0, w0);
   w1 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(V_Sc, 12, 1, w1);
-  GAGEN_SCATTER(V_Sc, 12, 2, w1);
-  GAGEN_SCATTER(V_Sc, 12, 3, w1);
-  GAGEN_SCATTER(V_Sc, 12, 4, w1);
+  GAGEN_SCATTER(out_V_Sc, 12, 1, w1);
+  GAGEN_SCATTER(out_V_Sc, 12, 2, w1);
+  GAGEN_SCATTER(out_V_Sc, 12, 3, w1);
+  GAGEN_SCATTER(out_V_Sc, 12, 4, w1);
   w2 = gagen_v_splat(0.5);
   w3 = gagen_v_splat(0.0825);
-  w4 = GAGEN_GATHER(q, 7, 2);
+  w4 = GAGEN_GATHER(in_q, 7, 2);
   w5 = gagen_v_cos(w4);
-  w6 = GAGEN_GATHER(q, 7, 1);
+  w6 = GAGEN_GATHER(in_q, 7, 1);
   w7 = gagen_v_cos(w6);
   w8 = w5 * w7;
-  w9 = GAGEN_GATHER(q, 7, 0);
+  w9 = GAGEN_GATHER(in_q, 7, 0);
   w10 = gagen_v_cos(w9);
   w11 = w8 * w10;
   w4 = gagen_v_sin(w4);
   w9 = gagen_v_sin(w9);
   w12 = w4 * w9;
   w11 = w11 - w12;
-  w12 = GAGEN_GATHER(q, 7, 3);
+  w12 = GAGEN_GATHER(in_q, 7, 3);
   w13 = gagen_v_sin(w12);
   w6 = gagen_v_sin(w6);
   w14 = w13 * w6;
@@ -2633,9 +2633,9 @@ static void panda_point_similarity_block(const double *restrict q, double *restr
   w21 = w18 * w20;
   w16 = w16 + w21;
   w21 = gagen_v_splat(0.088);
-  w22 = GAGEN_GATHER(q, 7, 5);
+  w22 = GAGEN_GATHER(in_q, 7, 5);
   w23 = gagen_v_cos(w22);
-  w24 = GAGEN_GATHER(q, 7, 4);
+  w24 = GAGEN_GATHER(in_q, 7, 4);
   w25 = gagen_v_cos(w24);
   w17 = w17 + w15;
   w15 = w25 * w17;
@@ -2664,7 +2664,7 @@ static void panda_point_similarity_block(const double *restrict q, double *restr
   w15 = w28 - w15;
   w34 = w2 * w15;
   w34 = -w34;
-  GAGEN_SCATTER(V_Sc, 12, 5, w34);
+  GAGEN_SCATTER(out_V_Sc, 12, 5, w34);
   w8 = w8 * w9;
   w34 = w4 * w10;
   w8 = w8 + w34;
@@ -2701,8 +2701,8 @@ static void panda_point_similarity_block(const double *restrict q, double *restr
   w38 = w38 + w40;
   w41 = w2 * w38;
   w41 = -w41;
-  GAGEN_SCATTER(V_Sc, 12, 6, w41);
-  GAGEN_SCATTER(V_Sc, 12, 7, w1);
+  GAGEN_SCATTER(out_V_Sc, 12, 6, w41);
+  GAGEN_SCATTER(out_V_Sc, 12, 7, w1);
   w41 = gagen_v_splat(0.333);
   w29 = w29 * w7;
   w29 = w41 + w29;
@@ -2737,63 +2737,63 @@ static void panda_point_similarity_block(const double *restrict q, double *restr
   w32 = w21 - w32;
   w2 = w2 * w32;
   w2 = -w2;
-  GAGEN_SCATTER(V_Sc, 12, 8, w2);
-  GAGEN_SCATTER(V_Sc, 12, 9, w1);
-  GAGEN_SCATTER(V_Sc, 12, 10, w1);
-  GAGEN_SCATTER(V_Sc, 12, 11, w1);
-  GAGEN_SCATTER(conditioning, 1, 0, w0);
-  GAGEN_SCATTER(J_G, 49, 0, w1);
-  GAGEN_SCATTER(J_G, 49, 1, w1);
-  GAGEN_SCATTER(J_G, 49, 2, w1);
-  GAGEN_SCATTER(J_G, 49, 3, w1);
+  GAGEN_SCATTER(out_V_Sc, 12, 8, w2);
+  GAGEN_SCATTER(out_V_Sc, 12, 9, w1);
+  GAGEN_SCATTER(out_V_Sc, 12, 10, w1);
+  GAGEN_SCATTER(out_V_Sc, 12, 11, w1);
+  GAGEN_SCATTER(out_conditioning, 1, 0, w0);
+  GAGEN_SCATTER(out_J_G, 49, 0, w1);
+  GAGEN_SCATTER(out_J_G, 49, 1, w1);
+  GAGEN_SCATTER(out_J_G, 49, 2, w1);
+  GAGEN_SCATTER(out_J_G, 49, 3, w1);
   w0 = -w38;
-  GAGEN_SCATTER(J_G, 49, 4, w0);
-  GAGEN_SCATTER(J_G, 49, 5, w15);
-  GAGEN_SCATTER(J_G, 49, 6, w1);
-  GAGEN_SCATTER(J_G, 49, 7, w1);
-  GAGEN_SCATTER(J_G, 49, 8, w1);
-  GAGEN_SCATTER(J_G, 49, 9, w1);
-  GAGEN_SCATTER(J_G, 49, 10, w1);
+  GAGEN_SCATTER(out_J_G, 49, 4, w0);
+  GAGEN_SCATTER(out_J_G, 49, 5, w15);
+  GAGEN_SCATTER(out_J_G, 49, 6, w1);
+  GAGEN_SCATTER(out_J_G, 49, 7, w1);
+  GAGEN_SCATTER(out_J_G, 49, 8, w1);
+  GAGEN_SCATTER(out_J_G, 49, 9, w1);
+  GAGEN_SCATTER(out_J_G, 49, 10, w1);
   w0 = w32 * w10;
   w2 = w41 * w10;
   w0 = w0 - w2;
-  GAGEN_SCATTER(J_G, 49, 11, w0);
+  GAGEN_SCATTER(out_J_G, 49, 11, w0);
   w0 = w32 * w9;
   w2 = w41 * w9;
   w0 = w0 - w2;
-  GAGEN_SCATTER(J_G, 49, 12, w0);
+  GAGEN_SCATTER(out_J_G, 49, 12, w0);
   w0 = w38 * w9;
   w2 = w15 * w10;
   w0 = w0 + w2;
   w0 = -w0;
-  GAGEN_SCATTER(J_G, 49, 13, w0);
-  GAGEN_SCATTER(J_G, 49, 14, w1);
-  GAGEN_SCATTER(J_G, 49, 15, w1);
-  GAGEN_SCATTER(J_G, 49, 16, w1);
-  GAGEN_SCATTER(J_G, 49, 17, w1);
+  GAGEN_SCATTER(out_J_G, 49, 13, w0);
+  GAGEN_SCATTER(out_J_G, 49, 14, w1);
+  GAGEN_SCATTER(out_J_G, 49, 15, w1);
+  GAGEN_SCATTER(out_J_G, 49, 16, w1);
+  GAGEN_SCATTER(out_J_G, 49, 17, w1);
   w0 = w32 * w6;
   w2 = w0 * w9;
   w22 = w41 * w39;
   w42 = w38 * w7;
   w22 = w22 + w42;
   w2 = w2 - w22;
-  GAGEN_SCATTER(J_G, 49, 18, w2);
+  GAGEN_SCATTER(out_J_G, 49, 18, w2);
   w2 = w15 * w7;
   w0 = w0 * w10;
   w2 = w2 - w0;
   w41 = w41 * w30;
   w2 = w2 + w41;
-  GAGEN_SCATTER(J_G, 49, 19, w2);
+  GAGEN_SCATTER(out_J_G, 49, 19, w2);
   w2 = w38 * w6;
   w2 = w2 * w10;
   w10 = w15 * w6;
   w10 = w10 * w9;
   w2 = w2 - w10;
-  GAGEN_SCATTER(J_G, 49, 20, w2);
-  GAGEN_SCATTER(J_G, 49, 21, w1);
-  GAGEN_SCATTER(J_G, 49, 22, w1);
-  GAGEN_SCATTER(J_G, 49, 23, w1);
-  GAGEN_SCATTER(J_G, 49, 24, w1);
+  GAGEN_SCATTER(out_J_G, 49, 20, w2);
+  GAGEN_SCATTER(out_J_G, 49, 21, w1);
+  GAGEN_SCATTER(out_J_G, 49, 22, w1);
+  GAGEN_SCATTER(out_J_G, 49, 23, w1);
+  GAGEN_SCATTER(out_J_G, 49, 24, w1);
   w2 = w32 * w37;
   w10 = w38 * w4;
   w10 = w10 * w6;
@@ -2815,7 +2815,7 @@ static void panda_point_similarity_block(const double *restrict q, double *restr
   w8 = w8 + w8;
   w2 = w2 + w8;
   w2 = -w2;
-  GAGEN_SCATTER(J_G, 49, 25, w2);
+  GAGEN_SCATTER(out_J_G, 49, 25, w2);
   w9 = w9 * w30;
   w41 = w41 * w11;
   w9 = w9 + w41;
@@ -2828,7 +2828,7 @@ static void panda_point_similarity_block(const double *restrict q, double *restr
   w10 = w10 - w43;
   w43 = w32 * w27;
   w10 = w10 - w43;
-  GAGEN_SCATTER(J_G, 49, 26, w10);
+  GAGEN_SCATTER(out_J_G, 49, 26, w10);
   w10 = w15 * w37;
   w43 = w38 * w27;
   w10 = w10 + w43;
@@ -2838,11 +2838,11 @@ static void panda_point_similarity_block(const double *restrict q, double *restr
   w9 = -w9;
   w9 = w9 + w9;
   w10 = w10 + w9;
-  GAGEN_SCATTER(J_G, 49, 27, w10);
-  GAGEN_SCATTER(J_G, 49, 28, w1);
-  GAGEN_SCATTER(J_G, 49, 29, w1);
-  GAGEN_SCATTER(J_G, 49, 30, w1);
-  GAGEN_SCATTER(J_G, 49, 31, w1);
+  GAGEN_SCATTER(out_J_G, 49, 27, w10);
+  GAGEN_SCATTER(out_J_G, 49, 28, w1);
+  GAGEN_SCATTER(out_J_G, 49, 29, w1);
+  GAGEN_SCATTER(out_J_G, 49, 30, w1);
+  GAGEN_SCATTER(out_J_G, 49, 31, w1);
   w34 = w34 + w40;
   w10 = w12 * w34;
   w9 = w36 * w29;
@@ -2851,7 +2851,7 @@ static void panda_point_similarity_block(const double *restrict q, double *restr
   w10 = w10 - w9;
   w9 = w32 * w36;
   w10 = w10 - w9;
-  GAGEN_SCATTER(J_G, 49, 32, w10);
+  GAGEN_SCATTER(out_J_G, 49, 32, w10);
   w10 = w20 * w29;
   w9 = w15 * w12;
   w10 = w10 + w9;
@@ -2860,7 +2860,7 @@ static void panda_point_similarity_block(const double *restrict q, double *restr
   w10 = w10 - w12;
   w12 = w32 * w20;
   w10 = w10 - w12;
-  GAGEN_SCATTER(J_G, 49, 33, w10);
+  GAGEN_SCATTER(out_J_G, 49, 33, w10);
   w10 = w15 * w36;
   w12 = w38 * w20;
   w10 = w10 + w12;
@@ -2868,11 +2868,11 @@ static void panda_point_similarity_block(const double *restrict q, double *restr
   w10 = w10 - w36;
   w20 = w20 * w34;
   w10 = w10 - w20;
-  GAGEN_SCATTER(J_G, 49, 34, w10);
-  GAGEN_SCATTER(J_G, 49, 35, w1);
-  GAGEN_SCATTER(J_G, 49, 36, w1);
-  GAGEN_SCATTER(J_G, 49, 37, w1);
-  GAGEN_SCATTER(J_G, 49, 38, w1);
+  GAGEN_SCATTER(out_J_G, 49, 34, w10);
+  GAGEN_SCATTER(out_J_G, 49, 35, w1);
+  GAGEN_SCATTER(out_J_G, 49, 36, w1);
+  GAGEN_SCATTER(out_J_G, 49, 37, w1);
+  GAGEN_SCATTER(out_J_G, 49, 38, w1);
   w45 = w24 * w45;
   w4 = w25 * w4;
   w4 = w4 * w6;
@@ -2887,7 +2887,7 @@ static void panda_point_similarity_block(const double *restrict q, double *restr
   w4 = w4 - w35;
   w35 = w32 * w37;
   w4 = w4 - w35;
-  GAGEN_SCATTER(J_G, 49, 39, w4);
+  GAGEN_SCATTER(out_J_G, 49, 39, w4);
   w25 = w25 * w27;
   w24 = w24 * w17;
   w25 = w25 + w24;
@@ -2898,7 +2898,7 @@ static void panda_point_similarity_block(const double *restrict q, double *restr
   w29 = w29 - w45;
   w45 = w32 * w25;
   w29 = w29 - w45;
-  GAGEN_SCATTER(J_G, 49, 40, w29);
+  GAGEN_SCATTER(out_J_G, 49, 40, w29);
   w29 = w15 * w37;
   w45 = w38 * w25;
   w29 = w29 + w45;
@@ -2906,11 +2906,11 @@ static void panda_point_similarity_block(const double *restrict q, double *restr
   w29 = w29 - w37;
   w25 = w25 * w34;
   w29 = w29 - w25;
-  GAGEN_SCATTER(J_G, 49, 41, w29);
-  GAGEN_SCATTER(J_G, 49, 42, w1);
-  GAGEN_SCATTER(J_G, 49, 43, w1);
-  GAGEN_SCATTER(J_G, 49, 44, w1);
-  GAGEN_SCATTER(J_G, 49, 45, w1);
+  GAGEN_SCATTER(out_J_G, 49, 41, w29);
+  GAGEN_SCATTER(out_J_G, 49, 42, w1);
+  GAGEN_SCATTER(out_J_G, 49, 43, w1);
+  GAGEN_SCATTER(out_J_G, 49, 44, w1);
+  GAGEN_SCATTER(out_J_G, 49, 45, w1);
   w1 = w38 * w23;
   w26 = w26 + w40;
   w40 = w23 * w26;
@@ -2920,7 +2920,7 @@ static void panda_point_similarity_block(const double *restrict q, double *restr
   w1 = w1 - w40;
   w40 = w32 * w14;
   w1 = w1 + w40;
-  GAGEN_SCATTER(J_G, 49, 46, w1);
+  GAGEN_SCATTER(out_J_G, 49, 46, w1);
   w1 = w23 * w28;
   w21 = w33 * w21;
   w23 = w15 * w23;
@@ -2928,7 +2928,7 @@ static void panda_point_similarity_block(const double *restrict q, double *restr
   w1 = w1 - w21;
   w32 = w32 * w33;
   w1 = w1 + w32;
-  GAGEN_SCATTER(J_G, 49, 47, w1);
+  GAGEN_SCATTER(out_J_G, 49, 47, w1);
   w28 = w14 * w28;
   w15 = w15 * w14;
   w38 = w38 * w33;
@@ -2936,25 +2936,25 @@ static void panda_point_similarity_block(const double *restrict q, double *restr
   w28 = w28 - w15;
   w33 = w33 * w26;
   w28 = w28 + w33;
-  GAGEN_SCATTER(J_G, 49, 48, w28);
+  GAGEN_SCATTER(out_J_G, 49, 48, w28);
 }
 #endif
 
-void panda_point_similarity_batch(long n, const double *restrict q, double *restrict V_Sc, double *restrict conditioning, double *restrict J_G) {
-  long s = 0;
+void panda_point_similarity_batch(long gagen_n, const double *restrict in_q, double *restrict out_V_Sc, double *restrict out_conditioning, double *restrict out_J_G) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 12 * GAGEN_W + 7; o += 8) __builtin_prefetch(V_Sc + 12 * a + o, 1, 0);
-      for (int o = 0; o < 1 * GAGEN_W + 7; o += 8) __builtin_prefetch(conditioning + 1 * a + o, 1, 0);
-      for (int o = 0; o < 49 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_G + 49 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 12 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_V_Sc + 12 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 1 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_conditioning + 1 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 49 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_G + 49 * gagen_a + gagen_o, 1, 0);
     }
-    panda_point_similarity_block(q + 7 * s, V_Sc + 12 * s, conditioning + 1 * s, J_G + 49 * s);
+    panda_point_similarity_block(in_q + 7 * gagen_s, out_V_Sc + 12 * gagen_s, out_conditioning + 1 * gagen_s, out_J_G + 49 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    panda_point_similarity(q + 7 * s, V_Sc + 12 * s, conditioning + 1 * s, J_G + 49 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    panda_point_similarity(in_q + 7 * gagen_s, out_V_Sc + 12 * gagen_s, out_conditioning + 1 * gagen_s, out_J_G + 49 * gagen_s);
   }
 }
 
@@ -2964,33 +2964,33 @@ void panda_point_similarity_batch(long n, const double *restrict q, double *rest
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void panda_point_similarity_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict V_Sc, double *restrict conditioning, double *restrict J_G) {
+static void panda_point_similarity_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_V_Sc, double *restrict out_conditioning, double *restrict out_J_G) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   gagen_v w36, w37, w38, w39, w40, w41, w42, w43, w44, w45;
   w0 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(V_Sc, 12, 0, w0);
+  GAGEN_SCATTER(out_V_Sc, 12, 0, w0);
   w1 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(V_Sc, 12, 1, w1);
-  GAGEN_SCATTER(V_Sc, 12, 2, w1);
-  GAGEN_SCATTER(V_Sc, 12, 3, w1);
-  GAGEN_SCATTER(V_Sc, 12, 4, w1);
+  GAGEN_SCATTER(out_V_Sc, 12, 1, w1);
+  GAGEN_SCATTER(out_V_Sc, 12, 2, w1);
+  GAGEN_SCATTER(out_V_Sc, 12, 3, w1);
+  GAGEN_SCATTER(out_V_Sc, 12, 4, w1);
   w2 = gagen_v_splat(0.5);
   w3 = gagen_v_splat(0.0825);
-  w4 = GAGEN_GATHER(q, 7, 2);
+  w4 = GAGEN_GATHER(in_q, 7, 2);
   w5 = gagen_v_cos(w4);
-  w6 = GAGEN_GATHER(q, 7, 1);
+  w6 = GAGEN_GATHER(in_q, 7, 1);
   w7 = gagen_v_cos(w6);
   w8 = w5 * w7;
-  w9 = GAGEN_GATHER(q, 7, 0);
+  w9 = GAGEN_GATHER(in_q, 7, 0);
   w10 = gagen_v_cos(w9);
   w11 = w8 * w10;
   w4 = gagen_v_sin(w4);
   w9 = gagen_v_sin(w9);
   w12 = w4 * w9;
   w11 = w11 - w12;
-  w12 = GAGEN_GATHER(q, 7, 3);
+  w12 = GAGEN_GATHER(in_q, 7, 3);
   w13 = gagen_v_sin(w12);
   w6 = gagen_v_sin(w6);
   w14 = w13 * w6;
@@ -3008,9 +3008,9 @@ static void panda_point_similarity_block_columns(long gagen_ld, int gagen_stream
   w21 = w18 * w20;
   w16 = w16 + w21;
   w21 = gagen_v_splat(0.088);
-  w22 = GAGEN_GATHER(q, 7, 5);
+  w22 = GAGEN_GATHER(in_q, 7, 5);
   w23 = gagen_v_cos(w22);
-  w24 = GAGEN_GATHER(q, 7, 4);
+  w24 = GAGEN_GATHER(in_q, 7, 4);
   w25 = gagen_v_cos(w24);
   w17 = w17 + w15;
   w15 = w25 * w17;
@@ -3039,7 +3039,7 @@ static void panda_point_similarity_block_columns(long gagen_ld, int gagen_stream
   w15 = w28 - w15;
   w34 = w2 * w15;
   w34 = -w34;
-  GAGEN_SCATTER(V_Sc, 12, 5, w34);
+  GAGEN_SCATTER(out_V_Sc, 12, 5, w34);
   w8 = w8 * w9;
   w34 = w4 * w10;
   w8 = w8 + w34;
@@ -3076,8 +3076,8 @@ static void panda_point_similarity_block_columns(long gagen_ld, int gagen_stream
   w38 = w38 + w40;
   w41 = w2 * w38;
   w41 = -w41;
-  GAGEN_SCATTER(V_Sc, 12, 6, w41);
-  GAGEN_SCATTER(V_Sc, 12, 7, w1);
+  GAGEN_SCATTER(out_V_Sc, 12, 6, w41);
+  GAGEN_SCATTER(out_V_Sc, 12, 7, w1);
   w41 = gagen_v_splat(0.333);
   w29 = w29 * w7;
   w29 = w41 + w29;
@@ -3112,63 +3112,63 @@ static void panda_point_similarity_block_columns(long gagen_ld, int gagen_stream
   w32 = w21 - w32;
   w2 = w2 * w32;
   w2 = -w2;
-  GAGEN_SCATTER(V_Sc, 12, 8, w2);
-  GAGEN_SCATTER(V_Sc, 12, 9, w1);
-  GAGEN_SCATTER(V_Sc, 12, 10, w1);
-  GAGEN_SCATTER(V_Sc, 12, 11, w1);
-  GAGEN_SCATTER(conditioning, 1, 0, w0);
-  GAGEN_SCATTER(J_G, 49, 0, w1);
-  GAGEN_SCATTER(J_G, 49, 1, w1);
-  GAGEN_SCATTER(J_G, 49, 2, w1);
-  GAGEN_SCATTER(J_G, 49, 3, w1);
+  GAGEN_SCATTER(out_V_Sc, 12, 8, w2);
+  GAGEN_SCATTER(out_V_Sc, 12, 9, w1);
+  GAGEN_SCATTER(out_V_Sc, 12, 10, w1);
+  GAGEN_SCATTER(out_V_Sc, 12, 11, w1);
+  GAGEN_SCATTER(out_conditioning, 1, 0, w0);
+  GAGEN_SCATTER(out_J_G, 49, 0, w1);
+  GAGEN_SCATTER(out_J_G, 49, 1, w1);
+  GAGEN_SCATTER(out_J_G, 49, 2, w1);
+  GAGEN_SCATTER(out_J_G, 49, 3, w1);
   w0 = -w38;
-  GAGEN_SCATTER(J_G, 49, 4, w0);
-  GAGEN_SCATTER(J_G, 49, 5, w15);
-  GAGEN_SCATTER(J_G, 49, 6, w1);
-  GAGEN_SCATTER(J_G, 49, 7, w1);
-  GAGEN_SCATTER(J_G, 49, 8, w1);
-  GAGEN_SCATTER(J_G, 49, 9, w1);
-  GAGEN_SCATTER(J_G, 49, 10, w1);
+  GAGEN_SCATTER(out_J_G, 49, 4, w0);
+  GAGEN_SCATTER(out_J_G, 49, 5, w15);
+  GAGEN_SCATTER(out_J_G, 49, 6, w1);
+  GAGEN_SCATTER(out_J_G, 49, 7, w1);
+  GAGEN_SCATTER(out_J_G, 49, 8, w1);
+  GAGEN_SCATTER(out_J_G, 49, 9, w1);
+  GAGEN_SCATTER(out_J_G, 49, 10, w1);
   w0 = w32 * w10;
   w2 = w41 * w10;
   w0 = w0 - w2;
-  GAGEN_SCATTER(J_G, 49, 11, w0);
+  GAGEN_SCATTER(out_J_G, 49, 11, w0);
   w0 = w32 * w9;
   w2 = w41 * w9;
   w0 = w0 - w2;
-  GAGEN_SCATTER(J_G, 49, 12, w0);
+  GAGEN_SCATTER(out_J_G, 49, 12, w0);
   w0 = w38 * w9;
   w2 = w15 * w10;
   w0 = w0 + w2;
   w0 = -w0;
-  GAGEN_SCATTER(J_G, 49, 13, w0);
-  GAGEN_SCATTER(J_G, 49, 14, w1);
-  GAGEN_SCATTER(J_G, 49, 15, w1);
-  GAGEN_SCATTER(J_G, 49, 16, w1);
-  GAGEN_SCATTER(J_G, 49, 17, w1);
+  GAGEN_SCATTER(out_J_G, 49, 13, w0);
+  GAGEN_SCATTER(out_J_G, 49, 14, w1);
+  GAGEN_SCATTER(out_J_G, 49, 15, w1);
+  GAGEN_SCATTER(out_J_G, 49, 16, w1);
+  GAGEN_SCATTER(out_J_G, 49, 17, w1);
   w0 = w32 * w6;
   w2 = w0 * w9;
   w22 = w41 * w39;
   w42 = w38 * w7;
   w22 = w22 + w42;
   w2 = w2 - w22;
-  GAGEN_SCATTER(J_G, 49, 18, w2);
+  GAGEN_SCATTER(out_J_G, 49, 18, w2);
   w2 = w15 * w7;
   w0 = w0 * w10;
   w2 = w2 - w0;
   w41 = w41 * w30;
   w2 = w2 + w41;
-  GAGEN_SCATTER(J_G, 49, 19, w2);
+  GAGEN_SCATTER(out_J_G, 49, 19, w2);
   w2 = w38 * w6;
   w2 = w2 * w10;
   w10 = w15 * w6;
   w10 = w10 * w9;
   w2 = w2 - w10;
-  GAGEN_SCATTER(J_G, 49, 20, w2);
-  GAGEN_SCATTER(J_G, 49, 21, w1);
-  GAGEN_SCATTER(J_G, 49, 22, w1);
-  GAGEN_SCATTER(J_G, 49, 23, w1);
-  GAGEN_SCATTER(J_G, 49, 24, w1);
+  GAGEN_SCATTER(out_J_G, 49, 20, w2);
+  GAGEN_SCATTER(out_J_G, 49, 21, w1);
+  GAGEN_SCATTER(out_J_G, 49, 22, w1);
+  GAGEN_SCATTER(out_J_G, 49, 23, w1);
+  GAGEN_SCATTER(out_J_G, 49, 24, w1);
   w2 = w32 * w37;
   w10 = w38 * w4;
   w10 = w10 * w6;
@@ -3190,7 +3190,7 @@ static void panda_point_similarity_block_columns(long gagen_ld, int gagen_stream
   w8 = w8 + w8;
   w2 = w2 + w8;
   w2 = -w2;
-  GAGEN_SCATTER(J_G, 49, 25, w2);
+  GAGEN_SCATTER(out_J_G, 49, 25, w2);
   w9 = w9 * w30;
   w41 = w41 * w11;
   w9 = w9 + w41;
@@ -3203,7 +3203,7 @@ static void panda_point_similarity_block_columns(long gagen_ld, int gagen_stream
   w10 = w10 - w43;
   w43 = w32 * w27;
   w10 = w10 - w43;
-  GAGEN_SCATTER(J_G, 49, 26, w10);
+  GAGEN_SCATTER(out_J_G, 49, 26, w10);
   w10 = w15 * w37;
   w43 = w38 * w27;
   w10 = w10 + w43;
@@ -3213,11 +3213,11 @@ static void panda_point_similarity_block_columns(long gagen_ld, int gagen_stream
   w9 = -w9;
   w9 = w9 + w9;
   w10 = w10 + w9;
-  GAGEN_SCATTER(J_G, 49, 27, w10);
-  GAGEN_SCATTER(J_G, 49, 28, w1);
-  GAGEN_SCATTER(J_G, 49, 29, w1);
-  GAGEN_SCATTER(J_G, 49, 30, w1);
-  GAGEN_SCATTER(J_G, 49, 31, w1);
+  GAGEN_SCATTER(out_J_G, 49, 27, w10);
+  GAGEN_SCATTER(out_J_G, 49, 28, w1);
+  GAGEN_SCATTER(out_J_G, 49, 29, w1);
+  GAGEN_SCATTER(out_J_G, 49, 30, w1);
+  GAGEN_SCATTER(out_J_G, 49, 31, w1);
   w34 = w34 + w40;
   w10 = w12 * w34;
   w9 = w36 * w29;
@@ -3226,7 +3226,7 @@ static void panda_point_similarity_block_columns(long gagen_ld, int gagen_stream
   w10 = w10 - w9;
   w9 = w32 * w36;
   w10 = w10 - w9;
-  GAGEN_SCATTER(J_G, 49, 32, w10);
+  GAGEN_SCATTER(out_J_G, 49, 32, w10);
   w10 = w20 * w29;
   w9 = w15 * w12;
   w10 = w10 + w9;
@@ -3235,7 +3235,7 @@ static void panda_point_similarity_block_columns(long gagen_ld, int gagen_stream
   w10 = w10 - w12;
   w12 = w32 * w20;
   w10 = w10 - w12;
-  GAGEN_SCATTER(J_G, 49, 33, w10);
+  GAGEN_SCATTER(out_J_G, 49, 33, w10);
   w10 = w15 * w36;
   w12 = w38 * w20;
   w10 = w10 + w12;
@@ -3243,11 +3243,11 @@ static void panda_point_similarity_block_columns(long gagen_ld, int gagen_stream
   w10 = w10 - w36;
   w20 = w20 * w34;
   w10 = w10 - w20;
-  GAGEN_SCATTER(J_G, 49, 34, w10);
-  GAGEN_SCATTER(J_G, 49, 35, w1);
-  GAGEN_SCATTER(J_G, 49, 36, w1);
-  GAGEN_SCATTER(J_G, 49, 37, w1);
-  GAGEN_SCATTER(J_G, 49, 38, w1);
+  GAGEN_SCATTER(out_J_G, 49, 34, w10);
+  GAGEN_SCATTER(out_J_G, 49, 35, w1);
+  GAGEN_SCATTER(out_J_G, 49, 36, w1);
+  GAGEN_SCATTER(out_J_G, 49, 37, w1);
+  GAGEN_SCATTER(out_J_G, 49, 38, w1);
   w45 = w24 * w45;
   w4 = w25 * w4;
   w4 = w4 * w6;
@@ -3262,7 +3262,7 @@ static void panda_point_similarity_block_columns(long gagen_ld, int gagen_stream
   w4 = w4 - w35;
   w35 = w32 * w37;
   w4 = w4 - w35;
-  GAGEN_SCATTER(J_G, 49, 39, w4);
+  GAGEN_SCATTER(out_J_G, 49, 39, w4);
   w25 = w25 * w27;
   w24 = w24 * w17;
   w25 = w25 + w24;
@@ -3273,7 +3273,7 @@ static void panda_point_similarity_block_columns(long gagen_ld, int gagen_stream
   w29 = w29 - w45;
   w45 = w32 * w25;
   w29 = w29 - w45;
-  GAGEN_SCATTER(J_G, 49, 40, w29);
+  GAGEN_SCATTER(out_J_G, 49, 40, w29);
   w29 = w15 * w37;
   w45 = w38 * w25;
   w29 = w29 + w45;
@@ -3281,11 +3281,11 @@ static void panda_point_similarity_block_columns(long gagen_ld, int gagen_stream
   w29 = w29 - w37;
   w25 = w25 * w34;
   w29 = w29 - w25;
-  GAGEN_SCATTER(J_G, 49, 41, w29);
-  GAGEN_SCATTER(J_G, 49, 42, w1);
-  GAGEN_SCATTER(J_G, 49, 43, w1);
-  GAGEN_SCATTER(J_G, 49, 44, w1);
-  GAGEN_SCATTER(J_G, 49, 45, w1);
+  GAGEN_SCATTER(out_J_G, 49, 41, w29);
+  GAGEN_SCATTER(out_J_G, 49, 42, w1);
+  GAGEN_SCATTER(out_J_G, 49, 43, w1);
+  GAGEN_SCATTER(out_J_G, 49, 44, w1);
+  GAGEN_SCATTER(out_J_G, 49, 45, w1);
   w1 = w38 * w23;
   w26 = w26 + w40;
   w40 = w23 * w26;
@@ -3295,7 +3295,7 @@ static void panda_point_similarity_block_columns(long gagen_ld, int gagen_stream
   w1 = w1 - w40;
   w40 = w32 * w14;
   w1 = w1 + w40;
-  GAGEN_SCATTER(J_G, 49, 46, w1);
+  GAGEN_SCATTER(out_J_G, 49, 46, w1);
   w1 = w23 * w28;
   w21 = w33 * w21;
   w23 = w15 * w23;
@@ -3303,7 +3303,7 @@ static void panda_point_similarity_block_columns(long gagen_ld, int gagen_stream
   w1 = w1 - w21;
   w32 = w32 * w33;
   w1 = w1 + w32;
-  GAGEN_SCATTER(J_G, 49, 47, w1);
+  GAGEN_SCATTER(out_J_G, 49, 47, w1);
   w28 = w14 * w28;
   w15 = w15 * w14;
   w38 = w38 * w33;
@@ -3311,7 +3311,7 @@ static void panda_point_similarity_block_columns(long gagen_ld, int gagen_stream
   w28 = w28 - w15;
   w33 = w33 * w26;
   w28 = w28 + w33;
-  GAGEN_SCATTER(J_G, 49, 48, w28);
+  GAGEN_SCATTER(out_J_G, 49, 48, w28);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -3319,46 +3319,46 @@ static void panda_point_similarity_block_columns(long gagen_ld, int gagen_stream
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void panda_point_similarity_batch_columns(long n, long ld, const double *restrict q, double *restrict V_Sc, double *restrict conditioning, double *restrict J_G) {
-  long s = 0;
+void panda_point_similarity_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_V_Sc, double *restrict out_conditioning, double *restrict out_J_G) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 62L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    panda_point_similarity_block_columns(ld, stream, q + s, V_Sc + s, conditioning + s, J_G + s);
+  const int gagen_stream = gagen_n * 62L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    panda_point_similarity_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_V_Sc + gagen_s, out_conditioning + gagen_s, out_J_G + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  panda_point_similarity_columns_from(s, n, ld, q, V_Sc, conditioning, J_G);
+  panda_point_similarity_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_V_Sc, out_conditioning, out_J_G);
 }
 
 #if GAGEN_SIMD
 /* J_A,Sc = dV_Sc/dq, log V_Sc and J_B = d log V_Sc/dq: GAGEN_W consecutive samples at once */
-static void panda_point_similarity_jacobians_block(const double *restrict q, double *restrict J_A, double *restrict log_V, double *restrict J_B) {
+static void panda_point_similarity_jacobians_block(const double *restrict in_q, double *restrict out_J_A, double *restrict out_log_V, double *restrict out_J_B) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   gagen_v w36, w37, w38, w39, w40, w41, w42, w43, w44, w45;
   w0 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_A, 84, 0, w0);
-  GAGEN_SCATTER(J_A, 84, 1, w0);
-  GAGEN_SCATTER(J_A, 84, 2, w0);
-  GAGEN_SCATTER(J_A, 84, 3, w0);
-  GAGEN_SCATTER(J_A, 84, 4, w0);
+  GAGEN_SCATTER(out_J_A, 84, 0, w0);
+  GAGEN_SCATTER(out_J_A, 84, 1, w0);
+  GAGEN_SCATTER(out_J_A, 84, 2, w0);
+  GAGEN_SCATTER(out_J_A, 84, 3, w0);
+  GAGEN_SCATTER(out_J_A, 84, 4, w0);
   w1 = gagen_v_splat((-0.5));
   w2 = gagen_v_splat(0.0825);
-  w3 = GAGEN_GATHER(q, 7, 2);
+  w3 = GAGEN_GATHER(in_q, 7, 2);
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 7, 1);
+  w5 = GAGEN_GATHER(in_q, 7, 1);
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 7, 0);
+  w8 = GAGEN_GATHER(in_q, 7, 0);
   w9 = gagen_v_sin(w8);
   w10 = w7 * w9;
   w3 = gagen_v_sin(w3);
   w8 = gagen_v_cos(w8);
   w11 = w3 * w8;
   w10 = w10 + w11;
-  w11 = GAGEN_GATHER(q, 7, 3);
+  w11 = GAGEN_GATHER(in_q, 7, 3);
   w12 = gagen_v_sin(w11);
   w5 = gagen_v_sin(w5);
   w13 = w12 * w5;
@@ -3376,9 +3376,9 @@ static void panda_point_similarity_jacobians_block(const double *restrict q, dou
   w21 = w17 * w21;
   w15 = w15 + w21;
   w21 = gagen_v_splat(0.088);
-  w22 = GAGEN_GATHER(q, 7, 5);
+  w22 = GAGEN_GATHER(in_q, 7, 5);
   w23 = gagen_v_cos(w22);
-  w24 = GAGEN_GATHER(q, 7, 4);
+  w24 = GAGEN_GATHER(in_q, 7, 4);
   w25 = gagen_v_cos(w24);
   w16 = w16 + w14;
   w14 = w25 * w16;
@@ -3408,7 +3408,7 @@ static void panda_point_similarity_jacobians_block(const double *restrict q, dou
   w30 = w30 + w33;
   w34 = w1 * w30;
   w34 = -w34;
-  GAGEN_SCATTER(J_A, 84, 5, w34);
+  GAGEN_SCATTER(out_J_A, 84, 5, w34);
   w7 = w7 * w8;
   w34 = w3 * w9;
   w7 = w7 - w34;
@@ -3443,17 +3443,17 @@ static void panda_point_similarity_jacobians_block(const double *restrict q, dou
   w13 = w19 * w39;
   w13 = w36 - w13;
   w40 = w1 * w13;
-  GAGEN_SCATTER(J_A, 84, 6, w40);
-  GAGEN_SCATTER(J_A, 84, 7, w0);
-  GAGEN_SCATTER(J_A, 84, 8, w0);
-  GAGEN_SCATTER(J_A, 84, 9, w0);
-  GAGEN_SCATTER(J_A, 84, 10, w0);
-  GAGEN_SCATTER(J_A, 84, 11, w0);
-  GAGEN_SCATTER(J_A, 84, 12, w0);
-  GAGEN_SCATTER(J_A, 84, 13, w0);
-  GAGEN_SCATTER(J_A, 84, 14, w0);
-  GAGEN_SCATTER(J_A, 84, 15, w0);
-  GAGEN_SCATTER(J_A, 84, 16, w0);
+  GAGEN_SCATTER(out_J_A, 84, 6, w40);
+  GAGEN_SCATTER(out_J_A, 84, 7, w0);
+  GAGEN_SCATTER(out_J_A, 84, 8, w0);
+  GAGEN_SCATTER(out_J_A, 84, 9, w0);
+  GAGEN_SCATTER(out_J_A, 84, 10, w0);
+  GAGEN_SCATTER(out_J_A, 84, 11, w0);
+  GAGEN_SCATTER(out_J_A, 84, 12, w0);
+  GAGEN_SCATTER(out_J_A, 84, 13, w0);
+  GAGEN_SCATTER(out_J_A, 84, 14, w0);
+  GAGEN_SCATTER(out_J_A, 84, 15, w0);
+  GAGEN_SCATTER(out_J_A, 84, 16, w0);
   w40 = gagen_v_splat(0.333);
   w31 = w31 * w6;
   w31 = w40 + w31;
@@ -3490,27 +3490,27 @@ static void panda_point_similarity_jacobians_block(const double *restrict q, dou
   w41 = w40 * w8;
   w22 = w22 - w41;
   w41 = w1 * w22;
-  GAGEN_SCATTER(J_A, 84, 17, w41);
+  GAGEN_SCATTER(out_J_A, 84, 17, w41);
   w41 = w19 * w9;
   w17 = w40 * w9;
   w41 = w41 - w17;
   w17 = w1 * w41;
-  GAGEN_SCATTER(J_A, 84, 18, w17);
-  GAGEN_SCATTER(J_A, 84, 19, w0);
+  GAGEN_SCATTER(out_J_A, 84, 18, w17);
+  GAGEN_SCATTER(out_J_A, 84, 19, w0);
   w17 = w30 * w9;
   w12 = w13 * w8;
   w17 = w17 + w12;
   w12 = w1 * w17;
   w12 = -w12;
-  GAGEN_SCATTER(J_A, 84, 20, w12);
-  GAGEN_SCATTER(J_A, 84, 21, w0);
-  GAGEN_SCATTER(J_A, 84, 22, w0);
-  GAGEN_SCATTER(J_A, 84, 23, w0);
-  GAGEN_SCATTER(J_A, 84, 24, w0);
-  GAGEN_SCATTER(J_A, 84, 25, w0);
-  GAGEN_SCATTER(J_A, 84, 26, w0);
-  GAGEN_SCATTER(J_A, 84, 27, w0);
-  GAGEN_SCATTER(J_A, 84, 28, w0);
+  GAGEN_SCATTER(out_J_A, 84, 20, w12);
+  GAGEN_SCATTER(out_J_A, 84, 21, w0);
+  GAGEN_SCATTER(out_J_A, 84, 22, w0);
+  GAGEN_SCATTER(out_J_A, 84, 23, w0);
+  GAGEN_SCATTER(out_J_A, 84, 24, w0);
+  GAGEN_SCATTER(out_J_A, 84, 25, w0);
+  GAGEN_SCATTER(out_J_A, 84, 26, w0);
+  GAGEN_SCATTER(out_J_A, 84, 27, w0);
+  GAGEN_SCATTER(out_J_A, 84, 28, w0);
   w12 = w19 * w5;
   w4 = w12 * w9;
   w2 = w40 * w32;
@@ -3518,30 +3518,30 @@ static void panda_point_similarity_jacobians_block(const double *restrict q, dou
   w2 = w2 + w43;
   w4 = w4 - w2;
   w2 = w1 * w4;
-  GAGEN_SCATTER(J_A, 84, 29, w2);
+  GAGEN_SCATTER(out_J_A, 84, 29, w2);
   w2 = w13 * w6;
   w12 = w12 * w8;
   w2 = w2 - w12;
   w40 = w40 * w37;
   w2 = w2 + w40;
   w40 = w1 * w2;
-  GAGEN_SCATTER(J_A, 84, 30, w40);
-  GAGEN_SCATTER(J_A, 84, 31, w0);
+  GAGEN_SCATTER(out_J_A, 84, 30, w40);
+  GAGEN_SCATTER(out_J_A, 84, 31, w0);
   w40 = w30 * w5;
   w40 = w40 * w8;
   w8 = w13 * w5;
   w8 = w8 * w9;
   w40 = w40 - w8;
   w8 = w1 * w40;
-  GAGEN_SCATTER(J_A, 84, 32, w8);
-  GAGEN_SCATTER(J_A, 84, 33, w0);
-  GAGEN_SCATTER(J_A, 84, 34, w0);
-  GAGEN_SCATTER(J_A, 84, 35, w0);
-  GAGEN_SCATTER(J_A, 84, 36, w0);
-  GAGEN_SCATTER(J_A, 84, 37, w0);
-  GAGEN_SCATTER(J_A, 84, 38, w0);
-  GAGEN_SCATTER(J_A, 84, 39, w0);
-  GAGEN_SCATTER(J_A, 84, 40, w0);
+  GAGEN_SCATTER(out_J_A, 84, 32, w8);
+  GAGEN_SCATTER(out_J_A, 84, 33, w0);
+  GAGEN_SCATTER(out_J_A, 84, 34, w0);
+  GAGEN_SCATTER(out_J_A, 84, 35, w0);
+  GAGEN_SCATTER(out_J_A, 84, 36, w0);
+  GAGEN_SCATTER(out_J_A, 84, 37, w0);
+  GAGEN_SCATTER(out_J_A, 84, 38, w0);
+  GAGEN_SCATTER(out_J_A, 84, 39, w0);
+  GAGEN_SCATTER(out_J_A, 84, 40, w0);
   w8 = w19 * w26;
   w9 = w30 * w3;
   w9 = w9 * w5;
@@ -3564,7 +3564,7 @@ static void panda_point_similarity_jacobians_block(const double *restrict q, dou
   w8 = w8 + w10;
   w10 = w1 * w8;
   w10 = -w10;
-  GAGEN_SCATTER(J_A, 84, 41, w10);
+  GAGEN_SCATTER(out_J_A, 84, 41, w10);
   w12 = w12 * w37;
   w43 = w43 * w7;
   w12 = w12 + w43;
@@ -3578,8 +3578,8 @@ static void panda_point_similarity_jacobians_block(const double *restrict q, dou
   w42 = w19 * w27;
   w9 = w9 - w42;
   w42 = w1 * w9;
-  GAGEN_SCATTER(J_A, 84, 42, w42);
-  GAGEN_SCATTER(J_A, 84, 43, w0);
+  GAGEN_SCATTER(out_J_A, 84, 42, w42);
+  GAGEN_SCATTER(out_J_A, 84, 43, w0);
   w42 = w13 * w26;
   w43 = w30 * w27;
   w42 = w42 + w43;
@@ -3590,15 +3590,15 @@ static void panda_point_similarity_jacobians_block(const double *restrict q, dou
   w12 = w12 + w12;
   w42 = w42 + w12;
   w12 = w1 * w42;
-  GAGEN_SCATTER(J_A, 84, 44, w12);
-  GAGEN_SCATTER(J_A, 84, 45, w0);
-  GAGEN_SCATTER(J_A, 84, 46, w0);
-  GAGEN_SCATTER(J_A, 84, 47, w0);
-  GAGEN_SCATTER(J_A, 84, 48, w0);
-  GAGEN_SCATTER(J_A, 84, 49, w0);
-  GAGEN_SCATTER(J_A, 84, 50, w0);
-  GAGEN_SCATTER(J_A, 84, 51, w0);
-  GAGEN_SCATTER(J_A, 84, 52, w0);
+  GAGEN_SCATTER(out_J_A, 84, 44, w12);
+  GAGEN_SCATTER(out_J_A, 84, 45, w0);
+  GAGEN_SCATTER(out_J_A, 84, 46, w0);
+  GAGEN_SCATTER(out_J_A, 84, 47, w0);
+  GAGEN_SCATTER(out_J_A, 84, 48, w0);
+  GAGEN_SCATTER(out_J_A, 84, 49, w0);
+  GAGEN_SCATTER(out_J_A, 84, 50, w0);
+  GAGEN_SCATTER(out_J_A, 84, 51, w0);
+  GAGEN_SCATTER(out_J_A, 84, 52, w0);
   w15 = w15 + w33;
   w12 = w11 * w15;
   w32 = w20 * w31;
@@ -3608,7 +3608,7 @@ static void panda_point_similarity_jacobians_block(const double *restrict q, dou
   w32 = w19 * w20;
   w12 = w12 - w32;
   w32 = w1 * w12;
-  GAGEN_SCATTER(J_A, 84, 53, w32);
+  GAGEN_SCATTER(out_J_A, 84, 53, w32);
   w32 = w18 * w31;
   w43 = w13 * w11;
   w32 = w32 + w43;
@@ -3618,8 +3618,8 @@ static void panda_point_similarity_jacobians_block(const double *restrict q, dou
   w11 = w19 * w18;
   w32 = w32 - w11;
   w11 = w1 * w32;
-  GAGEN_SCATTER(J_A, 84, 54, w11);
-  GAGEN_SCATTER(J_A, 84, 55, w0);
+  GAGEN_SCATTER(out_J_A, 84, 54, w11);
+  GAGEN_SCATTER(out_J_A, 84, 55, w0);
   w11 = w13 * w20;
   w38 = w30 * w18;
   w11 = w11 + w38;
@@ -3628,15 +3628,15 @@ static void panda_point_similarity_jacobians_block(const double *restrict q, dou
   w18 = w18 * w15;
   w11 = w11 - w18;
   w18 = w1 * w11;
-  GAGEN_SCATTER(J_A, 84, 56, w18);
-  GAGEN_SCATTER(J_A, 84, 57, w0);
-  GAGEN_SCATTER(J_A, 84, 58, w0);
-  GAGEN_SCATTER(J_A, 84, 59, w0);
-  GAGEN_SCATTER(J_A, 84, 60, w0);
-  GAGEN_SCATTER(J_A, 84, 61, w0);
-  GAGEN_SCATTER(J_A, 84, 62, w0);
-  GAGEN_SCATTER(J_A, 84, 63, w0);
-  GAGEN_SCATTER(J_A, 84, 64, w0);
+  GAGEN_SCATTER(out_J_A, 84, 56, w18);
+  GAGEN_SCATTER(out_J_A, 84, 57, w0);
+  GAGEN_SCATTER(out_J_A, 84, 58, w0);
+  GAGEN_SCATTER(out_J_A, 84, 59, w0);
+  GAGEN_SCATTER(out_J_A, 84, 60, w0);
+  GAGEN_SCATTER(out_J_A, 84, 61, w0);
+  GAGEN_SCATTER(out_J_A, 84, 62, w0);
+  GAGEN_SCATTER(out_J_A, 84, 63, w0);
+  GAGEN_SCATTER(out_J_A, 84, 64, w0);
   w44 = w24 * w44;
   w3 = w25 * w3;
   w3 = w3 * w5;
@@ -3652,7 +3652,7 @@ static void panda_point_similarity_jacobians_block(const double *restrict q, dou
   w16 = w19 * w26;
   w3 = w3 - w16;
   w16 = w1 * w3;
-  GAGEN_SCATTER(J_A, 84, 65, w16);
+  GAGEN_SCATTER(out_J_A, 84, 65, w16);
   w25 = w25 * w27;
   w24 = w24 * w35;
   w25 = w25 + w24;
@@ -3664,8 +3664,8 @@ static void panda_point_similarity_jacobians_block(const double *restrict q, dou
   w44 = w19 * w25;
   w31 = w31 - w44;
   w44 = w1 * w31;
-  GAGEN_SCATTER(J_A, 84, 66, w44);
-  GAGEN_SCATTER(J_A, 84, 67, w0);
+  GAGEN_SCATTER(out_J_A, 84, 66, w44);
+  GAGEN_SCATTER(out_J_A, 84, 67, w0);
   w44 = w13 * w26;
   w24 = w30 * w25;
   w44 = w44 + w24;
@@ -3674,15 +3674,15 @@ static void panda_point_similarity_jacobians_block(const double *restrict q, dou
   w25 = w25 * w15;
   w44 = w44 - w25;
   w25 = w1 * w44;
-  GAGEN_SCATTER(J_A, 84, 68, w25);
-  GAGEN_SCATTER(J_A, 84, 69, w0);
-  GAGEN_SCATTER(J_A, 84, 70, w0);
-  GAGEN_SCATTER(J_A, 84, 71, w0);
-  GAGEN_SCATTER(J_A, 84, 72, w0);
-  GAGEN_SCATTER(J_A, 84, 73, w0);
-  GAGEN_SCATTER(J_A, 84, 74, w0);
-  GAGEN_SCATTER(J_A, 84, 75, w0);
-  GAGEN_SCATTER(J_A, 84, 76, w0);
+  GAGEN_SCATTER(out_J_A, 84, 68, w25);
+  GAGEN_SCATTER(out_J_A, 84, 69, w0);
+  GAGEN_SCATTER(out_J_A, 84, 70, w0);
+  GAGEN_SCATTER(out_J_A, 84, 71, w0);
+  GAGEN_SCATTER(out_J_A, 84, 72, w0);
+  GAGEN_SCATTER(out_J_A, 84, 73, w0);
+  GAGEN_SCATTER(out_J_A, 84, 74, w0);
+  GAGEN_SCATTER(out_J_A, 84, 75, w0);
+  GAGEN_SCATTER(out_J_A, 84, 76, w0);
   w25 = w30 * w23;
   w28 = w28 + w33;
   w33 = w23 * w28;
@@ -3693,7 +3693,7 @@ static void panda_point_similarity_jacobians_block(const double *restrict q, dou
   w33 = w19 * w14;
   w25 = w25 + w33;
   w33 = w1 * w25;
-  GAGEN_SCATTER(J_A, 84, 77, w33);
+  GAGEN_SCATTER(out_J_A, 84, 77, w33);
   w33 = w23 * w36;
   w21 = w39 * w21;
   w23 = w13 * w23;
@@ -3702,8 +3702,8 @@ static void panda_point_similarity_jacobians_block(const double *restrict q, dou
   w21 = w19 * w39;
   w33 = w33 + w21;
   w21 = w1 * w33;
-  GAGEN_SCATTER(J_A, 84, 78, w21);
-  GAGEN_SCATTER(J_A, 84, 79, w0);
+  GAGEN_SCATTER(out_J_A, 84, 78, w21);
+  GAGEN_SCATTER(out_J_A, 84, 79, w0);
   w36 = w14 * w36;
   w14 = w13 * w14;
   w21 = w30 * w39;
@@ -3712,100 +3712,100 @@ static void panda_point_similarity_jacobians_block(const double *restrict q, dou
   w39 = w39 * w28;
   w36 = w36 + w39;
   w1 = w1 * w36;
-  GAGEN_SCATTER(J_A, 84, 80, w1);
-  GAGEN_SCATTER(J_A, 84, 81, w0);
-  GAGEN_SCATTER(J_A, 84, 82, w0);
-  GAGEN_SCATTER(J_A, 84, 83, w0);
-  GAGEN_SCATTER(log_V, 7, 0, w0);
-  GAGEN_SCATTER(log_V, 7, 1, w0);
-  GAGEN_SCATTER(log_V, 7, 2, w0);
-  GAGEN_SCATTER(log_V, 7, 3, w0);
+  GAGEN_SCATTER(out_J_A, 84, 80, w1);
+  GAGEN_SCATTER(out_J_A, 84, 81, w0);
+  GAGEN_SCATTER(out_J_A, 84, 82, w0);
+  GAGEN_SCATTER(out_J_A, 84, 83, w0);
+  GAGEN_SCATTER(out_log_V, 7, 0, w0);
+  GAGEN_SCATTER(out_log_V, 7, 1, w0);
+  GAGEN_SCATTER(out_log_V, 7, 2, w0);
+  GAGEN_SCATTER(out_log_V, 7, 3, w0);
   w1 = gagen_v_splat(0.5);
   w39 = w1 * w13;
   w39 = -w39;
   w39 = w39 + w39;
   w39 = -w39;
-  GAGEN_SCATTER(log_V, 7, 4, w39);
+  GAGEN_SCATTER(out_log_V, 7, 4, w39);
   w39 = w1 * w30;
   w39 = -w39;
   w39 = w39 + w39;
   w39 = -w39;
-  GAGEN_SCATTER(log_V, 7, 5, w39);
+  GAGEN_SCATTER(out_log_V, 7, 5, w39);
   w1 = w1 * w19;
   w1 = -w1;
   w1 = w1 + w1;
   w1 = -w1;
-  GAGEN_SCATTER(log_V, 7, 6, w1);
-  GAGEN_SCATTER(J_B, 49, 0, w0);
-  GAGEN_SCATTER(J_B, 49, 1, w0);
-  GAGEN_SCATTER(J_B, 49, 2, w0);
-  GAGEN_SCATTER(J_B, 49, 3, w0);
+  GAGEN_SCATTER(out_log_V, 7, 6, w1);
+  GAGEN_SCATTER(out_J_B, 49, 0, w0);
+  GAGEN_SCATTER(out_J_B, 49, 1, w0);
+  GAGEN_SCATTER(out_J_B, 49, 2, w0);
+  GAGEN_SCATTER(out_J_B, 49, 3, w0);
   w30 = -w30;
-  GAGEN_SCATTER(J_B, 49, 4, w30);
-  GAGEN_SCATTER(J_B, 49, 5, w13);
-  GAGEN_SCATTER(J_B, 49, 6, w0);
-  GAGEN_SCATTER(J_B, 49, 7, w0);
-  GAGEN_SCATTER(J_B, 49, 8, w0);
-  GAGEN_SCATTER(J_B, 49, 9, w0);
-  GAGEN_SCATTER(J_B, 49, 10, w0);
-  GAGEN_SCATTER(J_B, 49, 11, w22);
-  GAGEN_SCATTER(J_B, 49, 12, w41);
+  GAGEN_SCATTER(out_J_B, 49, 4, w30);
+  GAGEN_SCATTER(out_J_B, 49, 5, w13);
+  GAGEN_SCATTER(out_J_B, 49, 6, w0);
+  GAGEN_SCATTER(out_J_B, 49, 7, w0);
+  GAGEN_SCATTER(out_J_B, 49, 8, w0);
+  GAGEN_SCATTER(out_J_B, 49, 9, w0);
+  GAGEN_SCATTER(out_J_B, 49, 10, w0);
+  GAGEN_SCATTER(out_J_B, 49, 11, w22);
+  GAGEN_SCATTER(out_J_B, 49, 12, w41);
   w17 = -w17;
-  GAGEN_SCATTER(J_B, 49, 13, w17);
-  GAGEN_SCATTER(J_B, 49, 14, w0);
-  GAGEN_SCATTER(J_B, 49, 15, w0);
-  GAGEN_SCATTER(J_B, 49, 16, w0);
-  GAGEN_SCATTER(J_B, 49, 17, w0);
-  GAGEN_SCATTER(J_B, 49, 18, w4);
-  GAGEN_SCATTER(J_B, 49, 19, w2);
-  GAGEN_SCATTER(J_B, 49, 20, w40);
-  GAGEN_SCATTER(J_B, 49, 21, w0);
-  GAGEN_SCATTER(J_B, 49, 22, w0);
-  GAGEN_SCATTER(J_B, 49, 23, w0);
-  GAGEN_SCATTER(J_B, 49, 24, w0);
+  GAGEN_SCATTER(out_J_B, 49, 13, w17);
+  GAGEN_SCATTER(out_J_B, 49, 14, w0);
+  GAGEN_SCATTER(out_J_B, 49, 15, w0);
+  GAGEN_SCATTER(out_J_B, 49, 16, w0);
+  GAGEN_SCATTER(out_J_B, 49, 17, w0);
+  GAGEN_SCATTER(out_J_B, 49, 18, w4);
+  GAGEN_SCATTER(out_J_B, 49, 19, w2);
+  GAGEN_SCATTER(out_J_B, 49, 20, w40);
+  GAGEN_SCATTER(out_J_B, 49, 21, w0);
+  GAGEN_SCATTER(out_J_B, 49, 22, w0);
+  GAGEN_SCATTER(out_J_B, 49, 23, w0);
+  GAGEN_SCATTER(out_J_B, 49, 24, w0);
   w8 = -w8;
-  GAGEN_SCATTER(J_B, 49, 25, w8);
-  GAGEN_SCATTER(J_B, 49, 26, w9);
-  GAGEN_SCATTER(J_B, 49, 27, w42);
-  GAGEN_SCATTER(J_B, 49, 28, w0);
-  GAGEN_SCATTER(J_B, 49, 29, w0);
-  GAGEN_SCATTER(J_B, 49, 30, w0);
-  GAGEN_SCATTER(J_B, 49, 31, w0);
-  GAGEN_SCATTER(J_B, 49, 32, w12);
-  GAGEN_SCATTER(J_B, 49, 33, w32);
-  GAGEN_SCATTER(J_B, 49, 34, w11);
-  GAGEN_SCATTER(J_B, 49, 35, w0);
-  GAGEN_SCATTER(J_B, 49, 36, w0);
-  GAGEN_SCATTER(J_B, 49, 37, w0);
-  GAGEN_SCATTER(J_B, 49, 38, w0);
-  GAGEN_SCATTER(J_B, 49, 39, w3);
-  GAGEN_SCATTER(J_B, 49, 40, w31);
-  GAGEN_SCATTER(J_B, 49, 41, w44);
-  GAGEN_SCATTER(J_B, 49, 42, w0);
-  GAGEN_SCATTER(J_B, 49, 43, w0);
-  GAGEN_SCATTER(J_B, 49, 44, w0);
-  GAGEN_SCATTER(J_B, 49, 45, w0);
-  GAGEN_SCATTER(J_B, 49, 46, w25);
-  GAGEN_SCATTER(J_B, 49, 47, w33);
-  GAGEN_SCATTER(J_B, 49, 48, w36);
+  GAGEN_SCATTER(out_J_B, 49, 25, w8);
+  GAGEN_SCATTER(out_J_B, 49, 26, w9);
+  GAGEN_SCATTER(out_J_B, 49, 27, w42);
+  GAGEN_SCATTER(out_J_B, 49, 28, w0);
+  GAGEN_SCATTER(out_J_B, 49, 29, w0);
+  GAGEN_SCATTER(out_J_B, 49, 30, w0);
+  GAGEN_SCATTER(out_J_B, 49, 31, w0);
+  GAGEN_SCATTER(out_J_B, 49, 32, w12);
+  GAGEN_SCATTER(out_J_B, 49, 33, w32);
+  GAGEN_SCATTER(out_J_B, 49, 34, w11);
+  GAGEN_SCATTER(out_J_B, 49, 35, w0);
+  GAGEN_SCATTER(out_J_B, 49, 36, w0);
+  GAGEN_SCATTER(out_J_B, 49, 37, w0);
+  GAGEN_SCATTER(out_J_B, 49, 38, w0);
+  GAGEN_SCATTER(out_J_B, 49, 39, w3);
+  GAGEN_SCATTER(out_J_B, 49, 40, w31);
+  GAGEN_SCATTER(out_J_B, 49, 41, w44);
+  GAGEN_SCATTER(out_J_B, 49, 42, w0);
+  GAGEN_SCATTER(out_J_B, 49, 43, w0);
+  GAGEN_SCATTER(out_J_B, 49, 44, w0);
+  GAGEN_SCATTER(out_J_B, 49, 45, w0);
+  GAGEN_SCATTER(out_J_B, 49, 46, w25);
+  GAGEN_SCATTER(out_J_B, 49, 47, w33);
+  GAGEN_SCATTER(out_J_B, 49, 48, w36);
 }
 #endif
 
-void panda_point_similarity_jacobians_batch(long n, const double *restrict q, double *restrict J_A, double *restrict log_V, double *restrict J_B) {
-  long s = 0;
+void panda_point_similarity_jacobians_batch(long gagen_n, const double *restrict in_q, double *restrict out_J_A, double *restrict out_log_V, double *restrict out_J_B) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 84 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_A + 84 * a + o, 1, 0);
-      for (int o = 0; o < 7 * GAGEN_W + 7; o += 8) __builtin_prefetch(log_V + 7 * a + o, 1, 0);
-      for (int o = 0; o < 49 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_B + 49 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 84 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_A + 84 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 7 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_log_V + 7 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 49 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_B + 49 * gagen_a + gagen_o, 1, 0);
     }
-    panda_point_similarity_jacobians_block(q + 7 * s, J_A + 84 * s, log_V + 7 * s, J_B + 49 * s);
+    panda_point_similarity_jacobians_block(in_q + 7 * gagen_s, out_J_A + 84 * gagen_s, out_log_V + 7 * gagen_s, out_J_B + 49 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    panda_point_similarity_jacobians(q + 7 * s, J_A + 84 * s, log_V + 7 * s, J_B + 49 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    panda_point_similarity_jacobians(in_q + 7 * gagen_s, out_J_A + 84 * gagen_s, out_log_V + 7 * gagen_s, out_J_B + 49 * gagen_s);
   }
 }
 
@@ -3815,32 +3815,32 @@ void panda_point_similarity_jacobians_batch(long n, const double *restrict q, do
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void panda_point_similarity_jacobians_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict J_A, double *restrict log_V, double *restrict J_B) {
+static void panda_point_similarity_jacobians_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_J_A, double *restrict out_log_V, double *restrict out_J_B) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   gagen_v w36, w37, w38, w39, w40, w41, w42, w43, w44, w45;
   w0 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_A, 84, 0, w0);
-  GAGEN_SCATTER(J_A, 84, 1, w0);
-  GAGEN_SCATTER(J_A, 84, 2, w0);
-  GAGEN_SCATTER(J_A, 84, 3, w0);
-  GAGEN_SCATTER(J_A, 84, 4, w0);
+  GAGEN_SCATTER(out_J_A, 84, 0, w0);
+  GAGEN_SCATTER(out_J_A, 84, 1, w0);
+  GAGEN_SCATTER(out_J_A, 84, 2, w0);
+  GAGEN_SCATTER(out_J_A, 84, 3, w0);
+  GAGEN_SCATTER(out_J_A, 84, 4, w0);
   w1 = gagen_v_splat((-0.5));
   w2 = gagen_v_splat(0.0825);
-  w3 = GAGEN_GATHER(q, 7, 2);
+  w3 = GAGEN_GATHER(in_q, 7, 2);
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 7, 1);
+  w5 = GAGEN_GATHER(in_q, 7, 1);
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 7, 0);
+  w8 = GAGEN_GATHER(in_q, 7, 0);
   w9 = gagen_v_sin(w8);
   w10 = w7 * w9;
   w3 = gagen_v_sin(w3);
   w8 = gagen_v_cos(w8);
   w11 = w3 * w8;
   w10 = w10 + w11;
-  w11 = GAGEN_GATHER(q, 7, 3);
+  w11 = GAGEN_GATHER(in_q, 7, 3);
   w12 = gagen_v_sin(w11);
   w5 = gagen_v_sin(w5);
   w13 = w12 * w5;
@@ -3858,9 +3858,9 @@ static void panda_point_similarity_jacobians_block_columns(long gagen_ld, int ga
   w21 = w17 * w21;
   w15 = w15 + w21;
   w21 = gagen_v_splat(0.088);
-  w22 = GAGEN_GATHER(q, 7, 5);
+  w22 = GAGEN_GATHER(in_q, 7, 5);
   w23 = gagen_v_cos(w22);
-  w24 = GAGEN_GATHER(q, 7, 4);
+  w24 = GAGEN_GATHER(in_q, 7, 4);
   w25 = gagen_v_cos(w24);
   w16 = w16 + w14;
   w14 = w25 * w16;
@@ -3890,7 +3890,7 @@ static void panda_point_similarity_jacobians_block_columns(long gagen_ld, int ga
   w30 = w30 + w33;
   w34 = w1 * w30;
   w34 = -w34;
-  GAGEN_SCATTER(J_A, 84, 5, w34);
+  GAGEN_SCATTER(out_J_A, 84, 5, w34);
   w7 = w7 * w8;
   w34 = w3 * w9;
   w7 = w7 - w34;
@@ -3925,17 +3925,17 @@ static void panda_point_similarity_jacobians_block_columns(long gagen_ld, int ga
   w13 = w19 * w39;
   w13 = w36 - w13;
   w40 = w1 * w13;
-  GAGEN_SCATTER(J_A, 84, 6, w40);
-  GAGEN_SCATTER(J_A, 84, 7, w0);
-  GAGEN_SCATTER(J_A, 84, 8, w0);
-  GAGEN_SCATTER(J_A, 84, 9, w0);
-  GAGEN_SCATTER(J_A, 84, 10, w0);
-  GAGEN_SCATTER(J_A, 84, 11, w0);
-  GAGEN_SCATTER(J_A, 84, 12, w0);
-  GAGEN_SCATTER(J_A, 84, 13, w0);
-  GAGEN_SCATTER(J_A, 84, 14, w0);
-  GAGEN_SCATTER(J_A, 84, 15, w0);
-  GAGEN_SCATTER(J_A, 84, 16, w0);
+  GAGEN_SCATTER(out_J_A, 84, 6, w40);
+  GAGEN_SCATTER(out_J_A, 84, 7, w0);
+  GAGEN_SCATTER(out_J_A, 84, 8, w0);
+  GAGEN_SCATTER(out_J_A, 84, 9, w0);
+  GAGEN_SCATTER(out_J_A, 84, 10, w0);
+  GAGEN_SCATTER(out_J_A, 84, 11, w0);
+  GAGEN_SCATTER(out_J_A, 84, 12, w0);
+  GAGEN_SCATTER(out_J_A, 84, 13, w0);
+  GAGEN_SCATTER(out_J_A, 84, 14, w0);
+  GAGEN_SCATTER(out_J_A, 84, 15, w0);
+  GAGEN_SCATTER(out_J_A, 84, 16, w0);
   w40 = gagen_v_splat(0.333);
   w31 = w31 * w6;
   w31 = w40 + w31;
@@ -3972,27 +3972,27 @@ static void panda_point_similarity_jacobians_block_columns(long gagen_ld, int ga
   w41 = w40 * w8;
   w22 = w22 - w41;
   w41 = w1 * w22;
-  GAGEN_SCATTER(J_A, 84, 17, w41);
+  GAGEN_SCATTER(out_J_A, 84, 17, w41);
   w41 = w19 * w9;
   w17 = w40 * w9;
   w41 = w41 - w17;
   w17 = w1 * w41;
-  GAGEN_SCATTER(J_A, 84, 18, w17);
-  GAGEN_SCATTER(J_A, 84, 19, w0);
+  GAGEN_SCATTER(out_J_A, 84, 18, w17);
+  GAGEN_SCATTER(out_J_A, 84, 19, w0);
   w17 = w30 * w9;
   w12 = w13 * w8;
   w17 = w17 + w12;
   w12 = w1 * w17;
   w12 = -w12;
-  GAGEN_SCATTER(J_A, 84, 20, w12);
-  GAGEN_SCATTER(J_A, 84, 21, w0);
-  GAGEN_SCATTER(J_A, 84, 22, w0);
-  GAGEN_SCATTER(J_A, 84, 23, w0);
-  GAGEN_SCATTER(J_A, 84, 24, w0);
-  GAGEN_SCATTER(J_A, 84, 25, w0);
-  GAGEN_SCATTER(J_A, 84, 26, w0);
-  GAGEN_SCATTER(J_A, 84, 27, w0);
-  GAGEN_SCATTER(J_A, 84, 28, w0);
+  GAGEN_SCATTER(out_J_A, 84, 20, w12);
+  GAGEN_SCATTER(out_J_A, 84, 21, w0);
+  GAGEN_SCATTER(out_J_A, 84, 22, w0);
+  GAGEN_SCATTER(out_J_A, 84, 23, w0);
+  GAGEN_SCATTER(out_J_A, 84, 24, w0);
+  GAGEN_SCATTER(out_J_A, 84, 25, w0);
+  GAGEN_SCATTER(out_J_A, 84, 26, w0);
+  GAGEN_SCATTER(out_J_A, 84, 27, w0);
+  GAGEN_SCATTER(out_J_A, 84, 28, w0);
   w12 = w19 * w5;
   w4 = w12 * w9;
   w2 = w40 * w32;
@@ -4000,30 +4000,30 @@ static void panda_point_similarity_jacobians_block_columns(long gagen_ld, int ga
   w2 = w2 + w43;
   w4 = w4 - w2;
   w2 = w1 * w4;
-  GAGEN_SCATTER(J_A, 84, 29, w2);
+  GAGEN_SCATTER(out_J_A, 84, 29, w2);
   w2 = w13 * w6;
   w12 = w12 * w8;
   w2 = w2 - w12;
   w40 = w40 * w37;
   w2 = w2 + w40;
   w40 = w1 * w2;
-  GAGEN_SCATTER(J_A, 84, 30, w40);
-  GAGEN_SCATTER(J_A, 84, 31, w0);
+  GAGEN_SCATTER(out_J_A, 84, 30, w40);
+  GAGEN_SCATTER(out_J_A, 84, 31, w0);
   w40 = w30 * w5;
   w40 = w40 * w8;
   w8 = w13 * w5;
   w8 = w8 * w9;
   w40 = w40 - w8;
   w8 = w1 * w40;
-  GAGEN_SCATTER(J_A, 84, 32, w8);
-  GAGEN_SCATTER(J_A, 84, 33, w0);
-  GAGEN_SCATTER(J_A, 84, 34, w0);
-  GAGEN_SCATTER(J_A, 84, 35, w0);
-  GAGEN_SCATTER(J_A, 84, 36, w0);
-  GAGEN_SCATTER(J_A, 84, 37, w0);
-  GAGEN_SCATTER(J_A, 84, 38, w0);
-  GAGEN_SCATTER(J_A, 84, 39, w0);
-  GAGEN_SCATTER(J_A, 84, 40, w0);
+  GAGEN_SCATTER(out_J_A, 84, 32, w8);
+  GAGEN_SCATTER(out_J_A, 84, 33, w0);
+  GAGEN_SCATTER(out_J_A, 84, 34, w0);
+  GAGEN_SCATTER(out_J_A, 84, 35, w0);
+  GAGEN_SCATTER(out_J_A, 84, 36, w0);
+  GAGEN_SCATTER(out_J_A, 84, 37, w0);
+  GAGEN_SCATTER(out_J_A, 84, 38, w0);
+  GAGEN_SCATTER(out_J_A, 84, 39, w0);
+  GAGEN_SCATTER(out_J_A, 84, 40, w0);
   w8 = w19 * w26;
   w9 = w30 * w3;
   w9 = w9 * w5;
@@ -4046,7 +4046,7 @@ static void panda_point_similarity_jacobians_block_columns(long gagen_ld, int ga
   w8 = w8 + w10;
   w10 = w1 * w8;
   w10 = -w10;
-  GAGEN_SCATTER(J_A, 84, 41, w10);
+  GAGEN_SCATTER(out_J_A, 84, 41, w10);
   w12 = w12 * w37;
   w43 = w43 * w7;
   w12 = w12 + w43;
@@ -4060,8 +4060,8 @@ static void panda_point_similarity_jacobians_block_columns(long gagen_ld, int ga
   w42 = w19 * w27;
   w9 = w9 - w42;
   w42 = w1 * w9;
-  GAGEN_SCATTER(J_A, 84, 42, w42);
-  GAGEN_SCATTER(J_A, 84, 43, w0);
+  GAGEN_SCATTER(out_J_A, 84, 42, w42);
+  GAGEN_SCATTER(out_J_A, 84, 43, w0);
   w42 = w13 * w26;
   w43 = w30 * w27;
   w42 = w42 + w43;
@@ -4072,15 +4072,15 @@ static void panda_point_similarity_jacobians_block_columns(long gagen_ld, int ga
   w12 = w12 + w12;
   w42 = w42 + w12;
   w12 = w1 * w42;
-  GAGEN_SCATTER(J_A, 84, 44, w12);
-  GAGEN_SCATTER(J_A, 84, 45, w0);
-  GAGEN_SCATTER(J_A, 84, 46, w0);
-  GAGEN_SCATTER(J_A, 84, 47, w0);
-  GAGEN_SCATTER(J_A, 84, 48, w0);
-  GAGEN_SCATTER(J_A, 84, 49, w0);
-  GAGEN_SCATTER(J_A, 84, 50, w0);
-  GAGEN_SCATTER(J_A, 84, 51, w0);
-  GAGEN_SCATTER(J_A, 84, 52, w0);
+  GAGEN_SCATTER(out_J_A, 84, 44, w12);
+  GAGEN_SCATTER(out_J_A, 84, 45, w0);
+  GAGEN_SCATTER(out_J_A, 84, 46, w0);
+  GAGEN_SCATTER(out_J_A, 84, 47, w0);
+  GAGEN_SCATTER(out_J_A, 84, 48, w0);
+  GAGEN_SCATTER(out_J_A, 84, 49, w0);
+  GAGEN_SCATTER(out_J_A, 84, 50, w0);
+  GAGEN_SCATTER(out_J_A, 84, 51, w0);
+  GAGEN_SCATTER(out_J_A, 84, 52, w0);
   w15 = w15 + w33;
   w12 = w11 * w15;
   w32 = w20 * w31;
@@ -4090,7 +4090,7 @@ static void panda_point_similarity_jacobians_block_columns(long gagen_ld, int ga
   w32 = w19 * w20;
   w12 = w12 - w32;
   w32 = w1 * w12;
-  GAGEN_SCATTER(J_A, 84, 53, w32);
+  GAGEN_SCATTER(out_J_A, 84, 53, w32);
   w32 = w18 * w31;
   w43 = w13 * w11;
   w32 = w32 + w43;
@@ -4100,8 +4100,8 @@ static void panda_point_similarity_jacobians_block_columns(long gagen_ld, int ga
   w11 = w19 * w18;
   w32 = w32 - w11;
   w11 = w1 * w32;
-  GAGEN_SCATTER(J_A, 84, 54, w11);
-  GAGEN_SCATTER(J_A, 84, 55, w0);
+  GAGEN_SCATTER(out_J_A, 84, 54, w11);
+  GAGEN_SCATTER(out_J_A, 84, 55, w0);
   w11 = w13 * w20;
   w38 = w30 * w18;
   w11 = w11 + w38;
@@ -4110,15 +4110,15 @@ static void panda_point_similarity_jacobians_block_columns(long gagen_ld, int ga
   w18 = w18 * w15;
   w11 = w11 - w18;
   w18 = w1 * w11;
-  GAGEN_SCATTER(J_A, 84, 56, w18);
-  GAGEN_SCATTER(J_A, 84, 57, w0);
-  GAGEN_SCATTER(J_A, 84, 58, w0);
-  GAGEN_SCATTER(J_A, 84, 59, w0);
-  GAGEN_SCATTER(J_A, 84, 60, w0);
-  GAGEN_SCATTER(J_A, 84, 61, w0);
-  GAGEN_SCATTER(J_A, 84, 62, w0);
-  GAGEN_SCATTER(J_A, 84, 63, w0);
-  GAGEN_SCATTER(J_A, 84, 64, w0);
+  GAGEN_SCATTER(out_J_A, 84, 56, w18);
+  GAGEN_SCATTER(out_J_A, 84, 57, w0);
+  GAGEN_SCATTER(out_J_A, 84, 58, w0);
+  GAGEN_SCATTER(out_J_A, 84, 59, w0);
+  GAGEN_SCATTER(out_J_A, 84, 60, w0);
+  GAGEN_SCATTER(out_J_A, 84, 61, w0);
+  GAGEN_SCATTER(out_J_A, 84, 62, w0);
+  GAGEN_SCATTER(out_J_A, 84, 63, w0);
+  GAGEN_SCATTER(out_J_A, 84, 64, w0);
   w44 = w24 * w44;
   w3 = w25 * w3;
   w3 = w3 * w5;
@@ -4134,7 +4134,7 @@ static void panda_point_similarity_jacobians_block_columns(long gagen_ld, int ga
   w16 = w19 * w26;
   w3 = w3 - w16;
   w16 = w1 * w3;
-  GAGEN_SCATTER(J_A, 84, 65, w16);
+  GAGEN_SCATTER(out_J_A, 84, 65, w16);
   w25 = w25 * w27;
   w24 = w24 * w35;
   w25 = w25 + w24;
@@ -4146,8 +4146,8 @@ static void panda_point_similarity_jacobians_block_columns(long gagen_ld, int ga
   w44 = w19 * w25;
   w31 = w31 - w44;
   w44 = w1 * w31;
-  GAGEN_SCATTER(J_A, 84, 66, w44);
-  GAGEN_SCATTER(J_A, 84, 67, w0);
+  GAGEN_SCATTER(out_J_A, 84, 66, w44);
+  GAGEN_SCATTER(out_J_A, 84, 67, w0);
   w44 = w13 * w26;
   w24 = w30 * w25;
   w44 = w44 + w24;
@@ -4156,15 +4156,15 @@ static void panda_point_similarity_jacobians_block_columns(long gagen_ld, int ga
   w25 = w25 * w15;
   w44 = w44 - w25;
   w25 = w1 * w44;
-  GAGEN_SCATTER(J_A, 84, 68, w25);
-  GAGEN_SCATTER(J_A, 84, 69, w0);
-  GAGEN_SCATTER(J_A, 84, 70, w0);
-  GAGEN_SCATTER(J_A, 84, 71, w0);
-  GAGEN_SCATTER(J_A, 84, 72, w0);
-  GAGEN_SCATTER(J_A, 84, 73, w0);
-  GAGEN_SCATTER(J_A, 84, 74, w0);
-  GAGEN_SCATTER(J_A, 84, 75, w0);
-  GAGEN_SCATTER(J_A, 84, 76, w0);
+  GAGEN_SCATTER(out_J_A, 84, 68, w25);
+  GAGEN_SCATTER(out_J_A, 84, 69, w0);
+  GAGEN_SCATTER(out_J_A, 84, 70, w0);
+  GAGEN_SCATTER(out_J_A, 84, 71, w0);
+  GAGEN_SCATTER(out_J_A, 84, 72, w0);
+  GAGEN_SCATTER(out_J_A, 84, 73, w0);
+  GAGEN_SCATTER(out_J_A, 84, 74, w0);
+  GAGEN_SCATTER(out_J_A, 84, 75, w0);
+  GAGEN_SCATTER(out_J_A, 84, 76, w0);
   w25 = w30 * w23;
   w28 = w28 + w33;
   w33 = w23 * w28;
@@ -4175,7 +4175,7 @@ static void panda_point_similarity_jacobians_block_columns(long gagen_ld, int ga
   w33 = w19 * w14;
   w25 = w25 + w33;
   w33 = w1 * w25;
-  GAGEN_SCATTER(J_A, 84, 77, w33);
+  GAGEN_SCATTER(out_J_A, 84, 77, w33);
   w33 = w23 * w36;
   w21 = w39 * w21;
   w23 = w13 * w23;
@@ -4184,8 +4184,8 @@ static void panda_point_similarity_jacobians_block_columns(long gagen_ld, int ga
   w21 = w19 * w39;
   w33 = w33 + w21;
   w21 = w1 * w33;
-  GAGEN_SCATTER(J_A, 84, 78, w21);
-  GAGEN_SCATTER(J_A, 84, 79, w0);
+  GAGEN_SCATTER(out_J_A, 84, 78, w21);
+  GAGEN_SCATTER(out_J_A, 84, 79, w0);
   w36 = w14 * w36;
   w14 = w13 * w14;
   w21 = w30 * w39;
@@ -4194,82 +4194,82 @@ static void panda_point_similarity_jacobians_block_columns(long gagen_ld, int ga
   w39 = w39 * w28;
   w36 = w36 + w39;
   w1 = w1 * w36;
-  GAGEN_SCATTER(J_A, 84, 80, w1);
-  GAGEN_SCATTER(J_A, 84, 81, w0);
-  GAGEN_SCATTER(J_A, 84, 82, w0);
-  GAGEN_SCATTER(J_A, 84, 83, w0);
-  GAGEN_SCATTER(log_V, 7, 0, w0);
-  GAGEN_SCATTER(log_V, 7, 1, w0);
-  GAGEN_SCATTER(log_V, 7, 2, w0);
-  GAGEN_SCATTER(log_V, 7, 3, w0);
+  GAGEN_SCATTER(out_J_A, 84, 80, w1);
+  GAGEN_SCATTER(out_J_A, 84, 81, w0);
+  GAGEN_SCATTER(out_J_A, 84, 82, w0);
+  GAGEN_SCATTER(out_J_A, 84, 83, w0);
+  GAGEN_SCATTER(out_log_V, 7, 0, w0);
+  GAGEN_SCATTER(out_log_V, 7, 1, w0);
+  GAGEN_SCATTER(out_log_V, 7, 2, w0);
+  GAGEN_SCATTER(out_log_V, 7, 3, w0);
   w1 = gagen_v_splat(0.5);
   w39 = w1 * w13;
   w39 = -w39;
   w39 = w39 + w39;
   w39 = -w39;
-  GAGEN_SCATTER(log_V, 7, 4, w39);
+  GAGEN_SCATTER(out_log_V, 7, 4, w39);
   w39 = w1 * w30;
   w39 = -w39;
   w39 = w39 + w39;
   w39 = -w39;
-  GAGEN_SCATTER(log_V, 7, 5, w39);
+  GAGEN_SCATTER(out_log_V, 7, 5, w39);
   w1 = w1 * w19;
   w1 = -w1;
   w1 = w1 + w1;
   w1 = -w1;
-  GAGEN_SCATTER(log_V, 7, 6, w1);
-  GAGEN_SCATTER(J_B, 49, 0, w0);
-  GAGEN_SCATTER(J_B, 49, 1, w0);
-  GAGEN_SCATTER(J_B, 49, 2, w0);
-  GAGEN_SCATTER(J_B, 49, 3, w0);
+  GAGEN_SCATTER(out_log_V, 7, 6, w1);
+  GAGEN_SCATTER(out_J_B, 49, 0, w0);
+  GAGEN_SCATTER(out_J_B, 49, 1, w0);
+  GAGEN_SCATTER(out_J_B, 49, 2, w0);
+  GAGEN_SCATTER(out_J_B, 49, 3, w0);
   w30 = -w30;
-  GAGEN_SCATTER(J_B, 49, 4, w30);
-  GAGEN_SCATTER(J_B, 49, 5, w13);
-  GAGEN_SCATTER(J_B, 49, 6, w0);
-  GAGEN_SCATTER(J_B, 49, 7, w0);
-  GAGEN_SCATTER(J_B, 49, 8, w0);
-  GAGEN_SCATTER(J_B, 49, 9, w0);
-  GAGEN_SCATTER(J_B, 49, 10, w0);
-  GAGEN_SCATTER(J_B, 49, 11, w22);
-  GAGEN_SCATTER(J_B, 49, 12, w41);
+  GAGEN_SCATTER(out_J_B, 49, 4, w30);
+  GAGEN_SCATTER(out_J_B, 49, 5, w13);
+  GAGEN_SCATTER(out_J_B, 49, 6, w0);
+  GAGEN_SCATTER(out_J_B, 49, 7, w0);
+  GAGEN_SCATTER(out_J_B, 49, 8, w0);
+  GAGEN_SCATTER(out_J_B, 49, 9, w0);
+  GAGEN_SCATTER(out_J_B, 49, 10, w0);
+  GAGEN_SCATTER(out_J_B, 49, 11, w22);
+  GAGEN_SCATTER(out_J_B, 49, 12, w41);
   w17 = -w17;
-  GAGEN_SCATTER(J_B, 49, 13, w17);
-  GAGEN_SCATTER(J_B, 49, 14, w0);
-  GAGEN_SCATTER(J_B, 49, 15, w0);
-  GAGEN_SCATTER(J_B, 49, 16, w0);
-  GAGEN_SCATTER(J_B, 49, 17, w0);
-  GAGEN_SCATTER(J_B, 49, 18, w4);
-  GAGEN_SCATTER(J_B, 49, 19, w2);
-  GAGEN_SCATTER(J_B, 49, 20, w40);
-  GAGEN_SCATTER(J_B, 49, 21, w0);
-  GAGEN_SCATTER(J_B, 49, 22, w0);
-  GAGEN_SCATTER(J_B, 49, 23, w0);
-  GAGEN_SCATTER(J_B, 49, 24, w0);
+  GAGEN_SCATTER(out_J_B, 49, 13, w17);
+  GAGEN_SCATTER(out_J_B, 49, 14, w0);
+  GAGEN_SCATTER(out_J_B, 49, 15, w0);
+  GAGEN_SCATTER(out_J_B, 49, 16, w0);
+  GAGEN_SCATTER(out_J_B, 49, 17, w0);
+  GAGEN_SCATTER(out_J_B, 49, 18, w4);
+  GAGEN_SCATTER(out_J_B, 49, 19, w2);
+  GAGEN_SCATTER(out_J_B, 49, 20, w40);
+  GAGEN_SCATTER(out_J_B, 49, 21, w0);
+  GAGEN_SCATTER(out_J_B, 49, 22, w0);
+  GAGEN_SCATTER(out_J_B, 49, 23, w0);
+  GAGEN_SCATTER(out_J_B, 49, 24, w0);
   w8 = -w8;
-  GAGEN_SCATTER(J_B, 49, 25, w8);
-  GAGEN_SCATTER(J_B, 49, 26, w9);
-  GAGEN_SCATTER(J_B, 49, 27, w42);
-  GAGEN_SCATTER(J_B, 49, 28, w0);
-  GAGEN_SCATTER(J_B, 49, 29, w0);
-  GAGEN_SCATTER(J_B, 49, 30, w0);
-  GAGEN_SCATTER(J_B, 49, 31, w0);
-  GAGEN_SCATTER(J_B, 49, 32, w12);
-  GAGEN_SCATTER(J_B, 49, 33, w32);
-  GAGEN_SCATTER(J_B, 49, 34, w11);
-  GAGEN_SCATTER(J_B, 49, 35, w0);
-  GAGEN_SCATTER(J_B, 49, 36, w0);
-  GAGEN_SCATTER(J_B, 49, 37, w0);
-  GAGEN_SCATTER(J_B, 49, 38, w0);
-  GAGEN_SCATTER(J_B, 49, 39, w3);
-  GAGEN_SCATTER(J_B, 49, 40, w31);
-  GAGEN_SCATTER(J_B, 49, 41, w44);
-  GAGEN_SCATTER(J_B, 49, 42, w0);
-  GAGEN_SCATTER(J_B, 49, 43, w0);
-  GAGEN_SCATTER(J_B, 49, 44, w0);
-  GAGEN_SCATTER(J_B, 49, 45, w0);
-  GAGEN_SCATTER(J_B, 49, 46, w25);
-  GAGEN_SCATTER(J_B, 49, 47, w33);
-  GAGEN_SCATTER(J_B, 49, 48, w36);
+  GAGEN_SCATTER(out_J_B, 49, 25, w8);
+  GAGEN_SCATTER(out_J_B, 49, 26, w9);
+  GAGEN_SCATTER(out_J_B, 49, 27, w42);
+  GAGEN_SCATTER(out_J_B, 49, 28, w0);
+  GAGEN_SCATTER(out_J_B, 49, 29, w0);
+  GAGEN_SCATTER(out_J_B, 49, 30, w0);
+  GAGEN_SCATTER(out_J_B, 49, 31, w0);
+  GAGEN_SCATTER(out_J_B, 49, 32, w12);
+  GAGEN_SCATTER(out_J_B, 49, 33, w32);
+  GAGEN_SCATTER(out_J_B, 49, 34, w11);
+  GAGEN_SCATTER(out_J_B, 49, 35, w0);
+  GAGEN_SCATTER(out_J_B, 49, 36, w0);
+  GAGEN_SCATTER(out_J_B, 49, 37, w0);
+  GAGEN_SCATTER(out_J_B, 49, 38, w0);
+  GAGEN_SCATTER(out_J_B, 49, 39, w3);
+  GAGEN_SCATTER(out_J_B, 49, 40, w31);
+  GAGEN_SCATTER(out_J_B, 49, 41, w44);
+  GAGEN_SCATTER(out_J_B, 49, 42, w0);
+  GAGEN_SCATTER(out_J_B, 49, 43, w0);
+  GAGEN_SCATTER(out_J_B, 49, 44, w0);
+  GAGEN_SCATTER(out_J_B, 49, 45, w0);
+  GAGEN_SCATTER(out_J_B, 49, 46, w25);
+  GAGEN_SCATTER(out_J_B, 49, 47, w33);
+  GAGEN_SCATTER(out_J_B, 49, 48, w36);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -4277,36 +4277,36 @@ static void panda_point_similarity_jacobians_block_columns(long gagen_ld, int ga
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void panda_point_similarity_jacobians_batch_columns(long n, long ld, const double *restrict q, double *restrict J_A, double *restrict log_V, double *restrict J_B) {
-  long s = 0;
+void panda_point_similarity_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_J_A, double *restrict out_log_V, double *restrict out_J_B) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 140L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    panda_point_similarity_jacobians_block_columns(ld, stream, q + s, J_A + s, log_V + s, J_B + s);
+  const int gagen_stream = gagen_n * 140L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    panda_point_similarity_jacobians_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_J_A + gagen_s, out_log_V + gagen_s, out_J_B + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  panda_point_similarity_jacobians_columns_from(s, n, ld, q, J_A, log_V, J_B);
+  panda_point_similarity_jacobians_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_J_A, out_log_V, out_J_B);
 }
 
 #if GAGEN_SIMD
 /* task error e = log(V_Sc~ V_Sd) and J_Be: GAGEN_W consecutive samples at once */
-static void panda_point_task_block(const double *restrict q, const double *restrict V_Sd, double *restrict e, double *restrict J_Be) {
+static void panda_point_task_block(const double *restrict in_q, const double *restrict in_V_Sd, double *restrict out_e, double *restrict out_J_Be) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   gagen_v w36, w37, w38, w39, w40, w41, w42, w43, w44, w45, w46, w47;
   gagen_v w48, w49, w50, w51, w52, w53, w54, w55, w56, w57, w58, w59;
   gagen_v w60, w61, w62, w63, w64;
-  w0 = GAGEN_GATHER(V_Sd, 12, 1);
-  w1 = GAGEN_GATHER(V_Sd, 12, 0);
+  w0 = GAGEN_GATHER(in_V_Sd, 12, 1);
+  w1 = GAGEN_GATHER(in_V_Sd, 12, 0);
   w2 = w1 * w1;
   w3 = w0 * w0;
   w2 = w2 + w3;
-  w3 = GAGEN_GATHER(V_Sd, 12, 2);
+  w3 = GAGEN_GATHER(in_V_Sd, 12, 2);
   w4 = w3 * w3;
   w2 = w2 + w4;
-  w4 = GAGEN_GATHER(V_Sd, 12, 3);
+  w4 = GAGEN_GATHER(in_V_Sd, 12, 3);
   w5 = w4 * w4;
   w2 = w2 + w5;
   w2 = gagen_v_sqrt(w2);
@@ -4351,24 +4351,24 @@ static void panda_point_task_block(const double *restrict q, const double *restr
   w12 = w11 * w5;
   w12 = w12 + w12;
   w12 = -w12;
-  GAGEN_SCATTER(e, 7, 0, w12);
+  GAGEN_SCATTER(out_e, 7, 0, w12);
   w12 = w11 * w7;
   w12 = w12 + w12;
   w12 = -w12;
-  GAGEN_SCATTER(e, 7, 1, w12);
+  GAGEN_SCATTER(out_e, 7, 1, w12);
   w11 = w11 * w8;
   w11 = w11 + w11;
   w11 = -w11;
-  GAGEN_SCATTER(e, 7, 2, w11);
-  w11 = GAGEN_GATHER(V_Sd, 12, 4);
+  GAGEN_SCATTER(out_e, 7, 2, w11);
+  w11 = GAGEN_GATHER(in_V_Sd, 12, 4);
   w12 = w2 * w11;
-  w9 = GAGEN_GATHER(V_Sd, 12, 7);
+  w9 = GAGEN_GATHER(in_V_Sd, 12, 7);
   w6 = w5 * w9;
   w12 = w12 + w6;
-  w6 = GAGEN_GATHER(V_Sd, 12, 9);
+  w6 = GAGEN_GATHER(in_V_Sd, 12, 9);
   w10 = w7 * w6;
   w12 = w12 + w10;
-  w10 = GAGEN_GATHER(V_Sd, 12, 10);
+  w10 = GAGEN_GATHER(in_V_Sd, 12, 10);
   w13 = w8 * w10;
   w12 = w12 + w13;
   w2 = w2 * w1;
@@ -4382,22 +4382,22 @@ static void panda_point_task_block(const double *restrict q, const double *restr
   w12 = -w12;
   w12 = GAGEN_V1(atanh, w12);
   w12 = w12 + w12;
-  GAGEN_SCATTER(e, 7, 3, w12);
+  GAGEN_SCATTER(out_e, 7, 3, w12);
   w12 = gagen_v_splat(0.5);
   w2 = gagen_v_splat(0.0825);
-  w8 = GAGEN_GATHER(q, 7, 2);
+  w8 = GAGEN_GATHER(in_q, 7, 2);
   w7 = gagen_v_cos(w8);
-  w5 = GAGEN_GATHER(q, 7, 1);
+  w5 = GAGEN_GATHER(in_q, 7, 1);
   w13 = gagen_v_cos(w5);
   w16 = w7 * w13;
-  w15 = GAGEN_GATHER(q, 7, 0);
+  w15 = GAGEN_GATHER(in_q, 7, 0);
   w14 = gagen_v_cos(w15);
   w17 = w16 * w14;
   w8 = gagen_v_sin(w8);
   w15 = gagen_v_sin(w15);
   w18 = w8 * w15;
   w17 = w17 - w18;
-  w18 = GAGEN_GATHER(q, 7, 3);
+  w18 = GAGEN_GATHER(in_q, 7, 3);
   w19 = gagen_v_sin(w18);
   w5 = gagen_v_sin(w5);
   w20 = w19 * w5;
@@ -4415,9 +4415,9 @@ static void panda_point_task_block(const double *restrict q, const double *restr
   w27 = w24 * w26;
   w22 = w22 + w27;
   w27 = gagen_v_splat(0.088);
-  w28 = GAGEN_GATHER(q, 7, 5);
+  w28 = GAGEN_GATHER(in_q, 7, 5);
   w29 = gagen_v_cos(w28);
-  w30 = GAGEN_GATHER(q, 7, 4);
+  w30 = GAGEN_GATHER(in_q, 7, 4);
   w31 = gagen_v_cos(w30);
   w23 = w23 + w21;
   w21 = w31 * w23;
@@ -4522,7 +4522,7 @@ static void panda_point_task_block(const double *restrict q, const double *restr
   w28 = w38 * w6;
   w40 = w40 - w28;
   w40 = w12 * w40;
-  w28 = GAGEN_GATHER(V_Sd, 12, 5);
+  w28 = GAGEN_GATHER(in_V_Sd, 12, 5);
   w40 = w40 - w28;
   w28 = w40 * w1;
   w49 = w21 * w9;
@@ -4537,7 +4537,7 @@ static void panda_point_task_block(const double *restrict q, const double *restr
   w24 = w38 * w10;
   w49 = w49 - w24;
   w49 = w12 * w49;
-  w24 = GAGEN_GATHER(V_Sd, 12, 6);
+  w24 = GAGEN_GATHER(in_V_Sd, 12, 6);
   w49 = w49 - w24;
   w24 = w49 * w0;
   w28 = w28 + w24;
@@ -4553,11 +4553,11 @@ static void panda_point_task_block(const double *restrict q, const double *restr
   w19 = w38 * w1;
   w24 = w24 - w19;
   w24 = w12 * w24;
-  w19 = GAGEN_GATHER(V_Sd, 12, 8);
+  w19 = GAGEN_GATHER(in_V_Sd, 12, 8);
   w24 = w24 - w19;
   w19 = w24 * w3;
   w28 = w28 + w19;
-  w19 = GAGEN_GATHER(V_Sd, 12, 11);
+  w19 = GAGEN_GATHER(in_V_Sd, 12, 11);
   w7 = w21 * w4;
   w2 = w45 * w6;
   w7 = w7 + w2;
@@ -4627,7 +4627,7 @@ static void panda_point_task_block(const double *restrict q, const double *restr
   w58 = gagen_v_if_else_zero(w58, w63);
   w58 = w58 + w51;
   w28 = w28 / w58;
-  GAGEN_SCATTER(e, 7, 4, w28);
+  GAGEN_SCATTER(out_e, 7, 4, w28);
   w28 = w49 * w1;
   w51 = w24 * w4;
   w28 = w28 + w51;
@@ -4653,7 +4653,7 @@ static void panda_point_task_block(const double *restrict q, const double *restr
   w51 = w19 * w6;
   w28 = w28 - w51;
   w28 = w28 / w58;
-  GAGEN_SCATTER(e, 7, 5, w28);
+  GAGEN_SCATTER(out_e, 7, 5, w28);
   w28 = w24 * w1;
   w51 = w40 * w6;
   w28 = w28 + w51;
@@ -4679,11 +4679,11 @@ static void panda_point_task_block(const double *restrict q, const double *restr
   w24 = w24 * w11;
   w28 = w28 - w24;
   w28 = w28 / w58;
-  GAGEN_SCATTER(e, 7, 6, w28);
-  GAGEN_SCATTER(J_Be, 49, 0, w60);
-  GAGEN_SCATTER(J_Be, 49, 1, w60);
-  GAGEN_SCATTER(J_Be, 49, 2, w60);
-  GAGEN_SCATTER(J_Be, 49, 3, w60);
+  GAGEN_SCATTER(out_e, 7, 6, w28);
+  GAGEN_SCATTER(out_J_Be, 49, 0, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 1, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 2, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 3, w60);
   w28 = w9 - w0;
   w28 = w28 - w53;
   w58 = w7 * w1;
@@ -4741,7 +4741,7 @@ static void panda_point_task_block(const double *restrict q, const double *restr
   w63 = w63 + w62;
   w62 = w63 * w45;
   w49 = w49 - w62;
-  GAGEN_SCATTER(J_Be, 49, 4, w49);
+  GAGEN_SCATTER(out_J_Be, 49, 4, w49);
   w49 = w0 + w53;
   w49 = w49 - w9;
   w49 = w49 / w58;
@@ -4766,7 +4766,7 @@ static void panda_point_task_block(const double *restrict q, const double *restr
   w64 = w64 + w1;
   w1 = w64 * w45;
   w61 = w61 - w1;
-  GAGEN_SCATTER(J_Be, 49, 5, w61);
+  GAGEN_SCATTER(out_J_Be, 49, 5, w61);
   w4 = w4 + w57;
   w4 = w4 - w10;
   w4 = w4 / w58;
@@ -4793,11 +4793,11 @@ static void panda_point_task_block(const double *restrict q, const double *restr
   w0 = w0 + w53;
   w53 = w0 * w45;
   w58 = w58 - w53;
-  GAGEN_SCATTER(J_Be, 49, 6, w58);
-  GAGEN_SCATTER(J_Be, 49, 7, w60);
-  GAGEN_SCATTER(J_Be, 49, 8, w60);
-  GAGEN_SCATTER(J_Be, 49, 9, w60);
-  GAGEN_SCATTER(J_Be, 49, 10, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 6, w58);
+  GAGEN_SCATTER(out_J_Be, 49, 7, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 8, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 9, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 10, w60);
   w58 = w38 * w14;
   w53 = w48 * w14;
   w58 = w58 - w53;
@@ -4818,7 +4818,7 @@ static void panda_point_task_block(const double *restrict q, const double *restr
   w40 = w40 + w11;
   w11 = w7 * w40;
   w53 = w53 - w11;
-  GAGEN_SCATTER(J_Be, 49, 11, w53);
+  GAGEN_SCATTER(out_J_Be, 49, 11, w53);
   w53 = w64 * w58;
   w11 = w62 * w55;
   w53 = w53 + w11;
@@ -4830,7 +4830,7 @@ static void panda_point_task_block(const double *restrict q, const double *restr
   w19 = w19 + w59;
   w59 = w19 * w40;
   w53 = w53 - w59;
-  GAGEN_SCATTER(J_Be, 49, 12, w53);
+  GAGEN_SCATTER(out_J_Be, 49, 12, w53);
   w58 = w0 * w58;
   w55 = w10 * w55;
   w58 = w58 + w55;
@@ -4842,11 +4842,11 @@ static void panda_point_task_block(const double *restrict q, const double *restr
   w24 = w24 + w9;
   w40 = w24 * w40;
   w58 = w58 - w40;
-  GAGEN_SCATTER(J_Be, 49, 13, w58);
-  GAGEN_SCATTER(J_Be, 49, 14, w60);
-  GAGEN_SCATTER(J_Be, 49, 15, w60);
-  GAGEN_SCATTER(J_Be, 49, 16, w60);
-  GAGEN_SCATTER(J_Be, 49, 17, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 13, w58);
+  GAGEN_SCATTER(out_J_Be, 49, 14, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 15, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 16, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 17, w60);
   w58 = w38 * w5;
   w40 = w58 * w15;
   w9 = w48 * w46;
@@ -4868,23 +4868,23 @@ static void panda_point_task_block(const double *restrict q, const double *restr
   w48 = w48 - w14;
   w14 = w7 * w48;
   w9 = w9 + w14;
-  GAGEN_SCATTER(J_Be, 49, 18, w9);
+  GAGEN_SCATTER(out_J_Be, 49, 18, w9);
   w9 = w64 * w40;
   w14 = w62 * w54;
   w9 = w9 + w14;
   w14 = w19 * w48;
   w9 = w9 + w14;
-  GAGEN_SCATTER(J_Be, 49, 19, w9);
+  GAGEN_SCATTER(out_J_Be, 49, 19, w9);
   w40 = w0 * w40;
   w54 = w10 * w54;
   w40 = w40 + w54;
   w48 = w24 * w48;
   w40 = w40 + w48;
-  GAGEN_SCATTER(J_Be, 49, 20, w40);
-  GAGEN_SCATTER(J_Be, 49, 21, w60);
-  GAGEN_SCATTER(J_Be, 49, 22, w60);
-  GAGEN_SCATTER(J_Be, 49, 23, w60);
-  GAGEN_SCATTER(J_Be, 49, 24, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 20, w40);
+  GAGEN_SCATTER(out_J_Be, 49, 21, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 22, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 23, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 24, w60);
   w40 = w8 * w5;
   w48 = gagen_v_splat(0.158);
   w36 = w48 * w36;
@@ -4931,23 +4931,23 @@ static void panda_point_task_block(const double *restrict q, const double *restr
   w40 = w40 + w36;
   w36 = w7 * w40;
   w13 = w13 + w36;
-  GAGEN_SCATTER(J_Be, 49, 25, w13);
+  GAGEN_SCATTER(out_J_Be, 49, 25, w13);
   w13 = w62 * w17;
   w36 = w64 * w9;
   w13 = w13 - w36;
   w36 = w19 * w40;
   w13 = w13 + w36;
-  GAGEN_SCATTER(J_Be, 49, 26, w13);
+  GAGEN_SCATTER(out_J_Be, 49, 26, w13);
   w17 = w10 * w17;
   w9 = w0 * w9;
   w17 = w17 - w9;
   w40 = w24 * w40;
   w17 = w17 + w40;
-  GAGEN_SCATTER(J_Be, 49, 27, w17);
-  GAGEN_SCATTER(J_Be, 49, 28, w60);
-  GAGEN_SCATTER(J_Be, 49, 29, w60);
-  GAGEN_SCATTER(J_Be, 49, 30, w60);
-  GAGEN_SCATTER(J_Be, 49, 31, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 27, w17);
+  GAGEN_SCATTER(out_J_Be, 49, 28, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 29, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 30, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 31, w60);
   w41 = w41 + w47;
   w17 = w18 * w41;
   w40 = w43 * w35;
@@ -4976,23 +4976,23 @@ static void panda_point_task_block(const double *restrict q, const double *restr
   w18 = w18 - w26;
   w26 = w7 * w18;
   w40 = w40 + w26;
-  GAGEN_SCATTER(J_Be, 49, 32, w40);
+  GAGEN_SCATTER(out_J_Be, 49, 32, w40);
   w40 = w64 * w17;
   w26 = w62 * w9;
   w40 = w40 + w26;
   w26 = w19 * w18;
   w40 = w40 + w26;
-  GAGEN_SCATTER(J_Be, 49, 33, w40);
+  GAGEN_SCATTER(out_J_Be, 49, 33, w40);
   w17 = w0 * w17;
   w9 = w10 * w9;
   w17 = w17 + w9;
   w18 = w24 * w18;
   w17 = w17 + w18;
-  GAGEN_SCATTER(J_Be, 49, 34, w17);
-  GAGEN_SCATTER(J_Be, 49, 35, w60);
-  GAGEN_SCATTER(J_Be, 49, 36, w60);
-  GAGEN_SCATTER(J_Be, 49, 37, w60);
-  GAGEN_SCATTER(J_Be, 49, 38, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 34, w17);
+  GAGEN_SCATTER(out_J_Be, 49, 35, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 36, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 37, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 38, w60);
   w52 = w30 * w52;
   w8 = w31 * w8;
   w8 = w8 * w5;
@@ -5029,23 +5029,23 @@ static void panda_point_task_block(const double *restrict q, const double *restr
   w52 = w52 - w31;
   w31 = w7 * w52;
   w42 = w42 + w31;
-  GAGEN_SCATTER(J_Be, 49, 39, w42);
+  GAGEN_SCATTER(out_J_Be, 49, 39, w42);
   w42 = w64 * w8;
   w31 = w62 * w35;
   w42 = w42 + w31;
   w31 = w19 * w52;
   w42 = w42 + w31;
-  GAGEN_SCATTER(J_Be, 49, 40, w42);
+  GAGEN_SCATTER(out_J_Be, 49, 40, w42);
   w8 = w0 * w8;
   w35 = w10 * w35;
   w8 = w8 + w35;
   w52 = w24 * w52;
   w8 = w8 + w52;
-  GAGEN_SCATTER(J_Be, 49, 41, w8);
-  GAGEN_SCATTER(J_Be, 49, 42, w60);
-  GAGEN_SCATTER(J_Be, 49, 43, w60);
-  GAGEN_SCATTER(J_Be, 49, 44, w60);
-  GAGEN_SCATTER(J_Be, 49, 45, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 41, w8);
+  GAGEN_SCATTER(out_J_Be, 49, 42, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 43, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 44, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 45, w60);
   w60 = w45 * w29;
   w32 = w32 + w47;
   w47 = w29 * w32;
@@ -5074,36 +5074,36 @@ static void panda_point_task_block(const double *restrict q, const double *restr
   w34 = w34 + w39;
   w7 = w7 * w34;
   w63 = w63 + w7;
-  GAGEN_SCATTER(J_Be, 49, 46, w63);
+  GAGEN_SCATTER(out_J_Be, 49, 46, w63);
   w64 = w64 * w60;
   w62 = w62 * w47;
   w64 = w64 + w62;
   w19 = w19 * w34;
   w64 = w64 + w19;
-  GAGEN_SCATTER(J_Be, 49, 47, w64);
+  GAGEN_SCATTER(out_J_Be, 49, 47, w64);
   w0 = w0 * w60;
   w10 = w10 * w47;
   w0 = w0 + w10;
   w24 = w24 * w34;
   w0 = w0 + w24;
-  GAGEN_SCATTER(J_Be, 49, 48, w0);
+  GAGEN_SCATTER(out_J_Be, 49, 48, w0);
 }
 #endif
 
-void panda_point_task_batch(long n, const double *restrict q, const double *restrict V_Sd, double *restrict e, double *restrict J_Be) {
-  long s = 0;
+void panda_point_task_batch(long gagen_n, const double *restrict in_q, const double *restrict in_V_Sd, double *restrict out_e, double *restrict out_J_Be) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 7 * GAGEN_W + 7; o += 8) __builtin_prefetch(e + 7 * a + o, 1, 0);
-      for (int o = 0; o < 49 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_Be + 49 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 7 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_e + 7 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 49 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_Be + 49 * gagen_a + gagen_o, 1, 0);
     }
-    panda_point_task_block(q + 7 * s, V_Sd + 12 * s, e + 7 * s, J_Be + 49 * s);
+    panda_point_task_block(in_q + 7 * gagen_s, in_V_Sd + 12 * gagen_s, out_e + 7 * gagen_s, out_J_Be + 49 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    panda_point_task(q + 7 * s, V_Sd + 12 * s, e + 7 * s, J_Be + 49 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    panda_point_task(in_q + 7 * gagen_s, in_V_Sd + 12 * gagen_s, out_e + 7 * gagen_s, out_J_Be + 49 * gagen_s);
   }
 }
 
@@ -5113,22 +5113,22 @@ void panda_point_task_batch(long n, const double *restrict q, const double *rest
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void panda_point_task_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, const double *restrict V_Sd, double *restrict e, double *restrict J_Be) {
+static void panda_point_task_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, const double *restrict in_V_Sd, double *restrict out_e, double *restrict out_J_Be) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   gagen_v w36, w37, w38, w39, w40, w41, w42, w43, w44, w45, w46, w47;
   gagen_v w48, w49, w50, w51, w52, w53, w54, w55, w56, w57, w58, w59;
   gagen_v w60, w61, w62, w63, w64;
-  w0 = GAGEN_GATHER(V_Sd, 12, 1);
-  w1 = GAGEN_GATHER(V_Sd, 12, 0);
+  w0 = GAGEN_GATHER(in_V_Sd, 12, 1);
+  w1 = GAGEN_GATHER(in_V_Sd, 12, 0);
   w2 = w1 * w1;
   w3 = w0 * w0;
   w2 = w2 + w3;
-  w3 = GAGEN_GATHER(V_Sd, 12, 2);
+  w3 = GAGEN_GATHER(in_V_Sd, 12, 2);
   w4 = w3 * w3;
   w2 = w2 + w4;
-  w4 = GAGEN_GATHER(V_Sd, 12, 3);
+  w4 = GAGEN_GATHER(in_V_Sd, 12, 3);
   w5 = w4 * w4;
   w2 = w2 + w5;
   w2 = gagen_v_sqrt(w2);
@@ -5173,24 +5173,24 @@ static void panda_point_task_block_columns(long gagen_ld, int gagen_stream, cons
   w12 = w11 * w5;
   w12 = w12 + w12;
   w12 = -w12;
-  GAGEN_SCATTER(e, 7, 0, w12);
+  GAGEN_SCATTER(out_e, 7, 0, w12);
   w12 = w11 * w7;
   w12 = w12 + w12;
   w12 = -w12;
-  GAGEN_SCATTER(e, 7, 1, w12);
+  GAGEN_SCATTER(out_e, 7, 1, w12);
   w11 = w11 * w8;
   w11 = w11 + w11;
   w11 = -w11;
-  GAGEN_SCATTER(e, 7, 2, w11);
-  w11 = GAGEN_GATHER(V_Sd, 12, 4);
+  GAGEN_SCATTER(out_e, 7, 2, w11);
+  w11 = GAGEN_GATHER(in_V_Sd, 12, 4);
   w12 = w2 * w11;
-  w9 = GAGEN_GATHER(V_Sd, 12, 7);
+  w9 = GAGEN_GATHER(in_V_Sd, 12, 7);
   w6 = w5 * w9;
   w12 = w12 + w6;
-  w6 = GAGEN_GATHER(V_Sd, 12, 9);
+  w6 = GAGEN_GATHER(in_V_Sd, 12, 9);
   w10 = w7 * w6;
   w12 = w12 + w10;
-  w10 = GAGEN_GATHER(V_Sd, 12, 10);
+  w10 = GAGEN_GATHER(in_V_Sd, 12, 10);
   w13 = w8 * w10;
   w12 = w12 + w13;
   w2 = w2 * w1;
@@ -5204,22 +5204,22 @@ static void panda_point_task_block_columns(long gagen_ld, int gagen_stream, cons
   w12 = -w12;
   w12 = GAGEN_V1(atanh, w12);
   w12 = w12 + w12;
-  GAGEN_SCATTER(e, 7, 3, w12);
+  GAGEN_SCATTER(out_e, 7, 3, w12);
   w12 = gagen_v_splat(0.5);
   w2 = gagen_v_splat(0.0825);
-  w8 = GAGEN_GATHER(q, 7, 2);
+  w8 = GAGEN_GATHER(in_q, 7, 2);
   w7 = gagen_v_cos(w8);
-  w5 = GAGEN_GATHER(q, 7, 1);
+  w5 = GAGEN_GATHER(in_q, 7, 1);
   w13 = gagen_v_cos(w5);
   w16 = w7 * w13;
-  w15 = GAGEN_GATHER(q, 7, 0);
+  w15 = GAGEN_GATHER(in_q, 7, 0);
   w14 = gagen_v_cos(w15);
   w17 = w16 * w14;
   w8 = gagen_v_sin(w8);
   w15 = gagen_v_sin(w15);
   w18 = w8 * w15;
   w17 = w17 - w18;
-  w18 = GAGEN_GATHER(q, 7, 3);
+  w18 = GAGEN_GATHER(in_q, 7, 3);
   w19 = gagen_v_sin(w18);
   w5 = gagen_v_sin(w5);
   w20 = w19 * w5;
@@ -5237,9 +5237,9 @@ static void panda_point_task_block_columns(long gagen_ld, int gagen_stream, cons
   w27 = w24 * w26;
   w22 = w22 + w27;
   w27 = gagen_v_splat(0.088);
-  w28 = GAGEN_GATHER(q, 7, 5);
+  w28 = GAGEN_GATHER(in_q, 7, 5);
   w29 = gagen_v_cos(w28);
-  w30 = GAGEN_GATHER(q, 7, 4);
+  w30 = GAGEN_GATHER(in_q, 7, 4);
   w31 = gagen_v_cos(w30);
   w23 = w23 + w21;
   w21 = w31 * w23;
@@ -5344,7 +5344,7 @@ static void panda_point_task_block_columns(long gagen_ld, int gagen_stream, cons
   w28 = w38 * w6;
   w40 = w40 - w28;
   w40 = w12 * w40;
-  w28 = GAGEN_GATHER(V_Sd, 12, 5);
+  w28 = GAGEN_GATHER(in_V_Sd, 12, 5);
   w40 = w40 - w28;
   w28 = w40 * w1;
   w49 = w21 * w9;
@@ -5359,7 +5359,7 @@ static void panda_point_task_block_columns(long gagen_ld, int gagen_stream, cons
   w24 = w38 * w10;
   w49 = w49 - w24;
   w49 = w12 * w49;
-  w24 = GAGEN_GATHER(V_Sd, 12, 6);
+  w24 = GAGEN_GATHER(in_V_Sd, 12, 6);
   w49 = w49 - w24;
   w24 = w49 * w0;
   w28 = w28 + w24;
@@ -5375,11 +5375,11 @@ static void panda_point_task_block_columns(long gagen_ld, int gagen_stream, cons
   w19 = w38 * w1;
   w24 = w24 - w19;
   w24 = w12 * w24;
-  w19 = GAGEN_GATHER(V_Sd, 12, 8);
+  w19 = GAGEN_GATHER(in_V_Sd, 12, 8);
   w24 = w24 - w19;
   w19 = w24 * w3;
   w28 = w28 + w19;
-  w19 = GAGEN_GATHER(V_Sd, 12, 11);
+  w19 = GAGEN_GATHER(in_V_Sd, 12, 11);
   w7 = w21 * w4;
   w2 = w45 * w6;
   w7 = w7 + w2;
@@ -5449,7 +5449,7 @@ static void panda_point_task_block_columns(long gagen_ld, int gagen_stream, cons
   w58 = gagen_v_if_else_zero(w58, w63);
   w58 = w58 + w51;
   w28 = w28 / w58;
-  GAGEN_SCATTER(e, 7, 4, w28);
+  GAGEN_SCATTER(out_e, 7, 4, w28);
   w28 = w49 * w1;
   w51 = w24 * w4;
   w28 = w28 + w51;
@@ -5475,7 +5475,7 @@ static void panda_point_task_block_columns(long gagen_ld, int gagen_stream, cons
   w51 = w19 * w6;
   w28 = w28 - w51;
   w28 = w28 / w58;
-  GAGEN_SCATTER(e, 7, 5, w28);
+  GAGEN_SCATTER(out_e, 7, 5, w28);
   w28 = w24 * w1;
   w51 = w40 * w6;
   w28 = w28 + w51;
@@ -5501,11 +5501,11 @@ static void panda_point_task_block_columns(long gagen_ld, int gagen_stream, cons
   w24 = w24 * w11;
   w28 = w28 - w24;
   w28 = w28 / w58;
-  GAGEN_SCATTER(e, 7, 6, w28);
-  GAGEN_SCATTER(J_Be, 49, 0, w60);
-  GAGEN_SCATTER(J_Be, 49, 1, w60);
-  GAGEN_SCATTER(J_Be, 49, 2, w60);
-  GAGEN_SCATTER(J_Be, 49, 3, w60);
+  GAGEN_SCATTER(out_e, 7, 6, w28);
+  GAGEN_SCATTER(out_J_Be, 49, 0, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 1, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 2, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 3, w60);
   w28 = w9 - w0;
   w28 = w28 - w53;
   w58 = w7 * w1;
@@ -5563,7 +5563,7 @@ static void panda_point_task_block_columns(long gagen_ld, int gagen_stream, cons
   w63 = w63 + w62;
   w62 = w63 * w45;
   w49 = w49 - w62;
-  GAGEN_SCATTER(J_Be, 49, 4, w49);
+  GAGEN_SCATTER(out_J_Be, 49, 4, w49);
   w49 = w0 + w53;
   w49 = w49 - w9;
   w49 = w49 / w58;
@@ -5588,7 +5588,7 @@ static void panda_point_task_block_columns(long gagen_ld, int gagen_stream, cons
   w64 = w64 + w1;
   w1 = w64 * w45;
   w61 = w61 - w1;
-  GAGEN_SCATTER(J_Be, 49, 5, w61);
+  GAGEN_SCATTER(out_J_Be, 49, 5, w61);
   w4 = w4 + w57;
   w4 = w4 - w10;
   w4 = w4 / w58;
@@ -5615,11 +5615,11 @@ static void panda_point_task_block_columns(long gagen_ld, int gagen_stream, cons
   w0 = w0 + w53;
   w53 = w0 * w45;
   w58 = w58 - w53;
-  GAGEN_SCATTER(J_Be, 49, 6, w58);
-  GAGEN_SCATTER(J_Be, 49, 7, w60);
-  GAGEN_SCATTER(J_Be, 49, 8, w60);
-  GAGEN_SCATTER(J_Be, 49, 9, w60);
-  GAGEN_SCATTER(J_Be, 49, 10, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 6, w58);
+  GAGEN_SCATTER(out_J_Be, 49, 7, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 8, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 9, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 10, w60);
   w58 = w38 * w14;
   w53 = w48 * w14;
   w58 = w58 - w53;
@@ -5640,7 +5640,7 @@ static void panda_point_task_block_columns(long gagen_ld, int gagen_stream, cons
   w40 = w40 + w11;
   w11 = w7 * w40;
   w53 = w53 - w11;
-  GAGEN_SCATTER(J_Be, 49, 11, w53);
+  GAGEN_SCATTER(out_J_Be, 49, 11, w53);
   w53 = w64 * w58;
   w11 = w62 * w55;
   w53 = w53 + w11;
@@ -5652,7 +5652,7 @@ static void panda_point_task_block_columns(long gagen_ld, int gagen_stream, cons
   w19 = w19 + w59;
   w59 = w19 * w40;
   w53 = w53 - w59;
-  GAGEN_SCATTER(J_Be, 49, 12, w53);
+  GAGEN_SCATTER(out_J_Be, 49, 12, w53);
   w58 = w0 * w58;
   w55 = w10 * w55;
   w58 = w58 + w55;
@@ -5664,11 +5664,11 @@ static void panda_point_task_block_columns(long gagen_ld, int gagen_stream, cons
   w24 = w24 + w9;
   w40 = w24 * w40;
   w58 = w58 - w40;
-  GAGEN_SCATTER(J_Be, 49, 13, w58);
-  GAGEN_SCATTER(J_Be, 49, 14, w60);
-  GAGEN_SCATTER(J_Be, 49, 15, w60);
-  GAGEN_SCATTER(J_Be, 49, 16, w60);
-  GAGEN_SCATTER(J_Be, 49, 17, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 13, w58);
+  GAGEN_SCATTER(out_J_Be, 49, 14, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 15, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 16, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 17, w60);
   w58 = w38 * w5;
   w40 = w58 * w15;
   w9 = w48 * w46;
@@ -5690,23 +5690,23 @@ static void panda_point_task_block_columns(long gagen_ld, int gagen_stream, cons
   w48 = w48 - w14;
   w14 = w7 * w48;
   w9 = w9 + w14;
-  GAGEN_SCATTER(J_Be, 49, 18, w9);
+  GAGEN_SCATTER(out_J_Be, 49, 18, w9);
   w9 = w64 * w40;
   w14 = w62 * w54;
   w9 = w9 + w14;
   w14 = w19 * w48;
   w9 = w9 + w14;
-  GAGEN_SCATTER(J_Be, 49, 19, w9);
+  GAGEN_SCATTER(out_J_Be, 49, 19, w9);
   w40 = w0 * w40;
   w54 = w10 * w54;
   w40 = w40 + w54;
   w48 = w24 * w48;
   w40 = w40 + w48;
-  GAGEN_SCATTER(J_Be, 49, 20, w40);
-  GAGEN_SCATTER(J_Be, 49, 21, w60);
-  GAGEN_SCATTER(J_Be, 49, 22, w60);
-  GAGEN_SCATTER(J_Be, 49, 23, w60);
-  GAGEN_SCATTER(J_Be, 49, 24, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 20, w40);
+  GAGEN_SCATTER(out_J_Be, 49, 21, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 22, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 23, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 24, w60);
   w40 = w8 * w5;
   w48 = gagen_v_splat(0.158);
   w36 = w48 * w36;
@@ -5753,23 +5753,23 @@ static void panda_point_task_block_columns(long gagen_ld, int gagen_stream, cons
   w40 = w40 + w36;
   w36 = w7 * w40;
   w13 = w13 + w36;
-  GAGEN_SCATTER(J_Be, 49, 25, w13);
+  GAGEN_SCATTER(out_J_Be, 49, 25, w13);
   w13 = w62 * w17;
   w36 = w64 * w9;
   w13 = w13 - w36;
   w36 = w19 * w40;
   w13 = w13 + w36;
-  GAGEN_SCATTER(J_Be, 49, 26, w13);
+  GAGEN_SCATTER(out_J_Be, 49, 26, w13);
   w17 = w10 * w17;
   w9 = w0 * w9;
   w17 = w17 - w9;
   w40 = w24 * w40;
   w17 = w17 + w40;
-  GAGEN_SCATTER(J_Be, 49, 27, w17);
-  GAGEN_SCATTER(J_Be, 49, 28, w60);
-  GAGEN_SCATTER(J_Be, 49, 29, w60);
-  GAGEN_SCATTER(J_Be, 49, 30, w60);
-  GAGEN_SCATTER(J_Be, 49, 31, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 27, w17);
+  GAGEN_SCATTER(out_J_Be, 49, 28, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 29, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 30, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 31, w60);
   w41 = w41 + w47;
   w17 = w18 * w41;
   w40 = w43 * w35;
@@ -5798,23 +5798,23 @@ static void panda_point_task_block_columns(long gagen_ld, int gagen_stream, cons
   w18 = w18 - w26;
   w26 = w7 * w18;
   w40 = w40 + w26;
-  GAGEN_SCATTER(J_Be, 49, 32, w40);
+  GAGEN_SCATTER(out_J_Be, 49, 32, w40);
   w40 = w64 * w17;
   w26 = w62 * w9;
   w40 = w40 + w26;
   w26 = w19 * w18;
   w40 = w40 + w26;
-  GAGEN_SCATTER(J_Be, 49, 33, w40);
+  GAGEN_SCATTER(out_J_Be, 49, 33, w40);
   w17 = w0 * w17;
   w9 = w10 * w9;
   w17 = w17 + w9;
   w18 = w24 * w18;
   w17 = w17 + w18;
-  GAGEN_SCATTER(J_Be, 49, 34, w17);
-  GAGEN_SCATTER(J_Be, 49, 35, w60);
-  GAGEN_SCATTER(J_Be, 49, 36, w60);
-  GAGEN_SCATTER(J_Be, 49, 37, w60);
-  GAGEN_SCATTER(J_Be, 49, 38, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 34, w17);
+  GAGEN_SCATTER(out_J_Be, 49, 35, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 36, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 37, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 38, w60);
   w52 = w30 * w52;
   w8 = w31 * w8;
   w8 = w8 * w5;
@@ -5851,23 +5851,23 @@ static void panda_point_task_block_columns(long gagen_ld, int gagen_stream, cons
   w52 = w52 - w31;
   w31 = w7 * w52;
   w42 = w42 + w31;
-  GAGEN_SCATTER(J_Be, 49, 39, w42);
+  GAGEN_SCATTER(out_J_Be, 49, 39, w42);
   w42 = w64 * w8;
   w31 = w62 * w35;
   w42 = w42 + w31;
   w31 = w19 * w52;
   w42 = w42 + w31;
-  GAGEN_SCATTER(J_Be, 49, 40, w42);
+  GAGEN_SCATTER(out_J_Be, 49, 40, w42);
   w8 = w0 * w8;
   w35 = w10 * w35;
   w8 = w8 + w35;
   w52 = w24 * w52;
   w8 = w8 + w52;
-  GAGEN_SCATTER(J_Be, 49, 41, w8);
-  GAGEN_SCATTER(J_Be, 49, 42, w60);
-  GAGEN_SCATTER(J_Be, 49, 43, w60);
-  GAGEN_SCATTER(J_Be, 49, 44, w60);
-  GAGEN_SCATTER(J_Be, 49, 45, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 41, w8);
+  GAGEN_SCATTER(out_J_Be, 49, 42, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 43, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 44, w60);
+  GAGEN_SCATTER(out_J_Be, 49, 45, w60);
   w60 = w45 * w29;
   w32 = w32 + w47;
   w47 = w29 * w32;
@@ -5896,19 +5896,19 @@ static void panda_point_task_block_columns(long gagen_ld, int gagen_stream, cons
   w34 = w34 + w39;
   w7 = w7 * w34;
   w63 = w63 + w7;
-  GAGEN_SCATTER(J_Be, 49, 46, w63);
+  GAGEN_SCATTER(out_J_Be, 49, 46, w63);
   w64 = w64 * w60;
   w62 = w62 * w47;
   w64 = w64 + w62;
   w19 = w19 * w34;
   w64 = w64 + w19;
-  GAGEN_SCATTER(J_Be, 49, 47, w64);
+  GAGEN_SCATTER(out_J_Be, 49, 47, w64);
   w0 = w0 * w60;
   w10 = w10 * w47;
   w0 = w0 + w10;
   w24 = w24 * w34;
   w0 = w0 + w24;
-  GAGEN_SCATTER(J_Be, 49, 48, w0);
+  GAGEN_SCATTER(out_J_Be, 49, 48, w0);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -5916,14 +5916,14 @@ static void panda_point_task_block_columns(long gagen_ld, int gagen_stream, cons
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void panda_point_task_batch_columns(long n, long ld, const double *restrict q, const double *restrict V_Sd, double *restrict e, double *restrict J_Be) {
-  long s = 0;
+void panda_point_task_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, const double *restrict in_V_Sd, double *restrict out_e, double *restrict out_J_Be) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 56L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    panda_point_task_block_columns(ld, stream, q + s, V_Sd + s, e + s, J_Be + s);
+  const int gagen_stream = gagen_n * 56L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    panda_point_task_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, in_V_Sd + gagen_s, out_e + gagen_s, out_J_Be + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  panda_point_task_columns_from(s, n, ld, q, V_Sd, e, J_Be);
+  panda_point_task_columns_from(gagen_s, gagen_n, gagen_ld, in_q, in_V_Sd, out_e, out_J_Be);
 }

@@ -15,8 +15,8 @@
  * Operation counts (flops = mul + add + neg + div; calls listed apart):
  *   six_bar_constraints          mul=94 add=145 neg=5 div=0 cos=1 sin=1 (flops=244)
  *   six_bar_positions            mul=94 add=98 neg=0 div=0 cos=1 sin=1 (flops=192)
- *   six_bar_retract              mul=76 add=40 neg=0 div=0 cos=4 sin=4 (flops=116)
- *   six_bar_newton_step          mul=1024 add=905 neg=4 div=111 cos=5 fabs=12 fmax=11 sin=5 sqrt=12 (flops=2044)
+ *   six_bar_retract              mul=92 add=48 neg=0 div=36 sqrt=4 (flops=176)
+ *   six_bar_newton_step          mul=282 add=259 neg=0 div=58 cos=1 fabs=12 fmax=11 sin=1 sqrt=8 (flops=599)
  */
 #ifndef GAGEN_SIX_BAR_H
 #define GAGEN_SIX_BAR_H
@@ -38,13 +38,13 @@ extern "C" {
 #define SIX_BAR_CONSTRAINTS_THETA_SIZE 1
 #define SIX_BAR_CONSTRAINTS_F_SIZE 12
 #define SIX_BAR_CONSTRAINTS_J_SIZE 144
-void six_bar_constraints(const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT F, double *GAGEN_RESTRICT J);
-void six_bar_constraints_batch(long n, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT F, double *GAGEN_RESTRICT J);
+void six_bar_constraints(const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_F, double *GAGEN_RESTRICT out_J);
+void six_bar_constraints_batch(long gagen_n, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_F, double *GAGEN_RESTRICT out_J);
 void six_bar_constraints_argv(const double *const *arg, double *const *res);
 void six_bar_constraints_batch_argv(long n, const double *const *arg, double *const *res);
-void six_bar_constraints_batch_columns(long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT F, double *GAGEN_RESTRICT J);
+void six_bar_constraints_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_F, double *GAGEN_RESTRICT out_J);
 void six_bar_constraints_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void six_bar_constraints_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT F, double *GAGEN_RESTRICT J);
+void six_bar_constraints_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_F, double *GAGEN_RESTRICT out_J);
 
 /* six_bar: every body point in the world
  *   in  R            [16] coupler_1, coupler_e12, coupler_e1inf, coupler_e2inf, rocker_1, rocker_e12,...
@@ -54,15 +54,15 @@ void six_bar_constraints_columns_from(long s0, long n, long ld, const double *GA
 #define SIX_BAR_POSITIONS_R_SIZE 16
 #define SIX_BAR_POSITIONS_THETA_SIZE 1
 #define SIX_BAR_POSITIONS_P_SIZE 24
-void six_bar_positions(const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT P);
-void six_bar_positions_batch(long n, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT P);
+void six_bar_positions(const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_P);
+void six_bar_positions_batch(long gagen_n, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_P);
 void six_bar_positions_argv(const double *const *arg, double *const *res);
 void six_bar_positions_batch_argv(long n, const double *const *arg, double *const *res);
-void six_bar_positions_batch_columns(long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT P);
+void six_bar_positions_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_P);
 void six_bar_positions_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void six_bar_positions_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT P);
+void six_bar_positions_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_P);
 
-/* six_bar: the Newton update R \u2190 T(\u0394t) R(\u0394\u03b8) R of every moving body
+/* six_bar: the Newton update R \u2190 T(\u0394t) C(\u0394\u03b8) R of every moving body
  *   in  R            [16] coupler_1, coupler_e12, coupler_e1inf, coupler_e2inf, rocker_1, rocker_e12,...
  *   in  dB           [12] coupler_w, coupler_x, coupler_y, rocker_w, rocker_x, rocker_y,...
  *   out R_next       [16] coupler_1, coupler_e12, coupler_e1inf, coupler_e2inf, rocker_1, rocker_e12,...
@@ -70,15 +70,15 @@ void six_bar_positions_columns_from(long s0, long n, long ld, const double *GAGE
 #define SIX_BAR_RETRACT_R_SIZE 16
 #define SIX_BAR_RETRACT_DB_SIZE 12
 #define SIX_BAR_RETRACT_R_NEXT_SIZE 16
-void six_bar_retract(const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT dB, double *GAGEN_RESTRICT R_next);
-void six_bar_retract_batch(long n, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT dB, double *GAGEN_RESTRICT R_next);
+void six_bar_retract(const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_dB, double *GAGEN_RESTRICT out_R_next);
+void six_bar_retract_batch(long gagen_n, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_dB, double *GAGEN_RESTRICT out_R_next);
 void six_bar_retract_argv(const double *const *arg, double *const *res);
 void six_bar_retract_batch_argv(long n, const double *const *arg, double *const *res);
-void six_bar_retract_batch_columns(long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT dB, double *GAGEN_RESTRICT R_next);
+void six_bar_retract_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_dB, double *GAGEN_RESTRICT out_R_next);
 void six_bar_retract_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void six_bar_retract_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT dB, double *GAGEN_RESTRICT R_next);
+void six_bar_retract_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_dB, double *GAGEN_RESTRICT out_R_next);
 
-/* six_bar: one Newton step at crank angle theta, and max |F| before it
+/* six_bar: one Newton step at the driver's theta, and max |F| before it
  *   in  R            [16] coupler_1, coupler_e12, coupler_e1inf, coupler_e2inf, rocker_1, rocker_e12,...
  *   in  theta        [1] theta
  *   out R_next       [16] coupler_1, coupler_e12, coupler_e1inf, coupler_e2inf, rocker_1, rocker_e12,...
@@ -88,13 +88,13 @@ void six_bar_retract_columns_from(long s0, long n, long ld, const double *GAGEN_
 #define SIX_BAR_NEWTON_STEP_THETA_SIZE 1
 #define SIX_BAR_NEWTON_STEP_R_NEXT_SIZE 16
 #define SIX_BAR_NEWTON_STEP_RESIDUAL_SIZE 1
-void six_bar_newton_step(const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT R_next, double *GAGEN_RESTRICT residual);
-void six_bar_newton_step_batch(long n, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT R_next, double *GAGEN_RESTRICT residual);
+void six_bar_newton_step(const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_R_next, double *GAGEN_RESTRICT out_residual);
+void six_bar_newton_step_batch(long gagen_n, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_R_next, double *GAGEN_RESTRICT out_residual);
 void six_bar_newton_step_argv(const double *const *arg, double *const *res);
 void six_bar_newton_step_batch_argv(long n, const double *const *arg, double *const *res);
-void six_bar_newton_step_batch_columns(long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT R_next, double *GAGEN_RESTRICT residual);
+void six_bar_newton_step_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_R_next, double *GAGEN_RESTRICT out_residual);
 void six_bar_newton_step_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void six_bar_newton_step_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT R_next, double *GAGEN_RESTRICT residual);
+void six_bar_newton_step_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_R_next, double *GAGEN_RESTRICT out_residual);
 
 #ifdef __cplusplus
 }

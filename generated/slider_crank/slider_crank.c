@@ -10,20 +10,20 @@ static inline double gagen_sign(double x) { return x < 0 ? -1.0 : (x > 0 ? 1.0 :
 
 
 /* slider_crank: constraint residuals and their Jacobian in se(2): mul=20 add=26 neg=1 div=0 cos=1 sin=1 (flops=47) */
-void slider_crank_constraints(const double *restrict R, const double *restrict theta, double *restrict F, double *restrict J) {
+void slider_crank_constraints(const double *restrict in_R, const double *restrict in_theta, double *restrict out_F, double *restrict out_J) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13;
   w0 = 0.5;
-  w1 = theta[0];
+  w1 = in_theta[0];
   w0 = w0 * w1;
   w1 = cos(w0);
   w2 = w1 * w1;
-  w3 = R[0];
-  w4 = R[2];
+  w3 = in_R[0];
+  w4 = in_R[2];
   w5 = w3 * w4;
   w2 = w2 + w5;
-  w6 = R[1];
-  w7 = R[3];
+  w6 = in_R[1];
+  w7 = in_R[3];
   w8 = w6 * w7;
   w2 = w2 + w8;
   w0 = sin(w0);
@@ -35,7 +35,7 @@ void slider_crank_constraints(const double *restrict R, const double *restrict t
   w11 = w6 + w7;
   w12 = w11 * w6;
   w2 = w2 + w12;
-  F[0] = w2;
+  out_F[0] = w2;
   w2 = w3 * w7;
   w9 = w9 * w6;
   w13 = w2 + w9;
@@ -46,7 +46,7 @@ void slider_crank_constraints(const double *restrict R, const double *restrict t
   w13 = w13 + w11;
   w1 = w6 * w4;
   w13 = w13 - w1;
-  F[1] = w13;
+  out_F[1] = w13;
   w5 = w5 + w8;
   w8 = 3.872983346207417;
   w13 = w8 * w6;
@@ -57,47 +57,47 @@ void slider_crank_constraints(const double *restrict R, const double *restrict t
   w8 = w8 - w7;
   w7 = w8 * w6;
   w4 = w4 - w7;
-  F[2] = w4;
+  out_F[2] = w4;
   w11 = w1 - w11;
   w11 = w11 - w2;
   w11 = w11 - w9;
-  J[0] = w11;
+  out_J[0] = w11;
   w5 = w5 - w10;
   w5 = w5 + w12;
-  J[1] = w5;
+  out_J[1] = w5;
   w8 = w8 * w3;
   w8 = w8 + w1;
   w8 = w8 - w2;
   w13 = w13 * w6;
   w8 = w8 - w13;
-  J[2] = w8;
+  out_J[2] = w8;
   w3 = w3 * w3;
   w6 = w6 * w6;
   w3 = w3 + w6;
   w3 = -w3;
-  J[3] = w3;
+  out_J[3] = w3;
   w6 = 0.0;
-  J[4] = w6;
-  J[5] = w3;
-  J[6] = w6;
-  J[7] = w3;
-  J[8] = w6;
+  out_J[4] = w6;
+  out_J[5] = w3;
+  out_J[6] = w6;
+  out_J[7] = w3;
+  out_J[8] = w6;
 }
 
 /* slider_crank_constraints_batch: SIMD, in slider_crank_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void slider_crank_constraints_columns_from(long s0, long n, long ld, const double *restrict R, const double *restrict theta, double *restrict F, double *restrict J) {
-  double R_s[4];
-  double theta_s[1];
-  double F_s[3];
-  double J_s[9];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 4; ++k) R_s[k] = R[k * ld + s];
-    for (long k = 0; k < 1; ++k) theta_s[k] = theta[k * ld + s];
-    slider_crank_constraints(R_s, theta_s, F_s, J_s);
-    for (long k = 0; k < 3; ++k) F[k * ld + s] = F_s[k];
-    for (long k = 0; k < 9; ++k) J[k * ld + s] = J_s[k];
+void slider_crank_constraints_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_R, const double *restrict in_theta, double *restrict out_F, double *restrict out_J) {
+  double gagen_in_R[4];
+  double gagen_in_theta[1];
+  double gagen_out_F[3];
+  double gagen_out_J[9];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 4; ++gagen_k) gagen_in_R[gagen_k] = in_R[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) gagen_in_theta[gagen_k] = in_theta[gagen_k * gagen_ld + gagen_s];
+    slider_crank_constraints(gagen_in_R, gagen_in_theta, gagen_out_F, gagen_out_J);
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) out_F[gagen_k * gagen_ld + gagen_s] = gagen_out_F[gagen_k];
+    for (long gagen_k = 0; gagen_k < 9; ++gagen_k) out_J[gagen_k * gagen_ld + gagen_s] = gagen_out_J[gagen_k];
   }
 }
 
@@ -114,30 +114,30 @@ void slider_crank_constraints_batch_columns_argv(long n, long ld, const double *
 }
 
 /* slider_crank: every body point in the world: mul=26 add=28 neg=0 div=0 cos=1 sin=1 (flops=54) */
-void slider_crank_positions(const double *restrict R, const double *restrict theta, double *restrict P) {
+void slider_crank_positions(const double *restrict in_R, const double *restrict in_theta, double *restrict out_P) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12;
   w0 = 0.0;
-  P[0] = w0;
-  P[1] = w0;
+  out_P[0] = w0;
+  out_P[1] = w0;
   w0 = 0.5;
-  w1 = theta[0];
+  w1 = in_theta[0];
   w1 = w0 * w1;
   w2 = cos(w1);
   w3 = w2 * w2;
   w1 = sin(w1);
   w4 = w1 * w1;
   w3 = w3 - w4;
-  P[2] = w3;
+  out_P[2] = w3;
   w2 = w2 * w1;
   w2 = w2 + w2;
-  P[3] = w2;
-  w2 = R[0];
-  w1 = R[2];
+  out_P[3] = w2;
+  w2 = in_R[0];
+  w1 = in_R[2];
   w3 = w2 - w1;
   w4 = w3 * w2;
-  w5 = R[1];
-  w6 = R[3];
+  w5 = in_R[1];
+  w6 = in_R[3];
   w7 = w5 + w6;
   w8 = w7 * w5;
   w4 = w4 - w8;
@@ -145,7 +145,7 @@ void slider_crank_positions(const double *restrict R, const double *restrict the
   w4 = w4 - w8;
   w9 = w5 * w6;
   w4 = w4 - w9;
-  P[4] = w4;
+  out_P[4] = w4;
   w4 = w5 * w1;
   w7 = w7 * w2;
   w7 = w4 - w7;
@@ -153,7 +153,7 @@ void slider_crank_positions(const double *restrict R, const double *restrict the
   w7 = w7 - w10;
   w3 = w3 * w5;
   w7 = w7 - w3;
-  P[5] = w7;
+  out_P[5] = w7;
   w7 = 3.872983346207417;
   w3 = w7 * w5;
   w3 = w3 - w1;
@@ -164,13 +164,13 @@ void slider_crank_positions(const double *restrict R, const double *restrict the
   w11 = w11 + w12;
   w11 = w11 - w8;
   w11 = w11 - w9;
-  P[6] = w11;
+  out_P[6] = w11;
   w7 = w7 * w2;
   w7 = w7 + w4;
   w7 = w7 - w10;
   w3 = w3 * w5;
   w7 = w7 - w3;
-  P[7] = w7;
+  out_P[7] = w7;
   w7 = w0 * w2;
   w3 = 1.9364916731037085;
   w11 = w3 * w5;
@@ -185,27 +185,27 @@ void slider_crank_positions(const double *restrict R, const double *restrict the
   w1 = w1 + w0;
   w1 = w1 - w8;
   w1 = w1 - w9;
-  P[8] = w1;
+  out_P[8] = w1;
   w3 = w3 * w2;
   w3 = w3 + w4;
   w3 = w3 - w10;
   w7 = w7 * w5;
   w3 = w3 - w7;
-  P[9] = w3;
+  out_P[9] = w3;
 }
 
 /* slider_crank_positions_batch: SIMD, in slider_crank_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void slider_crank_positions_columns_from(long s0, long n, long ld, const double *restrict R, const double *restrict theta, double *restrict P) {
-  double R_s[4];
-  double theta_s[1];
-  double P_s[10];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 4; ++k) R_s[k] = R[k * ld + s];
-    for (long k = 0; k < 1; ++k) theta_s[k] = theta[k * ld + s];
-    slider_crank_positions(R_s, theta_s, P_s);
-    for (long k = 0; k < 10; ++k) P[k * ld + s] = P_s[k];
+void slider_crank_positions_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_R, const double *restrict in_theta, double *restrict out_P) {
+  double gagen_in_R[4];
+  double gagen_in_theta[1];
+  double gagen_out_P[10];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 4; ++gagen_k) gagen_in_R[gagen_k] = in_R[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) gagen_in_theta[gagen_k] = in_theta[gagen_k * gagen_ld + gagen_s];
+    slider_crank_positions(gagen_in_R, gagen_in_theta, gagen_out_P);
+    for (long gagen_k = 0; gagen_k < 10; ++gagen_k) out_P[gagen_k * gagen_ld + gagen_s] = gagen_out_P[gagen_k];
   }
 }
 
@@ -221,66 +221,83 @@ void slider_crank_positions_batch_columns_argv(long n, long ld, const double *co
   slider_crank_positions_batch_columns(n, ld, arg[0], arg[1], res[0]);
 }
 
-/* slider_crank: the Newton update R \u2190 T(\u0394t) R(\u0394\u03b8) R of every moving body: mul=19 add=10 neg=0 div=0 cos=1 sin=1 (flops=29) */
-void slider_crank_retract(const double *restrict R, const double *restrict dB, double *restrict R_next) {
+/* slider_crank: the Newton update R \u2190 T(\u0394t) C(\u0394\u03b8) R of every moving body: mul=23 add=12 neg=0 div=9 sqrt=1 (flops=44) */
+void slider_crank_retract(const double *restrict in_R, const double *restrict in_dB, double *restrict out_R_next) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
-  w0 = 0.5;
-  w1 = dB[0];
-  w1 = w0 * w1;
-  w2 = cos(w1);
-  w3 = R[0];
-  w4 = w2 * w3;
-  w1 = sin(w1);
-  w5 = R[1];
-  w6 = w1 * w5;
+  double w12;
+  w0 = in_R[0];
+  w1 = 1.0;
+  w2 = 0.25;
+  w3 = in_dB[0];
+  w4 = w3 * w3;
+  w4 = w2 * w4;
+  w1 = w1 + w4;
+  w4 = w0 * w0;
+  w5 = in_R[1];
+  w6 = w5 * w5;
   w4 = w4 + w6;
-  R_next[0] = w4;
-  w4 = w2 * w5;
-  w6 = w1 * w3;
-  w4 = w4 - w6;
-  R_next[1] = w4;
-  w4 = R[2];
-  w6 = w2 * w4;
-  w7 = dB[1];
-  w8 = w7 * w2;
-  w9 = dB[2];
-  w10 = w9 * w1;
-  w8 = w8 + w10;
-  w8 = w0 * w8;
-  w10 = w8 * w3;
-  w6 = w6 - w10;
-  w10 = R[3];
-  w11 = w1 * w10;
-  w6 = w6 - w11;
-  w7 = w7 * w1;
-  w9 = w9 * w2;
-  w7 = w7 - w9;
-  w0 = w0 * w7;
-  w7 = w0 * w5;
-  w6 = w6 - w7;
-  R_next[2] = w6;
-  w2 = w2 * w10;
   w1 = w1 * w4;
-  w2 = w2 + w1;
-  w8 = w8 * w5;
-  w2 = w2 - w8;
-  w0 = w0 * w3;
-  w2 = w2 + w0;
-  R_next[3] = w2;
+  w1 = sqrt(w1);
+  w4 = w0 / w1;
+  w6 = 0.5;
+  w7 = w3 / w1;
+  w8 = w7 * w5;
+  w8 = w6 * w8;
+  w4 = w4 + w8;
+  out_R_next[0] = w4;
+  w4 = w5 / w1;
+  w8 = w7 * w0;
+  w8 = w6 * w8;
+  w4 = w4 - w8;
+  out_R_next[1] = w4;
+  w4 = in_R[2];
+  w8 = w4 / w1;
+  w9 = in_dB[1];
+  w10 = w9 / w1;
+  w10 = w6 * w10;
+  w11 = in_dB[2];
+  w12 = w11 * w3;
+  w12 = w12 / w1;
+  w12 = w2 * w12;
+  w10 = w10 + w12;
+  w12 = w10 * w0;
+  w8 = w8 - w12;
+  w9 = w9 * w3;
+  w9 = w9 / w1;
+  w2 = w2 * w9;
+  w11 = w11 / w1;
+  w11 = w6 * w11;
+  w2 = w2 - w11;
+  w11 = w2 * w5;
+  w8 = w8 - w11;
+  w11 = in_R[3];
+  w9 = w7 * w11;
+  w9 = w6 * w9;
+  w8 = w8 - w9;
+  out_R_next[2] = w8;
+  w11 = w11 / w1;
+  w10 = w10 * w5;
+  w11 = w11 - w10;
+  w2 = w2 * w0;
+  w11 = w11 + w2;
+  w7 = w7 * w4;
+  w6 = w6 * w7;
+  w11 = w11 + w6;
+  out_R_next[3] = w11;
 }
 
 /* slider_crank_retract_batch: SIMD, in slider_crank_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void slider_crank_retract_columns_from(long s0, long n, long ld, const double *restrict R, const double *restrict dB, double *restrict R_next) {
-  double R_s[4];
-  double dB_s[3];
-  double R_next_s[4];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 4; ++k) R_s[k] = R[k * ld + s];
-    for (long k = 0; k < 3; ++k) dB_s[k] = dB[k * ld + s];
-    slider_crank_retract(R_s, dB_s, R_next_s);
-    for (long k = 0; k < 4; ++k) R_next[k * ld + s] = R_next_s[k];
+void slider_crank_retract_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_R, const double *restrict in_dB, double *restrict out_R_next) {
+  double gagen_in_R[4];
+  double gagen_in_dB[3];
+  double gagen_out_R_next[4];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 4; ++gagen_k) gagen_in_R[gagen_k] = in_R[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 3; ++gagen_k) gagen_in_dB[gagen_k] = in_dB[gagen_k * gagen_ld + gagen_s];
+    slider_crank_retract(gagen_in_R, gagen_in_dB, gagen_out_R_next);
+    for (long gagen_k = 0; gagen_k < 4; ++gagen_k) out_R_next[gagen_k * gagen_ld + gagen_s] = gagen_out_R_next[gagen_k];
   }
 }
 
@@ -296,149 +313,151 @@ void slider_crank_retract_batch_columns_argv(long n, long ld, const double *cons
   slider_crank_retract_batch_columns(n, ld, arg[0], arg[1], res[0]);
 }
 
-/* slider_crank: one Newton step at crank angle theta, and max |F| before it: mul=53 add=42 neg=1 div=5 cos=2 fabs=3 fmax=2 sin=2 (flops=101) */
-void slider_crank_newton_step(const double *restrict R, const double *restrict theta, double *restrict R_next, double *restrict residual) {
+/* slider_crank: one Newton step at the driver's theta, and max |F| before it: mul=50 add=41 neg=0 div=11 cos=1 fabs=3 fmax=2 sin=1 sqrt=1 (flops=102) */
+void slider_crank_newton_step(const double *restrict in_R, const double *restrict in_theta, double *restrict out_R_next, double *restrict out_residual) {
   double w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   double w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   double w24;
-  w0 = 0.5;
-  w1 = R[0];
-  w2 = w1 * w1;
-  w3 = R[1];
-  w4 = w3 * w3;
-  w2 = w2 + w4;
-  w4 = w2 * w2;
-  w5 = R[2];
-  w6 = w3 * w5;
-  w7 = R[3];
-  w8 = w3 + w7;
-  w9 = w8 * w1;
-  w10 = w6 - w9;
-  w11 = w1 * w7;
-  w10 = w10 - w11;
-  w12 = w1 - w5;
-  w13 = w12 * w3;
+  w0 = in_R[0];
+  w1 = 1.0;
+  w2 = 0.25;
+  w3 = in_R[2];
+  w4 = w0 * w3;
+  w5 = in_R[1];
+  w6 = in_R[3];
+  w7 = w5 * w6;
+  w8 = w4 + w7;
+  w9 = 3.872983346207417;
+  w10 = w9 * w5;
+  w10 = w10 - w3;
+  w11 = w10 * w0;
+  w11 = w8 - w11;
+  w9 = w9 * w0;
+  w9 = w9 - w6;
+  w12 = w9 * w5;
+  w11 = w11 - w12;
+  w12 = w0 * w0;
+  w13 = w5 * w5;
+  w12 = w12 + w13;
+  w13 = w12 * w12;
+  w13 = w12 / w13;
+  w14 = 0.5;
+  w15 = in_theta[0];
+  w15 = w14 * w15;
+  w16 = cos(w15);
+  w17 = w16 * w16;
+  w17 = w17 + w4;
+  w17 = w17 + w7;
+  w15 = sin(w15);
+  w7 = w15 * w15;
+  w17 = w17 - w7;
+  w7 = w0 - w3;
+  w4 = w7 * w0;
+  w17 = w17 - w4;
+  w18 = w5 + w6;
+  w19 = w18 * w5;
+  w17 = w17 + w19;
+  w20 = w13 * w17;
+  w21 = w12 * w20;
+  w21 = w11 - w21;
+  w9 = w9 * w0;
+  w22 = w5 * w3;
+  w9 = w9 + w22;
+  w23 = w0 * w6;
+  w9 = w9 - w23;
+  w10 = w10 * w5;
+  w9 = w9 - w10;
+  w18 = w18 * w0;
+  w10 = w22 - w18;
+  w10 = w10 - w23;
+  w7 = w7 * w5;
+  w10 = w10 - w7;
+  w10 = w13 * w10;
+  w24 = w12 * w10;
+  w9 = w9 - w24;
+  w21 = w21 / w9;
+  w9 = w21 * w21;
+  w9 = w2 * w9;
+  w1 = w1 + w9;
+  w1 = w1 * w12;
+  w1 = sqrt(w1);
+  w12 = w0 / w1;
+  w9 = w21 / w1;
+  w24 = w9 * w5;
+  w24 = w14 * w24;
+  w12 = w12 - w24;
+  out_R_next[0] = w12;
+  w12 = w5 / w1;
+  w24 = w9 * w0;
+  w24 = w14 * w24;
+  w12 = w12 + w24;
+  out_R_next[1] = w12;
+  w12 = w3 / w1;
+  w10 = w10 * w21;
+  w20 = w20 - w10;
+  w10 = w20 / w1;
+  w10 = w14 * w10;
+  w23 = w23 + w7;
+  w16 = w16 * w15;
+  w16 = w16 + w16;
+  w23 = w23 + w16;
+  w23 = w23 + w18;
+  w23 = w23 - w22;
+  w22 = w13 * w23;
+  w8 = w8 - w4;
+  w8 = w8 + w19;
+  w13 = w13 * w8;
+  w13 = w13 * w21;
+  w22 = w22 - w13;
+  w13 = w22 * w21;
+  w13 = w13 / w1;
+  w13 = w2 * w13;
   w10 = w10 - w13;
-  w14 = w10 * w4;
-  w15 = 3.872983346207417;
-  w16 = w15 * w1;
-  w16 = w16 - w7;
-  w17 = w16 * w1;
-  w17 = w17 + w6;
-  w17 = w17 - w11;
-  w15 = w15 * w3;
-  w15 = w15 - w5;
-  w18 = w15 * w3;
-  w17 = w17 - w18;
-  w18 = w17 * w2;
-  w19 = w2 * w18;
-  w14 = w14 - w19;
-  w4 = w4 / w14;
-  w19 = theta[0];
-  w19 = w0 * w19;
-  w20 = cos(w19);
-  w21 = w20 * w20;
-  w22 = w1 * w5;
-  w21 = w21 + w22;
-  w23 = w3 * w7;
-  w21 = w21 + w23;
-  w19 = sin(w19);
-  w24 = w19 * w19;
-  w21 = w21 - w24;
-  w12 = w12 * w1;
-  w21 = w21 - w12;
-  w8 = w8 * w3;
-  w21 = w21 + w8;
-  w24 = w4 * w21;
-  w22 = w22 + w23;
-  w15 = w15 * w1;
-  w15 = w22 - w15;
-  w16 = w16 * w3;
-  w15 = w15 - w16;
-  w4 = w4 * w15;
-  w24 = w24 - w4;
-  w24 = w0 * w24;
-  w4 = cos(w24);
-  w16 = w4 * w1;
-  w24 = -w24;
-  w24 = sin(w24);
-  w23 = w24 * w3;
-  w16 = w16 + w23;
-  R_next[0] = w16;
-  w16 = w4 * w3;
-  w23 = w24 * w1;
-  w16 = w16 - w23;
-  R_next[1] = w16;
-  w16 = w4 * w5;
-  w18 = w18 / w14;
-  w18 = w18 * w21;
-  w10 = w10 * w2;
-  w23 = w10 / w14;
-  w23 = w23 * w15;
-  w18 = w18 - w23;
-  w23 = w18 * w4;
-  w22 = w22 - w12;
-  w22 = w22 + w8;
-  w22 = w2 * w22;
-  w22 = w22 / w14;
-  w8 = w22 * w21;
-  w22 = w22 * w15;
-  w8 = w8 - w22;
-  w2 = w2 * w17;
-  w2 = w2 - w10;
-  w2 = w2 / w14;
-  w11 = w11 + w13;
-  w20 = w20 * w19;
-  w20 = w20 + w20;
-  w11 = w11 + w20;
-  w11 = w11 + w9;
-  w11 = w11 - w6;
-  w2 = w2 * w11;
-  w8 = w8 + w2;
-  w2 = w8 * w24;
-  w23 = w23 + w2;
-  w23 = w0 * w23;
-  w2 = w23 * w1;
-  w16 = w16 + w2;
-  w2 = w24 * w7;
-  w16 = w16 - w2;
-  w8 = w8 * w4;
-  w18 = w18 * w24;
-  w8 = w8 - w18;
-  w0 = w0 * w8;
-  w8 = w0 * w3;
-  w16 = w16 - w8;
-  R_next[2] = w16;
-  w4 = w4 * w7;
-  w24 = w24 * w5;
-  w4 = w4 + w24;
-  w23 = w23 * w3;
-  w4 = w4 + w23;
-  w0 = w0 * w1;
-  w4 = w4 + w0;
-  R_next[3] = w4;
-  w21 = fabs(w21);
+  w13 = w10 * w0;
+  w12 = w12 - w13;
+  w20 = w20 * w21;
+  w20 = w20 / w1;
+  w2 = w2 * w20;
+  w22 = w22 / w1;
+  w22 = w14 * w22;
+  w2 = w2 + w22;
+  w22 = w2 * w5;
+  w12 = w12 + w22;
+  w22 = w9 * w6;
+  w22 = w14 * w22;
+  w12 = w12 + w22;
+  out_R_next[2] = w12;
+  w6 = w6 / w1;
+  w10 = w10 * w5;
+  w6 = w6 - w10;
+  w2 = w2 * w0;
+  w6 = w6 - w2;
+  w9 = w9 * w3;
+  w14 = w14 * w9;
+  w6 = w6 - w14;
+  out_R_next[3] = w6;
+  w17 = fabs(w17);
+  w23 = fabs(w23);
+  w17 = fmax(w17, w23);
   w11 = fabs(w11);
-  w21 = fmax(w21, w11);
-  w15 = fabs(w15);
-  w21 = fmax(w21, w15);
-  residual[0] = w21;
+  w17 = fmax(w17, w11);
+  out_residual[0] = w17;
 }
 
 /* slider_crank_newton_step_batch: SIMD, in slider_crank_simd.c */
 
 /* samples s0 .. n-1 in the column layout, one call each (the whole column batch when no SIMD form) */
-void slider_crank_newton_step_columns_from(long s0, long n, long ld, const double *restrict R, const double *restrict theta, double *restrict R_next, double *restrict residual) {
-  double R_s[4];
-  double theta_s[1];
-  double R_next_s[4];
-  double residual_s[1];
-  for (long s = s0; s < n; ++s) {
-    for (long k = 0; k < 4; ++k) R_s[k] = R[k * ld + s];
-    for (long k = 0; k < 1; ++k) theta_s[k] = theta[k * ld + s];
-    slider_crank_newton_step(R_s, theta_s, R_next_s, residual_s);
-    for (long k = 0; k < 4; ++k) R_next[k * ld + s] = R_next_s[k];
-    for (long k = 0; k < 1; ++k) residual[k * ld + s] = residual_s[k];
+void slider_crank_newton_step_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *restrict in_R, const double *restrict in_theta, double *restrict out_R_next, double *restrict out_residual) {
+  double gagen_in_R[4];
+  double gagen_in_theta[1];
+  double gagen_out_R_next[4];
+  double gagen_out_residual[1];
+  for (long gagen_s = gagen_s0; gagen_s < gagen_n; ++gagen_s) {
+    for (long gagen_k = 0; gagen_k < 4; ++gagen_k) gagen_in_R[gagen_k] = in_R[gagen_k * gagen_ld + gagen_s];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) gagen_in_theta[gagen_k] = in_theta[gagen_k * gagen_ld + gagen_s];
+    slider_crank_newton_step(gagen_in_R, gagen_in_theta, gagen_out_R_next, gagen_out_residual);
+    for (long gagen_k = 0; gagen_k < 4; ++gagen_k) out_R_next[gagen_k * gagen_ld + gagen_s] = gagen_out_R_next[gagen_k];
+    for (long gagen_k = 0; gagen_k < 1; ++gagen_k) out_residual[gagen_k * gagen_ld + gagen_s] = gagen_out_residual[gagen_k];
   }
 }
 

@@ -15,8 +15,8 @@
  * Operation counts (flops = mul + add + neg + div; calls listed apart):
  *   slider_crank_constraints     mul=20 add=26 neg=1 div=0 cos=1 sin=1 (flops=47)
  *   slider_crank_positions       mul=26 add=28 neg=0 div=0 cos=1 sin=1 (flops=54)
- *   slider_crank_retract         mul=19 add=10 neg=0 div=0 cos=1 sin=1 (flops=29)
- *   slider_crank_newton_step     mul=53 add=42 neg=1 div=5 cos=2 fabs=3 fmax=2 sin=2 (flops=101)
+ *   slider_crank_retract         mul=23 add=12 neg=0 div=9 sqrt=1 (flops=44)
+ *   slider_crank_newton_step     mul=50 add=41 neg=0 div=11 cos=1 fabs=3 fmax=2 sin=1 sqrt=1 (flops=102)
  */
 #ifndef GAGEN_SLIDER_CRANK_H
 #define GAGEN_SLIDER_CRANK_H
@@ -38,13 +38,13 @@ extern "C" {
 #define SLIDER_CRANK_CONSTRAINTS_THETA_SIZE 1
 #define SLIDER_CRANK_CONSTRAINTS_F_SIZE 3
 #define SLIDER_CRANK_CONSTRAINTS_J_SIZE 9
-void slider_crank_constraints(const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT F, double *GAGEN_RESTRICT J);
-void slider_crank_constraints_batch(long n, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT F, double *GAGEN_RESTRICT J);
+void slider_crank_constraints(const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_F, double *GAGEN_RESTRICT out_J);
+void slider_crank_constraints_batch(long gagen_n, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_F, double *GAGEN_RESTRICT out_J);
 void slider_crank_constraints_argv(const double *const *arg, double *const *res);
 void slider_crank_constraints_batch_argv(long n, const double *const *arg, double *const *res);
-void slider_crank_constraints_batch_columns(long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT F, double *GAGEN_RESTRICT J);
+void slider_crank_constraints_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_F, double *GAGEN_RESTRICT out_J);
 void slider_crank_constraints_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void slider_crank_constraints_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT F, double *GAGEN_RESTRICT J);
+void slider_crank_constraints_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_F, double *GAGEN_RESTRICT out_J);
 
 /* slider_crank: every body point in the world
  *   in  R            [4] coupler_1, coupler_e12, coupler_e1inf, coupler_e2inf
@@ -54,15 +54,15 @@ void slider_crank_constraints_columns_from(long s0, long n, long ld, const doubl
 #define SLIDER_CRANK_POSITIONS_R_SIZE 4
 #define SLIDER_CRANK_POSITIONS_THETA_SIZE 1
 #define SLIDER_CRANK_POSITIONS_P_SIZE 10
-void slider_crank_positions(const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT P);
-void slider_crank_positions_batch(long n, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT P);
+void slider_crank_positions(const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_P);
+void slider_crank_positions_batch(long gagen_n, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_P);
 void slider_crank_positions_argv(const double *const *arg, double *const *res);
 void slider_crank_positions_batch_argv(long n, const double *const *arg, double *const *res);
-void slider_crank_positions_batch_columns(long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT P);
+void slider_crank_positions_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_P);
 void slider_crank_positions_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void slider_crank_positions_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT P);
+void slider_crank_positions_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_P);
 
-/* slider_crank: the Newton update R \u2190 T(\u0394t) R(\u0394\u03b8) R of every moving body
+/* slider_crank: the Newton update R \u2190 T(\u0394t) C(\u0394\u03b8) R of every moving body
  *   in  R            [4] coupler_1, coupler_e12, coupler_e1inf, coupler_e2inf
  *   in  dB           [3] coupler_w, coupler_x, coupler_y
  *   out R_next       [4] coupler_1, coupler_e12, coupler_e1inf, coupler_e2inf
@@ -70,15 +70,15 @@ void slider_crank_positions_columns_from(long s0, long n, long ld, const double 
 #define SLIDER_CRANK_RETRACT_R_SIZE 4
 #define SLIDER_CRANK_RETRACT_DB_SIZE 3
 #define SLIDER_CRANK_RETRACT_R_NEXT_SIZE 4
-void slider_crank_retract(const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT dB, double *GAGEN_RESTRICT R_next);
-void slider_crank_retract_batch(long n, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT dB, double *GAGEN_RESTRICT R_next);
+void slider_crank_retract(const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_dB, double *GAGEN_RESTRICT out_R_next);
+void slider_crank_retract_batch(long gagen_n, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_dB, double *GAGEN_RESTRICT out_R_next);
 void slider_crank_retract_argv(const double *const *arg, double *const *res);
 void slider_crank_retract_batch_argv(long n, const double *const *arg, double *const *res);
-void slider_crank_retract_batch_columns(long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT dB, double *GAGEN_RESTRICT R_next);
+void slider_crank_retract_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_dB, double *GAGEN_RESTRICT out_R_next);
 void slider_crank_retract_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void slider_crank_retract_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT dB, double *GAGEN_RESTRICT R_next);
+void slider_crank_retract_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_dB, double *GAGEN_RESTRICT out_R_next);
 
-/* slider_crank: one Newton step at crank angle theta, and max |F| before it
+/* slider_crank: one Newton step at the driver's theta, and max |F| before it
  *   in  R            [4] coupler_1, coupler_e12, coupler_e1inf, coupler_e2inf
  *   in  theta        [1] theta
  *   out R_next       [4] coupler_1, coupler_e12, coupler_e1inf, coupler_e2inf
@@ -88,13 +88,13 @@ void slider_crank_retract_columns_from(long s0, long n, long ld, const double *G
 #define SLIDER_CRANK_NEWTON_STEP_THETA_SIZE 1
 #define SLIDER_CRANK_NEWTON_STEP_R_NEXT_SIZE 4
 #define SLIDER_CRANK_NEWTON_STEP_RESIDUAL_SIZE 1
-void slider_crank_newton_step(const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT R_next, double *GAGEN_RESTRICT residual);
-void slider_crank_newton_step_batch(long n, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT R_next, double *GAGEN_RESTRICT residual);
+void slider_crank_newton_step(const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_R_next, double *GAGEN_RESTRICT out_residual);
+void slider_crank_newton_step_batch(long gagen_n, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_R_next, double *GAGEN_RESTRICT out_residual);
 void slider_crank_newton_step_argv(const double *const *arg, double *const *res);
 void slider_crank_newton_step_batch_argv(long n, const double *const *arg, double *const *res);
-void slider_crank_newton_step_batch_columns(long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT R_next, double *GAGEN_RESTRICT residual);
+void slider_crank_newton_step_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_R_next, double *GAGEN_RESTRICT out_residual);
 void slider_crank_newton_step_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void slider_crank_newton_step_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT R_next, double *GAGEN_RESTRICT residual);
+void slider_crank_newton_step_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_R_next, double *GAGEN_RESTRICT out_residual);
 
 #ifdef __cplusplus
 }

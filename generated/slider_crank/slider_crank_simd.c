@@ -149,20 +149,20 @@ static inline void gagen_stream_fence(int stream) {
 
 #if GAGEN_SIMD
 /* slider_crank: constraint residuals and their Jacobian in se(2): GAGEN_W consecutive samples at once */
-static void slider_crank_constraints_block(const double *restrict R, const double *restrict theta, double *restrict F, double *restrict J) {
+static void slider_crank_constraints_block(const double *restrict in_R, const double *restrict in_theta, double *restrict out_F, double *restrict out_J) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13;
   w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(theta, 1, 0);
+  w1 = GAGEN_GATHER(in_theta, 1, 0);
   w0 = w0 * w1;
   w1 = gagen_v_cos(w0);
   w2 = w1 * w1;
-  w3 = GAGEN_GATHER(R, 4, 0);
-  w4 = GAGEN_GATHER(R, 4, 2);
+  w3 = GAGEN_GATHER(in_R, 4, 0);
+  w4 = GAGEN_GATHER(in_R, 4, 2);
   w5 = w3 * w4;
   w2 = w2 + w5;
-  w6 = GAGEN_GATHER(R, 4, 1);
-  w7 = GAGEN_GATHER(R, 4, 3);
+  w6 = GAGEN_GATHER(in_R, 4, 1);
+  w7 = GAGEN_GATHER(in_R, 4, 3);
   w8 = w6 * w7;
   w2 = w2 + w8;
   w0 = gagen_v_sin(w0);
@@ -174,7 +174,7 @@ static void slider_crank_constraints_block(const double *restrict R, const doubl
   w11 = w6 + w7;
   w12 = w11 * w6;
   w2 = w2 + w12;
-  GAGEN_SCATTER(F, 3, 0, w2);
+  GAGEN_SCATTER(out_F, 3, 0, w2);
   w2 = w3 * w7;
   w9 = w9 * w6;
   w13 = w2 + w9;
@@ -185,7 +185,7 @@ static void slider_crank_constraints_block(const double *restrict R, const doubl
   w13 = w13 + w11;
   w1 = w6 * w4;
   w13 = w13 - w1;
-  GAGEN_SCATTER(F, 3, 1, w13);
+  GAGEN_SCATTER(out_F, 3, 1, w13);
   w5 = w5 + w8;
   w8 = gagen_v_splat(3.872983346207417);
   w13 = w8 * w6;
@@ -196,48 +196,48 @@ static void slider_crank_constraints_block(const double *restrict R, const doubl
   w8 = w8 - w7;
   w7 = w8 * w6;
   w4 = w4 - w7;
-  GAGEN_SCATTER(F, 3, 2, w4);
+  GAGEN_SCATTER(out_F, 3, 2, w4);
   w11 = w1 - w11;
   w11 = w11 - w2;
   w11 = w11 - w9;
-  GAGEN_SCATTER(J, 9, 0, w11);
+  GAGEN_SCATTER(out_J, 9, 0, w11);
   w5 = w5 - w10;
   w5 = w5 + w12;
-  GAGEN_SCATTER(J, 9, 1, w5);
+  GAGEN_SCATTER(out_J, 9, 1, w5);
   w8 = w8 * w3;
   w8 = w8 + w1;
   w8 = w8 - w2;
   w13 = w13 * w6;
   w8 = w8 - w13;
-  GAGEN_SCATTER(J, 9, 2, w8);
+  GAGEN_SCATTER(out_J, 9, 2, w8);
   w3 = w3 * w3;
   w6 = w6 * w6;
   w3 = w3 + w6;
   w3 = -w3;
-  GAGEN_SCATTER(J, 9, 3, w3);
+  GAGEN_SCATTER(out_J, 9, 3, w3);
   w6 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 4, w6);
-  GAGEN_SCATTER(J, 9, 5, w3);
-  GAGEN_SCATTER(J, 9, 6, w6);
-  GAGEN_SCATTER(J, 9, 7, w3);
-  GAGEN_SCATTER(J, 9, 8, w6);
+  GAGEN_SCATTER(out_J, 9, 4, w6);
+  GAGEN_SCATTER(out_J, 9, 5, w3);
+  GAGEN_SCATTER(out_J, 9, 6, w6);
+  GAGEN_SCATTER(out_J, 9, 7, w3);
+  GAGEN_SCATTER(out_J, 9, 8, w6);
 }
 #endif
 
-void slider_crank_constraints_batch(long n, const double *restrict R, const double *restrict theta, double *restrict F, double *restrict J) {
-  long s = 0;
+void slider_crank_constraints_batch(long gagen_n, const double *restrict in_R, const double *restrict in_theta, double *restrict out_F, double *restrict out_J) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 3 * GAGEN_W + 7; o += 8) __builtin_prefetch(F + 3 * a + o, 1, 0);
-      for (int o = 0; o < 9 * GAGEN_W + 7; o += 8) __builtin_prefetch(J + 9 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 3 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_F + 3 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 9 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J + 9 * gagen_a + gagen_o, 1, 0);
     }
-    slider_crank_constraints_block(R + 4 * s, theta + 1 * s, F + 3 * s, J + 9 * s);
+    slider_crank_constraints_block(in_R + 4 * gagen_s, in_theta + 1 * gagen_s, out_F + 3 * gagen_s, out_J + 9 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    slider_crank_constraints(R + 4 * s, theta + 1 * s, F + 3 * s, J + 9 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    slider_crank_constraints(in_R + 4 * gagen_s, in_theta + 1 * gagen_s, out_F + 3 * gagen_s, out_J + 9 * gagen_s);
   }
 }
 
@@ -247,20 +247,20 @@ void slider_crank_constraints_batch(long n, const double *restrict R, const doub
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void slider_crank_constraints_block_columns(long gagen_ld, int gagen_stream, const double *restrict R, const double *restrict theta, double *restrict F, double *restrict J) {
+static void slider_crank_constraints_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_R, const double *restrict in_theta, double *restrict out_F, double *restrict out_J) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13;
   w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(theta, 1, 0);
+  w1 = GAGEN_GATHER(in_theta, 1, 0);
   w0 = w0 * w1;
   w1 = gagen_v_cos(w0);
   w2 = w1 * w1;
-  w3 = GAGEN_GATHER(R, 4, 0);
-  w4 = GAGEN_GATHER(R, 4, 2);
+  w3 = GAGEN_GATHER(in_R, 4, 0);
+  w4 = GAGEN_GATHER(in_R, 4, 2);
   w5 = w3 * w4;
   w2 = w2 + w5;
-  w6 = GAGEN_GATHER(R, 4, 1);
-  w7 = GAGEN_GATHER(R, 4, 3);
+  w6 = GAGEN_GATHER(in_R, 4, 1);
+  w7 = GAGEN_GATHER(in_R, 4, 3);
   w8 = w6 * w7;
   w2 = w2 + w8;
   w0 = gagen_v_sin(w0);
@@ -272,7 +272,7 @@ static void slider_crank_constraints_block_columns(long gagen_ld, int gagen_stre
   w11 = w6 + w7;
   w12 = w11 * w6;
   w2 = w2 + w12;
-  GAGEN_SCATTER(F, 3, 0, w2);
+  GAGEN_SCATTER(out_F, 3, 0, w2);
   w2 = w3 * w7;
   w9 = w9 * w6;
   w13 = w2 + w9;
@@ -283,7 +283,7 @@ static void slider_crank_constraints_block_columns(long gagen_ld, int gagen_stre
   w13 = w13 + w11;
   w1 = w6 * w4;
   w13 = w13 - w1;
-  GAGEN_SCATTER(F, 3, 1, w13);
+  GAGEN_SCATTER(out_F, 3, 1, w13);
   w5 = w5 + w8;
   w8 = gagen_v_splat(3.872983346207417);
   w13 = w8 * w6;
@@ -294,31 +294,31 @@ static void slider_crank_constraints_block_columns(long gagen_ld, int gagen_stre
   w8 = w8 - w7;
   w7 = w8 * w6;
   w4 = w4 - w7;
-  GAGEN_SCATTER(F, 3, 2, w4);
+  GAGEN_SCATTER(out_F, 3, 2, w4);
   w11 = w1 - w11;
   w11 = w11 - w2;
   w11 = w11 - w9;
-  GAGEN_SCATTER(J, 9, 0, w11);
+  GAGEN_SCATTER(out_J, 9, 0, w11);
   w5 = w5 - w10;
   w5 = w5 + w12;
-  GAGEN_SCATTER(J, 9, 1, w5);
+  GAGEN_SCATTER(out_J, 9, 1, w5);
   w8 = w8 * w3;
   w8 = w8 + w1;
   w8 = w8 - w2;
   w13 = w13 * w6;
   w8 = w8 - w13;
-  GAGEN_SCATTER(J, 9, 2, w8);
+  GAGEN_SCATTER(out_J, 9, 2, w8);
   w3 = w3 * w3;
   w6 = w6 * w6;
   w3 = w3 + w6;
   w3 = -w3;
-  GAGEN_SCATTER(J, 9, 3, w3);
+  GAGEN_SCATTER(out_J, 9, 3, w3);
   w6 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J, 9, 4, w6);
-  GAGEN_SCATTER(J, 9, 5, w3);
-  GAGEN_SCATTER(J, 9, 6, w6);
-  GAGEN_SCATTER(J, 9, 7, w3);
-  GAGEN_SCATTER(J, 9, 8, w6);
+  GAGEN_SCATTER(out_J, 9, 4, w6);
+  GAGEN_SCATTER(out_J, 9, 5, w3);
+  GAGEN_SCATTER(out_J, 9, 6, w6);
+  GAGEN_SCATTER(out_J, 9, 7, w3);
+  GAGEN_SCATTER(out_J, 9, 8, w6);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -326,44 +326,44 @@ static void slider_crank_constraints_block_columns(long gagen_ld, int gagen_stre
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void slider_crank_constraints_batch_columns(long n, long ld, const double *restrict R, const double *restrict theta, double *restrict F, double *restrict J) {
-  long s = 0;
+void slider_crank_constraints_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_R, const double *restrict in_theta, double *restrict out_F, double *restrict out_J) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 12L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    slider_crank_constraints_block_columns(ld, stream, R + s, theta + s, F + s, J + s);
+  const int gagen_stream = gagen_n * 12L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    slider_crank_constraints_block_columns(gagen_ld, gagen_stream, in_R + gagen_s, in_theta + gagen_s, out_F + gagen_s, out_J + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  slider_crank_constraints_columns_from(s, n, ld, R, theta, F, J);
+  slider_crank_constraints_columns_from(gagen_s, gagen_n, gagen_ld, in_R, in_theta, out_F, out_J);
 }
 
 #if GAGEN_SIMD
 /* slider_crank: every body point in the world: GAGEN_W consecutive samples at once */
-static void slider_crank_positions_block(const double *restrict R, const double *restrict theta, double *restrict P) {
+static void slider_crank_positions_block(const double *restrict in_R, const double *restrict in_theta, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12;
   w0 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(P, 10, 0, w0);
-  GAGEN_SCATTER(P, 10, 1, w0);
+  GAGEN_SCATTER(out_P, 10, 0, w0);
+  GAGEN_SCATTER(out_P, 10, 1, w0);
   w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(theta, 1, 0);
+  w1 = GAGEN_GATHER(in_theta, 1, 0);
   w1 = w0 * w1;
   w2 = gagen_v_cos(w1);
   w3 = w2 * w2;
   w1 = gagen_v_sin(w1);
   w4 = w1 * w1;
   w3 = w3 - w4;
-  GAGEN_SCATTER(P, 10, 2, w3);
+  GAGEN_SCATTER(out_P, 10, 2, w3);
   w2 = w2 * w1;
   w2 = w2 + w2;
-  GAGEN_SCATTER(P, 10, 3, w2);
-  w2 = GAGEN_GATHER(R, 4, 0);
-  w1 = GAGEN_GATHER(R, 4, 2);
+  GAGEN_SCATTER(out_P, 10, 3, w2);
+  w2 = GAGEN_GATHER(in_R, 4, 0);
+  w1 = GAGEN_GATHER(in_R, 4, 2);
   w3 = w2 - w1;
   w4 = w3 * w2;
-  w5 = GAGEN_GATHER(R, 4, 1);
-  w6 = GAGEN_GATHER(R, 4, 3);
+  w5 = GAGEN_GATHER(in_R, 4, 1);
+  w6 = GAGEN_GATHER(in_R, 4, 3);
   w7 = w5 + w6;
   w8 = w7 * w5;
   w4 = w4 - w8;
@@ -371,7 +371,7 @@ static void slider_crank_positions_block(const double *restrict R, const double 
   w4 = w4 - w8;
   w9 = w5 * w6;
   w4 = w4 - w9;
-  GAGEN_SCATTER(P, 10, 4, w4);
+  GAGEN_SCATTER(out_P, 10, 4, w4);
   w4 = w5 * w1;
   w7 = w7 * w2;
   w7 = w4 - w7;
@@ -379,7 +379,7 @@ static void slider_crank_positions_block(const double *restrict R, const double 
   w7 = w7 - w10;
   w3 = w3 * w5;
   w7 = w7 - w3;
-  GAGEN_SCATTER(P, 10, 5, w7);
+  GAGEN_SCATTER(out_P, 10, 5, w7);
   w7 = gagen_v_splat(3.872983346207417);
   w3 = w7 * w5;
   w3 = w3 - w1;
@@ -390,13 +390,13 @@ static void slider_crank_positions_block(const double *restrict R, const double 
   w11 = w11 + w12;
   w11 = w11 - w8;
   w11 = w11 - w9;
-  GAGEN_SCATTER(P, 10, 6, w11);
+  GAGEN_SCATTER(out_P, 10, 6, w11);
   w7 = w7 * w2;
   w7 = w7 + w4;
   w7 = w7 - w10;
   w3 = w3 * w5;
   w7 = w7 - w3;
-  GAGEN_SCATTER(P, 10, 7, w7);
+  GAGEN_SCATTER(out_P, 10, 7, w7);
   w7 = w0 * w2;
   w3 = gagen_v_splat(1.9364916731037085);
   w11 = w3 * w5;
@@ -411,29 +411,29 @@ static void slider_crank_positions_block(const double *restrict R, const double 
   w1 = w1 + w0;
   w1 = w1 - w8;
   w1 = w1 - w9;
-  GAGEN_SCATTER(P, 10, 8, w1);
+  GAGEN_SCATTER(out_P, 10, 8, w1);
   w3 = w3 * w2;
   w3 = w3 + w4;
   w3 = w3 - w10;
   w7 = w7 * w5;
   w3 = w3 - w7;
-  GAGEN_SCATTER(P, 10, 9, w3);
+  GAGEN_SCATTER(out_P, 10, 9, w3);
 }
 #endif
 
-void slider_crank_positions_batch(long n, const double *restrict R, const double *restrict theta, double *restrict P) {
-  long s = 0;
+void slider_crank_positions_batch(long gagen_n, const double *restrict in_R, const double *restrict in_theta, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 10 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 10 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 10 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 10 * gagen_a + gagen_o, 1, 0);
     }
-    slider_crank_positions_block(R + 4 * s, theta + 1 * s, P + 10 * s);
+    slider_crank_positions_block(in_R + 4 * gagen_s, in_theta + 1 * gagen_s, out_P + 10 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    slider_crank_positions(R + 4 * s, theta + 1 * s, P + 10 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    slider_crank_positions(in_R + 4 * gagen_s, in_theta + 1 * gagen_s, out_P + 10 * gagen_s);
   }
 }
 
@@ -443,30 +443,30 @@ void slider_crank_positions_batch(long n, const double *restrict R, const double
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void slider_crank_positions_block_columns(long gagen_ld, int gagen_stream, const double *restrict R, const double *restrict theta, double *restrict P) {
+static void slider_crank_positions_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_R, const double *restrict in_theta, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12;
   w0 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(P, 10, 0, w0);
-  GAGEN_SCATTER(P, 10, 1, w0);
+  GAGEN_SCATTER(out_P, 10, 0, w0);
+  GAGEN_SCATTER(out_P, 10, 1, w0);
   w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(theta, 1, 0);
+  w1 = GAGEN_GATHER(in_theta, 1, 0);
   w1 = w0 * w1;
   w2 = gagen_v_cos(w1);
   w3 = w2 * w2;
   w1 = gagen_v_sin(w1);
   w4 = w1 * w1;
   w3 = w3 - w4;
-  GAGEN_SCATTER(P, 10, 2, w3);
+  GAGEN_SCATTER(out_P, 10, 2, w3);
   w2 = w2 * w1;
   w2 = w2 + w2;
-  GAGEN_SCATTER(P, 10, 3, w2);
-  w2 = GAGEN_GATHER(R, 4, 0);
-  w1 = GAGEN_GATHER(R, 4, 2);
+  GAGEN_SCATTER(out_P, 10, 3, w2);
+  w2 = GAGEN_GATHER(in_R, 4, 0);
+  w1 = GAGEN_GATHER(in_R, 4, 2);
   w3 = w2 - w1;
   w4 = w3 * w2;
-  w5 = GAGEN_GATHER(R, 4, 1);
-  w6 = GAGEN_GATHER(R, 4, 3);
+  w5 = GAGEN_GATHER(in_R, 4, 1);
+  w6 = GAGEN_GATHER(in_R, 4, 3);
   w7 = w5 + w6;
   w8 = w7 * w5;
   w4 = w4 - w8;
@@ -474,7 +474,7 @@ static void slider_crank_positions_block_columns(long gagen_ld, int gagen_stream
   w4 = w4 - w8;
   w9 = w5 * w6;
   w4 = w4 - w9;
-  GAGEN_SCATTER(P, 10, 4, w4);
+  GAGEN_SCATTER(out_P, 10, 4, w4);
   w4 = w5 * w1;
   w7 = w7 * w2;
   w7 = w4 - w7;
@@ -482,7 +482,7 @@ static void slider_crank_positions_block_columns(long gagen_ld, int gagen_stream
   w7 = w7 - w10;
   w3 = w3 * w5;
   w7 = w7 - w3;
-  GAGEN_SCATTER(P, 10, 5, w7);
+  GAGEN_SCATTER(out_P, 10, 5, w7);
   w7 = gagen_v_splat(3.872983346207417);
   w3 = w7 * w5;
   w3 = w3 - w1;
@@ -493,13 +493,13 @@ static void slider_crank_positions_block_columns(long gagen_ld, int gagen_stream
   w11 = w11 + w12;
   w11 = w11 - w8;
   w11 = w11 - w9;
-  GAGEN_SCATTER(P, 10, 6, w11);
+  GAGEN_SCATTER(out_P, 10, 6, w11);
   w7 = w7 * w2;
   w7 = w7 + w4;
   w7 = w7 - w10;
   w3 = w3 * w5;
   w7 = w7 - w3;
-  GAGEN_SCATTER(P, 10, 7, w7);
+  GAGEN_SCATTER(out_P, 10, 7, w7);
   w7 = w0 * w2;
   w3 = gagen_v_splat(1.9364916731037085);
   w11 = w3 * w5;
@@ -514,13 +514,13 @@ static void slider_crank_positions_block_columns(long gagen_ld, int gagen_stream
   w1 = w1 + w0;
   w1 = w1 - w8;
   w1 = w1 - w9;
-  GAGEN_SCATTER(P, 10, 8, w1);
+  GAGEN_SCATTER(out_P, 10, 8, w1);
   w3 = w3 * w2;
   w3 = w3 + w4;
   w3 = w3 - w10;
   w7 = w7 * w5;
   w3 = w3 - w7;
-  GAGEN_SCATTER(P, 10, 9, w3);
+  GAGEN_SCATTER(out_P, 10, 9, w3);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -528,81 +528,98 @@ static void slider_crank_positions_block_columns(long gagen_ld, int gagen_stream
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void slider_crank_positions_batch_columns(long n, long ld, const double *restrict R, const double *restrict theta, double *restrict P) {
-  long s = 0;
+void slider_crank_positions_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_R, const double *restrict in_theta, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 10L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    slider_crank_positions_block_columns(ld, stream, R + s, theta + s, P + s);
+  const int gagen_stream = gagen_n * 10L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    slider_crank_positions_block_columns(gagen_ld, gagen_stream, in_R + gagen_s, in_theta + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  slider_crank_positions_columns_from(s, n, ld, R, theta, P);
+  slider_crank_positions_columns_from(gagen_s, gagen_n, gagen_ld, in_R, in_theta, out_P);
 }
 
 #if GAGEN_SIMD
-/* slider_crank: the Newton update R \u2190 T(\u0394t) R(\u0394\u03b8) R of every moving body: GAGEN_W consecutive samples at once */
-static void slider_crank_retract_block(const double *restrict R, const double *restrict dB, double *restrict R_next) {
+/* slider_crank: the Newton update R \u2190 T(\u0394t) C(\u0394\u03b8) R of every moving body: GAGEN_W consecutive samples at once */
+static void slider_crank_retract_block(const double *restrict in_R, const double *restrict in_dB, double *restrict out_R_next) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
-  w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(dB, 3, 0);
-  w1 = w0 * w1;
-  w2 = gagen_v_cos(w1);
-  w3 = GAGEN_GATHER(R, 4, 0);
-  w4 = w2 * w3;
-  w1 = gagen_v_sin(w1);
-  w5 = GAGEN_GATHER(R, 4, 1);
-  w6 = w1 * w5;
+  gagen_v w12;
+  w0 = GAGEN_GATHER(in_R, 4, 0);
+  w1 = gagen_v_splat(1.0);
+  w2 = gagen_v_splat(0.25);
+  w3 = GAGEN_GATHER(in_dB, 3, 0);
+  w4 = w3 * w3;
+  w4 = w2 * w4;
+  w1 = w1 + w4;
+  w4 = w0 * w0;
+  w5 = GAGEN_GATHER(in_R, 4, 1);
+  w6 = w5 * w5;
   w4 = w4 + w6;
-  GAGEN_SCATTER(R_next, 4, 0, w4);
-  w4 = w2 * w5;
-  w6 = w1 * w3;
-  w4 = w4 - w6;
-  GAGEN_SCATTER(R_next, 4, 1, w4);
-  w4 = GAGEN_GATHER(R, 4, 2);
-  w6 = w2 * w4;
-  w7 = GAGEN_GATHER(dB, 3, 1);
-  w8 = w7 * w2;
-  w9 = GAGEN_GATHER(dB, 3, 2);
-  w10 = w9 * w1;
-  w8 = w8 + w10;
-  w8 = w0 * w8;
-  w10 = w8 * w3;
-  w6 = w6 - w10;
-  w10 = GAGEN_GATHER(R, 4, 3);
-  w11 = w1 * w10;
-  w6 = w6 - w11;
-  w7 = w7 * w1;
-  w9 = w9 * w2;
-  w7 = w7 - w9;
-  w0 = w0 * w7;
-  w7 = w0 * w5;
-  w6 = w6 - w7;
-  GAGEN_SCATTER(R_next, 4, 2, w6);
-  w2 = w2 * w10;
   w1 = w1 * w4;
-  w2 = w2 + w1;
-  w8 = w8 * w5;
-  w2 = w2 - w8;
-  w0 = w0 * w3;
-  w2 = w2 + w0;
-  GAGEN_SCATTER(R_next, 4, 3, w2);
+  w1 = gagen_v_sqrt(w1);
+  w4 = w0 / w1;
+  w6 = gagen_v_splat(0.5);
+  w7 = w3 / w1;
+  w8 = w7 * w5;
+  w8 = w6 * w8;
+  w4 = w4 + w8;
+  GAGEN_SCATTER(out_R_next, 4, 0, w4);
+  w4 = w5 / w1;
+  w8 = w7 * w0;
+  w8 = w6 * w8;
+  w4 = w4 - w8;
+  GAGEN_SCATTER(out_R_next, 4, 1, w4);
+  w4 = GAGEN_GATHER(in_R, 4, 2);
+  w8 = w4 / w1;
+  w9 = GAGEN_GATHER(in_dB, 3, 1);
+  w10 = w9 / w1;
+  w10 = w6 * w10;
+  w11 = GAGEN_GATHER(in_dB, 3, 2);
+  w12 = w11 * w3;
+  w12 = w12 / w1;
+  w12 = w2 * w12;
+  w10 = w10 + w12;
+  w12 = w10 * w0;
+  w8 = w8 - w12;
+  w9 = w9 * w3;
+  w9 = w9 / w1;
+  w2 = w2 * w9;
+  w11 = w11 / w1;
+  w11 = w6 * w11;
+  w2 = w2 - w11;
+  w11 = w2 * w5;
+  w8 = w8 - w11;
+  w11 = GAGEN_GATHER(in_R, 4, 3);
+  w9 = w7 * w11;
+  w9 = w6 * w9;
+  w8 = w8 - w9;
+  GAGEN_SCATTER(out_R_next, 4, 2, w8);
+  w11 = w11 / w1;
+  w10 = w10 * w5;
+  w11 = w11 - w10;
+  w2 = w2 * w0;
+  w11 = w11 + w2;
+  w7 = w7 * w4;
+  w6 = w6 * w7;
+  w11 = w11 + w6;
+  GAGEN_SCATTER(out_R_next, 4, 3, w11);
 }
 #endif
 
-void slider_crank_retract_batch(long n, const double *restrict R, const double *restrict dB, double *restrict R_next) {
-  long s = 0;
+void slider_crank_retract_batch(long gagen_n, const double *restrict in_R, const double *restrict in_dB, double *restrict out_R_next) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 4 * GAGEN_W + 7; o += 8) __builtin_prefetch(R_next + 4 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 4 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_R_next + 4 * gagen_a + gagen_o, 1, 0);
     }
-    slider_crank_retract_block(R + 4 * s, dB + 3 * s, R_next + 4 * s);
+    slider_crank_retract_block(in_R + 4 * gagen_s, in_dB + 3 * gagen_s, out_R_next + 4 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    slider_crank_retract(R + 4 * s, dB + 3 * s, R_next + 4 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    slider_crank_retract(in_R + 4 * gagen_s, in_dB + 3 * gagen_s, out_R_next + 4 * gagen_s);
   }
 }
 
@@ -612,51 +629,68 @@ void slider_crank_retract_batch(long n, const double *restrict R, const double *
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void slider_crank_retract_block_columns(long gagen_ld, int gagen_stream, const double *restrict R, const double *restrict dB, double *restrict R_next) {
+static void slider_crank_retract_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_R, const double *restrict in_dB, double *restrict out_R_next) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
-  w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(dB, 3, 0);
-  w1 = w0 * w1;
-  w2 = gagen_v_cos(w1);
-  w3 = GAGEN_GATHER(R, 4, 0);
-  w4 = w2 * w3;
-  w1 = gagen_v_sin(w1);
-  w5 = GAGEN_GATHER(R, 4, 1);
-  w6 = w1 * w5;
+  gagen_v w12;
+  w0 = GAGEN_GATHER(in_R, 4, 0);
+  w1 = gagen_v_splat(1.0);
+  w2 = gagen_v_splat(0.25);
+  w3 = GAGEN_GATHER(in_dB, 3, 0);
+  w4 = w3 * w3;
+  w4 = w2 * w4;
+  w1 = w1 + w4;
+  w4 = w0 * w0;
+  w5 = GAGEN_GATHER(in_R, 4, 1);
+  w6 = w5 * w5;
   w4 = w4 + w6;
-  GAGEN_SCATTER(R_next, 4, 0, w4);
-  w4 = w2 * w5;
-  w6 = w1 * w3;
-  w4 = w4 - w6;
-  GAGEN_SCATTER(R_next, 4, 1, w4);
-  w4 = GAGEN_GATHER(R, 4, 2);
-  w6 = w2 * w4;
-  w7 = GAGEN_GATHER(dB, 3, 1);
-  w8 = w7 * w2;
-  w9 = GAGEN_GATHER(dB, 3, 2);
-  w10 = w9 * w1;
-  w8 = w8 + w10;
-  w8 = w0 * w8;
-  w10 = w8 * w3;
-  w6 = w6 - w10;
-  w10 = GAGEN_GATHER(R, 4, 3);
-  w11 = w1 * w10;
-  w6 = w6 - w11;
-  w7 = w7 * w1;
-  w9 = w9 * w2;
-  w7 = w7 - w9;
-  w0 = w0 * w7;
-  w7 = w0 * w5;
-  w6 = w6 - w7;
-  GAGEN_SCATTER(R_next, 4, 2, w6);
-  w2 = w2 * w10;
   w1 = w1 * w4;
-  w2 = w2 + w1;
-  w8 = w8 * w5;
-  w2 = w2 - w8;
-  w0 = w0 * w3;
-  w2 = w2 + w0;
-  GAGEN_SCATTER(R_next, 4, 3, w2);
+  w1 = gagen_v_sqrt(w1);
+  w4 = w0 / w1;
+  w6 = gagen_v_splat(0.5);
+  w7 = w3 / w1;
+  w8 = w7 * w5;
+  w8 = w6 * w8;
+  w4 = w4 + w8;
+  GAGEN_SCATTER(out_R_next, 4, 0, w4);
+  w4 = w5 / w1;
+  w8 = w7 * w0;
+  w8 = w6 * w8;
+  w4 = w4 - w8;
+  GAGEN_SCATTER(out_R_next, 4, 1, w4);
+  w4 = GAGEN_GATHER(in_R, 4, 2);
+  w8 = w4 / w1;
+  w9 = GAGEN_GATHER(in_dB, 3, 1);
+  w10 = w9 / w1;
+  w10 = w6 * w10;
+  w11 = GAGEN_GATHER(in_dB, 3, 2);
+  w12 = w11 * w3;
+  w12 = w12 / w1;
+  w12 = w2 * w12;
+  w10 = w10 + w12;
+  w12 = w10 * w0;
+  w8 = w8 - w12;
+  w9 = w9 * w3;
+  w9 = w9 / w1;
+  w2 = w2 * w9;
+  w11 = w11 / w1;
+  w11 = w6 * w11;
+  w2 = w2 - w11;
+  w11 = w2 * w5;
+  w8 = w8 - w11;
+  w11 = GAGEN_GATHER(in_R, 4, 3);
+  w9 = w7 * w11;
+  w9 = w6 * w9;
+  w8 = w8 - w9;
+  GAGEN_SCATTER(out_R_next, 4, 2, w8);
+  w11 = w11 / w1;
+  w10 = w10 * w5;
+  w11 = w11 - w10;
+  w2 = w2 * w0;
+  w11 = w11 + w2;
+  w7 = w7 * w4;
+  w6 = w6 * w7;
+  w11 = w11 + w6;
+  GAGEN_SCATTER(out_R_next, 4, 3, w11);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -664,163 +698,165 @@ static void slider_crank_retract_block_columns(long gagen_ld, int gagen_stream, 
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void slider_crank_retract_batch_columns(long n, long ld, const double *restrict R, const double *restrict dB, double *restrict R_next) {
-  long s = 0;
+void slider_crank_retract_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_R, const double *restrict in_dB, double *restrict out_R_next) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 4L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    slider_crank_retract_block_columns(ld, stream, R + s, dB + s, R_next + s);
+  const int gagen_stream = gagen_n * 4L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    slider_crank_retract_block_columns(gagen_ld, gagen_stream, in_R + gagen_s, in_dB + gagen_s, out_R_next + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  slider_crank_retract_columns_from(s, n, ld, R, dB, R_next);
+  slider_crank_retract_columns_from(gagen_s, gagen_n, gagen_ld, in_R, in_dB, out_R_next);
 }
 
 #if GAGEN_SIMD
-/* slider_crank: one Newton step at crank angle theta, and max |F| before it: GAGEN_W consecutive samples at once */
-static void slider_crank_newton_step_block(const double *restrict R, const double *restrict theta, double *restrict R_next, double *restrict residual) {
+/* slider_crank: one Newton step at the driver's theta, and max |F| before it: GAGEN_W consecutive samples at once */
+static void slider_crank_newton_step_block(const double *restrict in_R, const double *restrict in_theta, double *restrict out_R_next, double *restrict out_residual) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24;
-  w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(R, 4, 0);
-  w2 = w1 * w1;
-  w3 = GAGEN_GATHER(R, 4, 1);
-  w4 = w3 * w3;
-  w2 = w2 + w4;
-  w4 = w2 * w2;
-  w5 = GAGEN_GATHER(R, 4, 2);
-  w6 = w3 * w5;
-  w7 = GAGEN_GATHER(R, 4, 3);
-  w8 = w3 + w7;
-  w9 = w8 * w1;
-  w10 = w6 - w9;
-  w11 = w1 * w7;
-  w10 = w10 - w11;
-  w12 = w1 - w5;
-  w13 = w12 * w3;
+  w0 = GAGEN_GATHER(in_R, 4, 0);
+  w1 = gagen_v_splat(1.0);
+  w2 = gagen_v_splat(0.25);
+  w3 = GAGEN_GATHER(in_R, 4, 2);
+  w4 = w0 * w3;
+  w5 = GAGEN_GATHER(in_R, 4, 1);
+  w6 = GAGEN_GATHER(in_R, 4, 3);
+  w7 = w5 * w6;
+  w8 = w4 + w7;
+  w9 = gagen_v_splat(3.872983346207417);
+  w10 = w9 * w5;
+  w10 = w10 - w3;
+  w11 = w10 * w0;
+  w11 = w8 - w11;
+  w9 = w9 * w0;
+  w9 = w9 - w6;
+  w12 = w9 * w5;
+  w11 = w11 - w12;
+  w12 = w0 * w0;
+  w13 = w5 * w5;
+  w12 = w12 + w13;
+  w13 = w12 * w12;
+  w13 = w12 / w13;
+  w14 = gagen_v_splat(0.5);
+  w15 = GAGEN_GATHER(in_theta, 1, 0);
+  w15 = w14 * w15;
+  w16 = gagen_v_cos(w15);
+  w17 = w16 * w16;
+  w17 = w17 + w4;
+  w17 = w17 + w7;
+  w15 = gagen_v_sin(w15);
+  w7 = w15 * w15;
+  w17 = w17 - w7;
+  w7 = w0 - w3;
+  w4 = w7 * w0;
+  w17 = w17 - w4;
+  w18 = w5 + w6;
+  w19 = w18 * w5;
+  w17 = w17 + w19;
+  w20 = w13 * w17;
+  w21 = w12 * w20;
+  w21 = w11 - w21;
+  w9 = w9 * w0;
+  w22 = w5 * w3;
+  w9 = w9 + w22;
+  w23 = w0 * w6;
+  w9 = w9 - w23;
+  w10 = w10 * w5;
+  w9 = w9 - w10;
+  w18 = w18 * w0;
+  w10 = w22 - w18;
+  w10 = w10 - w23;
+  w7 = w7 * w5;
+  w10 = w10 - w7;
+  w10 = w13 * w10;
+  w24 = w12 * w10;
+  w9 = w9 - w24;
+  w21 = w21 / w9;
+  w9 = w21 * w21;
+  w9 = w2 * w9;
+  w1 = w1 + w9;
+  w1 = w1 * w12;
+  w1 = gagen_v_sqrt(w1);
+  w12 = w0 / w1;
+  w9 = w21 / w1;
+  w24 = w9 * w5;
+  w24 = w14 * w24;
+  w12 = w12 - w24;
+  GAGEN_SCATTER(out_R_next, 4, 0, w12);
+  w12 = w5 / w1;
+  w24 = w9 * w0;
+  w24 = w14 * w24;
+  w12 = w12 + w24;
+  GAGEN_SCATTER(out_R_next, 4, 1, w12);
+  w12 = w3 / w1;
+  w10 = w10 * w21;
+  w20 = w20 - w10;
+  w10 = w20 / w1;
+  w10 = w14 * w10;
+  w23 = w23 + w7;
+  w16 = w16 * w15;
+  w16 = w16 + w16;
+  w23 = w23 + w16;
+  w23 = w23 + w18;
+  w23 = w23 - w22;
+  w22 = w13 * w23;
+  w8 = w8 - w4;
+  w8 = w8 + w19;
+  w13 = w13 * w8;
+  w13 = w13 * w21;
+  w22 = w22 - w13;
+  w13 = w22 * w21;
+  w13 = w13 / w1;
+  w13 = w2 * w13;
   w10 = w10 - w13;
-  w14 = w10 * w4;
-  w15 = gagen_v_splat(3.872983346207417);
-  w16 = w15 * w1;
-  w16 = w16 - w7;
-  w17 = w16 * w1;
-  w17 = w17 + w6;
-  w17 = w17 - w11;
-  w15 = w15 * w3;
-  w15 = w15 - w5;
-  w18 = w15 * w3;
-  w17 = w17 - w18;
-  w18 = w17 * w2;
-  w19 = w2 * w18;
-  w14 = w14 - w19;
-  w4 = w4 / w14;
-  w19 = GAGEN_GATHER(theta, 1, 0);
-  w19 = w0 * w19;
-  w20 = gagen_v_cos(w19);
-  w21 = w20 * w20;
-  w22 = w1 * w5;
-  w21 = w21 + w22;
-  w23 = w3 * w7;
-  w21 = w21 + w23;
-  w19 = gagen_v_sin(w19);
-  w24 = w19 * w19;
-  w21 = w21 - w24;
-  w12 = w12 * w1;
-  w21 = w21 - w12;
-  w8 = w8 * w3;
-  w21 = w21 + w8;
-  w24 = w4 * w21;
-  w22 = w22 + w23;
-  w15 = w15 * w1;
-  w15 = w22 - w15;
-  w16 = w16 * w3;
-  w15 = w15 - w16;
-  w4 = w4 * w15;
-  w24 = w24 - w4;
-  w24 = w0 * w24;
-  w4 = gagen_v_cos(w24);
-  w16 = w4 * w1;
-  w24 = -w24;
-  w24 = gagen_v_sin(w24);
-  w23 = w24 * w3;
-  w16 = w16 + w23;
-  GAGEN_SCATTER(R_next, 4, 0, w16);
-  w16 = w4 * w3;
-  w23 = w24 * w1;
-  w16 = w16 - w23;
-  GAGEN_SCATTER(R_next, 4, 1, w16);
-  w16 = w4 * w5;
-  w18 = w18 / w14;
-  w18 = w18 * w21;
-  w10 = w10 * w2;
-  w23 = w10 / w14;
-  w23 = w23 * w15;
-  w18 = w18 - w23;
-  w23 = w18 * w4;
-  w22 = w22 - w12;
-  w22 = w22 + w8;
-  w22 = w2 * w22;
-  w22 = w22 / w14;
-  w8 = w22 * w21;
-  w22 = w22 * w15;
-  w8 = w8 - w22;
-  w2 = w2 * w17;
-  w2 = w2 - w10;
-  w2 = w2 / w14;
-  w11 = w11 + w13;
-  w20 = w20 * w19;
-  w20 = w20 + w20;
-  w11 = w11 + w20;
-  w11 = w11 + w9;
-  w11 = w11 - w6;
-  w2 = w2 * w11;
-  w8 = w8 + w2;
-  w2 = w8 * w24;
-  w23 = w23 + w2;
-  w23 = w0 * w23;
-  w2 = w23 * w1;
-  w16 = w16 + w2;
-  w2 = w24 * w7;
-  w16 = w16 - w2;
-  w8 = w8 * w4;
-  w18 = w18 * w24;
-  w8 = w8 - w18;
-  w0 = w0 * w8;
-  w8 = w0 * w3;
-  w16 = w16 - w8;
-  GAGEN_SCATTER(R_next, 4, 2, w16);
-  w4 = w4 * w7;
-  w24 = w24 * w5;
-  w4 = w4 + w24;
-  w23 = w23 * w3;
-  w4 = w4 + w23;
-  w0 = w0 * w1;
-  w4 = w4 + w0;
-  GAGEN_SCATTER(R_next, 4, 3, w4);
-  w21 = gagen_v_fabs(w21);
+  w13 = w10 * w0;
+  w12 = w12 - w13;
+  w20 = w20 * w21;
+  w20 = w20 / w1;
+  w2 = w2 * w20;
+  w22 = w22 / w1;
+  w22 = w14 * w22;
+  w2 = w2 + w22;
+  w22 = w2 * w5;
+  w12 = w12 + w22;
+  w22 = w9 * w6;
+  w22 = w14 * w22;
+  w12 = w12 + w22;
+  GAGEN_SCATTER(out_R_next, 4, 2, w12);
+  w6 = w6 / w1;
+  w10 = w10 * w5;
+  w6 = w6 - w10;
+  w2 = w2 * w0;
+  w6 = w6 - w2;
+  w9 = w9 * w3;
+  w14 = w14 * w9;
+  w6 = w6 - w14;
+  GAGEN_SCATTER(out_R_next, 4, 3, w6);
+  w17 = gagen_v_fabs(w17);
+  w23 = gagen_v_fabs(w23);
+  w17 = GAGEN_V2(fmax, w17, w23);
   w11 = gagen_v_fabs(w11);
-  w21 = GAGEN_V2(fmax, w21, w11);
-  w15 = gagen_v_fabs(w15);
-  w21 = GAGEN_V2(fmax, w21, w15);
-  GAGEN_SCATTER(residual, 1, 0, w21);
+  w17 = GAGEN_V2(fmax, w17, w11);
+  GAGEN_SCATTER(out_residual, 1, 0, w17);
 }
 #endif
 
-void slider_crank_newton_step_batch(long n, const double *restrict R, const double *restrict theta, double *restrict R_next, double *restrict residual) {
-  long s = 0;
+void slider_crank_newton_step_batch(long gagen_n, const double *restrict in_R, const double *restrict in_theta, double *restrict out_R_next, double *restrict out_residual) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 4 * GAGEN_W + 7; o += 8) __builtin_prefetch(R_next + 4 * a + o, 1, 0);
-      for (int o = 0; o < 1 * GAGEN_W + 7; o += 8) __builtin_prefetch(residual + 1 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 4 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_R_next + 4 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 1 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_residual + 1 * gagen_a + gagen_o, 1, 0);
     }
-    slider_crank_newton_step_block(R + 4 * s, theta + 1 * s, R_next + 4 * s, residual + 1 * s);
+    slider_crank_newton_step_block(in_R + 4 * gagen_s, in_theta + 1 * gagen_s, out_R_next + 4 * gagen_s, out_residual + 1 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    slider_crank_newton_step(R + 4 * s, theta + 1 * s, R_next + 4 * s, residual + 1 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    slider_crank_newton_step(in_R + 4 * gagen_s, in_theta + 1 * gagen_s, out_R_next + 4 * gagen_s, out_residual + 1 * gagen_s);
   }
 }
 
@@ -830,132 +866,134 @@ void slider_crank_newton_step_batch(long n, const double *restrict R, const doub
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void slider_crank_newton_step_block_columns(long gagen_ld, int gagen_stream, const double *restrict R, const double *restrict theta, double *restrict R_next, double *restrict residual) {
+static void slider_crank_newton_step_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_R, const double *restrict in_theta, double *restrict out_R_next, double *restrict out_residual) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24;
-  w0 = gagen_v_splat(0.5);
-  w1 = GAGEN_GATHER(R, 4, 0);
-  w2 = w1 * w1;
-  w3 = GAGEN_GATHER(R, 4, 1);
-  w4 = w3 * w3;
-  w2 = w2 + w4;
-  w4 = w2 * w2;
-  w5 = GAGEN_GATHER(R, 4, 2);
-  w6 = w3 * w5;
-  w7 = GAGEN_GATHER(R, 4, 3);
-  w8 = w3 + w7;
-  w9 = w8 * w1;
-  w10 = w6 - w9;
-  w11 = w1 * w7;
-  w10 = w10 - w11;
-  w12 = w1 - w5;
-  w13 = w12 * w3;
+  w0 = GAGEN_GATHER(in_R, 4, 0);
+  w1 = gagen_v_splat(1.0);
+  w2 = gagen_v_splat(0.25);
+  w3 = GAGEN_GATHER(in_R, 4, 2);
+  w4 = w0 * w3;
+  w5 = GAGEN_GATHER(in_R, 4, 1);
+  w6 = GAGEN_GATHER(in_R, 4, 3);
+  w7 = w5 * w6;
+  w8 = w4 + w7;
+  w9 = gagen_v_splat(3.872983346207417);
+  w10 = w9 * w5;
+  w10 = w10 - w3;
+  w11 = w10 * w0;
+  w11 = w8 - w11;
+  w9 = w9 * w0;
+  w9 = w9 - w6;
+  w12 = w9 * w5;
+  w11 = w11 - w12;
+  w12 = w0 * w0;
+  w13 = w5 * w5;
+  w12 = w12 + w13;
+  w13 = w12 * w12;
+  w13 = w12 / w13;
+  w14 = gagen_v_splat(0.5);
+  w15 = GAGEN_GATHER(in_theta, 1, 0);
+  w15 = w14 * w15;
+  w16 = gagen_v_cos(w15);
+  w17 = w16 * w16;
+  w17 = w17 + w4;
+  w17 = w17 + w7;
+  w15 = gagen_v_sin(w15);
+  w7 = w15 * w15;
+  w17 = w17 - w7;
+  w7 = w0 - w3;
+  w4 = w7 * w0;
+  w17 = w17 - w4;
+  w18 = w5 + w6;
+  w19 = w18 * w5;
+  w17 = w17 + w19;
+  w20 = w13 * w17;
+  w21 = w12 * w20;
+  w21 = w11 - w21;
+  w9 = w9 * w0;
+  w22 = w5 * w3;
+  w9 = w9 + w22;
+  w23 = w0 * w6;
+  w9 = w9 - w23;
+  w10 = w10 * w5;
+  w9 = w9 - w10;
+  w18 = w18 * w0;
+  w10 = w22 - w18;
+  w10 = w10 - w23;
+  w7 = w7 * w5;
+  w10 = w10 - w7;
+  w10 = w13 * w10;
+  w24 = w12 * w10;
+  w9 = w9 - w24;
+  w21 = w21 / w9;
+  w9 = w21 * w21;
+  w9 = w2 * w9;
+  w1 = w1 + w9;
+  w1 = w1 * w12;
+  w1 = gagen_v_sqrt(w1);
+  w12 = w0 / w1;
+  w9 = w21 / w1;
+  w24 = w9 * w5;
+  w24 = w14 * w24;
+  w12 = w12 - w24;
+  GAGEN_SCATTER(out_R_next, 4, 0, w12);
+  w12 = w5 / w1;
+  w24 = w9 * w0;
+  w24 = w14 * w24;
+  w12 = w12 + w24;
+  GAGEN_SCATTER(out_R_next, 4, 1, w12);
+  w12 = w3 / w1;
+  w10 = w10 * w21;
+  w20 = w20 - w10;
+  w10 = w20 / w1;
+  w10 = w14 * w10;
+  w23 = w23 + w7;
+  w16 = w16 * w15;
+  w16 = w16 + w16;
+  w23 = w23 + w16;
+  w23 = w23 + w18;
+  w23 = w23 - w22;
+  w22 = w13 * w23;
+  w8 = w8 - w4;
+  w8 = w8 + w19;
+  w13 = w13 * w8;
+  w13 = w13 * w21;
+  w22 = w22 - w13;
+  w13 = w22 * w21;
+  w13 = w13 / w1;
+  w13 = w2 * w13;
   w10 = w10 - w13;
-  w14 = w10 * w4;
-  w15 = gagen_v_splat(3.872983346207417);
-  w16 = w15 * w1;
-  w16 = w16 - w7;
-  w17 = w16 * w1;
-  w17 = w17 + w6;
-  w17 = w17 - w11;
-  w15 = w15 * w3;
-  w15 = w15 - w5;
-  w18 = w15 * w3;
-  w17 = w17 - w18;
-  w18 = w17 * w2;
-  w19 = w2 * w18;
-  w14 = w14 - w19;
-  w4 = w4 / w14;
-  w19 = GAGEN_GATHER(theta, 1, 0);
-  w19 = w0 * w19;
-  w20 = gagen_v_cos(w19);
-  w21 = w20 * w20;
-  w22 = w1 * w5;
-  w21 = w21 + w22;
-  w23 = w3 * w7;
-  w21 = w21 + w23;
-  w19 = gagen_v_sin(w19);
-  w24 = w19 * w19;
-  w21 = w21 - w24;
-  w12 = w12 * w1;
-  w21 = w21 - w12;
-  w8 = w8 * w3;
-  w21 = w21 + w8;
-  w24 = w4 * w21;
-  w22 = w22 + w23;
-  w15 = w15 * w1;
-  w15 = w22 - w15;
-  w16 = w16 * w3;
-  w15 = w15 - w16;
-  w4 = w4 * w15;
-  w24 = w24 - w4;
-  w24 = w0 * w24;
-  w4 = gagen_v_cos(w24);
-  w16 = w4 * w1;
-  w24 = -w24;
-  w24 = gagen_v_sin(w24);
-  w23 = w24 * w3;
-  w16 = w16 + w23;
-  GAGEN_SCATTER(R_next, 4, 0, w16);
-  w16 = w4 * w3;
-  w23 = w24 * w1;
-  w16 = w16 - w23;
-  GAGEN_SCATTER(R_next, 4, 1, w16);
-  w16 = w4 * w5;
-  w18 = w18 / w14;
-  w18 = w18 * w21;
-  w10 = w10 * w2;
-  w23 = w10 / w14;
-  w23 = w23 * w15;
-  w18 = w18 - w23;
-  w23 = w18 * w4;
-  w22 = w22 - w12;
-  w22 = w22 + w8;
-  w22 = w2 * w22;
-  w22 = w22 / w14;
-  w8 = w22 * w21;
-  w22 = w22 * w15;
-  w8 = w8 - w22;
-  w2 = w2 * w17;
-  w2 = w2 - w10;
-  w2 = w2 / w14;
-  w11 = w11 + w13;
-  w20 = w20 * w19;
-  w20 = w20 + w20;
-  w11 = w11 + w20;
-  w11 = w11 + w9;
-  w11 = w11 - w6;
-  w2 = w2 * w11;
-  w8 = w8 + w2;
-  w2 = w8 * w24;
-  w23 = w23 + w2;
-  w23 = w0 * w23;
-  w2 = w23 * w1;
-  w16 = w16 + w2;
-  w2 = w24 * w7;
-  w16 = w16 - w2;
-  w8 = w8 * w4;
-  w18 = w18 * w24;
-  w8 = w8 - w18;
-  w0 = w0 * w8;
-  w8 = w0 * w3;
-  w16 = w16 - w8;
-  GAGEN_SCATTER(R_next, 4, 2, w16);
-  w4 = w4 * w7;
-  w24 = w24 * w5;
-  w4 = w4 + w24;
-  w23 = w23 * w3;
-  w4 = w4 + w23;
-  w0 = w0 * w1;
-  w4 = w4 + w0;
-  GAGEN_SCATTER(R_next, 4, 3, w4);
-  w21 = gagen_v_fabs(w21);
+  w13 = w10 * w0;
+  w12 = w12 - w13;
+  w20 = w20 * w21;
+  w20 = w20 / w1;
+  w2 = w2 * w20;
+  w22 = w22 / w1;
+  w22 = w14 * w22;
+  w2 = w2 + w22;
+  w22 = w2 * w5;
+  w12 = w12 + w22;
+  w22 = w9 * w6;
+  w22 = w14 * w22;
+  w12 = w12 + w22;
+  GAGEN_SCATTER(out_R_next, 4, 2, w12);
+  w6 = w6 / w1;
+  w10 = w10 * w5;
+  w6 = w6 - w10;
+  w2 = w2 * w0;
+  w6 = w6 - w2;
+  w9 = w9 * w3;
+  w14 = w14 * w9;
+  w6 = w6 - w14;
+  GAGEN_SCATTER(out_R_next, 4, 3, w6);
+  w17 = gagen_v_fabs(w17);
+  w23 = gagen_v_fabs(w23);
+  w17 = GAGEN_V2(fmax, w17, w23);
   w11 = gagen_v_fabs(w11);
-  w21 = GAGEN_V2(fmax, w21, w11);
-  w15 = gagen_v_fabs(w15);
-  w21 = GAGEN_V2(fmax, w21, w15);
-  GAGEN_SCATTER(residual, 1, 0, w21);
+  w17 = GAGEN_V2(fmax, w17, w11);
+  GAGEN_SCATTER(out_residual, 1, 0, w17);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -963,14 +1001,14 @@ static void slider_crank_newton_step_block_columns(long gagen_ld, int gagen_stre
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void slider_crank_newton_step_batch_columns(long n, long ld, const double *restrict R, const double *restrict theta, double *restrict R_next, double *restrict residual) {
-  long s = 0;
+void slider_crank_newton_step_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_R, const double *restrict in_theta, double *restrict out_R_next, double *restrict out_residual) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 5L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    slider_crank_newton_step_block_columns(ld, stream, R + s, theta + s, R_next + s, residual + s);
+  const int gagen_stream = gagen_n * 5L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    slider_crank_newton_step_block_columns(gagen_ld, gagen_stream, in_R + gagen_s, in_theta + gagen_s, out_R_next + gagen_s, out_residual + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  slider_crank_newton_step_columns_from(s, n, ld, R, theta, R_next, residual);
+  slider_crank_newton_step_columns_from(gagen_s, gagen_n, gagen_ld, in_R, in_theta, out_R_next, out_residual);
 }

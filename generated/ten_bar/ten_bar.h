@@ -15,8 +15,8 @@
  * Operation counts (flops = mul + add + neg + div; calls listed apart):
  *   ten_bar_constraints          mul=196 add=317 neg=9 div=0 cos=1 sin=1 (flops=522)
  *   ten_bar_positions            mul=180 add=190 neg=0 div=0 cos=1 sin=1 (flops=370)
- *   ten_bar_retract              mul=152 add=80 neg=0 div=0 cos=8 sin=8 (flops=232)
- *   ten_bar_newton_step          mul=3075 add=2769 neg=8 div=322 cos=9 fabs=24 fmax=23 sin=9 sqrt=24 (flops=6174)
+ *   ten_bar_retract              mul=184 add=96 neg=0 div=72 sqrt=8 (flops=352)
+ *   ten_bar_newton_step          mul=682 add=631 neg=0 div=136 cos=1 fabs=24 fmax=23 sin=1 sqrt=16 (flops=1449)
  */
 #ifndef GAGEN_TEN_BAR_H
 #define GAGEN_TEN_BAR_H
@@ -38,13 +38,13 @@ extern "C" {
 #define TEN_BAR_CONSTRAINTS_THETA_SIZE 1
 #define TEN_BAR_CONSTRAINTS_F_SIZE 24
 #define TEN_BAR_CONSTRAINTS_J_SIZE 576
-void ten_bar_constraints(const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT F, double *GAGEN_RESTRICT J);
-void ten_bar_constraints_batch(long n, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT F, double *GAGEN_RESTRICT J);
+void ten_bar_constraints(const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_F, double *GAGEN_RESTRICT out_J);
+void ten_bar_constraints_batch(long gagen_n, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_F, double *GAGEN_RESTRICT out_J);
 void ten_bar_constraints_argv(const double *const *arg, double *const *res);
 void ten_bar_constraints_batch_argv(long n, const double *const *arg, double *const *res);
-void ten_bar_constraints_batch_columns(long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT F, double *GAGEN_RESTRICT J);
+void ten_bar_constraints_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_F, double *GAGEN_RESTRICT out_J);
 void ten_bar_constraints_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void ten_bar_constraints_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT F, double *GAGEN_RESTRICT J);
+void ten_bar_constraints_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_F, double *GAGEN_RESTRICT out_J);
 
 /* ten_bar: every body point in the world
  *   in  R            [32] coupler_1, coupler_e12, coupler_e1inf, coupler_e2inf, rocker_1, rocker_e12,...
@@ -54,15 +54,15 @@ void ten_bar_constraints_columns_from(long s0, long n, long ld, const double *GA
 #define TEN_BAR_POSITIONS_R_SIZE 32
 #define TEN_BAR_POSITIONS_THETA_SIZE 1
 #define TEN_BAR_POSITIONS_P_SIZE 42
-void ten_bar_positions(const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT P);
-void ten_bar_positions_batch(long n, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT P);
+void ten_bar_positions(const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_P);
+void ten_bar_positions_batch(long gagen_n, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_P);
 void ten_bar_positions_argv(const double *const *arg, double *const *res);
 void ten_bar_positions_batch_argv(long n, const double *const *arg, double *const *res);
-void ten_bar_positions_batch_columns(long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT P);
+void ten_bar_positions_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_P);
 void ten_bar_positions_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void ten_bar_positions_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT P);
+void ten_bar_positions_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_P);
 
-/* ten_bar: the Newton update R \u2190 T(\u0394t) R(\u0394\u03b8) R of every moving body
+/* ten_bar: the Newton update R \u2190 T(\u0394t) C(\u0394\u03b8) R of every moving body
  *   in  R            [32] coupler_1, coupler_e12, coupler_e1inf, coupler_e2inf, rocker_1, rocker_e12,...
  *   in  dB           [24] coupler_w, coupler_x, coupler_y, rocker_w, rocker_x, rocker_y, link_pq_w,...
  *   out R_next       [32] coupler_1, coupler_e12, coupler_e1inf, coupler_e2inf, rocker_1, rocker_e12,...
@@ -70,15 +70,15 @@ void ten_bar_positions_columns_from(long s0, long n, long ld, const double *GAGE
 #define TEN_BAR_RETRACT_R_SIZE 32
 #define TEN_BAR_RETRACT_DB_SIZE 24
 #define TEN_BAR_RETRACT_R_NEXT_SIZE 32
-void ten_bar_retract(const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT dB, double *GAGEN_RESTRICT R_next);
-void ten_bar_retract_batch(long n, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT dB, double *GAGEN_RESTRICT R_next);
+void ten_bar_retract(const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_dB, double *GAGEN_RESTRICT out_R_next);
+void ten_bar_retract_batch(long gagen_n, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_dB, double *GAGEN_RESTRICT out_R_next);
 void ten_bar_retract_argv(const double *const *arg, double *const *res);
 void ten_bar_retract_batch_argv(long n, const double *const *arg, double *const *res);
-void ten_bar_retract_batch_columns(long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT dB, double *GAGEN_RESTRICT R_next);
+void ten_bar_retract_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_dB, double *GAGEN_RESTRICT out_R_next);
 void ten_bar_retract_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void ten_bar_retract_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT dB, double *GAGEN_RESTRICT R_next);
+void ten_bar_retract_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_dB, double *GAGEN_RESTRICT out_R_next);
 
-/* ten_bar: one Newton step at crank angle theta, and max |F| before it
+/* ten_bar: one Newton step at the driver's theta, and max |F| before it
  *   in  R            [32] coupler_1, coupler_e12, coupler_e1inf, coupler_e2inf, rocker_1, rocker_e12,...
  *   in  theta        [1] theta
  *   out R_next       [32] coupler_1, coupler_e12, coupler_e1inf, coupler_e2inf, rocker_1, rocker_e12,...
@@ -88,13 +88,13 @@ void ten_bar_retract_columns_from(long s0, long n, long ld, const double *GAGEN_
 #define TEN_BAR_NEWTON_STEP_THETA_SIZE 1
 #define TEN_BAR_NEWTON_STEP_R_NEXT_SIZE 32
 #define TEN_BAR_NEWTON_STEP_RESIDUAL_SIZE 1
-void ten_bar_newton_step(const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT R_next, double *GAGEN_RESTRICT residual);
-void ten_bar_newton_step_batch(long n, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT R_next, double *GAGEN_RESTRICT residual);
+void ten_bar_newton_step(const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_R_next, double *GAGEN_RESTRICT out_residual);
+void ten_bar_newton_step_batch(long gagen_n, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_R_next, double *GAGEN_RESTRICT out_residual);
 void ten_bar_newton_step_argv(const double *const *arg, double *const *res);
 void ten_bar_newton_step_batch_argv(long n, const double *const *arg, double *const *res);
-void ten_bar_newton_step_batch_columns(long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT R_next, double *GAGEN_RESTRICT residual);
+void ten_bar_newton_step_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_R_next, double *GAGEN_RESTRICT out_residual);
 void ten_bar_newton_step_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void ten_bar_newton_step_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT R, const double *GAGEN_RESTRICT theta, double *GAGEN_RESTRICT R_next, double *GAGEN_RESTRICT residual);
+void ten_bar_newton_step_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_R, const double *GAGEN_RESTRICT in_theta, double *GAGEN_RESTRICT out_R_next, double *GAGEN_RESTRICT out_residual);
 
 #ifdef __cplusplus
 }

@@ -149,20 +149,20 @@ static inline void gagen_stream_fence(int stream) {
 
 #if GAGEN_SIMD
 /* chain arm0: motor and end point: GAGEN_W consecutive samples at once */
-static void three_iiwas_plane_arm0_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void three_iiwas_plane_arm0_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w6 * w8;
@@ -179,7 +179,7 @@ static void three_iiwas_plane_arm0_fk_block(const double *restrict q, double *re
   w15 = w14 * w8;
   w13 = w13 - w15;
   w13 = w13 + w13;
-  w16 = GAGEN_GATHER(q, 7, 3);
+  w16 = GAGEN_GATHER(in_q, 7, 3);
   w16 = w1 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w13 * w17;
@@ -205,7 +205,7 @@ static void three_iiwas_plane_arm0_fk_block(const double *restrict q, double *re
   w6 = w6 + w6;
   w14 = w6 * w16;
   w21 = w21 - w14;
-  w10 = GAGEN_GATHER(q, 7, 4);
+  w10 = GAGEN_GATHER(in_q, 7, 4);
   w10 = w1 * w10;
   w11 = gagen_v_cos(w10);
   w12 = w21 * w11;
@@ -229,7 +229,7 @@ static void three_iiwas_plane_arm0_fk_block(const double *restrict q, double *re
   w19 = w19 + w9;
   w9 = w19 * w10;
   w20 = w20 - w9;
-  w6 = GAGEN_GATHER(q, 7, 5);
+  w6 = GAGEN_GATHER(in_q, 7, 5);
   w6 = w1 * w6;
   w13 = gagen_v_cos(w6);
   w23 = w20 * w13;
@@ -253,7 +253,7 @@ static void three_iiwas_plane_arm0_fk_block(const double *restrict q, double *re
   w18 = w18 - w21;
   w21 = w18 * w6;
   w26 = w26 - w21;
-  w15 = GAGEN_GATHER(q, 7, 6);
+  w15 = GAGEN_GATHER(in_q, 7, 6);
   w15 = w1 * w15;
   w19 = gagen_v_cos(w15);
   w22 = w26 * w19;
@@ -268,12 +268,12 @@ static void three_iiwas_plane_arm0_fk_block(const double *restrict q, double *re
   w27 = w12 * w15;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w12 = w12 * w19;
   w26 = w26 * w15;
   w12 = w12 - w26;
   w12 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 1, w12);
+  GAGEN_SCATTER(out_M, 8, 1, w12);
   w24 = w24 + w20;
   w24 = w24 + w18;
   w24 = w24 - w9;
@@ -284,12 +284,12 @@ static void three_iiwas_plane_arm0_fk_block(const double *restrict q, double *re
   w21 = w25 * w15;
   w9 = w9 + w21;
   w9 = w0 * w9;
-  GAGEN_SCATTER(M, 8, 2, w9);
+  GAGEN_SCATTER(out_M, 8, 2, w9);
   w25 = w25 * w19;
   w24 = w24 * w15;
   w25 = w25 - w24;
   w0 = w0 * w25;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w25 = gagen_v_splat(0.4);
   w24 = w17 * w16;
   w24 = w24 + w24;
@@ -405,14 +405,14 @@ static void three_iiwas_plane_arm0_fk_block(const double *restrict q, double *re
   w18 = w10 * w22;
   w3 = w3 - w18;
   w3 = w1 * w3;
-  GAGEN_SCATTER(M, 8, 4, w3);
+  GAGEN_SCATTER(out_M, 8, 4, w3);
   w3 = w23 * w0;
   w18 = w10 * w12;
   w3 = w3 - w18;
   w18 = w16 * w22;
   w3 = w3 - w18;
   w3 = w1 * w3;
-  GAGEN_SCATTER(M, 8, 5, w3);
+  GAGEN_SCATTER(out_M, 8, 5, w3);
   w3 = w10 * w9;
   w18 = w16 * w0;
   w3 = w3 + w18;
@@ -420,43 +420,43 @@ static void three_iiwas_plane_arm0_fk_block(const double *restrict q, double *re
   w3 = w3 + w22;
   w3 = w1 * w3;
   w3 = -w3;
-  GAGEN_SCATTER(M, 8, 6, w3);
+  GAGEN_SCATTER(out_M, 8, 6, w3);
   w9 = w16 * w9;
   w0 = w10 * w0;
   w9 = w9 - w0;
   w12 = w23 * w12;
   w9 = w9 - w12;
   w9 = w1 * w9;
-  GAGEN_SCATTER(M, 8, 7, w9);
+  GAGEN_SCATTER(out_M, 8, 7, w9);
   w9 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w9);
-  GAGEN_SCATTER(P, 5, 1, w10);
-  GAGEN_SCATTER(P, 5, 2, w16);
-  GAGEN_SCATTER(P, 5, 3, w23);
+  GAGEN_SCATTER(out_P, 5, 0, w9);
+  GAGEN_SCATTER(out_P, 5, 1, w10);
+  GAGEN_SCATTER(out_P, 5, 2, w16);
+  GAGEN_SCATTER(out_P, 5, 3, w23);
   w10 = w10 * w10;
   w16 = w16 * w16;
   w10 = w10 + w16;
   w23 = w23 * w23;
   w10 = w10 + w23;
   w1 = w1 * w10;
-  GAGEN_SCATTER(P, 5, 4, w1);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
 }
 #endif
 
-void three_iiwas_plane_arm0_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void three_iiwas_plane_arm0_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    three_iiwas_plane_arm0_fk_block(q + 7 * s, M + 8 * s, P + 5 * s);
+    three_iiwas_plane_arm0_fk_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    three_iiwas_plane_arm0_fk(q + 7 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    three_iiwas_plane_arm0_fk(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -466,20 +466,20 @@ void three_iiwas_plane_arm0_fk_batch(long n, const double *restrict q, double *r
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void three_iiwas_plane_arm0_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void three_iiwas_plane_arm0_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w6 * w8;
@@ -496,7 +496,7 @@ static void three_iiwas_plane_arm0_fk_block_columns(long gagen_ld, int gagen_str
   w15 = w14 * w8;
   w13 = w13 - w15;
   w13 = w13 + w13;
-  w16 = GAGEN_GATHER(q, 7, 3);
+  w16 = GAGEN_GATHER(in_q, 7, 3);
   w16 = w1 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w13 * w17;
@@ -522,7 +522,7 @@ static void three_iiwas_plane_arm0_fk_block_columns(long gagen_ld, int gagen_str
   w6 = w6 + w6;
   w14 = w6 * w16;
   w21 = w21 - w14;
-  w10 = GAGEN_GATHER(q, 7, 4);
+  w10 = GAGEN_GATHER(in_q, 7, 4);
   w10 = w1 * w10;
   w11 = gagen_v_cos(w10);
   w12 = w21 * w11;
@@ -546,7 +546,7 @@ static void three_iiwas_plane_arm0_fk_block_columns(long gagen_ld, int gagen_str
   w19 = w19 + w9;
   w9 = w19 * w10;
   w20 = w20 - w9;
-  w6 = GAGEN_GATHER(q, 7, 5);
+  w6 = GAGEN_GATHER(in_q, 7, 5);
   w6 = w1 * w6;
   w13 = gagen_v_cos(w6);
   w23 = w20 * w13;
@@ -570,7 +570,7 @@ static void three_iiwas_plane_arm0_fk_block_columns(long gagen_ld, int gagen_str
   w18 = w18 - w21;
   w21 = w18 * w6;
   w26 = w26 - w21;
-  w15 = GAGEN_GATHER(q, 7, 6);
+  w15 = GAGEN_GATHER(in_q, 7, 6);
   w15 = w1 * w15;
   w19 = gagen_v_cos(w15);
   w22 = w26 * w19;
@@ -585,12 +585,12 @@ static void three_iiwas_plane_arm0_fk_block_columns(long gagen_ld, int gagen_str
   w27 = w12 * w15;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w12 = w12 * w19;
   w26 = w26 * w15;
   w12 = w12 - w26;
   w12 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 1, w12);
+  GAGEN_SCATTER(out_M, 8, 1, w12);
   w24 = w24 + w20;
   w24 = w24 + w18;
   w24 = w24 - w9;
@@ -601,12 +601,12 @@ static void three_iiwas_plane_arm0_fk_block_columns(long gagen_ld, int gagen_str
   w21 = w25 * w15;
   w9 = w9 + w21;
   w9 = w0 * w9;
-  GAGEN_SCATTER(M, 8, 2, w9);
+  GAGEN_SCATTER(out_M, 8, 2, w9);
   w25 = w25 * w19;
   w24 = w24 * w15;
   w25 = w25 - w24;
   w0 = w0 * w25;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w25 = gagen_v_splat(0.4);
   w24 = w17 * w16;
   w24 = w24 + w24;
@@ -722,14 +722,14 @@ static void three_iiwas_plane_arm0_fk_block_columns(long gagen_ld, int gagen_str
   w18 = w10 * w22;
   w3 = w3 - w18;
   w3 = w1 * w3;
-  GAGEN_SCATTER(M, 8, 4, w3);
+  GAGEN_SCATTER(out_M, 8, 4, w3);
   w3 = w23 * w0;
   w18 = w10 * w12;
   w3 = w3 - w18;
   w18 = w16 * w22;
   w3 = w3 - w18;
   w3 = w1 * w3;
-  GAGEN_SCATTER(M, 8, 5, w3);
+  GAGEN_SCATTER(out_M, 8, 5, w3);
   w3 = w10 * w9;
   w18 = w16 * w0;
   w3 = w3 + w18;
@@ -737,26 +737,26 @@ static void three_iiwas_plane_arm0_fk_block_columns(long gagen_ld, int gagen_str
   w3 = w3 + w22;
   w3 = w1 * w3;
   w3 = -w3;
-  GAGEN_SCATTER(M, 8, 6, w3);
+  GAGEN_SCATTER(out_M, 8, 6, w3);
   w9 = w16 * w9;
   w0 = w10 * w0;
   w9 = w9 - w0;
   w12 = w23 * w12;
   w9 = w9 - w12;
   w9 = w1 * w9;
-  GAGEN_SCATTER(M, 8, 7, w9);
+  GAGEN_SCATTER(out_M, 8, 7, w9);
   w9 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w9);
-  GAGEN_SCATTER(P, 5, 1, w10);
-  GAGEN_SCATTER(P, 5, 2, w16);
-  GAGEN_SCATTER(P, 5, 3, w23);
+  GAGEN_SCATTER(out_P, 5, 0, w9);
+  GAGEN_SCATTER(out_P, 5, 1, w10);
+  GAGEN_SCATTER(out_P, 5, 2, w16);
+  GAGEN_SCATTER(out_P, 5, 3, w23);
   w10 = w10 * w10;
   w16 = w16 * w16;
   w10 = w10 + w16;
   w23 = w23 * w23;
   w10 = w10 + w23;
   w1 = w1 * w10;
-  GAGEN_SCATTER(P, 5, 4, w1);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -764,35 +764,35 @@ static void three_iiwas_plane_arm0_fk_block_columns(long gagen_ld, int gagen_str
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void three_iiwas_plane_arm0_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void three_iiwas_plane_arm0_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    three_iiwas_plane_arm0_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    three_iiwas_plane_arm0_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  three_iiwas_plane_arm0_fk_columns_from(s, n, ld, q, M, P);
+  three_iiwas_plane_arm0_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain arm0: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void three_iiwas_plane_arm0_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void three_iiwas_plane_arm0_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   gagen_v w36, w37, w38, w39, w40, w41, w42, w43, w44, w45, w46;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w6 * w8;
@@ -809,7 +809,7 @@ static void three_iiwas_plane_arm0_fk_jacobian_block(const double *restrict q, d
   w15 = w14 * w8;
   w13 = w13 - w15;
   w13 = w13 + w13;
-  w16 = GAGEN_GATHER(q, 7, 3);
+  w16 = GAGEN_GATHER(in_q, 7, 3);
   w16 = w1 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w13 * w17;
@@ -835,7 +835,7 @@ static void three_iiwas_plane_arm0_fk_jacobian_block(const double *restrict q, d
   w6 = w6 + w6;
   w14 = w6 * w16;
   w21 = w21 - w14;
-  w10 = GAGEN_GATHER(q, 7, 4);
+  w10 = GAGEN_GATHER(in_q, 7, 4);
   w10 = w1 * w10;
   w11 = gagen_v_cos(w10);
   w12 = w21 * w11;
@@ -859,7 +859,7 @@ static void three_iiwas_plane_arm0_fk_jacobian_block(const double *restrict q, d
   w19 = w19 + w9;
   w9 = w19 * w10;
   w20 = w20 - w9;
-  w6 = GAGEN_GATHER(q, 7, 5);
+  w6 = GAGEN_GATHER(in_q, 7, 5);
   w6 = w1 * w6;
   w13 = gagen_v_cos(w6);
   w23 = w20 * w13;
@@ -883,7 +883,7 @@ static void three_iiwas_plane_arm0_fk_jacobian_block(const double *restrict q, d
   w18 = w18 - w21;
   w21 = w18 * w6;
   w26 = w26 - w21;
-  w15 = GAGEN_GATHER(q, 7, 6);
+  w15 = GAGEN_GATHER(in_q, 7, 6);
   w15 = w1 * w15;
   w19 = gagen_v_cos(w15);
   w22 = w26 * w19;
@@ -898,12 +898,12 @@ static void three_iiwas_plane_arm0_fk_jacobian_block(const double *restrict q, d
   w27 = w12 * w15;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w12 = w12 * w19;
   w26 = w26 * w15;
   w12 = w12 - w26;
   w12 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 1, w12);
+  GAGEN_SCATTER(out_M, 8, 1, w12);
   w24 = w24 + w20;
   w24 = w24 + w18;
   w24 = w24 - w9;
@@ -914,12 +914,12 @@ static void three_iiwas_plane_arm0_fk_jacobian_block(const double *restrict q, d
   w21 = w25 * w15;
   w9 = w9 + w21;
   w9 = w0 * w9;
-  GAGEN_SCATTER(M, 8, 2, w9);
+  GAGEN_SCATTER(out_M, 8, 2, w9);
   w25 = w25 * w19;
   w24 = w24 * w15;
   w25 = w25 - w24;
   w0 = w0 * w25;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w25 = gagen_v_splat(0.4);
   w24 = w17 * w16;
   w24 = w24 + w24;
@@ -1035,14 +1035,14 @@ static void three_iiwas_plane_arm0_fk_jacobian_block(const double *restrict q, d
   w13 = w26 * w22;
   w34 = w34 - w13;
   w34 = w1 * w34;
-  GAGEN_SCATTER(M, 8, 4, w34);
+  GAGEN_SCATTER(out_M, 8, 4, w34);
   w34 = w42 * w0;
   w13 = w26 * w12;
   w34 = w34 - w13;
   w13 = w33 * w22;
   w34 = w34 - w13;
   w34 = w1 * w34;
-  GAGEN_SCATTER(M, 8, 5, w34);
+  GAGEN_SCATTER(out_M, 8, 5, w34);
   w34 = w26 * w9;
   w13 = w33 * w0;
   w34 = w34 + w13;
@@ -1050,49 +1050,49 @@ static void three_iiwas_plane_arm0_fk_jacobian_block(const double *restrict q, d
   w34 = w34 + w22;
   w34 = w1 * w34;
   w34 = -w34;
-  GAGEN_SCATTER(M, 8, 6, w34);
+  GAGEN_SCATTER(out_M, 8, 6, w34);
   w9 = w33 * w9;
   w0 = w26 * w0;
   w9 = w9 - w0;
   w12 = w42 * w12;
   w9 = w9 - w12;
   w9 = w1 * w9;
-  GAGEN_SCATTER(M, 8, 7, w9);
+  GAGEN_SCATTER(out_M, 8, 7, w9);
   w9 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w9);
-  GAGEN_SCATTER(P, 5, 1, w26);
-  GAGEN_SCATTER(P, 5, 2, w33);
-  GAGEN_SCATTER(P, 5, 3, w42);
+  GAGEN_SCATTER(out_P, 5, 0, w9);
+  GAGEN_SCATTER(out_P, 5, 1, w26);
+  GAGEN_SCATTER(out_P, 5, 2, w33);
+  GAGEN_SCATTER(out_P, 5, 3, w42);
   w26 = w26 * w26;
   w33 = w33 * w33;
   w26 = w26 + w33;
   w42 = w42 * w42;
   w26 = w26 + w42;
   w1 = w1 * w26;
-  GAGEN_SCATTER(P, 5, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 0, w9);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 0, w9);
   w9 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w9);
-  GAGEN_SCATTER(J_S, 42, 2, w9);
-  GAGEN_SCATTER(J_S, 42, 3, w9);
+  GAGEN_SCATTER(out_J_S, 42, 1, w9);
+  GAGEN_SCATTER(out_J_S, 42, 2, w9);
+  GAGEN_SCATTER(out_J_S, 42, 3, w9);
   w1 = gagen_v_splat((-0.8));
-  GAGEN_SCATTER(J_S, 42, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 5, w9);
-  GAGEN_SCATTER(J_S, 42, 6, w9);
-  GAGEN_SCATTER(J_S, 42, 7, w2);
-  GAGEN_SCATTER(J_S, 42, 8, w23);
+  GAGEN_SCATTER(out_J_S, 42, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 5, w9);
+  GAGEN_SCATTER(out_J_S, 42, 6, w9);
+  GAGEN_SCATTER(out_J_S, 42, 7, w2);
+  GAGEN_SCATTER(out_J_S, 42, 8, w23);
   w35 = w35 * w2;
-  GAGEN_SCATTER(J_S, 42, 9, w35);
+  GAGEN_SCATTER(out_J_S, 42, 9, w35);
   w35 = gagen_v_splat(0.72);
   w35 = w35 * w14;
-  GAGEN_SCATTER(J_S, 42, 10, w35);
+  GAGEN_SCATTER(out_J_S, 42, 10, w35);
   w43 = w43 * w2;
   w43 = -w43;
-  GAGEN_SCATTER(J_S, 42, 11, w43);
-  GAGEN_SCATTER(J_S, 42, 12, w19);
-  GAGEN_SCATTER(J_S, 42, 13, w20);
+  GAGEN_SCATTER(out_J_S, 42, 11, w43);
+  GAGEN_SCATTER(out_J_S, 42, 12, w19);
+  GAGEN_SCATTER(out_J_S, 42, 13, w20);
   w43 = -w44;
-  GAGEN_SCATTER(J_S, 42, 14, w43);
+  GAGEN_SCATTER(out_J_S, 42, 14, w43);
   w43 = gagen_v_splat(0.18);
   w2 = gagen_v_splat(0.10225);
   w35 = w2 * w19;
@@ -1104,7 +1104,7 @@ static void three_iiwas_plane_arm0_fk_jacobian_block(const double *restrict q, d
   w1 = w1 * w23;
   w1 = w9 * w1;
   w14 = w14 - w1;
-  GAGEN_SCATTER(J_S, 42, 15, w14);
+  GAGEN_SCATTER(out_J_S, 42, 15, w14);
   w2 = w2 * w44;
   w2 = w25 - w2;
   w14 = w19 * w2;
@@ -1112,7 +1112,7 @@ static void three_iiwas_plane_arm0_fk_jacobian_block(const double *restrict q, d
   w14 = w14 + w35;
   w14 = -w14;
   w14 = w14 + w14;
-  GAGEN_SCATTER(J_S, 42, 16, w14);
+  GAGEN_SCATTER(out_J_S, 42, 16, w14);
   w2 = w20 * w2;
   w2 = w2 + w2;
   w14 = w44 * w5;
@@ -1120,14 +1120,14 @@ static void three_iiwas_plane_arm0_fk_jacobian_block(const double *restrict q, d
   w9 = w9 * w14;
   w2 = w2 + w9;
   w2 = -w2;
-  GAGEN_SCATTER(J_S, 42, 17, w2);
+  GAGEN_SCATTER(out_J_S, 42, 17, w2);
   w2 = w8 * w5;
   w9 = -w2;
-  GAGEN_SCATTER(J_S, 42, 18, w9);
+  GAGEN_SCATTER(out_J_S, 42, 18, w9);
   w9 = -w10;
-  GAGEN_SCATTER(J_S, 42, 19, w9);
+  GAGEN_SCATTER(out_J_S, 42, 19, w9);
   w9 = -w31;
-  GAGEN_SCATTER(J_S, 42, 20, w9);
+  GAGEN_SCATTER(out_J_S, 42, 20, w9);
   w9 = w2 * w5;
   w9 = w9 * w23;
   w9 = w7 * w9;
@@ -1137,25 +1137,25 @@ static void three_iiwas_plane_arm0_fk_jacobian_block(const double *restrict q, d
   w1 = w10 * w35;
   w1 = w1 + w1;
   w9 = w9 - w1;
-  GAGEN_SCATTER(J_S, 42, 21, w9);
+  GAGEN_SCATTER(out_J_S, 42, 21, w9);
   w44 = w14 * w44;
   w25 = w25 - w44;
   w2 = w2 * w25;
   w35 = w31 * w35;
   w2 = w2 - w35;
   w2 = w2 + w2;
-  GAGEN_SCATTER(J_S, 42, 22, w2);
+  GAGEN_SCATTER(out_J_S, 42, 22, w2);
   w2 = w10 * w25;
   w2 = w2 + w2;
   w35 = w31 * w5;
   w35 = w35 * w23;
   w7 = w7 * w35;
   w2 = w2 - w7;
-  GAGEN_SCATTER(J_S, 42, 23, w2);
-  GAGEN_SCATTER(J_S, 42, 24, w39);
+  GAGEN_SCATTER(out_J_S, 42, 23, w2);
+  GAGEN_SCATTER(out_J_S, 42, 24, w39);
   w2 = -w3;
-  GAGEN_SCATTER(J_S, 42, 25, w2);
-  GAGEN_SCATTER(J_S, 42, 26, w24);
+  GAGEN_SCATTER(out_J_S, 42, 25, w2);
+  GAGEN_SCATTER(out_J_S, 42, 26, w24);
   w2 = gagen_v_splat(0.09225);
   w38 = w38 + w37;
   w37 = w2 * w38;
@@ -1169,32 +1169,32 @@ static void three_iiwas_plane_arm0_fk_jacobian_block(const double *restrict q, d
   w7 = w7 - w20;
   w7 = w7 + w7;
   w7 = -w7;
-  GAGEN_SCATTER(J_S, 42, 27, w7);
+  GAGEN_SCATTER(out_J_S, 42, 27, w7);
   w37 = w24 * w37;
   w2 = w2 * w24;
   w2 = w25 + w2;
   w39 = w39 * w2;
   w37 = w37 - w39;
   w37 = w37 + w37;
-  GAGEN_SCATTER(J_S, 42, 28, w37);
+  GAGEN_SCATTER(out_J_S, 42, 28, w37);
   w2 = w3 * w2;
   w35 = w24 * w35;
   w2 = w2 - w35;
   w2 = w2 + w2;
-  GAGEN_SCATTER(J_S, 42, 29, w2);
+  GAGEN_SCATTER(out_J_S, 42, 29, w2);
   w41 = w11 * w41;
   w8 = w6 * w8;
   w8 = w8 * w5;
   w41 = w41 + w8;
-  GAGEN_SCATTER(J_S, 42, 30, w41);
+  GAGEN_SCATTER(out_J_S, 42, 30, w41);
   w10 = w6 * w10;
   w18 = w11 * w18;
   w10 = w10 - w18;
-  GAGEN_SCATTER(J_S, 42, 31, w10);
+  GAGEN_SCATTER(out_J_S, 42, 31, w10);
   w11 = w11 * w17;
   w6 = w6 * w31;
   w11 = w11 + w6;
-  GAGEN_SCATTER(J_S, 42, 32, w11);
+  GAGEN_SCATTER(out_J_S, 42, 32, w11);
   w6 = gagen_v_splat(0.2);
   w3 = w6 * w3;
   w3 = w3 - w14;
@@ -1207,24 +1207,24 @@ static void three_iiwas_plane_arm0_fk_jacobian_block(const double *restrict q, d
   w14 = -w14;
   w14 = w14 + w14;
   w14 = -w14;
-  GAGEN_SCATTER(J_S, 42, 33, w14);
+  GAGEN_SCATTER(out_J_S, 42, 33, w14);
   w38 = w11 * w38;
   w6 = w6 * w24;
   w25 = w25 + w6;
   w41 = w41 * w25;
   w38 = w38 - w41;
   w38 = w38 + w38;
-  GAGEN_SCATTER(J_S, 42, 34, w38);
+  GAGEN_SCATTER(out_J_S, 42, 34, w38);
   w10 = w10 * w25;
   w11 = w11 * w3;
   w10 = w10 + w11;
   w10 = -w10;
   w10 = w10 + w10;
-  GAGEN_SCATTER(J_S, 42, 35, w10);
-  GAGEN_SCATTER(J_S, 42, 36, w40);
+  GAGEN_SCATTER(out_J_S, 42, 35, w10);
+  GAGEN_SCATTER(out_J_S, 42, 36, w40);
   w30 = w30 - w28;
-  GAGEN_SCATTER(J_S, 42, 37, w30);
-  GAGEN_SCATTER(J_S, 42, 38, w27);
+  GAGEN_SCATTER(out_J_S, 42, 37, w30);
+  GAGEN_SCATTER(out_J_S, 42, 38, w27);
   w28 = gagen_v_splat(0.081);
   w32 = w28 * w32;
   w16 = w16 + w32;
@@ -1233,36 +1233,36 @@ static void three_iiwas_plane_arm0_fk_jacobian_block(const double *restrict q, d
   w36 = w36 + w10;
   w10 = w30 * w36;
   w32 = w32 + w10;
-  GAGEN_SCATTER(J_S, 42, 39, w32);
+  GAGEN_SCATTER(out_J_S, 42, 39, w32);
   w36 = w27 * w36;
   w28 = w28 * w27;
   w45 = w45 + w28;
   w40 = w40 * w45;
   w36 = w36 - w40;
-  GAGEN_SCATTER(J_S, 42, 40, w36);
+  GAGEN_SCATTER(out_J_S, 42, 40, w36);
   w30 = w30 * w45;
   w27 = w27 * w16;
   w30 = w30 + w27;
   w30 = -w30;
-  GAGEN_SCATTER(J_S, 42, 41, w30);
+  GAGEN_SCATTER(out_J_S, 42, 41, w30);
 }
 #endif
 
-void three_iiwas_plane_arm0_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void three_iiwas_plane_arm0_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 42 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 42 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 42 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 42 * gagen_a + gagen_o, 1, 0);
     }
-    three_iiwas_plane_arm0_fk_jacobian_block(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+    three_iiwas_plane_arm0_fk_jacobian_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    three_iiwas_plane_arm0_fk_jacobian(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    three_iiwas_plane_arm0_fk_jacobian(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 }
 
@@ -1272,21 +1272,21 @@ void three_iiwas_plane_arm0_fk_jacobian_batch(long n, const double *restrict q, 
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void three_iiwas_plane_arm0_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void three_iiwas_plane_arm0_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   gagen_v w36, w37, w38, w39, w40, w41, w42, w43, w44, w45, w46;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w6 * w8;
@@ -1303,7 +1303,7 @@ static void three_iiwas_plane_arm0_fk_jacobian_block_columns(long gagen_ld, int 
   w15 = w14 * w8;
   w13 = w13 - w15;
   w13 = w13 + w13;
-  w16 = GAGEN_GATHER(q, 7, 3);
+  w16 = GAGEN_GATHER(in_q, 7, 3);
   w16 = w1 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w13 * w17;
@@ -1329,7 +1329,7 @@ static void three_iiwas_plane_arm0_fk_jacobian_block_columns(long gagen_ld, int 
   w6 = w6 + w6;
   w14 = w6 * w16;
   w21 = w21 - w14;
-  w10 = GAGEN_GATHER(q, 7, 4);
+  w10 = GAGEN_GATHER(in_q, 7, 4);
   w10 = w1 * w10;
   w11 = gagen_v_cos(w10);
   w12 = w21 * w11;
@@ -1353,7 +1353,7 @@ static void three_iiwas_plane_arm0_fk_jacobian_block_columns(long gagen_ld, int 
   w19 = w19 + w9;
   w9 = w19 * w10;
   w20 = w20 - w9;
-  w6 = GAGEN_GATHER(q, 7, 5);
+  w6 = GAGEN_GATHER(in_q, 7, 5);
   w6 = w1 * w6;
   w13 = gagen_v_cos(w6);
   w23 = w20 * w13;
@@ -1377,7 +1377,7 @@ static void three_iiwas_plane_arm0_fk_jacobian_block_columns(long gagen_ld, int 
   w18 = w18 - w21;
   w21 = w18 * w6;
   w26 = w26 - w21;
-  w15 = GAGEN_GATHER(q, 7, 6);
+  w15 = GAGEN_GATHER(in_q, 7, 6);
   w15 = w1 * w15;
   w19 = gagen_v_cos(w15);
   w22 = w26 * w19;
@@ -1392,12 +1392,12 @@ static void three_iiwas_plane_arm0_fk_jacobian_block_columns(long gagen_ld, int 
   w27 = w12 * w15;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w12 = w12 * w19;
   w26 = w26 * w15;
   w12 = w12 - w26;
   w12 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 1, w12);
+  GAGEN_SCATTER(out_M, 8, 1, w12);
   w24 = w24 + w20;
   w24 = w24 + w18;
   w24 = w24 - w9;
@@ -1408,12 +1408,12 @@ static void three_iiwas_plane_arm0_fk_jacobian_block_columns(long gagen_ld, int 
   w21 = w25 * w15;
   w9 = w9 + w21;
   w9 = w0 * w9;
-  GAGEN_SCATTER(M, 8, 2, w9);
+  GAGEN_SCATTER(out_M, 8, 2, w9);
   w25 = w25 * w19;
   w24 = w24 * w15;
   w25 = w25 - w24;
   w0 = w0 * w25;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w25 = gagen_v_splat(0.4);
   w24 = w17 * w16;
   w24 = w24 + w24;
@@ -1529,14 +1529,14 @@ static void three_iiwas_plane_arm0_fk_jacobian_block_columns(long gagen_ld, int 
   w13 = w26 * w22;
   w34 = w34 - w13;
   w34 = w1 * w34;
-  GAGEN_SCATTER(M, 8, 4, w34);
+  GAGEN_SCATTER(out_M, 8, 4, w34);
   w34 = w42 * w0;
   w13 = w26 * w12;
   w34 = w34 - w13;
   w13 = w33 * w22;
   w34 = w34 - w13;
   w34 = w1 * w34;
-  GAGEN_SCATTER(M, 8, 5, w34);
+  GAGEN_SCATTER(out_M, 8, 5, w34);
   w34 = w26 * w9;
   w13 = w33 * w0;
   w34 = w34 + w13;
@@ -1544,49 +1544,49 @@ static void three_iiwas_plane_arm0_fk_jacobian_block_columns(long gagen_ld, int 
   w34 = w34 + w22;
   w34 = w1 * w34;
   w34 = -w34;
-  GAGEN_SCATTER(M, 8, 6, w34);
+  GAGEN_SCATTER(out_M, 8, 6, w34);
   w9 = w33 * w9;
   w0 = w26 * w0;
   w9 = w9 - w0;
   w12 = w42 * w12;
   w9 = w9 - w12;
   w9 = w1 * w9;
-  GAGEN_SCATTER(M, 8, 7, w9);
+  GAGEN_SCATTER(out_M, 8, 7, w9);
   w9 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w9);
-  GAGEN_SCATTER(P, 5, 1, w26);
-  GAGEN_SCATTER(P, 5, 2, w33);
-  GAGEN_SCATTER(P, 5, 3, w42);
+  GAGEN_SCATTER(out_P, 5, 0, w9);
+  GAGEN_SCATTER(out_P, 5, 1, w26);
+  GAGEN_SCATTER(out_P, 5, 2, w33);
+  GAGEN_SCATTER(out_P, 5, 3, w42);
   w26 = w26 * w26;
   w33 = w33 * w33;
   w26 = w26 + w33;
   w42 = w42 * w42;
   w26 = w26 + w42;
   w1 = w1 * w26;
-  GAGEN_SCATTER(P, 5, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 0, w9);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 0, w9);
   w9 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w9);
-  GAGEN_SCATTER(J_S, 42, 2, w9);
-  GAGEN_SCATTER(J_S, 42, 3, w9);
+  GAGEN_SCATTER(out_J_S, 42, 1, w9);
+  GAGEN_SCATTER(out_J_S, 42, 2, w9);
+  GAGEN_SCATTER(out_J_S, 42, 3, w9);
   w1 = gagen_v_splat((-0.8));
-  GAGEN_SCATTER(J_S, 42, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 5, w9);
-  GAGEN_SCATTER(J_S, 42, 6, w9);
-  GAGEN_SCATTER(J_S, 42, 7, w2);
-  GAGEN_SCATTER(J_S, 42, 8, w23);
+  GAGEN_SCATTER(out_J_S, 42, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 5, w9);
+  GAGEN_SCATTER(out_J_S, 42, 6, w9);
+  GAGEN_SCATTER(out_J_S, 42, 7, w2);
+  GAGEN_SCATTER(out_J_S, 42, 8, w23);
   w35 = w35 * w2;
-  GAGEN_SCATTER(J_S, 42, 9, w35);
+  GAGEN_SCATTER(out_J_S, 42, 9, w35);
   w35 = gagen_v_splat(0.72);
   w35 = w35 * w14;
-  GAGEN_SCATTER(J_S, 42, 10, w35);
+  GAGEN_SCATTER(out_J_S, 42, 10, w35);
   w43 = w43 * w2;
   w43 = -w43;
-  GAGEN_SCATTER(J_S, 42, 11, w43);
-  GAGEN_SCATTER(J_S, 42, 12, w19);
-  GAGEN_SCATTER(J_S, 42, 13, w20);
+  GAGEN_SCATTER(out_J_S, 42, 11, w43);
+  GAGEN_SCATTER(out_J_S, 42, 12, w19);
+  GAGEN_SCATTER(out_J_S, 42, 13, w20);
   w43 = -w44;
-  GAGEN_SCATTER(J_S, 42, 14, w43);
+  GAGEN_SCATTER(out_J_S, 42, 14, w43);
   w43 = gagen_v_splat(0.18);
   w2 = gagen_v_splat(0.10225);
   w35 = w2 * w19;
@@ -1598,7 +1598,7 @@ static void three_iiwas_plane_arm0_fk_jacobian_block_columns(long gagen_ld, int 
   w1 = w1 * w23;
   w1 = w9 * w1;
   w14 = w14 - w1;
-  GAGEN_SCATTER(J_S, 42, 15, w14);
+  GAGEN_SCATTER(out_J_S, 42, 15, w14);
   w2 = w2 * w44;
   w2 = w25 - w2;
   w14 = w19 * w2;
@@ -1606,7 +1606,7 @@ static void three_iiwas_plane_arm0_fk_jacobian_block_columns(long gagen_ld, int 
   w14 = w14 + w35;
   w14 = -w14;
   w14 = w14 + w14;
-  GAGEN_SCATTER(J_S, 42, 16, w14);
+  GAGEN_SCATTER(out_J_S, 42, 16, w14);
   w2 = w20 * w2;
   w2 = w2 + w2;
   w14 = w44 * w5;
@@ -1614,14 +1614,14 @@ static void three_iiwas_plane_arm0_fk_jacobian_block_columns(long gagen_ld, int 
   w9 = w9 * w14;
   w2 = w2 + w9;
   w2 = -w2;
-  GAGEN_SCATTER(J_S, 42, 17, w2);
+  GAGEN_SCATTER(out_J_S, 42, 17, w2);
   w2 = w8 * w5;
   w9 = -w2;
-  GAGEN_SCATTER(J_S, 42, 18, w9);
+  GAGEN_SCATTER(out_J_S, 42, 18, w9);
   w9 = -w10;
-  GAGEN_SCATTER(J_S, 42, 19, w9);
+  GAGEN_SCATTER(out_J_S, 42, 19, w9);
   w9 = -w31;
-  GAGEN_SCATTER(J_S, 42, 20, w9);
+  GAGEN_SCATTER(out_J_S, 42, 20, w9);
   w9 = w2 * w5;
   w9 = w9 * w23;
   w9 = w7 * w9;
@@ -1631,25 +1631,25 @@ static void three_iiwas_plane_arm0_fk_jacobian_block_columns(long gagen_ld, int 
   w1 = w10 * w35;
   w1 = w1 + w1;
   w9 = w9 - w1;
-  GAGEN_SCATTER(J_S, 42, 21, w9);
+  GAGEN_SCATTER(out_J_S, 42, 21, w9);
   w44 = w14 * w44;
   w25 = w25 - w44;
   w2 = w2 * w25;
   w35 = w31 * w35;
   w2 = w2 - w35;
   w2 = w2 + w2;
-  GAGEN_SCATTER(J_S, 42, 22, w2);
+  GAGEN_SCATTER(out_J_S, 42, 22, w2);
   w2 = w10 * w25;
   w2 = w2 + w2;
   w35 = w31 * w5;
   w35 = w35 * w23;
   w7 = w7 * w35;
   w2 = w2 - w7;
-  GAGEN_SCATTER(J_S, 42, 23, w2);
-  GAGEN_SCATTER(J_S, 42, 24, w39);
+  GAGEN_SCATTER(out_J_S, 42, 23, w2);
+  GAGEN_SCATTER(out_J_S, 42, 24, w39);
   w2 = -w3;
-  GAGEN_SCATTER(J_S, 42, 25, w2);
-  GAGEN_SCATTER(J_S, 42, 26, w24);
+  GAGEN_SCATTER(out_J_S, 42, 25, w2);
+  GAGEN_SCATTER(out_J_S, 42, 26, w24);
   w2 = gagen_v_splat(0.09225);
   w38 = w38 + w37;
   w37 = w2 * w38;
@@ -1663,32 +1663,32 @@ static void three_iiwas_plane_arm0_fk_jacobian_block_columns(long gagen_ld, int 
   w7 = w7 - w20;
   w7 = w7 + w7;
   w7 = -w7;
-  GAGEN_SCATTER(J_S, 42, 27, w7);
+  GAGEN_SCATTER(out_J_S, 42, 27, w7);
   w37 = w24 * w37;
   w2 = w2 * w24;
   w2 = w25 + w2;
   w39 = w39 * w2;
   w37 = w37 - w39;
   w37 = w37 + w37;
-  GAGEN_SCATTER(J_S, 42, 28, w37);
+  GAGEN_SCATTER(out_J_S, 42, 28, w37);
   w2 = w3 * w2;
   w35 = w24 * w35;
   w2 = w2 - w35;
   w2 = w2 + w2;
-  GAGEN_SCATTER(J_S, 42, 29, w2);
+  GAGEN_SCATTER(out_J_S, 42, 29, w2);
   w41 = w11 * w41;
   w8 = w6 * w8;
   w8 = w8 * w5;
   w41 = w41 + w8;
-  GAGEN_SCATTER(J_S, 42, 30, w41);
+  GAGEN_SCATTER(out_J_S, 42, 30, w41);
   w10 = w6 * w10;
   w18 = w11 * w18;
   w10 = w10 - w18;
-  GAGEN_SCATTER(J_S, 42, 31, w10);
+  GAGEN_SCATTER(out_J_S, 42, 31, w10);
   w11 = w11 * w17;
   w6 = w6 * w31;
   w11 = w11 + w6;
-  GAGEN_SCATTER(J_S, 42, 32, w11);
+  GAGEN_SCATTER(out_J_S, 42, 32, w11);
   w6 = gagen_v_splat(0.2);
   w3 = w6 * w3;
   w3 = w3 - w14;
@@ -1701,24 +1701,24 @@ static void three_iiwas_plane_arm0_fk_jacobian_block_columns(long gagen_ld, int 
   w14 = -w14;
   w14 = w14 + w14;
   w14 = -w14;
-  GAGEN_SCATTER(J_S, 42, 33, w14);
+  GAGEN_SCATTER(out_J_S, 42, 33, w14);
   w38 = w11 * w38;
   w6 = w6 * w24;
   w25 = w25 + w6;
   w41 = w41 * w25;
   w38 = w38 - w41;
   w38 = w38 + w38;
-  GAGEN_SCATTER(J_S, 42, 34, w38);
+  GAGEN_SCATTER(out_J_S, 42, 34, w38);
   w10 = w10 * w25;
   w11 = w11 * w3;
   w10 = w10 + w11;
   w10 = -w10;
   w10 = w10 + w10;
-  GAGEN_SCATTER(J_S, 42, 35, w10);
-  GAGEN_SCATTER(J_S, 42, 36, w40);
+  GAGEN_SCATTER(out_J_S, 42, 35, w10);
+  GAGEN_SCATTER(out_J_S, 42, 36, w40);
   w30 = w30 - w28;
-  GAGEN_SCATTER(J_S, 42, 37, w30);
-  GAGEN_SCATTER(J_S, 42, 38, w27);
+  GAGEN_SCATTER(out_J_S, 42, 37, w30);
+  GAGEN_SCATTER(out_J_S, 42, 38, w27);
   w28 = gagen_v_splat(0.081);
   w32 = w28 * w32;
   w16 = w16 + w32;
@@ -1727,18 +1727,18 @@ static void three_iiwas_plane_arm0_fk_jacobian_block_columns(long gagen_ld, int 
   w36 = w36 + w10;
   w10 = w30 * w36;
   w32 = w32 + w10;
-  GAGEN_SCATTER(J_S, 42, 39, w32);
+  GAGEN_SCATTER(out_J_S, 42, 39, w32);
   w36 = w27 * w36;
   w28 = w28 * w27;
   w45 = w45 + w28;
   w40 = w40 * w45;
   w36 = w36 - w40;
-  GAGEN_SCATTER(J_S, 42, 40, w36);
+  GAGEN_SCATTER(out_J_S, 42, 40, w36);
   w30 = w30 * w45;
   w27 = w27 * w16;
   w30 = w30 + w27;
   w30 = -w30;
-  GAGEN_SCATTER(J_S, 42, 41, w30);
+  GAGEN_SCATTER(out_J_S, 42, 41, w30);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -1746,28 +1746,28 @@ static void three_iiwas_plane_arm0_fk_jacobian_block_columns(long gagen_ld, int 
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void three_iiwas_plane_arm0_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void three_iiwas_plane_arm0_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    three_iiwas_plane_arm0_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    three_iiwas_plane_arm0_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  three_iiwas_plane_arm0_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  three_iiwas_plane_arm0_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }
 
 #if GAGEN_SIMD
 /* chain arm1: motor and end point: GAGEN_W consecutive samples at once */
-static void three_iiwas_plane_arm1_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void three_iiwas_plane_arm1_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.8660254037844385);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 7, 0);
+  w3 = GAGEN_GATHER(in_q, 7, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
   w5 = w1 * w4;
@@ -1775,11 +1775,11 @@ static void three_iiwas_plane_arm1_fk_block(const double *restrict q, double *re
   w3 = gagen_v_cos(w3);
   w7 = w6 * w3;
   w5 = w5 - w7;
-  w7 = GAGEN_GATHER(q, 7, 1);
+  w7 = GAGEN_GATHER(in_q, 7, 1);
   w7 = w2 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w5 * w8;
-  w10 = GAGEN_GATHER(q, 7, 2);
+  w10 = GAGEN_GATHER(in_q, 7, 2);
   w10 = w2 * w10;
   w11 = gagen_v_sin(w10);
   w12 = w9 * w11;
@@ -1798,7 +1798,7 @@ static void three_iiwas_plane_arm1_fk_block(const double *restrict q, double *re
   w16 = w1 * w11;
   w14 = w14 - w16;
   w14 = w14 + w14;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w2 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w14 * w18;
@@ -1825,7 +1825,7 @@ static void three_iiwas_plane_arm1_fk_block(const double *restrict q, double *re
   w6 = w6 + w6;
   w5 = w6 * w17;
   w12 = w12 - w5;
-  w1 = GAGEN_GATHER(q, 7, 4);
+  w1 = GAGEN_GATHER(in_q, 7, 4);
   w1 = w2 * w1;
   w9 = gagen_v_cos(w1);
   w21 = w12 * w9;
@@ -1849,7 +1849,7 @@ static void three_iiwas_plane_arm1_fk_block(const double *restrict q, double *re
   w13 = w13 - w14;
   w14 = w13 * w1;
   w19 = w19 - w14;
-  w6 = GAGEN_GATHER(q, 7, 5);
+  w6 = GAGEN_GATHER(in_q, 7, 5);
   w6 = w2 * w6;
   w15 = gagen_v_cos(w6);
   w23 = w19 * w15;
@@ -1873,7 +1873,7 @@ static void three_iiwas_plane_arm1_fk_block(const double *restrict q, double *re
   w20 = w20 - w16;
   w16 = w20 * w6;
   w26 = w26 - w16;
-  w12 = GAGEN_GATHER(q, 7, 6);
+  w12 = GAGEN_GATHER(in_q, 7, 6);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w22 = w26 * w13;
@@ -1888,12 +1888,12 @@ static void three_iiwas_plane_arm1_fk_block(const double *restrict q, double *re
   w27 = w5 * w12;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w5 = w5 * w13;
   w26 = w26 * w12;
   w5 = w5 - w26;
   w5 = w0 * w5;
-  GAGEN_SCATTER(M, 8, 1, w5);
+  GAGEN_SCATTER(out_M, 8, 1, w5);
   w24 = w24 + w19;
   w24 = w24 + w20;
   w24 = w24 - w14;
@@ -1904,12 +1904,12 @@ static void three_iiwas_plane_arm1_fk_block(const double *restrict q, double *re
   w16 = w25 * w12;
   w14 = w14 + w16;
   w14 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 2, w14);
+  GAGEN_SCATTER(out_M, 8, 2, w14);
   w25 = w25 * w13;
   w24 = w24 * w12;
   w25 = w25 - w24;
   w0 = w0 * w25;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w25 = gagen_v_splat(0.692820323027551);
   w24 = gagen_v_splat(0.42);
   w12 = w8 * w7;
@@ -2035,14 +2035,14 @@ static void three_iiwas_plane_arm1_fk_block(const double *restrict q, double *re
   w21 = w24 * w22;
   w16 = w16 - w21;
   w16 = w2 * w16;
-  GAGEN_SCATTER(M, 8, 4, w16);
+  GAGEN_SCATTER(out_M, 8, 4, w16);
   w16 = w11 * w0;
   w21 = w24 * w5;
   w16 = w16 - w21;
   w21 = w25 * w22;
   w16 = w16 - w21;
   w16 = w2 * w16;
-  GAGEN_SCATTER(M, 8, 5, w16);
+  GAGEN_SCATTER(out_M, 8, 5, w16);
   w16 = w24 * w14;
   w21 = w25 * w0;
   w16 = w16 + w21;
@@ -2050,43 +2050,43 @@ static void three_iiwas_plane_arm1_fk_block(const double *restrict q, double *re
   w16 = w16 + w22;
   w16 = w2 * w16;
   w16 = -w16;
-  GAGEN_SCATTER(M, 8, 6, w16);
+  GAGEN_SCATTER(out_M, 8, 6, w16);
   w14 = w25 * w14;
   w0 = w24 * w0;
   w14 = w14 - w0;
   w5 = w11 * w5;
   w14 = w14 - w5;
   w14 = w2 * w14;
-  GAGEN_SCATTER(M, 8, 7, w14);
+  GAGEN_SCATTER(out_M, 8, 7, w14);
   w14 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w14);
-  GAGEN_SCATTER(P, 5, 1, w24);
-  GAGEN_SCATTER(P, 5, 2, w25);
-  GAGEN_SCATTER(P, 5, 3, w11);
+  GAGEN_SCATTER(out_P, 5, 0, w14);
+  GAGEN_SCATTER(out_P, 5, 1, w24);
+  GAGEN_SCATTER(out_P, 5, 2, w25);
+  GAGEN_SCATTER(out_P, 5, 3, w11);
   w24 = w24 * w24;
   w25 = w25 * w25;
   w24 = w24 + w25;
   w11 = w11 * w11;
   w24 = w24 + w11;
   w2 = w2 * w24;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #endif
 
-void three_iiwas_plane_arm1_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void three_iiwas_plane_arm1_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    three_iiwas_plane_arm1_fk_block(q + 7 * s, M + 8 * s, P + 5 * s);
+    three_iiwas_plane_arm1_fk_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    three_iiwas_plane_arm1_fk(q + 7 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    three_iiwas_plane_arm1_fk(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -2096,14 +2096,14 @@ void three_iiwas_plane_arm1_fk_batch(long n, const double *restrict q, double *r
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void three_iiwas_plane_arm1_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void three_iiwas_plane_arm1_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.8660254037844385);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 7, 0);
+  w3 = GAGEN_GATHER(in_q, 7, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
   w5 = w1 * w4;
@@ -2111,11 +2111,11 @@ static void three_iiwas_plane_arm1_fk_block_columns(long gagen_ld, int gagen_str
   w3 = gagen_v_cos(w3);
   w7 = w6 * w3;
   w5 = w5 - w7;
-  w7 = GAGEN_GATHER(q, 7, 1);
+  w7 = GAGEN_GATHER(in_q, 7, 1);
   w7 = w2 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w5 * w8;
-  w10 = GAGEN_GATHER(q, 7, 2);
+  w10 = GAGEN_GATHER(in_q, 7, 2);
   w10 = w2 * w10;
   w11 = gagen_v_sin(w10);
   w12 = w9 * w11;
@@ -2134,7 +2134,7 @@ static void three_iiwas_plane_arm1_fk_block_columns(long gagen_ld, int gagen_str
   w16 = w1 * w11;
   w14 = w14 - w16;
   w14 = w14 + w14;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w2 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w14 * w18;
@@ -2161,7 +2161,7 @@ static void three_iiwas_plane_arm1_fk_block_columns(long gagen_ld, int gagen_str
   w6 = w6 + w6;
   w5 = w6 * w17;
   w12 = w12 - w5;
-  w1 = GAGEN_GATHER(q, 7, 4);
+  w1 = GAGEN_GATHER(in_q, 7, 4);
   w1 = w2 * w1;
   w9 = gagen_v_cos(w1);
   w21 = w12 * w9;
@@ -2185,7 +2185,7 @@ static void three_iiwas_plane_arm1_fk_block_columns(long gagen_ld, int gagen_str
   w13 = w13 - w14;
   w14 = w13 * w1;
   w19 = w19 - w14;
-  w6 = GAGEN_GATHER(q, 7, 5);
+  w6 = GAGEN_GATHER(in_q, 7, 5);
   w6 = w2 * w6;
   w15 = gagen_v_cos(w6);
   w23 = w19 * w15;
@@ -2209,7 +2209,7 @@ static void three_iiwas_plane_arm1_fk_block_columns(long gagen_ld, int gagen_str
   w20 = w20 - w16;
   w16 = w20 * w6;
   w26 = w26 - w16;
-  w12 = GAGEN_GATHER(q, 7, 6);
+  w12 = GAGEN_GATHER(in_q, 7, 6);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w22 = w26 * w13;
@@ -2224,12 +2224,12 @@ static void three_iiwas_plane_arm1_fk_block_columns(long gagen_ld, int gagen_str
   w27 = w5 * w12;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w5 = w5 * w13;
   w26 = w26 * w12;
   w5 = w5 - w26;
   w5 = w0 * w5;
-  GAGEN_SCATTER(M, 8, 1, w5);
+  GAGEN_SCATTER(out_M, 8, 1, w5);
   w24 = w24 + w19;
   w24 = w24 + w20;
   w24 = w24 - w14;
@@ -2240,12 +2240,12 @@ static void three_iiwas_plane_arm1_fk_block_columns(long gagen_ld, int gagen_str
   w16 = w25 * w12;
   w14 = w14 + w16;
   w14 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 2, w14);
+  GAGEN_SCATTER(out_M, 8, 2, w14);
   w25 = w25 * w13;
   w24 = w24 * w12;
   w25 = w25 - w24;
   w0 = w0 * w25;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w25 = gagen_v_splat(0.692820323027551);
   w24 = gagen_v_splat(0.42);
   w12 = w8 * w7;
@@ -2371,14 +2371,14 @@ static void three_iiwas_plane_arm1_fk_block_columns(long gagen_ld, int gagen_str
   w21 = w24 * w22;
   w16 = w16 - w21;
   w16 = w2 * w16;
-  GAGEN_SCATTER(M, 8, 4, w16);
+  GAGEN_SCATTER(out_M, 8, 4, w16);
   w16 = w11 * w0;
   w21 = w24 * w5;
   w16 = w16 - w21;
   w21 = w25 * w22;
   w16 = w16 - w21;
   w16 = w2 * w16;
-  GAGEN_SCATTER(M, 8, 5, w16);
+  GAGEN_SCATTER(out_M, 8, 5, w16);
   w16 = w24 * w14;
   w21 = w25 * w0;
   w16 = w16 + w21;
@@ -2386,26 +2386,26 @@ static void three_iiwas_plane_arm1_fk_block_columns(long gagen_ld, int gagen_str
   w16 = w16 + w22;
   w16 = w2 * w16;
   w16 = -w16;
-  GAGEN_SCATTER(M, 8, 6, w16);
+  GAGEN_SCATTER(out_M, 8, 6, w16);
   w14 = w25 * w14;
   w0 = w24 * w0;
   w14 = w14 - w0;
   w5 = w11 * w5;
   w14 = w14 - w5;
   w14 = w2 * w14;
-  GAGEN_SCATTER(M, 8, 7, w14);
+  GAGEN_SCATTER(out_M, 8, 7, w14);
   w14 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w14);
-  GAGEN_SCATTER(P, 5, 1, w24);
-  GAGEN_SCATTER(P, 5, 2, w25);
-  GAGEN_SCATTER(P, 5, 3, w11);
+  GAGEN_SCATTER(out_P, 5, 0, w14);
+  GAGEN_SCATTER(out_P, 5, 1, w24);
+  GAGEN_SCATTER(out_P, 5, 2, w25);
+  GAGEN_SCATTER(out_P, 5, 3, w11);
   w24 = w24 * w24;
   w25 = w25 * w25;
   w24 = w24 + w25;
   w11 = w11 * w11;
   w24 = w24 + w11;
   w2 = w2 * w24;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -2413,21 +2413,21 @@ static void three_iiwas_plane_arm1_fk_block_columns(long gagen_ld, int gagen_str
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void three_iiwas_plane_arm1_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void three_iiwas_plane_arm1_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    three_iiwas_plane_arm1_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    three_iiwas_plane_arm1_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  three_iiwas_plane_arm1_fk_columns_from(s, n, ld, q, M, P);
+  three_iiwas_plane_arm1_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain arm1: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void three_iiwas_plane_arm1_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void three_iiwas_plane_arm1_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -2435,7 +2435,7 @@ static void three_iiwas_plane_arm1_fk_jacobian_block(const double *restrict q, d
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.8660254037844385);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 7, 0);
+  w3 = GAGEN_GATHER(in_q, 7, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
   w5 = w1 * w4;
@@ -2443,11 +2443,11 @@ static void three_iiwas_plane_arm1_fk_jacobian_block(const double *restrict q, d
   w3 = gagen_v_cos(w3);
   w7 = w6 * w3;
   w5 = w5 - w7;
-  w7 = GAGEN_GATHER(q, 7, 1);
+  w7 = GAGEN_GATHER(in_q, 7, 1);
   w7 = w2 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w5 * w8;
-  w10 = GAGEN_GATHER(q, 7, 2);
+  w10 = GAGEN_GATHER(in_q, 7, 2);
   w10 = w2 * w10;
   w11 = gagen_v_sin(w10);
   w12 = w9 * w11;
@@ -2466,7 +2466,7 @@ static void three_iiwas_plane_arm1_fk_jacobian_block(const double *restrict q, d
   w16 = w1 * w11;
   w14 = w14 - w16;
   w14 = w14 + w14;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w2 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w14 * w18;
@@ -2493,7 +2493,7 @@ static void three_iiwas_plane_arm1_fk_jacobian_block(const double *restrict q, d
   w6 = w6 + w6;
   w5 = w6 * w17;
   w12 = w12 - w5;
-  w1 = GAGEN_GATHER(q, 7, 4);
+  w1 = GAGEN_GATHER(in_q, 7, 4);
   w1 = w2 * w1;
   w9 = gagen_v_cos(w1);
   w21 = w12 * w9;
@@ -2517,7 +2517,7 @@ static void three_iiwas_plane_arm1_fk_jacobian_block(const double *restrict q, d
   w13 = w13 - w14;
   w14 = w13 * w1;
   w19 = w19 - w14;
-  w6 = GAGEN_GATHER(q, 7, 5);
+  w6 = GAGEN_GATHER(in_q, 7, 5);
   w6 = w2 * w6;
   w15 = gagen_v_cos(w6);
   w23 = w19 * w15;
@@ -2541,7 +2541,7 @@ static void three_iiwas_plane_arm1_fk_jacobian_block(const double *restrict q, d
   w20 = w20 - w16;
   w16 = w20 * w6;
   w26 = w26 - w16;
-  w12 = GAGEN_GATHER(q, 7, 6);
+  w12 = GAGEN_GATHER(in_q, 7, 6);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w22 = w26 * w13;
@@ -2556,12 +2556,12 @@ static void three_iiwas_plane_arm1_fk_jacobian_block(const double *restrict q, d
   w27 = w5 * w12;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w5 = w5 * w13;
   w26 = w26 * w12;
   w5 = w5 - w26;
   w5 = w0 * w5;
-  GAGEN_SCATTER(M, 8, 1, w5);
+  GAGEN_SCATTER(out_M, 8, 1, w5);
   w24 = w24 + w19;
   w24 = w24 + w20;
   w24 = w24 - w14;
@@ -2572,12 +2572,12 @@ static void three_iiwas_plane_arm1_fk_jacobian_block(const double *restrict q, d
   w16 = w25 * w12;
   w14 = w14 + w16;
   w14 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 2, w14);
+  GAGEN_SCATTER(out_M, 8, 2, w14);
   w25 = w25 * w13;
   w24 = w24 * w12;
   w25 = w25 - w24;
   w0 = w0 * w25;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w25 = gagen_v_splat(0.692820323027551);
   w24 = gagen_v_splat(0.42);
   w12 = w8 * w7;
@@ -2703,14 +2703,14 @@ static void three_iiwas_plane_arm1_fk_jacobian_block(const double *restrict q, d
   w29 = w28 * w22;
   w36 = w36 - w29;
   w36 = w2 * w36;
-  GAGEN_SCATTER(M, 8, 4, w36);
+  GAGEN_SCATTER(out_M, 8, 4, w36);
   w36 = w43 * w0;
   w29 = w28 * w5;
   w36 = w36 - w29;
   w29 = w35 * w22;
   w36 = w36 - w29;
   w36 = w2 * w36;
-  GAGEN_SCATTER(M, 8, 5, w36);
+  GAGEN_SCATTER(out_M, 8, 5, w36);
   w36 = w28 * w14;
   w29 = w35 * w0;
   w36 = w36 + w29;
@@ -2718,60 +2718,60 @@ static void three_iiwas_plane_arm1_fk_jacobian_block(const double *restrict q, d
   w36 = w36 + w22;
   w36 = w2 * w36;
   w36 = -w36;
-  GAGEN_SCATTER(M, 8, 6, w36);
+  GAGEN_SCATTER(out_M, 8, 6, w36);
   w14 = w35 * w14;
   w0 = w28 * w0;
   w14 = w14 - w0;
   w5 = w43 * w5;
   w14 = w14 - w5;
   w14 = w2 * w14;
-  GAGEN_SCATTER(M, 8, 7, w14);
+  GAGEN_SCATTER(out_M, 8, 7, w14);
   w14 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w14);
-  GAGEN_SCATTER(P, 5, 1, w28);
-  GAGEN_SCATTER(P, 5, 2, w35);
-  GAGEN_SCATTER(P, 5, 3, w43);
+  GAGEN_SCATTER(out_P, 5, 0, w14);
+  GAGEN_SCATTER(out_P, 5, 1, w28);
+  GAGEN_SCATTER(out_P, 5, 2, w35);
+  GAGEN_SCATTER(out_P, 5, 3, w43);
   w28 = w28 * w28;
   w35 = w35 * w35;
   w28 = w28 + w35;
   w43 = w43 * w43;
   w28 = w28 + w43;
   w2 = w2 * w28;
-  GAGEN_SCATTER(P, 5, 4, w2);
-  GAGEN_SCATTER(J_S, 42, 0, w14);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
+  GAGEN_SCATTER(out_J_S, 42, 0, w14);
   w14 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w14);
-  GAGEN_SCATTER(J_S, 42, 2, w14);
-  GAGEN_SCATTER(J_S, 42, 3, w25);
-  GAGEN_SCATTER(J_S, 42, 4, w23);
-  GAGEN_SCATTER(J_S, 42, 5, w14);
-  GAGEN_SCATTER(J_S, 42, 6, w14);
+  GAGEN_SCATTER(out_J_S, 42, 1, w14);
+  GAGEN_SCATTER(out_J_S, 42, 2, w14);
+  GAGEN_SCATTER(out_J_S, 42, 3, w25);
+  GAGEN_SCATTER(out_J_S, 42, 4, w23);
+  GAGEN_SCATTER(out_J_S, 42, 5, w14);
+  GAGEN_SCATTER(out_J_S, 42, 6, w14);
   w26 = -w26;
-  GAGEN_SCATTER(J_S, 42, 7, w26);
-  GAGEN_SCATTER(J_S, 42, 8, w13);
+  GAGEN_SCATTER(out_J_S, 42, 7, w26);
+  GAGEN_SCATTER(out_J_S, 42, 8, w13);
   w13 = gagen_v_splat(0.6235382907247962);
   w13 = w13 * w3;
   w26 = gagen_v_splat(0.1799999999999998);
   w26 = w26 * w16;
   w13 = w13 + w26;
   w13 = -w13;
-  GAGEN_SCATTER(J_S, 42, 9, w13);
+  GAGEN_SCATTER(out_J_S, 42, 9, w13);
   w13 = gagen_v_splat(0.3117691453623981);
   w13 = w13 * w16;
   w26 = gagen_v_splat(0.3599999999999996);
   w26 = w26 * w3;
   w13 = w13 - w26;
-  GAGEN_SCATTER(J_S, 42, 10, w13);
+  GAGEN_SCATTER(out_J_S, 42, 10, w13);
   w13 = gagen_v_splat(1.1041068143459681e-15);
   w13 = w13 * w3;
   w3 = gagen_v_splat(0.8000000000000002);
   w3 = w3 * w16;
   w13 = w13 + w3;
   w13 = -w13;
-  GAGEN_SCATTER(J_S, 42, 11, w13);
-  GAGEN_SCATTER(J_S, 42, 12, w8);
-  GAGEN_SCATTER(J_S, 42, 13, w21);
-  GAGEN_SCATTER(J_S, 42, 14, w44);
+  GAGEN_SCATTER(out_J_S, 42, 11, w13);
+  GAGEN_SCATTER(out_J_S, 42, 12, w8);
+  GAGEN_SCATTER(out_J_S, 42, 13, w21);
+  GAGEN_SCATTER(out_J_S, 42, 14, w44);
   w13 = gagen_v_splat(0.18000000000000002);
   w3 = gagen_v_splat(0.10225);
   w16 = w3 * w8;
@@ -2785,7 +2785,7 @@ static void three_iiwas_plane_arm1_fk_jacobian_block(const double *restrict q, d
   w2 = -w2;
   w2 = w2 + w2;
   w26 = w26 - w2;
-  GAGEN_SCATTER(J_S, 42, 15, w26);
+  GAGEN_SCATTER(out_J_S, 42, 15, w26);
   w26 = gagen_v_splat(0.2);
   w3 = w3 * w44;
   w3 = w26 - w3;
@@ -2795,17 +2795,17 @@ static void three_iiwas_plane_arm1_fk_jacobian_block(const double *restrict q, d
   w16 = -w16;
   w16 = w16 + w16;
   w2 = w2 - w16;
-  GAGEN_SCATTER(J_S, 42, 16, w2);
+  GAGEN_SCATTER(out_J_S, 42, 16, w2);
   w3 = w21 * w3;
   w25 = w44 * w25;
   w3 = w3 - w25;
   w3 = w3 + w3;
-  GAGEN_SCATTER(J_S, 42, 17, w3);
+  GAGEN_SCATTER(out_J_S, 42, 17, w3);
   w3 = w19 * w12;
   w25 = -w3;
-  GAGEN_SCATTER(J_S, 42, 18, w25);
-  GAGEN_SCATTER(J_S, 42, 19, w1);
-  GAGEN_SCATTER(J_S, 42, 20, w33);
+  GAGEN_SCATTER(out_J_S, 42, 18, w25);
+  GAGEN_SCATTER(out_J_S, 42, 19, w1);
+  GAGEN_SCATTER(out_J_S, 42, 20, w33);
   w25 = gagen_v_splat(0.21);
   w21 = w25 * w21;
   w14 = w14 - w21;
@@ -2818,7 +2818,7 @@ static void three_iiwas_plane_arm1_fk_jacobian_block(const double *restrict q, d
   w16 = w16 + w16;
   w21 = w21 + w16;
   w21 = -w21;
-  GAGEN_SCATTER(J_S, 42, 21, w21);
+  GAGEN_SCATTER(out_J_S, 42, 21, w21);
   w25 = w25 * w44;
   w25 = w26 - w25;
   w3 = w3 * w25;
@@ -2828,15 +2828,15 @@ static void three_iiwas_plane_arm1_fk_jacobian_block(const double *restrict q, d
   w2 = -w2;
   w2 = w2 + w2;
   w3 = w3 - w2;
-  GAGEN_SCATTER(J_S, 42, 22, w3);
+  GAGEN_SCATTER(out_J_S, 42, 22, w3);
   w3 = w1 * w25;
   w2 = w33 * w14;
   w3 = w3 - w2;
   w3 = w3 + w3;
-  GAGEN_SCATTER(J_S, 42, 23, w3);
-  GAGEN_SCATTER(J_S, 42, 24, w40);
-  GAGEN_SCATTER(J_S, 42, 25, w11);
-  GAGEN_SCATTER(J_S, 42, 26, w17);
+  GAGEN_SCATTER(out_J_S, 42, 23, w3);
+  GAGEN_SCATTER(out_J_S, 42, 24, w40);
+  GAGEN_SCATTER(out_J_S, 42, 25, w11);
+  GAGEN_SCATTER(out_J_S, 42, 26, w17);
   w3 = gagen_v_splat(0.09225);
   w2 = w3 * w11;
   w2 = w14 - w2;
@@ -2850,33 +2850,33 @@ static void three_iiwas_plane_arm1_fk_jacobian_block(const double *restrict q, d
   w44 = -w44;
   w44 = w44 + w44;
   w44 = -w44;
-  GAGEN_SCATTER(J_S, 42, 27, w44);
+  GAGEN_SCATTER(out_J_S, 42, 27, w44);
   w3 = w3 * w17;
   w3 = w25 - w3;
   w40 = w40 * w3;
   w38 = w17 * w38;
   w40 = w40 + w38;
   w40 = w40 + w40;
-  GAGEN_SCATTER(J_S, 42, 28, w40);
+  GAGEN_SCATTER(out_J_S, 42, 28, w40);
   w3 = w11 * w3;
   w2 = w17 * w2;
   w3 = w3 - w2;
   w3 = w3 + w3;
-  GAGEN_SCATTER(J_S, 42, 29, w3);
+  GAGEN_SCATTER(out_J_S, 42, 29, w3);
   w42 = w9 * w42;
   w19 = w30 * w19;
   w19 = w19 * w12;
   w42 = w42 + w19;
-  GAGEN_SCATTER(J_S, 42, 30, w42);
+  GAGEN_SCATTER(out_J_S, 42, 30, w42);
   w27 = w9 * w27;
   w1 = w30 * w1;
   w27 = w27 - w1;
-  GAGEN_SCATTER(J_S, 42, 31, w27);
+  GAGEN_SCATTER(out_J_S, 42, 31, w27);
   w9 = w9 * w18;
   w30 = w30 * w33;
   w9 = w9 + w30;
   w30 = -w9;
-  GAGEN_SCATTER(J_S, 42, 32, w30);
+  GAGEN_SCATTER(out_J_S, 42, 32, w30);
   w11 = w26 * w11;
   w14 = w14 - w11;
   w11 = w42 * w14;
@@ -2888,23 +2888,23 @@ static void three_iiwas_plane_arm1_fk_jacobian_block(const double *restrict q, d
   w11 = -w11;
   w11 = w11 + w11;
   w11 = -w11;
-  GAGEN_SCATTER(J_S, 42, 33, w11);
+  GAGEN_SCATTER(out_J_S, 42, 33, w11);
   w26 = w26 * w17;
   w25 = w25 - w26;
   w42 = w42 * w25;
   w39 = w9 * w39;
   w42 = w42 - w39;
   w42 = w42 + w42;
-  GAGEN_SCATTER(J_S, 42, 34, w42);
+  GAGEN_SCATTER(out_J_S, 42, 34, w42);
   w27 = w27 * w25;
   w9 = w9 * w14;
   w27 = w27 + w9;
   w27 = w27 + w27;
-  GAGEN_SCATTER(J_S, 42, 35, w27);
-  GAGEN_SCATTER(J_S, 42, 36, w41);
+  GAGEN_SCATTER(out_J_S, 42, 35, w27);
+  GAGEN_SCATTER(out_J_S, 42, 36, w41);
   w6 = w6 - w32;
-  GAGEN_SCATTER(J_S, 42, 37, w6);
-  GAGEN_SCATTER(J_S, 42, 38, w15);
+  GAGEN_SCATTER(out_J_S, 42, 37, w6);
+  GAGEN_SCATTER(out_J_S, 42, 38, w15);
   w32 = gagen_v_splat(0.081);
   w34 = w32 * w34;
   w4 = w4 + w34;
@@ -2913,37 +2913,37 @@ static void three_iiwas_plane_arm1_fk_jacobian_block(const double *restrict q, d
   w37 = w37 + w27;
   w27 = w6 * w37;
   w34 = w34 + w27;
-  GAGEN_SCATTER(J_S, 42, 39, w34);
+  GAGEN_SCATTER(out_J_S, 42, 39, w34);
   w37 = w15 * w37;
   w32 = w32 * w15;
   w24 = w24 + w32;
   w24 = w24 - w23;
   w41 = w41 * w24;
   w37 = w37 - w41;
-  GAGEN_SCATTER(J_S, 42, 40, w37);
+  GAGEN_SCATTER(out_J_S, 42, 40, w37);
   w6 = w6 * w24;
   w15 = w15 * w4;
   w6 = w6 + w15;
   w6 = -w6;
-  GAGEN_SCATTER(J_S, 42, 41, w6);
+  GAGEN_SCATTER(out_J_S, 42, 41, w6);
 }
 #endif
 
-void three_iiwas_plane_arm1_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void three_iiwas_plane_arm1_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 42 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 42 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 42 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 42 * gagen_a + gagen_o, 1, 0);
     }
-    three_iiwas_plane_arm1_fk_jacobian_block(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+    three_iiwas_plane_arm1_fk_jacobian_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    three_iiwas_plane_arm1_fk_jacobian(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    three_iiwas_plane_arm1_fk_jacobian(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 }
 
@@ -2953,7 +2953,7 @@ void three_iiwas_plane_arm1_fk_jacobian_batch(long n, const double *restrict q, 
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void three_iiwas_plane_arm1_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void three_iiwas_plane_arm1_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -2961,7 +2961,7 @@ static void three_iiwas_plane_arm1_fk_jacobian_block_columns(long gagen_ld, int 
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.8660254037844385);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 7, 0);
+  w3 = GAGEN_GATHER(in_q, 7, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
   w5 = w1 * w4;
@@ -2969,11 +2969,11 @@ static void three_iiwas_plane_arm1_fk_jacobian_block_columns(long gagen_ld, int 
   w3 = gagen_v_cos(w3);
   w7 = w6 * w3;
   w5 = w5 - w7;
-  w7 = GAGEN_GATHER(q, 7, 1);
+  w7 = GAGEN_GATHER(in_q, 7, 1);
   w7 = w2 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w5 * w8;
-  w10 = GAGEN_GATHER(q, 7, 2);
+  w10 = GAGEN_GATHER(in_q, 7, 2);
   w10 = w2 * w10;
   w11 = gagen_v_sin(w10);
   w12 = w9 * w11;
@@ -2992,7 +2992,7 @@ static void three_iiwas_plane_arm1_fk_jacobian_block_columns(long gagen_ld, int 
   w16 = w1 * w11;
   w14 = w14 - w16;
   w14 = w14 + w14;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w2 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w14 * w18;
@@ -3019,7 +3019,7 @@ static void three_iiwas_plane_arm1_fk_jacobian_block_columns(long gagen_ld, int 
   w6 = w6 + w6;
   w5 = w6 * w17;
   w12 = w12 - w5;
-  w1 = GAGEN_GATHER(q, 7, 4);
+  w1 = GAGEN_GATHER(in_q, 7, 4);
   w1 = w2 * w1;
   w9 = gagen_v_cos(w1);
   w21 = w12 * w9;
@@ -3043,7 +3043,7 @@ static void three_iiwas_plane_arm1_fk_jacobian_block_columns(long gagen_ld, int 
   w13 = w13 - w14;
   w14 = w13 * w1;
   w19 = w19 - w14;
-  w6 = GAGEN_GATHER(q, 7, 5);
+  w6 = GAGEN_GATHER(in_q, 7, 5);
   w6 = w2 * w6;
   w15 = gagen_v_cos(w6);
   w23 = w19 * w15;
@@ -3067,7 +3067,7 @@ static void three_iiwas_plane_arm1_fk_jacobian_block_columns(long gagen_ld, int 
   w20 = w20 - w16;
   w16 = w20 * w6;
   w26 = w26 - w16;
-  w12 = GAGEN_GATHER(q, 7, 6);
+  w12 = GAGEN_GATHER(in_q, 7, 6);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w22 = w26 * w13;
@@ -3082,12 +3082,12 @@ static void three_iiwas_plane_arm1_fk_jacobian_block_columns(long gagen_ld, int 
   w27 = w5 * w12;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w5 = w5 * w13;
   w26 = w26 * w12;
   w5 = w5 - w26;
   w5 = w0 * w5;
-  GAGEN_SCATTER(M, 8, 1, w5);
+  GAGEN_SCATTER(out_M, 8, 1, w5);
   w24 = w24 + w19;
   w24 = w24 + w20;
   w24 = w24 - w14;
@@ -3098,12 +3098,12 @@ static void three_iiwas_plane_arm1_fk_jacobian_block_columns(long gagen_ld, int 
   w16 = w25 * w12;
   w14 = w14 + w16;
   w14 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 2, w14);
+  GAGEN_SCATTER(out_M, 8, 2, w14);
   w25 = w25 * w13;
   w24 = w24 * w12;
   w25 = w25 - w24;
   w0 = w0 * w25;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w25 = gagen_v_splat(0.692820323027551);
   w24 = gagen_v_splat(0.42);
   w12 = w8 * w7;
@@ -3229,14 +3229,14 @@ static void three_iiwas_plane_arm1_fk_jacobian_block_columns(long gagen_ld, int 
   w29 = w28 * w22;
   w36 = w36 - w29;
   w36 = w2 * w36;
-  GAGEN_SCATTER(M, 8, 4, w36);
+  GAGEN_SCATTER(out_M, 8, 4, w36);
   w36 = w43 * w0;
   w29 = w28 * w5;
   w36 = w36 - w29;
   w29 = w35 * w22;
   w36 = w36 - w29;
   w36 = w2 * w36;
-  GAGEN_SCATTER(M, 8, 5, w36);
+  GAGEN_SCATTER(out_M, 8, 5, w36);
   w36 = w28 * w14;
   w29 = w35 * w0;
   w36 = w36 + w29;
@@ -3244,60 +3244,60 @@ static void three_iiwas_plane_arm1_fk_jacobian_block_columns(long gagen_ld, int 
   w36 = w36 + w22;
   w36 = w2 * w36;
   w36 = -w36;
-  GAGEN_SCATTER(M, 8, 6, w36);
+  GAGEN_SCATTER(out_M, 8, 6, w36);
   w14 = w35 * w14;
   w0 = w28 * w0;
   w14 = w14 - w0;
   w5 = w43 * w5;
   w14 = w14 - w5;
   w14 = w2 * w14;
-  GAGEN_SCATTER(M, 8, 7, w14);
+  GAGEN_SCATTER(out_M, 8, 7, w14);
   w14 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w14);
-  GAGEN_SCATTER(P, 5, 1, w28);
-  GAGEN_SCATTER(P, 5, 2, w35);
-  GAGEN_SCATTER(P, 5, 3, w43);
+  GAGEN_SCATTER(out_P, 5, 0, w14);
+  GAGEN_SCATTER(out_P, 5, 1, w28);
+  GAGEN_SCATTER(out_P, 5, 2, w35);
+  GAGEN_SCATTER(out_P, 5, 3, w43);
   w28 = w28 * w28;
   w35 = w35 * w35;
   w28 = w28 + w35;
   w43 = w43 * w43;
   w28 = w28 + w43;
   w2 = w2 * w28;
-  GAGEN_SCATTER(P, 5, 4, w2);
-  GAGEN_SCATTER(J_S, 42, 0, w14);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
+  GAGEN_SCATTER(out_J_S, 42, 0, w14);
   w14 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w14);
-  GAGEN_SCATTER(J_S, 42, 2, w14);
-  GAGEN_SCATTER(J_S, 42, 3, w25);
-  GAGEN_SCATTER(J_S, 42, 4, w23);
-  GAGEN_SCATTER(J_S, 42, 5, w14);
-  GAGEN_SCATTER(J_S, 42, 6, w14);
+  GAGEN_SCATTER(out_J_S, 42, 1, w14);
+  GAGEN_SCATTER(out_J_S, 42, 2, w14);
+  GAGEN_SCATTER(out_J_S, 42, 3, w25);
+  GAGEN_SCATTER(out_J_S, 42, 4, w23);
+  GAGEN_SCATTER(out_J_S, 42, 5, w14);
+  GAGEN_SCATTER(out_J_S, 42, 6, w14);
   w26 = -w26;
-  GAGEN_SCATTER(J_S, 42, 7, w26);
-  GAGEN_SCATTER(J_S, 42, 8, w13);
+  GAGEN_SCATTER(out_J_S, 42, 7, w26);
+  GAGEN_SCATTER(out_J_S, 42, 8, w13);
   w13 = gagen_v_splat(0.6235382907247962);
   w13 = w13 * w3;
   w26 = gagen_v_splat(0.1799999999999998);
   w26 = w26 * w16;
   w13 = w13 + w26;
   w13 = -w13;
-  GAGEN_SCATTER(J_S, 42, 9, w13);
+  GAGEN_SCATTER(out_J_S, 42, 9, w13);
   w13 = gagen_v_splat(0.3117691453623981);
   w13 = w13 * w16;
   w26 = gagen_v_splat(0.3599999999999996);
   w26 = w26 * w3;
   w13 = w13 - w26;
-  GAGEN_SCATTER(J_S, 42, 10, w13);
+  GAGEN_SCATTER(out_J_S, 42, 10, w13);
   w13 = gagen_v_splat(1.1041068143459681e-15);
   w13 = w13 * w3;
   w3 = gagen_v_splat(0.8000000000000002);
   w3 = w3 * w16;
   w13 = w13 + w3;
   w13 = -w13;
-  GAGEN_SCATTER(J_S, 42, 11, w13);
-  GAGEN_SCATTER(J_S, 42, 12, w8);
-  GAGEN_SCATTER(J_S, 42, 13, w21);
-  GAGEN_SCATTER(J_S, 42, 14, w44);
+  GAGEN_SCATTER(out_J_S, 42, 11, w13);
+  GAGEN_SCATTER(out_J_S, 42, 12, w8);
+  GAGEN_SCATTER(out_J_S, 42, 13, w21);
+  GAGEN_SCATTER(out_J_S, 42, 14, w44);
   w13 = gagen_v_splat(0.18000000000000002);
   w3 = gagen_v_splat(0.10225);
   w16 = w3 * w8;
@@ -3311,7 +3311,7 @@ static void three_iiwas_plane_arm1_fk_jacobian_block_columns(long gagen_ld, int 
   w2 = -w2;
   w2 = w2 + w2;
   w26 = w26 - w2;
-  GAGEN_SCATTER(J_S, 42, 15, w26);
+  GAGEN_SCATTER(out_J_S, 42, 15, w26);
   w26 = gagen_v_splat(0.2);
   w3 = w3 * w44;
   w3 = w26 - w3;
@@ -3321,17 +3321,17 @@ static void three_iiwas_plane_arm1_fk_jacobian_block_columns(long gagen_ld, int 
   w16 = -w16;
   w16 = w16 + w16;
   w2 = w2 - w16;
-  GAGEN_SCATTER(J_S, 42, 16, w2);
+  GAGEN_SCATTER(out_J_S, 42, 16, w2);
   w3 = w21 * w3;
   w25 = w44 * w25;
   w3 = w3 - w25;
   w3 = w3 + w3;
-  GAGEN_SCATTER(J_S, 42, 17, w3);
+  GAGEN_SCATTER(out_J_S, 42, 17, w3);
   w3 = w19 * w12;
   w25 = -w3;
-  GAGEN_SCATTER(J_S, 42, 18, w25);
-  GAGEN_SCATTER(J_S, 42, 19, w1);
-  GAGEN_SCATTER(J_S, 42, 20, w33);
+  GAGEN_SCATTER(out_J_S, 42, 18, w25);
+  GAGEN_SCATTER(out_J_S, 42, 19, w1);
+  GAGEN_SCATTER(out_J_S, 42, 20, w33);
   w25 = gagen_v_splat(0.21);
   w21 = w25 * w21;
   w14 = w14 - w21;
@@ -3344,7 +3344,7 @@ static void three_iiwas_plane_arm1_fk_jacobian_block_columns(long gagen_ld, int 
   w16 = w16 + w16;
   w21 = w21 + w16;
   w21 = -w21;
-  GAGEN_SCATTER(J_S, 42, 21, w21);
+  GAGEN_SCATTER(out_J_S, 42, 21, w21);
   w25 = w25 * w44;
   w25 = w26 - w25;
   w3 = w3 * w25;
@@ -3354,15 +3354,15 @@ static void three_iiwas_plane_arm1_fk_jacobian_block_columns(long gagen_ld, int 
   w2 = -w2;
   w2 = w2 + w2;
   w3 = w3 - w2;
-  GAGEN_SCATTER(J_S, 42, 22, w3);
+  GAGEN_SCATTER(out_J_S, 42, 22, w3);
   w3 = w1 * w25;
   w2 = w33 * w14;
   w3 = w3 - w2;
   w3 = w3 + w3;
-  GAGEN_SCATTER(J_S, 42, 23, w3);
-  GAGEN_SCATTER(J_S, 42, 24, w40);
-  GAGEN_SCATTER(J_S, 42, 25, w11);
-  GAGEN_SCATTER(J_S, 42, 26, w17);
+  GAGEN_SCATTER(out_J_S, 42, 23, w3);
+  GAGEN_SCATTER(out_J_S, 42, 24, w40);
+  GAGEN_SCATTER(out_J_S, 42, 25, w11);
+  GAGEN_SCATTER(out_J_S, 42, 26, w17);
   w3 = gagen_v_splat(0.09225);
   w2 = w3 * w11;
   w2 = w14 - w2;
@@ -3376,33 +3376,33 @@ static void three_iiwas_plane_arm1_fk_jacobian_block_columns(long gagen_ld, int 
   w44 = -w44;
   w44 = w44 + w44;
   w44 = -w44;
-  GAGEN_SCATTER(J_S, 42, 27, w44);
+  GAGEN_SCATTER(out_J_S, 42, 27, w44);
   w3 = w3 * w17;
   w3 = w25 - w3;
   w40 = w40 * w3;
   w38 = w17 * w38;
   w40 = w40 + w38;
   w40 = w40 + w40;
-  GAGEN_SCATTER(J_S, 42, 28, w40);
+  GAGEN_SCATTER(out_J_S, 42, 28, w40);
   w3 = w11 * w3;
   w2 = w17 * w2;
   w3 = w3 - w2;
   w3 = w3 + w3;
-  GAGEN_SCATTER(J_S, 42, 29, w3);
+  GAGEN_SCATTER(out_J_S, 42, 29, w3);
   w42 = w9 * w42;
   w19 = w30 * w19;
   w19 = w19 * w12;
   w42 = w42 + w19;
-  GAGEN_SCATTER(J_S, 42, 30, w42);
+  GAGEN_SCATTER(out_J_S, 42, 30, w42);
   w27 = w9 * w27;
   w1 = w30 * w1;
   w27 = w27 - w1;
-  GAGEN_SCATTER(J_S, 42, 31, w27);
+  GAGEN_SCATTER(out_J_S, 42, 31, w27);
   w9 = w9 * w18;
   w30 = w30 * w33;
   w9 = w9 + w30;
   w30 = -w9;
-  GAGEN_SCATTER(J_S, 42, 32, w30);
+  GAGEN_SCATTER(out_J_S, 42, 32, w30);
   w11 = w26 * w11;
   w14 = w14 - w11;
   w11 = w42 * w14;
@@ -3414,23 +3414,23 @@ static void three_iiwas_plane_arm1_fk_jacobian_block_columns(long gagen_ld, int 
   w11 = -w11;
   w11 = w11 + w11;
   w11 = -w11;
-  GAGEN_SCATTER(J_S, 42, 33, w11);
+  GAGEN_SCATTER(out_J_S, 42, 33, w11);
   w26 = w26 * w17;
   w25 = w25 - w26;
   w42 = w42 * w25;
   w39 = w9 * w39;
   w42 = w42 - w39;
   w42 = w42 + w42;
-  GAGEN_SCATTER(J_S, 42, 34, w42);
+  GAGEN_SCATTER(out_J_S, 42, 34, w42);
   w27 = w27 * w25;
   w9 = w9 * w14;
   w27 = w27 + w9;
   w27 = w27 + w27;
-  GAGEN_SCATTER(J_S, 42, 35, w27);
-  GAGEN_SCATTER(J_S, 42, 36, w41);
+  GAGEN_SCATTER(out_J_S, 42, 35, w27);
+  GAGEN_SCATTER(out_J_S, 42, 36, w41);
   w6 = w6 - w32;
-  GAGEN_SCATTER(J_S, 42, 37, w6);
-  GAGEN_SCATTER(J_S, 42, 38, w15);
+  GAGEN_SCATTER(out_J_S, 42, 37, w6);
+  GAGEN_SCATTER(out_J_S, 42, 38, w15);
   w32 = gagen_v_splat(0.081);
   w34 = w32 * w34;
   w4 = w4 + w34;
@@ -3439,19 +3439,19 @@ static void three_iiwas_plane_arm1_fk_jacobian_block_columns(long gagen_ld, int 
   w37 = w37 + w27;
   w27 = w6 * w37;
   w34 = w34 + w27;
-  GAGEN_SCATTER(J_S, 42, 39, w34);
+  GAGEN_SCATTER(out_J_S, 42, 39, w34);
   w37 = w15 * w37;
   w32 = w32 * w15;
   w24 = w24 + w32;
   w24 = w24 - w23;
   w41 = w41 * w24;
   w37 = w37 - w41;
-  GAGEN_SCATTER(J_S, 42, 40, w37);
+  GAGEN_SCATTER(out_J_S, 42, 40, w37);
   w6 = w6 * w24;
   w15 = w15 * w4;
   w6 = w6 + w15;
   w6 = -w6;
-  GAGEN_SCATTER(J_S, 42, 41, w6);
+  GAGEN_SCATTER(out_J_S, 42, 41, w6);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -3459,28 +3459,28 @@ static void three_iiwas_plane_arm1_fk_jacobian_block_columns(long gagen_ld, int 
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void three_iiwas_plane_arm1_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void three_iiwas_plane_arm1_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    three_iiwas_plane_arm1_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    three_iiwas_plane_arm1_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  three_iiwas_plane_arm1_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  three_iiwas_plane_arm1_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }
 
 #if GAGEN_SIMD
 /* chain arm2: motor and end point: GAGEN_W consecutive samples at once */
-static void three_iiwas_plane_arm2_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void three_iiwas_plane_arm2_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.8660254037844388);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 7, 0);
+  w3 = GAGEN_GATHER(in_q, 7, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
   w5 = w1 * w4;
@@ -3488,11 +3488,11 @@ static void three_iiwas_plane_arm2_fk_block(const double *restrict q, double *re
   w3 = gagen_v_cos(w3);
   w7 = w6 * w3;
   w5 = w5 + w7;
-  w7 = GAGEN_GATHER(q, 7, 1);
+  w7 = GAGEN_GATHER(in_q, 7, 1);
   w7 = w2 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w5 * w8;
-  w10 = GAGEN_GATHER(q, 7, 2);
+  w10 = GAGEN_GATHER(in_q, 7, 2);
   w10 = w2 * w10;
   w11 = gagen_v_sin(w10);
   w12 = w9 * w11;
@@ -3511,7 +3511,7 @@ static void three_iiwas_plane_arm2_fk_block(const double *restrict q, double *re
   w16 = w1 * w11;
   w14 = w14 - w16;
   w14 = w14 + w14;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w2 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w14 * w18;
@@ -3538,7 +3538,7 @@ static void three_iiwas_plane_arm2_fk_block(const double *restrict q, double *re
   w6 = w6 + w6;
   w5 = w6 * w17;
   w12 = w12 - w5;
-  w1 = GAGEN_GATHER(q, 7, 4);
+  w1 = GAGEN_GATHER(in_q, 7, 4);
   w1 = w2 * w1;
   w9 = gagen_v_cos(w1);
   w21 = w12 * w9;
@@ -3562,7 +3562,7 @@ static void three_iiwas_plane_arm2_fk_block(const double *restrict q, double *re
   w13 = w13 - w14;
   w14 = w13 * w1;
   w19 = w19 - w14;
-  w6 = GAGEN_GATHER(q, 7, 5);
+  w6 = GAGEN_GATHER(in_q, 7, 5);
   w6 = w2 * w6;
   w15 = gagen_v_cos(w6);
   w23 = w19 * w15;
@@ -3586,7 +3586,7 @@ static void three_iiwas_plane_arm2_fk_block(const double *restrict q, double *re
   w20 = w20 - w16;
   w16 = w20 * w6;
   w26 = w26 - w16;
-  w12 = GAGEN_GATHER(q, 7, 6);
+  w12 = GAGEN_GATHER(in_q, 7, 6);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w22 = w26 * w13;
@@ -3601,12 +3601,12 @@ static void three_iiwas_plane_arm2_fk_block(const double *restrict q, double *re
   w27 = w5 * w12;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w5 = w5 * w13;
   w26 = w26 * w12;
   w5 = w5 - w26;
   w5 = w0 * w5;
-  GAGEN_SCATTER(M, 8, 1, w5);
+  GAGEN_SCATTER(out_M, 8, 1, w5);
   w24 = w24 + w19;
   w24 = w24 + w20;
   w24 = w24 - w14;
@@ -3617,12 +3617,12 @@ static void three_iiwas_plane_arm2_fk_block(const double *restrict q, double *re
   w16 = w25 * w12;
   w14 = w14 + w16;
   w14 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 2, w14);
+  GAGEN_SCATTER(out_M, 8, 2, w14);
   w25 = w25 * w13;
   w24 = w24 * w12;
   w25 = w25 - w24;
   w0 = w0 * w25;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w25 = gagen_v_splat(0.42);
   w24 = w8 * w7;
   w24 = w24 + w24;
@@ -3750,14 +3750,14 @@ static void three_iiwas_plane_arm2_fk_block(const double *restrict q, double *re
   w23 = w19 * w22;
   w28 = w28 - w23;
   w28 = w2 * w28;
-  GAGEN_SCATTER(M, 8, 4, w28);
+  GAGEN_SCATTER(out_M, 8, 4, w28);
   w28 = w26 * w0;
   w23 = w19 * w5;
   w28 = w28 - w23;
   w23 = w21 * w22;
   w28 = w28 - w23;
   w28 = w2 * w28;
-  GAGEN_SCATTER(M, 8, 5, w28);
+  GAGEN_SCATTER(out_M, 8, 5, w28);
   w28 = w19 * w14;
   w23 = w21 * w0;
   w28 = w28 + w23;
@@ -3765,43 +3765,43 @@ static void three_iiwas_plane_arm2_fk_block(const double *restrict q, double *re
   w28 = w28 + w22;
   w28 = w2 * w28;
   w28 = -w28;
-  GAGEN_SCATTER(M, 8, 6, w28);
+  GAGEN_SCATTER(out_M, 8, 6, w28);
   w14 = w21 * w14;
   w0 = w19 * w0;
   w14 = w14 - w0;
   w5 = w26 * w5;
   w14 = w14 - w5;
   w14 = w2 * w14;
-  GAGEN_SCATTER(M, 8, 7, w14);
+  GAGEN_SCATTER(out_M, 8, 7, w14);
   w14 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w14);
-  GAGEN_SCATTER(P, 5, 1, w19);
-  GAGEN_SCATTER(P, 5, 2, w21);
-  GAGEN_SCATTER(P, 5, 3, w26);
+  GAGEN_SCATTER(out_P, 5, 0, w14);
+  GAGEN_SCATTER(out_P, 5, 1, w19);
+  GAGEN_SCATTER(out_P, 5, 2, w21);
+  GAGEN_SCATTER(out_P, 5, 3, w26);
   w19 = w19 * w19;
   w21 = w21 * w21;
   w19 = w19 + w21;
   w26 = w26 * w26;
   w19 = w19 + w26;
   w2 = w2 * w19;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #endif
 
-void three_iiwas_plane_arm2_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void three_iiwas_plane_arm2_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    three_iiwas_plane_arm2_fk_block(q + 7 * s, M + 8 * s, P + 5 * s);
+    three_iiwas_plane_arm2_fk_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    three_iiwas_plane_arm2_fk(q + 7 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    three_iiwas_plane_arm2_fk(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -3811,14 +3811,14 @@ void three_iiwas_plane_arm2_fk_batch(long n, const double *restrict q, double *r
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void three_iiwas_plane_arm2_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void three_iiwas_plane_arm2_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.8660254037844388);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 7, 0);
+  w3 = GAGEN_GATHER(in_q, 7, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
   w5 = w1 * w4;
@@ -3826,11 +3826,11 @@ static void three_iiwas_plane_arm2_fk_block_columns(long gagen_ld, int gagen_str
   w3 = gagen_v_cos(w3);
   w7 = w6 * w3;
   w5 = w5 + w7;
-  w7 = GAGEN_GATHER(q, 7, 1);
+  w7 = GAGEN_GATHER(in_q, 7, 1);
   w7 = w2 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w5 * w8;
-  w10 = GAGEN_GATHER(q, 7, 2);
+  w10 = GAGEN_GATHER(in_q, 7, 2);
   w10 = w2 * w10;
   w11 = gagen_v_sin(w10);
   w12 = w9 * w11;
@@ -3849,7 +3849,7 @@ static void three_iiwas_plane_arm2_fk_block_columns(long gagen_ld, int gagen_str
   w16 = w1 * w11;
   w14 = w14 - w16;
   w14 = w14 + w14;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w2 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w14 * w18;
@@ -3876,7 +3876,7 @@ static void three_iiwas_plane_arm2_fk_block_columns(long gagen_ld, int gagen_str
   w6 = w6 + w6;
   w5 = w6 * w17;
   w12 = w12 - w5;
-  w1 = GAGEN_GATHER(q, 7, 4);
+  w1 = GAGEN_GATHER(in_q, 7, 4);
   w1 = w2 * w1;
   w9 = gagen_v_cos(w1);
   w21 = w12 * w9;
@@ -3900,7 +3900,7 @@ static void three_iiwas_plane_arm2_fk_block_columns(long gagen_ld, int gagen_str
   w13 = w13 - w14;
   w14 = w13 * w1;
   w19 = w19 - w14;
-  w6 = GAGEN_GATHER(q, 7, 5);
+  w6 = GAGEN_GATHER(in_q, 7, 5);
   w6 = w2 * w6;
   w15 = gagen_v_cos(w6);
   w23 = w19 * w15;
@@ -3924,7 +3924,7 @@ static void three_iiwas_plane_arm2_fk_block_columns(long gagen_ld, int gagen_str
   w20 = w20 - w16;
   w16 = w20 * w6;
   w26 = w26 - w16;
-  w12 = GAGEN_GATHER(q, 7, 6);
+  w12 = GAGEN_GATHER(in_q, 7, 6);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w22 = w26 * w13;
@@ -3939,12 +3939,12 @@ static void three_iiwas_plane_arm2_fk_block_columns(long gagen_ld, int gagen_str
   w27 = w5 * w12;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w5 = w5 * w13;
   w26 = w26 * w12;
   w5 = w5 - w26;
   w5 = w0 * w5;
-  GAGEN_SCATTER(M, 8, 1, w5);
+  GAGEN_SCATTER(out_M, 8, 1, w5);
   w24 = w24 + w19;
   w24 = w24 + w20;
   w24 = w24 - w14;
@@ -3955,12 +3955,12 @@ static void three_iiwas_plane_arm2_fk_block_columns(long gagen_ld, int gagen_str
   w16 = w25 * w12;
   w14 = w14 + w16;
   w14 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 2, w14);
+  GAGEN_SCATTER(out_M, 8, 2, w14);
   w25 = w25 * w13;
   w24 = w24 * w12;
   w25 = w25 - w24;
   w0 = w0 * w25;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w25 = gagen_v_splat(0.42);
   w24 = w8 * w7;
   w24 = w24 + w24;
@@ -4088,14 +4088,14 @@ static void three_iiwas_plane_arm2_fk_block_columns(long gagen_ld, int gagen_str
   w23 = w19 * w22;
   w28 = w28 - w23;
   w28 = w2 * w28;
-  GAGEN_SCATTER(M, 8, 4, w28);
+  GAGEN_SCATTER(out_M, 8, 4, w28);
   w28 = w26 * w0;
   w23 = w19 * w5;
   w28 = w28 - w23;
   w23 = w21 * w22;
   w28 = w28 - w23;
   w28 = w2 * w28;
-  GAGEN_SCATTER(M, 8, 5, w28);
+  GAGEN_SCATTER(out_M, 8, 5, w28);
   w28 = w19 * w14;
   w23 = w21 * w0;
   w28 = w28 + w23;
@@ -4103,26 +4103,26 @@ static void three_iiwas_plane_arm2_fk_block_columns(long gagen_ld, int gagen_str
   w28 = w28 + w22;
   w28 = w2 * w28;
   w28 = -w28;
-  GAGEN_SCATTER(M, 8, 6, w28);
+  GAGEN_SCATTER(out_M, 8, 6, w28);
   w14 = w21 * w14;
   w0 = w19 * w0;
   w14 = w14 - w0;
   w5 = w26 * w5;
   w14 = w14 - w5;
   w14 = w2 * w14;
-  GAGEN_SCATTER(M, 8, 7, w14);
+  GAGEN_SCATTER(out_M, 8, 7, w14);
   w14 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w14);
-  GAGEN_SCATTER(P, 5, 1, w19);
-  GAGEN_SCATTER(P, 5, 2, w21);
-  GAGEN_SCATTER(P, 5, 3, w26);
+  GAGEN_SCATTER(out_P, 5, 0, w14);
+  GAGEN_SCATTER(out_P, 5, 1, w19);
+  GAGEN_SCATTER(out_P, 5, 2, w21);
+  GAGEN_SCATTER(out_P, 5, 3, w26);
   w19 = w19 * w19;
   w21 = w21 * w21;
   w19 = w19 + w21;
   w26 = w26 * w26;
   w19 = w19 + w26;
   w2 = w2 * w19;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -4130,21 +4130,21 @@ static void three_iiwas_plane_arm2_fk_block_columns(long gagen_ld, int gagen_str
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void three_iiwas_plane_arm2_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void three_iiwas_plane_arm2_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    three_iiwas_plane_arm2_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    three_iiwas_plane_arm2_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  three_iiwas_plane_arm2_fk_columns_from(s, n, ld, q, M, P);
+  three_iiwas_plane_arm2_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain arm2: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void three_iiwas_plane_arm2_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void three_iiwas_plane_arm2_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -4152,7 +4152,7 @@ static void three_iiwas_plane_arm2_fk_jacobian_block(const double *restrict q, d
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.8660254037844388);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 7, 0);
+  w3 = GAGEN_GATHER(in_q, 7, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
   w5 = w1 * w4;
@@ -4160,11 +4160,11 @@ static void three_iiwas_plane_arm2_fk_jacobian_block(const double *restrict q, d
   w3 = gagen_v_cos(w3);
   w7 = w6 * w3;
   w5 = w5 + w7;
-  w7 = GAGEN_GATHER(q, 7, 1);
+  w7 = GAGEN_GATHER(in_q, 7, 1);
   w7 = w2 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w5 * w8;
-  w10 = GAGEN_GATHER(q, 7, 2);
+  w10 = GAGEN_GATHER(in_q, 7, 2);
   w10 = w2 * w10;
   w11 = gagen_v_sin(w10);
   w12 = w9 * w11;
@@ -4183,7 +4183,7 @@ static void three_iiwas_plane_arm2_fk_jacobian_block(const double *restrict q, d
   w16 = w1 * w11;
   w14 = w14 - w16;
   w14 = w14 + w14;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w2 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w14 * w18;
@@ -4210,7 +4210,7 @@ static void three_iiwas_plane_arm2_fk_jacobian_block(const double *restrict q, d
   w6 = w6 + w6;
   w5 = w6 * w17;
   w12 = w12 - w5;
-  w1 = GAGEN_GATHER(q, 7, 4);
+  w1 = GAGEN_GATHER(in_q, 7, 4);
   w1 = w2 * w1;
   w9 = gagen_v_cos(w1);
   w21 = w12 * w9;
@@ -4234,7 +4234,7 @@ static void three_iiwas_plane_arm2_fk_jacobian_block(const double *restrict q, d
   w13 = w13 - w14;
   w14 = w13 * w1;
   w19 = w19 - w14;
-  w6 = GAGEN_GATHER(q, 7, 5);
+  w6 = GAGEN_GATHER(in_q, 7, 5);
   w6 = w2 * w6;
   w15 = gagen_v_cos(w6);
   w23 = w19 * w15;
@@ -4258,7 +4258,7 @@ static void three_iiwas_plane_arm2_fk_jacobian_block(const double *restrict q, d
   w20 = w20 - w16;
   w16 = w20 * w6;
   w26 = w26 - w16;
-  w12 = GAGEN_GATHER(q, 7, 6);
+  w12 = GAGEN_GATHER(in_q, 7, 6);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w22 = w26 * w13;
@@ -4273,12 +4273,12 @@ static void three_iiwas_plane_arm2_fk_jacobian_block(const double *restrict q, d
   w27 = w5 * w12;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w5 = w5 * w13;
   w26 = w26 * w12;
   w5 = w5 - w26;
   w5 = w0 * w5;
-  GAGEN_SCATTER(M, 8, 1, w5);
+  GAGEN_SCATTER(out_M, 8, 1, w5);
   w24 = w24 + w19;
   w24 = w24 + w20;
   w24 = w24 - w14;
@@ -4289,12 +4289,12 @@ static void three_iiwas_plane_arm2_fk_jacobian_block(const double *restrict q, d
   w16 = w25 * w12;
   w14 = w14 + w16;
   w14 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 2, w14);
+  GAGEN_SCATTER(out_M, 8, 2, w14);
   w25 = w25 * w13;
   w24 = w24 * w12;
   w25 = w25 - w24;
   w0 = w0 * w25;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w25 = gagen_v_splat(0.42);
   w24 = w8 * w7;
   w24 = w24 + w24;
@@ -4422,14 +4422,14 @@ static void three_iiwas_plane_arm2_fk_jacobian_block(const double *restrict q, d
   w32 = w11 * w22;
   w39 = w39 - w32;
   w39 = w2 * w39;
-  GAGEN_SCATTER(M, 8, 4, w39);
+  GAGEN_SCATTER(out_M, 8, 4, w39);
   w39 = w46 * w0;
   w32 = w11 * w5;
   w39 = w39 - w32;
   w32 = w37 * w22;
   w39 = w39 - w32;
   w39 = w2 * w39;
-  GAGEN_SCATTER(M, 8, 5, w39);
+  GAGEN_SCATTER(out_M, 8, 5, w39);
   w39 = w11 * w14;
   w32 = w37 * w0;
   w39 = w39 + w32;
@@ -4437,65 +4437,65 @@ static void three_iiwas_plane_arm2_fk_jacobian_block(const double *restrict q, d
   w39 = w39 + w22;
   w39 = w2 * w39;
   w39 = -w39;
-  GAGEN_SCATTER(M, 8, 6, w39);
+  GAGEN_SCATTER(out_M, 8, 6, w39);
   w14 = w37 * w14;
   w0 = w11 * w0;
   w14 = w14 - w0;
   w5 = w46 * w5;
   w14 = w14 - w5;
   w14 = w2 * w14;
-  GAGEN_SCATTER(M, 8, 7, w14);
+  GAGEN_SCATTER(out_M, 8, 7, w14);
   w14 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w14);
-  GAGEN_SCATTER(P, 5, 1, w11);
-  GAGEN_SCATTER(P, 5, 2, w37);
-  GAGEN_SCATTER(P, 5, 3, w46);
+  GAGEN_SCATTER(out_P, 5, 0, w14);
+  GAGEN_SCATTER(out_P, 5, 1, w11);
+  GAGEN_SCATTER(out_P, 5, 2, w37);
+  GAGEN_SCATTER(out_P, 5, 3, w46);
   w11 = w11 * w11;
   w37 = w37 * w37;
   w11 = w11 + w37;
   w46 = w46 * w46;
   w11 = w11 + w46;
   w2 = w2 * w11;
-  GAGEN_SCATTER(P, 5, 4, w2);
-  GAGEN_SCATTER(J_S, 42, 0, w14);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
+  GAGEN_SCATTER(out_J_S, 42, 0, w14);
   w14 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w14);
-  GAGEN_SCATTER(J_S, 42, 2, w14);
+  GAGEN_SCATTER(out_J_S, 42, 1, w14);
+  GAGEN_SCATTER(out_J_S, 42, 2, w14);
   w2 = gagen_v_splat((-0.692820323027551));
-  GAGEN_SCATTER(J_S, 42, 3, w2);
-  GAGEN_SCATTER(J_S, 42, 4, w20);
-  GAGEN_SCATTER(J_S, 42, 5, w14);
-  GAGEN_SCATTER(J_S, 42, 6, w14);
+  GAGEN_SCATTER(out_J_S, 42, 3, w2);
+  GAGEN_SCATTER(out_J_S, 42, 4, w20);
+  GAGEN_SCATTER(out_J_S, 42, 5, w14);
+  GAGEN_SCATTER(out_J_S, 42, 6, w14);
   w30 = -w30;
-  GAGEN_SCATTER(J_S, 42, 7, w30);
+  GAGEN_SCATTER(out_J_S, 42, 7, w30);
   w16 = -w16;
-  GAGEN_SCATTER(J_S, 42, 8, w16);
+  GAGEN_SCATTER(out_J_S, 42, 8, w16);
   w16 = gagen_v_splat(0.18000000000000022);
   w16 = w16 * w13;
   w30 = gagen_v_splat(0.6235382907247956);
   w30 = w30 * w3;
   w16 = w16 - w30;
   w16 = -w16;
-  GAGEN_SCATTER(J_S, 42, 9, w16);
+  GAGEN_SCATTER(out_J_S, 42, 9, w16);
   w16 = gagen_v_splat(0.36000000000000043);
   w16 = w16 * w3;
   w30 = gagen_v_splat(0.3117691453623978);
   w30 = w30 * w13;
   w16 = w16 + w30;
   w16 = -w16;
-  GAGEN_SCATTER(J_S, 42, 10, w16);
+  GAGEN_SCATTER(out_J_S, 42, 10, w16);
   w16 = gagen_v_splat(1.1210074014916436e-15);
   w16 = w16 * w3;
   w3 = gagen_v_splat(0.8000000000000002);
   w3 = w3 * w13;
   w16 = w16 + w3;
   w16 = -w16;
-  GAGEN_SCATTER(J_S, 42, 11, w16);
-  GAGEN_SCATTER(J_S, 42, 12, w8);
+  GAGEN_SCATTER(out_J_S, 42, 11, w16);
+  GAGEN_SCATTER(out_J_S, 42, 12, w8);
   w16 = -w21;
-  GAGEN_SCATTER(J_S, 42, 13, w16);
+  GAGEN_SCATTER(out_J_S, 42, 13, w16);
   w16 = -w7;
-  GAGEN_SCATTER(J_S, 42, 14, w16);
+  GAGEN_SCATTER(out_J_S, 42, 14, w16);
   w16 = gagen_v_splat(0.18000000000000002);
   w3 = gagen_v_splat(0.10225);
   w13 = w3 * w8;
@@ -4509,7 +4509,7 @@ static void three_iiwas_plane_arm2_fk_jacobian_block(const double *restrict q, d
   w11 = w8 * w2;
   w11 = w11 + w11;
   w30 = w30 - w11;
-  GAGEN_SCATTER(J_S, 42, 15, w30);
+  GAGEN_SCATTER(out_J_S, 42, 15, w30);
   w30 = gagen_v_splat(0.2);
   w3 = w3 * w7;
   w3 = w30 + w3;
@@ -4518,18 +4518,18 @@ static void three_iiwas_plane_arm2_fk_jacobian_block(const double *restrict q, d
   w13 = w7 * w13;
   w13 = w13 + w13;
   w11 = w11 - w13;
-  GAGEN_SCATTER(J_S, 42, 16, w11);
+  GAGEN_SCATTER(out_J_S, 42, 16, w11);
   w2 = w7 * w2;
   w3 = w21 * w3;
   w2 = w2 + w3;
   w2 = -w2;
   w2 = w2 + w2;
-  GAGEN_SCATTER(J_S, 42, 17, w2);
+  GAGEN_SCATTER(out_J_S, 42, 17, w2);
   w2 = w17 * w24;
   w3 = -w2;
-  GAGEN_SCATTER(J_S, 42, 18, w3);
-  GAGEN_SCATTER(J_S, 42, 19, w1);
-  GAGEN_SCATTER(J_S, 42, 20, w10);
+  GAGEN_SCATTER(out_J_S, 42, 18, w3);
+  GAGEN_SCATTER(out_J_S, 42, 19, w1);
+  GAGEN_SCATTER(out_J_S, 42, 20, w10);
   w3 = gagen_v_splat(0.21);
   w21 = w3 * w21;
   w14 = w14 - w21;
@@ -4543,7 +4543,7 @@ static void three_iiwas_plane_arm2_fk_jacobian_block(const double *restrict q, d
   w13 = w13 + w13;
   w21 = w21 + w13;
   w21 = -w21;
-  GAGEN_SCATTER(J_S, 42, 21, w21);
+  GAGEN_SCATTER(out_J_S, 42, 21, w21);
   w3 = w3 * w7;
   w3 = w30 + w3;
   w2 = w2 * w3;
@@ -4553,16 +4553,16 @@ static void three_iiwas_plane_arm2_fk_jacobian_block(const double *restrict q, d
   w11 = -w11;
   w11 = w11 + w11;
   w2 = w2 - w11;
-  GAGEN_SCATTER(J_S, 42, 22, w2);
+  GAGEN_SCATTER(out_J_S, 42, 22, w2);
   w2 = w1 * w3;
   w11 = w10 * w14;
   w2 = w2 + w11;
   w2 = w2 + w2;
-  GAGEN_SCATTER(J_S, 42, 23, w2);
-  GAGEN_SCATTER(J_S, 42, 24, w43);
+  GAGEN_SCATTER(out_J_S, 42, 23, w2);
+  GAGEN_SCATTER(out_J_S, 42, 24, w43);
   w2 = -w27;
-  GAGEN_SCATTER(J_S, 42, 25, w2);
-  GAGEN_SCATTER(J_S, 42, 26, w18);
+  GAGEN_SCATTER(out_J_S, 42, 25, w2);
+  GAGEN_SCATTER(out_J_S, 42, 26, w18);
   w2 = gagen_v_splat(0.09225);
   w11 = w2 * w27;
   w11 = w14 - w11;
@@ -4575,33 +4575,33 @@ static void three_iiwas_plane_arm2_fk_jacobian_block(const double *restrict q, d
   w7 = w7 + w21;
   w7 = w7 + w7;
   w7 = -w7;
-  GAGEN_SCATTER(J_S, 42, 27, w7);
+  GAGEN_SCATTER(out_J_S, 42, 27, w7);
   w2 = w2 * w18;
   w2 = w3 - w2;
   w43 = w43 * w2;
   w41 = w18 * w41;
   w43 = w43 + w41;
   w43 = w43 + w43;
-  GAGEN_SCATTER(J_S, 42, 28, w43);
+  GAGEN_SCATTER(out_J_S, 42, 28, w43);
   w11 = w18 * w11;
   w2 = w27 * w2;
   w11 = w11 - w2;
   w11 = w11 + w11;
-  GAGEN_SCATTER(J_S, 42, 29, w11);
+  GAGEN_SCATTER(out_J_S, 42, 29, w11);
   w45 = w9 * w45;
   w17 = w33 * w17;
   w17 = w17 * w24;
   w45 = w45 + w17;
-  GAGEN_SCATTER(J_S, 42, 30, w45);
+  GAGEN_SCATTER(out_J_S, 42, 30, w45);
   w31 = w9 * w31;
   w1 = w33 * w1;
   w31 = w31 - w1;
-  GAGEN_SCATTER(J_S, 42, 31, w31);
+  GAGEN_SCATTER(out_J_S, 42, 31, w31);
   w33 = w33 * w10;
   w9 = w9 * w19;
   w33 = w33 - w9;
   w9 = -w33;
-  GAGEN_SCATTER(J_S, 42, 32, w9);
+  GAGEN_SCATTER(out_J_S, 42, 32, w9);
   w27 = w30 * w27;
   w14 = w14 - w27;
   w27 = w45 * w14;
@@ -4612,24 +4612,24 @@ static void three_iiwas_plane_arm2_fk_jacobian_block(const double *restrict q, d
   w27 = w27 - w8;
   w27 = w27 + w27;
   w27 = -w27;
-  GAGEN_SCATTER(J_S, 42, 33, w27);
+  GAGEN_SCATTER(out_J_S, 42, 33, w27);
   w30 = w30 * w18;
   w3 = w3 - w30;
   w45 = w45 * w3;
   w42 = w33 * w42;
   w45 = w45 - w42;
   w45 = w45 + w45;
-  GAGEN_SCATTER(J_S, 42, 34, w45);
+  GAGEN_SCATTER(out_J_S, 42, 34, w45);
   w31 = w31 * w3;
   w33 = w33 * w14;
   w31 = w31 - w33;
   w31 = w31 + w31;
-  GAGEN_SCATTER(J_S, 42, 35, w31);
-  GAGEN_SCATTER(J_S, 42, 36, w44);
+  GAGEN_SCATTER(out_J_S, 42, 35, w31);
+  GAGEN_SCATTER(out_J_S, 42, 36, w44);
   w6 = w6 + w35;
   w35 = -w6;
-  GAGEN_SCATTER(J_S, 42, 37, w35);
-  GAGEN_SCATTER(J_S, 42, 38, w15);
+  GAGEN_SCATTER(out_J_S, 42, 37, w35);
+  GAGEN_SCATTER(out_J_S, 42, 38, w15);
   w35 = gagen_v_splat(0.081);
   w4 = w35 * w4;
   w23 = w23 + w4;
@@ -4639,37 +4639,37 @@ static void three_iiwas_plane_arm2_fk_jacobian_block(const double *restrict q, d
   w40 = w40 + w4;
   w4 = w6 * w40;
   w38 = w38 - w4;
-  GAGEN_SCATTER(J_S, 42, 39, w38);
+  GAGEN_SCATTER(out_J_S, 42, 39, w38);
   w40 = w15 * w40;
   w35 = w35 * w15;
   w26 = w26 + w35;
   w26 = w26 - w20;
   w44 = w44 * w26;
   w40 = w40 - w44;
-  GAGEN_SCATTER(J_S, 42, 40, w40);
+  GAGEN_SCATTER(out_J_S, 42, 40, w40);
   w15 = w15 * w23;
   w6 = w6 * w26;
   w15 = w15 - w6;
   w15 = -w15;
-  GAGEN_SCATTER(J_S, 42, 41, w15);
+  GAGEN_SCATTER(out_J_S, 42, 41, w15);
 }
 #endif
 
-void three_iiwas_plane_arm2_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void three_iiwas_plane_arm2_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 42 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 42 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 42 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 42 * gagen_a + gagen_o, 1, 0);
     }
-    three_iiwas_plane_arm2_fk_jacobian_block(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+    three_iiwas_plane_arm2_fk_jacobian_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    three_iiwas_plane_arm2_fk_jacobian(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    three_iiwas_plane_arm2_fk_jacobian(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 }
 
@@ -4679,7 +4679,7 @@ void three_iiwas_plane_arm2_fk_jacobian_batch(long n, const double *restrict q, 
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void three_iiwas_plane_arm2_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void three_iiwas_plane_arm2_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -4687,7 +4687,7 @@ static void three_iiwas_plane_arm2_fk_jacobian_block_columns(long gagen_ld, int 
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.8660254037844388);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 7, 0);
+  w3 = GAGEN_GATHER(in_q, 7, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
   w5 = w1 * w4;
@@ -4695,11 +4695,11 @@ static void three_iiwas_plane_arm2_fk_jacobian_block_columns(long gagen_ld, int 
   w3 = gagen_v_cos(w3);
   w7 = w6 * w3;
   w5 = w5 + w7;
-  w7 = GAGEN_GATHER(q, 7, 1);
+  w7 = GAGEN_GATHER(in_q, 7, 1);
   w7 = w2 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w5 * w8;
-  w10 = GAGEN_GATHER(q, 7, 2);
+  w10 = GAGEN_GATHER(in_q, 7, 2);
   w10 = w2 * w10;
   w11 = gagen_v_sin(w10);
   w12 = w9 * w11;
@@ -4718,7 +4718,7 @@ static void three_iiwas_plane_arm2_fk_jacobian_block_columns(long gagen_ld, int 
   w16 = w1 * w11;
   w14 = w14 - w16;
   w14 = w14 + w14;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w2 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w14 * w18;
@@ -4745,7 +4745,7 @@ static void three_iiwas_plane_arm2_fk_jacobian_block_columns(long gagen_ld, int 
   w6 = w6 + w6;
   w5 = w6 * w17;
   w12 = w12 - w5;
-  w1 = GAGEN_GATHER(q, 7, 4);
+  w1 = GAGEN_GATHER(in_q, 7, 4);
   w1 = w2 * w1;
   w9 = gagen_v_cos(w1);
   w21 = w12 * w9;
@@ -4769,7 +4769,7 @@ static void three_iiwas_plane_arm2_fk_jacobian_block_columns(long gagen_ld, int 
   w13 = w13 - w14;
   w14 = w13 * w1;
   w19 = w19 - w14;
-  w6 = GAGEN_GATHER(q, 7, 5);
+  w6 = GAGEN_GATHER(in_q, 7, 5);
   w6 = w2 * w6;
   w15 = gagen_v_cos(w6);
   w23 = w19 * w15;
@@ -4793,7 +4793,7 @@ static void three_iiwas_plane_arm2_fk_jacobian_block_columns(long gagen_ld, int 
   w20 = w20 - w16;
   w16 = w20 * w6;
   w26 = w26 - w16;
-  w12 = GAGEN_GATHER(q, 7, 6);
+  w12 = GAGEN_GATHER(in_q, 7, 6);
   w12 = w2 * w12;
   w13 = gagen_v_cos(w12);
   w22 = w26 * w13;
@@ -4808,12 +4808,12 @@ static void three_iiwas_plane_arm2_fk_jacobian_block_columns(long gagen_ld, int 
   w27 = w5 * w12;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w5 = w5 * w13;
   w26 = w26 * w12;
   w5 = w5 - w26;
   w5 = w0 * w5;
-  GAGEN_SCATTER(M, 8, 1, w5);
+  GAGEN_SCATTER(out_M, 8, 1, w5);
   w24 = w24 + w19;
   w24 = w24 + w20;
   w24 = w24 - w14;
@@ -4824,12 +4824,12 @@ static void three_iiwas_plane_arm2_fk_jacobian_block_columns(long gagen_ld, int 
   w16 = w25 * w12;
   w14 = w14 + w16;
   w14 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 2, w14);
+  GAGEN_SCATTER(out_M, 8, 2, w14);
   w25 = w25 * w13;
   w24 = w24 * w12;
   w25 = w25 - w24;
   w0 = w0 * w25;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w25 = gagen_v_splat(0.42);
   w24 = w8 * w7;
   w24 = w24 + w24;
@@ -4957,14 +4957,14 @@ static void three_iiwas_plane_arm2_fk_jacobian_block_columns(long gagen_ld, int 
   w32 = w11 * w22;
   w39 = w39 - w32;
   w39 = w2 * w39;
-  GAGEN_SCATTER(M, 8, 4, w39);
+  GAGEN_SCATTER(out_M, 8, 4, w39);
   w39 = w46 * w0;
   w32 = w11 * w5;
   w39 = w39 - w32;
   w32 = w37 * w22;
   w39 = w39 - w32;
   w39 = w2 * w39;
-  GAGEN_SCATTER(M, 8, 5, w39);
+  GAGEN_SCATTER(out_M, 8, 5, w39);
   w39 = w11 * w14;
   w32 = w37 * w0;
   w39 = w39 + w32;
@@ -4972,65 +4972,65 @@ static void three_iiwas_plane_arm2_fk_jacobian_block_columns(long gagen_ld, int 
   w39 = w39 + w22;
   w39 = w2 * w39;
   w39 = -w39;
-  GAGEN_SCATTER(M, 8, 6, w39);
+  GAGEN_SCATTER(out_M, 8, 6, w39);
   w14 = w37 * w14;
   w0 = w11 * w0;
   w14 = w14 - w0;
   w5 = w46 * w5;
   w14 = w14 - w5;
   w14 = w2 * w14;
-  GAGEN_SCATTER(M, 8, 7, w14);
+  GAGEN_SCATTER(out_M, 8, 7, w14);
   w14 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w14);
-  GAGEN_SCATTER(P, 5, 1, w11);
-  GAGEN_SCATTER(P, 5, 2, w37);
-  GAGEN_SCATTER(P, 5, 3, w46);
+  GAGEN_SCATTER(out_P, 5, 0, w14);
+  GAGEN_SCATTER(out_P, 5, 1, w11);
+  GAGEN_SCATTER(out_P, 5, 2, w37);
+  GAGEN_SCATTER(out_P, 5, 3, w46);
   w11 = w11 * w11;
   w37 = w37 * w37;
   w11 = w11 + w37;
   w46 = w46 * w46;
   w11 = w11 + w46;
   w2 = w2 * w11;
-  GAGEN_SCATTER(P, 5, 4, w2);
-  GAGEN_SCATTER(J_S, 42, 0, w14);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
+  GAGEN_SCATTER(out_J_S, 42, 0, w14);
   w14 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w14);
-  GAGEN_SCATTER(J_S, 42, 2, w14);
+  GAGEN_SCATTER(out_J_S, 42, 1, w14);
+  GAGEN_SCATTER(out_J_S, 42, 2, w14);
   w2 = gagen_v_splat((-0.692820323027551));
-  GAGEN_SCATTER(J_S, 42, 3, w2);
-  GAGEN_SCATTER(J_S, 42, 4, w20);
-  GAGEN_SCATTER(J_S, 42, 5, w14);
-  GAGEN_SCATTER(J_S, 42, 6, w14);
+  GAGEN_SCATTER(out_J_S, 42, 3, w2);
+  GAGEN_SCATTER(out_J_S, 42, 4, w20);
+  GAGEN_SCATTER(out_J_S, 42, 5, w14);
+  GAGEN_SCATTER(out_J_S, 42, 6, w14);
   w30 = -w30;
-  GAGEN_SCATTER(J_S, 42, 7, w30);
+  GAGEN_SCATTER(out_J_S, 42, 7, w30);
   w16 = -w16;
-  GAGEN_SCATTER(J_S, 42, 8, w16);
+  GAGEN_SCATTER(out_J_S, 42, 8, w16);
   w16 = gagen_v_splat(0.18000000000000022);
   w16 = w16 * w13;
   w30 = gagen_v_splat(0.6235382907247956);
   w30 = w30 * w3;
   w16 = w16 - w30;
   w16 = -w16;
-  GAGEN_SCATTER(J_S, 42, 9, w16);
+  GAGEN_SCATTER(out_J_S, 42, 9, w16);
   w16 = gagen_v_splat(0.36000000000000043);
   w16 = w16 * w3;
   w30 = gagen_v_splat(0.3117691453623978);
   w30 = w30 * w13;
   w16 = w16 + w30;
   w16 = -w16;
-  GAGEN_SCATTER(J_S, 42, 10, w16);
+  GAGEN_SCATTER(out_J_S, 42, 10, w16);
   w16 = gagen_v_splat(1.1210074014916436e-15);
   w16 = w16 * w3;
   w3 = gagen_v_splat(0.8000000000000002);
   w3 = w3 * w13;
   w16 = w16 + w3;
   w16 = -w16;
-  GAGEN_SCATTER(J_S, 42, 11, w16);
-  GAGEN_SCATTER(J_S, 42, 12, w8);
+  GAGEN_SCATTER(out_J_S, 42, 11, w16);
+  GAGEN_SCATTER(out_J_S, 42, 12, w8);
   w16 = -w21;
-  GAGEN_SCATTER(J_S, 42, 13, w16);
+  GAGEN_SCATTER(out_J_S, 42, 13, w16);
   w16 = -w7;
-  GAGEN_SCATTER(J_S, 42, 14, w16);
+  GAGEN_SCATTER(out_J_S, 42, 14, w16);
   w16 = gagen_v_splat(0.18000000000000002);
   w3 = gagen_v_splat(0.10225);
   w13 = w3 * w8;
@@ -5044,7 +5044,7 @@ static void three_iiwas_plane_arm2_fk_jacobian_block_columns(long gagen_ld, int 
   w11 = w8 * w2;
   w11 = w11 + w11;
   w30 = w30 - w11;
-  GAGEN_SCATTER(J_S, 42, 15, w30);
+  GAGEN_SCATTER(out_J_S, 42, 15, w30);
   w30 = gagen_v_splat(0.2);
   w3 = w3 * w7;
   w3 = w30 + w3;
@@ -5053,18 +5053,18 @@ static void three_iiwas_plane_arm2_fk_jacobian_block_columns(long gagen_ld, int 
   w13 = w7 * w13;
   w13 = w13 + w13;
   w11 = w11 - w13;
-  GAGEN_SCATTER(J_S, 42, 16, w11);
+  GAGEN_SCATTER(out_J_S, 42, 16, w11);
   w2 = w7 * w2;
   w3 = w21 * w3;
   w2 = w2 + w3;
   w2 = -w2;
   w2 = w2 + w2;
-  GAGEN_SCATTER(J_S, 42, 17, w2);
+  GAGEN_SCATTER(out_J_S, 42, 17, w2);
   w2 = w17 * w24;
   w3 = -w2;
-  GAGEN_SCATTER(J_S, 42, 18, w3);
-  GAGEN_SCATTER(J_S, 42, 19, w1);
-  GAGEN_SCATTER(J_S, 42, 20, w10);
+  GAGEN_SCATTER(out_J_S, 42, 18, w3);
+  GAGEN_SCATTER(out_J_S, 42, 19, w1);
+  GAGEN_SCATTER(out_J_S, 42, 20, w10);
   w3 = gagen_v_splat(0.21);
   w21 = w3 * w21;
   w14 = w14 - w21;
@@ -5078,7 +5078,7 @@ static void three_iiwas_plane_arm2_fk_jacobian_block_columns(long gagen_ld, int 
   w13 = w13 + w13;
   w21 = w21 + w13;
   w21 = -w21;
-  GAGEN_SCATTER(J_S, 42, 21, w21);
+  GAGEN_SCATTER(out_J_S, 42, 21, w21);
   w3 = w3 * w7;
   w3 = w30 + w3;
   w2 = w2 * w3;
@@ -5088,16 +5088,16 @@ static void three_iiwas_plane_arm2_fk_jacobian_block_columns(long gagen_ld, int 
   w11 = -w11;
   w11 = w11 + w11;
   w2 = w2 - w11;
-  GAGEN_SCATTER(J_S, 42, 22, w2);
+  GAGEN_SCATTER(out_J_S, 42, 22, w2);
   w2 = w1 * w3;
   w11 = w10 * w14;
   w2 = w2 + w11;
   w2 = w2 + w2;
-  GAGEN_SCATTER(J_S, 42, 23, w2);
-  GAGEN_SCATTER(J_S, 42, 24, w43);
+  GAGEN_SCATTER(out_J_S, 42, 23, w2);
+  GAGEN_SCATTER(out_J_S, 42, 24, w43);
   w2 = -w27;
-  GAGEN_SCATTER(J_S, 42, 25, w2);
-  GAGEN_SCATTER(J_S, 42, 26, w18);
+  GAGEN_SCATTER(out_J_S, 42, 25, w2);
+  GAGEN_SCATTER(out_J_S, 42, 26, w18);
   w2 = gagen_v_splat(0.09225);
   w11 = w2 * w27;
   w11 = w14 - w11;
@@ -5110,33 +5110,33 @@ static void three_iiwas_plane_arm2_fk_jacobian_block_columns(long gagen_ld, int 
   w7 = w7 + w21;
   w7 = w7 + w7;
   w7 = -w7;
-  GAGEN_SCATTER(J_S, 42, 27, w7);
+  GAGEN_SCATTER(out_J_S, 42, 27, w7);
   w2 = w2 * w18;
   w2 = w3 - w2;
   w43 = w43 * w2;
   w41 = w18 * w41;
   w43 = w43 + w41;
   w43 = w43 + w43;
-  GAGEN_SCATTER(J_S, 42, 28, w43);
+  GAGEN_SCATTER(out_J_S, 42, 28, w43);
   w11 = w18 * w11;
   w2 = w27 * w2;
   w11 = w11 - w2;
   w11 = w11 + w11;
-  GAGEN_SCATTER(J_S, 42, 29, w11);
+  GAGEN_SCATTER(out_J_S, 42, 29, w11);
   w45 = w9 * w45;
   w17 = w33 * w17;
   w17 = w17 * w24;
   w45 = w45 + w17;
-  GAGEN_SCATTER(J_S, 42, 30, w45);
+  GAGEN_SCATTER(out_J_S, 42, 30, w45);
   w31 = w9 * w31;
   w1 = w33 * w1;
   w31 = w31 - w1;
-  GAGEN_SCATTER(J_S, 42, 31, w31);
+  GAGEN_SCATTER(out_J_S, 42, 31, w31);
   w33 = w33 * w10;
   w9 = w9 * w19;
   w33 = w33 - w9;
   w9 = -w33;
-  GAGEN_SCATTER(J_S, 42, 32, w9);
+  GAGEN_SCATTER(out_J_S, 42, 32, w9);
   w27 = w30 * w27;
   w14 = w14 - w27;
   w27 = w45 * w14;
@@ -5147,24 +5147,24 @@ static void three_iiwas_plane_arm2_fk_jacobian_block_columns(long gagen_ld, int 
   w27 = w27 - w8;
   w27 = w27 + w27;
   w27 = -w27;
-  GAGEN_SCATTER(J_S, 42, 33, w27);
+  GAGEN_SCATTER(out_J_S, 42, 33, w27);
   w30 = w30 * w18;
   w3 = w3 - w30;
   w45 = w45 * w3;
   w42 = w33 * w42;
   w45 = w45 - w42;
   w45 = w45 + w45;
-  GAGEN_SCATTER(J_S, 42, 34, w45);
+  GAGEN_SCATTER(out_J_S, 42, 34, w45);
   w31 = w31 * w3;
   w33 = w33 * w14;
   w31 = w31 - w33;
   w31 = w31 + w31;
-  GAGEN_SCATTER(J_S, 42, 35, w31);
-  GAGEN_SCATTER(J_S, 42, 36, w44);
+  GAGEN_SCATTER(out_J_S, 42, 35, w31);
+  GAGEN_SCATTER(out_J_S, 42, 36, w44);
   w6 = w6 + w35;
   w35 = -w6;
-  GAGEN_SCATTER(J_S, 42, 37, w35);
-  GAGEN_SCATTER(J_S, 42, 38, w15);
+  GAGEN_SCATTER(out_J_S, 42, 37, w35);
+  GAGEN_SCATTER(out_J_S, 42, 38, w15);
   w35 = gagen_v_splat(0.081);
   w4 = w35 * w4;
   w23 = w23 + w4;
@@ -5174,19 +5174,19 @@ static void three_iiwas_plane_arm2_fk_jacobian_block_columns(long gagen_ld, int 
   w40 = w40 + w4;
   w4 = w6 * w40;
   w38 = w38 - w4;
-  GAGEN_SCATTER(J_S, 42, 39, w38);
+  GAGEN_SCATTER(out_J_S, 42, 39, w38);
   w40 = w15 * w40;
   w35 = w35 * w15;
   w26 = w26 + w35;
   w26 = w26 - w20;
   w44 = w44 * w26;
   w40 = w40 - w44;
-  GAGEN_SCATTER(J_S, 42, 40, w40);
+  GAGEN_SCATTER(out_J_S, 42, 40, w40);
   w15 = w15 * w23;
   w6 = w6 * w26;
   w15 = w15 - w6;
   w15 = -w15;
-  GAGEN_SCATTER(J_S, 42, 41, w15);
+  GAGEN_SCATTER(out_J_S, 42, 41, w15);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -5194,21 +5194,21 @@ static void three_iiwas_plane_arm2_fk_jacobian_block_columns(long gagen_ld, int 
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void three_iiwas_plane_arm2_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void three_iiwas_plane_arm2_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    three_iiwas_plane_arm2_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    three_iiwas_plane_arm2_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  three_iiwas_plane_arm2_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  three_iiwas_plane_arm2_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }
 
 #if GAGEN_SIMD
 /* the cooperative plane X_c(q) and J_c: GAGEN_W consecutive samples at once */
-static void three_iiwas_plane_primitive_block(const double *restrict q, double *restrict X_c, double *restrict J_c) {
+static void three_iiwas_plane_primitive_block(const double *restrict in_q, double *restrict out_X_c, double *restrict out_J_c) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -5221,10 +5221,10 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   gagen_v w108, w109, w110, w111, w112, w113, w114, w115, w116, w117, w118, w119;
   gagen_v w120, w121, w122, w123;
   w0 = gagen_v_splat(0.42);
-  w1 = GAGEN_GATHER(q, 21, 8);
+  w1 = GAGEN_GATHER(in_q, 21, 8);
   w2 = gagen_v_sin(w1);
   w3 = gagen_v_splat(0.4999999999999994);
-  w4 = GAGEN_GATHER(q, 21, 7);
+  w4 = GAGEN_GATHER(in_q, 21, 7);
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
   w7 = gagen_v_splat(0.866025403784439);
@@ -5234,12 +5234,12 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w8 = w2 * w6;
   w9 = w0 * w8;
   w10 = gagen_v_splat(0.4);
-  w11 = GAGEN_GATHER(q, 21, 10);
+  w11 = GAGEN_GATHER(in_q, 21, 10);
   w12 = gagen_v_cos(w11);
   w13 = w12 * w2;
   w14 = w13 * w6;
   w11 = gagen_v_sin(w11);
-  w15 = GAGEN_GATHER(q, 21, 9);
+  w15 = GAGEN_GATHER(in_q, 21, 9);
   w16 = gagen_v_sin(w15);
   w7 = w7 * w5;
   w3 = w3 * w4;
@@ -5255,11 +5255,11 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w18 = w10 * w14;
   w9 = w9 + w18;
   w18 = gagen_v_splat(0.126);
-  w19 = GAGEN_GATHER(q, 21, 12);
+  w19 = GAGEN_GATHER(in_q, 21, 12);
   w20 = gagen_v_cos(w19);
   w21 = w20 * w14;
   w19 = gagen_v_sin(w19);
-  w22 = GAGEN_GATHER(q, 21, 11);
+  w22 = GAGEN_GATHER(in_q, 21, 11);
   w23 = gagen_v_sin(w22);
   w24 = w16 * w1;
   w25 = w24 * w6;
@@ -5279,16 +5279,16 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w26 = w9 + w26;
   w28 = w26 - w10;
   w29 = gagen_v_splat(0.8);
-  w30 = GAGEN_GATHER(q, 21, 1);
+  w30 = GAGEN_GATHER(in_q, 21, 1);
   w31 = gagen_v_sin(w30);
-  w32 = GAGEN_GATHER(q, 21, 0);
+  w32 = GAGEN_GATHER(in_q, 21, 0);
   w33 = gagen_v_cos(w32);
   w34 = w31 * w33;
   w35 = w0 * w34;
   w36 = w29 - w35;
-  w37 = GAGEN_GATHER(q, 21, 3);
+  w37 = GAGEN_GATHER(in_q, 21, 3);
   w38 = gagen_v_sin(w37);
-  w39 = GAGEN_GATHER(q, 21, 2);
+  w39 = GAGEN_GATHER(in_q, 21, 2);
   w40 = gagen_v_cos(w39);
   w30 = gagen_v_cos(w30);
   w41 = w40 * w30;
@@ -5304,11 +5304,11 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w43 = w43 - w45;
   w45 = w10 * w43;
   w36 = w36 + w45;
-  w46 = GAGEN_GATHER(q, 21, 5);
+  w46 = GAGEN_GATHER(in_q, 21, 5);
   w47 = gagen_v_cos(w46);
   w48 = w47 * w43;
   w46 = gagen_v_sin(w46);
-  w49 = GAGEN_GATHER(q, 21, 4);
+  w49 = GAGEN_GATHER(in_q, 21, 4);
   w50 = gagen_v_cos(w49);
   w42 = w37 * w42;
   w51 = w38 * w31;
@@ -5327,10 +5327,10 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w52 = w18 * w48;
   w55 = w36 + w52;
   w56 = w28 - w55;
-  w57 = GAGEN_GATHER(q, 21, 15);
+  w57 = GAGEN_GATHER(in_q, 21, 15);
   w58 = gagen_v_sin(w57);
   w59 = gagen_v_splat(0.8660254037844384);
-  w60 = GAGEN_GATHER(q, 21, 14);
+  w60 = GAGEN_GATHER(in_q, 21, 14);
   w61 = gagen_v_cos(w60);
   w62 = w59 * w61;
   w63 = gagen_v_splat(0.5000000000000006);
@@ -5339,12 +5339,12 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w65 = w62 + w64;
   w66 = w58 * w65;
   w67 = w0 * w66;
-  w68 = GAGEN_GATHER(q, 21, 17);
+  w68 = GAGEN_GATHER(in_q, 21, 17);
   w69 = gagen_v_cos(w68);
   w70 = w69 * w58;
   w71 = w70 * w65;
   w68 = gagen_v_sin(w68);
-  w72 = GAGEN_GATHER(q, 21, 16);
+  w72 = GAGEN_GATHER(in_q, 21, 16);
   w73 = gagen_v_sin(w72);
   w63 = w63 * w61;
   w59 = w59 * w60;
@@ -5359,9 +5359,9 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w71 = w71 - w77;
   w77 = w10 * w71;
   w67 = w67 + w77;
-  w77 = GAGEN_GATHER(q, 21, 19);
+  w77 = GAGEN_GATHER(in_q, 21, 19);
   w78 = gagen_v_sin(w77);
-  w79 = GAGEN_GATHER(q, 21, 18);
+  w79 = GAGEN_GATHER(in_q, 21, 18);
   w80 = gagen_v_cos(w79);
   w75 = w69 * w75;
   w81 = w68 * w58;
@@ -5467,7 +5467,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w90 = w90 - w105;
   w105 = w101 * w28;
   w90 = w90 - w105;
-  GAGEN_SCATTER(X_c, 4, 0, w90);
+  GAGEN_SCATTER(out_X_c, 4, 0, w90);
   w90 = gagen_v_splat(0.36000000000000004);
   w106 = w0 * w57;
   w106 = w90 + w106;
@@ -5541,7 +5541,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w68 = w68 - w38;
   w38 = w18 * w28;
   w68 = w68 - w38;
-  GAGEN_SCATTER(X_c, 4, 1, w68);
+  GAGEN_SCATTER(out_X_c, 4, 1, w68);
   w68 = w102 * w78;
   w40 = w101 * w19;
   w68 = w68 + w40;
@@ -5549,7 +5549,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w68 = w68 - w116;
   w116 = w18 * w95;
   w68 = w68 - w116;
-  GAGEN_SCATTER(X_c, 4, 2, w68);
+  GAGEN_SCATTER(out_X_c, 4, 2, w68);
   w96 = w96 - w105;
   w105 = w96 * w78;
   w40 = w40 - w116;
@@ -5558,7 +5558,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w11 = w11 - w38;
   w38 = w11 * w89;
   w105 = w105 - w38;
-  GAGEN_SCATTER(X_c, 4, 3, w105);
+  GAGEN_SCATTER(out_X_c, 4, 3, w105);
   w105 = w84 - w28;
   w45 = w45 - w35;
   w45 = w45 + w52;
@@ -5566,13 +5566,13 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w35 = w95 - w89;
   w38 = w35 * w101;
   w52 = w52 - w38;
-  GAGEN_SCATTER(J_c, 84, 0, w52);
+  GAGEN_SCATTER(out_J_c, 84, 0, w52);
   w52 = w19 - w78;
   w38 = w52 * w101;
   w38 = -w38;
-  GAGEN_SCATTER(J_c, 84, 1, w38);
+  GAGEN_SCATTER(out_J_c, 84, 1, w38);
   w38 = w52 * w45;
-  GAGEN_SCATTER(J_c, 84, 2, w38);
+  GAGEN_SCATTER(out_J_c, 84, 2, w38);
   w38 = w19 * w84;
   w116 = w28 * w78;
   w38 = w38 - w116;
@@ -5582,7 +5582,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w116 = w116 - w68;
   w68 = w116 * w101;
   w45 = w45 - w68;
-  GAGEN_SCATTER(J_c, 84, 3, w45);
+  GAGEN_SCATTER(out_J_c, 84, 3, w45);
   w45 = w15 * w33;
   w68 = w18 * w33;
   w45 = w45 - w68;
@@ -5592,7 +5592,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w117 = w117 - w118;
   w118 = w105 * w117;
   w68 = w68 + w118;
-  GAGEN_SCATTER(J_c, 84, 4, w68);
+  GAGEN_SCATTER(out_J_c, 84, 4, w68);
   w68 = w52 * w45;
   w118 = w55 * w33;
   w119 = w101 * w32;
@@ -5601,12 +5601,12 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w118 = w118 - w29;
   w29 = w105 * w118;
   w68 = w68 + w29;
-  GAGEN_SCATTER(J_c, 84, 5, w68);
+  GAGEN_SCATTER(out_J_c, 84, 5, w68);
   w68 = w52 * w117;
   w29 = w89 - w95;
   w119 = w29 * w118;
   w68 = w68 + w119;
-  GAGEN_SCATTER(J_c, 84, 6, w68);
+  GAGEN_SCATTER(out_J_c, 84, 6, w68);
   w45 = w116 * w45;
   w117 = w38 * w117;
   w45 = w45 + w117;
@@ -5615,7 +5615,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w117 = w117 - w68;
   w118 = w117 * w118;
   w45 = w45 + w118;
-  GAGEN_SCATTER(J_c, 84, 7, w45);
+  GAGEN_SCATTER(out_J_c, 84, 7, w45);
   w15 = w15 * w98;
   w45 = w18 * w31;
   w118 = w45 * w32;
@@ -5640,7 +5640,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w68 = w68 + w45;
   w45 = w105 * w68;
   w118 = w118 + w45;
-  GAGEN_SCATTER(J_c, 84, 8, w118);
+  GAGEN_SCATTER(out_J_c, 84, 8, w118);
   w118 = w52 * w15;
   w45 = w55 * w31;
   w45 = w45 * w32;
@@ -5657,17 +5657,17 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w45 = w45 - w120;
   w120 = w105 * w45;
   w118 = w118 + w120;
-  GAGEN_SCATTER(J_c, 84, 9, w118);
+  GAGEN_SCATTER(out_J_c, 84, 9, w118);
   w118 = w52 * w68;
   w120 = w29 * w45;
   w118 = w118 + w120;
-  GAGEN_SCATTER(J_c, 84, 10, w118);
+  GAGEN_SCATTER(out_J_c, 84, 10, w118);
   w15 = w116 * w15;
   w68 = w38 * w68;
   w15 = w15 + w68;
   w45 = w117 * w45;
   w15 = w15 + w45;
-  GAGEN_SCATTER(J_c, 84, 11, w15);
+  GAGEN_SCATTER(out_J_c, 84, 11, w15);
   w15 = w39 * w31;
   w45 = w15 * w31;
   w45 = w45 * w32;
@@ -5697,7 +5697,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w15 = w15 + w118;
   w118 = w105 * w15;
   w120 = w120 + w118;
-  GAGEN_SCATTER(J_c, 84, 12, w120);
+  GAGEN_SCATTER(out_J_c, 84, 12, w120);
   w120 = w52 * w45;
   w118 = w100 * w34;
   w118 = w118 + w118;
@@ -5711,17 +5711,17 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w118 = w118 - w0;
   w0 = w105 * w118;
   w120 = w120 + w0;
-  GAGEN_SCATTER(J_c, 84, 13, w120);
+  GAGEN_SCATTER(out_J_c, 84, 13, w120);
   w120 = w52 * w15;
   w0 = w29 * w118;
   w120 = w120 + w0;
-  GAGEN_SCATTER(J_c, 84, 14, w120);
+  GAGEN_SCATTER(out_J_c, 84, 14, w120);
   w45 = w116 * w45;
   w15 = w38 * w15;
   w45 = w45 + w15;
   w118 = w117 * w118;
   w45 = w45 + w118;
-  GAGEN_SCATTER(J_c, 84, 15, w45);
+  GAGEN_SCATTER(out_J_c, 84, 15, w45);
   w45 = w55 * w115;
   w118 = gagen_v_splat(0.09225);
   w114 = w114 + w113;
@@ -5751,7 +5751,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w0 = w0 + w113;
   w113 = w35 * w0;
   w15 = w15 - w113;
-  GAGEN_SCATTER(J_c, 84, 16, w15);
+  GAGEN_SCATTER(out_J_c, 84, 16, w15);
   w15 = w101 * w43;
   w113 = w55 * w97;
   w15 = w15 - w113;
@@ -5763,17 +5763,17 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w120 = w105 * w15;
   w121 = w52 * w0;
   w120 = w120 - w121;
-  GAGEN_SCATTER(J_c, 84, 17, w120);
+  GAGEN_SCATTER(out_J_c, 84, 17, w120);
   w120 = w52 * w45;
   w121 = w29 * w15;
   w120 = w120 + w121;
-  GAGEN_SCATTER(J_c, 84, 18, w120);
+  GAGEN_SCATTER(out_J_c, 84, 18, w120);
   w45 = w38 * w45;
   w0 = w116 * w0;
   w45 = w45 - w0;
   w15 = w117 * w15;
   w45 = w45 + w15;
-  GAGEN_SCATTER(J_c, 84, 19, w45);
+  GAGEN_SCATTER(out_J_c, 84, 19, w45);
   w37 = w49 * w37;
   w39 = w50 * w39;
   w39 = w39 * w31;
@@ -5812,7 +5812,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w43 = w43 + w37;
   w37 = w35 * w43;
   w30 = w30 - w37;
-  GAGEN_SCATTER(J_c, 84, 20, w30);
+  GAGEN_SCATTER(out_J_c, 84, 20, w30);
   w30 = w55 * w50;
   w37 = w101 * w42;
   w30 = w30 + w37;
@@ -5825,17 +5825,17 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w50 = w105 * w30;
   w42 = w52 * w43;
   w50 = w50 - w42;
-  GAGEN_SCATTER(J_c, 84, 21, w50);
+  GAGEN_SCATTER(out_J_c, 84, 21, w50);
   w50 = w52 * w39;
   w42 = w29 * w30;
   w50 = w50 + w42;
-  GAGEN_SCATTER(J_c, 84, 22, w50);
+  GAGEN_SCATTER(out_J_c, 84, 22, w50);
   w39 = w38 * w39;
   w43 = w116 * w43;
   w39 = w39 - w43;
   w30 = w117 * w30;
   w39 = w39 + w30;
-  GAGEN_SCATTER(J_c, 84, 23, w39);
+  GAGEN_SCATTER(out_J_c, 84, 23, w39);
   w39 = gagen_v_splat(0.081);
   w53 = w39 * w53;
   w44 = w44 + w53;
@@ -5861,7 +5861,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w112 = w112 - w47;
   w47 = w105 * w112;
   w35 = w35 + w47;
-  GAGEN_SCATTER(J_c, 84, 24, w35);
+  GAGEN_SCATTER(out_J_c, 84, 24, w35);
   w35 = w52 * w53;
   w47 = w55 * w51;
   w99 = w101 * w48;
@@ -5872,29 +5872,29 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w47 = w47 - w48;
   w105 = w105 * w47;
   w35 = w35 + w105;
-  GAGEN_SCATTER(J_c, 84, 25, w35);
+  GAGEN_SCATTER(out_J_c, 84, 25, w35);
   w52 = w52 * w112;
   w29 = w29 * w47;
   w52 = w52 + w29;
-  GAGEN_SCATTER(J_c, 84, 26, w52);
+  GAGEN_SCATTER(out_J_c, 84, 26, w52);
   w116 = w116 * w53;
   w38 = w38 * w112;
   w116 = w116 + w38;
   w117 = w117 * w47;
   w116 = w116 + w117;
-  GAGEN_SCATTER(J_c, 84, 27, w116);
+  GAGEN_SCATTER(out_J_c, 84, 27, w116);
   w116 = w89 - w101;
   w117 = w88 - w95;
   w47 = w116 * w117;
   w38 = w55 - w84;
   w112 = w38 * w26;
   w47 = w47 + w112;
-  GAGEN_SCATTER(J_c, 84, 28, w47);
+  GAGEN_SCATTER(out_J_c, 84, 28, w47);
   w47 = w78 - w18;
   w112 = w47 * w117;
-  GAGEN_SCATTER(J_c, 84, 29, w112);
+  GAGEN_SCATTER(out_J_c, 84, 29, w112);
   w112 = w47 * w26;
-  GAGEN_SCATTER(J_c, 84, 30, w112);
+  GAGEN_SCATTER(out_J_c, 84, 30, w112);
   w112 = w18 * w89;
   w53 = w101 * w78;
   w112 = w112 - w53;
@@ -5904,7 +5904,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w53 = w53 - w18;
   w26 = w53 * w26;
   w117 = w117 + w26;
-  GAGEN_SCATTER(J_c, 84, 31, w117);
+  GAGEN_SCATTER(out_J_c, 84, 31, w117);
   w117 = w19 * w6;
   w26 = gagen_v_splat(0.3117691453623981);
   w18 = w26 * w4;
@@ -5920,7 +5920,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w26 = w26 - w18;
   w18 = w38 * w26;
   w52 = w52 + w18;
-  GAGEN_SCATTER(J_c, 84, 32, w52);
+  GAGEN_SCATTER(out_J_c, 84, 32, w52);
   w52 = w47 * w117;
   w18 = w95 * w7;
   w29 = gagen_v_splat(5.520534071729841e-16);
@@ -5933,12 +5933,12 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w18 = w18 - w5;
   w5 = w38 * w18;
   w52 = w52 + w5;
-  GAGEN_SCATTER(J_c, 84, 33, w52);
+  GAGEN_SCATTER(out_J_c, 84, 33, w52);
   w52 = w47 * w26;
   w5 = w101 - w89;
   w4 = w5 * w18;
   w52 = w52 + w4;
-  GAGEN_SCATTER(J_c, 84, 34, w52);
+  GAGEN_SCATTER(out_J_c, 84, 34, w52);
   w117 = w112 * w117;
   w26 = w53 * w26;
   w117 = w117 + w26;
@@ -5947,7 +5947,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w101 = w101 - w55;
   w18 = w101 * w18;
   w117 = w117 + w18;
-  GAGEN_SCATTER(J_c, 84, 35, w117);
+  GAGEN_SCATTER(out_J_c, 84, 35, w117);
   w117 = gagen_v_splat(0.18000000000000002);
   w18 = w119 * w1;
   w18 = w117 + w18;
@@ -5980,7 +5980,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w48 = w48 - w18;
   w18 = w38 * w48;
   w35 = w35 + w18;
-  GAGEN_SCATTER(J_c, 84, 36, w35);
+  GAGEN_SCATTER(out_J_c, 84, 36, w35);
   w35 = w47 * w55;
   w18 = w95 * w2;
   w18 = w18 * w6;
@@ -5994,17 +5994,17 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w18 = w18 + w105;
   w105 = w38 * w18;
   w35 = w35 + w105;
-  GAGEN_SCATTER(J_c, 84, 37, w35);
+  GAGEN_SCATTER(out_J_c, 84, 37, w35);
   w35 = w47 * w48;
   w105 = w5 * w18;
   w35 = w35 + w105;
-  GAGEN_SCATTER(J_c, 84, 38, w35);
+  GAGEN_SCATTER(out_J_c, 84, 38, w35);
   w55 = w112 * w55;
   w48 = w53 * w48;
   w55 = w55 + w48;
   w18 = w101 * w18;
   w55 = w55 + w18;
-  GAGEN_SCATTER(J_c, 84, 39, w55);
+  GAGEN_SCATTER(out_J_c, 84, 39, w55);
   w55 = w16 * w2;
   w8 = w68 * w8;
   w8 = w54 - w8;
@@ -6038,7 +6038,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w105 = w105 - w48;
   w48 = w116 * w105;
   w35 = w35 - w48;
-  GAGEN_SCATTER(J_c, 84, 40, w35);
+  GAGEN_SCATTER(out_J_c, 84, 40, w35);
   w35 = w28 * w13;
   w48 = w95 * w25;
   w35 = w35 + w48;
@@ -6050,17 +6050,17 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w48 = w38 * w35;
   w55 = w47 * w105;
   w48 = w48 - w55;
-  GAGEN_SCATTER(J_c, 84, 41, w48);
+  GAGEN_SCATTER(out_J_c, 84, 41, w48);
   w48 = w47 * w18;
   w55 = w5 * w35;
   w48 = w48 + w55;
-  GAGEN_SCATTER(J_c, 84, 42, w48);
+  GAGEN_SCATTER(out_J_c, 84, 42, w48);
   w18 = w53 * w18;
   w105 = w112 * w105;
   w18 = w18 - w105;
   w35 = w101 * w35;
   w18 = w18 + w35;
-  GAGEN_SCATTER(J_c, 84, 43, w18);
+  GAGEN_SCATTER(out_J_c, 84, 43, w18);
   w18 = w28 * w111;
   w35 = w118 * w14;
   w35 = w8 - w35;
@@ -6089,7 +6089,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w48 = w48 + w111;
   w111 = w116 * w48;
   w105 = w105 - w111;
-  GAGEN_SCATTER(J_c, 84, 44, w105);
+  GAGEN_SCATTER(out_J_c, 84, 44, w105);
   w105 = w28 * w17;
   w111 = w95 * w14;
   w105 = w105 + w111;
@@ -6101,17 +6101,17 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w35 = w38 * w105;
   w55 = w47 * w48;
   w35 = w35 - w55;
-  GAGEN_SCATTER(J_c, 84, 45, w35);
+  GAGEN_SCATTER(out_J_c, 84, 45, w35);
   w35 = w47 * w18;
   w55 = w5 * w105;
   w35 = w35 + w55;
-  GAGEN_SCATTER(J_c, 84, 46, w35);
+  GAGEN_SCATTER(out_J_c, 84, 46, w35);
   w18 = w53 * w18;
   w48 = w112 * w48;
   w18 = w18 - w48;
   w105 = w101 * w105;
   w18 = w18 + w105;
-  GAGEN_SCATTER(J_c, 84, 47, w18);
+  GAGEN_SCATTER(out_J_c, 84, 47, w18);
   w12 = w23 * w12;
   w16 = w22 * w16;
   w16 = w16 * w2;
@@ -6149,7 +6149,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w1 = w1 + w12;
   w12 = w116 * w1;
   w14 = w14 - w12;
-  GAGEN_SCATTER(J_c, 84, 48, w14);
+  GAGEN_SCATTER(out_J_c, 84, 48, w14);
   w14 = w28 * w23;
   w12 = w95 * w3;
   w14 = w14 - w12;
@@ -6161,17 +6161,17 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w23 = w38 * w14;
   w3 = w47 * w1;
   w23 = w23 - w3;
-  GAGEN_SCATTER(J_c, 84, 49, w23);
+  GAGEN_SCATTER(out_J_c, 84, 49, w23);
   w23 = w47 * w16;
   w3 = w5 * w14;
   w23 = w23 + w3;
-  GAGEN_SCATTER(J_c, 84, 50, w23);
+  GAGEN_SCATTER(out_J_c, 84, 50, w23);
   w16 = w53 * w16;
   w1 = w112 * w1;
   w16 = w16 - w1;
   w14 = w101 * w14;
   w16 = w16 + w14;
-  GAGEN_SCATTER(J_c, 84, 51, w16);
+  GAGEN_SCATTER(out_J_c, 84, 51, w16);
   w94 = w39 * w94;
   w92 = w92 + w94;
   w94 = w20 * w92;
@@ -6197,7 +6197,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w90 = w90 - w19;
   w19 = w38 * w90;
   w116 = w116 + w19;
-  GAGEN_SCATTER(J_c, 84, 52, w116);
+  GAGEN_SCATTER(out_J_c, 84, 52, w116);
   w116 = w47 * w94;
   w28 = w28 * w24;
   w95 = w95 * w21;
@@ -6208,31 +6208,31 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w28 = w28 - w21;
   w38 = w38 * w28;
   w116 = w116 + w38;
-  GAGEN_SCATTER(J_c, 84, 53, w116);
+  GAGEN_SCATTER(out_J_c, 84, 53, w116);
   w47 = w47 * w90;
   w5 = w5 * w28;
   w47 = w47 + w5;
-  GAGEN_SCATTER(J_c, 84, 54, w47);
+  GAGEN_SCATTER(out_J_c, 84, 54, w47);
   w112 = w112 * w94;
   w53 = w53 * w90;
   w112 = w112 + w53;
   w101 = w101 * w28;
   w112 = w112 + w101;
-  GAGEN_SCATTER(J_c, 84, 55, w112);
+  GAGEN_SCATTER(out_J_c, 84, 55, w112);
   w112 = w102 * w87;
   w101 = w56 * w81;
   w112 = w112 + w101;
-  GAGEN_SCATTER(J_c, 84, 56, w112);
+  GAGEN_SCATTER(out_J_c, 84, 56, w112);
   w112 = w46 * w87;
-  GAGEN_SCATTER(J_c, 84, 57, w112);
+  GAGEN_SCATTER(out_J_c, 84, 57, w112);
   w112 = w46 * w81;
   w112 = -w112;
-  GAGEN_SCATTER(J_c, 84, 58, w112);
+  GAGEN_SCATTER(out_J_c, 84, 58, w112);
   w87 = w40 * w87;
   w81 = w11 * w81;
   w87 = w87 + w81;
   w87 = -w87;
-  GAGEN_SCATTER(J_c, 84, 59, w87);
+  GAGEN_SCATTER(out_J_c, 84, 59, w87);
   w87 = w78 * w64;
   w81 = gagen_v_splat(0.18000000000000022);
   w112 = w81 * w60;
@@ -6248,7 +6248,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w28 = w28 - w81;
   w81 = w102 * w28;
   w101 = w101 - w81;
-  GAGEN_SCATTER(J_c, 84, 60, w101);
+  GAGEN_SCATTER(out_J_c, 84, 60, w101);
   w101 = w46 * w28;
   w64 = w89 * w64;
   w81 = gagen_v_splat(5.605037007458218e-16);
@@ -6261,18 +6261,18 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w29 = w56 * w64;
   w101 = w101 + w29;
   w101 = -w101;
-  GAGEN_SCATTER(J_c, 84, 61, w101);
+  GAGEN_SCATTER(out_J_c, 84, 61, w101);
   w101 = w46 * w87;
   w29 = w102 * w64;
   w101 = w101 + w29;
   w101 = -w101;
-  GAGEN_SCATTER(J_c, 84, 62, w101);
+  GAGEN_SCATTER(out_J_c, 84, 62, w101);
   w28 = w40 * w28;
   w87 = w11 * w87;
   w28 = w28 - w87;
   w64 = w96 * w64;
   w28 = w28 - w64;
-  GAGEN_SCATTER(J_c, 84, 63, w28);
+  GAGEN_SCATTER(out_J_c, 84, 63, w28);
   w28 = w119 * w63;
   w28 = w54 + w28;
   w64 = w57 * w28;
@@ -6302,7 +6302,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w87 = w87 - w101;
   w101 = w102 * w87;
   w29 = w29 - w101;
-  GAGEN_SCATTER(J_c, 84, 64, w29);
+  GAGEN_SCATTER(out_J_c, 84, 64, w29);
   w119 = w63 * w119;
   w28 = w66 * w28;
   w119 = w119 + w28;
@@ -6317,17 +6317,17 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w28 = w56 * w119;
   w65 = w46 * w87;
   w28 = w28 - w65;
-  GAGEN_SCATTER(J_c, 84, 65, w28);
+  GAGEN_SCATTER(out_J_c, 84, 65, w28);
   w28 = w102 * w119;
   w65 = w46 * w64;
   w28 = w28 - w65;
-  GAGEN_SCATTER(J_c, 84, 66, w28);
+  GAGEN_SCATTER(out_J_c, 84, 66, w28);
   w87 = w40 * w87;
   w64 = w11 * w64;
   w87 = w87 - w64;
   w119 = w96 * w119;
   w87 = w87 + w119;
-  GAGEN_SCATTER(J_c, 84, 67, w87);
+  GAGEN_SCATTER(out_J_c, 84, 67, w87);
   w87 = w78 * w83;
   w119 = w73 * w58;
   w66 = w68 * w66;
@@ -6362,7 +6362,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w119 = w119 - w66;
   w66 = w56 * w119;
   w64 = w64 + w66;
-  GAGEN_SCATTER(J_c, 84, 68, w64);
+  GAGEN_SCATTER(out_J_c, 84, 68, w64);
   w64 = w46 * w87;
   w66 = w84 * w83;
   w63 = w89 * w104;
@@ -6374,17 +6374,17 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w66 = w66 + w63;
   w63 = w56 * w66;
   w64 = w64 + w63;
-  GAGEN_SCATTER(J_c, 84, 69, w64);
+  GAGEN_SCATTER(out_J_c, 84, 69, w64);
   w64 = w102 * w66;
   w63 = w46 * w119;
   w64 = w64 - w63;
-  GAGEN_SCATTER(J_c, 84, 70, w64);
+  GAGEN_SCATTER(out_J_c, 84, 70, w64);
   w66 = w96 * w66;
   w87 = w40 * w87;
   w119 = w11 * w119;
   w87 = w87 + w119;
   w66 = w66 - w87;
-  GAGEN_SCATTER(J_c, 84, 71, w66);
+  GAGEN_SCATTER(out_J_c, 84, 71, w66);
   w66 = w89 * w109;
   w87 = w78 * w71;
   w66 = w66 - w87;
@@ -6412,7 +6412,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w64 = w64 - w109;
   w109 = w56 * w64;
   w119 = w119 + w109;
-  GAGEN_SCATTER(J_c, 84, 72, w119);
+  GAGEN_SCATTER(out_J_c, 84, 72, w119);
   w119 = w46 * w66;
   w109 = w89 * w76;
   w107 = w84 * w71;
@@ -6424,17 +6424,17 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w109 = w109 + w87;
   w87 = w56 * w109;
   w119 = w119 + w87;
-  GAGEN_SCATTER(J_c, 84, 73, w119);
+  GAGEN_SCATTER(out_J_c, 84, 73, w119);
   w119 = w102 * w109;
   w87 = w46 * w64;
   w119 = w119 - w87;
-  GAGEN_SCATTER(J_c, 84, 74, w119);
+  GAGEN_SCATTER(out_J_c, 84, 74, w119);
   w109 = w96 * w109;
   w66 = w40 * w66;
   w64 = w11 * w64;
   w66 = w66 + w64;
   w109 = w109 - w66;
-  GAGEN_SCATTER(J_c, 84, 75, w109);
+  GAGEN_SCATTER(out_J_c, 84, 75, w109);
   w69 = w79 * w69;
   w73 = w80 * w73;
   w73 = w73 * w58;
@@ -6471,7 +6471,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w57 = w57 + w69;
   w69 = w56 * w57;
   w71 = w71 + w69;
-  GAGEN_SCATTER(J_c, 84, 76, w71);
+  GAGEN_SCATTER(out_J_c, 84, 76, w71);
   w71 = w46 * w73;
   w69 = w84 * w75;
   w108 = w89 * w80;
@@ -6483,17 +6483,17 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w69 = w69 + w75;
   w75 = w56 * w69;
   w71 = w71 + w75;
-  GAGEN_SCATTER(J_c, 84, 77, w71);
+  GAGEN_SCATTER(out_J_c, 84, 77, w71);
   w71 = w102 * w69;
   w75 = w46 * w57;
   w71 = w71 - w75;
-  GAGEN_SCATTER(J_c, 84, 78, w71);
+  GAGEN_SCATTER(out_J_c, 84, 78, w71);
   w69 = w96 * w69;
   w73 = w40 * w73;
   w57 = w11 * w57;
   w73 = w73 + w57;
   w69 = w69 - w73;
-  GAGEN_SCATTER(J_c, 84, 79, w69);
+  GAGEN_SCATTER(out_J_c, 84, 79, w69);
   w69 = w39 * w77;
   w106 = w106 + w69;
   w69 = w103 * w106;
@@ -6520,7 +6520,7 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w88 = w88 + w78;
   w78 = w102 * w88;
   w10 = w10 - w78;
-  GAGEN_SCATTER(J_c, 84, 80, w10);
+  GAGEN_SCATTER(out_J_c, 84, 80, w10);
   w89 = w89 * w103;
   w84 = w84 * w85;
   w89 = w89 - w84;
@@ -6531,34 +6531,34 @@ static void three_iiwas_plane_primitive_block(const double *restrict q, double *
   w56 = w56 * w89;
   w103 = w46 * w88;
   w56 = w56 - w103;
-  GAGEN_SCATTER(J_c, 84, 81, w56);
+  GAGEN_SCATTER(out_J_c, 84, 81, w56);
   w102 = w102 * w89;
   w46 = w46 * w69;
   w102 = w102 - w46;
-  GAGEN_SCATTER(J_c, 84, 82, w102);
+  GAGEN_SCATTER(out_J_c, 84, 82, w102);
   w40 = w40 * w88;
   w11 = w11 * w69;
   w40 = w40 - w11;
   w96 = w96 * w89;
   w40 = w40 + w96;
-  GAGEN_SCATTER(J_c, 84, 83, w40);
+  GAGEN_SCATTER(out_J_c, 84, 83, w40);
 }
 #endif
 
-void three_iiwas_plane_primitive_batch(long n, const double *restrict q, double *restrict X_c, double *restrict J_c) {
-  long s = 0;
+void three_iiwas_plane_primitive_batch(long gagen_n, const double *restrict in_q, double *restrict out_X_c, double *restrict out_J_c) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 4 * GAGEN_W + 7; o += 8) __builtin_prefetch(X_c + 4 * a + o, 1, 0);
-      for (int o = 0; o < 84 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_c + 84 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 4 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_X_c + 4 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 84 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_c + 84 * gagen_a + gagen_o, 1, 0);
     }
-    three_iiwas_plane_primitive_block(q + 21 * s, X_c + 4 * s, J_c + 84 * s);
+    three_iiwas_plane_primitive_block(in_q + 21 * gagen_s, out_X_c + 4 * gagen_s, out_J_c + 84 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    three_iiwas_plane_primitive(q + 21 * s, X_c + 4 * s, J_c + 84 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    three_iiwas_plane_primitive(in_q + 21 * gagen_s, out_X_c + 4 * gagen_s, out_J_c + 84 * gagen_s);
   }
 }
 
@@ -6568,7 +6568,7 @@ void three_iiwas_plane_primitive_batch(long n, const double *restrict q, double 
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict X_c, double *restrict J_c) {
+static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_X_c, double *restrict out_J_c) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -6581,10 +6581,10 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   gagen_v w108, w109, w110, w111, w112, w113, w114, w115, w116, w117, w118, w119;
   gagen_v w120, w121, w122, w123;
   w0 = gagen_v_splat(0.42);
-  w1 = GAGEN_GATHER(q, 21, 8);
+  w1 = GAGEN_GATHER(in_q, 21, 8);
   w2 = gagen_v_sin(w1);
   w3 = gagen_v_splat(0.4999999999999994);
-  w4 = GAGEN_GATHER(q, 21, 7);
+  w4 = GAGEN_GATHER(in_q, 21, 7);
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
   w7 = gagen_v_splat(0.866025403784439);
@@ -6594,12 +6594,12 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w8 = w2 * w6;
   w9 = w0 * w8;
   w10 = gagen_v_splat(0.4);
-  w11 = GAGEN_GATHER(q, 21, 10);
+  w11 = GAGEN_GATHER(in_q, 21, 10);
   w12 = gagen_v_cos(w11);
   w13 = w12 * w2;
   w14 = w13 * w6;
   w11 = gagen_v_sin(w11);
-  w15 = GAGEN_GATHER(q, 21, 9);
+  w15 = GAGEN_GATHER(in_q, 21, 9);
   w16 = gagen_v_sin(w15);
   w7 = w7 * w5;
   w3 = w3 * w4;
@@ -6615,11 +6615,11 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w18 = w10 * w14;
   w9 = w9 + w18;
   w18 = gagen_v_splat(0.126);
-  w19 = GAGEN_GATHER(q, 21, 12);
+  w19 = GAGEN_GATHER(in_q, 21, 12);
   w20 = gagen_v_cos(w19);
   w21 = w20 * w14;
   w19 = gagen_v_sin(w19);
-  w22 = GAGEN_GATHER(q, 21, 11);
+  w22 = GAGEN_GATHER(in_q, 21, 11);
   w23 = gagen_v_sin(w22);
   w24 = w16 * w1;
   w25 = w24 * w6;
@@ -6639,16 +6639,16 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w26 = w9 + w26;
   w28 = w26 - w10;
   w29 = gagen_v_splat(0.8);
-  w30 = GAGEN_GATHER(q, 21, 1);
+  w30 = GAGEN_GATHER(in_q, 21, 1);
   w31 = gagen_v_sin(w30);
-  w32 = GAGEN_GATHER(q, 21, 0);
+  w32 = GAGEN_GATHER(in_q, 21, 0);
   w33 = gagen_v_cos(w32);
   w34 = w31 * w33;
   w35 = w0 * w34;
   w36 = w29 - w35;
-  w37 = GAGEN_GATHER(q, 21, 3);
+  w37 = GAGEN_GATHER(in_q, 21, 3);
   w38 = gagen_v_sin(w37);
-  w39 = GAGEN_GATHER(q, 21, 2);
+  w39 = GAGEN_GATHER(in_q, 21, 2);
   w40 = gagen_v_cos(w39);
   w30 = gagen_v_cos(w30);
   w41 = w40 * w30;
@@ -6664,11 +6664,11 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w43 = w43 - w45;
   w45 = w10 * w43;
   w36 = w36 + w45;
-  w46 = GAGEN_GATHER(q, 21, 5);
+  w46 = GAGEN_GATHER(in_q, 21, 5);
   w47 = gagen_v_cos(w46);
   w48 = w47 * w43;
   w46 = gagen_v_sin(w46);
-  w49 = GAGEN_GATHER(q, 21, 4);
+  w49 = GAGEN_GATHER(in_q, 21, 4);
   w50 = gagen_v_cos(w49);
   w42 = w37 * w42;
   w51 = w38 * w31;
@@ -6687,10 +6687,10 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w52 = w18 * w48;
   w55 = w36 + w52;
   w56 = w28 - w55;
-  w57 = GAGEN_GATHER(q, 21, 15);
+  w57 = GAGEN_GATHER(in_q, 21, 15);
   w58 = gagen_v_sin(w57);
   w59 = gagen_v_splat(0.8660254037844384);
-  w60 = GAGEN_GATHER(q, 21, 14);
+  w60 = GAGEN_GATHER(in_q, 21, 14);
   w61 = gagen_v_cos(w60);
   w62 = w59 * w61;
   w63 = gagen_v_splat(0.5000000000000006);
@@ -6699,12 +6699,12 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w65 = w62 + w64;
   w66 = w58 * w65;
   w67 = w0 * w66;
-  w68 = GAGEN_GATHER(q, 21, 17);
+  w68 = GAGEN_GATHER(in_q, 21, 17);
   w69 = gagen_v_cos(w68);
   w70 = w69 * w58;
   w71 = w70 * w65;
   w68 = gagen_v_sin(w68);
-  w72 = GAGEN_GATHER(q, 21, 16);
+  w72 = GAGEN_GATHER(in_q, 21, 16);
   w73 = gagen_v_sin(w72);
   w63 = w63 * w61;
   w59 = w59 * w60;
@@ -6719,9 +6719,9 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w71 = w71 - w77;
   w77 = w10 * w71;
   w67 = w67 + w77;
-  w77 = GAGEN_GATHER(q, 21, 19);
+  w77 = GAGEN_GATHER(in_q, 21, 19);
   w78 = gagen_v_sin(w77);
-  w79 = GAGEN_GATHER(q, 21, 18);
+  w79 = GAGEN_GATHER(in_q, 21, 18);
   w80 = gagen_v_cos(w79);
   w75 = w69 * w75;
   w81 = w68 * w58;
@@ -6827,7 +6827,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w90 = w90 - w105;
   w105 = w101 * w28;
   w90 = w90 - w105;
-  GAGEN_SCATTER(X_c, 4, 0, w90);
+  GAGEN_SCATTER(out_X_c, 4, 0, w90);
   w90 = gagen_v_splat(0.36000000000000004);
   w106 = w0 * w57;
   w106 = w90 + w106;
@@ -6901,7 +6901,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w68 = w68 - w38;
   w38 = w18 * w28;
   w68 = w68 - w38;
-  GAGEN_SCATTER(X_c, 4, 1, w68);
+  GAGEN_SCATTER(out_X_c, 4, 1, w68);
   w68 = w102 * w78;
   w40 = w101 * w19;
   w68 = w68 + w40;
@@ -6909,7 +6909,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w68 = w68 - w116;
   w116 = w18 * w95;
   w68 = w68 - w116;
-  GAGEN_SCATTER(X_c, 4, 2, w68);
+  GAGEN_SCATTER(out_X_c, 4, 2, w68);
   w96 = w96 - w105;
   w105 = w96 * w78;
   w40 = w40 - w116;
@@ -6918,7 +6918,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w11 = w11 - w38;
   w38 = w11 * w89;
   w105 = w105 - w38;
-  GAGEN_SCATTER(X_c, 4, 3, w105);
+  GAGEN_SCATTER(out_X_c, 4, 3, w105);
   w105 = w84 - w28;
   w45 = w45 - w35;
   w45 = w45 + w52;
@@ -6926,13 +6926,13 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w35 = w95 - w89;
   w38 = w35 * w101;
   w52 = w52 - w38;
-  GAGEN_SCATTER(J_c, 84, 0, w52);
+  GAGEN_SCATTER(out_J_c, 84, 0, w52);
   w52 = w19 - w78;
   w38 = w52 * w101;
   w38 = -w38;
-  GAGEN_SCATTER(J_c, 84, 1, w38);
+  GAGEN_SCATTER(out_J_c, 84, 1, w38);
   w38 = w52 * w45;
-  GAGEN_SCATTER(J_c, 84, 2, w38);
+  GAGEN_SCATTER(out_J_c, 84, 2, w38);
   w38 = w19 * w84;
   w116 = w28 * w78;
   w38 = w38 - w116;
@@ -6942,7 +6942,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w116 = w116 - w68;
   w68 = w116 * w101;
   w45 = w45 - w68;
-  GAGEN_SCATTER(J_c, 84, 3, w45);
+  GAGEN_SCATTER(out_J_c, 84, 3, w45);
   w45 = w15 * w33;
   w68 = w18 * w33;
   w45 = w45 - w68;
@@ -6952,7 +6952,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w117 = w117 - w118;
   w118 = w105 * w117;
   w68 = w68 + w118;
-  GAGEN_SCATTER(J_c, 84, 4, w68);
+  GAGEN_SCATTER(out_J_c, 84, 4, w68);
   w68 = w52 * w45;
   w118 = w55 * w33;
   w119 = w101 * w32;
@@ -6961,12 +6961,12 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w118 = w118 - w29;
   w29 = w105 * w118;
   w68 = w68 + w29;
-  GAGEN_SCATTER(J_c, 84, 5, w68);
+  GAGEN_SCATTER(out_J_c, 84, 5, w68);
   w68 = w52 * w117;
   w29 = w89 - w95;
   w119 = w29 * w118;
   w68 = w68 + w119;
-  GAGEN_SCATTER(J_c, 84, 6, w68);
+  GAGEN_SCATTER(out_J_c, 84, 6, w68);
   w45 = w116 * w45;
   w117 = w38 * w117;
   w45 = w45 + w117;
@@ -6975,7 +6975,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w117 = w117 - w68;
   w118 = w117 * w118;
   w45 = w45 + w118;
-  GAGEN_SCATTER(J_c, 84, 7, w45);
+  GAGEN_SCATTER(out_J_c, 84, 7, w45);
   w15 = w15 * w98;
   w45 = w18 * w31;
   w118 = w45 * w32;
@@ -7000,7 +7000,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w68 = w68 + w45;
   w45 = w105 * w68;
   w118 = w118 + w45;
-  GAGEN_SCATTER(J_c, 84, 8, w118);
+  GAGEN_SCATTER(out_J_c, 84, 8, w118);
   w118 = w52 * w15;
   w45 = w55 * w31;
   w45 = w45 * w32;
@@ -7017,17 +7017,17 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w45 = w45 - w120;
   w120 = w105 * w45;
   w118 = w118 + w120;
-  GAGEN_SCATTER(J_c, 84, 9, w118);
+  GAGEN_SCATTER(out_J_c, 84, 9, w118);
   w118 = w52 * w68;
   w120 = w29 * w45;
   w118 = w118 + w120;
-  GAGEN_SCATTER(J_c, 84, 10, w118);
+  GAGEN_SCATTER(out_J_c, 84, 10, w118);
   w15 = w116 * w15;
   w68 = w38 * w68;
   w15 = w15 + w68;
   w45 = w117 * w45;
   w15 = w15 + w45;
-  GAGEN_SCATTER(J_c, 84, 11, w15);
+  GAGEN_SCATTER(out_J_c, 84, 11, w15);
   w15 = w39 * w31;
   w45 = w15 * w31;
   w45 = w45 * w32;
@@ -7057,7 +7057,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w15 = w15 + w118;
   w118 = w105 * w15;
   w120 = w120 + w118;
-  GAGEN_SCATTER(J_c, 84, 12, w120);
+  GAGEN_SCATTER(out_J_c, 84, 12, w120);
   w120 = w52 * w45;
   w118 = w100 * w34;
   w118 = w118 + w118;
@@ -7071,17 +7071,17 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w118 = w118 - w0;
   w0 = w105 * w118;
   w120 = w120 + w0;
-  GAGEN_SCATTER(J_c, 84, 13, w120);
+  GAGEN_SCATTER(out_J_c, 84, 13, w120);
   w120 = w52 * w15;
   w0 = w29 * w118;
   w120 = w120 + w0;
-  GAGEN_SCATTER(J_c, 84, 14, w120);
+  GAGEN_SCATTER(out_J_c, 84, 14, w120);
   w45 = w116 * w45;
   w15 = w38 * w15;
   w45 = w45 + w15;
   w118 = w117 * w118;
   w45 = w45 + w118;
-  GAGEN_SCATTER(J_c, 84, 15, w45);
+  GAGEN_SCATTER(out_J_c, 84, 15, w45);
   w45 = w55 * w115;
   w118 = gagen_v_splat(0.09225);
   w114 = w114 + w113;
@@ -7111,7 +7111,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w0 = w0 + w113;
   w113 = w35 * w0;
   w15 = w15 - w113;
-  GAGEN_SCATTER(J_c, 84, 16, w15);
+  GAGEN_SCATTER(out_J_c, 84, 16, w15);
   w15 = w101 * w43;
   w113 = w55 * w97;
   w15 = w15 - w113;
@@ -7123,17 +7123,17 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w120 = w105 * w15;
   w121 = w52 * w0;
   w120 = w120 - w121;
-  GAGEN_SCATTER(J_c, 84, 17, w120);
+  GAGEN_SCATTER(out_J_c, 84, 17, w120);
   w120 = w52 * w45;
   w121 = w29 * w15;
   w120 = w120 + w121;
-  GAGEN_SCATTER(J_c, 84, 18, w120);
+  GAGEN_SCATTER(out_J_c, 84, 18, w120);
   w45 = w38 * w45;
   w0 = w116 * w0;
   w45 = w45 - w0;
   w15 = w117 * w15;
   w45 = w45 + w15;
-  GAGEN_SCATTER(J_c, 84, 19, w45);
+  GAGEN_SCATTER(out_J_c, 84, 19, w45);
   w37 = w49 * w37;
   w39 = w50 * w39;
   w39 = w39 * w31;
@@ -7172,7 +7172,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w43 = w43 + w37;
   w37 = w35 * w43;
   w30 = w30 - w37;
-  GAGEN_SCATTER(J_c, 84, 20, w30);
+  GAGEN_SCATTER(out_J_c, 84, 20, w30);
   w30 = w55 * w50;
   w37 = w101 * w42;
   w30 = w30 + w37;
@@ -7185,17 +7185,17 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w50 = w105 * w30;
   w42 = w52 * w43;
   w50 = w50 - w42;
-  GAGEN_SCATTER(J_c, 84, 21, w50);
+  GAGEN_SCATTER(out_J_c, 84, 21, w50);
   w50 = w52 * w39;
   w42 = w29 * w30;
   w50 = w50 + w42;
-  GAGEN_SCATTER(J_c, 84, 22, w50);
+  GAGEN_SCATTER(out_J_c, 84, 22, w50);
   w39 = w38 * w39;
   w43 = w116 * w43;
   w39 = w39 - w43;
   w30 = w117 * w30;
   w39 = w39 + w30;
-  GAGEN_SCATTER(J_c, 84, 23, w39);
+  GAGEN_SCATTER(out_J_c, 84, 23, w39);
   w39 = gagen_v_splat(0.081);
   w53 = w39 * w53;
   w44 = w44 + w53;
@@ -7221,7 +7221,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w112 = w112 - w47;
   w47 = w105 * w112;
   w35 = w35 + w47;
-  GAGEN_SCATTER(J_c, 84, 24, w35);
+  GAGEN_SCATTER(out_J_c, 84, 24, w35);
   w35 = w52 * w53;
   w47 = w55 * w51;
   w99 = w101 * w48;
@@ -7232,29 +7232,29 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w47 = w47 - w48;
   w105 = w105 * w47;
   w35 = w35 + w105;
-  GAGEN_SCATTER(J_c, 84, 25, w35);
+  GAGEN_SCATTER(out_J_c, 84, 25, w35);
   w52 = w52 * w112;
   w29 = w29 * w47;
   w52 = w52 + w29;
-  GAGEN_SCATTER(J_c, 84, 26, w52);
+  GAGEN_SCATTER(out_J_c, 84, 26, w52);
   w116 = w116 * w53;
   w38 = w38 * w112;
   w116 = w116 + w38;
   w117 = w117 * w47;
   w116 = w116 + w117;
-  GAGEN_SCATTER(J_c, 84, 27, w116);
+  GAGEN_SCATTER(out_J_c, 84, 27, w116);
   w116 = w89 - w101;
   w117 = w88 - w95;
   w47 = w116 * w117;
   w38 = w55 - w84;
   w112 = w38 * w26;
   w47 = w47 + w112;
-  GAGEN_SCATTER(J_c, 84, 28, w47);
+  GAGEN_SCATTER(out_J_c, 84, 28, w47);
   w47 = w78 - w18;
   w112 = w47 * w117;
-  GAGEN_SCATTER(J_c, 84, 29, w112);
+  GAGEN_SCATTER(out_J_c, 84, 29, w112);
   w112 = w47 * w26;
-  GAGEN_SCATTER(J_c, 84, 30, w112);
+  GAGEN_SCATTER(out_J_c, 84, 30, w112);
   w112 = w18 * w89;
   w53 = w101 * w78;
   w112 = w112 - w53;
@@ -7264,7 +7264,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w53 = w53 - w18;
   w26 = w53 * w26;
   w117 = w117 + w26;
-  GAGEN_SCATTER(J_c, 84, 31, w117);
+  GAGEN_SCATTER(out_J_c, 84, 31, w117);
   w117 = w19 * w6;
   w26 = gagen_v_splat(0.3117691453623981);
   w18 = w26 * w4;
@@ -7280,7 +7280,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w26 = w26 - w18;
   w18 = w38 * w26;
   w52 = w52 + w18;
-  GAGEN_SCATTER(J_c, 84, 32, w52);
+  GAGEN_SCATTER(out_J_c, 84, 32, w52);
   w52 = w47 * w117;
   w18 = w95 * w7;
   w29 = gagen_v_splat(5.520534071729841e-16);
@@ -7293,12 +7293,12 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w18 = w18 - w5;
   w5 = w38 * w18;
   w52 = w52 + w5;
-  GAGEN_SCATTER(J_c, 84, 33, w52);
+  GAGEN_SCATTER(out_J_c, 84, 33, w52);
   w52 = w47 * w26;
   w5 = w101 - w89;
   w4 = w5 * w18;
   w52 = w52 + w4;
-  GAGEN_SCATTER(J_c, 84, 34, w52);
+  GAGEN_SCATTER(out_J_c, 84, 34, w52);
   w117 = w112 * w117;
   w26 = w53 * w26;
   w117 = w117 + w26;
@@ -7307,7 +7307,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w101 = w101 - w55;
   w18 = w101 * w18;
   w117 = w117 + w18;
-  GAGEN_SCATTER(J_c, 84, 35, w117);
+  GAGEN_SCATTER(out_J_c, 84, 35, w117);
   w117 = gagen_v_splat(0.18000000000000002);
   w18 = w119 * w1;
   w18 = w117 + w18;
@@ -7340,7 +7340,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w48 = w48 - w18;
   w18 = w38 * w48;
   w35 = w35 + w18;
-  GAGEN_SCATTER(J_c, 84, 36, w35);
+  GAGEN_SCATTER(out_J_c, 84, 36, w35);
   w35 = w47 * w55;
   w18 = w95 * w2;
   w18 = w18 * w6;
@@ -7354,17 +7354,17 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w18 = w18 + w105;
   w105 = w38 * w18;
   w35 = w35 + w105;
-  GAGEN_SCATTER(J_c, 84, 37, w35);
+  GAGEN_SCATTER(out_J_c, 84, 37, w35);
   w35 = w47 * w48;
   w105 = w5 * w18;
   w35 = w35 + w105;
-  GAGEN_SCATTER(J_c, 84, 38, w35);
+  GAGEN_SCATTER(out_J_c, 84, 38, w35);
   w55 = w112 * w55;
   w48 = w53 * w48;
   w55 = w55 + w48;
   w18 = w101 * w18;
   w55 = w55 + w18;
-  GAGEN_SCATTER(J_c, 84, 39, w55);
+  GAGEN_SCATTER(out_J_c, 84, 39, w55);
   w55 = w16 * w2;
   w8 = w68 * w8;
   w8 = w54 - w8;
@@ -7398,7 +7398,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w105 = w105 - w48;
   w48 = w116 * w105;
   w35 = w35 - w48;
-  GAGEN_SCATTER(J_c, 84, 40, w35);
+  GAGEN_SCATTER(out_J_c, 84, 40, w35);
   w35 = w28 * w13;
   w48 = w95 * w25;
   w35 = w35 + w48;
@@ -7410,17 +7410,17 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w48 = w38 * w35;
   w55 = w47 * w105;
   w48 = w48 - w55;
-  GAGEN_SCATTER(J_c, 84, 41, w48);
+  GAGEN_SCATTER(out_J_c, 84, 41, w48);
   w48 = w47 * w18;
   w55 = w5 * w35;
   w48 = w48 + w55;
-  GAGEN_SCATTER(J_c, 84, 42, w48);
+  GAGEN_SCATTER(out_J_c, 84, 42, w48);
   w18 = w53 * w18;
   w105 = w112 * w105;
   w18 = w18 - w105;
   w35 = w101 * w35;
   w18 = w18 + w35;
-  GAGEN_SCATTER(J_c, 84, 43, w18);
+  GAGEN_SCATTER(out_J_c, 84, 43, w18);
   w18 = w28 * w111;
   w35 = w118 * w14;
   w35 = w8 - w35;
@@ -7449,7 +7449,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w48 = w48 + w111;
   w111 = w116 * w48;
   w105 = w105 - w111;
-  GAGEN_SCATTER(J_c, 84, 44, w105);
+  GAGEN_SCATTER(out_J_c, 84, 44, w105);
   w105 = w28 * w17;
   w111 = w95 * w14;
   w105 = w105 + w111;
@@ -7461,17 +7461,17 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w35 = w38 * w105;
   w55 = w47 * w48;
   w35 = w35 - w55;
-  GAGEN_SCATTER(J_c, 84, 45, w35);
+  GAGEN_SCATTER(out_J_c, 84, 45, w35);
   w35 = w47 * w18;
   w55 = w5 * w105;
   w35 = w35 + w55;
-  GAGEN_SCATTER(J_c, 84, 46, w35);
+  GAGEN_SCATTER(out_J_c, 84, 46, w35);
   w18 = w53 * w18;
   w48 = w112 * w48;
   w18 = w18 - w48;
   w105 = w101 * w105;
   w18 = w18 + w105;
-  GAGEN_SCATTER(J_c, 84, 47, w18);
+  GAGEN_SCATTER(out_J_c, 84, 47, w18);
   w12 = w23 * w12;
   w16 = w22 * w16;
   w16 = w16 * w2;
@@ -7509,7 +7509,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w1 = w1 + w12;
   w12 = w116 * w1;
   w14 = w14 - w12;
-  GAGEN_SCATTER(J_c, 84, 48, w14);
+  GAGEN_SCATTER(out_J_c, 84, 48, w14);
   w14 = w28 * w23;
   w12 = w95 * w3;
   w14 = w14 - w12;
@@ -7521,17 +7521,17 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w23 = w38 * w14;
   w3 = w47 * w1;
   w23 = w23 - w3;
-  GAGEN_SCATTER(J_c, 84, 49, w23);
+  GAGEN_SCATTER(out_J_c, 84, 49, w23);
   w23 = w47 * w16;
   w3 = w5 * w14;
   w23 = w23 + w3;
-  GAGEN_SCATTER(J_c, 84, 50, w23);
+  GAGEN_SCATTER(out_J_c, 84, 50, w23);
   w16 = w53 * w16;
   w1 = w112 * w1;
   w16 = w16 - w1;
   w14 = w101 * w14;
   w16 = w16 + w14;
-  GAGEN_SCATTER(J_c, 84, 51, w16);
+  GAGEN_SCATTER(out_J_c, 84, 51, w16);
   w94 = w39 * w94;
   w92 = w92 + w94;
   w94 = w20 * w92;
@@ -7557,7 +7557,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w90 = w90 - w19;
   w19 = w38 * w90;
   w116 = w116 + w19;
-  GAGEN_SCATTER(J_c, 84, 52, w116);
+  GAGEN_SCATTER(out_J_c, 84, 52, w116);
   w116 = w47 * w94;
   w28 = w28 * w24;
   w95 = w95 * w21;
@@ -7568,31 +7568,31 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w28 = w28 - w21;
   w38 = w38 * w28;
   w116 = w116 + w38;
-  GAGEN_SCATTER(J_c, 84, 53, w116);
+  GAGEN_SCATTER(out_J_c, 84, 53, w116);
   w47 = w47 * w90;
   w5 = w5 * w28;
   w47 = w47 + w5;
-  GAGEN_SCATTER(J_c, 84, 54, w47);
+  GAGEN_SCATTER(out_J_c, 84, 54, w47);
   w112 = w112 * w94;
   w53 = w53 * w90;
   w112 = w112 + w53;
   w101 = w101 * w28;
   w112 = w112 + w101;
-  GAGEN_SCATTER(J_c, 84, 55, w112);
+  GAGEN_SCATTER(out_J_c, 84, 55, w112);
   w112 = w102 * w87;
   w101 = w56 * w81;
   w112 = w112 + w101;
-  GAGEN_SCATTER(J_c, 84, 56, w112);
+  GAGEN_SCATTER(out_J_c, 84, 56, w112);
   w112 = w46 * w87;
-  GAGEN_SCATTER(J_c, 84, 57, w112);
+  GAGEN_SCATTER(out_J_c, 84, 57, w112);
   w112 = w46 * w81;
   w112 = -w112;
-  GAGEN_SCATTER(J_c, 84, 58, w112);
+  GAGEN_SCATTER(out_J_c, 84, 58, w112);
   w87 = w40 * w87;
   w81 = w11 * w81;
   w87 = w87 + w81;
   w87 = -w87;
-  GAGEN_SCATTER(J_c, 84, 59, w87);
+  GAGEN_SCATTER(out_J_c, 84, 59, w87);
   w87 = w78 * w64;
   w81 = gagen_v_splat(0.18000000000000022);
   w112 = w81 * w60;
@@ -7608,7 +7608,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w28 = w28 - w81;
   w81 = w102 * w28;
   w101 = w101 - w81;
-  GAGEN_SCATTER(J_c, 84, 60, w101);
+  GAGEN_SCATTER(out_J_c, 84, 60, w101);
   w101 = w46 * w28;
   w64 = w89 * w64;
   w81 = gagen_v_splat(5.605037007458218e-16);
@@ -7621,18 +7621,18 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w29 = w56 * w64;
   w101 = w101 + w29;
   w101 = -w101;
-  GAGEN_SCATTER(J_c, 84, 61, w101);
+  GAGEN_SCATTER(out_J_c, 84, 61, w101);
   w101 = w46 * w87;
   w29 = w102 * w64;
   w101 = w101 + w29;
   w101 = -w101;
-  GAGEN_SCATTER(J_c, 84, 62, w101);
+  GAGEN_SCATTER(out_J_c, 84, 62, w101);
   w28 = w40 * w28;
   w87 = w11 * w87;
   w28 = w28 - w87;
   w64 = w96 * w64;
   w28 = w28 - w64;
-  GAGEN_SCATTER(J_c, 84, 63, w28);
+  GAGEN_SCATTER(out_J_c, 84, 63, w28);
   w28 = w119 * w63;
   w28 = w54 + w28;
   w64 = w57 * w28;
@@ -7662,7 +7662,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w87 = w87 - w101;
   w101 = w102 * w87;
   w29 = w29 - w101;
-  GAGEN_SCATTER(J_c, 84, 64, w29);
+  GAGEN_SCATTER(out_J_c, 84, 64, w29);
   w119 = w63 * w119;
   w28 = w66 * w28;
   w119 = w119 + w28;
@@ -7677,17 +7677,17 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w28 = w56 * w119;
   w65 = w46 * w87;
   w28 = w28 - w65;
-  GAGEN_SCATTER(J_c, 84, 65, w28);
+  GAGEN_SCATTER(out_J_c, 84, 65, w28);
   w28 = w102 * w119;
   w65 = w46 * w64;
   w28 = w28 - w65;
-  GAGEN_SCATTER(J_c, 84, 66, w28);
+  GAGEN_SCATTER(out_J_c, 84, 66, w28);
   w87 = w40 * w87;
   w64 = w11 * w64;
   w87 = w87 - w64;
   w119 = w96 * w119;
   w87 = w87 + w119;
-  GAGEN_SCATTER(J_c, 84, 67, w87);
+  GAGEN_SCATTER(out_J_c, 84, 67, w87);
   w87 = w78 * w83;
   w119 = w73 * w58;
   w66 = w68 * w66;
@@ -7722,7 +7722,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w119 = w119 - w66;
   w66 = w56 * w119;
   w64 = w64 + w66;
-  GAGEN_SCATTER(J_c, 84, 68, w64);
+  GAGEN_SCATTER(out_J_c, 84, 68, w64);
   w64 = w46 * w87;
   w66 = w84 * w83;
   w63 = w89 * w104;
@@ -7734,17 +7734,17 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w66 = w66 + w63;
   w63 = w56 * w66;
   w64 = w64 + w63;
-  GAGEN_SCATTER(J_c, 84, 69, w64);
+  GAGEN_SCATTER(out_J_c, 84, 69, w64);
   w64 = w102 * w66;
   w63 = w46 * w119;
   w64 = w64 - w63;
-  GAGEN_SCATTER(J_c, 84, 70, w64);
+  GAGEN_SCATTER(out_J_c, 84, 70, w64);
   w66 = w96 * w66;
   w87 = w40 * w87;
   w119 = w11 * w119;
   w87 = w87 + w119;
   w66 = w66 - w87;
-  GAGEN_SCATTER(J_c, 84, 71, w66);
+  GAGEN_SCATTER(out_J_c, 84, 71, w66);
   w66 = w89 * w109;
   w87 = w78 * w71;
   w66 = w66 - w87;
@@ -7772,7 +7772,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w64 = w64 - w109;
   w109 = w56 * w64;
   w119 = w119 + w109;
-  GAGEN_SCATTER(J_c, 84, 72, w119);
+  GAGEN_SCATTER(out_J_c, 84, 72, w119);
   w119 = w46 * w66;
   w109 = w89 * w76;
   w107 = w84 * w71;
@@ -7784,17 +7784,17 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w109 = w109 + w87;
   w87 = w56 * w109;
   w119 = w119 + w87;
-  GAGEN_SCATTER(J_c, 84, 73, w119);
+  GAGEN_SCATTER(out_J_c, 84, 73, w119);
   w119 = w102 * w109;
   w87 = w46 * w64;
   w119 = w119 - w87;
-  GAGEN_SCATTER(J_c, 84, 74, w119);
+  GAGEN_SCATTER(out_J_c, 84, 74, w119);
   w109 = w96 * w109;
   w66 = w40 * w66;
   w64 = w11 * w64;
   w66 = w66 + w64;
   w109 = w109 - w66;
-  GAGEN_SCATTER(J_c, 84, 75, w109);
+  GAGEN_SCATTER(out_J_c, 84, 75, w109);
   w69 = w79 * w69;
   w73 = w80 * w73;
   w73 = w73 * w58;
@@ -7831,7 +7831,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w57 = w57 + w69;
   w69 = w56 * w57;
   w71 = w71 + w69;
-  GAGEN_SCATTER(J_c, 84, 76, w71);
+  GAGEN_SCATTER(out_J_c, 84, 76, w71);
   w71 = w46 * w73;
   w69 = w84 * w75;
   w108 = w89 * w80;
@@ -7843,17 +7843,17 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w69 = w69 + w75;
   w75 = w56 * w69;
   w71 = w71 + w75;
-  GAGEN_SCATTER(J_c, 84, 77, w71);
+  GAGEN_SCATTER(out_J_c, 84, 77, w71);
   w71 = w102 * w69;
   w75 = w46 * w57;
   w71 = w71 - w75;
-  GAGEN_SCATTER(J_c, 84, 78, w71);
+  GAGEN_SCATTER(out_J_c, 84, 78, w71);
   w69 = w96 * w69;
   w73 = w40 * w73;
   w57 = w11 * w57;
   w73 = w73 + w57;
   w69 = w69 - w73;
-  GAGEN_SCATTER(J_c, 84, 79, w69);
+  GAGEN_SCATTER(out_J_c, 84, 79, w69);
   w69 = w39 * w77;
   w106 = w106 + w69;
   w69 = w103 * w106;
@@ -7880,7 +7880,7 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w88 = w88 + w78;
   w78 = w102 * w88;
   w10 = w10 - w78;
-  GAGEN_SCATTER(J_c, 84, 80, w10);
+  GAGEN_SCATTER(out_J_c, 84, 80, w10);
   w89 = w89 * w103;
   w84 = w84 * w85;
   w89 = w89 - w84;
@@ -7891,17 +7891,17 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
   w56 = w56 * w89;
   w103 = w46 * w88;
   w56 = w56 - w103;
-  GAGEN_SCATTER(J_c, 84, 81, w56);
+  GAGEN_SCATTER(out_J_c, 84, 81, w56);
   w102 = w102 * w89;
   w46 = w46 * w69;
   w102 = w102 - w46;
-  GAGEN_SCATTER(J_c, 84, 82, w102);
+  GAGEN_SCATTER(out_J_c, 84, 82, w102);
   w40 = w40 * w88;
   w11 = w11 * w69;
   w40 = w40 - w11;
   w96 = w96 * w89;
   w40 = w40 + w96;
-  GAGEN_SCATTER(J_c, 84, 83, w40);
+  GAGEN_SCATTER(out_J_c, 84, 83, w40);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -7909,14 +7909,14 @@ static void three_iiwas_plane_primitive_block_columns(long gagen_ld, int gagen_s
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void three_iiwas_plane_primitive_batch_columns(long n, long ld, const double *restrict q, double *restrict X_c, double *restrict J_c) {
-  long s = 0;
+void three_iiwas_plane_primitive_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_X_c, double *restrict out_J_c) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 88L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    three_iiwas_plane_primitive_block_columns(ld, stream, q + s, X_c + s, J_c + s);
+  const int gagen_stream = gagen_n * 88L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    three_iiwas_plane_primitive_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_X_c + gagen_s, out_J_c + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  three_iiwas_plane_primitive_columns_from(s, n, ld, q, X_c, J_c);
+  three_iiwas_plane_primitive_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_X_c, out_J_c);
 }

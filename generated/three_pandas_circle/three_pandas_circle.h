@@ -45,13 +45,13 @@ extern "C" {
 #define THREE_PANDAS_CIRCLE_ARM0_FK_Q_SIZE 7
 #define THREE_PANDAS_CIRCLE_ARM0_FK_M_SIZE 8
 #define THREE_PANDAS_CIRCLE_ARM0_FK_P_SIZE 5
-void three_pandas_circle_arm0_fk(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
-void three_pandas_circle_arm0_fk_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void three_pandas_circle_arm0_fk(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
+void three_pandas_circle_arm0_fk_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void three_pandas_circle_arm0_fk_argv(const double *const *arg, double *const *res);
 void three_pandas_circle_arm0_fk_batch_argv(long n, const double *const *arg, double *const *res);
-void three_pandas_circle_arm0_fk_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void three_pandas_circle_arm0_fk_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void three_pandas_circle_arm0_fk_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void three_pandas_circle_arm0_fk_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void three_pandas_circle_arm0_fk_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 
 /* chain arm0: motor, end point and spatial (geometric) Jacobian
  *   in  q            [7] arm0/panda_joint1, arm0/panda_joint2, arm0/panda_joint3, arm0/panda_joint4,...
@@ -63,13 +63,13 @@ void three_pandas_circle_arm0_fk_columns_from(long s0, long n, long ld, const do
 #define THREE_PANDAS_CIRCLE_ARM0_FK_JACOBIAN_M_SIZE 8
 #define THREE_PANDAS_CIRCLE_ARM0_FK_JACOBIAN_P_SIZE 5
 #define THREE_PANDAS_CIRCLE_ARM0_FK_JACOBIAN_J_S_SIZE 42
-void three_pandas_circle_arm0_fk_jacobian(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
-void three_pandas_circle_arm0_fk_jacobian_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void three_pandas_circle_arm0_fk_jacobian(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
+void three_pandas_circle_arm0_fk_jacobian_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void three_pandas_circle_arm0_fk_jacobian_argv(const double *const *arg, double *const *res);
 void three_pandas_circle_arm0_fk_jacobian_batch_argv(long n, const double *const *arg, double *const *res);
-void three_pandas_circle_arm0_fk_jacobian_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void three_pandas_circle_arm0_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void three_pandas_circle_arm0_fk_jacobian_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void three_pandas_circle_arm0_fk_jacobian_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void three_pandas_circle_arm0_fk_jacobian_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 
 /* chain arm0: motor, end point, every Jacobian and the tool z-axis line
  *   in  q            [7] arm0/panda_joint1, arm0/panda_joint2, arm0/panda_joint3, arm0/panda_joint4,...
@@ -91,13 +91,13 @@ void three_pandas_circle_arm0_fk_jacobian_columns_from(long s0, long n, long ld,
 #define THREE_PANDAS_CIRCLE_ARM0_JACOBIANS_J_P_SIZE 35
 #define THREE_PANDAS_CIRCLE_ARM0_JACOBIANS_L_SIZE 6
 #define THREE_PANDAS_CIRCLE_ARM0_JACOBIANS_J_L_SIZE 42
-void three_pandas_circle_arm0_jacobians(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
-void three_pandas_circle_arm0_jacobians_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void three_pandas_circle_arm0_jacobians(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
+void three_pandas_circle_arm0_jacobians_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void three_pandas_circle_arm0_jacobians_argv(const double *const *arg, double *const *res);
 void three_pandas_circle_arm0_jacobians_batch_argv(long n, const double *const *arg, double *const *res);
-void three_pandas_circle_arm0_jacobians_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void three_pandas_circle_arm0_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void three_pandas_circle_arm0_jacobians_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void three_pandas_circle_arm0_jacobians_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void three_pandas_circle_arm0_jacobians_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 
 /* chain arm1: motor and end point
  *   in  q            [7] arm1/panda_joint1, arm1/panda_joint2, arm1/panda_joint3, arm1/panda_joint4,...
@@ -107,13 +107,13 @@ void three_pandas_circle_arm0_jacobians_columns_from(long s0, long n, long ld, c
 #define THREE_PANDAS_CIRCLE_ARM1_FK_Q_SIZE 7
 #define THREE_PANDAS_CIRCLE_ARM1_FK_M_SIZE 8
 #define THREE_PANDAS_CIRCLE_ARM1_FK_P_SIZE 5
-void three_pandas_circle_arm1_fk(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
-void three_pandas_circle_arm1_fk_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void three_pandas_circle_arm1_fk(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
+void three_pandas_circle_arm1_fk_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void three_pandas_circle_arm1_fk_argv(const double *const *arg, double *const *res);
 void three_pandas_circle_arm1_fk_batch_argv(long n, const double *const *arg, double *const *res);
-void three_pandas_circle_arm1_fk_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void three_pandas_circle_arm1_fk_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void three_pandas_circle_arm1_fk_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void three_pandas_circle_arm1_fk_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void three_pandas_circle_arm1_fk_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 
 /* chain arm1: motor, end point and spatial (geometric) Jacobian
  *   in  q            [7] arm1/panda_joint1, arm1/panda_joint2, arm1/panda_joint3, arm1/panda_joint4,...
@@ -125,13 +125,13 @@ void three_pandas_circle_arm1_fk_columns_from(long s0, long n, long ld, const do
 #define THREE_PANDAS_CIRCLE_ARM1_FK_JACOBIAN_M_SIZE 8
 #define THREE_PANDAS_CIRCLE_ARM1_FK_JACOBIAN_P_SIZE 5
 #define THREE_PANDAS_CIRCLE_ARM1_FK_JACOBIAN_J_S_SIZE 42
-void three_pandas_circle_arm1_fk_jacobian(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
-void three_pandas_circle_arm1_fk_jacobian_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void three_pandas_circle_arm1_fk_jacobian(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
+void three_pandas_circle_arm1_fk_jacobian_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void three_pandas_circle_arm1_fk_jacobian_argv(const double *const *arg, double *const *res);
 void three_pandas_circle_arm1_fk_jacobian_batch_argv(long n, const double *const *arg, double *const *res);
-void three_pandas_circle_arm1_fk_jacobian_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void three_pandas_circle_arm1_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void three_pandas_circle_arm1_fk_jacobian_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void three_pandas_circle_arm1_fk_jacobian_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void three_pandas_circle_arm1_fk_jacobian_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 
 /* chain arm1: motor, end point, every Jacobian and the tool z-axis line
  *   in  q            [7] arm1/panda_joint1, arm1/panda_joint2, arm1/panda_joint3, arm1/panda_joint4,...
@@ -153,13 +153,13 @@ void three_pandas_circle_arm1_fk_jacobian_columns_from(long s0, long n, long ld,
 #define THREE_PANDAS_CIRCLE_ARM1_JACOBIANS_J_P_SIZE 35
 #define THREE_PANDAS_CIRCLE_ARM1_JACOBIANS_L_SIZE 6
 #define THREE_PANDAS_CIRCLE_ARM1_JACOBIANS_J_L_SIZE 42
-void three_pandas_circle_arm1_jacobians(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
-void three_pandas_circle_arm1_jacobians_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void three_pandas_circle_arm1_jacobians(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
+void three_pandas_circle_arm1_jacobians_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void three_pandas_circle_arm1_jacobians_argv(const double *const *arg, double *const *res);
 void three_pandas_circle_arm1_jacobians_batch_argv(long n, const double *const *arg, double *const *res);
-void three_pandas_circle_arm1_jacobians_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void three_pandas_circle_arm1_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void three_pandas_circle_arm1_jacobians_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void three_pandas_circle_arm1_jacobians_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void three_pandas_circle_arm1_jacobians_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 
 /* chain arm2: motor and end point
  *   in  q            [7] arm2/panda_joint1, arm2/panda_joint2, arm2/panda_joint3, arm2/panda_joint4,...
@@ -169,13 +169,13 @@ void three_pandas_circle_arm1_jacobians_columns_from(long s0, long n, long ld, c
 #define THREE_PANDAS_CIRCLE_ARM2_FK_Q_SIZE 7
 #define THREE_PANDAS_CIRCLE_ARM2_FK_M_SIZE 8
 #define THREE_PANDAS_CIRCLE_ARM2_FK_P_SIZE 5
-void three_pandas_circle_arm2_fk(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
-void three_pandas_circle_arm2_fk_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void three_pandas_circle_arm2_fk(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
+void three_pandas_circle_arm2_fk_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void three_pandas_circle_arm2_fk_argv(const double *const *arg, double *const *res);
 void three_pandas_circle_arm2_fk_batch_argv(long n, const double *const *arg, double *const *res);
-void three_pandas_circle_arm2_fk_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void three_pandas_circle_arm2_fk_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void three_pandas_circle_arm2_fk_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void three_pandas_circle_arm2_fk_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void three_pandas_circle_arm2_fk_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 
 /* chain arm2: motor, end point and spatial (geometric) Jacobian
  *   in  q            [7] arm2/panda_joint1, arm2/panda_joint2, arm2/panda_joint3, arm2/panda_joint4,...
@@ -187,13 +187,13 @@ void three_pandas_circle_arm2_fk_columns_from(long s0, long n, long ld, const do
 #define THREE_PANDAS_CIRCLE_ARM2_FK_JACOBIAN_M_SIZE 8
 #define THREE_PANDAS_CIRCLE_ARM2_FK_JACOBIAN_P_SIZE 5
 #define THREE_PANDAS_CIRCLE_ARM2_FK_JACOBIAN_J_S_SIZE 42
-void three_pandas_circle_arm2_fk_jacobian(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
-void three_pandas_circle_arm2_fk_jacobian_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void three_pandas_circle_arm2_fk_jacobian(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
+void three_pandas_circle_arm2_fk_jacobian_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void three_pandas_circle_arm2_fk_jacobian_argv(const double *const *arg, double *const *res);
 void three_pandas_circle_arm2_fk_jacobian_batch_argv(long n, const double *const *arg, double *const *res);
-void three_pandas_circle_arm2_fk_jacobian_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void three_pandas_circle_arm2_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void three_pandas_circle_arm2_fk_jacobian_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void three_pandas_circle_arm2_fk_jacobian_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void three_pandas_circle_arm2_fk_jacobian_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 
 /* chain arm2: motor, end point, every Jacobian and the tool z-axis line
  *   in  q            [7] arm2/panda_joint1, arm2/panda_joint2, arm2/panda_joint3, arm2/panda_joint4,...
@@ -215,13 +215,13 @@ void three_pandas_circle_arm2_fk_jacobian_columns_from(long s0, long n, long ld,
 #define THREE_PANDAS_CIRCLE_ARM2_JACOBIANS_J_P_SIZE 35
 #define THREE_PANDAS_CIRCLE_ARM2_JACOBIANS_L_SIZE 6
 #define THREE_PANDAS_CIRCLE_ARM2_JACOBIANS_J_L_SIZE 42
-void three_pandas_circle_arm2_jacobians(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
-void three_pandas_circle_arm2_jacobians_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void three_pandas_circle_arm2_jacobians(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
+void three_pandas_circle_arm2_jacobians_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void three_pandas_circle_arm2_jacobians_argv(const double *const *arg, double *const *res);
 void three_pandas_circle_arm2_jacobians_batch_argv(long n, const double *const *arg, double *const *res);
-void three_pandas_circle_arm2_jacobians_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void three_pandas_circle_arm2_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void three_pandas_circle_arm2_jacobians_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void three_pandas_circle_arm2_jacobians_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void three_pandas_circle_arm2_jacobians_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 
 /* the cooperative circle X_c(q) and J_c
  *   in  q            [21] arm0/panda_joint1, arm0/panda_joint2, arm0/panda_joint3, arm0/panda_joint4,...
@@ -231,13 +231,13 @@ void three_pandas_circle_arm2_jacobians_columns_from(long s0, long n, long ld, c
 #define THREE_PANDAS_CIRCLE_PRIMITIVE_Q_SIZE 21
 #define THREE_PANDAS_CIRCLE_PRIMITIVE_X_C_SIZE 10
 #define THREE_PANDAS_CIRCLE_PRIMITIVE_J_C_SIZE 210
-void three_pandas_circle_primitive(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT X_c, double *GAGEN_RESTRICT J_c);
-void three_pandas_circle_primitive_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT X_c, double *GAGEN_RESTRICT J_c);
+void three_pandas_circle_primitive(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_X_c, double *GAGEN_RESTRICT out_J_c);
+void three_pandas_circle_primitive_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_X_c, double *GAGEN_RESTRICT out_J_c);
 void three_pandas_circle_primitive_argv(const double *const *arg, double *const *res);
 void three_pandas_circle_primitive_batch_argv(long n, const double *const *arg, double *const *res);
-void three_pandas_circle_primitive_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT X_c, double *GAGEN_RESTRICT J_c);
+void three_pandas_circle_primitive_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_X_c, double *GAGEN_RESTRICT out_J_c);
 void three_pandas_circle_primitive_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void three_pandas_circle_primitive_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT X_c, double *GAGEN_RESTRICT J_c);
+void three_pandas_circle_primitive_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_X_c, double *GAGEN_RESTRICT out_J_c);
 
 /* V_Sc(q), its conditioning and J_G,Sc
  *   in  q            [21] arm0/panda_joint1, arm0/panda_joint2, arm0/panda_joint3, arm0/panda_joint4,...
@@ -249,13 +249,13 @@ void three_pandas_circle_primitive_columns_from(long s0, long n, long ld, const 
 #define THREE_PANDAS_CIRCLE_SIMILARITY_V_SC_SIZE 12
 #define THREE_PANDAS_CIRCLE_SIMILARITY_CONDITIONING_SIZE 1
 #define THREE_PANDAS_CIRCLE_SIMILARITY_J_G_SIZE 147
-void three_pandas_circle_similarity(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT V_Sc, double *GAGEN_RESTRICT conditioning, double *GAGEN_RESTRICT J_G);
-void three_pandas_circle_similarity_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT V_Sc, double *GAGEN_RESTRICT conditioning, double *GAGEN_RESTRICT J_G);
+void three_pandas_circle_similarity(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_V_Sc, double *GAGEN_RESTRICT out_conditioning, double *GAGEN_RESTRICT out_J_G);
+void three_pandas_circle_similarity_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_V_Sc, double *GAGEN_RESTRICT out_conditioning, double *GAGEN_RESTRICT out_J_G);
 void three_pandas_circle_similarity_argv(const double *const *arg, double *const *res);
 void three_pandas_circle_similarity_batch_argv(long n, const double *const *arg, double *const *res);
-void three_pandas_circle_similarity_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT V_Sc, double *GAGEN_RESTRICT conditioning, double *GAGEN_RESTRICT J_G);
+void three_pandas_circle_similarity_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_V_Sc, double *GAGEN_RESTRICT out_conditioning, double *GAGEN_RESTRICT out_J_G);
 void three_pandas_circle_similarity_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void three_pandas_circle_similarity_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT V_Sc, double *GAGEN_RESTRICT conditioning, double *GAGEN_RESTRICT J_G);
+void three_pandas_circle_similarity_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_V_Sc, double *GAGEN_RESTRICT out_conditioning, double *GAGEN_RESTRICT out_J_G);
 
 /* J_A,Sc = dV_Sc/dq, log V_Sc and J_B = d log V_Sc/dq
  *   in  q            [21] arm0/panda_joint1, arm0/panda_joint2, arm0/panda_joint3, arm0/panda_joint4,...
@@ -267,13 +267,13 @@ void three_pandas_circle_similarity_columns_from(long s0, long n, long ld, const
 #define THREE_PANDAS_CIRCLE_SIMILARITY_JACOBIANS_J_A_SIZE 252
 #define THREE_PANDAS_CIRCLE_SIMILARITY_JACOBIANS_LOG_V_SIZE 7
 #define THREE_PANDAS_CIRCLE_SIMILARITY_JACOBIANS_J_B_SIZE 147
-void three_pandas_circle_similarity_jacobians(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT log_V, double *GAGEN_RESTRICT J_B);
-void three_pandas_circle_similarity_jacobians_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT log_V, double *GAGEN_RESTRICT J_B);
+void three_pandas_circle_similarity_jacobians(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_log_V, double *GAGEN_RESTRICT out_J_B);
+void three_pandas_circle_similarity_jacobians_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_log_V, double *GAGEN_RESTRICT out_J_B);
 void three_pandas_circle_similarity_jacobians_argv(const double *const *arg, double *const *res);
 void three_pandas_circle_similarity_jacobians_batch_argv(long n, const double *const *arg, double *const *res);
-void three_pandas_circle_similarity_jacobians_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT log_V, double *GAGEN_RESTRICT J_B);
+void three_pandas_circle_similarity_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_log_V, double *GAGEN_RESTRICT out_J_B);
 void three_pandas_circle_similarity_jacobians_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void three_pandas_circle_similarity_jacobians_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT log_V, double *GAGEN_RESTRICT J_B);
+void three_pandas_circle_similarity_jacobians_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_log_V, double *GAGEN_RESTRICT out_J_B);
 
 /* task error e = log(V_Sc~ V_Sd) and J_Be
  *   in  q            [21] arm0/panda_joint1, arm0/panda_joint2, arm0/panda_joint3, arm0/panda_joint4,...
@@ -285,13 +285,13 @@ void three_pandas_circle_similarity_jacobians_columns_from(long s0, long n, long
 #define THREE_PANDAS_CIRCLE_TASK_V_SD_SIZE 12
 #define THREE_PANDAS_CIRCLE_TASK_E_SIZE 7
 #define THREE_PANDAS_CIRCLE_TASK_J_BE_SIZE 147
-void three_pandas_circle_task(const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT V_Sd, double *GAGEN_RESTRICT e, double *GAGEN_RESTRICT J_Be);
-void three_pandas_circle_task_batch(long n, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT V_Sd, double *GAGEN_RESTRICT e, double *GAGEN_RESTRICT J_Be);
+void three_pandas_circle_task(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
+void three_pandas_circle_task_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 void three_pandas_circle_task_argv(const double *const *arg, double *const *res);
 void three_pandas_circle_task_batch_argv(long n, const double *const *arg, double *const *res);
-void three_pandas_circle_task_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT V_Sd, double *GAGEN_RESTRICT e, double *GAGEN_RESTRICT J_Be);
+void three_pandas_circle_task_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 void three_pandas_circle_task_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void three_pandas_circle_task_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT V_Sd, double *GAGEN_RESTRICT e, double *GAGEN_RESTRICT J_Be);
+void three_pandas_circle_task_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 
 #ifdef __cplusplus
 }

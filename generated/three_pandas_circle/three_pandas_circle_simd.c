@@ -149,20 +149,20 @@ static inline void gagen_stream_fence(int stream) {
 
 #if GAGEN_SIMD
 /* chain arm0: motor and end point: GAGEN_W consecutive samples at once */
-static void three_pandas_circle_arm0_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void three_pandas_circle_arm0_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_sin(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_sin(w7);
   w9 = w6 * w8;
@@ -179,7 +179,7 @@ static void three_pandas_circle_arm0_fk_block(const double *restrict q, double *
   w16 = w15 * w8;
   w12 = w12 - w16;
   w12 = w12 + w12;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w1 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w12 * w18;
@@ -206,7 +206,7 @@ static void three_pandas_circle_arm0_fk_block(const double *restrict q, double *
   w14 = w14 + w14;
   w11 = w14 * w18;
   w13 = w13 - w11;
-  w9 = GAGEN_GATHER(q, 7, 4);
+  w9 = GAGEN_GATHER(in_q, 7, 4);
   w9 = w1 * w9;
   w16 = gagen_v_cos(w9);
   w10 = w13 * w16;
@@ -229,7 +229,7 @@ static void three_pandas_circle_arm0_fk_block(const double *restrict q, double *
   w20 = w20 - w12;
   w12 = w20 * w9;
   w23 = w23 - w12;
-  w14 = GAGEN_GATHER(q, 7, 5);
+  w14 = GAGEN_GATHER(in_q, 7, 5);
   w14 = w1 * w14;
   w15 = gagen_v_cos(w14);
   w11 = w23 * w15;
@@ -253,7 +253,7 @@ static void three_pandas_circle_arm0_fk_block(const double *restrict q, double *
   w13 = w13 - w21;
   w21 = w13 * w14;
   w26 = w26 - w21;
-  w19 = GAGEN_GATHER(q, 7, 6);
+  w19 = GAGEN_GATHER(in_q, 7, 6);
   w19 = w1 * w19;
   w20 = gagen_v_cos(w19);
   w22 = w26 * w20;
@@ -268,12 +268,12 @@ static void three_pandas_circle_arm0_fk_block(const double *restrict q, double *
   w27 = w10 * w19;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w10 = w10 * w20;
   w26 = w26 * w19;
   w10 = w10 - w26;
   w10 = w0 * w10;
-  GAGEN_SCATTER(M, 8, 1, w10);
+  GAGEN_SCATTER(out_M, 8, 1, w10);
   w23 = w23 + w13;
   w23 = w23 + w6;
   w23 = w23 - w24;
@@ -284,12 +284,12 @@ static void three_pandas_circle_arm0_fk_block(const double *restrict q, double *
   w21 = w12 * w19;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w12 = w12 * w20;
   w23 = w23 * w19;
   w12 = w12 - w23;
   w0 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w12 = gagen_v_splat(0.384);
   w23 = w18 * w17;
   w23 = w23 + w23;
@@ -435,14 +435,14 @@ static void three_pandas_circle_arm0_fk_block(const double *restrict q, double *
   w26 = w20 * w22;
   w11 = w11 - w26;
   w11 = w1 * w11;
-  GAGEN_SCATTER(M, 8, 4, w11);
+  GAGEN_SCATTER(out_M, 8, 4, w11);
   w11 = w29 * w0;
   w26 = w20 * w10;
   w11 = w11 - w26;
   w26 = w17 * w22;
   w11 = w11 - w26;
   w11 = w1 * w11;
-  GAGEN_SCATTER(M, 8, 5, w11);
+  GAGEN_SCATTER(out_M, 8, 5, w11);
   w11 = w20 * w24;
   w26 = w17 * w0;
   w11 = w11 + w26;
@@ -450,43 +450,43 @@ static void three_pandas_circle_arm0_fk_block(const double *restrict q, double *
   w11 = w11 + w22;
   w11 = w1 * w11;
   w11 = -w11;
-  GAGEN_SCATTER(M, 8, 6, w11);
+  GAGEN_SCATTER(out_M, 8, 6, w11);
   w24 = w17 * w24;
   w0 = w20 * w0;
   w24 = w24 - w0;
   w10 = w29 * w10;
   w24 = w24 - w10;
   w24 = w1 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w20);
-  GAGEN_SCATTER(P, 5, 2, w17);
-  GAGEN_SCATTER(P, 5, 3, w29);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w20);
+  GAGEN_SCATTER(out_P, 5, 2, w17);
+  GAGEN_SCATTER(out_P, 5, 3, w29);
   w20 = w20 * w20;
   w17 = w17 * w17;
   w20 = w20 + w17;
   w29 = w29 * w29;
   w20 = w20 + w29;
   w1 = w1 * w20;
-  GAGEN_SCATTER(P, 5, 4, w1);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
 }
 #endif
 
-void three_pandas_circle_arm0_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void three_pandas_circle_arm0_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    three_pandas_circle_arm0_fk_block(q + 7 * s, M + 8 * s, P + 5 * s);
+    three_pandas_circle_arm0_fk_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    three_pandas_circle_arm0_fk(q + 7 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    three_pandas_circle_arm0_fk(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -496,20 +496,20 @@ void three_pandas_circle_arm0_fk_batch(long n, const double *restrict q, double 
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void three_pandas_circle_arm0_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void three_pandas_circle_arm0_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_sin(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_sin(w7);
   w9 = w6 * w8;
@@ -526,7 +526,7 @@ static void three_pandas_circle_arm0_fk_block_columns(long gagen_ld, int gagen_s
   w16 = w15 * w8;
   w12 = w12 - w16;
   w12 = w12 + w12;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w1 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w12 * w18;
@@ -553,7 +553,7 @@ static void three_pandas_circle_arm0_fk_block_columns(long gagen_ld, int gagen_s
   w14 = w14 + w14;
   w11 = w14 * w18;
   w13 = w13 - w11;
-  w9 = GAGEN_GATHER(q, 7, 4);
+  w9 = GAGEN_GATHER(in_q, 7, 4);
   w9 = w1 * w9;
   w16 = gagen_v_cos(w9);
   w10 = w13 * w16;
@@ -576,7 +576,7 @@ static void three_pandas_circle_arm0_fk_block_columns(long gagen_ld, int gagen_s
   w20 = w20 - w12;
   w12 = w20 * w9;
   w23 = w23 - w12;
-  w14 = GAGEN_GATHER(q, 7, 5);
+  w14 = GAGEN_GATHER(in_q, 7, 5);
   w14 = w1 * w14;
   w15 = gagen_v_cos(w14);
   w11 = w23 * w15;
@@ -600,7 +600,7 @@ static void three_pandas_circle_arm0_fk_block_columns(long gagen_ld, int gagen_s
   w13 = w13 - w21;
   w21 = w13 * w14;
   w26 = w26 - w21;
-  w19 = GAGEN_GATHER(q, 7, 6);
+  w19 = GAGEN_GATHER(in_q, 7, 6);
   w19 = w1 * w19;
   w20 = gagen_v_cos(w19);
   w22 = w26 * w20;
@@ -615,12 +615,12 @@ static void three_pandas_circle_arm0_fk_block_columns(long gagen_ld, int gagen_s
   w27 = w10 * w19;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w10 = w10 * w20;
   w26 = w26 * w19;
   w10 = w10 - w26;
   w10 = w0 * w10;
-  GAGEN_SCATTER(M, 8, 1, w10);
+  GAGEN_SCATTER(out_M, 8, 1, w10);
   w23 = w23 + w13;
   w23 = w23 + w6;
   w23 = w23 - w24;
@@ -631,12 +631,12 @@ static void three_pandas_circle_arm0_fk_block_columns(long gagen_ld, int gagen_s
   w21 = w12 * w19;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w12 = w12 * w20;
   w23 = w23 * w19;
   w12 = w12 - w23;
   w0 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w12 = gagen_v_splat(0.384);
   w23 = w18 * w17;
   w23 = w23 + w23;
@@ -782,14 +782,14 @@ static void three_pandas_circle_arm0_fk_block_columns(long gagen_ld, int gagen_s
   w26 = w20 * w22;
   w11 = w11 - w26;
   w11 = w1 * w11;
-  GAGEN_SCATTER(M, 8, 4, w11);
+  GAGEN_SCATTER(out_M, 8, 4, w11);
   w11 = w29 * w0;
   w26 = w20 * w10;
   w11 = w11 - w26;
   w26 = w17 * w22;
   w11 = w11 - w26;
   w11 = w1 * w11;
-  GAGEN_SCATTER(M, 8, 5, w11);
+  GAGEN_SCATTER(out_M, 8, 5, w11);
   w11 = w20 * w24;
   w26 = w17 * w0;
   w11 = w11 + w26;
@@ -797,26 +797,26 @@ static void three_pandas_circle_arm0_fk_block_columns(long gagen_ld, int gagen_s
   w11 = w11 + w22;
   w11 = w1 * w11;
   w11 = -w11;
-  GAGEN_SCATTER(M, 8, 6, w11);
+  GAGEN_SCATTER(out_M, 8, 6, w11);
   w24 = w17 * w24;
   w0 = w20 * w0;
   w24 = w24 - w0;
   w10 = w29 * w10;
   w24 = w24 - w10;
   w24 = w1 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w20);
-  GAGEN_SCATTER(P, 5, 2, w17);
-  GAGEN_SCATTER(P, 5, 3, w29);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w20);
+  GAGEN_SCATTER(out_P, 5, 2, w17);
+  GAGEN_SCATTER(out_P, 5, 3, w29);
   w20 = w20 * w20;
   w17 = w17 * w17;
   w20 = w20 + w17;
   w29 = w29 * w29;
   w20 = w20 + w29;
   w1 = w1 * w20;
-  GAGEN_SCATTER(P, 5, 4, w1);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -824,21 +824,21 @@ static void three_pandas_circle_arm0_fk_block_columns(long gagen_ld, int gagen_s
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void three_pandas_circle_arm0_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void three_pandas_circle_arm0_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    three_pandas_circle_arm0_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    three_pandas_circle_arm0_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  three_pandas_circle_arm0_fk_columns_from(s, n, ld, q, M, P);
+  three_pandas_circle_arm0_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain arm0: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void three_pandas_circle_arm0_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void three_pandas_circle_arm0_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -846,14 +846,14 @@ static void three_pandas_circle_arm0_fk_jacobian_block(const double *restrict q,
   gagen_v w48, w49, w50;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_sin(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_sin(w7);
   w9 = w6 * w8;
@@ -870,7 +870,7 @@ static void three_pandas_circle_arm0_fk_jacobian_block(const double *restrict q,
   w16 = w15 * w8;
   w12 = w12 - w16;
   w12 = w12 + w12;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w1 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w12 * w18;
@@ -897,7 +897,7 @@ static void three_pandas_circle_arm0_fk_jacobian_block(const double *restrict q,
   w14 = w14 + w14;
   w11 = w14 * w18;
   w13 = w13 - w11;
-  w9 = GAGEN_GATHER(q, 7, 4);
+  w9 = GAGEN_GATHER(in_q, 7, 4);
   w9 = w1 * w9;
   w16 = gagen_v_cos(w9);
   w10 = w13 * w16;
@@ -920,7 +920,7 @@ static void three_pandas_circle_arm0_fk_jacobian_block(const double *restrict q,
   w20 = w20 - w12;
   w12 = w20 * w9;
   w23 = w23 - w12;
-  w14 = GAGEN_GATHER(q, 7, 5);
+  w14 = GAGEN_GATHER(in_q, 7, 5);
   w14 = w1 * w14;
   w15 = gagen_v_cos(w14);
   w11 = w23 * w15;
@@ -944,7 +944,7 @@ static void three_pandas_circle_arm0_fk_jacobian_block(const double *restrict q,
   w13 = w13 - w21;
   w21 = w13 * w14;
   w26 = w26 - w21;
-  w19 = GAGEN_GATHER(q, 7, 6);
+  w19 = GAGEN_GATHER(in_q, 7, 6);
   w19 = w1 * w19;
   w20 = gagen_v_cos(w19);
   w22 = w26 * w20;
@@ -959,12 +959,12 @@ static void three_pandas_circle_arm0_fk_jacobian_block(const double *restrict q,
   w27 = w10 * w19;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w10 = w10 * w20;
   w26 = w26 * w19;
   w10 = w10 - w26;
   w10 = w0 * w10;
-  GAGEN_SCATTER(M, 8, 1, w10);
+  GAGEN_SCATTER(out_M, 8, 1, w10);
   w23 = w23 + w13;
   w23 = w23 + w6;
   w23 = w23 - w24;
@@ -975,12 +975,12 @@ static void three_pandas_circle_arm0_fk_jacobian_block(const double *restrict q,
   w21 = w12 * w19;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w12 = w12 * w20;
   w23 = w23 * w19;
   w12 = w12 - w23;
   w0 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w12 = gagen_v_splat(0.384);
   w23 = w18 * w17;
   w23 = w23 + w23;
@@ -1126,14 +1126,14 @@ static void three_pandas_circle_arm0_fk_jacobian_block(const double *restrict q,
   w27 = w35 * w22;
   w31 = w31 - w27;
   w31 = w1 * w31;
-  GAGEN_SCATTER(M, 8, 4, w31);
+  GAGEN_SCATTER(out_M, 8, 4, w31);
   w31 = w41 * w0;
   w27 = w35 * w10;
   w31 = w31 - w27;
   w27 = w37 * w22;
   w31 = w31 - w27;
   w31 = w1 * w31;
-  GAGEN_SCATTER(M, 8, 5, w31);
+  GAGEN_SCATTER(out_M, 8, 5, w31);
   w31 = w35 * w24;
   w27 = w37 * w0;
   w31 = w31 + w27;
@@ -1141,49 +1141,49 @@ static void three_pandas_circle_arm0_fk_jacobian_block(const double *restrict q,
   w31 = w31 + w22;
   w31 = w1 * w31;
   w31 = -w31;
-  GAGEN_SCATTER(M, 8, 6, w31);
+  GAGEN_SCATTER(out_M, 8, 6, w31);
   w24 = w37 * w24;
   w0 = w35 * w0;
   w24 = w24 - w0;
   w10 = w41 * w10;
   w24 = w24 - w10;
   w24 = w1 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w35);
-  GAGEN_SCATTER(P, 5, 2, w37);
-  GAGEN_SCATTER(P, 5, 3, w41);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w35);
+  GAGEN_SCATTER(out_P, 5, 2, w37);
+  GAGEN_SCATTER(out_P, 5, 3, w41);
   w35 = w35 * w35;
   w37 = w37 * w37;
   w35 = w35 + w37;
   w41 = w41 * w41;
   w35 = w35 + w41;
   w1 = w1 * w35;
-  GAGEN_SCATTER(P, 5, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 0, w24);
   w24 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w24);
-  GAGEN_SCATTER(J_S, 42, 2, w24);
-  GAGEN_SCATTER(J_S, 42, 3, w24);
+  GAGEN_SCATTER(out_J_S, 42, 1, w24);
+  GAGEN_SCATTER(out_J_S, 42, 2, w24);
+  GAGEN_SCATTER(out_J_S, 42, 3, w24);
   w1 = gagen_v_splat((-0.8));
-  GAGEN_SCATTER(J_S, 42, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 5, w24);
-  GAGEN_SCATTER(J_S, 42, 6, w24);
-  GAGEN_SCATTER(J_S, 42, 7, w2);
-  GAGEN_SCATTER(J_S, 42, 8, w11);
+  GAGEN_SCATTER(out_J_S, 42, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 5, w24);
+  GAGEN_SCATTER(out_J_S, 42, 6, w24);
+  GAGEN_SCATTER(out_J_S, 42, 7, w2);
+  GAGEN_SCATTER(out_J_S, 42, 8, w11);
   w39 = w39 * w2;
-  GAGEN_SCATTER(J_S, 42, 9, w39);
+  GAGEN_SCATTER(out_J_S, 42, 9, w39);
   w39 = gagen_v_splat(0.666);
   w39 = w39 * w25;
-  GAGEN_SCATTER(J_S, 42, 10, w39);
+  GAGEN_SCATTER(out_J_S, 42, 10, w39);
   w47 = w47 * w2;
   w47 = -w47;
-  GAGEN_SCATTER(J_S, 42, 11, w47);
-  GAGEN_SCATTER(J_S, 42, 12, w20);
-  GAGEN_SCATTER(J_S, 42, 13, w13);
+  GAGEN_SCATTER(out_J_S, 42, 11, w47);
+  GAGEN_SCATTER(out_J_S, 42, 12, w20);
+  GAGEN_SCATTER(out_J_S, 42, 13, w13);
   w47 = -w48;
-  GAGEN_SCATTER(J_S, 42, 14, w47);
+  GAGEN_SCATTER(out_J_S, 42, 14, w47);
   w47 = gagen_v_splat(0.1665);
   w2 = gagen_v_splat(0.158);
   w39 = w2 * w20;
@@ -1194,7 +1194,7 @@ static void three_pandas_circle_arm0_fk_jacobian_block(const double *restrict q,
   w1 = w1 * w11;
   w1 = w8 * w1;
   w24 = w24 - w1;
-  GAGEN_SCATTER(J_S, 42, 15, w24);
+  GAGEN_SCATTER(out_J_S, 42, 15, w24);
   w24 = gagen_v_splat(0.4);
   w1 = w2 * w48;
   w35 = w24 - w1;
@@ -1203,7 +1203,7 @@ static void three_pandas_circle_arm0_fk_jacobian_block(const double *restrict q,
   w20 = w20 + w25;
   w20 = -w20;
   w20 = w20 + w20;
-  GAGEN_SCATTER(J_S, 42, 16, w20);
+  GAGEN_SCATTER(out_J_S, 42, 16, w20);
   w35 = w13 * w35;
   w35 = w35 + w35;
   w48 = w48 * w4;
@@ -1211,14 +1211,14 @@ static void three_pandas_circle_arm0_fk_jacobian_block(const double *restrict q,
   w8 = w8 * w48;
   w35 = w35 + w8;
   w35 = -w35;
-  GAGEN_SCATTER(J_S, 42, 17, w35);
+  GAGEN_SCATTER(out_J_S, 42, 17, w35);
   w35 = w7 * w4;
   w8 = -w35;
-  GAGEN_SCATTER(J_S, 42, 18, w8);
+  GAGEN_SCATTER(out_J_S, 42, 18, w8);
   w8 = -w9;
-  GAGEN_SCATTER(J_S, 42, 19, w8);
+  GAGEN_SCATTER(out_J_S, 42, 19, w8);
   w8 = -w34;
-  GAGEN_SCATTER(J_S, 42, 20, w8);
+  GAGEN_SCATTER(out_J_S, 42, 20, w8);
   w8 = gagen_v_splat(0.04125);
   w6 = w8 * w6;
   w2 = w2 * w13;
@@ -1232,7 +1232,7 @@ static void three_pandas_circle_arm0_fk_jacobian_block(const double *restrict q,
   w2 = -w2;
   w2 = w2 + w2;
   w2 = -w2;
-  GAGEN_SCATTER(J_S, 42, 21, w2);
+  GAGEN_SCATTER(out_J_S, 42, 21, w2);
   w42 = w34 * w42;
   w8 = w8 * w21;
   w8 = w8 - w24;
@@ -1240,98 +1240,98 @@ static void three_pandas_circle_arm0_fk_jacobian_block(const double *restrict q,
   w35 = w35 * w8;
   w42 = w42 - w35;
   w42 = w42 + w42;
-  GAGEN_SCATTER(J_S, 42, 22, w42);
+  GAGEN_SCATTER(out_J_S, 42, 22, w42);
   w8 = w9 * w8;
   w6 = w34 * w6;
   w8 = w8 + w6;
   w8 = -w8;
   w8 = w8 + w8;
-  GAGEN_SCATTER(J_S, 42, 23, w8);
-  GAGEN_SCATTER(J_S, 42, 24, w43);
+  GAGEN_SCATTER(out_J_S, 42, 23, w8);
+  GAGEN_SCATTER(out_J_S, 42, 24, w43);
   w8 = -w3;
-  GAGEN_SCATTER(J_S, 42, 25, w8);
-  GAGEN_SCATTER(J_S, 42, 26, w23);
+  GAGEN_SCATTER(out_J_S, 42, 25, w8);
+  GAGEN_SCATTER(out_J_S, 42, 26, w23);
   w17 = w17 - w29;
   w8 = w43 * w17;
   w6 = w3 * w40;
   w8 = w8 - w6;
-  GAGEN_SCATTER(J_S, 42, 27, w8);
+  GAGEN_SCATTER(out_J_S, 42, 27, w8);
   w8 = w23 * w40;
   w49 = w49 - w38;
   w43 = w43 * w49;
   w8 = w8 - w43;
-  GAGEN_SCATTER(J_S, 42, 28, w8);
+  GAGEN_SCATTER(out_J_S, 42, 28, w8);
   w23 = w23 * w17;
   w3 = w3 * w49;
   w23 = w23 - w3;
   w23 = -w23;
-  GAGEN_SCATTER(J_S, 42, 29, w23);
+  GAGEN_SCATTER(out_J_S, 42, 29, w23);
   w44 = w16 * w44;
   w7 = w14 * w7;
   w7 = w7 * w4;
   w44 = w44 - w7;
-  GAGEN_SCATTER(J_S, 42, 30, w44);
+  GAGEN_SCATTER(out_J_S, 42, 30, w44);
   w32 = w16 * w32;
   w9 = w14 * w9;
   w32 = w32 - w9;
-  GAGEN_SCATTER(J_S, 42, 31, w32);
+  GAGEN_SCATTER(out_J_S, 42, 31, w32);
   w14 = w14 * w34;
   w16 = w16 * w12;
   w14 = w14 + w16;
   w16 = -w14;
-  GAGEN_SCATTER(J_S, 42, 32, w16);
+  GAGEN_SCATTER(out_J_S, 42, 32, w16);
   w16 = w44 * w17;
   w12 = w32 * w40;
   w16 = w16 + w12;
-  GAGEN_SCATTER(J_S, 42, 33, w16);
+  GAGEN_SCATTER(out_J_S, 42, 33, w16);
   w40 = w14 * w40;
   w44 = w44 * w49;
   w40 = w40 + w44;
   w40 = -w40;
-  GAGEN_SCATTER(J_S, 42, 34, w40);
+  GAGEN_SCATTER(out_J_S, 42, 34, w40);
   w32 = w32 * w49;
   w14 = w14 * w17;
   w32 = w32 - w14;
   w32 = -w32;
-  GAGEN_SCATTER(J_S, 42, 35, w32);
+  GAGEN_SCATTER(out_J_S, 42, 35, w32);
   w32 = -w46;
-  GAGEN_SCATTER(J_S, 42, 36, w32);
+  GAGEN_SCATTER(out_J_S, 42, 36, w32);
   w33 = w33 + w36;
-  GAGEN_SCATTER(J_S, 42, 37, w33);
+  GAGEN_SCATTER(out_J_S, 42, 37, w33);
   w36 = -w15;
-  GAGEN_SCATTER(J_S, 42, 38, w36);
+  GAGEN_SCATTER(out_J_S, 42, 38, w36);
   w36 = w33 * w45;
   w28 = w28 - w29;
   w29 = w46 * w28;
   w36 = w36 - w29;
-  GAGEN_SCATTER(J_S, 42, 39, w36);
+  GAGEN_SCATTER(out_J_S, 42, 39, w36);
   w46 = w46 * w26;
   w45 = w15 * w45;
   w46 = w46 - w45;
-  GAGEN_SCATTER(J_S, 42, 40, w46);
+  GAGEN_SCATTER(out_J_S, 42, 40, w46);
   w33 = w33 * w26;
   w15 = w15 * w28;
   w33 = w33 - w15;
   w33 = -w33;
-  GAGEN_SCATTER(J_S, 42, 41, w33);
+  GAGEN_SCATTER(out_J_S, 42, 41, w33);
 }
 #endif
 
-void three_pandas_circle_arm0_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void three_pandas_circle_arm0_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 42 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 42 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 42 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 42 * gagen_a + gagen_o, 1, 0);
     }
-    three_pandas_circle_arm0_fk_jacobian_block(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+    three_pandas_circle_arm0_fk_jacobian_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    three_pandas_circle_arm0_fk_jacobian(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    three_pandas_circle_arm0_fk_jacobian(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 }
 
@@ -1341,7 +1341,7 @@ void three_pandas_circle_arm0_fk_jacobian_batch(long n, const double *restrict q
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void three_pandas_circle_arm0_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void three_pandas_circle_arm0_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -1349,14 +1349,14 @@ static void three_pandas_circle_arm0_fk_jacobian_block_columns(long gagen_ld, in
   gagen_v w48, w49, w50;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_sin(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_sin(w7);
   w9 = w6 * w8;
@@ -1373,7 +1373,7 @@ static void three_pandas_circle_arm0_fk_jacobian_block_columns(long gagen_ld, in
   w16 = w15 * w8;
   w12 = w12 - w16;
   w12 = w12 + w12;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w1 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w12 * w18;
@@ -1400,7 +1400,7 @@ static void three_pandas_circle_arm0_fk_jacobian_block_columns(long gagen_ld, in
   w14 = w14 + w14;
   w11 = w14 * w18;
   w13 = w13 - w11;
-  w9 = GAGEN_GATHER(q, 7, 4);
+  w9 = GAGEN_GATHER(in_q, 7, 4);
   w9 = w1 * w9;
   w16 = gagen_v_cos(w9);
   w10 = w13 * w16;
@@ -1423,7 +1423,7 @@ static void three_pandas_circle_arm0_fk_jacobian_block_columns(long gagen_ld, in
   w20 = w20 - w12;
   w12 = w20 * w9;
   w23 = w23 - w12;
-  w14 = GAGEN_GATHER(q, 7, 5);
+  w14 = GAGEN_GATHER(in_q, 7, 5);
   w14 = w1 * w14;
   w15 = gagen_v_cos(w14);
   w11 = w23 * w15;
@@ -1447,7 +1447,7 @@ static void three_pandas_circle_arm0_fk_jacobian_block_columns(long gagen_ld, in
   w13 = w13 - w21;
   w21 = w13 * w14;
   w26 = w26 - w21;
-  w19 = GAGEN_GATHER(q, 7, 6);
+  w19 = GAGEN_GATHER(in_q, 7, 6);
   w19 = w1 * w19;
   w20 = gagen_v_cos(w19);
   w22 = w26 * w20;
@@ -1462,12 +1462,12 @@ static void three_pandas_circle_arm0_fk_jacobian_block_columns(long gagen_ld, in
   w27 = w10 * w19;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w10 = w10 * w20;
   w26 = w26 * w19;
   w10 = w10 - w26;
   w10 = w0 * w10;
-  GAGEN_SCATTER(M, 8, 1, w10);
+  GAGEN_SCATTER(out_M, 8, 1, w10);
   w23 = w23 + w13;
   w23 = w23 + w6;
   w23 = w23 - w24;
@@ -1478,12 +1478,12 @@ static void three_pandas_circle_arm0_fk_jacobian_block_columns(long gagen_ld, in
   w21 = w12 * w19;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w12 = w12 * w20;
   w23 = w23 * w19;
   w12 = w12 - w23;
   w0 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w12 = gagen_v_splat(0.384);
   w23 = w18 * w17;
   w23 = w23 + w23;
@@ -1629,14 +1629,14 @@ static void three_pandas_circle_arm0_fk_jacobian_block_columns(long gagen_ld, in
   w27 = w35 * w22;
   w31 = w31 - w27;
   w31 = w1 * w31;
-  GAGEN_SCATTER(M, 8, 4, w31);
+  GAGEN_SCATTER(out_M, 8, 4, w31);
   w31 = w41 * w0;
   w27 = w35 * w10;
   w31 = w31 - w27;
   w27 = w37 * w22;
   w31 = w31 - w27;
   w31 = w1 * w31;
-  GAGEN_SCATTER(M, 8, 5, w31);
+  GAGEN_SCATTER(out_M, 8, 5, w31);
   w31 = w35 * w24;
   w27 = w37 * w0;
   w31 = w31 + w27;
@@ -1644,49 +1644,49 @@ static void three_pandas_circle_arm0_fk_jacobian_block_columns(long gagen_ld, in
   w31 = w31 + w22;
   w31 = w1 * w31;
   w31 = -w31;
-  GAGEN_SCATTER(M, 8, 6, w31);
+  GAGEN_SCATTER(out_M, 8, 6, w31);
   w24 = w37 * w24;
   w0 = w35 * w0;
   w24 = w24 - w0;
   w10 = w41 * w10;
   w24 = w24 - w10;
   w24 = w1 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w35);
-  GAGEN_SCATTER(P, 5, 2, w37);
-  GAGEN_SCATTER(P, 5, 3, w41);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w35);
+  GAGEN_SCATTER(out_P, 5, 2, w37);
+  GAGEN_SCATTER(out_P, 5, 3, w41);
   w35 = w35 * w35;
   w37 = w37 * w37;
   w35 = w35 + w37;
   w41 = w41 * w41;
   w35 = w35 + w41;
   w1 = w1 * w35;
-  GAGEN_SCATTER(P, 5, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 0, w24);
   w24 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w24);
-  GAGEN_SCATTER(J_S, 42, 2, w24);
-  GAGEN_SCATTER(J_S, 42, 3, w24);
+  GAGEN_SCATTER(out_J_S, 42, 1, w24);
+  GAGEN_SCATTER(out_J_S, 42, 2, w24);
+  GAGEN_SCATTER(out_J_S, 42, 3, w24);
   w1 = gagen_v_splat((-0.8));
-  GAGEN_SCATTER(J_S, 42, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 5, w24);
-  GAGEN_SCATTER(J_S, 42, 6, w24);
-  GAGEN_SCATTER(J_S, 42, 7, w2);
-  GAGEN_SCATTER(J_S, 42, 8, w11);
+  GAGEN_SCATTER(out_J_S, 42, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 5, w24);
+  GAGEN_SCATTER(out_J_S, 42, 6, w24);
+  GAGEN_SCATTER(out_J_S, 42, 7, w2);
+  GAGEN_SCATTER(out_J_S, 42, 8, w11);
   w39 = w39 * w2;
-  GAGEN_SCATTER(J_S, 42, 9, w39);
+  GAGEN_SCATTER(out_J_S, 42, 9, w39);
   w39 = gagen_v_splat(0.666);
   w39 = w39 * w25;
-  GAGEN_SCATTER(J_S, 42, 10, w39);
+  GAGEN_SCATTER(out_J_S, 42, 10, w39);
   w47 = w47 * w2;
   w47 = -w47;
-  GAGEN_SCATTER(J_S, 42, 11, w47);
-  GAGEN_SCATTER(J_S, 42, 12, w20);
-  GAGEN_SCATTER(J_S, 42, 13, w13);
+  GAGEN_SCATTER(out_J_S, 42, 11, w47);
+  GAGEN_SCATTER(out_J_S, 42, 12, w20);
+  GAGEN_SCATTER(out_J_S, 42, 13, w13);
   w47 = -w48;
-  GAGEN_SCATTER(J_S, 42, 14, w47);
+  GAGEN_SCATTER(out_J_S, 42, 14, w47);
   w47 = gagen_v_splat(0.1665);
   w2 = gagen_v_splat(0.158);
   w39 = w2 * w20;
@@ -1697,7 +1697,7 @@ static void three_pandas_circle_arm0_fk_jacobian_block_columns(long gagen_ld, in
   w1 = w1 * w11;
   w1 = w8 * w1;
   w24 = w24 - w1;
-  GAGEN_SCATTER(J_S, 42, 15, w24);
+  GAGEN_SCATTER(out_J_S, 42, 15, w24);
   w24 = gagen_v_splat(0.4);
   w1 = w2 * w48;
   w35 = w24 - w1;
@@ -1706,7 +1706,7 @@ static void three_pandas_circle_arm0_fk_jacobian_block_columns(long gagen_ld, in
   w20 = w20 + w25;
   w20 = -w20;
   w20 = w20 + w20;
-  GAGEN_SCATTER(J_S, 42, 16, w20);
+  GAGEN_SCATTER(out_J_S, 42, 16, w20);
   w35 = w13 * w35;
   w35 = w35 + w35;
   w48 = w48 * w4;
@@ -1714,14 +1714,14 @@ static void three_pandas_circle_arm0_fk_jacobian_block_columns(long gagen_ld, in
   w8 = w8 * w48;
   w35 = w35 + w8;
   w35 = -w35;
-  GAGEN_SCATTER(J_S, 42, 17, w35);
+  GAGEN_SCATTER(out_J_S, 42, 17, w35);
   w35 = w7 * w4;
   w8 = -w35;
-  GAGEN_SCATTER(J_S, 42, 18, w8);
+  GAGEN_SCATTER(out_J_S, 42, 18, w8);
   w8 = -w9;
-  GAGEN_SCATTER(J_S, 42, 19, w8);
+  GAGEN_SCATTER(out_J_S, 42, 19, w8);
   w8 = -w34;
-  GAGEN_SCATTER(J_S, 42, 20, w8);
+  GAGEN_SCATTER(out_J_S, 42, 20, w8);
   w8 = gagen_v_splat(0.04125);
   w6 = w8 * w6;
   w2 = w2 * w13;
@@ -1735,7 +1735,7 @@ static void three_pandas_circle_arm0_fk_jacobian_block_columns(long gagen_ld, in
   w2 = -w2;
   w2 = w2 + w2;
   w2 = -w2;
-  GAGEN_SCATTER(J_S, 42, 21, w2);
+  GAGEN_SCATTER(out_J_S, 42, 21, w2);
   w42 = w34 * w42;
   w8 = w8 * w21;
   w8 = w8 - w24;
@@ -1743,80 +1743,80 @@ static void three_pandas_circle_arm0_fk_jacobian_block_columns(long gagen_ld, in
   w35 = w35 * w8;
   w42 = w42 - w35;
   w42 = w42 + w42;
-  GAGEN_SCATTER(J_S, 42, 22, w42);
+  GAGEN_SCATTER(out_J_S, 42, 22, w42);
   w8 = w9 * w8;
   w6 = w34 * w6;
   w8 = w8 + w6;
   w8 = -w8;
   w8 = w8 + w8;
-  GAGEN_SCATTER(J_S, 42, 23, w8);
-  GAGEN_SCATTER(J_S, 42, 24, w43);
+  GAGEN_SCATTER(out_J_S, 42, 23, w8);
+  GAGEN_SCATTER(out_J_S, 42, 24, w43);
   w8 = -w3;
-  GAGEN_SCATTER(J_S, 42, 25, w8);
-  GAGEN_SCATTER(J_S, 42, 26, w23);
+  GAGEN_SCATTER(out_J_S, 42, 25, w8);
+  GAGEN_SCATTER(out_J_S, 42, 26, w23);
   w17 = w17 - w29;
   w8 = w43 * w17;
   w6 = w3 * w40;
   w8 = w8 - w6;
-  GAGEN_SCATTER(J_S, 42, 27, w8);
+  GAGEN_SCATTER(out_J_S, 42, 27, w8);
   w8 = w23 * w40;
   w49 = w49 - w38;
   w43 = w43 * w49;
   w8 = w8 - w43;
-  GAGEN_SCATTER(J_S, 42, 28, w8);
+  GAGEN_SCATTER(out_J_S, 42, 28, w8);
   w23 = w23 * w17;
   w3 = w3 * w49;
   w23 = w23 - w3;
   w23 = -w23;
-  GAGEN_SCATTER(J_S, 42, 29, w23);
+  GAGEN_SCATTER(out_J_S, 42, 29, w23);
   w44 = w16 * w44;
   w7 = w14 * w7;
   w7 = w7 * w4;
   w44 = w44 - w7;
-  GAGEN_SCATTER(J_S, 42, 30, w44);
+  GAGEN_SCATTER(out_J_S, 42, 30, w44);
   w32 = w16 * w32;
   w9 = w14 * w9;
   w32 = w32 - w9;
-  GAGEN_SCATTER(J_S, 42, 31, w32);
+  GAGEN_SCATTER(out_J_S, 42, 31, w32);
   w14 = w14 * w34;
   w16 = w16 * w12;
   w14 = w14 + w16;
   w16 = -w14;
-  GAGEN_SCATTER(J_S, 42, 32, w16);
+  GAGEN_SCATTER(out_J_S, 42, 32, w16);
   w16 = w44 * w17;
   w12 = w32 * w40;
   w16 = w16 + w12;
-  GAGEN_SCATTER(J_S, 42, 33, w16);
+  GAGEN_SCATTER(out_J_S, 42, 33, w16);
   w40 = w14 * w40;
   w44 = w44 * w49;
   w40 = w40 + w44;
   w40 = -w40;
-  GAGEN_SCATTER(J_S, 42, 34, w40);
+  GAGEN_SCATTER(out_J_S, 42, 34, w40);
   w32 = w32 * w49;
   w14 = w14 * w17;
   w32 = w32 - w14;
   w32 = -w32;
-  GAGEN_SCATTER(J_S, 42, 35, w32);
+  GAGEN_SCATTER(out_J_S, 42, 35, w32);
   w32 = -w46;
-  GAGEN_SCATTER(J_S, 42, 36, w32);
+  GAGEN_SCATTER(out_J_S, 42, 36, w32);
   w33 = w33 + w36;
-  GAGEN_SCATTER(J_S, 42, 37, w33);
+  GAGEN_SCATTER(out_J_S, 42, 37, w33);
   w36 = -w15;
-  GAGEN_SCATTER(J_S, 42, 38, w36);
+  GAGEN_SCATTER(out_J_S, 42, 38, w36);
   w36 = w33 * w45;
   w28 = w28 - w29;
   w29 = w46 * w28;
   w36 = w36 - w29;
-  GAGEN_SCATTER(J_S, 42, 39, w36);
+  GAGEN_SCATTER(out_J_S, 42, 39, w36);
   w46 = w46 * w26;
   w45 = w15 * w45;
   w46 = w46 - w45;
-  GAGEN_SCATTER(J_S, 42, 40, w46);
+  GAGEN_SCATTER(out_J_S, 42, 40, w46);
   w33 = w33 * w26;
   w15 = w15 * w28;
   w33 = w33 - w15;
   w33 = -w33;
-  GAGEN_SCATTER(J_S, 42, 41, w33);
+  GAGEN_SCATTER(out_J_S, 42, 41, w33);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -1824,28 +1824,28 @@ static void three_pandas_circle_arm0_fk_jacobian_block_columns(long gagen_ld, in
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void three_pandas_circle_arm0_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void three_pandas_circle_arm0_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    three_pandas_circle_arm0_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    three_pandas_circle_arm0_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  three_pandas_circle_arm0_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  three_pandas_circle_arm0_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }
 
 #if GAGEN_SIMD
 /* chain arm1: motor and end point: GAGEN_W consecutive samples at once */
-static void three_pandas_circle_arm1_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void three_pandas_circle_arm1_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.8660254037844385);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 7, 0);
+  w3 = GAGEN_GATHER(in_q, 7, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
   w5 = w1 * w4;
@@ -1853,11 +1853,11 @@ static void three_pandas_circle_arm1_fk_block(const double *restrict q, double *
   w3 = gagen_v_cos(w3);
   w7 = w6 * w3;
   w5 = w5 - w7;
-  w7 = GAGEN_GATHER(q, 7, 1);
+  w7 = GAGEN_GATHER(in_q, 7, 1);
   w7 = w2 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w5 * w8;
-  w10 = GAGEN_GATHER(q, 7, 2);
+  w10 = GAGEN_GATHER(in_q, 7, 2);
   w10 = w2 * w10;
   w11 = gagen_v_sin(w10);
   w12 = w9 * w11;
@@ -1876,7 +1876,7 @@ static void three_pandas_circle_arm1_fk_block(const double *restrict q, double *
   w15 = w5 * w10;
   w14 = w14 - w15;
   w14 = w14 + w14;
-  w16 = GAGEN_GATHER(q, 7, 3);
+  w16 = GAGEN_GATHER(in_q, 7, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -1903,7 +1903,7 @@ static void three_pandas_circle_arm1_fk_block(const double *restrict q, double *
   w12 = w12 + w12;
   w15 = w12 * w17;
   w9 = w9 + w15;
-  w13 = GAGEN_GATHER(q, 7, 4);
+  w13 = GAGEN_GATHER(in_q, 7, 4);
   w13 = w2 * w13;
   w1 = gagen_v_cos(w13);
   w20 = w9 * w1;
@@ -1926,7 +1926,7 @@ static void three_pandas_circle_arm1_fk_block(const double *restrict q, double *
   w19 = w19 - w14;
   w14 = w19 * w13;
   w23 = w23 - w14;
-  w12 = GAGEN_GATHER(q, 7, 5);
+  w12 = GAGEN_GATHER(in_q, 7, 5);
   w12 = w2 * w12;
   w6 = gagen_v_cos(w12);
   w15 = w23 * w6;
@@ -1950,7 +1950,7 @@ static void three_pandas_circle_arm1_fk_block(const double *restrict q, double *
   w9 = w9 - w21;
   w21 = w9 * w12;
   w26 = w26 - w21;
-  w18 = GAGEN_GATHER(q, 7, 6);
+  w18 = GAGEN_GATHER(in_q, 7, 6);
   w18 = w2 * w18;
   w19 = gagen_v_cos(w18);
   w22 = w26 * w19;
@@ -1965,12 +1965,12 @@ static void three_pandas_circle_arm1_fk_block(const double *restrict q, double *
   w27 = w20 * w18;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w20 = w20 * w19;
   w26 = w26 * w18;
   w20 = w20 - w26;
   w20 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 1, w20);
+  GAGEN_SCATTER(out_M, 8, 1, w20);
   w23 = w23 + w9;
   w23 = w23 + w5;
   w23 = w23 - w24;
@@ -1981,12 +1981,12 @@ static void three_pandas_circle_arm1_fk_block(const double *restrict q, double *
   w21 = w14 * w18;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w14 = w14 * w19;
   w23 = w23 * w18;
   w14 = w14 - w23;
   w0 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w14 = gagen_v_splat(0.692820323027551);
   w23 = gagen_v_splat(0.0825);
   w18 = w10 * w10;
@@ -2145,14 +2145,14 @@ static void three_pandas_circle_arm1_fk_block(const double *restrict q, double *
   w13 = w23 * w22;
   w4 = w4 - w13;
   w4 = w2 * w4;
-  GAGEN_SCATTER(M, 8, 4, w4);
+  GAGEN_SCATTER(out_M, 8, 4, w4);
   w4 = w16 * w0;
   w13 = w23 * w20;
   w4 = w4 - w13;
   w13 = w14 * w22;
   w4 = w4 - w13;
   w4 = w2 * w4;
-  GAGEN_SCATTER(M, 8, 5, w4);
+  GAGEN_SCATTER(out_M, 8, 5, w4);
   w4 = w23 * w24;
   w13 = w14 * w0;
   w4 = w4 + w13;
@@ -2160,43 +2160,43 @@ static void three_pandas_circle_arm1_fk_block(const double *restrict q, double *
   w4 = w4 + w22;
   w4 = w2 * w4;
   w4 = -w4;
-  GAGEN_SCATTER(M, 8, 6, w4);
+  GAGEN_SCATTER(out_M, 8, 6, w4);
   w24 = w14 * w24;
   w0 = w23 * w0;
   w24 = w24 - w0;
   w20 = w16 * w20;
   w24 = w24 - w20;
   w24 = w2 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w23);
-  GAGEN_SCATTER(P, 5, 2, w14);
-  GAGEN_SCATTER(P, 5, 3, w16);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w23);
+  GAGEN_SCATTER(out_P, 5, 2, w14);
+  GAGEN_SCATTER(out_P, 5, 3, w16);
   w23 = w23 * w23;
   w14 = w14 * w14;
   w23 = w23 + w14;
   w16 = w16 * w16;
   w23 = w23 + w16;
   w2 = w2 * w23;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #endif
 
-void three_pandas_circle_arm1_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void three_pandas_circle_arm1_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    three_pandas_circle_arm1_fk_block(q + 7 * s, M + 8 * s, P + 5 * s);
+    three_pandas_circle_arm1_fk_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    three_pandas_circle_arm1_fk(q + 7 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    three_pandas_circle_arm1_fk(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -2206,14 +2206,14 @@ void three_pandas_circle_arm1_fk_batch(long n, const double *restrict q, double 
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void three_pandas_circle_arm1_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void three_pandas_circle_arm1_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.8660254037844385);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 7, 0);
+  w3 = GAGEN_GATHER(in_q, 7, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
   w5 = w1 * w4;
@@ -2221,11 +2221,11 @@ static void three_pandas_circle_arm1_fk_block_columns(long gagen_ld, int gagen_s
   w3 = gagen_v_cos(w3);
   w7 = w6 * w3;
   w5 = w5 - w7;
-  w7 = GAGEN_GATHER(q, 7, 1);
+  w7 = GAGEN_GATHER(in_q, 7, 1);
   w7 = w2 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w5 * w8;
-  w10 = GAGEN_GATHER(q, 7, 2);
+  w10 = GAGEN_GATHER(in_q, 7, 2);
   w10 = w2 * w10;
   w11 = gagen_v_sin(w10);
   w12 = w9 * w11;
@@ -2244,7 +2244,7 @@ static void three_pandas_circle_arm1_fk_block_columns(long gagen_ld, int gagen_s
   w15 = w5 * w10;
   w14 = w14 - w15;
   w14 = w14 + w14;
-  w16 = GAGEN_GATHER(q, 7, 3);
+  w16 = GAGEN_GATHER(in_q, 7, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -2271,7 +2271,7 @@ static void three_pandas_circle_arm1_fk_block_columns(long gagen_ld, int gagen_s
   w12 = w12 + w12;
   w15 = w12 * w17;
   w9 = w9 + w15;
-  w13 = GAGEN_GATHER(q, 7, 4);
+  w13 = GAGEN_GATHER(in_q, 7, 4);
   w13 = w2 * w13;
   w1 = gagen_v_cos(w13);
   w20 = w9 * w1;
@@ -2294,7 +2294,7 @@ static void three_pandas_circle_arm1_fk_block_columns(long gagen_ld, int gagen_s
   w19 = w19 - w14;
   w14 = w19 * w13;
   w23 = w23 - w14;
-  w12 = GAGEN_GATHER(q, 7, 5);
+  w12 = GAGEN_GATHER(in_q, 7, 5);
   w12 = w2 * w12;
   w6 = gagen_v_cos(w12);
   w15 = w23 * w6;
@@ -2318,7 +2318,7 @@ static void three_pandas_circle_arm1_fk_block_columns(long gagen_ld, int gagen_s
   w9 = w9 - w21;
   w21 = w9 * w12;
   w26 = w26 - w21;
-  w18 = GAGEN_GATHER(q, 7, 6);
+  w18 = GAGEN_GATHER(in_q, 7, 6);
   w18 = w2 * w18;
   w19 = gagen_v_cos(w18);
   w22 = w26 * w19;
@@ -2333,12 +2333,12 @@ static void three_pandas_circle_arm1_fk_block_columns(long gagen_ld, int gagen_s
   w27 = w20 * w18;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w20 = w20 * w19;
   w26 = w26 * w18;
   w20 = w20 - w26;
   w20 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 1, w20);
+  GAGEN_SCATTER(out_M, 8, 1, w20);
   w23 = w23 + w9;
   w23 = w23 + w5;
   w23 = w23 - w24;
@@ -2349,12 +2349,12 @@ static void three_pandas_circle_arm1_fk_block_columns(long gagen_ld, int gagen_s
   w21 = w14 * w18;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w14 = w14 * w19;
   w23 = w23 * w18;
   w14 = w14 - w23;
   w0 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w14 = gagen_v_splat(0.692820323027551);
   w23 = gagen_v_splat(0.0825);
   w18 = w10 * w10;
@@ -2513,14 +2513,14 @@ static void three_pandas_circle_arm1_fk_block_columns(long gagen_ld, int gagen_s
   w13 = w23 * w22;
   w4 = w4 - w13;
   w4 = w2 * w4;
-  GAGEN_SCATTER(M, 8, 4, w4);
+  GAGEN_SCATTER(out_M, 8, 4, w4);
   w4 = w16 * w0;
   w13 = w23 * w20;
   w4 = w4 - w13;
   w13 = w14 * w22;
   w4 = w4 - w13;
   w4 = w2 * w4;
-  GAGEN_SCATTER(M, 8, 5, w4);
+  GAGEN_SCATTER(out_M, 8, 5, w4);
   w4 = w23 * w24;
   w13 = w14 * w0;
   w4 = w4 + w13;
@@ -2528,26 +2528,26 @@ static void three_pandas_circle_arm1_fk_block_columns(long gagen_ld, int gagen_s
   w4 = w4 + w22;
   w4 = w2 * w4;
   w4 = -w4;
-  GAGEN_SCATTER(M, 8, 6, w4);
+  GAGEN_SCATTER(out_M, 8, 6, w4);
   w24 = w14 * w24;
   w0 = w23 * w0;
   w24 = w24 - w0;
   w20 = w16 * w20;
   w24 = w24 - w20;
   w24 = w2 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w23);
-  GAGEN_SCATTER(P, 5, 2, w14);
-  GAGEN_SCATTER(P, 5, 3, w16);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w23);
+  GAGEN_SCATTER(out_P, 5, 2, w14);
+  GAGEN_SCATTER(out_P, 5, 3, w16);
   w23 = w23 * w23;
   w14 = w14 * w14;
   w23 = w23 + w14;
   w16 = w16 * w16;
   w23 = w23 + w16;
   w2 = w2 * w23;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -2555,21 +2555,21 @@ static void three_pandas_circle_arm1_fk_block_columns(long gagen_ld, int gagen_s
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void three_pandas_circle_arm1_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void three_pandas_circle_arm1_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    three_pandas_circle_arm1_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    three_pandas_circle_arm1_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  three_pandas_circle_arm1_fk_columns_from(s, n, ld, q, M, P);
+  three_pandas_circle_arm1_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain arm1: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void three_pandas_circle_arm1_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void three_pandas_circle_arm1_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -2578,7 +2578,7 @@ static void three_pandas_circle_arm1_fk_jacobian_block(const double *restrict q,
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.8660254037844385);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 7, 0);
+  w3 = GAGEN_GATHER(in_q, 7, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
   w5 = w1 * w4;
@@ -2586,11 +2586,11 @@ static void three_pandas_circle_arm1_fk_jacobian_block(const double *restrict q,
   w3 = gagen_v_cos(w3);
   w7 = w6 * w3;
   w5 = w5 - w7;
-  w7 = GAGEN_GATHER(q, 7, 1);
+  w7 = GAGEN_GATHER(in_q, 7, 1);
   w7 = w2 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w5 * w8;
-  w10 = GAGEN_GATHER(q, 7, 2);
+  w10 = GAGEN_GATHER(in_q, 7, 2);
   w10 = w2 * w10;
   w11 = gagen_v_sin(w10);
   w12 = w9 * w11;
@@ -2609,7 +2609,7 @@ static void three_pandas_circle_arm1_fk_jacobian_block(const double *restrict q,
   w15 = w5 * w10;
   w14 = w14 - w15;
   w14 = w14 + w14;
-  w16 = GAGEN_GATHER(q, 7, 3);
+  w16 = GAGEN_GATHER(in_q, 7, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -2636,7 +2636,7 @@ static void three_pandas_circle_arm1_fk_jacobian_block(const double *restrict q,
   w12 = w12 + w12;
   w15 = w12 * w17;
   w9 = w9 + w15;
-  w13 = GAGEN_GATHER(q, 7, 4);
+  w13 = GAGEN_GATHER(in_q, 7, 4);
   w13 = w2 * w13;
   w1 = gagen_v_cos(w13);
   w20 = w9 * w1;
@@ -2659,7 +2659,7 @@ static void three_pandas_circle_arm1_fk_jacobian_block(const double *restrict q,
   w19 = w19 - w14;
   w14 = w19 * w13;
   w23 = w23 - w14;
-  w12 = GAGEN_GATHER(q, 7, 5);
+  w12 = GAGEN_GATHER(in_q, 7, 5);
   w12 = w2 * w12;
   w6 = gagen_v_cos(w12);
   w15 = w23 * w6;
@@ -2683,7 +2683,7 @@ static void three_pandas_circle_arm1_fk_jacobian_block(const double *restrict q,
   w9 = w9 - w21;
   w21 = w9 * w12;
   w26 = w26 - w21;
-  w18 = GAGEN_GATHER(q, 7, 6);
+  w18 = GAGEN_GATHER(in_q, 7, 6);
   w18 = w2 * w18;
   w19 = gagen_v_cos(w18);
   w22 = w26 * w19;
@@ -2698,12 +2698,12 @@ static void three_pandas_circle_arm1_fk_jacobian_block(const double *restrict q,
   w27 = w20 * w18;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w20 = w20 * w19;
   w26 = w26 * w18;
   w20 = w20 - w26;
   w20 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 1, w20);
+  GAGEN_SCATTER(out_M, 8, 1, w20);
   w23 = w23 + w9;
   w23 = w23 + w5;
   w23 = w23 - w24;
@@ -2714,12 +2714,12 @@ static void three_pandas_circle_arm1_fk_jacobian_block(const double *restrict q,
   w21 = w14 * w18;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w14 = w14 * w19;
   w23 = w23 * w18;
   w14 = w14 - w23;
   w0 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w14 = gagen_v_splat(0.692820323027551);
   w23 = gagen_v_splat(0.0825);
   w18 = w10 * w10;
@@ -2878,14 +2878,14 @@ static void three_pandas_circle_arm1_fk_jacobian_block(const double *restrict q,
   w6 = w31 * w22;
   w41 = w41 - w6;
   w41 = w2 * w41;
-  GAGEN_SCATTER(M, 8, 4, w41);
+  GAGEN_SCATTER(out_M, 8, 4, w41);
   w41 = w43 * w0;
   w6 = w31 * w20;
   w41 = w41 - w6;
   w6 = w38 * w22;
   w41 = w41 - w6;
   w41 = w2 * w41;
-  GAGEN_SCATTER(M, 8, 5, w41);
+  GAGEN_SCATTER(out_M, 8, 5, w41);
   w41 = w31 * w24;
   w6 = w38 * w0;
   w41 = w41 + w6;
@@ -2893,61 +2893,61 @@ static void three_pandas_circle_arm1_fk_jacobian_block(const double *restrict q,
   w41 = w41 + w22;
   w41 = w2 * w41;
   w41 = -w41;
-  GAGEN_SCATTER(M, 8, 6, w41);
+  GAGEN_SCATTER(out_M, 8, 6, w41);
   w24 = w38 * w24;
   w0 = w31 * w0;
   w24 = w24 - w0;
   w20 = w43 * w20;
   w24 = w24 - w20;
   w24 = w2 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w31);
-  GAGEN_SCATTER(P, 5, 2, w38);
-  GAGEN_SCATTER(P, 5, 3, w43);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w31);
+  GAGEN_SCATTER(out_P, 5, 2, w38);
+  GAGEN_SCATTER(out_P, 5, 3, w43);
   w31 = w31 * w31;
   w38 = w38 * w38;
   w31 = w31 + w38;
   w43 = w43 * w43;
   w31 = w31 + w43;
   w2 = w2 * w31;
-  GAGEN_SCATTER(P, 5, 4, w2);
-  GAGEN_SCATTER(J_S, 42, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
+  GAGEN_SCATTER(out_J_S, 42, 0, w24);
   w24 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w24);
-  GAGEN_SCATTER(J_S, 42, 2, w24);
-  GAGEN_SCATTER(J_S, 42, 3, w14);
-  GAGEN_SCATTER(J_S, 42, 4, w36);
-  GAGEN_SCATTER(J_S, 42, 5, w24);
-  GAGEN_SCATTER(J_S, 42, 6, w24);
+  GAGEN_SCATTER(out_J_S, 42, 1, w24);
+  GAGEN_SCATTER(out_J_S, 42, 2, w24);
+  GAGEN_SCATTER(out_J_S, 42, 3, w14);
+  GAGEN_SCATTER(out_J_S, 42, 4, w36);
+  GAGEN_SCATTER(out_J_S, 42, 5, w24);
+  GAGEN_SCATTER(out_J_S, 42, 6, w24);
   w11 = -w11;
-  GAGEN_SCATTER(J_S, 42, 7, w11);
-  GAGEN_SCATTER(J_S, 42, 8, w5);
+  GAGEN_SCATTER(out_J_S, 42, 7, w11);
+  GAGEN_SCATTER(out_J_S, 42, 8, w5);
   w5 = gagen_v_splat(0.5767729189204365);
   w5 = w5 * w15;
   w11 = gagen_v_splat(0.16649999999999981);
   w11 = w11 * w3;
   w5 = w5 + w11;
   w5 = -w5;
-  GAGEN_SCATTER(J_S, 42, 9, w5);
+  GAGEN_SCATTER(out_J_S, 42, 9, w5);
   w5 = gagen_v_splat(0.28838645946021824);
   w5 = w5 * w3;
   w11 = gagen_v_splat(0.33299999999999963);
   w11 = w11 * w15;
   w5 = w5 - w11;
-  GAGEN_SCATTER(J_S, 42, 10, w5);
+  GAGEN_SCATTER(out_J_S, 42, 10, w5);
   w5 = gagen_v_splat(1.1041068143459681e-15);
   w5 = w5 * w15;
   w15 = gagen_v_splat(0.8000000000000002);
   w15 = w15 * w3;
   w5 = w5 + w15;
   w5 = -w5;
-  GAGEN_SCATTER(J_S, 42, 11, w5);
-  GAGEN_SCATTER(J_S, 42, 12, w19);
+  GAGEN_SCATTER(out_J_S, 42, 11, w5);
+  GAGEN_SCATTER(out_J_S, 42, 12, w19);
   w5 = -w4;
-  GAGEN_SCATTER(J_S, 42, 13, w5);
-  GAGEN_SCATTER(J_S, 42, 14, w29);
+  GAGEN_SCATTER(out_J_S, 42, 13, w5);
+  GAGEN_SCATTER(out_J_S, 42, 14, w29);
   w5 = gagen_v_splat(0.158);
   w15 = w5 * w4;
   w3 = gagen_v_splat(0.3464101615137755);
@@ -2962,7 +2962,7 @@ static void three_pandas_circle_arm1_fk_jacobian_block(const double *restrict q,
   w2 = w2 + w2;
   w3 = w3 + w2;
   w3 = -w3;
-  GAGEN_SCATTER(J_S, 42, 15, w3);
+  GAGEN_SCATTER(out_J_S, 42, 15, w3);
   w3 = gagen_v_splat(0.2);
   w5 = w5 * w29;
   w3 = w3 - w5;
@@ -2971,19 +2971,19 @@ static void three_pandas_circle_arm1_fk_jacobian_block(const double *restrict q,
   w14 = w29 * w14;
   w14 = w14 + w14;
   w19 = w19 + w14;
-  GAGEN_SCATTER(J_S, 42, 16, w19);
+  GAGEN_SCATTER(out_J_S, 42, 16, w19);
   w4 = w4 * w3;
   w29 = w29 * w15;
   w4 = w4 + w29;
   w4 = -w4;
   w4 = w4 + w4;
-  GAGEN_SCATTER(J_S, 42, 17, w4);
+  GAGEN_SCATTER(out_J_S, 42, 17, w4);
   w4 = w10 * w8;
   w29 = -w4;
-  GAGEN_SCATTER(J_S, 42, 18, w29);
-  GAGEN_SCATTER(J_S, 42, 19, w13);
+  GAGEN_SCATTER(out_J_S, 42, 18, w29);
+  GAGEN_SCATTER(out_J_S, 42, 19, w13);
   w29 = -w18;
-  GAGEN_SCATTER(J_S, 42, 20, w29);
+  GAGEN_SCATTER(out_J_S, 42, 20, w29);
   w29 = gagen_v_splat(0.04125);
   w9 = w29 * w9;
   w15 = w15 + w9;
@@ -2996,7 +2996,7 @@ static void three_pandas_circle_arm1_fk_jacobian_block(const double *restrict q,
   w24 = w24 + w24;
   w9 = w9 + w24;
   w9 = -w9;
-  GAGEN_SCATTER(J_S, 42, 21, w9);
+  GAGEN_SCATTER(out_J_S, 42, 21, w9);
   w29 = w29 * w21;
   w3 = w3 - w29;
   w4 = w4 * w3;
@@ -3006,96 +3006,96 @@ static void three_pandas_circle_arm1_fk_jacobian_block(const double *restrict q,
   w44 = -w44;
   w44 = w44 + w44;
   w4 = w4 - w44;
-  GAGEN_SCATTER(J_S, 42, 22, w4);
+  GAGEN_SCATTER(out_J_S, 42, 22, w4);
   w3 = w13 * w3;
   w15 = w18 * w15;
   w3 = w3 + w15;
   w3 = w3 + w3;
-  GAGEN_SCATTER(J_S, 42, 23, w3);
-  GAGEN_SCATTER(J_S, 42, 24, w45);
-  GAGEN_SCATTER(J_S, 42, 25, w32);
-  GAGEN_SCATTER(J_S, 42, 26, w30);
+  GAGEN_SCATTER(out_J_S, 42, 23, w3);
+  GAGEN_SCATTER(out_J_S, 42, 24, w45);
+  GAGEN_SCATTER(out_J_S, 42, 25, w32);
+  GAGEN_SCATTER(out_J_S, 42, 26, w30);
   w28 = w28 + w40;
   w3 = w45 * w28;
   w15 = w32 * w42;
   w3 = w3 + w15;
-  GAGEN_SCATTER(J_S, 42, 27, w3);
+  GAGEN_SCATTER(out_J_S, 42, 27, w3);
   w3 = w30 * w42;
   w23 = w23 - w36;
   w23 = w23 + w39;
   w45 = w45 * w23;
   w3 = w3 - w45;
-  GAGEN_SCATTER(J_S, 42, 28, w3);
+  GAGEN_SCATTER(out_J_S, 42, 28, w3);
   w32 = w32 * w23;
   w30 = w30 * w28;
   w32 = w32 + w30;
   w32 = -w32;
-  GAGEN_SCATTER(J_S, 42, 29, w32);
+  GAGEN_SCATTER(out_J_S, 42, 29, w32);
   w46 = w1 * w46;
   w10 = w35 * w10;
   w10 = w10 * w8;
   w46 = w46 - w10;
-  GAGEN_SCATTER(J_S, 42, 30, w46);
+  GAGEN_SCATTER(out_J_S, 42, 30, w46);
   w13 = w35 * w13;
   w16 = w1 * w16;
   w13 = w13 - w16;
-  GAGEN_SCATTER(J_S, 42, 31, w13);
+  GAGEN_SCATTER(out_J_S, 42, 31, w13);
   w1 = w1 * w17;
   w35 = w35 * w18;
   w1 = w1 - w35;
-  GAGEN_SCATTER(J_S, 42, 32, w1);
+  GAGEN_SCATTER(out_J_S, 42, 32, w1);
   w35 = w46 * w28;
   w18 = w13 * w42;
   w35 = w35 + w18;
-  GAGEN_SCATTER(J_S, 42, 33, w35);
+  GAGEN_SCATTER(out_J_S, 42, 33, w35);
   w42 = w1 * w42;
   w46 = w46 * w23;
   w42 = w42 - w46;
-  GAGEN_SCATTER(J_S, 42, 34, w42);
+  GAGEN_SCATTER(out_J_S, 42, 34, w42);
   w13 = w13 * w23;
   w1 = w1 * w28;
   w13 = w13 + w1;
   w13 = -w13;
-  GAGEN_SCATTER(J_S, 42, 35, w13);
+  GAGEN_SCATTER(out_J_S, 42, 35, w13);
   w13 = -w48;
-  GAGEN_SCATTER(J_S, 42, 36, w13);
+  GAGEN_SCATTER(out_J_S, 42, 36, w13);
   w27 = w27 + w12;
   w12 = -w27;
-  GAGEN_SCATTER(J_S, 42, 37, w12);
+  GAGEN_SCATTER(out_J_S, 42, 37, w12);
   w12 = -w34;
-  GAGEN_SCATTER(J_S, 42, 38, w12);
+  GAGEN_SCATTER(out_J_S, 42, 38, w12);
   w37 = w37 + w40;
   w40 = w48 * w37;
   w12 = w27 * w47;
   w40 = w40 + w12;
   w40 = -w40;
-  GAGEN_SCATTER(J_S, 42, 39, w40);
+  GAGEN_SCATTER(out_J_S, 42, 39, w40);
   w48 = w48 * w33;
   w47 = w34 * w47;
   w48 = w48 - w47;
-  GAGEN_SCATTER(J_S, 42, 40, w48);
+  GAGEN_SCATTER(out_J_S, 42, 40, w48);
   w27 = w27 * w33;
   w34 = w34 * w37;
   w27 = w27 + w34;
-  GAGEN_SCATTER(J_S, 42, 41, w27);
+  GAGEN_SCATTER(out_J_S, 42, 41, w27);
 }
 #endif
 
-void three_pandas_circle_arm1_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void three_pandas_circle_arm1_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 42 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 42 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 42 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 42 * gagen_a + gagen_o, 1, 0);
     }
-    three_pandas_circle_arm1_fk_jacobian_block(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+    three_pandas_circle_arm1_fk_jacobian_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    three_pandas_circle_arm1_fk_jacobian(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    three_pandas_circle_arm1_fk_jacobian(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 }
 
@@ -3105,7 +3105,7 @@ void three_pandas_circle_arm1_fk_jacobian_batch(long n, const double *restrict q
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void three_pandas_circle_arm1_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void three_pandas_circle_arm1_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -3114,7 +3114,7 @@ static void three_pandas_circle_arm1_fk_jacobian_block_columns(long gagen_ld, in
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.8660254037844385);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 7, 0);
+  w3 = GAGEN_GATHER(in_q, 7, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
   w5 = w1 * w4;
@@ -3122,11 +3122,11 @@ static void three_pandas_circle_arm1_fk_jacobian_block_columns(long gagen_ld, in
   w3 = gagen_v_cos(w3);
   w7 = w6 * w3;
   w5 = w5 - w7;
-  w7 = GAGEN_GATHER(q, 7, 1);
+  w7 = GAGEN_GATHER(in_q, 7, 1);
   w7 = w2 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w5 * w8;
-  w10 = GAGEN_GATHER(q, 7, 2);
+  w10 = GAGEN_GATHER(in_q, 7, 2);
   w10 = w2 * w10;
   w11 = gagen_v_sin(w10);
   w12 = w9 * w11;
@@ -3145,7 +3145,7 @@ static void three_pandas_circle_arm1_fk_jacobian_block_columns(long gagen_ld, in
   w15 = w5 * w10;
   w14 = w14 - w15;
   w14 = w14 + w14;
-  w16 = GAGEN_GATHER(q, 7, 3);
+  w16 = GAGEN_GATHER(in_q, 7, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -3172,7 +3172,7 @@ static void three_pandas_circle_arm1_fk_jacobian_block_columns(long gagen_ld, in
   w12 = w12 + w12;
   w15 = w12 * w17;
   w9 = w9 + w15;
-  w13 = GAGEN_GATHER(q, 7, 4);
+  w13 = GAGEN_GATHER(in_q, 7, 4);
   w13 = w2 * w13;
   w1 = gagen_v_cos(w13);
   w20 = w9 * w1;
@@ -3195,7 +3195,7 @@ static void three_pandas_circle_arm1_fk_jacobian_block_columns(long gagen_ld, in
   w19 = w19 - w14;
   w14 = w19 * w13;
   w23 = w23 - w14;
-  w12 = GAGEN_GATHER(q, 7, 5);
+  w12 = GAGEN_GATHER(in_q, 7, 5);
   w12 = w2 * w12;
   w6 = gagen_v_cos(w12);
   w15 = w23 * w6;
@@ -3219,7 +3219,7 @@ static void three_pandas_circle_arm1_fk_jacobian_block_columns(long gagen_ld, in
   w9 = w9 - w21;
   w21 = w9 * w12;
   w26 = w26 - w21;
-  w18 = GAGEN_GATHER(q, 7, 6);
+  w18 = GAGEN_GATHER(in_q, 7, 6);
   w18 = w2 * w18;
   w19 = gagen_v_cos(w18);
   w22 = w26 * w19;
@@ -3234,12 +3234,12 @@ static void three_pandas_circle_arm1_fk_jacobian_block_columns(long gagen_ld, in
   w27 = w20 * w18;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w20 = w20 * w19;
   w26 = w26 * w18;
   w20 = w20 - w26;
   w20 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 1, w20);
+  GAGEN_SCATTER(out_M, 8, 1, w20);
   w23 = w23 + w9;
   w23 = w23 + w5;
   w23 = w23 - w24;
@@ -3250,12 +3250,12 @@ static void three_pandas_circle_arm1_fk_jacobian_block_columns(long gagen_ld, in
   w21 = w14 * w18;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w14 = w14 * w19;
   w23 = w23 * w18;
   w14 = w14 - w23;
   w0 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w14 = gagen_v_splat(0.692820323027551);
   w23 = gagen_v_splat(0.0825);
   w18 = w10 * w10;
@@ -3414,14 +3414,14 @@ static void three_pandas_circle_arm1_fk_jacobian_block_columns(long gagen_ld, in
   w6 = w31 * w22;
   w41 = w41 - w6;
   w41 = w2 * w41;
-  GAGEN_SCATTER(M, 8, 4, w41);
+  GAGEN_SCATTER(out_M, 8, 4, w41);
   w41 = w43 * w0;
   w6 = w31 * w20;
   w41 = w41 - w6;
   w6 = w38 * w22;
   w41 = w41 - w6;
   w41 = w2 * w41;
-  GAGEN_SCATTER(M, 8, 5, w41);
+  GAGEN_SCATTER(out_M, 8, 5, w41);
   w41 = w31 * w24;
   w6 = w38 * w0;
   w41 = w41 + w6;
@@ -3429,61 +3429,61 @@ static void three_pandas_circle_arm1_fk_jacobian_block_columns(long gagen_ld, in
   w41 = w41 + w22;
   w41 = w2 * w41;
   w41 = -w41;
-  GAGEN_SCATTER(M, 8, 6, w41);
+  GAGEN_SCATTER(out_M, 8, 6, w41);
   w24 = w38 * w24;
   w0 = w31 * w0;
   w24 = w24 - w0;
   w20 = w43 * w20;
   w24 = w24 - w20;
   w24 = w2 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w31);
-  GAGEN_SCATTER(P, 5, 2, w38);
-  GAGEN_SCATTER(P, 5, 3, w43);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w31);
+  GAGEN_SCATTER(out_P, 5, 2, w38);
+  GAGEN_SCATTER(out_P, 5, 3, w43);
   w31 = w31 * w31;
   w38 = w38 * w38;
   w31 = w31 + w38;
   w43 = w43 * w43;
   w31 = w31 + w43;
   w2 = w2 * w31;
-  GAGEN_SCATTER(P, 5, 4, w2);
-  GAGEN_SCATTER(J_S, 42, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
+  GAGEN_SCATTER(out_J_S, 42, 0, w24);
   w24 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w24);
-  GAGEN_SCATTER(J_S, 42, 2, w24);
-  GAGEN_SCATTER(J_S, 42, 3, w14);
-  GAGEN_SCATTER(J_S, 42, 4, w36);
-  GAGEN_SCATTER(J_S, 42, 5, w24);
-  GAGEN_SCATTER(J_S, 42, 6, w24);
+  GAGEN_SCATTER(out_J_S, 42, 1, w24);
+  GAGEN_SCATTER(out_J_S, 42, 2, w24);
+  GAGEN_SCATTER(out_J_S, 42, 3, w14);
+  GAGEN_SCATTER(out_J_S, 42, 4, w36);
+  GAGEN_SCATTER(out_J_S, 42, 5, w24);
+  GAGEN_SCATTER(out_J_S, 42, 6, w24);
   w11 = -w11;
-  GAGEN_SCATTER(J_S, 42, 7, w11);
-  GAGEN_SCATTER(J_S, 42, 8, w5);
+  GAGEN_SCATTER(out_J_S, 42, 7, w11);
+  GAGEN_SCATTER(out_J_S, 42, 8, w5);
   w5 = gagen_v_splat(0.5767729189204365);
   w5 = w5 * w15;
   w11 = gagen_v_splat(0.16649999999999981);
   w11 = w11 * w3;
   w5 = w5 + w11;
   w5 = -w5;
-  GAGEN_SCATTER(J_S, 42, 9, w5);
+  GAGEN_SCATTER(out_J_S, 42, 9, w5);
   w5 = gagen_v_splat(0.28838645946021824);
   w5 = w5 * w3;
   w11 = gagen_v_splat(0.33299999999999963);
   w11 = w11 * w15;
   w5 = w5 - w11;
-  GAGEN_SCATTER(J_S, 42, 10, w5);
+  GAGEN_SCATTER(out_J_S, 42, 10, w5);
   w5 = gagen_v_splat(1.1041068143459681e-15);
   w5 = w5 * w15;
   w15 = gagen_v_splat(0.8000000000000002);
   w15 = w15 * w3;
   w5 = w5 + w15;
   w5 = -w5;
-  GAGEN_SCATTER(J_S, 42, 11, w5);
-  GAGEN_SCATTER(J_S, 42, 12, w19);
+  GAGEN_SCATTER(out_J_S, 42, 11, w5);
+  GAGEN_SCATTER(out_J_S, 42, 12, w19);
   w5 = -w4;
-  GAGEN_SCATTER(J_S, 42, 13, w5);
-  GAGEN_SCATTER(J_S, 42, 14, w29);
+  GAGEN_SCATTER(out_J_S, 42, 13, w5);
+  GAGEN_SCATTER(out_J_S, 42, 14, w29);
   w5 = gagen_v_splat(0.158);
   w15 = w5 * w4;
   w3 = gagen_v_splat(0.3464101615137755);
@@ -3498,7 +3498,7 @@ static void three_pandas_circle_arm1_fk_jacobian_block_columns(long gagen_ld, in
   w2 = w2 + w2;
   w3 = w3 + w2;
   w3 = -w3;
-  GAGEN_SCATTER(J_S, 42, 15, w3);
+  GAGEN_SCATTER(out_J_S, 42, 15, w3);
   w3 = gagen_v_splat(0.2);
   w5 = w5 * w29;
   w3 = w3 - w5;
@@ -3507,19 +3507,19 @@ static void three_pandas_circle_arm1_fk_jacobian_block_columns(long gagen_ld, in
   w14 = w29 * w14;
   w14 = w14 + w14;
   w19 = w19 + w14;
-  GAGEN_SCATTER(J_S, 42, 16, w19);
+  GAGEN_SCATTER(out_J_S, 42, 16, w19);
   w4 = w4 * w3;
   w29 = w29 * w15;
   w4 = w4 + w29;
   w4 = -w4;
   w4 = w4 + w4;
-  GAGEN_SCATTER(J_S, 42, 17, w4);
+  GAGEN_SCATTER(out_J_S, 42, 17, w4);
   w4 = w10 * w8;
   w29 = -w4;
-  GAGEN_SCATTER(J_S, 42, 18, w29);
-  GAGEN_SCATTER(J_S, 42, 19, w13);
+  GAGEN_SCATTER(out_J_S, 42, 18, w29);
+  GAGEN_SCATTER(out_J_S, 42, 19, w13);
   w29 = -w18;
-  GAGEN_SCATTER(J_S, 42, 20, w29);
+  GAGEN_SCATTER(out_J_S, 42, 20, w29);
   w29 = gagen_v_splat(0.04125);
   w9 = w29 * w9;
   w15 = w15 + w9;
@@ -3532,7 +3532,7 @@ static void three_pandas_circle_arm1_fk_jacobian_block_columns(long gagen_ld, in
   w24 = w24 + w24;
   w9 = w9 + w24;
   w9 = -w9;
-  GAGEN_SCATTER(J_S, 42, 21, w9);
+  GAGEN_SCATTER(out_J_S, 42, 21, w9);
   w29 = w29 * w21;
   w3 = w3 - w29;
   w4 = w4 * w3;
@@ -3542,78 +3542,78 @@ static void three_pandas_circle_arm1_fk_jacobian_block_columns(long gagen_ld, in
   w44 = -w44;
   w44 = w44 + w44;
   w4 = w4 - w44;
-  GAGEN_SCATTER(J_S, 42, 22, w4);
+  GAGEN_SCATTER(out_J_S, 42, 22, w4);
   w3 = w13 * w3;
   w15 = w18 * w15;
   w3 = w3 + w15;
   w3 = w3 + w3;
-  GAGEN_SCATTER(J_S, 42, 23, w3);
-  GAGEN_SCATTER(J_S, 42, 24, w45);
-  GAGEN_SCATTER(J_S, 42, 25, w32);
-  GAGEN_SCATTER(J_S, 42, 26, w30);
+  GAGEN_SCATTER(out_J_S, 42, 23, w3);
+  GAGEN_SCATTER(out_J_S, 42, 24, w45);
+  GAGEN_SCATTER(out_J_S, 42, 25, w32);
+  GAGEN_SCATTER(out_J_S, 42, 26, w30);
   w28 = w28 + w40;
   w3 = w45 * w28;
   w15 = w32 * w42;
   w3 = w3 + w15;
-  GAGEN_SCATTER(J_S, 42, 27, w3);
+  GAGEN_SCATTER(out_J_S, 42, 27, w3);
   w3 = w30 * w42;
   w23 = w23 - w36;
   w23 = w23 + w39;
   w45 = w45 * w23;
   w3 = w3 - w45;
-  GAGEN_SCATTER(J_S, 42, 28, w3);
+  GAGEN_SCATTER(out_J_S, 42, 28, w3);
   w32 = w32 * w23;
   w30 = w30 * w28;
   w32 = w32 + w30;
   w32 = -w32;
-  GAGEN_SCATTER(J_S, 42, 29, w32);
+  GAGEN_SCATTER(out_J_S, 42, 29, w32);
   w46 = w1 * w46;
   w10 = w35 * w10;
   w10 = w10 * w8;
   w46 = w46 - w10;
-  GAGEN_SCATTER(J_S, 42, 30, w46);
+  GAGEN_SCATTER(out_J_S, 42, 30, w46);
   w13 = w35 * w13;
   w16 = w1 * w16;
   w13 = w13 - w16;
-  GAGEN_SCATTER(J_S, 42, 31, w13);
+  GAGEN_SCATTER(out_J_S, 42, 31, w13);
   w1 = w1 * w17;
   w35 = w35 * w18;
   w1 = w1 - w35;
-  GAGEN_SCATTER(J_S, 42, 32, w1);
+  GAGEN_SCATTER(out_J_S, 42, 32, w1);
   w35 = w46 * w28;
   w18 = w13 * w42;
   w35 = w35 + w18;
-  GAGEN_SCATTER(J_S, 42, 33, w35);
+  GAGEN_SCATTER(out_J_S, 42, 33, w35);
   w42 = w1 * w42;
   w46 = w46 * w23;
   w42 = w42 - w46;
-  GAGEN_SCATTER(J_S, 42, 34, w42);
+  GAGEN_SCATTER(out_J_S, 42, 34, w42);
   w13 = w13 * w23;
   w1 = w1 * w28;
   w13 = w13 + w1;
   w13 = -w13;
-  GAGEN_SCATTER(J_S, 42, 35, w13);
+  GAGEN_SCATTER(out_J_S, 42, 35, w13);
   w13 = -w48;
-  GAGEN_SCATTER(J_S, 42, 36, w13);
+  GAGEN_SCATTER(out_J_S, 42, 36, w13);
   w27 = w27 + w12;
   w12 = -w27;
-  GAGEN_SCATTER(J_S, 42, 37, w12);
+  GAGEN_SCATTER(out_J_S, 42, 37, w12);
   w12 = -w34;
-  GAGEN_SCATTER(J_S, 42, 38, w12);
+  GAGEN_SCATTER(out_J_S, 42, 38, w12);
   w37 = w37 + w40;
   w40 = w48 * w37;
   w12 = w27 * w47;
   w40 = w40 + w12;
   w40 = -w40;
-  GAGEN_SCATTER(J_S, 42, 39, w40);
+  GAGEN_SCATTER(out_J_S, 42, 39, w40);
   w48 = w48 * w33;
   w47 = w34 * w47;
   w48 = w48 - w47;
-  GAGEN_SCATTER(J_S, 42, 40, w48);
+  GAGEN_SCATTER(out_J_S, 42, 40, w48);
   w27 = w27 * w33;
   w34 = w34 * w37;
   w27 = w27 + w34;
-  GAGEN_SCATTER(J_S, 42, 41, w27);
+  GAGEN_SCATTER(out_J_S, 42, 41, w27);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -3621,28 +3621,28 @@ static void three_pandas_circle_arm1_fk_jacobian_block_columns(long gagen_ld, in
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void three_pandas_circle_arm1_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void three_pandas_circle_arm1_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    three_pandas_circle_arm1_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    three_pandas_circle_arm1_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  three_pandas_circle_arm1_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  three_pandas_circle_arm1_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }
 
 #if GAGEN_SIMD
 /* chain arm2: motor and end point: GAGEN_W consecutive samples at once */
-static void three_pandas_circle_arm2_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void three_pandas_circle_arm2_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.4999999999999997);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 7, 0);
+  w3 = GAGEN_GATHER(in_q, 7, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
   w5 = w1 * w4;
@@ -3650,11 +3650,11 @@ static void three_pandas_circle_arm2_fk_block(const double *restrict q, double *
   w3 = gagen_v_cos(w3);
   w7 = w6 * w3;
   w5 = w5 - w7;
-  w7 = GAGEN_GATHER(q, 7, 1);
+  w7 = GAGEN_GATHER(in_q, 7, 1);
   w7 = w2 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w5 * w8;
-  w10 = GAGEN_GATHER(q, 7, 2);
+  w10 = GAGEN_GATHER(in_q, 7, 2);
   w10 = w2 * w10;
   w11 = gagen_v_cos(w10);
   w12 = w9 * w11;
@@ -3673,7 +3673,7 @@ static void three_pandas_circle_arm2_fk_block(const double *restrict q, double *
   w15 = w6 * w11;
   w14 = w14 - w15;
   w14 = w14 + w14;
-  w16 = GAGEN_GATHER(q, 7, 3);
+  w16 = GAGEN_GATHER(in_q, 7, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -3699,7 +3699,7 @@ static void three_pandas_circle_arm2_fk_block(const double *restrict q, double *
   w12 = w12 + w12;
   w15 = w12 * w17;
   w1 = w1 + w15;
-  w13 = GAGEN_GATHER(q, 7, 4);
+  w13 = GAGEN_GATHER(in_q, 7, 4);
   w13 = w2 * w13;
   w5 = gagen_v_cos(w13);
   w20 = w1 * w5;
@@ -3722,7 +3722,7 @@ static void three_pandas_circle_arm2_fk_block(const double *restrict q, double *
   w19 = w19 - w14;
   w14 = w19 * w13;
   w23 = w23 - w14;
-  w12 = GAGEN_GATHER(q, 7, 5);
+  w12 = GAGEN_GATHER(in_q, 7, 5);
   w12 = w2 * w12;
   w9 = gagen_v_cos(w12);
   w15 = w23 * w9;
@@ -3746,7 +3746,7 @@ static void three_pandas_circle_arm2_fk_block(const double *restrict q, double *
   w1 = w1 - w21;
   w21 = w1 * w12;
   w26 = w26 - w21;
-  w18 = GAGEN_GATHER(q, 7, 6);
+  w18 = GAGEN_GATHER(in_q, 7, 6);
   w18 = w2 * w18;
   w19 = gagen_v_cos(w18);
   w22 = w26 * w19;
@@ -3761,12 +3761,12 @@ static void three_pandas_circle_arm2_fk_block(const double *restrict q, double *
   w27 = w20 * w18;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w20 = w20 * w19;
   w26 = w26 * w18;
   w20 = w20 - w26;
   w20 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 1, w20);
+  GAGEN_SCATTER(out_M, 8, 1, w20);
   w23 = w23 + w1;
   w23 = w23 + w6;
   w23 = w23 - w24;
@@ -3777,12 +3777,12 @@ static void three_pandas_circle_arm2_fk_block(const double *restrict q, double *
   w21 = w14 * w18;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w14 = w14 * w19;
   w23 = w23 * w18;
   w14 = w14 - w23;
   w0 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w14 = gagen_v_splat(0.0825);
   w23 = w11 * w11;
   w18 = w10 * w10;
@@ -3941,14 +3941,14 @@ static void three_pandas_circle_arm2_fk_block(const double *restrict q, double *
   w13 = w14 * w22;
   w4 = w4 - w13;
   w4 = w2 * w4;
-  GAGEN_SCATTER(M, 8, 4, w4);
+  GAGEN_SCATTER(out_M, 8, 4, w4);
   w4 = w16 * w0;
   w13 = w14 * w20;
   w4 = w4 - w13;
   w13 = w1 * w22;
   w4 = w4 - w13;
   w4 = w2 * w4;
-  GAGEN_SCATTER(M, 8, 5, w4);
+  GAGEN_SCATTER(out_M, 8, 5, w4);
   w4 = w14 * w24;
   w13 = w1 * w0;
   w4 = w4 + w13;
@@ -3956,43 +3956,43 @@ static void three_pandas_circle_arm2_fk_block(const double *restrict q, double *
   w4 = w4 + w22;
   w4 = w2 * w4;
   w4 = -w4;
-  GAGEN_SCATTER(M, 8, 6, w4);
+  GAGEN_SCATTER(out_M, 8, 6, w4);
   w24 = w1 * w24;
   w0 = w14 * w0;
   w24 = w24 - w0;
   w20 = w16 * w20;
   w24 = w24 - w20;
   w24 = w2 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w14);
-  GAGEN_SCATTER(P, 5, 2, w1);
-  GAGEN_SCATTER(P, 5, 3, w16);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w14);
+  GAGEN_SCATTER(out_P, 5, 2, w1);
+  GAGEN_SCATTER(out_P, 5, 3, w16);
   w14 = w14 * w14;
   w1 = w1 * w1;
   w14 = w14 + w1;
   w16 = w16 * w16;
   w14 = w14 + w16;
   w2 = w2 * w14;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #endif
 
-void three_pandas_circle_arm2_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void three_pandas_circle_arm2_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    three_pandas_circle_arm2_fk_block(q + 7 * s, M + 8 * s, P + 5 * s);
+    three_pandas_circle_arm2_fk_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    three_pandas_circle_arm2_fk(q + 7 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    three_pandas_circle_arm2_fk(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -4002,14 +4002,14 @@ void three_pandas_circle_arm2_fk_batch(long n, const double *restrict q, double 
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void three_pandas_circle_arm2_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void three_pandas_circle_arm2_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.4999999999999997);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 7, 0);
+  w3 = GAGEN_GATHER(in_q, 7, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
   w5 = w1 * w4;
@@ -4017,11 +4017,11 @@ static void three_pandas_circle_arm2_fk_block_columns(long gagen_ld, int gagen_s
   w3 = gagen_v_cos(w3);
   w7 = w6 * w3;
   w5 = w5 - w7;
-  w7 = GAGEN_GATHER(q, 7, 1);
+  w7 = GAGEN_GATHER(in_q, 7, 1);
   w7 = w2 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w5 * w8;
-  w10 = GAGEN_GATHER(q, 7, 2);
+  w10 = GAGEN_GATHER(in_q, 7, 2);
   w10 = w2 * w10;
   w11 = gagen_v_cos(w10);
   w12 = w9 * w11;
@@ -4040,7 +4040,7 @@ static void three_pandas_circle_arm2_fk_block_columns(long gagen_ld, int gagen_s
   w15 = w6 * w11;
   w14 = w14 - w15;
   w14 = w14 + w14;
-  w16 = GAGEN_GATHER(q, 7, 3);
+  w16 = GAGEN_GATHER(in_q, 7, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -4066,7 +4066,7 @@ static void three_pandas_circle_arm2_fk_block_columns(long gagen_ld, int gagen_s
   w12 = w12 + w12;
   w15 = w12 * w17;
   w1 = w1 + w15;
-  w13 = GAGEN_GATHER(q, 7, 4);
+  w13 = GAGEN_GATHER(in_q, 7, 4);
   w13 = w2 * w13;
   w5 = gagen_v_cos(w13);
   w20 = w1 * w5;
@@ -4089,7 +4089,7 @@ static void three_pandas_circle_arm2_fk_block_columns(long gagen_ld, int gagen_s
   w19 = w19 - w14;
   w14 = w19 * w13;
   w23 = w23 - w14;
-  w12 = GAGEN_GATHER(q, 7, 5);
+  w12 = GAGEN_GATHER(in_q, 7, 5);
   w12 = w2 * w12;
   w9 = gagen_v_cos(w12);
   w15 = w23 * w9;
@@ -4113,7 +4113,7 @@ static void three_pandas_circle_arm2_fk_block_columns(long gagen_ld, int gagen_s
   w1 = w1 - w21;
   w21 = w1 * w12;
   w26 = w26 - w21;
-  w18 = GAGEN_GATHER(q, 7, 6);
+  w18 = GAGEN_GATHER(in_q, 7, 6);
   w18 = w2 * w18;
   w19 = gagen_v_cos(w18);
   w22 = w26 * w19;
@@ -4128,12 +4128,12 @@ static void three_pandas_circle_arm2_fk_block_columns(long gagen_ld, int gagen_s
   w27 = w20 * w18;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w20 = w20 * w19;
   w26 = w26 * w18;
   w20 = w20 - w26;
   w20 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 1, w20);
+  GAGEN_SCATTER(out_M, 8, 1, w20);
   w23 = w23 + w1;
   w23 = w23 + w6;
   w23 = w23 - w24;
@@ -4144,12 +4144,12 @@ static void three_pandas_circle_arm2_fk_block_columns(long gagen_ld, int gagen_s
   w21 = w14 * w18;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w14 = w14 * w19;
   w23 = w23 * w18;
   w14 = w14 - w23;
   w0 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w14 = gagen_v_splat(0.0825);
   w23 = w11 * w11;
   w18 = w10 * w10;
@@ -4308,14 +4308,14 @@ static void three_pandas_circle_arm2_fk_block_columns(long gagen_ld, int gagen_s
   w13 = w14 * w22;
   w4 = w4 - w13;
   w4 = w2 * w4;
-  GAGEN_SCATTER(M, 8, 4, w4);
+  GAGEN_SCATTER(out_M, 8, 4, w4);
   w4 = w16 * w0;
   w13 = w14 * w20;
   w4 = w4 - w13;
   w13 = w1 * w22;
   w4 = w4 - w13;
   w4 = w2 * w4;
-  GAGEN_SCATTER(M, 8, 5, w4);
+  GAGEN_SCATTER(out_M, 8, 5, w4);
   w4 = w14 * w24;
   w13 = w1 * w0;
   w4 = w4 + w13;
@@ -4323,26 +4323,26 @@ static void three_pandas_circle_arm2_fk_block_columns(long gagen_ld, int gagen_s
   w4 = w4 + w22;
   w4 = w2 * w4;
   w4 = -w4;
-  GAGEN_SCATTER(M, 8, 6, w4);
+  GAGEN_SCATTER(out_M, 8, 6, w4);
   w24 = w1 * w24;
   w0 = w14 * w0;
   w24 = w24 - w0;
   w20 = w16 * w20;
   w24 = w24 - w20;
   w24 = w2 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w14);
-  GAGEN_SCATTER(P, 5, 2, w1);
-  GAGEN_SCATTER(P, 5, 3, w16);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w14);
+  GAGEN_SCATTER(out_P, 5, 2, w1);
+  GAGEN_SCATTER(out_P, 5, 3, w16);
   w14 = w14 * w14;
   w1 = w1 * w1;
   w14 = w14 + w1;
   w16 = w16 * w16;
   w14 = w14 + w16;
   w2 = w2 * w14;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -4350,21 +4350,21 @@ static void three_pandas_circle_arm2_fk_block_columns(long gagen_ld, int gagen_s
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void three_pandas_circle_arm2_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void three_pandas_circle_arm2_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    three_pandas_circle_arm2_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    three_pandas_circle_arm2_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  three_pandas_circle_arm2_fk_columns_from(s, n, ld, q, M, P);
+  three_pandas_circle_arm2_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain arm2: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void three_pandas_circle_arm2_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void three_pandas_circle_arm2_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -4373,7 +4373,7 @@ static void three_pandas_circle_arm2_fk_jacobian_block(const double *restrict q,
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.4999999999999997);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 7, 0);
+  w3 = GAGEN_GATHER(in_q, 7, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
   w5 = w1 * w4;
@@ -4381,11 +4381,11 @@ static void three_pandas_circle_arm2_fk_jacobian_block(const double *restrict q,
   w3 = gagen_v_cos(w3);
   w7 = w6 * w3;
   w5 = w5 - w7;
-  w7 = GAGEN_GATHER(q, 7, 1);
+  w7 = GAGEN_GATHER(in_q, 7, 1);
   w7 = w2 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w5 * w8;
-  w10 = GAGEN_GATHER(q, 7, 2);
+  w10 = GAGEN_GATHER(in_q, 7, 2);
   w10 = w2 * w10;
   w11 = gagen_v_cos(w10);
   w12 = w9 * w11;
@@ -4404,7 +4404,7 @@ static void three_pandas_circle_arm2_fk_jacobian_block(const double *restrict q,
   w15 = w6 * w11;
   w14 = w14 - w15;
   w14 = w14 + w14;
-  w16 = GAGEN_GATHER(q, 7, 3);
+  w16 = GAGEN_GATHER(in_q, 7, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -4430,7 +4430,7 @@ static void three_pandas_circle_arm2_fk_jacobian_block(const double *restrict q,
   w12 = w12 + w12;
   w15 = w12 * w17;
   w1 = w1 + w15;
-  w13 = GAGEN_GATHER(q, 7, 4);
+  w13 = GAGEN_GATHER(in_q, 7, 4);
   w13 = w2 * w13;
   w5 = gagen_v_cos(w13);
   w20 = w1 * w5;
@@ -4453,7 +4453,7 @@ static void three_pandas_circle_arm2_fk_jacobian_block(const double *restrict q,
   w19 = w19 - w14;
   w14 = w19 * w13;
   w23 = w23 - w14;
-  w12 = GAGEN_GATHER(q, 7, 5);
+  w12 = GAGEN_GATHER(in_q, 7, 5);
   w12 = w2 * w12;
   w9 = gagen_v_cos(w12);
   w15 = w23 * w9;
@@ -4477,7 +4477,7 @@ static void three_pandas_circle_arm2_fk_jacobian_block(const double *restrict q,
   w1 = w1 - w21;
   w21 = w1 * w12;
   w26 = w26 - w21;
-  w18 = GAGEN_GATHER(q, 7, 6);
+  w18 = GAGEN_GATHER(in_q, 7, 6);
   w18 = w2 * w18;
   w19 = gagen_v_cos(w18);
   w22 = w26 * w19;
@@ -4492,12 +4492,12 @@ static void three_pandas_circle_arm2_fk_jacobian_block(const double *restrict q,
   w27 = w20 * w18;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w20 = w20 * w19;
   w26 = w26 * w18;
   w20 = w20 - w26;
   w20 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 1, w20);
+  GAGEN_SCATTER(out_M, 8, 1, w20);
   w23 = w23 + w1;
   w23 = w23 + w6;
   w23 = w23 - w24;
@@ -4508,12 +4508,12 @@ static void three_pandas_circle_arm2_fk_jacobian_block(const double *restrict q,
   w21 = w14 * w18;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w14 = w14 * w19;
   w23 = w23 * w18;
   w14 = w14 - w23;
   w0 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w14 = gagen_v_splat(0.0825);
   w23 = w11 * w11;
   w18 = w10 * w10;
@@ -4672,14 +4672,14 @@ static void three_pandas_circle_arm2_fk_jacobian_block(const double *restrict q,
   w9 = w30 * w22;
   w41 = w41 - w9;
   w41 = w2 * w41;
-  GAGEN_SCATTER(M, 8, 4, w41);
+  GAGEN_SCATTER(out_M, 8, 4, w41);
   w41 = w43 * w0;
   w9 = w30 * w20;
   w41 = w41 - w9;
   w9 = w37 * w22;
   w41 = w41 - w9;
   w41 = w2 * w41;
-  GAGEN_SCATTER(M, 8, 5, w41);
+  GAGEN_SCATTER(out_M, 8, 5, w41);
   w41 = w30 * w24;
   w9 = w37 * w0;
   w41 = w41 + w9;
@@ -4687,64 +4687,64 @@ static void three_pandas_circle_arm2_fk_jacobian_block(const double *restrict q,
   w41 = w41 + w22;
   w41 = w2 * w41;
   w41 = -w41;
-  GAGEN_SCATTER(M, 8, 6, w41);
+  GAGEN_SCATTER(out_M, 8, 6, w41);
   w24 = w37 * w24;
   w0 = w30 * w0;
   w24 = w24 - w0;
   w20 = w43 * w20;
   w24 = w24 - w20;
   w24 = w2 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w30);
-  GAGEN_SCATTER(P, 5, 2, w37);
-  GAGEN_SCATTER(P, 5, 3, w43);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w30);
+  GAGEN_SCATTER(out_P, 5, 2, w37);
+  GAGEN_SCATTER(out_P, 5, 3, w43);
   w30 = w30 * w30;
   w37 = w37 * w37;
   w30 = w30 + w37;
   w43 = w43 * w43;
   w30 = w30 + w43;
   w2 = w2 * w30;
-  GAGEN_SCATTER(P, 5, 4, w2);
-  GAGEN_SCATTER(J_S, 42, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
+  GAGEN_SCATTER(out_J_S, 42, 0, w24);
   w24 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w24);
-  GAGEN_SCATTER(J_S, 42, 2, w24);
+  GAGEN_SCATTER(out_J_S, 42, 1, w24);
+  GAGEN_SCATTER(out_J_S, 42, 2, w24);
   w2 = gagen_v_splat((-0.692820323027551));
-  GAGEN_SCATTER(J_S, 42, 3, w2);
-  GAGEN_SCATTER(J_S, 42, 4, w23);
-  GAGEN_SCATTER(J_S, 42, 5, w24);
-  GAGEN_SCATTER(J_S, 42, 6, w24);
+  GAGEN_SCATTER(out_J_S, 42, 3, w2);
+  GAGEN_SCATTER(out_J_S, 42, 4, w23);
+  GAGEN_SCATTER(out_J_S, 42, 5, w24);
+  GAGEN_SCATTER(out_J_S, 42, 6, w24);
   w10 = -w10;
-  GAGEN_SCATTER(J_S, 42, 7, w10);
+  GAGEN_SCATTER(out_J_S, 42, 7, w10);
   w15 = -w15;
-  GAGEN_SCATTER(J_S, 42, 8, w15);
+  GAGEN_SCATTER(out_J_S, 42, 8, w15);
   w15 = gagen_v_splat(0.1665000000000002);
   w15 = w15 * w25;
   w10 = gagen_v_splat(0.576772918920436);
   w10 = w10 * w3;
   w15 = w15 - w10;
   w15 = -w15;
-  GAGEN_SCATTER(J_S, 42, 9, w15);
+  GAGEN_SCATTER(out_J_S, 42, 9, w15);
   w15 = gagen_v_splat(0.3330000000000004);
   w15 = w15 * w3;
   w10 = gagen_v_splat(0.288386459460218);
   w10 = w10 * w25;
   w15 = w15 + w10;
   w15 = -w15;
-  GAGEN_SCATTER(J_S, 42, 10, w15);
+  GAGEN_SCATTER(out_J_S, 42, 10, w15);
   w15 = gagen_v_splat(1.1210074014916436e-15);
   w15 = w15 * w3;
   w3 = gagen_v_splat(0.8000000000000002);
   w3 = w3 * w25;
   w15 = w15 + w3;
   w15 = -w15;
-  GAGEN_SCATTER(J_S, 42, 11, w15);
-  GAGEN_SCATTER(J_S, 42, 12, w18);
+  GAGEN_SCATTER(out_J_S, 42, 11, w15);
+  GAGEN_SCATTER(out_J_S, 42, 12, w18);
   w15 = -w4;
-  GAGEN_SCATTER(J_S, 42, 13, w15);
-  GAGEN_SCATTER(J_S, 42, 14, w28);
+  GAGEN_SCATTER(out_J_S, 42, 13, w15);
+  GAGEN_SCATTER(out_J_S, 42, 14, w28);
   w15 = gagen_v_splat(0.3464101615137755);
   w3 = gagen_v_splat(0.158);
   w25 = w3 * w4;
@@ -4758,7 +4758,7 @@ static void three_pandas_circle_arm2_fk_jacobian_block(const double *restrict q,
   w30 = w30 + w30;
   w25 = w25 + w30;
   w25 = -w25;
-  GAGEN_SCATTER(J_S, 42, 15, w25);
+  GAGEN_SCATTER(out_J_S, 42, 15, w25);
   w25 = gagen_v_splat(0.2);
   w3 = w3 * w28;
   w25 = w25 - w3;
@@ -4767,17 +4767,17 @@ static void three_pandas_circle_arm2_fk_jacobian_block(const double *restrict q,
   w2 = w28 * w2;
   w2 = w2 + w2;
   w18 = w18 + w2;
-  GAGEN_SCATTER(J_S, 42, 16, w18);
+  GAGEN_SCATTER(out_J_S, 42, 16, w18);
   w28 = w28 * w15;
   w4 = w4 * w25;
   w28 = w28 - w4;
   w28 = w28 + w28;
-  GAGEN_SCATTER(J_S, 42, 17, w28);
+  GAGEN_SCATTER(out_J_S, 42, 17, w28);
   w28 = w11 * w8;
   w4 = -w28;
-  GAGEN_SCATTER(J_S, 42, 18, w4);
-  GAGEN_SCATTER(J_S, 42, 19, w13);
-  GAGEN_SCATTER(J_S, 42, 20, w35);
+  GAGEN_SCATTER(out_J_S, 42, 18, w4);
+  GAGEN_SCATTER(out_J_S, 42, 19, w13);
+  GAGEN_SCATTER(out_J_S, 42, 20, w35);
   w4 = gagen_v_splat(0.04125);
   w6 = w4 * w6;
   w15 = w15 - w6;
@@ -4791,7 +4791,7 @@ static void three_pandas_circle_arm2_fk_jacobian_block(const double *restrict q,
   w24 = w24 + w24;
   w6 = w6 + w24;
   w6 = -w6;
-  GAGEN_SCATTER(J_S, 42, 21, w6);
+  GAGEN_SCATTER(out_J_S, 42, 21, w6);
   w4 = w4 * w19;
   w25 = w25 - w4;
   w28 = w28 * w25;
@@ -4800,98 +4800,98 @@ static void three_pandas_circle_arm2_fk_jacobian_block(const double *restrict q,
   w44 = w35 * w44;
   w44 = w44 + w44;
   w28 = w28 - w44;
-  GAGEN_SCATTER(J_S, 42, 22, w28);
+  GAGEN_SCATTER(out_J_S, 42, 22, w28);
   w25 = w13 * w25;
   w15 = w35 * w15;
   w25 = w25 + w15;
   w25 = w25 + w25;
-  GAGEN_SCATTER(J_S, 42, 23, w25);
-  GAGEN_SCATTER(J_S, 42, 24, w45);
-  GAGEN_SCATTER(J_S, 42, 25, w31);
-  GAGEN_SCATTER(J_S, 42, 26, w29);
+  GAGEN_SCATTER(out_J_S, 42, 23, w25);
+  GAGEN_SCATTER(out_J_S, 42, 24, w45);
+  GAGEN_SCATTER(out_J_S, 42, 25, w31);
+  GAGEN_SCATTER(out_J_S, 42, 26, w29);
   w27 = w27 - w38;
   w27 = w27 + w40;
   w25 = w45 * w27;
   w15 = w31 * w42;
   w25 = w25 + w15;
-  GAGEN_SCATTER(J_S, 42, 27, w25);
+  GAGEN_SCATTER(out_J_S, 42, 27, w25);
   w25 = w29 * w42;
   w14 = w14 - w23;
   w14 = w14 + w39;
   w45 = w45 * w14;
   w25 = w25 - w45;
-  GAGEN_SCATTER(J_S, 42, 28, w25);
+  GAGEN_SCATTER(out_J_S, 42, 28, w25);
   w31 = w31 * w14;
   w29 = w29 * w27;
   w31 = w31 + w29;
   w31 = -w31;
-  GAGEN_SCATTER(J_S, 42, 29, w31);
+  GAGEN_SCATTER(out_J_S, 42, 29, w31);
   w46 = w5 * w46;
   w11 = w34 * w11;
   w11 = w11 * w8;
   w46 = w46 - w11;
-  GAGEN_SCATTER(J_S, 42, 30, w46);
+  GAGEN_SCATTER(out_J_S, 42, 30, w46);
   w13 = w34 * w13;
   w16 = w5 * w16;
   w13 = w13 - w16;
-  GAGEN_SCATTER(J_S, 42, 31, w13);
+  GAGEN_SCATTER(out_J_S, 42, 31, w13);
   w34 = w34 * w35;
   w5 = w5 * w17;
   w34 = w34 + w5;
-  GAGEN_SCATTER(J_S, 42, 32, w34);
+  GAGEN_SCATTER(out_J_S, 42, 32, w34);
   w5 = w46 * w27;
   w17 = w13 * w42;
   w5 = w5 + w17;
-  GAGEN_SCATTER(J_S, 42, 33, w5);
+  GAGEN_SCATTER(out_J_S, 42, 33, w5);
   w42 = w34 * w42;
   w46 = w46 * w14;
   w42 = w42 - w46;
-  GAGEN_SCATTER(J_S, 42, 34, w42);
+  GAGEN_SCATTER(out_J_S, 42, 34, w42);
   w13 = w13 * w14;
   w34 = w34 * w27;
   w13 = w13 + w34;
   w13 = -w13;
-  GAGEN_SCATTER(J_S, 42, 35, w13);
+  GAGEN_SCATTER(out_J_S, 42, 35, w13);
   w13 = -w48;
-  GAGEN_SCATTER(J_S, 42, 36, w13);
+  GAGEN_SCATTER(out_J_S, 42, 36, w13);
   w26 = w26 + w12;
   w12 = -w26;
-  GAGEN_SCATTER(J_S, 42, 37, w12);
+  GAGEN_SCATTER(out_J_S, 42, 37, w12);
   w12 = -w33;
-  GAGEN_SCATTER(J_S, 42, 38, w12);
+  GAGEN_SCATTER(out_J_S, 42, 38, w12);
   w36 = w36 - w38;
   w36 = w36 + w40;
   w40 = w48 * w36;
   w38 = w26 * w47;
   w40 = w40 + w38;
   w40 = -w40;
-  GAGEN_SCATTER(J_S, 42, 39, w40);
+  GAGEN_SCATTER(out_J_S, 42, 39, w40);
   w48 = w48 * w32;
   w47 = w33 * w47;
   w48 = w48 - w47;
-  GAGEN_SCATTER(J_S, 42, 40, w48);
+  GAGEN_SCATTER(out_J_S, 42, 40, w48);
   w26 = w26 * w32;
   w33 = w33 * w36;
   w26 = w26 + w33;
-  GAGEN_SCATTER(J_S, 42, 41, w26);
+  GAGEN_SCATTER(out_J_S, 42, 41, w26);
 }
 #endif
 
-void three_pandas_circle_arm2_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void three_pandas_circle_arm2_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 42 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 42 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 42 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 42 * gagen_a + gagen_o, 1, 0);
     }
-    three_pandas_circle_arm2_fk_jacobian_block(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+    three_pandas_circle_arm2_fk_jacobian_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    three_pandas_circle_arm2_fk_jacobian(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    three_pandas_circle_arm2_fk_jacobian(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 }
 
@@ -4901,7 +4901,7 @@ void three_pandas_circle_arm2_fk_jacobian_batch(long n, const double *restrict q
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void three_pandas_circle_arm2_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void three_pandas_circle_arm2_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -4910,7 +4910,7 @@ static void three_pandas_circle_arm2_fk_jacobian_block_columns(long gagen_ld, in
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.4999999999999997);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 7, 0);
+  w3 = GAGEN_GATHER(in_q, 7, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
   w5 = w1 * w4;
@@ -4918,11 +4918,11 @@ static void three_pandas_circle_arm2_fk_jacobian_block_columns(long gagen_ld, in
   w3 = gagen_v_cos(w3);
   w7 = w6 * w3;
   w5 = w5 - w7;
-  w7 = GAGEN_GATHER(q, 7, 1);
+  w7 = GAGEN_GATHER(in_q, 7, 1);
   w7 = w2 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w5 * w8;
-  w10 = GAGEN_GATHER(q, 7, 2);
+  w10 = GAGEN_GATHER(in_q, 7, 2);
   w10 = w2 * w10;
   w11 = gagen_v_cos(w10);
   w12 = w9 * w11;
@@ -4941,7 +4941,7 @@ static void three_pandas_circle_arm2_fk_jacobian_block_columns(long gagen_ld, in
   w15 = w6 * w11;
   w14 = w14 - w15;
   w14 = w14 + w14;
-  w16 = GAGEN_GATHER(q, 7, 3);
+  w16 = GAGEN_GATHER(in_q, 7, 3);
   w16 = w2 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w14 * w17;
@@ -4967,7 +4967,7 @@ static void three_pandas_circle_arm2_fk_jacobian_block_columns(long gagen_ld, in
   w12 = w12 + w12;
   w15 = w12 * w17;
   w1 = w1 + w15;
-  w13 = GAGEN_GATHER(q, 7, 4);
+  w13 = GAGEN_GATHER(in_q, 7, 4);
   w13 = w2 * w13;
   w5 = gagen_v_cos(w13);
   w20 = w1 * w5;
@@ -4990,7 +4990,7 @@ static void three_pandas_circle_arm2_fk_jacobian_block_columns(long gagen_ld, in
   w19 = w19 - w14;
   w14 = w19 * w13;
   w23 = w23 - w14;
-  w12 = GAGEN_GATHER(q, 7, 5);
+  w12 = GAGEN_GATHER(in_q, 7, 5);
   w12 = w2 * w12;
   w9 = gagen_v_cos(w12);
   w15 = w23 * w9;
@@ -5014,7 +5014,7 @@ static void three_pandas_circle_arm2_fk_jacobian_block_columns(long gagen_ld, in
   w1 = w1 - w21;
   w21 = w1 * w12;
   w26 = w26 - w21;
-  w18 = GAGEN_GATHER(q, 7, 6);
+  w18 = GAGEN_GATHER(in_q, 7, 6);
   w18 = w2 * w18;
   w19 = gagen_v_cos(w18);
   w22 = w26 * w19;
@@ -5029,12 +5029,12 @@ static void three_pandas_circle_arm2_fk_jacobian_block_columns(long gagen_ld, in
   w27 = w20 * w18;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w20 = w20 * w19;
   w26 = w26 * w18;
   w20 = w20 - w26;
   w20 = w0 * w20;
-  GAGEN_SCATTER(M, 8, 1, w20);
+  GAGEN_SCATTER(out_M, 8, 1, w20);
   w23 = w23 + w1;
   w23 = w23 + w6;
   w23 = w23 - w24;
@@ -5045,12 +5045,12 @@ static void three_pandas_circle_arm2_fk_jacobian_block_columns(long gagen_ld, in
   w21 = w14 * w18;
   w24 = w24 + w21;
   w24 = w0 * w24;
-  GAGEN_SCATTER(M, 8, 2, w24);
+  GAGEN_SCATTER(out_M, 8, 2, w24);
   w14 = w14 * w19;
   w23 = w23 * w18;
   w14 = w14 - w23;
   w0 = w0 * w14;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w14 = gagen_v_splat(0.0825);
   w23 = w11 * w11;
   w18 = w10 * w10;
@@ -5209,14 +5209,14 @@ static void three_pandas_circle_arm2_fk_jacobian_block_columns(long gagen_ld, in
   w9 = w30 * w22;
   w41 = w41 - w9;
   w41 = w2 * w41;
-  GAGEN_SCATTER(M, 8, 4, w41);
+  GAGEN_SCATTER(out_M, 8, 4, w41);
   w41 = w43 * w0;
   w9 = w30 * w20;
   w41 = w41 - w9;
   w9 = w37 * w22;
   w41 = w41 - w9;
   w41 = w2 * w41;
-  GAGEN_SCATTER(M, 8, 5, w41);
+  GAGEN_SCATTER(out_M, 8, 5, w41);
   w41 = w30 * w24;
   w9 = w37 * w0;
   w41 = w41 + w9;
@@ -5224,64 +5224,64 @@ static void three_pandas_circle_arm2_fk_jacobian_block_columns(long gagen_ld, in
   w41 = w41 + w22;
   w41 = w2 * w41;
   w41 = -w41;
-  GAGEN_SCATTER(M, 8, 6, w41);
+  GAGEN_SCATTER(out_M, 8, 6, w41);
   w24 = w37 * w24;
   w0 = w30 * w0;
   w24 = w24 - w0;
   w20 = w43 * w20;
   w24 = w24 - w20;
   w24 = w2 * w24;
-  GAGEN_SCATTER(M, 8, 7, w24);
+  GAGEN_SCATTER(out_M, 8, 7, w24);
   w24 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w24);
-  GAGEN_SCATTER(P, 5, 1, w30);
-  GAGEN_SCATTER(P, 5, 2, w37);
-  GAGEN_SCATTER(P, 5, 3, w43);
+  GAGEN_SCATTER(out_P, 5, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 1, w30);
+  GAGEN_SCATTER(out_P, 5, 2, w37);
+  GAGEN_SCATTER(out_P, 5, 3, w43);
   w30 = w30 * w30;
   w37 = w37 * w37;
   w30 = w30 + w37;
   w43 = w43 * w43;
   w30 = w30 + w43;
   w2 = w2 * w30;
-  GAGEN_SCATTER(P, 5, 4, w2);
-  GAGEN_SCATTER(J_S, 42, 0, w24);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
+  GAGEN_SCATTER(out_J_S, 42, 0, w24);
   w24 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w24);
-  GAGEN_SCATTER(J_S, 42, 2, w24);
+  GAGEN_SCATTER(out_J_S, 42, 1, w24);
+  GAGEN_SCATTER(out_J_S, 42, 2, w24);
   w2 = gagen_v_splat((-0.692820323027551));
-  GAGEN_SCATTER(J_S, 42, 3, w2);
-  GAGEN_SCATTER(J_S, 42, 4, w23);
-  GAGEN_SCATTER(J_S, 42, 5, w24);
-  GAGEN_SCATTER(J_S, 42, 6, w24);
+  GAGEN_SCATTER(out_J_S, 42, 3, w2);
+  GAGEN_SCATTER(out_J_S, 42, 4, w23);
+  GAGEN_SCATTER(out_J_S, 42, 5, w24);
+  GAGEN_SCATTER(out_J_S, 42, 6, w24);
   w10 = -w10;
-  GAGEN_SCATTER(J_S, 42, 7, w10);
+  GAGEN_SCATTER(out_J_S, 42, 7, w10);
   w15 = -w15;
-  GAGEN_SCATTER(J_S, 42, 8, w15);
+  GAGEN_SCATTER(out_J_S, 42, 8, w15);
   w15 = gagen_v_splat(0.1665000000000002);
   w15 = w15 * w25;
   w10 = gagen_v_splat(0.576772918920436);
   w10 = w10 * w3;
   w15 = w15 - w10;
   w15 = -w15;
-  GAGEN_SCATTER(J_S, 42, 9, w15);
+  GAGEN_SCATTER(out_J_S, 42, 9, w15);
   w15 = gagen_v_splat(0.3330000000000004);
   w15 = w15 * w3;
   w10 = gagen_v_splat(0.288386459460218);
   w10 = w10 * w25;
   w15 = w15 + w10;
   w15 = -w15;
-  GAGEN_SCATTER(J_S, 42, 10, w15);
+  GAGEN_SCATTER(out_J_S, 42, 10, w15);
   w15 = gagen_v_splat(1.1210074014916436e-15);
   w15 = w15 * w3;
   w3 = gagen_v_splat(0.8000000000000002);
   w3 = w3 * w25;
   w15 = w15 + w3;
   w15 = -w15;
-  GAGEN_SCATTER(J_S, 42, 11, w15);
-  GAGEN_SCATTER(J_S, 42, 12, w18);
+  GAGEN_SCATTER(out_J_S, 42, 11, w15);
+  GAGEN_SCATTER(out_J_S, 42, 12, w18);
   w15 = -w4;
-  GAGEN_SCATTER(J_S, 42, 13, w15);
-  GAGEN_SCATTER(J_S, 42, 14, w28);
+  GAGEN_SCATTER(out_J_S, 42, 13, w15);
+  GAGEN_SCATTER(out_J_S, 42, 14, w28);
   w15 = gagen_v_splat(0.3464101615137755);
   w3 = gagen_v_splat(0.158);
   w25 = w3 * w4;
@@ -5295,7 +5295,7 @@ static void three_pandas_circle_arm2_fk_jacobian_block_columns(long gagen_ld, in
   w30 = w30 + w30;
   w25 = w25 + w30;
   w25 = -w25;
-  GAGEN_SCATTER(J_S, 42, 15, w25);
+  GAGEN_SCATTER(out_J_S, 42, 15, w25);
   w25 = gagen_v_splat(0.2);
   w3 = w3 * w28;
   w25 = w25 - w3;
@@ -5304,17 +5304,17 @@ static void three_pandas_circle_arm2_fk_jacobian_block_columns(long gagen_ld, in
   w2 = w28 * w2;
   w2 = w2 + w2;
   w18 = w18 + w2;
-  GAGEN_SCATTER(J_S, 42, 16, w18);
+  GAGEN_SCATTER(out_J_S, 42, 16, w18);
   w28 = w28 * w15;
   w4 = w4 * w25;
   w28 = w28 - w4;
   w28 = w28 + w28;
-  GAGEN_SCATTER(J_S, 42, 17, w28);
+  GAGEN_SCATTER(out_J_S, 42, 17, w28);
   w28 = w11 * w8;
   w4 = -w28;
-  GAGEN_SCATTER(J_S, 42, 18, w4);
-  GAGEN_SCATTER(J_S, 42, 19, w13);
-  GAGEN_SCATTER(J_S, 42, 20, w35);
+  GAGEN_SCATTER(out_J_S, 42, 18, w4);
+  GAGEN_SCATTER(out_J_S, 42, 19, w13);
+  GAGEN_SCATTER(out_J_S, 42, 20, w35);
   w4 = gagen_v_splat(0.04125);
   w6 = w4 * w6;
   w15 = w15 - w6;
@@ -5328,7 +5328,7 @@ static void three_pandas_circle_arm2_fk_jacobian_block_columns(long gagen_ld, in
   w24 = w24 + w24;
   w6 = w6 + w24;
   w6 = -w6;
-  GAGEN_SCATTER(J_S, 42, 21, w6);
+  GAGEN_SCATTER(out_J_S, 42, 21, w6);
   w4 = w4 * w19;
   w25 = w25 - w4;
   w28 = w28 * w25;
@@ -5337,80 +5337,80 @@ static void three_pandas_circle_arm2_fk_jacobian_block_columns(long gagen_ld, in
   w44 = w35 * w44;
   w44 = w44 + w44;
   w28 = w28 - w44;
-  GAGEN_SCATTER(J_S, 42, 22, w28);
+  GAGEN_SCATTER(out_J_S, 42, 22, w28);
   w25 = w13 * w25;
   w15 = w35 * w15;
   w25 = w25 + w15;
   w25 = w25 + w25;
-  GAGEN_SCATTER(J_S, 42, 23, w25);
-  GAGEN_SCATTER(J_S, 42, 24, w45);
-  GAGEN_SCATTER(J_S, 42, 25, w31);
-  GAGEN_SCATTER(J_S, 42, 26, w29);
+  GAGEN_SCATTER(out_J_S, 42, 23, w25);
+  GAGEN_SCATTER(out_J_S, 42, 24, w45);
+  GAGEN_SCATTER(out_J_S, 42, 25, w31);
+  GAGEN_SCATTER(out_J_S, 42, 26, w29);
   w27 = w27 - w38;
   w27 = w27 + w40;
   w25 = w45 * w27;
   w15 = w31 * w42;
   w25 = w25 + w15;
-  GAGEN_SCATTER(J_S, 42, 27, w25);
+  GAGEN_SCATTER(out_J_S, 42, 27, w25);
   w25 = w29 * w42;
   w14 = w14 - w23;
   w14 = w14 + w39;
   w45 = w45 * w14;
   w25 = w25 - w45;
-  GAGEN_SCATTER(J_S, 42, 28, w25);
+  GAGEN_SCATTER(out_J_S, 42, 28, w25);
   w31 = w31 * w14;
   w29 = w29 * w27;
   w31 = w31 + w29;
   w31 = -w31;
-  GAGEN_SCATTER(J_S, 42, 29, w31);
+  GAGEN_SCATTER(out_J_S, 42, 29, w31);
   w46 = w5 * w46;
   w11 = w34 * w11;
   w11 = w11 * w8;
   w46 = w46 - w11;
-  GAGEN_SCATTER(J_S, 42, 30, w46);
+  GAGEN_SCATTER(out_J_S, 42, 30, w46);
   w13 = w34 * w13;
   w16 = w5 * w16;
   w13 = w13 - w16;
-  GAGEN_SCATTER(J_S, 42, 31, w13);
+  GAGEN_SCATTER(out_J_S, 42, 31, w13);
   w34 = w34 * w35;
   w5 = w5 * w17;
   w34 = w34 + w5;
-  GAGEN_SCATTER(J_S, 42, 32, w34);
+  GAGEN_SCATTER(out_J_S, 42, 32, w34);
   w5 = w46 * w27;
   w17 = w13 * w42;
   w5 = w5 + w17;
-  GAGEN_SCATTER(J_S, 42, 33, w5);
+  GAGEN_SCATTER(out_J_S, 42, 33, w5);
   w42 = w34 * w42;
   w46 = w46 * w14;
   w42 = w42 - w46;
-  GAGEN_SCATTER(J_S, 42, 34, w42);
+  GAGEN_SCATTER(out_J_S, 42, 34, w42);
   w13 = w13 * w14;
   w34 = w34 * w27;
   w13 = w13 + w34;
   w13 = -w13;
-  GAGEN_SCATTER(J_S, 42, 35, w13);
+  GAGEN_SCATTER(out_J_S, 42, 35, w13);
   w13 = -w48;
-  GAGEN_SCATTER(J_S, 42, 36, w13);
+  GAGEN_SCATTER(out_J_S, 42, 36, w13);
   w26 = w26 + w12;
   w12 = -w26;
-  GAGEN_SCATTER(J_S, 42, 37, w12);
+  GAGEN_SCATTER(out_J_S, 42, 37, w12);
   w12 = -w33;
-  GAGEN_SCATTER(J_S, 42, 38, w12);
+  GAGEN_SCATTER(out_J_S, 42, 38, w12);
   w36 = w36 - w38;
   w36 = w36 + w40;
   w40 = w48 * w36;
   w38 = w26 * w47;
   w40 = w40 + w38;
   w40 = -w40;
-  GAGEN_SCATTER(J_S, 42, 39, w40);
+  GAGEN_SCATTER(out_J_S, 42, 39, w40);
   w48 = w48 * w32;
   w47 = w33 * w47;
   w48 = w48 - w47;
-  GAGEN_SCATTER(J_S, 42, 40, w48);
+  GAGEN_SCATTER(out_J_S, 42, 40, w48);
   w26 = w26 * w32;
   w33 = w33 * w36;
   w26 = w26 + w33;
-  GAGEN_SCATTER(J_S, 42, 41, w26);
+  GAGEN_SCATTER(out_J_S, 42, 41, w26);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -5418,14 +5418,14 @@ static void three_pandas_circle_arm2_fk_jacobian_block_columns(long gagen_ld, in
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void three_pandas_circle_arm2_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void three_pandas_circle_arm2_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    three_pandas_circle_arm2_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    three_pandas_circle_arm2_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  three_pandas_circle_arm2_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  three_pandas_circle_arm2_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }

@@ -48,13 +48,13 @@ extern "C" {
 #define TWO_G1_SPHERE_G1A_LEFT_HAND_FK_Q_SIZE 10
 #define TWO_G1_SPHERE_G1A_LEFT_HAND_FK_M_SIZE 8
 #define TWO_G1_SPHERE_G1A_LEFT_HAND_FK_P_SIZE 5
-void two_g1_sphere_g1a_left_hand_fk(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
-void two_g1_sphere_g1a_left_hand_fk_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void two_g1_sphere_g1a_left_hand_fk(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
+void two_g1_sphere_g1a_left_hand_fk_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void two_g1_sphere_g1a_left_hand_fk_argv(const double *const *arg, double *const *res);
 void two_g1_sphere_g1a_left_hand_fk_batch_argv(long n, const double *const *arg, double *const *res);
-void two_g1_sphere_g1a_left_hand_fk_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void two_g1_sphere_g1a_left_hand_fk_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void two_g1_sphere_g1a_left_hand_fk_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void two_g1_sphere_g1a_left_hand_fk_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void two_g1_sphere_g1a_left_hand_fk_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 
 /* chain g1a_left_hand: motor, end point and spatial (geometric) Jacobian
  *   in  q            [10] g1a/waist_yaw_joint, g1a/waist_roll_joint, g1a/waist_pitch_joint,...
@@ -66,13 +66,13 @@ void two_g1_sphere_g1a_left_hand_fk_columns_from(long s0, long n, long ld, const
 #define TWO_G1_SPHERE_G1A_LEFT_HAND_FK_JACOBIAN_M_SIZE 8
 #define TWO_G1_SPHERE_G1A_LEFT_HAND_FK_JACOBIAN_P_SIZE 5
 #define TWO_G1_SPHERE_G1A_LEFT_HAND_FK_JACOBIAN_J_S_SIZE 60
-void two_g1_sphere_g1a_left_hand_fk_jacobian(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
-void two_g1_sphere_g1a_left_hand_fk_jacobian_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void two_g1_sphere_g1a_left_hand_fk_jacobian(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
+void two_g1_sphere_g1a_left_hand_fk_jacobian_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void two_g1_sphere_g1a_left_hand_fk_jacobian_argv(const double *const *arg, double *const *res);
 void two_g1_sphere_g1a_left_hand_fk_jacobian_batch_argv(long n, const double *const *arg, double *const *res);
-void two_g1_sphere_g1a_left_hand_fk_jacobian_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void two_g1_sphere_g1a_left_hand_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void two_g1_sphere_g1a_left_hand_fk_jacobian_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void two_g1_sphere_g1a_left_hand_fk_jacobian_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void two_g1_sphere_g1a_left_hand_fk_jacobian_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 
 /* chain g1a_left_hand: motor, end point, every Jacobian and the tool z-axis line
  *   in  q            [10] g1a/waist_yaw_joint, g1a/waist_roll_joint, g1a/waist_pitch_joint,...
@@ -94,13 +94,13 @@ void two_g1_sphere_g1a_left_hand_fk_jacobian_columns_from(long s0, long n, long 
 #define TWO_G1_SPHERE_G1A_LEFT_HAND_JACOBIANS_J_P_SIZE 50
 #define TWO_G1_SPHERE_G1A_LEFT_HAND_JACOBIANS_L_SIZE 6
 #define TWO_G1_SPHERE_G1A_LEFT_HAND_JACOBIANS_J_L_SIZE 60
-void two_g1_sphere_g1a_left_hand_jacobians(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
-void two_g1_sphere_g1a_left_hand_jacobians_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void two_g1_sphere_g1a_left_hand_jacobians(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
+void two_g1_sphere_g1a_left_hand_jacobians_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void two_g1_sphere_g1a_left_hand_jacobians_argv(const double *const *arg, double *const *res);
 void two_g1_sphere_g1a_left_hand_jacobians_batch_argv(long n, const double *const *arg, double *const *res);
-void two_g1_sphere_g1a_left_hand_jacobians_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void two_g1_sphere_g1a_left_hand_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void two_g1_sphere_g1a_left_hand_jacobians_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void two_g1_sphere_g1a_left_hand_jacobians_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void two_g1_sphere_g1a_left_hand_jacobians_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 
 /* chain g1a_right_hand: motor and end point
  *   in  q            [10] g1a/waist_yaw_joint, g1a/waist_roll_joint, g1a/waist_pitch_joint,...
@@ -110,13 +110,13 @@ void two_g1_sphere_g1a_left_hand_jacobians_columns_from(long s0, long n, long ld
 #define TWO_G1_SPHERE_G1A_RIGHT_HAND_FK_Q_SIZE 10
 #define TWO_G1_SPHERE_G1A_RIGHT_HAND_FK_M_SIZE 8
 #define TWO_G1_SPHERE_G1A_RIGHT_HAND_FK_P_SIZE 5
-void two_g1_sphere_g1a_right_hand_fk(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
-void two_g1_sphere_g1a_right_hand_fk_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void two_g1_sphere_g1a_right_hand_fk(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
+void two_g1_sphere_g1a_right_hand_fk_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void two_g1_sphere_g1a_right_hand_fk_argv(const double *const *arg, double *const *res);
 void two_g1_sphere_g1a_right_hand_fk_batch_argv(long n, const double *const *arg, double *const *res);
-void two_g1_sphere_g1a_right_hand_fk_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void two_g1_sphere_g1a_right_hand_fk_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void two_g1_sphere_g1a_right_hand_fk_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void two_g1_sphere_g1a_right_hand_fk_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void two_g1_sphere_g1a_right_hand_fk_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 
 /* chain g1a_right_hand: motor, end point and spatial (geometric) Jacobian
  *   in  q            [10] g1a/waist_yaw_joint, g1a/waist_roll_joint, g1a/waist_pitch_joint,...
@@ -128,13 +128,13 @@ void two_g1_sphere_g1a_right_hand_fk_columns_from(long s0, long n, long ld, cons
 #define TWO_G1_SPHERE_G1A_RIGHT_HAND_FK_JACOBIAN_M_SIZE 8
 #define TWO_G1_SPHERE_G1A_RIGHT_HAND_FK_JACOBIAN_P_SIZE 5
 #define TWO_G1_SPHERE_G1A_RIGHT_HAND_FK_JACOBIAN_J_S_SIZE 60
-void two_g1_sphere_g1a_right_hand_fk_jacobian(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
-void two_g1_sphere_g1a_right_hand_fk_jacobian_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void two_g1_sphere_g1a_right_hand_fk_jacobian(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
+void two_g1_sphere_g1a_right_hand_fk_jacobian_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void two_g1_sphere_g1a_right_hand_fk_jacobian_argv(const double *const *arg, double *const *res);
 void two_g1_sphere_g1a_right_hand_fk_jacobian_batch_argv(long n, const double *const *arg, double *const *res);
-void two_g1_sphere_g1a_right_hand_fk_jacobian_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void two_g1_sphere_g1a_right_hand_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void two_g1_sphere_g1a_right_hand_fk_jacobian_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void two_g1_sphere_g1a_right_hand_fk_jacobian_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void two_g1_sphere_g1a_right_hand_fk_jacobian_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 
 /* chain g1a_right_hand: motor, end point, every Jacobian and the tool z-axis line
  *   in  q            [10] g1a/waist_yaw_joint, g1a/waist_roll_joint, g1a/waist_pitch_joint,...
@@ -156,13 +156,13 @@ void two_g1_sphere_g1a_right_hand_fk_jacobian_columns_from(long s0, long n, long
 #define TWO_G1_SPHERE_G1A_RIGHT_HAND_JACOBIANS_J_P_SIZE 50
 #define TWO_G1_SPHERE_G1A_RIGHT_HAND_JACOBIANS_L_SIZE 6
 #define TWO_G1_SPHERE_G1A_RIGHT_HAND_JACOBIANS_J_L_SIZE 60
-void two_g1_sphere_g1a_right_hand_jacobians(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
-void two_g1_sphere_g1a_right_hand_jacobians_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void two_g1_sphere_g1a_right_hand_jacobians(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
+void two_g1_sphere_g1a_right_hand_jacobians_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void two_g1_sphere_g1a_right_hand_jacobians_argv(const double *const *arg, double *const *res);
 void two_g1_sphere_g1a_right_hand_jacobians_batch_argv(long n, const double *const *arg, double *const *res);
-void two_g1_sphere_g1a_right_hand_jacobians_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void two_g1_sphere_g1a_right_hand_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void two_g1_sphere_g1a_right_hand_jacobians_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void two_g1_sphere_g1a_right_hand_jacobians_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void two_g1_sphere_g1a_right_hand_jacobians_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 
 /* chain g1b_left_hand: motor and end point
  *   in  q            [10] g1b/waist_yaw_joint, g1b/waist_roll_joint, g1b/waist_pitch_joint,...
@@ -172,13 +172,13 @@ void two_g1_sphere_g1a_right_hand_jacobians_columns_from(long s0, long n, long l
 #define TWO_G1_SPHERE_G1B_LEFT_HAND_FK_Q_SIZE 10
 #define TWO_G1_SPHERE_G1B_LEFT_HAND_FK_M_SIZE 8
 #define TWO_G1_SPHERE_G1B_LEFT_HAND_FK_P_SIZE 5
-void two_g1_sphere_g1b_left_hand_fk(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
-void two_g1_sphere_g1b_left_hand_fk_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void two_g1_sphere_g1b_left_hand_fk(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
+void two_g1_sphere_g1b_left_hand_fk_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void two_g1_sphere_g1b_left_hand_fk_argv(const double *const *arg, double *const *res);
 void two_g1_sphere_g1b_left_hand_fk_batch_argv(long n, const double *const *arg, double *const *res);
-void two_g1_sphere_g1b_left_hand_fk_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void two_g1_sphere_g1b_left_hand_fk_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void two_g1_sphere_g1b_left_hand_fk_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void two_g1_sphere_g1b_left_hand_fk_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void two_g1_sphere_g1b_left_hand_fk_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 
 /* chain g1b_left_hand: motor, end point and spatial (geometric) Jacobian
  *   in  q            [10] g1b/waist_yaw_joint, g1b/waist_roll_joint, g1b/waist_pitch_joint,...
@@ -190,13 +190,13 @@ void two_g1_sphere_g1b_left_hand_fk_columns_from(long s0, long n, long ld, const
 #define TWO_G1_SPHERE_G1B_LEFT_HAND_FK_JACOBIAN_M_SIZE 8
 #define TWO_G1_SPHERE_G1B_LEFT_HAND_FK_JACOBIAN_P_SIZE 5
 #define TWO_G1_SPHERE_G1B_LEFT_HAND_FK_JACOBIAN_J_S_SIZE 60
-void two_g1_sphere_g1b_left_hand_fk_jacobian(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
-void two_g1_sphere_g1b_left_hand_fk_jacobian_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void two_g1_sphere_g1b_left_hand_fk_jacobian(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
+void two_g1_sphere_g1b_left_hand_fk_jacobian_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void two_g1_sphere_g1b_left_hand_fk_jacobian_argv(const double *const *arg, double *const *res);
 void two_g1_sphere_g1b_left_hand_fk_jacobian_batch_argv(long n, const double *const *arg, double *const *res);
-void two_g1_sphere_g1b_left_hand_fk_jacobian_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void two_g1_sphere_g1b_left_hand_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void two_g1_sphere_g1b_left_hand_fk_jacobian_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void two_g1_sphere_g1b_left_hand_fk_jacobian_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void two_g1_sphere_g1b_left_hand_fk_jacobian_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 
 /* chain g1b_left_hand: motor, end point, every Jacobian and the tool z-axis line
  *   in  q            [10] g1b/waist_yaw_joint, g1b/waist_roll_joint, g1b/waist_pitch_joint,...
@@ -218,13 +218,13 @@ void two_g1_sphere_g1b_left_hand_fk_jacobian_columns_from(long s0, long n, long 
 #define TWO_G1_SPHERE_G1B_LEFT_HAND_JACOBIANS_J_P_SIZE 50
 #define TWO_G1_SPHERE_G1B_LEFT_HAND_JACOBIANS_L_SIZE 6
 #define TWO_G1_SPHERE_G1B_LEFT_HAND_JACOBIANS_J_L_SIZE 60
-void two_g1_sphere_g1b_left_hand_jacobians(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
-void two_g1_sphere_g1b_left_hand_jacobians_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void two_g1_sphere_g1b_left_hand_jacobians(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
+void two_g1_sphere_g1b_left_hand_jacobians_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void two_g1_sphere_g1b_left_hand_jacobians_argv(const double *const *arg, double *const *res);
 void two_g1_sphere_g1b_left_hand_jacobians_batch_argv(long n, const double *const *arg, double *const *res);
-void two_g1_sphere_g1b_left_hand_jacobians_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void two_g1_sphere_g1b_left_hand_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void two_g1_sphere_g1b_left_hand_jacobians_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void two_g1_sphere_g1b_left_hand_jacobians_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void two_g1_sphere_g1b_left_hand_jacobians_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 
 /* chain g1b_right_hand: motor and end point
  *   in  q            [10] g1b/waist_yaw_joint, g1b/waist_roll_joint, g1b/waist_pitch_joint,...
@@ -234,13 +234,13 @@ void two_g1_sphere_g1b_left_hand_jacobians_columns_from(long s0, long n, long ld
 #define TWO_G1_SPHERE_G1B_RIGHT_HAND_FK_Q_SIZE 10
 #define TWO_G1_SPHERE_G1B_RIGHT_HAND_FK_M_SIZE 8
 #define TWO_G1_SPHERE_G1B_RIGHT_HAND_FK_P_SIZE 5
-void two_g1_sphere_g1b_right_hand_fk(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
-void two_g1_sphere_g1b_right_hand_fk_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void two_g1_sphere_g1b_right_hand_fk(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
+void two_g1_sphere_g1b_right_hand_fk_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void two_g1_sphere_g1b_right_hand_fk_argv(const double *const *arg, double *const *res);
 void two_g1_sphere_g1b_right_hand_fk_batch_argv(long n, const double *const *arg, double *const *res);
-void two_g1_sphere_g1b_right_hand_fk_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void two_g1_sphere_g1b_right_hand_fk_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 void two_g1_sphere_g1b_right_hand_fk_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void two_g1_sphere_g1b_right_hand_fk_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P);
+void two_g1_sphere_g1b_right_hand_fk_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P);
 
 /* chain g1b_right_hand: motor, end point and spatial (geometric) Jacobian
  *   in  q            [10] g1b/waist_yaw_joint, g1b/waist_roll_joint, g1b/waist_pitch_joint,...
@@ -252,13 +252,13 @@ void two_g1_sphere_g1b_right_hand_fk_columns_from(long s0, long n, long ld, cons
 #define TWO_G1_SPHERE_G1B_RIGHT_HAND_FK_JACOBIAN_M_SIZE 8
 #define TWO_G1_SPHERE_G1B_RIGHT_HAND_FK_JACOBIAN_P_SIZE 5
 #define TWO_G1_SPHERE_G1B_RIGHT_HAND_FK_JACOBIAN_J_S_SIZE 60
-void two_g1_sphere_g1b_right_hand_fk_jacobian(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
-void two_g1_sphere_g1b_right_hand_fk_jacobian_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void two_g1_sphere_g1b_right_hand_fk_jacobian(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
+void two_g1_sphere_g1b_right_hand_fk_jacobian_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void two_g1_sphere_g1b_right_hand_fk_jacobian_argv(const double *const *arg, double *const *res);
 void two_g1_sphere_g1b_right_hand_fk_jacobian_batch_argv(long n, const double *const *arg, double *const *res);
-void two_g1_sphere_g1b_right_hand_fk_jacobian_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void two_g1_sphere_g1b_right_hand_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 void two_g1_sphere_g1b_right_hand_fk_jacobian_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void two_g1_sphere_g1b_right_hand_fk_jacobian_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S);
+void two_g1_sphere_g1b_right_hand_fk_jacobian_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S);
 
 /* chain g1b_right_hand: motor, end point, every Jacobian and the tool z-axis line
  *   in  q            [10] g1b/waist_yaw_joint, g1b/waist_roll_joint, g1b/waist_pitch_joint,...
@@ -280,13 +280,13 @@ void two_g1_sphere_g1b_right_hand_fk_jacobian_columns_from(long s0, long n, long
 #define TWO_G1_SPHERE_G1B_RIGHT_HAND_JACOBIANS_J_P_SIZE 50
 #define TWO_G1_SPHERE_G1B_RIGHT_HAND_JACOBIANS_L_SIZE 6
 #define TWO_G1_SPHERE_G1B_RIGHT_HAND_JACOBIANS_J_L_SIZE 60
-void two_g1_sphere_g1b_right_hand_jacobians(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
-void two_g1_sphere_g1b_right_hand_jacobians_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void two_g1_sphere_g1b_right_hand_jacobians(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
+void two_g1_sphere_g1b_right_hand_jacobians_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void two_g1_sphere_g1b_right_hand_jacobians_argv(const double *const *arg, double *const *res);
 void two_g1_sphere_g1b_right_hand_jacobians_batch_argv(long n, const double *const *arg, double *const *res);
-void two_g1_sphere_g1b_right_hand_jacobians_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void two_g1_sphere_g1b_right_hand_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 void two_g1_sphere_g1b_right_hand_jacobians_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void two_g1_sphere_g1b_right_hand_jacobians_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT M, double *GAGEN_RESTRICT P, double *GAGEN_RESTRICT J_S, double *GAGEN_RESTRICT J_b, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT J_P, double *GAGEN_RESTRICT L, double *GAGEN_RESTRICT J_L);
+void two_g1_sphere_g1b_right_hand_jacobians_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M, double *GAGEN_RESTRICT out_P, double *GAGEN_RESTRICT out_J_S, double *GAGEN_RESTRICT out_J_b, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_J_P, double *GAGEN_RESTRICT out_L, double *GAGEN_RESTRICT out_J_L);
 
 /* the cooperative sphere X_c(q) and J_c
  *   in  q            [34] g1a/waist_yaw_joint, g1a/waist_roll_joint, g1a/waist_pitch_joint,...
@@ -296,13 +296,13 @@ void two_g1_sphere_g1b_right_hand_jacobians_columns_from(long s0, long n, long l
 #define TWO_G1_SPHERE_PRIMITIVE_Q_SIZE 34
 #define TWO_G1_SPHERE_PRIMITIVE_X_C_SIZE 5
 #define TWO_G1_SPHERE_PRIMITIVE_J_C_SIZE 170
-void two_g1_sphere_primitive(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT X_c, double *GAGEN_RESTRICT J_c);
-void two_g1_sphere_primitive_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT X_c, double *GAGEN_RESTRICT J_c);
+void two_g1_sphere_primitive(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_X_c, double *GAGEN_RESTRICT out_J_c);
+void two_g1_sphere_primitive_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_X_c, double *GAGEN_RESTRICT out_J_c);
 void two_g1_sphere_primitive_argv(const double *const *arg, double *const *res);
 void two_g1_sphere_primitive_batch_argv(long n, const double *const *arg, double *const *res);
-void two_g1_sphere_primitive_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT X_c, double *GAGEN_RESTRICT J_c);
+void two_g1_sphere_primitive_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_X_c, double *GAGEN_RESTRICT out_J_c);
 void two_g1_sphere_primitive_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void two_g1_sphere_primitive_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT X_c, double *GAGEN_RESTRICT J_c);
+void two_g1_sphere_primitive_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_X_c, double *GAGEN_RESTRICT out_J_c);
 
 /* V_Sc(q), its conditioning and J_G,Sc
  *   in  q            [34] g1a/waist_yaw_joint, g1a/waist_roll_joint, g1a/waist_pitch_joint,...
@@ -314,13 +314,13 @@ void two_g1_sphere_primitive_columns_from(long s0, long n, long ld, const double
 #define TWO_G1_SPHERE_SIMILARITY_V_SC_SIZE 12
 #define TWO_G1_SPHERE_SIMILARITY_CONDITIONING_SIZE 1
 #define TWO_G1_SPHERE_SIMILARITY_J_G_SIZE 238
-void two_g1_sphere_similarity(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT V_Sc, double *GAGEN_RESTRICT conditioning, double *GAGEN_RESTRICT J_G);
-void two_g1_sphere_similarity_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT V_Sc, double *GAGEN_RESTRICT conditioning, double *GAGEN_RESTRICT J_G);
+void two_g1_sphere_similarity(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_V_Sc, double *GAGEN_RESTRICT out_conditioning, double *GAGEN_RESTRICT out_J_G);
+void two_g1_sphere_similarity_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_V_Sc, double *GAGEN_RESTRICT out_conditioning, double *GAGEN_RESTRICT out_J_G);
 void two_g1_sphere_similarity_argv(const double *const *arg, double *const *res);
 void two_g1_sphere_similarity_batch_argv(long n, const double *const *arg, double *const *res);
-void two_g1_sphere_similarity_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT V_Sc, double *GAGEN_RESTRICT conditioning, double *GAGEN_RESTRICT J_G);
+void two_g1_sphere_similarity_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_V_Sc, double *GAGEN_RESTRICT out_conditioning, double *GAGEN_RESTRICT out_J_G);
 void two_g1_sphere_similarity_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void two_g1_sphere_similarity_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT V_Sc, double *GAGEN_RESTRICT conditioning, double *GAGEN_RESTRICT J_G);
+void two_g1_sphere_similarity_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_V_Sc, double *GAGEN_RESTRICT out_conditioning, double *GAGEN_RESTRICT out_J_G);
 
 /* J_A,Sc = dV_Sc/dq, log V_Sc and J_B = d log V_Sc/dq
  *   in  q            [34] g1a/waist_yaw_joint, g1a/waist_roll_joint, g1a/waist_pitch_joint,...
@@ -332,13 +332,13 @@ void two_g1_sphere_similarity_columns_from(long s0, long n, long ld, const doubl
 #define TWO_G1_SPHERE_SIMILARITY_JACOBIANS_J_A_SIZE 408
 #define TWO_G1_SPHERE_SIMILARITY_JACOBIANS_LOG_V_SIZE 7
 #define TWO_G1_SPHERE_SIMILARITY_JACOBIANS_J_B_SIZE 238
-void two_g1_sphere_similarity_jacobians(const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT log_V, double *GAGEN_RESTRICT J_B);
-void two_g1_sphere_similarity_jacobians_batch(long n, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT log_V, double *GAGEN_RESTRICT J_B);
+void two_g1_sphere_similarity_jacobians(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_log_V, double *GAGEN_RESTRICT out_J_B);
+void two_g1_sphere_similarity_jacobians_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_log_V, double *GAGEN_RESTRICT out_J_B);
 void two_g1_sphere_similarity_jacobians_argv(const double *const *arg, double *const *res);
 void two_g1_sphere_similarity_jacobians_batch_argv(long n, const double *const *arg, double *const *res);
-void two_g1_sphere_similarity_jacobians_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT log_V, double *GAGEN_RESTRICT J_B);
+void two_g1_sphere_similarity_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_log_V, double *GAGEN_RESTRICT out_J_B);
 void two_g1_sphere_similarity_jacobians_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void two_g1_sphere_similarity_jacobians_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, double *GAGEN_RESTRICT J_A, double *GAGEN_RESTRICT log_V, double *GAGEN_RESTRICT J_B);
+void two_g1_sphere_similarity_jacobians_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_J_A, double *GAGEN_RESTRICT out_log_V, double *GAGEN_RESTRICT out_J_B);
 
 /* task error e = log(V_Sc~ V_Sd) and J_Be
  *   in  q            [34] g1a/waist_yaw_joint, g1a/waist_roll_joint, g1a/waist_pitch_joint,...
@@ -350,13 +350,13 @@ void two_g1_sphere_similarity_jacobians_columns_from(long s0, long n, long ld, c
 #define TWO_G1_SPHERE_TASK_V_SD_SIZE 12
 #define TWO_G1_SPHERE_TASK_E_SIZE 7
 #define TWO_G1_SPHERE_TASK_J_BE_SIZE 238
-void two_g1_sphere_task(const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT V_Sd, double *GAGEN_RESTRICT e, double *GAGEN_RESTRICT J_Be);
-void two_g1_sphere_task_batch(long n, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT V_Sd, double *GAGEN_RESTRICT e, double *GAGEN_RESTRICT J_Be);
+void two_g1_sphere_task(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
+void two_g1_sphere_task_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 void two_g1_sphere_task_argv(const double *const *arg, double *const *res);
 void two_g1_sphere_task_batch_argv(long n, const double *const *arg, double *const *res);
-void two_g1_sphere_task_batch_columns(long n, long ld, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT V_Sd, double *GAGEN_RESTRICT e, double *GAGEN_RESTRICT J_Be);
+void two_g1_sphere_task_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 void two_g1_sphere_task_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
-void two_g1_sphere_task_columns_from(long s0, long n, long ld, const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT V_Sd, double *GAGEN_RESTRICT e, double *GAGEN_RESTRICT J_Be);
+void two_g1_sphere_task_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 
 #ifdef __cplusplus
 }

@@ -149,7 +149,7 @@ static inline void gagen_stream_fence(int stream) {
 
 #if GAGEN_SIMD
 /* chain g1a_left_hand: motor and end point: GAGEN_W consecutive samples at once */
-static void two_g1_sphere_g1a_left_hand_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void two_g1_sphere_g1a_left_hand_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -159,14 +159,14 @@ static void two_g1_sphere_g1a_left_hand_fk_block(const double *restrict q, doubl
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(0.9902640743722195);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -197,7 +197,7 @@ static void two_g1_sphere_g1a_left_hand_fk_block(const double *restrict q, doubl
   w7 = w7 + w11;
   w11 = w21 * w7;
   w14 = w14 - w11;
-  w11 = GAGEN_GATHER(q, 10, 3);
+  w11 = GAGEN_GATHER(in_q, 10, 3);
   w11 = w2 * w11;
   w22 = gagen_v_cos(w11);
   w23 = w14 * w22;
@@ -234,7 +234,7 @@ static void two_g1_sphere_g1a_left_hand_fk_block(const double *restrict q, doubl
   w20 = w25 - w1;
   w20 = w16 * w20;
   w18 = w18 + w20;
-  w20 = GAGEN_GATHER(q, 10, 4);
+  w20 = GAGEN_GATHER(in_q, 10, 4);
   w20 = w2 * w20;
   w15 = gagen_v_cos(w20);
   w7 = w18 * w15;
@@ -245,7 +245,7 @@ static void two_g1_sphere_g1a_left_hand_fk_block(const double *restrict q, doubl
   w20 = gagen_v_sin(w20);
   w1 = w23 * w20;
   w7 = w7 + w1;
-  w1 = GAGEN_GATHER(q, 10, 5);
+  w1 = GAGEN_GATHER(in_q, 10, 5);
   w1 = w2 * w1;
   w25 = gagen_v_cos(w1);
   w21 = w7 * w25;
@@ -267,7 +267,7 @@ static void two_g1_sphere_g1a_left_hand_fk_block(const double *restrict q, doubl
   w1 = gagen_v_sin(w1);
   w0 = w24 * w1;
   w21 = w21 + w0;
-  w0 = GAGEN_GATHER(q, 10, 6);
+  w0 = GAGEN_GATHER(in_q, 10, 6);
   w0 = w2 * w0;
   w14 = gagen_v_cos(w0);
   w13 = w21 * w14;
@@ -283,7 +283,7 @@ static void two_g1_sphere_g1a_left_hand_fk_block(const double *restrict q, doubl
   w0 = gagen_v_sin(w0);
   w18 = w19 * w0;
   w13 = w13 - w18;
-  w18 = GAGEN_GATHER(q, 10, 7);
+  w18 = GAGEN_GATHER(in_q, 10, 7);
   w18 = w2 * w18;
   w17 = gagen_v_cos(w18);
   w12 = w13 * w17;
@@ -299,7 +299,7 @@ static void two_g1_sphere_g1a_left_hand_fk_block(const double *restrict q, doubl
   w18 = gagen_v_sin(w18);
   w7 = w16 * w18;
   w12 = w12 + w7;
-  w7 = GAGEN_GATHER(q, 10, 8);
+  w7 = GAGEN_GATHER(in_q, 10, 8);
   w7 = w2 * w7;
   w10 = gagen_v_cos(w7);
   w26 = w12 * w10;
@@ -315,7 +315,7 @@ static void two_g1_sphere_g1a_left_hand_fk_block(const double *restrict q, doubl
   w7 = gagen_v_sin(w7);
   w23 = w19 * w7;
   w26 = w26 - w23;
-  w23 = GAGEN_GATHER(q, 10, 9);
+  w23 = GAGEN_GATHER(in_q, 10, 9);
   w23 = w2 * w23;
   w27 = gagen_v_cos(w23);
   w28 = w26 * w27;
@@ -331,11 +331,11 @@ static void two_g1_sphere_g1a_left_hand_fk_block(const double *restrict q, doubl
   w23 = gagen_v_sin(w23);
   w13 = w21 * w23;
   w28 = w28 + w13;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w21 = w21 * w27;
   w26 = w26 * w23;
   w21 = w21 - w26;
-  GAGEN_SCATTER(M, 8, 1, w21);
+  GAGEN_SCATTER(out_M, 8, 1, w21);
   w12 = w12 * w7;
   w19 = w19 * w10;
   w12 = w12 + w19;
@@ -345,11 +345,11 @@ static void two_g1_sphere_g1a_left_hand_fk_block(const double *restrict q, doubl
   w16 = w16 - w24;
   w24 = w16 * w23;
   w19 = w19 + w24;
-  GAGEN_SCATTER(M, 8, 2, w19);
+  GAGEN_SCATTER(out_M, 8, 2, w19);
   w16 = w16 * w27;
   w12 = w12 * w23;
   w16 = w16 - w12;
-  GAGEN_SCATTER(M, 8, 3, w16);
+  GAGEN_SCATTER(out_M, 8, 3, w16);
   w12 = gagen_v_splat(0.0039563);
   w24 = w9 * w9;
   w26 = w8 * w8;
@@ -746,14 +746,14 @@ static void two_g1_sphere_g1a_left_hand_fk_block(const double *restrict q, doubl
   w58 = w32 * w28;
   w39 = w39 - w58;
   w39 = w2 * w39;
-  GAGEN_SCATTER(M, 8, 4, w39);
+  GAGEN_SCATTER(out_M, 8, 4, w39);
   w39 = w26 * w16;
   w58 = w32 * w21;
   w39 = w39 - w58;
   w58 = w3 * w28;
   w39 = w39 - w58;
   w39 = w2 * w39;
-  GAGEN_SCATTER(M, 8, 5, w39);
+  GAGEN_SCATTER(out_M, 8, 5, w39);
   w39 = w32 * w19;
   w58 = w3 * w16;
   w39 = w39 + w58;
@@ -761,43 +761,43 @@ static void two_g1_sphere_g1a_left_hand_fk_block(const double *restrict q, doubl
   w39 = w39 + w28;
   w39 = w2 * w39;
   w39 = -w39;
-  GAGEN_SCATTER(M, 8, 6, w39);
+  GAGEN_SCATTER(out_M, 8, 6, w39);
   w19 = w3 * w19;
   w16 = w32 * w16;
   w19 = w19 - w16;
   w21 = w26 * w21;
   w19 = w19 - w21;
   w19 = w2 * w19;
-  GAGEN_SCATTER(M, 8, 7, w19);
+  GAGEN_SCATTER(out_M, 8, 7, w19);
   w19 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w19);
-  GAGEN_SCATTER(P, 5, 1, w32);
-  GAGEN_SCATTER(P, 5, 2, w3);
-  GAGEN_SCATTER(P, 5, 3, w26);
+  GAGEN_SCATTER(out_P, 5, 0, w19);
+  GAGEN_SCATTER(out_P, 5, 1, w32);
+  GAGEN_SCATTER(out_P, 5, 2, w3);
+  GAGEN_SCATTER(out_P, 5, 3, w26);
   w32 = w32 * w32;
   w3 = w3 * w3;
   w32 = w32 + w3;
   w26 = w26 * w26;
   w32 = w32 + w26;
   w2 = w2 * w32;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #endif
 
-void two_g1_sphere_g1a_left_hand_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void two_g1_sphere_g1a_left_hand_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    two_g1_sphere_g1a_left_hand_fk_block(q + 10 * s, M + 8 * s, P + 5 * s);
+    two_g1_sphere_g1a_left_hand_fk_block(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    two_g1_sphere_g1a_left_hand_fk(q + 10 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    two_g1_sphere_g1a_left_hand_fk(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -807,7 +807,7 @@ void two_g1_sphere_g1a_left_hand_fk_batch(long n, const double *restrict q, doub
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void two_g1_sphere_g1a_left_hand_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void two_g1_sphere_g1a_left_hand_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -817,14 +817,14 @@ static void two_g1_sphere_g1a_left_hand_fk_block_columns(long gagen_ld, int gage
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(0.9902640743722195);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -855,7 +855,7 @@ static void two_g1_sphere_g1a_left_hand_fk_block_columns(long gagen_ld, int gage
   w7 = w7 + w11;
   w11 = w21 * w7;
   w14 = w14 - w11;
-  w11 = GAGEN_GATHER(q, 10, 3);
+  w11 = GAGEN_GATHER(in_q, 10, 3);
   w11 = w2 * w11;
   w22 = gagen_v_cos(w11);
   w23 = w14 * w22;
@@ -892,7 +892,7 @@ static void two_g1_sphere_g1a_left_hand_fk_block_columns(long gagen_ld, int gage
   w20 = w25 - w1;
   w20 = w16 * w20;
   w18 = w18 + w20;
-  w20 = GAGEN_GATHER(q, 10, 4);
+  w20 = GAGEN_GATHER(in_q, 10, 4);
   w20 = w2 * w20;
   w15 = gagen_v_cos(w20);
   w7 = w18 * w15;
@@ -903,7 +903,7 @@ static void two_g1_sphere_g1a_left_hand_fk_block_columns(long gagen_ld, int gage
   w20 = gagen_v_sin(w20);
   w1 = w23 * w20;
   w7 = w7 + w1;
-  w1 = GAGEN_GATHER(q, 10, 5);
+  w1 = GAGEN_GATHER(in_q, 10, 5);
   w1 = w2 * w1;
   w25 = gagen_v_cos(w1);
   w21 = w7 * w25;
@@ -925,7 +925,7 @@ static void two_g1_sphere_g1a_left_hand_fk_block_columns(long gagen_ld, int gage
   w1 = gagen_v_sin(w1);
   w0 = w24 * w1;
   w21 = w21 + w0;
-  w0 = GAGEN_GATHER(q, 10, 6);
+  w0 = GAGEN_GATHER(in_q, 10, 6);
   w0 = w2 * w0;
   w14 = gagen_v_cos(w0);
   w13 = w21 * w14;
@@ -941,7 +941,7 @@ static void two_g1_sphere_g1a_left_hand_fk_block_columns(long gagen_ld, int gage
   w0 = gagen_v_sin(w0);
   w18 = w19 * w0;
   w13 = w13 - w18;
-  w18 = GAGEN_GATHER(q, 10, 7);
+  w18 = GAGEN_GATHER(in_q, 10, 7);
   w18 = w2 * w18;
   w17 = gagen_v_cos(w18);
   w12 = w13 * w17;
@@ -957,7 +957,7 @@ static void two_g1_sphere_g1a_left_hand_fk_block_columns(long gagen_ld, int gage
   w18 = gagen_v_sin(w18);
   w7 = w16 * w18;
   w12 = w12 + w7;
-  w7 = GAGEN_GATHER(q, 10, 8);
+  w7 = GAGEN_GATHER(in_q, 10, 8);
   w7 = w2 * w7;
   w10 = gagen_v_cos(w7);
   w26 = w12 * w10;
@@ -973,7 +973,7 @@ static void two_g1_sphere_g1a_left_hand_fk_block_columns(long gagen_ld, int gage
   w7 = gagen_v_sin(w7);
   w23 = w19 * w7;
   w26 = w26 - w23;
-  w23 = GAGEN_GATHER(q, 10, 9);
+  w23 = GAGEN_GATHER(in_q, 10, 9);
   w23 = w2 * w23;
   w27 = gagen_v_cos(w23);
   w28 = w26 * w27;
@@ -989,11 +989,11 @@ static void two_g1_sphere_g1a_left_hand_fk_block_columns(long gagen_ld, int gage
   w23 = gagen_v_sin(w23);
   w13 = w21 * w23;
   w28 = w28 + w13;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w21 = w21 * w27;
   w26 = w26 * w23;
   w21 = w21 - w26;
-  GAGEN_SCATTER(M, 8, 1, w21);
+  GAGEN_SCATTER(out_M, 8, 1, w21);
   w12 = w12 * w7;
   w19 = w19 * w10;
   w12 = w12 + w19;
@@ -1003,11 +1003,11 @@ static void two_g1_sphere_g1a_left_hand_fk_block_columns(long gagen_ld, int gage
   w16 = w16 - w24;
   w24 = w16 * w23;
   w19 = w19 + w24;
-  GAGEN_SCATTER(M, 8, 2, w19);
+  GAGEN_SCATTER(out_M, 8, 2, w19);
   w16 = w16 * w27;
   w12 = w12 * w23;
   w16 = w16 - w12;
-  GAGEN_SCATTER(M, 8, 3, w16);
+  GAGEN_SCATTER(out_M, 8, 3, w16);
   w12 = gagen_v_splat(0.0039563);
   w24 = w9 * w9;
   w26 = w8 * w8;
@@ -1404,14 +1404,14 @@ static void two_g1_sphere_g1a_left_hand_fk_block_columns(long gagen_ld, int gage
   w58 = w32 * w28;
   w39 = w39 - w58;
   w39 = w2 * w39;
-  GAGEN_SCATTER(M, 8, 4, w39);
+  GAGEN_SCATTER(out_M, 8, 4, w39);
   w39 = w26 * w16;
   w58 = w32 * w21;
   w39 = w39 - w58;
   w58 = w3 * w28;
   w39 = w39 - w58;
   w39 = w2 * w39;
-  GAGEN_SCATTER(M, 8, 5, w39);
+  GAGEN_SCATTER(out_M, 8, 5, w39);
   w39 = w32 * w19;
   w58 = w3 * w16;
   w39 = w39 + w58;
@@ -1419,26 +1419,26 @@ static void two_g1_sphere_g1a_left_hand_fk_block_columns(long gagen_ld, int gage
   w39 = w39 + w28;
   w39 = w2 * w39;
   w39 = -w39;
-  GAGEN_SCATTER(M, 8, 6, w39);
+  GAGEN_SCATTER(out_M, 8, 6, w39);
   w19 = w3 * w19;
   w16 = w32 * w16;
   w19 = w19 - w16;
   w21 = w26 * w21;
   w19 = w19 - w21;
   w19 = w2 * w19;
-  GAGEN_SCATTER(M, 8, 7, w19);
+  GAGEN_SCATTER(out_M, 8, 7, w19);
   w19 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w19);
-  GAGEN_SCATTER(P, 5, 1, w32);
-  GAGEN_SCATTER(P, 5, 2, w3);
-  GAGEN_SCATTER(P, 5, 3, w26);
+  GAGEN_SCATTER(out_P, 5, 0, w19);
+  GAGEN_SCATTER(out_P, 5, 1, w32);
+  GAGEN_SCATTER(out_P, 5, 2, w3);
+  GAGEN_SCATTER(out_P, 5, 3, w26);
   w32 = w32 * w32;
   w3 = w3 * w3;
   w32 = w32 + w3;
   w26 = w26 * w26;
   w32 = w32 + w26;
   w2 = w2 * w32;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -1446,21 +1446,21 @@ static void two_g1_sphere_g1a_left_hand_fk_block_columns(long gagen_ld, int gage
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void two_g1_sphere_g1a_left_hand_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void two_g1_sphere_g1a_left_hand_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    two_g1_sphere_g1a_left_hand_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    two_g1_sphere_g1a_left_hand_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  two_g1_sphere_g1a_left_hand_fk_columns_from(s, n, ld, q, M, P);
+  two_g1_sphere_g1a_left_hand_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain g1a_left_hand: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -1473,14 +1473,14 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(0.9902640743722195);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -1511,7 +1511,7 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict
   w7 = w7 + w11;
   w11 = w21 * w7;
   w14 = w14 - w11;
-  w11 = GAGEN_GATHER(q, 10, 3);
+  w11 = GAGEN_GATHER(in_q, 10, 3);
   w11 = w2 * w11;
   w22 = gagen_v_cos(w11);
   w23 = w14 * w22;
@@ -1548,7 +1548,7 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict
   w20 = w25 - w1;
   w20 = w16 * w20;
   w18 = w18 + w20;
-  w20 = GAGEN_GATHER(q, 10, 4);
+  w20 = GAGEN_GATHER(in_q, 10, 4);
   w20 = w2 * w20;
   w15 = gagen_v_cos(w20);
   w7 = w18 * w15;
@@ -1559,7 +1559,7 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict
   w20 = gagen_v_sin(w20);
   w1 = w23 * w20;
   w7 = w7 + w1;
-  w1 = GAGEN_GATHER(q, 10, 5);
+  w1 = GAGEN_GATHER(in_q, 10, 5);
   w1 = w2 * w1;
   w25 = gagen_v_cos(w1);
   w21 = w7 * w25;
@@ -1581,7 +1581,7 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict
   w1 = gagen_v_sin(w1);
   w0 = w24 * w1;
   w21 = w21 + w0;
-  w0 = GAGEN_GATHER(q, 10, 6);
+  w0 = GAGEN_GATHER(in_q, 10, 6);
   w0 = w2 * w0;
   w14 = gagen_v_cos(w0);
   w13 = w21 * w14;
@@ -1597,7 +1597,7 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict
   w0 = gagen_v_sin(w0);
   w18 = w19 * w0;
   w13 = w13 - w18;
-  w18 = GAGEN_GATHER(q, 10, 7);
+  w18 = GAGEN_GATHER(in_q, 10, 7);
   w18 = w2 * w18;
   w17 = gagen_v_cos(w18);
   w12 = w13 * w17;
@@ -1613,7 +1613,7 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict
   w18 = gagen_v_sin(w18);
   w7 = w16 * w18;
   w12 = w12 + w7;
-  w7 = GAGEN_GATHER(q, 10, 8);
+  w7 = GAGEN_GATHER(in_q, 10, 8);
   w7 = w2 * w7;
   w10 = gagen_v_cos(w7);
   w26 = w12 * w10;
@@ -1629,7 +1629,7 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict
   w7 = gagen_v_sin(w7);
   w23 = w19 * w7;
   w26 = w26 - w23;
-  w23 = GAGEN_GATHER(q, 10, 9);
+  w23 = GAGEN_GATHER(in_q, 10, 9);
   w23 = w2 * w23;
   w27 = gagen_v_cos(w23);
   w28 = w26 * w27;
@@ -1645,11 +1645,11 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict
   w23 = gagen_v_sin(w23);
   w13 = w21 * w23;
   w28 = w28 + w13;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w21 = w21 * w27;
   w26 = w26 * w23;
   w21 = w21 - w26;
-  GAGEN_SCATTER(M, 8, 1, w21);
+  GAGEN_SCATTER(out_M, 8, 1, w21);
   w12 = w12 * w7;
   w19 = w19 * w10;
   w12 = w12 + w19;
@@ -1659,11 +1659,11 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict
   w16 = w16 - w24;
   w24 = w16 * w23;
   w19 = w19 + w24;
-  GAGEN_SCATTER(M, 8, 2, w19);
+  GAGEN_SCATTER(out_M, 8, 2, w19);
   w16 = w16 * w27;
   w12 = w12 * w23;
   w16 = w16 - w12;
-  GAGEN_SCATTER(M, 8, 3, w16);
+  GAGEN_SCATTER(out_M, 8, 3, w16);
   w12 = gagen_v_splat(0.0039563);
   w24 = w9 * w9;
   w26 = w8 * w8;
@@ -2060,14 +2060,14 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict
   w14 = w7 * w28;
   w78 = w78 - w14;
   w78 = w2 * w78;
-  GAGEN_SCATTER(M, 8, 4, w78);
+  GAGEN_SCATTER(out_M, 8, 4, w78);
   w78 = w97 * w16;
   w14 = w7 * w21;
   w78 = w78 - w14;
   w14 = w74 * w28;
   w78 = w78 - w14;
   w78 = w2 * w78;
-  GAGEN_SCATTER(M, 8, 5, w78);
+  GAGEN_SCATTER(out_M, 8, 5, w78);
   w78 = w7 * w19;
   w14 = w74 * w16;
   w78 = w78 + w14;
@@ -2075,49 +2075,49 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict
   w78 = w78 + w28;
   w78 = w2 * w78;
   w78 = -w78;
-  GAGEN_SCATTER(M, 8, 6, w78);
+  GAGEN_SCATTER(out_M, 8, 6, w78);
   w19 = w74 * w19;
   w16 = w7 * w16;
   w19 = w19 - w16;
   w21 = w97 * w21;
   w19 = w19 - w21;
   w19 = w2 * w19;
-  GAGEN_SCATTER(M, 8, 7, w19);
+  GAGEN_SCATTER(out_M, 8, 7, w19);
   w19 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w19);
-  GAGEN_SCATTER(P, 5, 1, w7);
-  GAGEN_SCATTER(P, 5, 2, w74);
-  GAGEN_SCATTER(P, 5, 3, w97);
+  GAGEN_SCATTER(out_P, 5, 0, w19);
+  GAGEN_SCATTER(out_P, 5, 1, w7);
+  GAGEN_SCATTER(out_P, 5, 2, w74);
+  GAGEN_SCATTER(out_P, 5, 3, w97);
   w7 = w7 * w7;
   w74 = w74 * w74;
   w7 = w7 + w74;
   w97 = w97 * w97;
   w7 = w7 + w97;
   w2 = w2 * w7;
-  GAGEN_SCATTER(P, 5, 4, w2);
-  GAGEN_SCATTER(J_S, 60, 0, w19);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
+  GAGEN_SCATTER(out_J_S, 60, 0, w19);
   w19 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 60, 1, w19);
-  GAGEN_SCATTER(J_S, 60, 2, w19);
-  GAGEN_SCATTER(J_S, 60, 3, w19);
-  GAGEN_SCATTER(J_S, 60, 4, w19);
-  GAGEN_SCATTER(J_S, 60, 5, w19);
-  GAGEN_SCATTER(J_S, 60, 6, w19);
+  GAGEN_SCATTER(out_J_S, 60, 1, w19);
+  GAGEN_SCATTER(out_J_S, 60, 2, w19);
+  GAGEN_SCATTER(out_J_S, 60, 3, w19);
+  GAGEN_SCATTER(out_J_S, 60, 4, w19);
+  GAGEN_SCATTER(out_J_S, 60, 5, w19);
+  GAGEN_SCATTER(out_J_S, 60, 6, w19);
   w13 = -w13;
-  GAGEN_SCATTER(J_S, 60, 7, w13);
-  GAGEN_SCATTER(J_S, 60, 8, w4);
+  GAGEN_SCATTER(out_J_S, 60, 7, w13);
+  GAGEN_SCATTER(out_J_S, 60, 8, w4);
   w13 = gagen_v_splat(0.07);
   w13 = w13 * w26;
   w13 = -w13;
-  GAGEN_SCATTER(J_S, 60, 9, w13);
+  GAGEN_SCATTER(out_J_S, 60, 9, w13);
   w79 = w79 * w4;
-  GAGEN_SCATTER(J_S, 60, 10, w79);
-  GAGEN_SCATTER(J_S, 60, 11, w19);
-  GAGEN_SCATTER(J_S, 60, 12, w30);
+  GAGEN_SCATTER(out_J_S, 60, 10, w79);
+  GAGEN_SCATTER(out_J_S, 60, 11, w19);
+  GAGEN_SCATTER(out_J_S, 60, 12, w30);
   w19 = -w5;
-  GAGEN_SCATTER(J_S, 60, 13, w19);
+  GAGEN_SCATTER(out_J_S, 60, 13, w19);
   w19 = -w31;
-  GAGEN_SCATTER(J_S, 60, 14, w19);
+  GAGEN_SCATTER(out_J_S, 60, 14, w19);
   w19 = gagen_v_splat(0.0175);
   w79 = gagen_v_splat(0.0095);
   w6 = w79 * w6;
@@ -2130,7 +2130,7 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict
   w6 = w6 + w33;
   w6 = -w6;
   w6 = w6 + w6;
-  GAGEN_SCATTER(J_S, 60, 15, w6);
+  GAGEN_SCATTER(out_J_S, 60, 15, w6);
   w6 = gagen_v_splat(0.00198175);
   w6 = w6 * w4;
   w79 = w79 * w94;
@@ -2139,23 +2139,23 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict
   w19 = w31 * w19;
   w30 = w30 - w19;
   w30 = w30 + w30;
-  GAGEN_SCATTER(J_S, 60, 16, w30);
+  GAGEN_SCATTER(out_J_S, 60, 16, w30);
   w31 = w31 * w60;
   w5 = w5 * w6;
   w31 = w31 + w5;
   w31 = -w31;
   w31 = w31 + w31;
-  GAGEN_SCATTER(J_S, 60, 17, w31);
+  GAGEN_SCATTER(out_J_S, 60, 17, w31);
   w31 = gagen_v_splat(1.9224917487388276);
   w31 = w31 * w8;
   w39 = w39 * w82;
   w31 = w31 - w39;
   w42 = w42 * w84;
   w31 = w31 + w42;
-  GAGEN_SCATTER(J_S, 60, 18, w31);
+  GAGEN_SCATTER(out_J_S, 60, 18, w31);
   w42 = -w40;
-  GAGEN_SCATTER(J_S, 60, 19, w42);
-  GAGEN_SCATTER(J_S, 60, 20, w37);
+  GAGEN_SCATTER(out_J_S, 60, 19, w42);
+  GAGEN_SCATTER(out_J_S, 60, 20, w37);
   w3 = w3 - w56;
   w42 = w31 * w3;
   w12 = w12 * w82;
@@ -2167,22 +2167,22 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict
   w80 = w80 + w35;
   w35 = w40 * w80;
   w42 = w42 - w35;
-  GAGEN_SCATTER(J_S, 60, 21, w42);
+  GAGEN_SCATTER(out_J_S, 60, 21, w42);
   w80 = w37 * w80;
   w32 = w32 - w18;
   w31 = w31 * w32;
   w80 = w80 - w31;
-  GAGEN_SCATTER(J_S, 60, 22, w80);
+  GAGEN_SCATTER(out_J_S, 60, 22, w80);
   w37 = w37 * w3;
   w40 = w40 * w32;
   w37 = w37 - w40;
   w37 = -w37;
-  GAGEN_SCATTER(J_S, 60, 23, w37);
+  GAGEN_SCATTER(out_J_S, 60, 23, w37);
   w37 = -w87;
-  GAGEN_SCATTER(J_S, 60, 24, w37);
+  GAGEN_SCATTER(out_J_S, 60, 24, w37);
   w37 = -w51;
-  GAGEN_SCATTER(J_S, 60, 25, w37);
-  GAGEN_SCATTER(J_S, 60, 26, w1);
+  GAGEN_SCATTER(out_J_S, 60, 25, w37);
+  GAGEN_SCATTER(out_J_S, 60, 26, w1);
   w43 = w43 - w56;
   w43 = w43 - w54;
   w37 = w87 * w43;
@@ -2190,22 +2190,22 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict
   w40 = w51 * w81;
   w37 = w37 + w40;
   w37 = -w37;
-  GAGEN_SCATTER(J_S, 60, 27, w37);
+  GAGEN_SCATTER(out_J_S, 60, 27, w37);
   w81 = w1 * w81;
   w38 = w38 - w18;
   w38 = w38 - w75;
   w87 = w87 * w38;
   w81 = w81 + w87;
-  GAGEN_SCATTER(J_S, 60, 28, w81);
+  GAGEN_SCATTER(out_J_S, 60, 28, w81);
   w1 = w1 * w43;
   w51 = w51 * w38;
   w1 = w1 - w51;
   w1 = -w1;
-  GAGEN_SCATTER(J_S, 60, 29, w1);
-  GAGEN_SCATTER(J_S, 60, 30, w89);
+  GAGEN_SCATTER(out_J_S, 60, 29, w1);
+  GAGEN_SCATTER(out_J_S, 60, 30, w89);
   w1 = -w20;
-  GAGEN_SCATTER(J_S, 60, 31, w1);
-  GAGEN_SCATTER(J_S, 60, 32, w45);
+  GAGEN_SCATTER(out_J_S, 60, 31, w1);
+  GAGEN_SCATTER(out_J_S, 60, 32, w45);
   w57 = w57 - w56;
   w57 = w57 - w54;
   w1 = gagen_v_splat(0.1032);
@@ -2217,7 +2217,7 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict
   w90 = w90 - w38;
   w38 = w20 * w90;
   w51 = w51 - w38;
-  GAGEN_SCATTER(J_S, 60, 33, w51);
+  GAGEN_SCATTER(out_J_S, 60, 33, w51);
   w90 = w45 * w90;
   w44 = w44 - w18;
   w44 = w44 - w75;
@@ -2225,15 +2225,15 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict
   w44 = w44 - w1;
   w89 = w89 * w44;
   w90 = w90 - w89;
-  GAGEN_SCATTER(J_S, 60, 34, w90);
+  GAGEN_SCATTER(out_J_S, 60, 34, w90);
   w45 = w45 * w57;
   w20 = w20 * w44;
   w45 = w45 - w20;
   w45 = -w45;
-  GAGEN_SCATTER(J_S, 60, 35, w45);
-  GAGEN_SCATTER(J_S, 60, 36, w93);
-  GAGEN_SCATTER(J_S, 60, 37, w66);
-  GAGEN_SCATTER(J_S, 60, 38, w25);
+  GAGEN_SCATTER(out_J_S, 60, 35, w45);
+  GAGEN_SCATTER(out_J_S, 60, 36, w93);
+  GAGEN_SCATTER(out_J_S, 60, 37, w66);
+  GAGEN_SCATTER(out_J_S, 60, 38, w25);
   w45 = w36 - w56;
   w45 = w45 - w54;
   w45 = w45 - w77;
@@ -2242,22 +2242,22 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict
   w44 = w44 - w99;
   w57 = w66 * w44;
   w20 = w20 + w57;
-  GAGEN_SCATTER(J_S, 60, 39, w20);
+  GAGEN_SCATTER(out_J_S, 60, 39, w20);
   w44 = w25 * w44;
   w20 = w58 - w18;
   w20 = w20 - w75;
   w20 = w20 - w76;
   w93 = w93 * w20;
   w44 = w44 - w93;
-  GAGEN_SCATTER(J_S, 60, 40, w44);
+  GAGEN_SCATTER(out_J_S, 60, 40, w44);
   w66 = w66 * w20;
   w25 = w25 * w45;
   w66 = w66 + w25;
   w66 = -w66;
-  GAGEN_SCATTER(J_S, 60, 41, w66);
-  GAGEN_SCATTER(J_S, 60, 42, w92);
-  GAGEN_SCATTER(J_S, 60, 43, w47);
-  GAGEN_SCATTER(J_S, 60, 44, w49);
+  GAGEN_SCATTER(out_J_S, 60, 41, w66);
+  GAGEN_SCATTER(out_J_S, 60, 42, w92);
+  GAGEN_SCATTER(out_J_S, 60, 43, w47);
+  GAGEN_SCATTER(out_J_S, 60, 44, w49);
   w66 = gagen_v_splat(0.1);
   w0 = w66 * w0;
   w36 = w36 + w0;
@@ -2275,7 +2275,7 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict
   w85 = w85 - w91;
   w88 = w47 * w85;
   w70 = w70 + w88;
-  GAGEN_SCATTER(J_S, 60, 45, w70);
+  GAGEN_SCATTER(out_J_S, 60, 45, w70);
   w85 = w49 * w85;
   w66 = w66 * w49;
   w58 = w58 + w66;
@@ -2286,15 +2286,15 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict
   w58 = w58 - w68;
   w65 = w92 * w58;
   w85 = w85 - w65;
-  GAGEN_SCATTER(J_S, 60, 46, w85);
+  GAGEN_SCATTER(out_J_S, 60, 46, w85);
   w58 = w47 * w58;
   w36 = w49 * w36;
   w58 = w58 + w36;
   w58 = -w58;
-  GAGEN_SCATTER(J_S, 60, 47, w58);
-  GAGEN_SCATTER(J_S, 60, 48, w98);
-  GAGEN_SCATTER(J_S, 60, 49, w23);
-  GAGEN_SCATTER(J_S, 60, 50, w73);
+  GAGEN_SCATTER(out_J_S, 60, 47, w58);
+  GAGEN_SCATTER(out_J_S, 60, 48, w98);
+  GAGEN_SCATTER(out_J_S, 60, 49, w23);
+  GAGEN_SCATTER(out_J_S, 60, 50, w73);
   w64 = w64 - w56;
   w64 = w64 - w54;
   w64 = w64 - w77;
@@ -2304,7 +2304,7 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict
   w83 = w83 - w91;
   w36 = w23 * w83;
   w58 = w58 + w36;
-  GAGEN_SCATTER(J_S, 60, 51, w58);
+  GAGEN_SCATTER(out_J_S, 60, 51, w58);
   w83 = w73 * w83;
   w61 = w61 - w18;
   w61 = w61 - w75;
@@ -2312,24 +2312,24 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict
   w61 = w61 - w68;
   w98 = w98 * w61;
   w83 = w83 - w98;
-  GAGEN_SCATTER(J_S, 60, 52, w83);
+  GAGEN_SCATTER(out_J_S, 60, 52, w83);
   w23 = w23 * w61;
   w73 = w73 * w64;
   w23 = w23 + w73;
   w23 = -w23;
-  GAGEN_SCATTER(J_S, 60, 53, w23);
+  GAGEN_SCATTER(out_J_S, 60, 53, w23);
   w92 = w72 * w92;
   w95 = w10 * w95;
   w92 = w92 + w95;
-  GAGEN_SCATTER(J_S, 60, 54, w92);
+  GAGEN_SCATTER(out_J_S, 60, 54, w92);
   w47 = w72 * w47;
   w69 = w10 * w69;
   w47 = w47 - w69;
-  GAGEN_SCATTER(J_S, 60, 55, w47);
+  GAGEN_SCATTER(out_J_S, 60, 55, w47);
   w72 = w72 * w49;
   w10 = w10 * w62;
   w72 = w72 + w10;
-  GAGEN_SCATTER(J_S, 60, 56, w72);
+  GAGEN_SCATTER(out_J_S, 60, 56, w72);
   w63 = w63 - w56;
   w63 = w63 - w54;
   w63 = w63 - w77;
@@ -2339,7 +2339,7 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict
   w96 = w96 - w91;
   w91 = w47 * w96;
   w77 = w77 + w91;
-  GAGEN_SCATTER(J_S, 60, 57, w77);
+  GAGEN_SCATTER(out_J_S, 60, 57, w77);
   w96 = w72 * w96;
   w71 = w71 - w18;
   w71 = w71 - w75;
@@ -2347,30 +2347,30 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block(const double *restrict
   w71 = w71 - w68;
   w92 = w92 * w71;
   w96 = w96 - w92;
-  GAGEN_SCATTER(J_S, 60, 58, w96);
+  GAGEN_SCATTER(out_J_S, 60, 58, w96);
   w47 = w47 * w71;
   w72 = w72 * w63;
   w47 = w47 + w72;
   w47 = -w47;
-  GAGEN_SCATTER(J_S, 60, 59, w47);
+  GAGEN_SCATTER(out_J_S, 60, 59, w47);
 }
 #endif
 
-void two_g1_sphere_g1a_left_hand_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void two_g1_sphere_g1a_left_hand_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 60 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 60 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 60 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 60 * gagen_a + gagen_o, 1, 0);
     }
-    two_g1_sphere_g1a_left_hand_fk_jacobian_block(q + 10 * s, M + 8 * s, P + 5 * s, J_S + 60 * s);
+    two_g1_sphere_g1a_left_hand_fk_jacobian_block(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 60 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    two_g1_sphere_g1a_left_hand_fk_jacobian(q + 10 * s, M + 8 * s, P + 5 * s, J_S + 60 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    two_g1_sphere_g1a_left_hand_fk_jacobian(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 60 * gagen_s);
   }
 }
 
@@ -2380,7 +2380,7 @@ void two_g1_sphere_g1a_left_hand_fk_jacobian_batch(long n, const double *restric
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -2393,14 +2393,14 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(0.9902640743722195);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -2431,7 +2431,7 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w7 = w7 + w11;
   w11 = w21 * w7;
   w14 = w14 - w11;
-  w11 = GAGEN_GATHER(q, 10, 3);
+  w11 = GAGEN_GATHER(in_q, 10, 3);
   w11 = w2 * w11;
   w22 = gagen_v_cos(w11);
   w23 = w14 * w22;
@@ -2468,7 +2468,7 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w20 = w25 - w1;
   w20 = w16 * w20;
   w18 = w18 + w20;
-  w20 = GAGEN_GATHER(q, 10, 4);
+  w20 = GAGEN_GATHER(in_q, 10, 4);
   w20 = w2 * w20;
   w15 = gagen_v_cos(w20);
   w7 = w18 * w15;
@@ -2479,7 +2479,7 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w20 = gagen_v_sin(w20);
   w1 = w23 * w20;
   w7 = w7 + w1;
-  w1 = GAGEN_GATHER(q, 10, 5);
+  w1 = GAGEN_GATHER(in_q, 10, 5);
   w1 = w2 * w1;
   w25 = gagen_v_cos(w1);
   w21 = w7 * w25;
@@ -2501,7 +2501,7 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w1 = gagen_v_sin(w1);
   w0 = w24 * w1;
   w21 = w21 + w0;
-  w0 = GAGEN_GATHER(q, 10, 6);
+  w0 = GAGEN_GATHER(in_q, 10, 6);
   w0 = w2 * w0;
   w14 = gagen_v_cos(w0);
   w13 = w21 * w14;
@@ -2517,7 +2517,7 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w0 = gagen_v_sin(w0);
   w18 = w19 * w0;
   w13 = w13 - w18;
-  w18 = GAGEN_GATHER(q, 10, 7);
+  w18 = GAGEN_GATHER(in_q, 10, 7);
   w18 = w2 * w18;
   w17 = gagen_v_cos(w18);
   w12 = w13 * w17;
@@ -2533,7 +2533,7 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w18 = gagen_v_sin(w18);
   w7 = w16 * w18;
   w12 = w12 + w7;
-  w7 = GAGEN_GATHER(q, 10, 8);
+  w7 = GAGEN_GATHER(in_q, 10, 8);
   w7 = w2 * w7;
   w10 = gagen_v_cos(w7);
   w26 = w12 * w10;
@@ -2549,7 +2549,7 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w7 = gagen_v_sin(w7);
   w23 = w19 * w7;
   w26 = w26 - w23;
-  w23 = GAGEN_GATHER(q, 10, 9);
+  w23 = GAGEN_GATHER(in_q, 10, 9);
   w23 = w2 * w23;
   w27 = gagen_v_cos(w23);
   w28 = w26 * w27;
@@ -2565,11 +2565,11 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w23 = gagen_v_sin(w23);
   w13 = w21 * w23;
   w28 = w28 + w13;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w21 = w21 * w27;
   w26 = w26 * w23;
   w21 = w21 - w26;
-  GAGEN_SCATTER(M, 8, 1, w21);
+  GAGEN_SCATTER(out_M, 8, 1, w21);
   w12 = w12 * w7;
   w19 = w19 * w10;
   w12 = w12 + w19;
@@ -2579,11 +2579,11 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w16 = w16 - w24;
   w24 = w16 * w23;
   w19 = w19 + w24;
-  GAGEN_SCATTER(M, 8, 2, w19);
+  GAGEN_SCATTER(out_M, 8, 2, w19);
   w16 = w16 * w27;
   w12 = w12 * w23;
   w16 = w16 - w12;
-  GAGEN_SCATTER(M, 8, 3, w16);
+  GAGEN_SCATTER(out_M, 8, 3, w16);
   w12 = gagen_v_splat(0.0039563);
   w24 = w9 * w9;
   w26 = w8 * w8;
@@ -2980,14 +2980,14 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w14 = w7 * w28;
   w78 = w78 - w14;
   w78 = w2 * w78;
-  GAGEN_SCATTER(M, 8, 4, w78);
+  GAGEN_SCATTER(out_M, 8, 4, w78);
   w78 = w97 * w16;
   w14 = w7 * w21;
   w78 = w78 - w14;
   w14 = w74 * w28;
   w78 = w78 - w14;
   w78 = w2 * w78;
-  GAGEN_SCATTER(M, 8, 5, w78);
+  GAGEN_SCATTER(out_M, 8, 5, w78);
   w78 = w7 * w19;
   w14 = w74 * w16;
   w78 = w78 + w14;
@@ -2995,49 +2995,49 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w78 = w78 + w28;
   w78 = w2 * w78;
   w78 = -w78;
-  GAGEN_SCATTER(M, 8, 6, w78);
+  GAGEN_SCATTER(out_M, 8, 6, w78);
   w19 = w74 * w19;
   w16 = w7 * w16;
   w19 = w19 - w16;
   w21 = w97 * w21;
   w19 = w19 - w21;
   w19 = w2 * w19;
-  GAGEN_SCATTER(M, 8, 7, w19);
+  GAGEN_SCATTER(out_M, 8, 7, w19);
   w19 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w19);
-  GAGEN_SCATTER(P, 5, 1, w7);
-  GAGEN_SCATTER(P, 5, 2, w74);
-  GAGEN_SCATTER(P, 5, 3, w97);
+  GAGEN_SCATTER(out_P, 5, 0, w19);
+  GAGEN_SCATTER(out_P, 5, 1, w7);
+  GAGEN_SCATTER(out_P, 5, 2, w74);
+  GAGEN_SCATTER(out_P, 5, 3, w97);
   w7 = w7 * w7;
   w74 = w74 * w74;
   w7 = w7 + w74;
   w97 = w97 * w97;
   w7 = w7 + w97;
   w2 = w2 * w7;
-  GAGEN_SCATTER(P, 5, 4, w2);
-  GAGEN_SCATTER(J_S, 60, 0, w19);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
+  GAGEN_SCATTER(out_J_S, 60, 0, w19);
   w19 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 60, 1, w19);
-  GAGEN_SCATTER(J_S, 60, 2, w19);
-  GAGEN_SCATTER(J_S, 60, 3, w19);
-  GAGEN_SCATTER(J_S, 60, 4, w19);
-  GAGEN_SCATTER(J_S, 60, 5, w19);
-  GAGEN_SCATTER(J_S, 60, 6, w19);
+  GAGEN_SCATTER(out_J_S, 60, 1, w19);
+  GAGEN_SCATTER(out_J_S, 60, 2, w19);
+  GAGEN_SCATTER(out_J_S, 60, 3, w19);
+  GAGEN_SCATTER(out_J_S, 60, 4, w19);
+  GAGEN_SCATTER(out_J_S, 60, 5, w19);
+  GAGEN_SCATTER(out_J_S, 60, 6, w19);
   w13 = -w13;
-  GAGEN_SCATTER(J_S, 60, 7, w13);
-  GAGEN_SCATTER(J_S, 60, 8, w4);
+  GAGEN_SCATTER(out_J_S, 60, 7, w13);
+  GAGEN_SCATTER(out_J_S, 60, 8, w4);
   w13 = gagen_v_splat(0.07);
   w13 = w13 * w26;
   w13 = -w13;
-  GAGEN_SCATTER(J_S, 60, 9, w13);
+  GAGEN_SCATTER(out_J_S, 60, 9, w13);
   w79 = w79 * w4;
-  GAGEN_SCATTER(J_S, 60, 10, w79);
-  GAGEN_SCATTER(J_S, 60, 11, w19);
-  GAGEN_SCATTER(J_S, 60, 12, w30);
+  GAGEN_SCATTER(out_J_S, 60, 10, w79);
+  GAGEN_SCATTER(out_J_S, 60, 11, w19);
+  GAGEN_SCATTER(out_J_S, 60, 12, w30);
   w19 = -w5;
-  GAGEN_SCATTER(J_S, 60, 13, w19);
+  GAGEN_SCATTER(out_J_S, 60, 13, w19);
   w19 = -w31;
-  GAGEN_SCATTER(J_S, 60, 14, w19);
+  GAGEN_SCATTER(out_J_S, 60, 14, w19);
   w19 = gagen_v_splat(0.0175);
   w79 = gagen_v_splat(0.0095);
   w6 = w79 * w6;
@@ -3050,7 +3050,7 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w6 = w6 + w33;
   w6 = -w6;
   w6 = w6 + w6;
-  GAGEN_SCATTER(J_S, 60, 15, w6);
+  GAGEN_SCATTER(out_J_S, 60, 15, w6);
   w6 = gagen_v_splat(0.00198175);
   w6 = w6 * w4;
   w79 = w79 * w94;
@@ -3059,23 +3059,23 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w19 = w31 * w19;
   w30 = w30 - w19;
   w30 = w30 + w30;
-  GAGEN_SCATTER(J_S, 60, 16, w30);
+  GAGEN_SCATTER(out_J_S, 60, 16, w30);
   w31 = w31 * w60;
   w5 = w5 * w6;
   w31 = w31 + w5;
   w31 = -w31;
   w31 = w31 + w31;
-  GAGEN_SCATTER(J_S, 60, 17, w31);
+  GAGEN_SCATTER(out_J_S, 60, 17, w31);
   w31 = gagen_v_splat(1.9224917487388276);
   w31 = w31 * w8;
   w39 = w39 * w82;
   w31 = w31 - w39;
   w42 = w42 * w84;
   w31 = w31 + w42;
-  GAGEN_SCATTER(J_S, 60, 18, w31);
+  GAGEN_SCATTER(out_J_S, 60, 18, w31);
   w42 = -w40;
-  GAGEN_SCATTER(J_S, 60, 19, w42);
-  GAGEN_SCATTER(J_S, 60, 20, w37);
+  GAGEN_SCATTER(out_J_S, 60, 19, w42);
+  GAGEN_SCATTER(out_J_S, 60, 20, w37);
   w3 = w3 - w56;
   w42 = w31 * w3;
   w12 = w12 * w82;
@@ -3087,22 +3087,22 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w80 = w80 + w35;
   w35 = w40 * w80;
   w42 = w42 - w35;
-  GAGEN_SCATTER(J_S, 60, 21, w42);
+  GAGEN_SCATTER(out_J_S, 60, 21, w42);
   w80 = w37 * w80;
   w32 = w32 - w18;
   w31 = w31 * w32;
   w80 = w80 - w31;
-  GAGEN_SCATTER(J_S, 60, 22, w80);
+  GAGEN_SCATTER(out_J_S, 60, 22, w80);
   w37 = w37 * w3;
   w40 = w40 * w32;
   w37 = w37 - w40;
   w37 = -w37;
-  GAGEN_SCATTER(J_S, 60, 23, w37);
+  GAGEN_SCATTER(out_J_S, 60, 23, w37);
   w37 = -w87;
-  GAGEN_SCATTER(J_S, 60, 24, w37);
+  GAGEN_SCATTER(out_J_S, 60, 24, w37);
   w37 = -w51;
-  GAGEN_SCATTER(J_S, 60, 25, w37);
-  GAGEN_SCATTER(J_S, 60, 26, w1);
+  GAGEN_SCATTER(out_J_S, 60, 25, w37);
+  GAGEN_SCATTER(out_J_S, 60, 26, w1);
   w43 = w43 - w56;
   w43 = w43 - w54;
   w37 = w87 * w43;
@@ -3110,22 +3110,22 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w40 = w51 * w81;
   w37 = w37 + w40;
   w37 = -w37;
-  GAGEN_SCATTER(J_S, 60, 27, w37);
+  GAGEN_SCATTER(out_J_S, 60, 27, w37);
   w81 = w1 * w81;
   w38 = w38 - w18;
   w38 = w38 - w75;
   w87 = w87 * w38;
   w81 = w81 + w87;
-  GAGEN_SCATTER(J_S, 60, 28, w81);
+  GAGEN_SCATTER(out_J_S, 60, 28, w81);
   w1 = w1 * w43;
   w51 = w51 * w38;
   w1 = w1 - w51;
   w1 = -w1;
-  GAGEN_SCATTER(J_S, 60, 29, w1);
-  GAGEN_SCATTER(J_S, 60, 30, w89);
+  GAGEN_SCATTER(out_J_S, 60, 29, w1);
+  GAGEN_SCATTER(out_J_S, 60, 30, w89);
   w1 = -w20;
-  GAGEN_SCATTER(J_S, 60, 31, w1);
-  GAGEN_SCATTER(J_S, 60, 32, w45);
+  GAGEN_SCATTER(out_J_S, 60, 31, w1);
+  GAGEN_SCATTER(out_J_S, 60, 32, w45);
   w57 = w57 - w56;
   w57 = w57 - w54;
   w1 = gagen_v_splat(0.1032);
@@ -3137,7 +3137,7 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w90 = w90 - w38;
   w38 = w20 * w90;
   w51 = w51 - w38;
-  GAGEN_SCATTER(J_S, 60, 33, w51);
+  GAGEN_SCATTER(out_J_S, 60, 33, w51);
   w90 = w45 * w90;
   w44 = w44 - w18;
   w44 = w44 - w75;
@@ -3145,15 +3145,15 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w44 = w44 - w1;
   w89 = w89 * w44;
   w90 = w90 - w89;
-  GAGEN_SCATTER(J_S, 60, 34, w90);
+  GAGEN_SCATTER(out_J_S, 60, 34, w90);
   w45 = w45 * w57;
   w20 = w20 * w44;
   w45 = w45 - w20;
   w45 = -w45;
-  GAGEN_SCATTER(J_S, 60, 35, w45);
-  GAGEN_SCATTER(J_S, 60, 36, w93);
-  GAGEN_SCATTER(J_S, 60, 37, w66);
-  GAGEN_SCATTER(J_S, 60, 38, w25);
+  GAGEN_SCATTER(out_J_S, 60, 35, w45);
+  GAGEN_SCATTER(out_J_S, 60, 36, w93);
+  GAGEN_SCATTER(out_J_S, 60, 37, w66);
+  GAGEN_SCATTER(out_J_S, 60, 38, w25);
   w45 = w36 - w56;
   w45 = w45 - w54;
   w45 = w45 - w77;
@@ -3162,22 +3162,22 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w44 = w44 - w99;
   w57 = w66 * w44;
   w20 = w20 + w57;
-  GAGEN_SCATTER(J_S, 60, 39, w20);
+  GAGEN_SCATTER(out_J_S, 60, 39, w20);
   w44 = w25 * w44;
   w20 = w58 - w18;
   w20 = w20 - w75;
   w20 = w20 - w76;
   w93 = w93 * w20;
   w44 = w44 - w93;
-  GAGEN_SCATTER(J_S, 60, 40, w44);
+  GAGEN_SCATTER(out_J_S, 60, 40, w44);
   w66 = w66 * w20;
   w25 = w25 * w45;
   w66 = w66 + w25;
   w66 = -w66;
-  GAGEN_SCATTER(J_S, 60, 41, w66);
-  GAGEN_SCATTER(J_S, 60, 42, w92);
-  GAGEN_SCATTER(J_S, 60, 43, w47);
-  GAGEN_SCATTER(J_S, 60, 44, w49);
+  GAGEN_SCATTER(out_J_S, 60, 41, w66);
+  GAGEN_SCATTER(out_J_S, 60, 42, w92);
+  GAGEN_SCATTER(out_J_S, 60, 43, w47);
+  GAGEN_SCATTER(out_J_S, 60, 44, w49);
   w66 = gagen_v_splat(0.1);
   w0 = w66 * w0;
   w36 = w36 + w0;
@@ -3195,7 +3195,7 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w85 = w85 - w91;
   w88 = w47 * w85;
   w70 = w70 + w88;
-  GAGEN_SCATTER(J_S, 60, 45, w70);
+  GAGEN_SCATTER(out_J_S, 60, 45, w70);
   w85 = w49 * w85;
   w66 = w66 * w49;
   w58 = w58 + w66;
@@ -3206,15 +3206,15 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w58 = w58 - w68;
   w65 = w92 * w58;
   w85 = w85 - w65;
-  GAGEN_SCATTER(J_S, 60, 46, w85);
+  GAGEN_SCATTER(out_J_S, 60, 46, w85);
   w58 = w47 * w58;
   w36 = w49 * w36;
   w58 = w58 + w36;
   w58 = -w58;
-  GAGEN_SCATTER(J_S, 60, 47, w58);
-  GAGEN_SCATTER(J_S, 60, 48, w98);
-  GAGEN_SCATTER(J_S, 60, 49, w23);
-  GAGEN_SCATTER(J_S, 60, 50, w73);
+  GAGEN_SCATTER(out_J_S, 60, 47, w58);
+  GAGEN_SCATTER(out_J_S, 60, 48, w98);
+  GAGEN_SCATTER(out_J_S, 60, 49, w23);
+  GAGEN_SCATTER(out_J_S, 60, 50, w73);
   w64 = w64 - w56;
   w64 = w64 - w54;
   w64 = w64 - w77;
@@ -3224,7 +3224,7 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w83 = w83 - w91;
   w36 = w23 * w83;
   w58 = w58 + w36;
-  GAGEN_SCATTER(J_S, 60, 51, w58);
+  GAGEN_SCATTER(out_J_S, 60, 51, w58);
   w83 = w73 * w83;
   w61 = w61 - w18;
   w61 = w61 - w75;
@@ -3232,24 +3232,24 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w61 = w61 - w68;
   w98 = w98 * w61;
   w83 = w83 - w98;
-  GAGEN_SCATTER(J_S, 60, 52, w83);
+  GAGEN_SCATTER(out_J_S, 60, 52, w83);
   w23 = w23 * w61;
   w73 = w73 * w64;
   w23 = w23 + w73;
   w23 = -w23;
-  GAGEN_SCATTER(J_S, 60, 53, w23);
+  GAGEN_SCATTER(out_J_S, 60, 53, w23);
   w92 = w72 * w92;
   w95 = w10 * w95;
   w92 = w92 + w95;
-  GAGEN_SCATTER(J_S, 60, 54, w92);
+  GAGEN_SCATTER(out_J_S, 60, 54, w92);
   w47 = w72 * w47;
   w69 = w10 * w69;
   w47 = w47 - w69;
-  GAGEN_SCATTER(J_S, 60, 55, w47);
+  GAGEN_SCATTER(out_J_S, 60, 55, w47);
   w72 = w72 * w49;
   w10 = w10 * w62;
   w72 = w72 + w10;
-  GAGEN_SCATTER(J_S, 60, 56, w72);
+  GAGEN_SCATTER(out_J_S, 60, 56, w72);
   w63 = w63 - w56;
   w63 = w63 - w54;
   w63 = w63 - w77;
@@ -3259,7 +3259,7 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w96 = w96 - w91;
   w91 = w47 * w96;
   w77 = w77 + w91;
-  GAGEN_SCATTER(J_S, 60, 57, w77);
+  GAGEN_SCATTER(out_J_S, 60, 57, w77);
   w96 = w72 * w96;
   w71 = w71 - w18;
   w71 = w71 - w75;
@@ -3267,12 +3267,12 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w71 = w71 - w68;
   w92 = w92 * w71;
   w96 = w96 - w92;
-  GAGEN_SCATTER(J_S, 60, 58, w96);
+  GAGEN_SCATTER(out_J_S, 60, 58, w96);
   w47 = w47 * w71;
   w72 = w72 * w63;
   w47 = w47 + w72;
   w47 = -w47;
-  GAGEN_SCATTER(J_S, 60, 59, w47);
+  GAGEN_SCATTER(out_J_S, 60, 59, w47);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -3280,21 +3280,21 @@ static void two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(long gagen_ld,
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void two_g1_sphere_g1a_left_hand_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void two_g1_sphere_g1a_left_hand_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 73L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 73L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    two_g1_sphere_g1a_left_hand_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  two_g1_sphere_g1a_left_hand_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  two_g1_sphere_g1a_left_hand_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }
 
 #if GAGEN_SIMD
 /* chain g1a_right_hand: motor and end point: GAGEN_W consecutive samples at once */
-static void two_g1_sphere_g1a_right_hand_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void two_g1_sphere_g1a_right_hand_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -3304,14 +3304,14 @@ static void two_g1_sphere_g1a_right_hand_fk_block(const double *restrict q, doub
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(0.9902640743722195);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -3342,7 +3342,7 @@ static void two_g1_sphere_g1a_right_hand_fk_block(const double *restrict q, doub
   w7 = w7 + w11;
   w11 = w16 * w7;
   w14 = w14 - w11;
-  w11 = GAGEN_GATHER(q, 10, 3);
+  w11 = GAGEN_GATHER(in_q, 10, 3);
   w11 = w2 * w11;
   w21 = gagen_v_cos(w11);
   w22 = w14 * w21;
@@ -3379,7 +3379,7 @@ static void two_g1_sphere_g1a_right_hand_fk_block(const double *restrict q, doub
   w26 = w26 - w15;
   w15 = w25 * w26;
   w24 = w24 + w15;
-  w15 = GAGEN_GATHER(q, 10, 4);
+  w15 = GAGEN_GATHER(in_q, 10, 4);
   w15 = w2 * w15;
   w7 = gagen_v_cos(w15);
   w1 = w24 * w7;
@@ -3390,7 +3390,7 @@ static void two_g1_sphere_g1a_right_hand_fk_block(const double *restrict q, doub
   w15 = gagen_v_sin(w15);
   w26 = w17 * w15;
   w1 = w1 + w26;
-  w26 = GAGEN_GATHER(q, 10, 5);
+  w26 = GAGEN_GATHER(in_q, 10, 5);
   w26 = w2 * w26;
   w22 = gagen_v_cos(w26);
   w18 = w1 * w22;
@@ -3412,7 +3412,7 @@ static void two_g1_sphere_g1a_right_hand_fk_block(const double *restrict q, doub
   w26 = gagen_v_sin(w26);
   w25 = w23 * w26;
   w18 = w18 + w25;
-  w25 = GAGEN_GATHER(q, 10, 6);
+  w25 = GAGEN_GATHER(in_q, 10, 6);
   w25 = w2 * w25;
   w20 = gagen_v_cos(w25);
   w14 = w18 * w20;
@@ -3428,7 +3428,7 @@ static void two_g1_sphere_g1a_right_hand_fk_block(const double *restrict q, doub
   w25 = gagen_v_sin(w25);
   w24 = w13 * w25;
   w14 = w14 - w24;
-  w24 = GAGEN_GATHER(q, 10, 7);
+  w24 = GAGEN_GATHER(in_q, 10, 7);
   w24 = w2 * w24;
   w16 = gagen_v_cos(w24);
   w19 = w14 * w16;
@@ -3444,7 +3444,7 @@ static void two_g1_sphere_g1a_right_hand_fk_block(const double *restrict q, doub
   w24 = gagen_v_sin(w24);
   w1 = w0 * w24;
   w19 = w19 + w1;
-  w1 = GAGEN_GATHER(q, 10, 8);
+  w1 = GAGEN_GATHER(in_q, 10, 8);
   w1 = w2 * w1;
   w12 = gagen_v_cos(w1);
   w10 = w19 * w12;
@@ -3460,7 +3460,7 @@ static void two_g1_sphere_g1a_right_hand_fk_block(const double *restrict q, doub
   w1 = gagen_v_sin(w1);
   w17 = w13 * w1;
   w10 = w10 - w17;
-  w17 = GAGEN_GATHER(q, 10, 9);
+  w17 = GAGEN_GATHER(in_q, 10, 9);
   w17 = w2 * w17;
   w27 = gagen_v_cos(w17);
   w28 = w10 * w27;
@@ -3476,11 +3476,11 @@ static void two_g1_sphere_g1a_right_hand_fk_block(const double *restrict q, doub
   w17 = gagen_v_sin(w17);
   w14 = w18 * w17;
   w28 = w28 + w14;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w18 = w18 * w27;
   w10 = w10 * w17;
   w18 = w18 - w10;
-  GAGEN_SCATTER(M, 8, 1, w18);
+  GAGEN_SCATTER(out_M, 8, 1, w18);
   w19 = w19 * w1;
   w13 = w13 * w12;
   w19 = w19 + w13;
@@ -3490,11 +3490,11 @@ static void two_g1_sphere_g1a_right_hand_fk_block(const double *restrict q, doub
   w0 = w0 - w23;
   w23 = w0 * w17;
   w13 = w13 + w23;
-  GAGEN_SCATTER(M, 8, 2, w13);
+  GAGEN_SCATTER(out_M, 8, 2, w13);
   w0 = w0 * w27;
   w19 = w19 * w17;
   w0 = w0 - w19;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w19 = gagen_v_splat(0.0039563);
   w23 = w9 * w9;
   w10 = w8 * w8;
@@ -3890,14 +3890,14 @@ static void two_g1_sphere_g1a_right_hand_fk_block(const double *restrict q, doub
   w1 = w32 * w28;
   w15 = w15 - w1;
   w15 = w2 * w15;
-  GAGEN_SCATTER(M, 8, 4, w15);
+  GAGEN_SCATTER(out_M, 8, 4, w15);
   w15 = w10 * w0;
   w1 = w32 * w18;
   w15 = w15 - w1;
   w1 = w3 * w28;
   w15 = w15 - w1;
   w15 = w2 * w15;
-  GAGEN_SCATTER(M, 8, 5, w15);
+  GAGEN_SCATTER(out_M, 8, 5, w15);
   w15 = w32 * w13;
   w1 = w3 * w0;
   w15 = w15 + w1;
@@ -3905,43 +3905,43 @@ static void two_g1_sphere_g1a_right_hand_fk_block(const double *restrict q, doub
   w15 = w15 + w28;
   w15 = w2 * w15;
   w15 = -w15;
-  GAGEN_SCATTER(M, 8, 6, w15);
+  GAGEN_SCATTER(out_M, 8, 6, w15);
   w13 = w3 * w13;
   w0 = w32 * w0;
   w13 = w13 - w0;
   w18 = w10 * w18;
   w13 = w13 - w18;
   w13 = w2 * w13;
-  GAGEN_SCATTER(M, 8, 7, w13);
+  GAGEN_SCATTER(out_M, 8, 7, w13);
   w13 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w13);
-  GAGEN_SCATTER(P, 5, 1, w32);
-  GAGEN_SCATTER(P, 5, 2, w3);
-  GAGEN_SCATTER(P, 5, 3, w10);
+  GAGEN_SCATTER(out_P, 5, 0, w13);
+  GAGEN_SCATTER(out_P, 5, 1, w32);
+  GAGEN_SCATTER(out_P, 5, 2, w3);
+  GAGEN_SCATTER(out_P, 5, 3, w10);
   w32 = w32 * w32;
   w3 = w3 * w3;
   w32 = w32 + w3;
   w10 = w10 * w10;
   w32 = w32 + w10;
   w2 = w2 * w32;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #endif
 
-void two_g1_sphere_g1a_right_hand_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void two_g1_sphere_g1a_right_hand_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    two_g1_sphere_g1a_right_hand_fk_block(q + 10 * s, M + 8 * s, P + 5 * s);
+    two_g1_sphere_g1a_right_hand_fk_block(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    two_g1_sphere_g1a_right_hand_fk(q + 10 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    two_g1_sphere_g1a_right_hand_fk(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -3951,7 +3951,7 @@ void two_g1_sphere_g1a_right_hand_fk_batch(long n, const double *restrict q, dou
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void two_g1_sphere_g1a_right_hand_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void two_g1_sphere_g1a_right_hand_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -3961,14 +3961,14 @@ static void two_g1_sphere_g1a_right_hand_fk_block_columns(long gagen_ld, int gag
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(0.9902640743722195);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -3999,7 +3999,7 @@ static void two_g1_sphere_g1a_right_hand_fk_block_columns(long gagen_ld, int gag
   w7 = w7 + w11;
   w11 = w16 * w7;
   w14 = w14 - w11;
-  w11 = GAGEN_GATHER(q, 10, 3);
+  w11 = GAGEN_GATHER(in_q, 10, 3);
   w11 = w2 * w11;
   w21 = gagen_v_cos(w11);
   w22 = w14 * w21;
@@ -4036,7 +4036,7 @@ static void two_g1_sphere_g1a_right_hand_fk_block_columns(long gagen_ld, int gag
   w26 = w26 - w15;
   w15 = w25 * w26;
   w24 = w24 + w15;
-  w15 = GAGEN_GATHER(q, 10, 4);
+  w15 = GAGEN_GATHER(in_q, 10, 4);
   w15 = w2 * w15;
   w7 = gagen_v_cos(w15);
   w1 = w24 * w7;
@@ -4047,7 +4047,7 @@ static void two_g1_sphere_g1a_right_hand_fk_block_columns(long gagen_ld, int gag
   w15 = gagen_v_sin(w15);
   w26 = w17 * w15;
   w1 = w1 + w26;
-  w26 = GAGEN_GATHER(q, 10, 5);
+  w26 = GAGEN_GATHER(in_q, 10, 5);
   w26 = w2 * w26;
   w22 = gagen_v_cos(w26);
   w18 = w1 * w22;
@@ -4069,7 +4069,7 @@ static void two_g1_sphere_g1a_right_hand_fk_block_columns(long gagen_ld, int gag
   w26 = gagen_v_sin(w26);
   w25 = w23 * w26;
   w18 = w18 + w25;
-  w25 = GAGEN_GATHER(q, 10, 6);
+  w25 = GAGEN_GATHER(in_q, 10, 6);
   w25 = w2 * w25;
   w20 = gagen_v_cos(w25);
   w14 = w18 * w20;
@@ -4085,7 +4085,7 @@ static void two_g1_sphere_g1a_right_hand_fk_block_columns(long gagen_ld, int gag
   w25 = gagen_v_sin(w25);
   w24 = w13 * w25;
   w14 = w14 - w24;
-  w24 = GAGEN_GATHER(q, 10, 7);
+  w24 = GAGEN_GATHER(in_q, 10, 7);
   w24 = w2 * w24;
   w16 = gagen_v_cos(w24);
   w19 = w14 * w16;
@@ -4101,7 +4101,7 @@ static void two_g1_sphere_g1a_right_hand_fk_block_columns(long gagen_ld, int gag
   w24 = gagen_v_sin(w24);
   w1 = w0 * w24;
   w19 = w19 + w1;
-  w1 = GAGEN_GATHER(q, 10, 8);
+  w1 = GAGEN_GATHER(in_q, 10, 8);
   w1 = w2 * w1;
   w12 = gagen_v_cos(w1);
   w10 = w19 * w12;
@@ -4117,7 +4117,7 @@ static void two_g1_sphere_g1a_right_hand_fk_block_columns(long gagen_ld, int gag
   w1 = gagen_v_sin(w1);
   w17 = w13 * w1;
   w10 = w10 - w17;
-  w17 = GAGEN_GATHER(q, 10, 9);
+  w17 = GAGEN_GATHER(in_q, 10, 9);
   w17 = w2 * w17;
   w27 = gagen_v_cos(w17);
   w28 = w10 * w27;
@@ -4133,11 +4133,11 @@ static void two_g1_sphere_g1a_right_hand_fk_block_columns(long gagen_ld, int gag
   w17 = gagen_v_sin(w17);
   w14 = w18 * w17;
   w28 = w28 + w14;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w18 = w18 * w27;
   w10 = w10 * w17;
   w18 = w18 - w10;
-  GAGEN_SCATTER(M, 8, 1, w18);
+  GAGEN_SCATTER(out_M, 8, 1, w18);
   w19 = w19 * w1;
   w13 = w13 * w12;
   w19 = w19 + w13;
@@ -4147,11 +4147,11 @@ static void two_g1_sphere_g1a_right_hand_fk_block_columns(long gagen_ld, int gag
   w0 = w0 - w23;
   w23 = w0 * w17;
   w13 = w13 + w23;
-  GAGEN_SCATTER(M, 8, 2, w13);
+  GAGEN_SCATTER(out_M, 8, 2, w13);
   w0 = w0 * w27;
   w19 = w19 * w17;
   w0 = w0 - w19;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w19 = gagen_v_splat(0.0039563);
   w23 = w9 * w9;
   w10 = w8 * w8;
@@ -4547,14 +4547,14 @@ static void two_g1_sphere_g1a_right_hand_fk_block_columns(long gagen_ld, int gag
   w1 = w32 * w28;
   w15 = w15 - w1;
   w15 = w2 * w15;
-  GAGEN_SCATTER(M, 8, 4, w15);
+  GAGEN_SCATTER(out_M, 8, 4, w15);
   w15 = w10 * w0;
   w1 = w32 * w18;
   w15 = w15 - w1;
   w1 = w3 * w28;
   w15 = w15 - w1;
   w15 = w2 * w15;
-  GAGEN_SCATTER(M, 8, 5, w15);
+  GAGEN_SCATTER(out_M, 8, 5, w15);
   w15 = w32 * w13;
   w1 = w3 * w0;
   w15 = w15 + w1;
@@ -4562,26 +4562,26 @@ static void two_g1_sphere_g1a_right_hand_fk_block_columns(long gagen_ld, int gag
   w15 = w15 + w28;
   w15 = w2 * w15;
   w15 = -w15;
-  GAGEN_SCATTER(M, 8, 6, w15);
+  GAGEN_SCATTER(out_M, 8, 6, w15);
   w13 = w3 * w13;
   w0 = w32 * w0;
   w13 = w13 - w0;
   w18 = w10 * w18;
   w13 = w13 - w18;
   w13 = w2 * w13;
-  GAGEN_SCATTER(M, 8, 7, w13);
+  GAGEN_SCATTER(out_M, 8, 7, w13);
   w13 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w13);
-  GAGEN_SCATTER(P, 5, 1, w32);
-  GAGEN_SCATTER(P, 5, 2, w3);
-  GAGEN_SCATTER(P, 5, 3, w10);
+  GAGEN_SCATTER(out_P, 5, 0, w13);
+  GAGEN_SCATTER(out_P, 5, 1, w32);
+  GAGEN_SCATTER(out_P, 5, 2, w3);
+  GAGEN_SCATTER(out_P, 5, 3, w10);
   w32 = w32 * w32;
   w3 = w3 * w3;
   w32 = w32 + w3;
   w10 = w10 * w10;
   w32 = w32 + w10;
   w2 = w2 * w32;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -4589,21 +4589,21 @@ static void two_g1_sphere_g1a_right_hand_fk_block_columns(long gagen_ld, int gag
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void two_g1_sphere_g1a_right_hand_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void two_g1_sphere_g1a_right_hand_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    two_g1_sphere_g1a_right_hand_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    two_g1_sphere_g1a_right_hand_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  two_g1_sphere_g1a_right_hand_fk_columns_from(s, n, ld, q, M, P);
+  two_g1_sphere_g1a_right_hand_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain g1a_right_hand: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -4616,14 +4616,14 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restric
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(0.9902640743722195);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -4654,7 +4654,7 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restric
   w7 = w7 + w11;
   w11 = w16 * w7;
   w14 = w14 - w11;
-  w11 = GAGEN_GATHER(q, 10, 3);
+  w11 = GAGEN_GATHER(in_q, 10, 3);
   w11 = w2 * w11;
   w21 = gagen_v_cos(w11);
   w22 = w14 * w21;
@@ -4691,7 +4691,7 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restric
   w26 = w26 - w15;
   w15 = w25 * w26;
   w24 = w24 + w15;
-  w15 = GAGEN_GATHER(q, 10, 4);
+  w15 = GAGEN_GATHER(in_q, 10, 4);
   w15 = w2 * w15;
   w7 = gagen_v_cos(w15);
   w1 = w24 * w7;
@@ -4702,7 +4702,7 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restric
   w15 = gagen_v_sin(w15);
   w26 = w17 * w15;
   w1 = w1 + w26;
-  w26 = GAGEN_GATHER(q, 10, 5);
+  w26 = GAGEN_GATHER(in_q, 10, 5);
   w26 = w2 * w26;
   w22 = gagen_v_cos(w26);
   w18 = w1 * w22;
@@ -4724,7 +4724,7 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restric
   w26 = gagen_v_sin(w26);
   w25 = w23 * w26;
   w18 = w18 + w25;
-  w25 = GAGEN_GATHER(q, 10, 6);
+  w25 = GAGEN_GATHER(in_q, 10, 6);
   w25 = w2 * w25;
   w20 = gagen_v_cos(w25);
   w14 = w18 * w20;
@@ -4740,7 +4740,7 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restric
   w25 = gagen_v_sin(w25);
   w24 = w13 * w25;
   w14 = w14 - w24;
-  w24 = GAGEN_GATHER(q, 10, 7);
+  w24 = GAGEN_GATHER(in_q, 10, 7);
   w24 = w2 * w24;
   w16 = gagen_v_cos(w24);
   w19 = w14 * w16;
@@ -4756,7 +4756,7 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restric
   w24 = gagen_v_sin(w24);
   w1 = w0 * w24;
   w19 = w19 + w1;
-  w1 = GAGEN_GATHER(q, 10, 8);
+  w1 = GAGEN_GATHER(in_q, 10, 8);
   w1 = w2 * w1;
   w12 = gagen_v_cos(w1);
   w10 = w19 * w12;
@@ -4772,7 +4772,7 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restric
   w1 = gagen_v_sin(w1);
   w17 = w13 * w1;
   w10 = w10 - w17;
-  w17 = GAGEN_GATHER(q, 10, 9);
+  w17 = GAGEN_GATHER(in_q, 10, 9);
   w17 = w2 * w17;
   w27 = gagen_v_cos(w17);
   w28 = w10 * w27;
@@ -4788,11 +4788,11 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restric
   w17 = gagen_v_sin(w17);
   w14 = w18 * w17;
   w28 = w28 + w14;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w18 = w18 * w27;
   w10 = w10 * w17;
   w18 = w18 - w10;
-  GAGEN_SCATTER(M, 8, 1, w18);
+  GAGEN_SCATTER(out_M, 8, 1, w18);
   w19 = w19 * w1;
   w13 = w13 * w12;
   w19 = w19 + w13;
@@ -4802,11 +4802,11 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restric
   w0 = w0 - w23;
   w23 = w0 * w17;
   w13 = w13 + w23;
-  GAGEN_SCATTER(M, 8, 2, w13);
+  GAGEN_SCATTER(out_M, 8, 2, w13);
   w0 = w0 * w27;
   w19 = w19 * w17;
   w0 = w0 - w19;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w19 = gagen_v_splat(0.0039563);
   w23 = w9 * w9;
   w10 = w8 * w8;
@@ -5202,14 +5202,14 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restric
   w55 = w1 * w28;
   w79 = w79 - w55;
   w79 = w2 * w79;
-  GAGEN_SCATTER(M, 8, 4, w79);
+  GAGEN_SCATTER(out_M, 8, 4, w79);
   w79 = w97 * w0;
   w55 = w1 * w18;
   w79 = w79 - w55;
   w55 = w70 * w28;
   w79 = w79 - w55;
   w79 = w2 * w79;
-  GAGEN_SCATTER(M, 8, 5, w79);
+  GAGEN_SCATTER(out_M, 8, 5, w79);
   w79 = w1 * w13;
   w55 = w70 * w0;
   w79 = w79 + w55;
@@ -5217,49 +5217,49 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restric
   w79 = w79 + w28;
   w79 = w2 * w79;
   w79 = -w79;
-  GAGEN_SCATTER(M, 8, 6, w79);
+  GAGEN_SCATTER(out_M, 8, 6, w79);
   w13 = w70 * w13;
   w0 = w1 * w0;
   w13 = w13 - w0;
   w18 = w97 * w18;
   w13 = w13 - w18;
   w13 = w2 * w13;
-  GAGEN_SCATTER(M, 8, 7, w13);
+  GAGEN_SCATTER(out_M, 8, 7, w13);
   w13 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w13);
-  GAGEN_SCATTER(P, 5, 1, w1);
-  GAGEN_SCATTER(P, 5, 2, w70);
-  GAGEN_SCATTER(P, 5, 3, w97);
+  GAGEN_SCATTER(out_P, 5, 0, w13);
+  GAGEN_SCATTER(out_P, 5, 1, w1);
+  GAGEN_SCATTER(out_P, 5, 2, w70);
+  GAGEN_SCATTER(out_P, 5, 3, w97);
   w1 = w1 * w1;
   w70 = w70 * w70;
   w1 = w1 + w70;
   w97 = w97 * w97;
   w1 = w1 + w97;
   w2 = w2 * w1;
-  GAGEN_SCATTER(P, 5, 4, w2);
-  GAGEN_SCATTER(J_S, 60, 0, w13);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
+  GAGEN_SCATTER(out_J_S, 60, 0, w13);
   w13 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 60, 1, w13);
-  GAGEN_SCATTER(J_S, 60, 2, w13);
-  GAGEN_SCATTER(J_S, 60, 3, w13);
-  GAGEN_SCATTER(J_S, 60, 4, w13);
-  GAGEN_SCATTER(J_S, 60, 5, w13);
-  GAGEN_SCATTER(J_S, 60, 6, w13);
+  GAGEN_SCATTER(out_J_S, 60, 1, w13);
+  GAGEN_SCATTER(out_J_S, 60, 2, w13);
+  GAGEN_SCATTER(out_J_S, 60, 3, w13);
+  GAGEN_SCATTER(out_J_S, 60, 4, w13);
+  GAGEN_SCATTER(out_J_S, 60, 5, w13);
+  GAGEN_SCATTER(out_J_S, 60, 6, w13);
   w14 = -w14;
-  GAGEN_SCATTER(J_S, 60, 7, w14);
-  GAGEN_SCATTER(J_S, 60, 8, w4);
+  GAGEN_SCATTER(out_J_S, 60, 7, w14);
+  GAGEN_SCATTER(out_J_S, 60, 8, w4);
   w14 = gagen_v_splat(0.07);
   w14 = w14 * w10;
   w14 = -w14;
-  GAGEN_SCATTER(J_S, 60, 9, w14);
+  GAGEN_SCATTER(out_J_S, 60, 9, w14);
   w80 = w80 * w4;
-  GAGEN_SCATTER(J_S, 60, 10, w80);
-  GAGEN_SCATTER(J_S, 60, 11, w13);
-  GAGEN_SCATTER(J_S, 60, 12, w30);
+  GAGEN_SCATTER(out_J_S, 60, 10, w80);
+  GAGEN_SCATTER(out_J_S, 60, 11, w13);
+  GAGEN_SCATTER(out_J_S, 60, 12, w30);
   w13 = -w5;
-  GAGEN_SCATTER(J_S, 60, 13, w13);
+  GAGEN_SCATTER(out_J_S, 60, 13, w13);
   w13 = -w36;
-  GAGEN_SCATTER(J_S, 60, 14, w13);
+  GAGEN_SCATTER(out_J_S, 60, 14, w13);
   w13 = gagen_v_splat(0.0175);
   w80 = gagen_v_splat(0.0095);
   w6 = w80 * w6;
@@ -5272,7 +5272,7 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restric
   w6 = w6 + w33;
   w6 = -w6;
   w6 = w6 + w6;
-  GAGEN_SCATTER(J_S, 60, 15, w6);
+  GAGEN_SCATTER(out_J_S, 60, 15, w6);
   w6 = gagen_v_splat(0.00198175);
   w6 = w6 * w4;
   w80 = w80 * w102;
@@ -5281,23 +5281,23 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restric
   w13 = w36 * w13;
   w30 = w30 - w13;
   w30 = w30 + w30;
-  GAGEN_SCATTER(J_S, 60, 16, w30);
+  GAGEN_SCATTER(out_J_S, 60, 16, w30);
   w36 = w36 * w38;
   w5 = w5 * w6;
   w36 = w36 + w5;
   w36 = -w36;
   w36 = w36 + w36;
-  GAGEN_SCATTER(J_S, 60, 17, w36);
+  GAGEN_SCATTER(out_J_S, 60, 17, w36);
   w36 = gagen_v_splat(1.9224917487388276);
   w36 = w36 * w8;
   w52 = w52 * w83;
   w36 = w36 + w52;
   w53 = w53 * w85;
   w36 = w36 - w53;
-  GAGEN_SCATTER(J_S, 60, 18, w36);
-  GAGEN_SCATTER(J_S, 60, 19, w29);
+  GAGEN_SCATTER(out_J_S, 60, 18, w36);
+  GAGEN_SCATTER(out_J_S, 60, 19, w29);
   w53 = -w35;
-  GAGEN_SCATTER(J_S, 60, 20, w53);
+  GAGEN_SCATTER(out_J_S, 60, 20, w53);
   w3 = w3 - w71;
   w3 = w3 - w72;
   w53 = w36 * w3;
@@ -5310,23 +5310,23 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restric
   w81 = w81 - w34;
   w34 = w29 * w81;
   w53 = w53 + w34;
-  GAGEN_SCATTER(J_S, 60, 21, w53);
+  GAGEN_SCATTER(out_J_S, 60, 21, w53);
   w81 = w35 * w81;
   w32 = w32 - w16;
   w32 = w32 + w24;
   w36 = w36 * w32;
   w81 = w81 + w36;
   w81 = -w81;
-  GAGEN_SCATTER(J_S, 60, 22, w81);
+  GAGEN_SCATTER(out_J_S, 60, 22, w81);
   w29 = w29 * w32;
   w35 = w35 * w3;
   w29 = w29 - w35;
   w29 = -w29;
-  GAGEN_SCATTER(J_S, 60, 23, w29);
-  GAGEN_SCATTER(J_S, 60, 24, w86);
+  GAGEN_SCATTER(out_J_S, 60, 23, w29);
+  GAGEN_SCATTER(out_J_S, 60, 24, w86);
   w29 = -w43;
-  GAGEN_SCATTER(J_S, 60, 25, w29);
-  GAGEN_SCATTER(J_S, 60, 26, w26);
+  GAGEN_SCATTER(out_J_S, 60, 25, w29);
+  GAGEN_SCATTER(out_J_S, 60, 26, w26);
   w3 = w3 + w74;
   w3 = w3 - w46;
   w29 = w86 * w3;
@@ -5334,22 +5334,22 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restric
   w82 = w82 - w84;
   w35 = w43 * w82;
   w29 = w29 - w35;
-  GAGEN_SCATTER(J_S, 60, 27, w29);
+  GAGEN_SCATTER(out_J_S, 60, 27, w29);
   w29 = w26 * w82;
   w32 = w32 + w73;
   w32 = w32 - w75;
   w86 = w86 * w32;
   w29 = w29 - w86;
-  GAGEN_SCATTER(J_S, 60, 28, w29);
+  GAGEN_SCATTER(out_J_S, 60, 28, w29);
   w26 = w26 * w3;
   w43 = w43 * w32;
   w26 = w26 - w43;
   w26 = -w26;
-  GAGEN_SCATTER(J_S, 60, 29, w26);
-  GAGEN_SCATTER(J_S, 60, 30, w90);
+  GAGEN_SCATTER(out_J_S, 60, 29, w26);
+  GAGEN_SCATTER(out_J_S, 60, 30, w90);
   w26 = -w15;
-  GAGEN_SCATTER(J_S, 60, 31, w26);
-  GAGEN_SCATTER(J_S, 60, 32, w39);
+  GAGEN_SCATTER(out_J_S, 60, 31, w26);
+  GAGEN_SCATTER(out_J_S, 60, 32, w39);
   w3 = w3 - w54;
   w26 = gagen_v_splat(0.1032);
   w43 = w26 * w15;
@@ -5360,22 +5360,22 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restric
   w82 = w82 - w29;
   w29 = w15 * w82;
   w43 = w43 - w29;
-  GAGEN_SCATTER(J_S, 60, 33, w43);
+  GAGEN_SCATTER(out_J_S, 60, 33, w43);
   w82 = w39 * w82;
   w32 = w32 - w76;
   w26 = w26 * w39;
   w32 = w32 - w26;
   w90 = w90 * w32;
   w82 = w82 - w90;
-  GAGEN_SCATTER(J_S, 60, 34, w82);
+  GAGEN_SCATTER(out_J_S, 60, 34, w82);
   w39 = w39 * w3;
   w15 = w15 * w32;
   w39 = w39 - w15;
   w39 = -w39;
-  GAGEN_SCATTER(J_S, 60, 35, w39);
-  GAGEN_SCATTER(J_S, 60, 36, w95);
-  GAGEN_SCATTER(J_S, 60, 37, w61);
-  GAGEN_SCATTER(J_S, 60, 38, w22);
+  GAGEN_SCATTER(out_J_S, 60, 35, w39);
+  GAGEN_SCATTER(out_J_S, 60, 36, w95);
+  GAGEN_SCATTER(out_J_S, 60, 37, w61);
+  GAGEN_SCATTER(out_J_S, 60, 38, w22);
   w39 = w47 - w71;
   w39 = w39 - w72;
   w39 = w39 + w74;
@@ -5389,7 +5389,7 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restric
   w32 = w32 - w100;
   w3 = w61 * w32;
   w15 = w15 + w3;
-  GAGEN_SCATTER(J_S, 60, 39, w15);
+  GAGEN_SCATTER(out_J_S, 60, 39, w15);
   w32 = w22 * w32;
   w15 = w37 - w16;
   w15 = w15 + w24;
@@ -5399,15 +5399,15 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restric
   w15 = w15 - w77;
   w95 = w95 * w15;
   w32 = w32 - w95;
-  GAGEN_SCATTER(J_S, 60, 40, w32);
+  GAGEN_SCATTER(out_J_S, 60, 40, w32);
   w61 = w61 * w15;
   w22 = w22 * w39;
   w61 = w61 + w22;
   w61 = -w61;
-  GAGEN_SCATTER(J_S, 60, 41, w61);
-  GAGEN_SCATTER(J_S, 60, 42, w92);
-  GAGEN_SCATTER(J_S, 60, 43, w50);
-  GAGEN_SCATTER(J_S, 60, 44, w40);
+  GAGEN_SCATTER(out_J_S, 60, 41, w61);
+  GAGEN_SCATTER(out_J_S, 60, 42, w92);
+  GAGEN_SCATTER(out_J_S, 60, 43, w50);
+  GAGEN_SCATTER(out_J_S, 60, 44, w40);
   w61 = gagen_v_splat(0.1);
   w25 = w61 * w25;
   w47 = w47 + w25;
@@ -5430,7 +5430,7 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restric
   w91 = w91 - w88;
   w62 = w50 * w91;
   w65 = w65 + w62;
-  GAGEN_SCATTER(J_S, 60, 45, w65);
+  GAGEN_SCATTER(out_J_S, 60, 45, w65);
   w91 = w40 * w91;
   w61 = w61 * w40;
   w37 = w37 + w61;
@@ -5444,15 +5444,15 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restric
   w37 = w37 - w63;
   w61 = w92 * w37;
   w91 = w91 - w61;
-  GAGEN_SCATTER(J_S, 60, 46, w91);
+  GAGEN_SCATTER(out_J_S, 60, 46, w91);
   w37 = w50 * w37;
   w47 = w40 * w47;
   w37 = w37 + w47;
   w37 = -w37;
-  GAGEN_SCATTER(J_S, 60, 47, w37);
-  GAGEN_SCATTER(J_S, 60, 48, w98);
-  GAGEN_SCATTER(J_S, 60, 49, w17);
-  GAGEN_SCATTER(J_S, 60, 50, w68);
+  GAGEN_SCATTER(out_J_S, 60, 47, w37);
+  GAGEN_SCATTER(out_J_S, 60, 48, w98);
+  GAGEN_SCATTER(out_J_S, 60, 49, w17);
+  GAGEN_SCATTER(out_J_S, 60, 50, w68);
   w59 = w59 - w71;
   w59 = w59 - w72;
   w59 = w59 + w74;
@@ -5468,7 +5468,7 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restric
   w89 = w89 - w88;
   w47 = w17 * w89;
   w37 = w37 + w47;
-  GAGEN_SCATTER(J_S, 60, 51, w37);
+  GAGEN_SCATTER(out_J_S, 60, 51, w37);
   w89 = w68 * w89;
   w56 = w56 - w16;
   w56 = w56 + w24;
@@ -5480,24 +5480,24 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restric
   w56 = w56 - w63;
   w98 = w98 * w56;
   w89 = w89 - w98;
-  GAGEN_SCATTER(J_S, 60, 52, w89);
+  GAGEN_SCATTER(out_J_S, 60, 52, w89);
   w17 = w17 * w56;
   w68 = w68 * w59;
   w17 = w17 + w68;
   w17 = -w17;
-  GAGEN_SCATTER(J_S, 60, 53, w17);
+  GAGEN_SCATTER(out_J_S, 60, 53, w17);
   w92 = w67 * w92;
   w94 = w12 * w94;
   w92 = w92 + w94;
-  GAGEN_SCATTER(J_S, 60, 54, w92);
+  GAGEN_SCATTER(out_J_S, 60, 54, w92);
   w50 = w67 * w50;
   w64 = w12 * w64;
   w50 = w50 - w64;
-  GAGEN_SCATTER(J_S, 60, 55, w50);
+  GAGEN_SCATTER(out_J_S, 60, 55, w50);
   w67 = w67 * w40;
   w12 = w12 * w57;
   w67 = w67 + w12;
-  GAGEN_SCATTER(J_S, 60, 56, w67);
+  GAGEN_SCATTER(out_J_S, 60, 56, w67);
   w58 = w58 - w71;
   w58 = w58 - w72;
   w58 = w58 + w74;
@@ -5513,7 +5513,7 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restric
   w96 = w96 - w88;
   w88 = w50 * w96;
   w78 = w78 + w88;
-  GAGEN_SCATTER(J_S, 60, 57, w78);
+  GAGEN_SCATTER(out_J_S, 60, 57, w78);
   w96 = w67 * w96;
   w66 = w66 - w16;
   w66 = w66 + w24;
@@ -5525,30 +5525,30 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block(const double *restric
   w66 = w66 - w63;
   w92 = w92 * w66;
   w96 = w96 - w92;
-  GAGEN_SCATTER(J_S, 60, 58, w96);
+  GAGEN_SCATTER(out_J_S, 60, 58, w96);
   w50 = w50 * w66;
   w67 = w67 * w58;
   w50 = w50 + w67;
   w50 = -w50;
-  GAGEN_SCATTER(J_S, 60, 59, w50);
+  GAGEN_SCATTER(out_J_S, 60, 59, w50);
 }
 #endif
 
-void two_g1_sphere_g1a_right_hand_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void two_g1_sphere_g1a_right_hand_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 60 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 60 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 60 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 60 * gagen_a + gagen_o, 1, 0);
     }
-    two_g1_sphere_g1a_right_hand_fk_jacobian_block(q + 10 * s, M + 8 * s, P + 5 * s, J_S + 60 * s);
+    two_g1_sphere_g1a_right_hand_fk_jacobian_block(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 60 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    two_g1_sphere_g1a_right_hand_fk_jacobian(q + 10 * s, M + 8 * s, P + 5 * s, J_S + 60 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    two_g1_sphere_g1a_right_hand_fk_jacobian(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 60 * gagen_s);
   }
 }
 
@@ -5558,7 +5558,7 @@ void two_g1_sphere_g1a_right_hand_fk_jacobian_batch(long n, const double *restri
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -5571,14 +5571,14 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(0.9902640743722195);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -5609,7 +5609,7 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
   w7 = w7 + w11;
   w11 = w16 * w7;
   w14 = w14 - w11;
-  w11 = GAGEN_GATHER(q, 10, 3);
+  w11 = GAGEN_GATHER(in_q, 10, 3);
   w11 = w2 * w11;
   w21 = gagen_v_cos(w11);
   w22 = w14 * w21;
@@ -5646,7 +5646,7 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
   w26 = w26 - w15;
   w15 = w25 * w26;
   w24 = w24 + w15;
-  w15 = GAGEN_GATHER(q, 10, 4);
+  w15 = GAGEN_GATHER(in_q, 10, 4);
   w15 = w2 * w15;
   w7 = gagen_v_cos(w15);
   w1 = w24 * w7;
@@ -5657,7 +5657,7 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
   w15 = gagen_v_sin(w15);
   w26 = w17 * w15;
   w1 = w1 + w26;
-  w26 = GAGEN_GATHER(q, 10, 5);
+  w26 = GAGEN_GATHER(in_q, 10, 5);
   w26 = w2 * w26;
   w22 = gagen_v_cos(w26);
   w18 = w1 * w22;
@@ -5679,7 +5679,7 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
   w26 = gagen_v_sin(w26);
   w25 = w23 * w26;
   w18 = w18 + w25;
-  w25 = GAGEN_GATHER(q, 10, 6);
+  w25 = GAGEN_GATHER(in_q, 10, 6);
   w25 = w2 * w25;
   w20 = gagen_v_cos(w25);
   w14 = w18 * w20;
@@ -5695,7 +5695,7 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
   w25 = gagen_v_sin(w25);
   w24 = w13 * w25;
   w14 = w14 - w24;
-  w24 = GAGEN_GATHER(q, 10, 7);
+  w24 = GAGEN_GATHER(in_q, 10, 7);
   w24 = w2 * w24;
   w16 = gagen_v_cos(w24);
   w19 = w14 * w16;
@@ -5711,7 +5711,7 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
   w24 = gagen_v_sin(w24);
   w1 = w0 * w24;
   w19 = w19 + w1;
-  w1 = GAGEN_GATHER(q, 10, 8);
+  w1 = GAGEN_GATHER(in_q, 10, 8);
   w1 = w2 * w1;
   w12 = gagen_v_cos(w1);
   w10 = w19 * w12;
@@ -5727,7 +5727,7 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
   w1 = gagen_v_sin(w1);
   w17 = w13 * w1;
   w10 = w10 - w17;
-  w17 = GAGEN_GATHER(q, 10, 9);
+  w17 = GAGEN_GATHER(in_q, 10, 9);
   w17 = w2 * w17;
   w27 = gagen_v_cos(w17);
   w28 = w10 * w27;
@@ -5743,11 +5743,11 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
   w17 = gagen_v_sin(w17);
   w14 = w18 * w17;
   w28 = w28 + w14;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w18 = w18 * w27;
   w10 = w10 * w17;
   w18 = w18 - w10;
-  GAGEN_SCATTER(M, 8, 1, w18);
+  GAGEN_SCATTER(out_M, 8, 1, w18);
   w19 = w19 * w1;
   w13 = w13 * w12;
   w19 = w19 + w13;
@@ -5757,11 +5757,11 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
   w0 = w0 - w23;
   w23 = w0 * w17;
   w13 = w13 + w23;
-  GAGEN_SCATTER(M, 8, 2, w13);
+  GAGEN_SCATTER(out_M, 8, 2, w13);
   w0 = w0 * w27;
   w19 = w19 * w17;
   w0 = w0 - w19;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w19 = gagen_v_splat(0.0039563);
   w23 = w9 * w9;
   w10 = w8 * w8;
@@ -6157,14 +6157,14 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
   w55 = w1 * w28;
   w79 = w79 - w55;
   w79 = w2 * w79;
-  GAGEN_SCATTER(M, 8, 4, w79);
+  GAGEN_SCATTER(out_M, 8, 4, w79);
   w79 = w97 * w0;
   w55 = w1 * w18;
   w79 = w79 - w55;
   w55 = w70 * w28;
   w79 = w79 - w55;
   w79 = w2 * w79;
-  GAGEN_SCATTER(M, 8, 5, w79);
+  GAGEN_SCATTER(out_M, 8, 5, w79);
   w79 = w1 * w13;
   w55 = w70 * w0;
   w79 = w79 + w55;
@@ -6172,49 +6172,49 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
   w79 = w79 + w28;
   w79 = w2 * w79;
   w79 = -w79;
-  GAGEN_SCATTER(M, 8, 6, w79);
+  GAGEN_SCATTER(out_M, 8, 6, w79);
   w13 = w70 * w13;
   w0 = w1 * w0;
   w13 = w13 - w0;
   w18 = w97 * w18;
   w13 = w13 - w18;
   w13 = w2 * w13;
-  GAGEN_SCATTER(M, 8, 7, w13);
+  GAGEN_SCATTER(out_M, 8, 7, w13);
   w13 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w13);
-  GAGEN_SCATTER(P, 5, 1, w1);
-  GAGEN_SCATTER(P, 5, 2, w70);
-  GAGEN_SCATTER(P, 5, 3, w97);
+  GAGEN_SCATTER(out_P, 5, 0, w13);
+  GAGEN_SCATTER(out_P, 5, 1, w1);
+  GAGEN_SCATTER(out_P, 5, 2, w70);
+  GAGEN_SCATTER(out_P, 5, 3, w97);
   w1 = w1 * w1;
   w70 = w70 * w70;
   w1 = w1 + w70;
   w97 = w97 * w97;
   w1 = w1 + w97;
   w2 = w2 * w1;
-  GAGEN_SCATTER(P, 5, 4, w2);
-  GAGEN_SCATTER(J_S, 60, 0, w13);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
+  GAGEN_SCATTER(out_J_S, 60, 0, w13);
   w13 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 60, 1, w13);
-  GAGEN_SCATTER(J_S, 60, 2, w13);
-  GAGEN_SCATTER(J_S, 60, 3, w13);
-  GAGEN_SCATTER(J_S, 60, 4, w13);
-  GAGEN_SCATTER(J_S, 60, 5, w13);
-  GAGEN_SCATTER(J_S, 60, 6, w13);
+  GAGEN_SCATTER(out_J_S, 60, 1, w13);
+  GAGEN_SCATTER(out_J_S, 60, 2, w13);
+  GAGEN_SCATTER(out_J_S, 60, 3, w13);
+  GAGEN_SCATTER(out_J_S, 60, 4, w13);
+  GAGEN_SCATTER(out_J_S, 60, 5, w13);
+  GAGEN_SCATTER(out_J_S, 60, 6, w13);
   w14 = -w14;
-  GAGEN_SCATTER(J_S, 60, 7, w14);
-  GAGEN_SCATTER(J_S, 60, 8, w4);
+  GAGEN_SCATTER(out_J_S, 60, 7, w14);
+  GAGEN_SCATTER(out_J_S, 60, 8, w4);
   w14 = gagen_v_splat(0.07);
   w14 = w14 * w10;
   w14 = -w14;
-  GAGEN_SCATTER(J_S, 60, 9, w14);
+  GAGEN_SCATTER(out_J_S, 60, 9, w14);
   w80 = w80 * w4;
-  GAGEN_SCATTER(J_S, 60, 10, w80);
-  GAGEN_SCATTER(J_S, 60, 11, w13);
-  GAGEN_SCATTER(J_S, 60, 12, w30);
+  GAGEN_SCATTER(out_J_S, 60, 10, w80);
+  GAGEN_SCATTER(out_J_S, 60, 11, w13);
+  GAGEN_SCATTER(out_J_S, 60, 12, w30);
   w13 = -w5;
-  GAGEN_SCATTER(J_S, 60, 13, w13);
+  GAGEN_SCATTER(out_J_S, 60, 13, w13);
   w13 = -w36;
-  GAGEN_SCATTER(J_S, 60, 14, w13);
+  GAGEN_SCATTER(out_J_S, 60, 14, w13);
   w13 = gagen_v_splat(0.0175);
   w80 = gagen_v_splat(0.0095);
   w6 = w80 * w6;
@@ -6227,7 +6227,7 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
   w6 = w6 + w33;
   w6 = -w6;
   w6 = w6 + w6;
-  GAGEN_SCATTER(J_S, 60, 15, w6);
+  GAGEN_SCATTER(out_J_S, 60, 15, w6);
   w6 = gagen_v_splat(0.00198175);
   w6 = w6 * w4;
   w80 = w80 * w102;
@@ -6236,23 +6236,23 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
   w13 = w36 * w13;
   w30 = w30 - w13;
   w30 = w30 + w30;
-  GAGEN_SCATTER(J_S, 60, 16, w30);
+  GAGEN_SCATTER(out_J_S, 60, 16, w30);
   w36 = w36 * w38;
   w5 = w5 * w6;
   w36 = w36 + w5;
   w36 = -w36;
   w36 = w36 + w36;
-  GAGEN_SCATTER(J_S, 60, 17, w36);
+  GAGEN_SCATTER(out_J_S, 60, 17, w36);
   w36 = gagen_v_splat(1.9224917487388276);
   w36 = w36 * w8;
   w52 = w52 * w83;
   w36 = w36 + w52;
   w53 = w53 * w85;
   w36 = w36 - w53;
-  GAGEN_SCATTER(J_S, 60, 18, w36);
-  GAGEN_SCATTER(J_S, 60, 19, w29);
+  GAGEN_SCATTER(out_J_S, 60, 18, w36);
+  GAGEN_SCATTER(out_J_S, 60, 19, w29);
   w53 = -w35;
-  GAGEN_SCATTER(J_S, 60, 20, w53);
+  GAGEN_SCATTER(out_J_S, 60, 20, w53);
   w3 = w3 - w71;
   w3 = w3 - w72;
   w53 = w36 * w3;
@@ -6265,23 +6265,23 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
   w81 = w81 - w34;
   w34 = w29 * w81;
   w53 = w53 + w34;
-  GAGEN_SCATTER(J_S, 60, 21, w53);
+  GAGEN_SCATTER(out_J_S, 60, 21, w53);
   w81 = w35 * w81;
   w32 = w32 - w16;
   w32 = w32 + w24;
   w36 = w36 * w32;
   w81 = w81 + w36;
   w81 = -w81;
-  GAGEN_SCATTER(J_S, 60, 22, w81);
+  GAGEN_SCATTER(out_J_S, 60, 22, w81);
   w29 = w29 * w32;
   w35 = w35 * w3;
   w29 = w29 - w35;
   w29 = -w29;
-  GAGEN_SCATTER(J_S, 60, 23, w29);
-  GAGEN_SCATTER(J_S, 60, 24, w86);
+  GAGEN_SCATTER(out_J_S, 60, 23, w29);
+  GAGEN_SCATTER(out_J_S, 60, 24, w86);
   w29 = -w43;
-  GAGEN_SCATTER(J_S, 60, 25, w29);
-  GAGEN_SCATTER(J_S, 60, 26, w26);
+  GAGEN_SCATTER(out_J_S, 60, 25, w29);
+  GAGEN_SCATTER(out_J_S, 60, 26, w26);
   w3 = w3 + w74;
   w3 = w3 - w46;
   w29 = w86 * w3;
@@ -6289,22 +6289,22 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
   w82 = w82 - w84;
   w35 = w43 * w82;
   w29 = w29 - w35;
-  GAGEN_SCATTER(J_S, 60, 27, w29);
+  GAGEN_SCATTER(out_J_S, 60, 27, w29);
   w29 = w26 * w82;
   w32 = w32 + w73;
   w32 = w32 - w75;
   w86 = w86 * w32;
   w29 = w29 - w86;
-  GAGEN_SCATTER(J_S, 60, 28, w29);
+  GAGEN_SCATTER(out_J_S, 60, 28, w29);
   w26 = w26 * w3;
   w43 = w43 * w32;
   w26 = w26 - w43;
   w26 = -w26;
-  GAGEN_SCATTER(J_S, 60, 29, w26);
-  GAGEN_SCATTER(J_S, 60, 30, w90);
+  GAGEN_SCATTER(out_J_S, 60, 29, w26);
+  GAGEN_SCATTER(out_J_S, 60, 30, w90);
   w26 = -w15;
-  GAGEN_SCATTER(J_S, 60, 31, w26);
-  GAGEN_SCATTER(J_S, 60, 32, w39);
+  GAGEN_SCATTER(out_J_S, 60, 31, w26);
+  GAGEN_SCATTER(out_J_S, 60, 32, w39);
   w3 = w3 - w54;
   w26 = gagen_v_splat(0.1032);
   w43 = w26 * w15;
@@ -6315,22 +6315,22 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
   w82 = w82 - w29;
   w29 = w15 * w82;
   w43 = w43 - w29;
-  GAGEN_SCATTER(J_S, 60, 33, w43);
+  GAGEN_SCATTER(out_J_S, 60, 33, w43);
   w82 = w39 * w82;
   w32 = w32 - w76;
   w26 = w26 * w39;
   w32 = w32 - w26;
   w90 = w90 * w32;
   w82 = w82 - w90;
-  GAGEN_SCATTER(J_S, 60, 34, w82);
+  GAGEN_SCATTER(out_J_S, 60, 34, w82);
   w39 = w39 * w3;
   w15 = w15 * w32;
   w39 = w39 - w15;
   w39 = -w39;
-  GAGEN_SCATTER(J_S, 60, 35, w39);
-  GAGEN_SCATTER(J_S, 60, 36, w95);
-  GAGEN_SCATTER(J_S, 60, 37, w61);
-  GAGEN_SCATTER(J_S, 60, 38, w22);
+  GAGEN_SCATTER(out_J_S, 60, 35, w39);
+  GAGEN_SCATTER(out_J_S, 60, 36, w95);
+  GAGEN_SCATTER(out_J_S, 60, 37, w61);
+  GAGEN_SCATTER(out_J_S, 60, 38, w22);
   w39 = w47 - w71;
   w39 = w39 - w72;
   w39 = w39 + w74;
@@ -6344,7 +6344,7 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
   w32 = w32 - w100;
   w3 = w61 * w32;
   w15 = w15 + w3;
-  GAGEN_SCATTER(J_S, 60, 39, w15);
+  GAGEN_SCATTER(out_J_S, 60, 39, w15);
   w32 = w22 * w32;
   w15 = w37 - w16;
   w15 = w15 + w24;
@@ -6354,15 +6354,15 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
   w15 = w15 - w77;
   w95 = w95 * w15;
   w32 = w32 - w95;
-  GAGEN_SCATTER(J_S, 60, 40, w32);
+  GAGEN_SCATTER(out_J_S, 60, 40, w32);
   w61 = w61 * w15;
   w22 = w22 * w39;
   w61 = w61 + w22;
   w61 = -w61;
-  GAGEN_SCATTER(J_S, 60, 41, w61);
-  GAGEN_SCATTER(J_S, 60, 42, w92);
-  GAGEN_SCATTER(J_S, 60, 43, w50);
-  GAGEN_SCATTER(J_S, 60, 44, w40);
+  GAGEN_SCATTER(out_J_S, 60, 41, w61);
+  GAGEN_SCATTER(out_J_S, 60, 42, w92);
+  GAGEN_SCATTER(out_J_S, 60, 43, w50);
+  GAGEN_SCATTER(out_J_S, 60, 44, w40);
   w61 = gagen_v_splat(0.1);
   w25 = w61 * w25;
   w47 = w47 + w25;
@@ -6385,7 +6385,7 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
   w91 = w91 - w88;
   w62 = w50 * w91;
   w65 = w65 + w62;
-  GAGEN_SCATTER(J_S, 60, 45, w65);
+  GAGEN_SCATTER(out_J_S, 60, 45, w65);
   w91 = w40 * w91;
   w61 = w61 * w40;
   w37 = w37 + w61;
@@ -6399,15 +6399,15 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
   w37 = w37 - w63;
   w61 = w92 * w37;
   w91 = w91 - w61;
-  GAGEN_SCATTER(J_S, 60, 46, w91);
+  GAGEN_SCATTER(out_J_S, 60, 46, w91);
   w37 = w50 * w37;
   w47 = w40 * w47;
   w37 = w37 + w47;
   w37 = -w37;
-  GAGEN_SCATTER(J_S, 60, 47, w37);
-  GAGEN_SCATTER(J_S, 60, 48, w98);
-  GAGEN_SCATTER(J_S, 60, 49, w17);
-  GAGEN_SCATTER(J_S, 60, 50, w68);
+  GAGEN_SCATTER(out_J_S, 60, 47, w37);
+  GAGEN_SCATTER(out_J_S, 60, 48, w98);
+  GAGEN_SCATTER(out_J_S, 60, 49, w17);
+  GAGEN_SCATTER(out_J_S, 60, 50, w68);
   w59 = w59 - w71;
   w59 = w59 - w72;
   w59 = w59 + w74;
@@ -6423,7 +6423,7 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
   w89 = w89 - w88;
   w47 = w17 * w89;
   w37 = w37 + w47;
-  GAGEN_SCATTER(J_S, 60, 51, w37);
+  GAGEN_SCATTER(out_J_S, 60, 51, w37);
   w89 = w68 * w89;
   w56 = w56 - w16;
   w56 = w56 + w24;
@@ -6435,24 +6435,24 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
   w56 = w56 - w63;
   w98 = w98 * w56;
   w89 = w89 - w98;
-  GAGEN_SCATTER(J_S, 60, 52, w89);
+  GAGEN_SCATTER(out_J_S, 60, 52, w89);
   w17 = w17 * w56;
   w68 = w68 * w59;
   w17 = w17 + w68;
   w17 = -w17;
-  GAGEN_SCATTER(J_S, 60, 53, w17);
+  GAGEN_SCATTER(out_J_S, 60, 53, w17);
   w92 = w67 * w92;
   w94 = w12 * w94;
   w92 = w92 + w94;
-  GAGEN_SCATTER(J_S, 60, 54, w92);
+  GAGEN_SCATTER(out_J_S, 60, 54, w92);
   w50 = w67 * w50;
   w64 = w12 * w64;
   w50 = w50 - w64;
-  GAGEN_SCATTER(J_S, 60, 55, w50);
+  GAGEN_SCATTER(out_J_S, 60, 55, w50);
   w67 = w67 * w40;
   w12 = w12 * w57;
   w67 = w67 + w12;
-  GAGEN_SCATTER(J_S, 60, 56, w67);
+  GAGEN_SCATTER(out_J_S, 60, 56, w67);
   w58 = w58 - w71;
   w58 = w58 - w72;
   w58 = w58 + w74;
@@ -6468,7 +6468,7 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
   w96 = w96 - w88;
   w88 = w50 * w96;
   w78 = w78 + w88;
-  GAGEN_SCATTER(J_S, 60, 57, w78);
+  GAGEN_SCATTER(out_J_S, 60, 57, w78);
   w96 = w67 * w96;
   w66 = w66 - w16;
   w66 = w66 + w24;
@@ -6480,12 +6480,12 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
   w66 = w66 - w63;
   w92 = w92 * w66;
   w96 = w96 - w92;
-  GAGEN_SCATTER(J_S, 60, 58, w96);
+  GAGEN_SCATTER(out_J_S, 60, 58, w96);
   w50 = w50 * w66;
   w67 = w67 * w58;
   w50 = w50 + w67;
   w50 = -w50;
-  GAGEN_SCATTER(J_S, 60, 59, w50);
+  GAGEN_SCATTER(out_J_S, 60, 59, w50);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -6493,21 +6493,21 @@ static void two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(long gagen_ld
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void two_g1_sphere_g1a_right_hand_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void two_g1_sphere_g1a_right_hand_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 73L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 73L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    two_g1_sphere_g1a_right_hand_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  two_g1_sphere_g1a_right_hand_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  two_g1_sphere_g1a_right_hand_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }
 
 #if GAGEN_SIMD
 /* chain g1b_left_hand: motor and end point: GAGEN_W consecutive samples at once */
-static void two_g1_sphere_g1b_left_hand_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void two_g1_sphere_g1b_left_hand_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -6517,14 +6517,14 @@ static void two_g1_sphere_g1b_left_hand_fk_block(const double *restrict q, doubl
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(9.868683842420437e-05);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -6555,7 +6555,7 @@ static void two_g1_sphere_g1b_left_hand_fk_block(const double *restrict q, doubl
   w16 = w16 + w18;
   w18 = w11 * w16;
   w14 = w14 - w18;
-  w18 = GAGEN_GATHER(q, 10, 3);
+  w18 = GAGEN_GATHER(in_q, 10, 3);
   w18 = w2 * w18;
   w21 = gagen_v_cos(w18);
   w22 = w14 * w21;
@@ -6592,7 +6592,7 @@ static void two_g1_sphere_g1b_left_hand_fk_block(const double *restrict q, doubl
   w7 = w10 - w11;
   w7 = w24 * w7;
   w17 = w17 + w7;
-  w7 = GAGEN_GATHER(q, 10, 4);
+  w7 = GAGEN_GATHER(in_q, 10, 4);
   w7 = w2 * w7;
   w1 = gagen_v_cos(w7);
   w19 = w17 * w1;
@@ -6603,7 +6603,7 @@ static void two_g1_sphere_g1b_left_hand_fk_block(const double *restrict q, doubl
   w7 = gagen_v_sin(w7);
   w11 = w22 * w7;
   w19 = w19 + w11;
-  w11 = GAGEN_GATHER(q, 10, 5);
+  w11 = GAGEN_GATHER(in_q, 10, 5);
   w11 = w2 * w11;
   w10 = gagen_v_cos(w11);
   w15 = w19 * w10;
@@ -6625,7 +6625,7 @@ static void two_g1_sphere_g1b_left_hand_fk_block(const double *restrict q, doubl
   w11 = gagen_v_sin(w11);
   w0 = w23 * w11;
   w15 = w15 + w0;
-  w0 = GAGEN_GATHER(q, 10, 6);
+  w0 = GAGEN_GATHER(in_q, 10, 6);
   w0 = w2 * w0;
   w14 = gagen_v_cos(w0);
   w12 = w15 * w14;
@@ -6641,7 +6641,7 @@ static void two_g1_sphere_g1b_left_hand_fk_block(const double *restrict q, doubl
   w0 = gagen_v_sin(w0);
   w17 = w20 * w0;
   w12 = w12 - w17;
-  w17 = GAGEN_GATHER(q, 10, 7);
+  w17 = GAGEN_GATHER(in_q, 10, 7);
   w17 = w2 * w17;
   w13 = gagen_v_cos(w17);
   w16 = w12 * w13;
@@ -6657,7 +6657,7 @@ static void two_g1_sphere_g1b_left_hand_fk_block(const double *restrict q, doubl
   w17 = gagen_v_sin(w17);
   w19 = w24 * w17;
   w16 = w16 + w19;
-  w19 = GAGEN_GATHER(q, 10, 8);
+  w19 = GAGEN_GATHER(in_q, 10, 8);
   w19 = w2 * w19;
   w25 = gagen_v_cos(w19);
   w26 = w16 * w25;
@@ -6673,7 +6673,7 @@ static void two_g1_sphere_g1b_left_hand_fk_block(const double *restrict q, doubl
   w19 = gagen_v_sin(w19);
   w22 = w20 * w19;
   w26 = w26 - w22;
-  w22 = GAGEN_GATHER(q, 10, 9);
+  w22 = GAGEN_GATHER(in_q, 10, 9);
   w22 = w2 * w22;
   w27 = gagen_v_cos(w22);
   w28 = w26 * w27;
@@ -6689,11 +6689,11 @@ static void two_g1_sphere_g1b_left_hand_fk_block(const double *restrict q, doubl
   w22 = gagen_v_sin(w22);
   w12 = w15 * w22;
   w28 = w28 + w12;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w15 = w15 * w27;
   w26 = w26 * w22;
   w15 = w15 - w26;
-  GAGEN_SCATTER(M, 8, 1, w15);
+  GAGEN_SCATTER(out_M, 8, 1, w15);
   w16 = w16 * w19;
   w20 = w20 * w25;
   w16 = w16 + w20;
@@ -6703,11 +6703,11 @@ static void two_g1_sphere_g1b_left_hand_fk_block(const double *restrict q, doubl
   w24 = w24 - w23;
   w23 = w24 * w22;
   w20 = w20 + w23;
-  GAGEN_SCATTER(M, 8, 2, w20);
+  GAGEN_SCATTER(out_M, 8, 2, w20);
   w24 = w24 * w27;
   w16 = w16 * w22;
   w24 = w24 - w16;
-  GAGEN_SCATTER(M, 8, 3, w24);
+  GAGEN_SCATTER(out_M, 8, 3, w24);
   w16 = gagen_v_splat(0.007927);
   w23 = w4 * w3;
   w16 = w16 * w23;
@@ -7106,14 +7106,14 @@ static void two_g1_sphere_g1b_left_hand_fk_block(const double *restrict q, doubl
   w56 = w8 * w28;
   w3 = w3 - w56;
   w3 = w2 * w3;
-  GAGEN_SCATTER(M, 8, 4, w3);
+  GAGEN_SCATTER(out_M, 8, 4, w3);
   w3 = w53 * w24;
   w56 = w8 * w15;
   w3 = w3 - w56;
   w56 = w16 * w28;
   w3 = w3 - w56;
   w3 = w2 * w3;
-  GAGEN_SCATTER(M, 8, 5, w3);
+  GAGEN_SCATTER(out_M, 8, 5, w3);
   w3 = w8 * w20;
   w56 = w16 * w24;
   w3 = w3 + w56;
@@ -7121,43 +7121,43 @@ static void two_g1_sphere_g1b_left_hand_fk_block(const double *restrict q, doubl
   w3 = w3 + w28;
   w3 = w2 * w3;
   w3 = -w3;
-  GAGEN_SCATTER(M, 8, 6, w3);
+  GAGEN_SCATTER(out_M, 8, 6, w3);
   w20 = w16 * w20;
   w24 = w8 * w24;
   w20 = w20 - w24;
   w15 = w53 * w15;
   w20 = w20 - w15;
   w20 = w2 * w20;
-  GAGEN_SCATTER(M, 8, 7, w20);
+  GAGEN_SCATTER(out_M, 8, 7, w20);
   w20 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w20);
-  GAGEN_SCATTER(P, 5, 1, w8);
-  GAGEN_SCATTER(P, 5, 2, w16);
-  GAGEN_SCATTER(P, 5, 3, w53);
+  GAGEN_SCATTER(out_P, 5, 0, w20);
+  GAGEN_SCATTER(out_P, 5, 1, w8);
+  GAGEN_SCATTER(out_P, 5, 2, w16);
+  GAGEN_SCATTER(out_P, 5, 3, w53);
   w8 = w8 * w8;
   w16 = w16 * w16;
   w8 = w8 + w16;
   w53 = w53 * w53;
   w8 = w8 + w53;
   w2 = w2 * w8;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #endif
 
-void two_g1_sphere_g1b_left_hand_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void two_g1_sphere_g1b_left_hand_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    two_g1_sphere_g1b_left_hand_fk_block(q + 10 * s, M + 8 * s, P + 5 * s);
+    two_g1_sphere_g1b_left_hand_fk_block(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    two_g1_sphere_g1b_left_hand_fk(q + 10 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    two_g1_sphere_g1b_left_hand_fk(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -7167,7 +7167,7 @@ void two_g1_sphere_g1b_left_hand_fk_batch(long n, const double *restrict q, doub
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void two_g1_sphere_g1b_left_hand_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void two_g1_sphere_g1b_left_hand_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -7177,14 +7177,14 @@ static void two_g1_sphere_g1b_left_hand_fk_block_columns(long gagen_ld, int gage
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(9.868683842420437e-05);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -7215,7 +7215,7 @@ static void two_g1_sphere_g1b_left_hand_fk_block_columns(long gagen_ld, int gage
   w16 = w16 + w18;
   w18 = w11 * w16;
   w14 = w14 - w18;
-  w18 = GAGEN_GATHER(q, 10, 3);
+  w18 = GAGEN_GATHER(in_q, 10, 3);
   w18 = w2 * w18;
   w21 = gagen_v_cos(w18);
   w22 = w14 * w21;
@@ -7252,7 +7252,7 @@ static void two_g1_sphere_g1b_left_hand_fk_block_columns(long gagen_ld, int gage
   w7 = w10 - w11;
   w7 = w24 * w7;
   w17 = w17 + w7;
-  w7 = GAGEN_GATHER(q, 10, 4);
+  w7 = GAGEN_GATHER(in_q, 10, 4);
   w7 = w2 * w7;
   w1 = gagen_v_cos(w7);
   w19 = w17 * w1;
@@ -7263,7 +7263,7 @@ static void two_g1_sphere_g1b_left_hand_fk_block_columns(long gagen_ld, int gage
   w7 = gagen_v_sin(w7);
   w11 = w22 * w7;
   w19 = w19 + w11;
-  w11 = GAGEN_GATHER(q, 10, 5);
+  w11 = GAGEN_GATHER(in_q, 10, 5);
   w11 = w2 * w11;
   w10 = gagen_v_cos(w11);
   w15 = w19 * w10;
@@ -7285,7 +7285,7 @@ static void two_g1_sphere_g1b_left_hand_fk_block_columns(long gagen_ld, int gage
   w11 = gagen_v_sin(w11);
   w0 = w23 * w11;
   w15 = w15 + w0;
-  w0 = GAGEN_GATHER(q, 10, 6);
+  w0 = GAGEN_GATHER(in_q, 10, 6);
   w0 = w2 * w0;
   w14 = gagen_v_cos(w0);
   w12 = w15 * w14;
@@ -7301,7 +7301,7 @@ static void two_g1_sphere_g1b_left_hand_fk_block_columns(long gagen_ld, int gage
   w0 = gagen_v_sin(w0);
   w17 = w20 * w0;
   w12 = w12 - w17;
-  w17 = GAGEN_GATHER(q, 10, 7);
+  w17 = GAGEN_GATHER(in_q, 10, 7);
   w17 = w2 * w17;
   w13 = gagen_v_cos(w17);
   w16 = w12 * w13;
@@ -7317,7 +7317,7 @@ static void two_g1_sphere_g1b_left_hand_fk_block_columns(long gagen_ld, int gage
   w17 = gagen_v_sin(w17);
   w19 = w24 * w17;
   w16 = w16 + w19;
-  w19 = GAGEN_GATHER(q, 10, 8);
+  w19 = GAGEN_GATHER(in_q, 10, 8);
   w19 = w2 * w19;
   w25 = gagen_v_cos(w19);
   w26 = w16 * w25;
@@ -7333,7 +7333,7 @@ static void two_g1_sphere_g1b_left_hand_fk_block_columns(long gagen_ld, int gage
   w19 = gagen_v_sin(w19);
   w22 = w20 * w19;
   w26 = w26 - w22;
-  w22 = GAGEN_GATHER(q, 10, 9);
+  w22 = GAGEN_GATHER(in_q, 10, 9);
   w22 = w2 * w22;
   w27 = gagen_v_cos(w22);
   w28 = w26 * w27;
@@ -7349,11 +7349,11 @@ static void two_g1_sphere_g1b_left_hand_fk_block_columns(long gagen_ld, int gage
   w22 = gagen_v_sin(w22);
   w12 = w15 * w22;
   w28 = w28 + w12;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w15 = w15 * w27;
   w26 = w26 * w22;
   w15 = w15 - w26;
-  GAGEN_SCATTER(M, 8, 1, w15);
+  GAGEN_SCATTER(out_M, 8, 1, w15);
   w16 = w16 * w19;
   w20 = w20 * w25;
   w16 = w16 + w20;
@@ -7363,11 +7363,11 @@ static void two_g1_sphere_g1b_left_hand_fk_block_columns(long gagen_ld, int gage
   w24 = w24 - w23;
   w23 = w24 * w22;
   w20 = w20 + w23;
-  GAGEN_SCATTER(M, 8, 2, w20);
+  GAGEN_SCATTER(out_M, 8, 2, w20);
   w24 = w24 * w27;
   w16 = w16 * w22;
   w24 = w24 - w16;
-  GAGEN_SCATTER(M, 8, 3, w24);
+  GAGEN_SCATTER(out_M, 8, 3, w24);
   w16 = gagen_v_splat(0.007927);
   w23 = w4 * w3;
   w16 = w16 * w23;
@@ -7766,14 +7766,14 @@ static void two_g1_sphere_g1b_left_hand_fk_block_columns(long gagen_ld, int gage
   w56 = w8 * w28;
   w3 = w3 - w56;
   w3 = w2 * w3;
-  GAGEN_SCATTER(M, 8, 4, w3);
+  GAGEN_SCATTER(out_M, 8, 4, w3);
   w3 = w53 * w24;
   w56 = w8 * w15;
   w3 = w3 - w56;
   w56 = w16 * w28;
   w3 = w3 - w56;
   w3 = w2 * w3;
-  GAGEN_SCATTER(M, 8, 5, w3);
+  GAGEN_SCATTER(out_M, 8, 5, w3);
   w3 = w8 * w20;
   w56 = w16 * w24;
   w3 = w3 + w56;
@@ -7781,26 +7781,26 @@ static void two_g1_sphere_g1b_left_hand_fk_block_columns(long gagen_ld, int gage
   w3 = w3 + w28;
   w3 = w2 * w3;
   w3 = -w3;
-  GAGEN_SCATTER(M, 8, 6, w3);
+  GAGEN_SCATTER(out_M, 8, 6, w3);
   w20 = w16 * w20;
   w24 = w8 * w24;
   w20 = w20 - w24;
   w15 = w53 * w15;
   w20 = w20 - w15;
   w20 = w2 * w20;
-  GAGEN_SCATTER(M, 8, 7, w20);
+  GAGEN_SCATTER(out_M, 8, 7, w20);
   w20 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w20);
-  GAGEN_SCATTER(P, 5, 1, w8);
-  GAGEN_SCATTER(P, 5, 2, w16);
-  GAGEN_SCATTER(P, 5, 3, w53);
+  GAGEN_SCATTER(out_P, 5, 0, w20);
+  GAGEN_SCATTER(out_P, 5, 1, w8);
+  GAGEN_SCATTER(out_P, 5, 2, w16);
+  GAGEN_SCATTER(out_P, 5, 3, w53);
   w8 = w8 * w8;
   w16 = w16 * w16;
   w8 = w8 + w16;
   w53 = w53 * w53;
   w8 = w8 + w53;
   w2 = w2 * w8;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -7808,21 +7808,21 @@ static void two_g1_sphere_g1b_left_hand_fk_block_columns(long gagen_ld, int gage
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void two_g1_sphere_g1b_left_hand_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void two_g1_sphere_g1b_left_hand_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    two_g1_sphere_g1b_left_hand_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    two_g1_sphere_g1b_left_hand_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  two_g1_sphere_g1b_left_hand_fk_columns_from(s, n, ld, q, M, P);
+  two_g1_sphere_g1b_left_hand_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain g1b_left_hand: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -7835,14 +7835,14 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(9.868683842420437e-05);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -7873,7 +7873,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w16 = w16 + w18;
   w18 = w11 * w16;
   w14 = w14 - w18;
-  w18 = GAGEN_GATHER(q, 10, 3);
+  w18 = GAGEN_GATHER(in_q, 10, 3);
   w18 = w2 * w18;
   w21 = gagen_v_cos(w18);
   w22 = w14 * w21;
@@ -7910,7 +7910,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w7 = w10 - w11;
   w7 = w24 * w7;
   w17 = w17 + w7;
-  w7 = GAGEN_GATHER(q, 10, 4);
+  w7 = GAGEN_GATHER(in_q, 10, 4);
   w7 = w2 * w7;
   w1 = gagen_v_cos(w7);
   w19 = w17 * w1;
@@ -7921,7 +7921,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w7 = gagen_v_sin(w7);
   w11 = w22 * w7;
   w19 = w19 + w11;
-  w11 = GAGEN_GATHER(q, 10, 5);
+  w11 = GAGEN_GATHER(in_q, 10, 5);
   w11 = w2 * w11;
   w10 = gagen_v_cos(w11);
   w15 = w19 * w10;
@@ -7943,7 +7943,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w11 = gagen_v_sin(w11);
   w0 = w23 * w11;
   w15 = w15 + w0;
-  w0 = GAGEN_GATHER(q, 10, 6);
+  w0 = GAGEN_GATHER(in_q, 10, 6);
   w0 = w2 * w0;
   w14 = gagen_v_cos(w0);
   w12 = w15 * w14;
@@ -7959,7 +7959,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w0 = gagen_v_sin(w0);
   w17 = w20 * w0;
   w12 = w12 - w17;
-  w17 = GAGEN_GATHER(q, 10, 7);
+  w17 = GAGEN_GATHER(in_q, 10, 7);
   w17 = w2 * w17;
   w13 = gagen_v_cos(w17);
   w16 = w12 * w13;
@@ -7975,7 +7975,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w17 = gagen_v_sin(w17);
   w19 = w24 * w17;
   w16 = w16 + w19;
-  w19 = GAGEN_GATHER(q, 10, 8);
+  w19 = GAGEN_GATHER(in_q, 10, 8);
   w19 = w2 * w19;
   w25 = gagen_v_cos(w19);
   w26 = w16 * w25;
@@ -7991,7 +7991,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w19 = gagen_v_sin(w19);
   w22 = w20 * w19;
   w26 = w26 - w22;
-  w22 = GAGEN_GATHER(q, 10, 9);
+  w22 = GAGEN_GATHER(in_q, 10, 9);
   w22 = w2 * w22;
   w27 = gagen_v_cos(w22);
   w28 = w26 * w27;
@@ -8007,11 +8007,11 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w22 = gagen_v_sin(w22);
   w12 = w15 * w22;
   w28 = w28 + w12;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w15 = w15 * w27;
   w26 = w26 * w22;
   w15 = w15 - w26;
-  GAGEN_SCATTER(M, 8, 1, w15);
+  GAGEN_SCATTER(out_M, 8, 1, w15);
   w16 = w16 * w19;
   w20 = w20 * w25;
   w16 = w16 + w20;
@@ -8021,11 +8021,11 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w24 = w24 - w23;
   w23 = w24 * w22;
   w20 = w20 + w23;
-  GAGEN_SCATTER(M, 8, 2, w20);
+  GAGEN_SCATTER(out_M, 8, 2, w20);
   w24 = w24 * w27;
   w16 = w16 * w22;
   w24 = w24 - w16;
-  GAGEN_SCATTER(M, 8, 3, w24);
+  GAGEN_SCATTER(out_M, 8, 3, w24);
   w16 = gagen_v_splat(0.007927);
   w23 = w4 * w3;
   w16 = w16 * w23;
@@ -8424,14 +8424,14 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w14 = w19 * w28;
   w81 = w81 - w14;
   w81 = w2 * w81;
-  GAGEN_SCATTER(M, 8, 4, w81);
+  GAGEN_SCATTER(out_M, 8, 4, w81);
   w81 = w100 * w24;
   w14 = w19 * w15;
   w81 = w81 - w14;
   w14 = w71 * w28;
   w81 = w81 - w14;
   w81 = w2 * w81;
-  GAGEN_SCATTER(M, 8, 5, w81);
+  GAGEN_SCATTER(out_M, 8, 5, w81);
   w81 = w19 * w20;
   w14 = w71 * w24;
   w81 = w81 + w14;
@@ -8439,44 +8439,44 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w81 = w81 + w28;
   w81 = w2 * w81;
   w81 = -w81;
-  GAGEN_SCATTER(M, 8, 6, w81);
+  GAGEN_SCATTER(out_M, 8, 6, w81);
   w20 = w71 * w20;
   w24 = w19 * w24;
   w20 = w20 - w24;
   w15 = w100 * w15;
   w20 = w20 - w15;
   w20 = w2 * w20;
-  GAGEN_SCATTER(M, 8, 7, w20);
+  GAGEN_SCATTER(out_M, 8, 7, w20);
   w20 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w20);
-  GAGEN_SCATTER(P, 5, 1, w19);
-  GAGEN_SCATTER(P, 5, 2, w71);
-  GAGEN_SCATTER(P, 5, 3, w100);
+  GAGEN_SCATTER(out_P, 5, 0, w20);
+  GAGEN_SCATTER(out_P, 5, 1, w19);
+  GAGEN_SCATTER(out_P, 5, 2, w71);
+  GAGEN_SCATTER(out_P, 5, 3, w100);
   w19 = w19 * w19;
   w71 = w71 * w71;
   w19 = w19 + w71;
   w100 = w100 * w100;
   w19 = w19 + w100;
   w2 = w2 * w19;
-  GAGEN_SCATTER(P, 5, 4, w2);
-  GAGEN_SCATTER(J_S, 60, 0, w20);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
+  GAGEN_SCATTER(out_J_S, 60, 0, w20);
   w20 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 60, 1, w20);
-  GAGEN_SCATTER(J_S, 60, 2, w20);
-  GAGEN_SCATTER(J_S, 60, 3, w20);
+  GAGEN_SCATTER(out_J_S, 60, 1, w20);
+  GAGEN_SCATTER(out_J_S, 60, 2, w20);
+  GAGEN_SCATTER(out_J_S, 60, 3, w20);
   w2 = gagen_v_splat((-1.2));
-  GAGEN_SCATTER(J_S, 60, 4, w2);
-  GAGEN_SCATTER(J_S, 60, 5, w20);
-  GAGEN_SCATTER(J_S, 60, 6, w20);
-  GAGEN_SCATTER(J_S, 60, 7, w30);
+  GAGEN_SCATTER(out_J_S, 60, 4, w2);
+  GAGEN_SCATTER(out_J_S, 60, 5, w20);
+  GAGEN_SCATTER(out_J_S, 60, 6, w20);
+  GAGEN_SCATTER(out_J_S, 60, 7, w30);
   w20 = -w4;
-  GAGEN_SCATTER(J_S, 60, 8, w20);
+  GAGEN_SCATTER(out_J_S, 60, 8, w20);
   w20 = gagen_v_splat(0.07);
   w20 = w20 * w23;
-  GAGEN_SCATTER(J_S, 60, 9, w20);
+  GAGEN_SCATTER(out_J_S, 60, 9, w20);
   w82 = w82 * w4;
   w82 = -w82;
-  GAGEN_SCATTER(J_S, 60, 10, w82);
+  GAGEN_SCATTER(out_J_S, 60, 10, w82);
   w82 = gagen_v_splat(0.6);
   w20 = gagen_v_splat(0.00198175);
   w20 = w20 * w4;
@@ -8487,10 +8487,10 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w4 = w4 * w30;
   w4 = w103 * w4;
   w2 = w2 + w4;
-  GAGEN_SCATTER(J_S, 60, 11, w2);
-  GAGEN_SCATTER(J_S, 60, 12, w32);
-  GAGEN_SCATTER(J_S, 60, 13, w5);
-  GAGEN_SCATTER(J_S, 60, 14, w104);
+  GAGEN_SCATTER(out_J_S, 60, 11, w2);
+  GAGEN_SCATTER(out_J_S, 60, 12, w32);
+  GAGEN_SCATTER(out_J_S, 60, 13, w5);
+  GAGEN_SCATTER(out_J_S, 60, 14, w104);
   w2 = gagen_v_splat(0.0095);
   w72 = w2 * w72;
   w103 = w103 * w23;
@@ -8504,7 +8504,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w103 = -w103;
   w103 = w103 + w103;
   w103 = -w103;
-  GAGEN_SCATTER(J_S, 60, 15, w103);
+  GAGEN_SCATTER(out_J_S, 60, 15, w103);
   w2 = w2 * w57;
   w2 = w2 - w82;
   w2 = w2 - w20;
@@ -8512,22 +8512,22 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w23 = w104 * w23;
   w32 = w32 + w23;
   w32 = w32 + w32;
-  GAGEN_SCATTER(J_S, 60, 16, w32);
+  GAGEN_SCATTER(out_J_S, 60, 16, w32);
   w5 = w5 * w2;
   w104 = w104 * w72;
   w5 = w5 - w104;
   w5 = w5 + w5;
-  GAGEN_SCATTER(J_S, 60, 17, w5);
+  GAGEN_SCATTER(out_J_S, 60, 17, w5);
   w5 = gagen_v_splat(1.9224917487388276);
   w5 = w5 * w8;
   w12 = w12 * w85;
   w5 = w5 - w12;
   w35 = w35 * w87;
   w5 = w5 + w35;
-  GAGEN_SCATTER(J_S, 60, 18, w5);
-  GAGEN_SCATTER(J_S, 60, 19, w3);
+  GAGEN_SCATTER(out_J_S, 60, 18, w5);
+  GAGEN_SCATTER(out_J_S, 60, 19, w3);
   w35 = -w33;
-  GAGEN_SCATTER(J_S, 60, 20, w35);
+  GAGEN_SCATTER(out_J_S, 60, 20, w35);
   w16 = w16 + w73;
   w16 = w16 - w31;
   w16 = w16 - w76;
@@ -8542,7 +8542,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w83 = w83 + w77;
   w77 = w3 * w83;
   w35 = w35 + w77;
-  GAGEN_SCATTER(J_S, 60, 21, w35);
+  GAGEN_SCATTER(out_J_S, 60, 21, w35);
   w83 = w33 * w83;
   w97 = w97 - w53;
   w97 = w97 - w29;
@@ -8551,17 +8551,17 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w5 = w5 * w97;
   w83 = w83 + w5;
   w83 = -w83;
-  GAGEN_SCATTER(J_S, 60, 22, w83);
+  GAGEN_SCATTER(out_J_S, 60, 22, w83);
   w3 = w3 * w97;
   w33 = w33 * w16;
   w3 = w3 - w33;
   w3 = -w3;
-  GAGEN_SCATTER(J_S, 60, 23, w3);
+  GAGEN_SCATTER(out_J_S, 60, 23, w3);
   w3 = -w90;
-  GAGEN_SCATTER(J_S, 60, 24, w3);
+  GAGEN_SCATTER(out_J_S, 60, 24, w3);
   w3 = -w44;
-  GAGEN_SCATTER(J_S, 60, 25, w3);
-  GAGEN_SCATTER(J_S, 60, 26, w11);
+  GAGEN_SCATTER(out_J_S, 60, 25, w3);
+  GAGEN_SCATTER(out_J_S, 60, 26, w11);
   w38 = w38 + w73;
   w38 = w38 - w31;
   w38 = w38 - w76;
@@ -8572,7 +8572,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w33 = w44 * w84;
   w3 = w3 + w33;
   w3 = -w3;
-  GAGEN_SCATTER(J_S, 60, 27, w3);
+  GAGEN_SCATTER(out_J_S, 60, 27, w3);
   w84 = w11 * w84;
   w26 = w26 - w53;
   w26 = w26 - w29;
@@ -8581,16 +8581,16 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w26 = w26 - w78;
   w90 = w90 * w26;
   w84 = w84 + w90;
-  GAGEN_SCATTER(J_S, 60, 28, w84);
+  GAGEN_SCATTER(out_J_S, 60, 28, w84);
   w11 = w11 * w38;
   w44 = w44 * w26;
   w11 = w11 - w44;
   w11 = -w11;
-  GAGEN_SCATTER(J_S, 60, 29, w11);
-  GAGEN_SCATTER(J_S, 60, 30, w92);
+  GAGEN_SCATTER(out_J_S, 60, 29, w11);
+  GAGEN_SCATTER(out_J_S, 60, 30, w92);
   w11 = -w7;
-  GAGEN_SCATTER(J_S, 60, 31, w11);
-  GAGEN_SCATTER(J_S, 60, 32, w40);
+  GAGEN_SCATTER(out_J_S, 60, 31, w11);
+  GAGEN_SCATTER(out_J_S, 60, 32, w40);
   w54 = w54 + w73;
   w54 = w54 - w31;
   w54 = w54 - w76;
@@ -8605,7 +8605,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w93 = w93 - w26;
   w26 = w7 * w93;
   w44 = w44 - w26;
-  GAGEN_SCATTER(J_S, 60, 33, w44);
+  GAGEN_SCATTER(out_J_S, 60, 33, w44);
   w93 = w40 * w93;
   w39 = w39 - w53;
   w39 = w39 - w29;
@@ -8616,15 +8616,15 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w39 = w39 - w11;
   w92 = w92 * w39;
   w93 = w93 - w92;
-  GAGEN_SCATTER(J_S, 60, 34, w93);
+  GAGEN_SCATTER(out_J_S, 60, 34, w93);
   w40 = w40 * w54;
   w7 = w7 * w39;
   w40 = w40 - w7;
   w40 = -w40;
-  GAGEN_SCATTER(J_S, 60, 35, w40);
-  GAGEN_SCATTER(J_S, 60, 36, w96);
-  GAGEN_SCATTER(J_S, 60, 37, w63);
-  GAGEN_SCATTER(J_S, 60, 38, w10);
+  GAGEN_SCATTER(out_J_S, 60, 35, w40);
+  GAGEN_SCATTER(out_J_S, 60, 36, w96);
+  GAGEN_SCATTER(out_J_S, 60, 37, w63);
+  GAGEN_SCATTER(out_J_S, 60, 38, w10);
   w40 = w48 + w73;
   w40 = w40 - w31;
   w40 = w40 - w76;
@@ -8636,7 +8636,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w39 = w39 - w102;
   w54 = w63 * w39;
   w7 = w7 + w54;
-  GAGEN_SCATTER(J_S, 60, 39, w7);
+  GAGEN_SCATTER(out_J_S, 60, 39, w7);
   w39 = w10 * w39;
   w7 = w55 - w53;
   w7 = w7 - w29;
@@ -8646,15 +8646,15 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w7 = w7 - w79;
   w96 = w96 * w7;
   w39 = w39 - w96;
-  GAGEN_SCATTER(J_S, 60, 40, w39);
+  GAGEN_SCATTER(out_J_S, 60, 40, w39);
   w63 = w63 * w7;
   w10 = w10 * w40;
   w63 = w63 + w10;
   w63 = -w63;
-  GAGEN_SCATTER(J_S, 60, 41, w63);
-  GAGEN_SCATTER(J_S, 60, 42, w95);
-  GAGEN_SCATTER(J_S, 60, 43, w51);
-  GAGEN_SCATTER(J_S, 60, 44, w42);
+  GAGEN_SCATTER(out_J_S, 60, 41, w63);
+  GAGEN_SCATTER(out_J_S, 60, 42, w95);
+  GAGEN_SCATTER(out_J_S, 60, 43, w51);
+  GAGEN_SCATTER(out_J_S, 60, 44, w42);
   w63 = gagen_v_splat(0.1);
   w0 = w63 * w0;
   w48 = w48 + w0;
@@ -8675,7 +8675,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w88 = w88 - w94;
   w91 = w51 * w88;
   w67 = w67 + w91;
-  GAGEN_SCATTER(J_S, 60, 45, w67);
+  GAGEN_SCATTER(out_J_S, 60, 45, w67);
   w88 = w42 * w88;
   w63 = w63 * w42;
   w55 = w55 + w63;
@@ -8689,15 +8689,15 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w55 = w55 - w65;
   w62 = w95 * w55;
   w88 = w88 - w62;
-  GAGEN_SCATTER(J_S, 60, 46, w88);
+  GAGEN_SCATTER(out_J_S, 60, 46, w88);
   w55 = w51 * w55;
   w48 = w42 * w48;
   w55 = w55 + w48;
   w55 = -w55;
-  GAGEN_SCATTER(J_S, 60, 47, w55);
-  GAGEN_SCATTER(J_S, 60, 48, w101);
-  GAGEN_SCATTER(J_S, 60, 49, w22);
-  GAGEN_SCATTER(J_S, 60, 50, w70);
+  GAGEN_SCATTER(out_J_S, 60, 47, w55);
+  GAGEN_SCATTER(out_J_S, 60, 48, w101);
+  GAGEN_SCATTER(out_J_S, 60, 49, w22);
+  GAGEN_SCATTER(out_J_S, 60, 50, w70);
   w61 = w61 + w73;
   w61 = w61 - w31;
   w61 = w61 - w76;
@@ -8710,7 +8710,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w86 = w86 - w94;
   w48 = w22 * w86;
   w55 = w55 + w48;
-  GAGEN_SCATTER(J_S, 60, 51, w55);
+  GAGEN_SCATTER(out_J_S, 60, 51, w55);
   w86 = w70 * w86;
   w58 = w58 - w53;
   w58 = w58 - w29;
@@ -8721,24 +8721,24 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w58 = w58 - w65;
   w101 = w101 * w58;
   w86 = w86 - w101;
-  GAGEN_SCATTER(J_S, 60, 52, w86);
+  GAGEN_SCATTER(out_J_S, 60, 52, w86);
   w22 = w22 * w58;
   w70 = w70 * w61;
   w22 = w22 + w70;
   w22 = -w22;
-  GAGEN_SCATTER(J_S, 60, 53, w22);
+  GAGEN_SCATTER(out_J_S, 60, 53, w22);
   w95 = w69 * w95;
   w98 = w25 * w98;
   w95 = w95 + w98;
-  GAGEN_SCATTER(J_S, 60, 54, w95);
+  GAGEN_SCATTER(out_J_S, 60, 54, w95);
   w51 = w69 * w51;
   w66 = w25 * w66;
   w51 = w51 - w66;
-  GAGEN_SCATTER(J_S, 60, 55, w51);
+  GAGEN_SCATTER(out_J_S, 60, 55, w51);
   w69 = w69 * w42;
   w25 = w25 * w59;
   w69 = w69 + w25;
-  GAGEN_SCATTER(J_S, 60, 56, w69);
+  GAGEN_SCATTER(out_J_S, 60, 56, w69);
   w60 = w60 + w73;
   w60 = w60 - w31;
   w60 = w60 - w76;
@@ -8751,7 +8751,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w99 = w99 - w94;
   w94 = w51 * w99;
   w80 = w80 + w94;
-  GAGEN_SCATTER(J_S, 60, 57, w80);
+  GAGEN_SCATTER(out_J_S, 60, 57, w80);
   w99 = w69 * w99;
   w68 = w68 - w53;
   w68 = w68 - w29;
@@ -8762,30 +8762,30 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block(const double *restrict
   w68 = w68 - w65;
   w95 = w95 * w68;
   w99 = w99 - w95;
-  GAGEN_SCATTER(J_S, 60, 58, w99);
+  GAGEN_SCATTER(out_J_S, 60, 58, w99);
   w51 = w51 * w68;
   w69 = w69 * w60;
   w51 = w51 + w69;
   w51 = -w51;
-  GAGEN_SCATTER(J_S, 60, 59, w51);
+  GAGEN_SCATTER(out_J_S, 60, 59, w51);
 }
 #endif
 
-void two_g1_sphere_g1b_left_hand_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void two_g1_sphere_g1b_left_hand_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 60 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 60 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 60 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 60 * gagen_a + gagen_o, 1, 0);
     }
-    two_g1_sphere_g1b_left_hand_fk_jacobian_block(q + 10 * s, M + 8 * s, P + 5 * s, J_S + 60 * s);
+    two_g1_sphere_g1b_left_hand_fk_jacobian_block(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 60 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    two_g1_sphere_g1b_left_hand_fk_jacobian(q + 10 * s, M + 8 * s, P + 5 * s, J_S + 60 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    two_g1_sphere_g1b_left_hand_fk_jacobian(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 60 * gagen_s);
   }
 }
 
@@ -8795,7 +8795,7 @@ void two_g1_sphere_g1b_left_hand_fk_jacobian_batch(long n, const double *restric
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -8808,14 +8808,14 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(9.868683842420437e-05);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_cos(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_cos(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_cos(w8);
   w10 = w7 * w9;
@@ -8846,7 +8846,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w16 = w16 + w18;
   w18 = w11 * w16;
   w14 = w14 - w18;
-  w18 = GAGEN_GATHER(q, 10, 3);
+  w18 = GAGEN_GATHER(in_q, 10, 3);
   w18 = w2 * w18;
   w21 = gagen_v_cos(w18);
   w22 = w14 * w21;
@@ -8883,7 +8883,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w7 = w10 - w11;
   w7 = w24 * w7;
   w17 = w17 + w7;
-  w7 = GAGEN_GATHER(q, 10, 4);
+  w7 = GAGEN_GATHER(in_q, 10, 4);
   w7 = w2 * w7;
   w1 = gagen_v_cos(w7);
   w19 = w17 * w1;
@@ -8894,7 +8894,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w7 = gagen_v_sin(w7);
   w11 = w22 * w7;
   w19 = w19 + w11;
-  w11 = GAGEN_GATHER(q, 10, 5);
+  w11 = GAGEN_GATHER(in_q, 10, 5);
   w11 = w2 * w11;
   w10 = gagen_v_cos(w11);
   w15 = w19 * w10;
@@ -8916,7 +8916,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w11 = gagen_v_sin(w11);
   w0 = w23 * w11;
   w15 = w15 + w0;
-  w0 = GAGEN_GATHER(q, 10, 6);
+  w0 = GAGEN_GATHER(in_q, 10, 6);
   w0 = w2 * w0;
   w14 = gagen_v_cos(w0);
   w12 = w15 * w14;
@@ -8932,7 +8932,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w0 = gagen_v_sin(w0);
   w17 = w20 * w0;
   w12 = w12 - w17;
-  w17 = GAGEN_GATHER(q, 10, 7);
+  w17 = GAGEN_GATHER(in_q, 10, 7);
   w17 = w2 * w17;
   w13 = gagen_v_cos(w17);
   w16 = w12 * w13;
@@ -8948,7 +8948,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w17 = gagen_v_sin(w17);
   w19 = w24 * w17;
   w16 = w16 + w19;
-  w19 = GAGEN_GATHER(q, 10, 8);
+  w19 = GAGEN_GATHER(in_q, 10, 8);
   w19 = w2 * w19;
   w25 = gagen_v_cos(w19);
   w26 = w16 * w25;
@@ -8964,7 +8964,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w19 = gagen_v_sin(w19);
   w22 = w20 * w19;
   w26 = w26 - w22;
-  w22 = GAGEN_GATHER(q, 10, 9);
+  w22 = GAGEN_GATHER(in_q, 10, 9);
   w22 = w2 * w22;
   w27 = gagen_v_cos(w22);
   w28 = w26 * w27;
@@ -8980,11 +8980,11 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w22 = gagen_v_sin(w22);
   w12 = w15 * w22;
   w28 = w28 + w12;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w15 = w15 * w27;
   w26 = w26 * w22;
   w15 = w15 - w26;
-  GAGEN_SCATTER(M, 8, 1, w15);
+  GAGEN_SCATTER(out_M, 8, 1, w15);
   w16 = w16 * w19;
   w20 = w20 * w25;
   w16 = w16 + w20;
@@ -8994,11 +8994,11 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w24 = w24 - w23;
   w23 = w24 * w22;
   w20 = w20 + w23;
-  GAGEN_SCATTER(M, 8, 2, w20);
+  GAGEN_SCATTER(out_M, 8, 2, w20);
   w24 = w24 * w27;
   w16 = w16 * w22;
   w24 = w24 - w16;
-  GAGEN_SCATTER(M, 8, 3, w24);
+  GAGEN_SCATTER(out_M, 8, 3, w24);
   w16 = gagen_v_splat(0.007927);
   w23 = w4 * w3;
   w16 = w16 * w23;
@@ -9397,14 +9397,14 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w14 = w19 * w28;
   w81 = w81 - w14;
   w81 = w2 * w81;
-  GAGEN_SCATTER(M, 8, 4, w81);
+  GAGEN_SCATTER(out_M, 8, 4, w81);
   w81 = w100 * w24;
   w14 = w19 * w15;
   w81 = w81 - w14;
   w14 = w71 * w28;
   w81 = w81 - w14;
   w81 = w2 * w81;
-  GAGEN_SCATTER(M, 8, 5, w81);
+  GAGEN_SCATTER(out_M, 8, 5, w81);
   w81 = w19 * w20;
   w14 = w71 * w24;
   w81 = w81 + w14;
@@ -9412,44 +9412,44 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w81 = w81 + w28;
   w81 = w2 * w81;
   w81 = -w81;
-  GAGEN_SCATTER(M, 8, 6, w81);
+  GAGEN_SCATTER(out_M, 8, 6, w81);
   w20 = w71 * w20;
   w24 = w19 * w24;
   w20 = w20 - w24;
   w15 = w100 * w15;
   w20 = w20 - w15;
   w20 = w2 * w20;
-  GAGEN_SCATTER(M, 8, 7, w20);
+  GAGEN_SCATTER(out_M, 8, 7, w20);
   w20 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w20);
-  GAGEN_SCATTER(P, 5, 1, w19);
-  GAGEN_SCATTER(P, 5, 2, w71);
-  GAGEN_SCATTER(P, 5, 3, w100);
+  GAGEN_SCATTER(out_P, 5, 0, w20);
+  GAGEN_SCATTER(out_P, 5, 1, w19);
+  GAGEN_SCATTER(out_P, 5, 2, w71);
+  GAGEN_SCATTER(out_P, 5, 3, w100);
   w19 = w19 * w19;
   w71 = w71 * w71;
   w19 = w19 + w71;
   w100 = w100 * w100;
   w19 = w19 + w100;
   w2 = w2 * w19;
-  GAGEN_SCATTER(P, 5, 4, w2);
-  GAGEN_SCATTER(J_S, 60, 0, w20);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
+  GAGEN_SCATTER(out_J_S, 60, 0, w20);
   w20 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 60, 1, w20);
-  GAGEN_SCATTER(J_S, 60, 2, w20);
-  GAGEN_SCATTER(J_S, 60, 3, w20);
+  GAGEN_SCATTER(out_J_S, 60, 1, w20);
+  GAGEN_SCATTER(out_J_S, 60, 2, w20);
+  GAGEN_SCATTER(out_J_S, 60, 3, w20);
   w2 = gagen_v_splat((-1.2));
-  GAGEN_SCATTER(J_S, 60, 4, w2);
-  GAGEN_SCATTER(J_S, 60, 5, w20);
-  GAGEN_SCATTER(J_S, 60, 6, w20);
-  GAGEN_SCATTER(J_S, 60, 7, w30);
+  GAGEN_SCATTER(out_J_S, 60, 4, w2);
+  GAGEN_SCATTER(out_J_S, 60, 5, w20);
+  GAGEN_SCATTER(out_J_S, 60, 6, w20);
+  GAGEN_SCATTER(out_J_S, 60, 7, w30);
   w20 = -w4;
-  GAGEN_SCATTER(J_S, 60, 8, w20);
+  GAGEN_SCATTER(out_J_S, 60, 8, w20);
   w20 = gagen_v_splat(0.07);
   w20 = w20 * w23;
-  GAGEN_SCATTER(J_S, 60, 9, w20);
+  GAGEN_SCATTER(out_J_S, 60, 9, w20);
   w82 = w82 * w4;
   w82 = -w82;
-  GAGEN_SCATTER(J_S, 60, 10, w82);
+  GAGEN_SCATTER(out_J_S, 60, 10, w82);
   w82 = gagen_v_splat(0.6);
   w20 = gagen_v_splat(0.00198175);
   w20 = w20 * w4;
@@ -9460,10 +9460,10 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w4 = w4 * w30;
   w4 = w103 * w4;
   w2 = w2 + w4;
-  GAGEN_SCATTER(J_S, 60, 11, w2);
-  GAGEN_SCATTER(J_S, 60, 12, w32);
-  GAGEN_SCATTER(J_S, 60, 13, w5);
-  GAGEN_SCATTER(J_S, 60, 14, w104);
+  GAGEN_SCATTER(out_J_S, 60, 11, w2);
+  GAGEN_SCATTER(out_J_S, 60, 12, w32);
+  GAGEN_SCATTER(out_J_S, 60, 13, w5);
+  GAGEN_SCATTER(out_J_S, 60, 14, w104);
   w2 = gagen_v_splat(0.0095);
   w72 = w2 * w72;
   w103 = w103 * w23;
@@ -9477,7 +9477,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w103 = -w103;
   w103 = w103 + w103;
   w103 = -w103;
-  GAGEN_SCATTER(J_S, 60, 15, w103);
+  GAGEN_SCATTER(out_J_S, 60, 15, w103);
   w2 = w2 * w57;
   w2 = w2 - w82;
   w2 = w2 - w20;
@@ -9485,22 +9485,22 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w23 = w104 * w23;
   w32 = w32 + w23;
   w32 = w32 + w32;
-  GAGEN_SCATTER(J_S, 60, 16, w32);
+  GAGEN_SCATTER(out_J_S, 60, 16, w32);
   w5 = w5 * w2;
   w104 = w104 * w72;
   w5 = w5 - w104;
   w5 = w5 + w5;
-  GAGEN_SCATTER(J_S, 60, 17, w5);
+  GAGEN_SCATTER(out_J_S, 60, 17, w5);
   w5 = gagen_v_splat(1.9224917487388276);
   w5 = w5 * w8;
   w12 = w12 * w85;
   w5 = w5 - w12;
   w35 = w35 * w87;
   w5 = w5 + w35;
-  GAGEN_SCATTER(J_S, 60, 18, w5);
-  GAGEN_SCATTER(J_S, 60, 19, w3);
+  GAGEN_SCATTER(out_J_S, 60, 18, w5);
+  GAGEN_SCATTER(out_J_S, 60, 19, w3);
   w35 = -w33;
-  GAGEN_SCATTER(J_S, 60, 20, w35);
+  GAGEN_SCATTER(out_J_S, 60, 20, w35);
   w16 = w16 + w73;
   w16 = w16 - w31;
   w16 = w16 - w76;
@@ -9515,7 +9515,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w83 = w83 + w77;
   w77 = w3 * w83;
   w35 = w35 + w77;
-  GAGEN_SCATTER(J_S, 60, 21, w35);
+  GAGEN_SCATTER(out_J_S, 60, 21, w35);
   w83 = w33 * w83;
   w97 = w97 - w53;
   w97 = w97 - w29;
@@ -9524,17 +9524,17 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w5 = w5 * w97;
   w83 = w83 + w5;
   w83 = -w83;
-  GAGEN_SCATTER(J_S, 60, 22, w83);
+  GAGEN_SCATTER(out_J_S, 60, 22, w83);
   w3 = w3 * w97;
   w33 = w33 * w16;
   w3 = w3 - w33;
   w3 = -w3;
-  GAGEN_SCATTER(J_S, 60, 23, w3);
+  GAGEN_SCATTER(out_J_S, 60, 23, w3);
   w3 = -w90;
-  GAGEN_SCATTER(J_S, 60, 24, w3);
+  GAGEN_SCATTER(out_J_S, 60, 24, w3);
   w3 = -w44;
-  GAGEN_SCATTER(J_S, 60, 25, w3);
-  GAGEN_SCATTER(J_S, 60, 26, w11);
+  GAGEN_SCATTER(out_J_S, 60, 25, w3);
+  GAGEN_SCATTER(out_J_S, 60, 26, w11);
   w38 = w38 + w73;
   w38 = w38 - w31;
   w38 = w38 - w76;
@@ -9545,7 +9545,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w33 = w44 * w84;
   w3 = w3 + w33;
   w3 = -w3;
-  GAGEN_SCATTER(J_S, 60, 27, w3);
+  GAGEN_SCATTER(out_J_S, 60, 27, w3);
   w84 = w11 * w84;
   w26 = w26 - w53;
   w26 = w26 - w29;
@@ -9554,16 +9554,16 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w26 = w26 - w78;
   w90 = w90 * w26;
   w84 = w84 + w90;
-  GAGEN_SCATTER(J_S, 60, 28, w84);
+  GAGEN_SCATTER(out_J_S, 60, 28, w84);
   w11 = w11 * w38;
   w44 = w44 * w26;
   w11 = w11 - w44;
   w11 = -w11;
-  GAGEN_SCATTER(J_S, 60, 29, w11);
-  GAGEN_SCATTER(J_S, 60, 30, w92);
+  GAGEN_SCATTER(out_J_S, 60, 29, w11);
+  GAGEN_SCATTER(out_J_S, 60, 30, w92);
   w11 = -w7;
-  GAGEN_SCATTER(J_S, 60, 31, w11);
-  GAGEN_SCATTER(J_S, 60, 32, w40);
+  GAGEN_SCATTER(out_J_S, 60, 31, w11);
+  GAGEN_SCATTER(out_J_S, 60, 32, w40);
   w54 = w54 + w73;
   w54 = w54 - w31;
   w54 = w54 - w76;
@@ -9578,7 +9578,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w93 = w93 - w26;
   w26 = w7 * w93;
   w44 = w44 - w26;
-  GAGEN_SCATTER(J_S, 60, 33, w44);
+  GAGEN_SCATTER(out_J_S, 60, 33, w44);
   w93 = w40 * w93;
   w39 = w39 - w53;
   w39 = w39 - w29;
@@ -9589,15 +9589,15 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w39 = w39 - w11;
   w92 = w92 * w39;
   w93 = w93 - w92;
-  GAGEN_SCATTER(J_S, 60, 34, w93);
+  GAGEN_SCATTER(out_J_S, 60, 34, w93);
   w40 = w40 * w54;
   w7 = w7 * w39;
   w40 = w40 - w7;
   w40 = -w40;
-  GAGEN_SCATTER(J_S, 60, 35, w40);
-  GAGEN_SCATTER(J_S, 60, 36, w96);
-  GAGEN_SCATTER(J_S, 60, 37, w63);
-  GAGEN_SCATTER(J_S, 60, 38, w10);
+  GAGEN_SCATTER(out_J_S, 60, 35, w40);
+  GAGEN_SCATTER(out_J_S, 60, 36, w96);
+  GAGEN_SCATTER(out_J_S, 60, 37, w63);
+  GAGEN_SCATTER(out_J_S, 60, 38, w10);
   w40 = w48 + w73;
   w40 = w40 - w31;
   w40 = w40 - w76;
@@ -9609,7 +9609,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w39 = w39 - w102;
   w54 = w63 * w39;
   w7 = w7 + w54;
-  GAGEN_SCATTER(J_S, 60, 39, w7);
+  GAGEN_SCATTER(out_J_S, 60, 39, w7);
   w39 = w10 * w39;
   w7 = w55 - w53;
   w7 = w7 - w29;
@@ -9619,15 +9619,15 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w7 = w7 - w79;
   w96 = w96 * w7;
   w39 = w39 - w96;
-  GAGEN_SCATTER(J_S, 60, 40, w39);
+  GAGEN_SCATTER(out_J_S, 60, 40, w39);
   w63 = w63 * w7;
   w10 = w10 * w40;
   w63 = w63 + w10;
   w63 = -w63;
-  GAGEN_SCATTER(J_S, 60, 41, w63);
-  GAGEN_SCATTER(J_S, 60, 42, w95);
-  GAGEN_SCATTER(J_S, 60, 43, w51);
-  GAGEN_SCATTER(J_S, 60, 44, w42);
+  GAGEN_SCATTER(out_J_S, 60, 41, w63);
+  GAGEN_SCATTER(out_J_S, 60, 42, w95);
+  GAGEN_SCATTER(out_J_S, 60, 43, w51);
+  GAGEN_SCATTER(out_J_S, 60, 44, w42);
   w63 = gagen_v_splat(0.1);
   w0 = w63 * w0;
   w48 = w48 + w0;
@@ -9648,7 +9648,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w88 = w88 - w94;
   w91 = w51 * w88;
   w67 = w67 + w91;
-  GAGEN_SCATTER(J_S, 60, 45, w67);
+  GAGEN_SCATTER(out_J_S, 60, 45, w67);
   w88 = w42 * w88;
   w63 = w63 * w42;
   w55 = w55 + w63;
@@ -9662,15 +9662,15 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w55 = w55 - w65;
   w62 = w95 * w55;
   w88 = w88 - w62;
-  GAGEN_SCATTER(J_S, 60, 46, w88);
+  GAGEN_SCATTER(out_J_S, 60, 46, w88);
   w55 = w51 * w55;
   w48 = w42 * w48;
   w55 = w55 + w48;
   w55 = -w55;
-  GAGEN_SCATTER(J_S, 60, 47, w55);
-  GAGEN_SCATTER(J_S, 60, 48, w101);
-  GAGEN_SCATTER(J_S, 60, 49, w22);
-  GAGEN_SCATTER(J_S, 60, 50, w70);
+  GAGEN_SCATTER(out_J_S, 60, 47, w55);
+  GAGEN_SCATTER(out_J_S, 60, 48, w101);
+  GAGEN_SCATTER(out_J_S, 60, 49, w22);
+  GAGEN_SCATTER(out_J_S, 60, 50, w70);
   w61 = w61 + w73;
   w61 = w61 - w31;
   w61 = w61 - w76;
@@ -9683,7 +9683,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w86 = w86 - w94;
   w48 = w22 * w86;
   w55 = w55 + w48;
-  GAGEN_SCATTER(J_S, 60, 51, w55);
+  GAGEN_SCATTER(out_J_S, 60, 51, w55);
   w86 = w70 * w86;
   w58 = w58 - w53;
   w58 = w58 - w29;
@@ -9694,24 +9694,24 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w58 = w58 - w65;
   w101 = w101 * w58;
   w86 = w86 - w101;
-  GAGEN_SCATTER(J_S, 60, 52, w86);
+  GAGEN_SCATTER(out_J_S, 60, 52, w86);
   w22 = w22 * w58;
   w70 = w70 * w61;
   w22 = w22 + w70;
   w22 = -w22;
-  GAGEN_SCATTER(J_S, 60, 53, w22);
+  GAGEN_SCATTER(out_J_S, 60, 53, w22);
   w95 = w69 * w95;
   w98 = w25 * w98;
   w95 = w95 + w98;
-  GAGEN_SCATTER(J_S, 60, 54, w95);
+  GAGEN_SCATTER(out_J_S, 60, 54, w95);
   w51 = w69 * w51;
   w66 = w25 * w66;
   w51 = w51 - w66;
-  GAGEN_SCATTER(J_S, 60, 55, w51);
+  GAGEN_SCATTER(out_J_S, 60, 55, w51);
   w69 = w69 * w42;
   w25 = w25 * w59;
   w69 = w69 + w25;
-  GAGEN_SCATTER(J_S, 60, 56, w69);
+  GAGEN_SCATTER(out_J_S, 60, 56, w69);
   w60 = w60 + w73;
   w60 = w60 - w31;
   w60 = w60 - w76;
@@ -9724,7 +9724,7 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w99 = w99 - w94;
   w94 = w51 * w99;
   w80 = w80 + w94;
-  GAGEN_SCATTER(J_S, 60, 57, w80);
+  GAGEN_SCATTER(out_J_S, 60, 57, w80);
   w99 = w69 * w99;
   w68 = w68 - w53;
   w68 = w68 - w29;
@@ -9735,12 +9735,12 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
   w68 = w68 - w65;
   w95 = w95 * w68;
   w99 = w99 - w95;
-  GAGEN_SCATTER(J_S, 60, 58, w99);
+  GAGEN_SCATTER(out_J_S, 60, 58, w99);
   w51 = w51 * w68;
   w69 = w69 * w60;
   w51 = w51 + w69;
   w51 = -w51;
-  GAGEN_SCATTER(J_S, 60, 59, w51);
+  GAGEN_SCATTER(out_J_S, 60, 59, w51);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -9748,21 +9748,21 @@ static void two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(long gagen_ld,
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void two_g1_sphere_g1b_left_hand_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void two_g1_sphere_g1b_left_hand_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 73L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 73L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    two_g1_sphere_g1b_left_hand_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  two_g1_sphere_g1b_left_hand_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  two_g1_sphere_g1b_left_hand_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }
 
 #if GAGEN_SIMD
 /* chain g1b_right_hand: motor and end point: GAGEN_W consecutive samples at once */
-static void two_g1_sphere_g1b_right_hand_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void two_g1_sphere_g1b_right_hand_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -9772,14 +9772,14 @@ static void two_g1_sphere_g1b_right_hand_fk_block(const double *restrict q, doub
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(9.868683842420437e-05);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_sin(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_sin(w8);
   w10 = w7 * w9;
@@ -9810,7 +9810,7 @@ static void two_g1_sphere_g1b_right_hand_fk_block(const double *restrict q, doub
   w11 = w11 + w7;
   w7 = w18 * w11;
   w14 = w14 - w7;
-  w7 = GAGEN_GATHER(q, 10, 3);
+  w7 = GAGEN_GATHER(in_q, 10, 3);
   w7 = w2 * w7;
   w22 = gagen_v_cos(w7);
   w23 = w14 * w22;
@@ -9847,7 +9847,7 @@ static void two_g1_sphere_g1b_right_hand_fk_block(const double *restrict q, doub
   w10 = w10 - w15;
   w15 = w25 * w10;
   w17 = w17 + w15;
-  w15 = GAGEN_GATHER(q, 10, 4);
+  w15 = GAGEN_GATHER(in_q, 10, 4);
   w15 = w2 * w15;
   w11 = gagen_v_cos(w15);
   w18 = w17 * w11;
@@ -9858,7 +9858,7 @@ static void two_g1_sphere_g1b_right_hand_fk_block(const double *restrict q, doub
   w15 = gagen_v_sin(w15);
   w10 = w19 * w15;
   w18 = w18 + w10;
-  w10 = GAGEN_GATHER(q, 10, 5);
+  w10 = GAGEN_GATHER(in_q, 10, 5);
   w10 = w2 * w10;
   w23 = gagen_v_cos(w10);
   w20 = w18 * w23;
@@ -9880,7 +9880,7 @@ static void two_g1_sphere_g1b_right_hand_fk_block(const double *restrict q, doub
   w10 = gagen_v_sin(w10);
   w25 = w24 * w10;
   w20 = w20 + w25;
-  w25 = GAGEN_GATHER(q, 10, 6);
+  w25 = GAGEN_GATHER(in_q, 10, 6);
   w25 = w2 * w25;
   w1 = gagen_v_cos(w25);
   w14 = w20 * w1;
@@ -9896,7 +9896,7 @@ static void two_g1_sphere_g1b_right_hand_fk_block(const double *restrict q, doub
   w25 = gagen_v_sin(w25);
   w17 = w12 * w25;
   w14 = w14 - w17;
-  w17 = GAGEN_GATHER(q, 10, 7);
+  w17 = GAGEN_GATHER(in_q, 10, 7);
   w17 = w2 * w17;
   w21 = gagen_v_cos(w17);
   w13 = w14 * w21;
@@ -9912,7 +9912,7 @@ static void two_g1_sphere_g1b_right_hand_fk_block(const double *restrict q, doub
   w17 = gagen_v_sin(w17);
   w18 = w0 * w17;
   w13 = w13 + w18;
-  w18 = GAGEN_GATHER(q, 10, 8);
+  w18 = GAGEN_GATHER(in_q, 10, 8);
   w18 = w2 * w18;
   w16 = gagen_v_cos(w18);
   w26 = w13 * w16;
@@ -9928,7 +9928,7 @@ static void two_g1_sphere_g1b_right_hand_fk_block(const double *restrict q, doub
   w18 = gagen_v_sin(w18);
   w19 = w12 * w18;
   w26 = w26 - w19;
-  w19 = GAGEN_GATHER(q, 10, 9);
+  w19 = GAGEN_GATHER(in_q, 10, 9);
   w19 = w2 * w19;
   w27 = gagen_v_cos(w19);
   w28 = w26 * w27;
@@ -9944,11 +9944,11 @@ static void two_g1_sphere_g1b_right_hand_fk_block(const double *restrict q, doub
   w19 = gagen_v_sin(w19);
   w14 = w20 * w19;
   w28 = w28 + w14;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w20 = w20 * w27;
   w26 = w26 * w19;
   w20 = w20 - w26;
-  GAGEN_SCATTER(M, 8, 1, w20);
+  GAGEN_SCATTER(out_M, 8, 1, w20);
   w13 = w13 * w18;
   w12 = w12 * w16;
   w13 = w13 + w12;
@@ -9958,11 +9958,11 @@ static void two_g1_sphere_g1b_right_hand_fk_block(const double *restrict q, doub
   w0 = w0 - w24;
   w24 = w0 * w19;
   w12 = w12 + w24;
-  GAGEN_SCATTER(M, 8, 2, w12);
+  GAGEN_SCATTER(out_M, 8, 2, w12);
   w0 = w0 * w27;
   w13 = w13 * w19;
   w0 = w0 - w13;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w13 = gagen_v_splat(0.007927);
   w24 = w3 * w4;
   w13 = w13 * w24;
@@ -10360,14 +10360,14 @@ static void two_g1_sphere_g1b_right_hand_fk_block(const double *restrict q, doub
   w18 = w61 * w28;
   w15 = w15 - w18;
   w15 = w2 * w15;
-  GAGEN_SCATTER(M, 8, 4, w15);
+  GAGEN_SCATTER(out_M, 8, 4, w15);
   w15 = w52 * w0;
   w18 = w61 * w20;
   w15 = w15 - w18;
   w18 = w13 * w28;
   w15 = w15 - w18;
   w15 = w2 * w15;
-  GAGEN_SCATTER(M, 8, 5, w15);
+  GAGEN_SCATTER(out_M, 8, 5, w15);
   w15 = w61 * w12;
   w18 = w13 * w0;
   w15 = w15 + w18;
@@ -10375,43 +10375,43 @@ static void two_g1_sphere_g1b_right_hand_fk_block(const double *restrict q, doub
   w15 = w15 + w28;
   w15 = w2 * w15;
   w15 = -w15;
-  GAGEN_SCATTER(M, 8, 6, w15);
+  GAGEN_SCATTER(out_M, 8, 6, w15);
   w12 = w13 * w12;
   w0 = w61 * w0;
   w12 = w12 - w0;
   w20 = w52 * w20;
   w12 = w12 - w20;
   w12 = w2 * w12;
-  GAGEN_SCATTER(M, 8, 7, w12);
+  GAGEN_SCATTER(out_M, 8, 7, w12);
   w12 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w12);
-  GAGEN_SCATTER(P, 5, 1, w61);
-  GAGEN_SCATTER(P, 5, 2, w13);
-  GAGEN_SCATTER(P, 5, 3, w52);
+  GAGEN_SCATTER(out_P, 5, 0, w12);
+  GAGEN_SCATTER(out_P, 5, 1, w61);
+  GAGEN_SCATTER(out_P, 5, 2, w13);
+  GAGEN_SCATTER(out_P, 5, 3, w52);
   w61 = w61 * w61;
   w13 = w13 * w13;
   w61 = w61 + w13;
   w52 = w52 * w52;
   w61 = w61 + w52;
   w2 = w2 * w61;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #endif
 
-void two_g1_sphere_g1b_right_hand_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void two_g1_sphere_g1b_right_hand_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    two_g1_sphere_g1b_right_hand_fk_block(q + 10 * s, M + 8 * s, P + 5 * s);
+    two_g1_sphere_g1b_right_hand_fk_block(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    two_g1_sphere_g1b_right_hand_fk(q + 10 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    two_g1_sphere_g1b_right_hand_fk(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -10421,7 +10421,7 @@ void two_g1_sphere_g1b_right_hand_fk_batch(long n, const double *restrict q, dou
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void two_g1_sphere_g1b_right_hand_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void two_g1_sphere_g1b_right_hand_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -10431,14 +10431,14 @@ static void two_g1_sphere_g1b_right_hand_fk_block_columns(long gagen_ld, int gag
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(9.868683842420437e-05);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_sin(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_sin(w8);
   w10 = w7 * w9;
@@ -10469,7 +10469,7 @@ static void two_g1_sphere_g1b_right_hand_fk_block_columns(long gagen_ld, int gag
   w11 = w11 + w7;
   w7 = w18 * w11;
   w14 = w14 - w7;
-  w7 = GAGEN_GATHER(q, 10, 3);
+  w7 = GAGEN_GATHER(in_q, 10, 3);
   w7 = w2 * w7;
   w22 = gagen_v_cos(w7);
   w23 = w14 * w22;
@@ -10506,7 +10506,7 @@ static void two_g1_sphere_g1b_right_hand_fk_block_columns(long gagen_ld, int gag
   w10 = w10 - w15;
   w15 = w25 * w10;
   w17 = w17 + w15;
-  w15 = GAGEN_GATHER(q, 10, 4);
+  w15 = GAGEN_GATHER(in_q, 10, 4);
   w15 = w2 * w15;
   w11 = gagen_v_cos(w15);
   w18 = w17 * w11;
@@ -10517,7 +10517,7 @@ static void two_g1_sphere_g1b_right_hand_fk_block_columns(long gagen_ld, int gag
   w15 = gagen_v_sin(w15);
   w10 = w19 * w15;
   w18 = w18 + w10;
-  w10 = GAGEN_GATHER(q, 10, 5);
+  w10 = GAGEN_GATHER(in_q, 10, 5);
   w10 = w2 * w10;
   w23 = gagen_v_cos(w10);
   w20 = w18 * w23;
@@ -10539,7 +10539,7 @@ static void two_g1_sphere_g1b_right_hand_fk_block_columns(long gagen_ld, int gag
   w10 = gagen_v_sin(w10);
   w25 = w24 * w10;
   w20 = w20 + w25;
-  w25 = GAGEN_GATHER(q, 10, 6);
+  w25 = GAGEN_GATHER(in_q, 10, 6);
   w25 = w2 * w25;
   w1 = gagen_v_cos(w25);
   w14 = w20 * w1;
@@ -10555,7 +10555,7 @@ static void two_g1_sphere_g1b_right_hand_fk_block_columns(long gagen_ld, int gag
   w25 = gagen_v_sin(w25);
   w17 = w12 * w25;
   w14 = w14 - w17;
-  w17 = GAGEN_GATHER(q, 10, 7);
+  w17 = GAGEN_GATHER(in_q, 10, 7);
   w17 = w2 * w17;
   w21 = gagen_v_cos(w17);
   w13 = w14 * w21;
@@ -10571,7 +10571,7 @@ static void two_g1_sphere_g1b_right_hand_fk_block_columns(long gagen_ld, int gag
   w17 = gagen_v_sin(w17);
   w18 = w0 * w17;
   w13 = w13 + w18;
-  w18 = GAGEN_GATHER(q, 10, 8);
+  w18 = GAGEN_GATHER(in_q, 10, 8);
   w18 = w2 * w18;
   w16 = gagen_v_cos(w18);
   w26 = w13 * w16;
@@ -10587,7 +10587,7 @@ static void two_g1_sphere_g1b_right_hand_fk_block_columns(long gagen_ld, int gag
   w18 = gagen_v_sin(w18);
   w19 = w12 * w18;
   w26 = w26 - w19;
-  w19 = GAGEN_GATHER(q, 10, 9);
+  w19 = GAGEN_GATHER(in_q, 10, 9);
   w19 = w2 * w19;
   w27 = gagen_v_cos(w19);
   w28 = w26 * w27;
@@ -10603,11 +10603,11 @@ static void two_g1_sphere_g1b_right_hand_fk_block_columns(long gagen_ld, int gag
   w19 = gagen_v_sin(w19);
   w14 = w20 * w19;
   w28 = w28 + w14;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w20 = w20 * w27;
   w26 = w26 * w19;
   w20 = w20 - w26;
-  GAGEN_SCATTER(M, 8, 1, w20);
+  GAGEN_SCATTER(out_M, 8, 1, w20);
   w13 = w13 * w18;
   w12 = w12 * w16;
   w13 = w13 + w12;
@@ -10617,11 +10617,11 @@ static void two_g1_sphere_g1b_right_hand_fk_block_columns(long gagen_ld, int gag
   w0 = w0 - w24;
   w24 = w0 * w19;
   w12 = w12 + w24;
-  GAGEN_SCATTER(M, 8, 2, w12);
+  GAGEN_SCATTER(out_M, 8, 2, w12);
   w0 = w0 * w27;
   w13 = w13 * w19;
   w0 = w0 - w13;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w13 = gagen_v_splat(0.007927);
   w24 = w3 * w4;
   w13 = w13 * w24;
@@ -11019,14 +11019,14 @@ static void two_g1_sphere_g1b_right_hand_fk_block_columns(long gagen_ld, int gag
   w18 = w61 * w28;
   w15 = w15 - w18;
   w15 = w2 * w15;
-  GAGEN_SCATTER(M, 8, 4, w15);
+  GAGEN_SCATTER(out_M, 8, 4, w15);
   w15 = w52 * w0;
   w18 = w61 * w20;
   w15 = w15 - w18;
   w18 = w13 * w28;
   w15 = w15 - w18;
   w15 = w2 * w15;
-  GAGEN_SCATTER(M, 8, 5, w15);
+  GAGEN_SCATTER(out_M, 8, 5, w15);
   w15 = w61 * w12;
   w18 = w13 * w0;
   w15 = w15 + w18;
@@ -11034,26 +11034,26 @@ static void two_g1_sphere_g1b_right_hand_fk_block_columns(long gagen_ld, int gag
   w15 = w15 + w28;
   w15 = w2 * w15;
   w15 = -w15;
-  GAGEN_SCATTER(M, 8, 6, w15);
+  GAGEN_SCATTER(out_M, 8, 6, w15);
   w12 = w13 * w12;
   w0 = w61 * w0;
   w12 = w12 - w0;
   w20 = w52 * w20;
   w12 = w12 - w20;
   w12 = w2 * w12;
-  GAGEN_SCATTER(M, 8, 7, w12);
+  GAGEN_SCATTER(out_M, 8, 7, w12);
   w12 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w12);
-  GAGEN_SCATTER(P, 5, 1, w61);
-  GAGEN_SCATTER(P, 5, 2, w13);
-  GAGEN_SCATTER(P, 5, 3, w52);
+  GAGEN_SCATTER(out_P, 5, 0, w12);
+  GAGEN_SCATTER(out_P, 5, 1, w61);
+  GAGEN_SCATTER(out_P, 5, 2, w13);
+  GAGEN_SCATTER(out_P, 5, 3, w52);
   w61 = w61 * w61;
   w13 = w13 * w13;
   w61 = w61 + w13;
   w52 = w52 * w52;
   w61 = w61 + w52;
   w2 = w2 * w61;
-  GAGEN_SCATTER(P, 5, 4, w2);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -11061,21 +11061,21 @@ static void two_g1_sphere_g1b_right_hand_fk_block_columns(long gagen_ld, int gag
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void two_g1_sphere_g1b_right_hand_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void two_g1_sphere_g1b_right_hand_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    two_g1_sphere_g1b_right_hand_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    two_g1_sphere_g1b_right_hand_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  two_g1_sphere_g1b_right_hand_fk_columns_from(s, n, ld, q, M, P);
+  two_g1_sphere_g1b_right_hand_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain g1b_right_hand: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -11088,14 +11088,14 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(9.868683842420437e-05);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_sin(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_sin(w8);
   w10 = w7 * w9;
@@ -11126,7 +11126,7 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w11 = w11 + w7;
   w7 = w18 * w11;
   w14 = w14 - w7;
-  w7 = GAGEN_GATHER(q, 10, 3);
+  w7 = GAGEN_GATHER(in_q, 10, 3);
   w7 = w2 * w7;
   w22 = gagen_v_cos(w7);
   w23 = w14 * w22;
@@ -11163,7 +11163,7 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w10 = w10 - w15;
   w15 = w25 * w10;
   w17 = w17 + w15;
-  w15 = GAGEN_GATHER(q, 10, 4);
+  w15 = GAGEN_GATHER(in_q, 10, 4);
   w15 = w2 * w15;
   w11 = gagen_v_cos(w15);
   w18 = w17 * w11;
@@ -11174,7 +11174,7 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w15 = gagen_v_sin(w15);
   w10 = w19 * w15;
   w18 = w18 + w10;
-  w10 = GAGEN_GATHER(q, 10, 5);
+  w10 = GAGEN_GATHER(in_q, 10, 5);
   w10 = w2 * w10;
   w23 = gagen_v_cos(w10);
   w20 = w18 * w23;
@@ -11196,7 +11196,7 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w10 = gagen_v_sin(w10);
   w25 = w24 * w10;
   w20 = w20 + w25;
-  w25 = GAGEN_GATHER(q, 10, 6);
+  w25 = GAGEN_GATHER(in_q, 10, 6);
   w25 = w2 * w25;
   w1 = gagen_v_cos(w25);
   w14 = w20 * w1;
@@ -11212,7 +11212,7 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w25 = gagen_v_sin(w25);
   w17 = w12 * w25;
   w14 = w14 - w17;
-  w17 = GAGEN_GATHER(q, 10, 7);
+  w17 = GAGEN_GATHER(in_q, 10, 7);
   w17 = w2 * w17;
   w21 = gagen_v_cos(w17);
   w13 = w14 * w21;
@@ -11228,7 +11228,7 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w17 = gagen_v_sin(w17);
   w18 = w0 * w17;
   w13 = w13 + w18;
-  w18 = GAGEN_GATHER(q, 10, 8);
+  w18 = GAGEN_GATHER(in_q, 10, 8);
   w18 = w2 * w18;
   w16 = gagen_v_cos(w18);
   w26 = w13 * w16;
@@ -11244,7 +11244,7 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w18 = gagen_v_sin(w18);
   w19 = w12 * w18;
   w26 = w26 - w19;
-  w19 = GAGEN_GATHER(q, 10, 9);
+  w19 = GAGEN_GATHER(in_q, 10, 9);
   w19 = w2 * w19;
   w27 = gagen_v_cos(w19);
   w28 = w26 * w27;
@@ -11260,11 +11260,11 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w19 = gagen_v_sin(w19);
   w14 = w20 * w19;
   w28 = w28 + w14;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w20 = w20 * w27;
   w26 = w26 * w19;
   w20 = w20 - w26;
-  GAGEN_SCATTER(M, 8, 1, w20);
+  GAGEN_SCATTER(out_M, 8, 1, w20);
   w13 = w13 * w18;
   w12 = w12 * w16;
   w13 = w13 + w12;
@@ -11274,11 +11274,11 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w0 = w0 - w24;
   w24 = w0 * w19;
   w12 = w12 + w24;
-  GAGEN_SCATTER(M, 8, 2, w12);
+  GAGEN_SCATTER(out_M, 8, 2, w12);
   w0 = w0 * w27;
   w13 = w13 * w19;
   w0 = w0 - w13;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w13 = gagen_v_splat(0.007927);
   w24 = w3 * w4;
   w13 = w13 * w24;
@@ -11676,14 +11676,14 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w54 = w18 * w28;
   w80 = w80 - w54;
   w80 = w2 * w80;
-  GAGEN_SCATTER(M, 8, 4, w80);
+  GAGEN_SCATTER(out_M, 8, 4, w80);
   w80 = w98 * w0;
   w54 = w18 * w20;
   w80 = w80 - w54;
   w54 = w69 * w28;
   w80 = w80 - w54;
   w80 = w2 * w80;
-  GAGEN_SCATTER(M, 8, 5, w80);
+  GAGEN_SCATTER(out_M, 8, 5, w80);
   w80 = w18 * w12;
   w54 = w69 * w0;
   w80 = w80 + w54;
@@ -11691,44 +11691,44 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w80 = w80 + w28;
   w80 = w2 * w80;
   w80 = -w80;
-  GAGEN_SCATTER(M, 8, 6, w80);
+  GAGEN_SCATTER(out_M, 8, 6, w80);
   w12 = w69 * w12;
   w0 = w18 * w0;
   w12 = w12 - w0;
   w20 = w98 * w20;
   w12 = w12 - w20;
   w12 = w2 * w12;
-  GAGEN_SCATTER(M, 8, 7, w12);
+  GAGEN_SCATTER(out_M, 8, 7, w12);
   w12 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w12);
-  GAGEN_SCATTER(P, 5, 1, w18);
-  GAGEN_SCATTER(P, 5, 2, w69);
-  GAGEN_SCATTER(P, 5, 3, w98);
+  GAGEN_SCATTER(out_P, 5, 0, w12);
+  GAGEN_SCATTER(out_P, 5, 1, w18);
+  GAGEN_SCATTER(out_P, 5, 2, w69);
+  GAGEN_SCATTER(out_P, 5, 3, w98);
   w18 = w18 * w18;
   w69 = w69 * w69;
   w18 = w18 + w69;
   w98 = w98 * w98;
   w18 = w18 + w98;
   w2 = w2 * w18;
-  GAGEN_SCATTER(P, 5, 4, w2);
-  GAGEN_SCATTER(J_S, 60, 0, w12);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
+  GAGEN_SCATTER(out_J_S, 60, 0, w12);
   w12 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 60, 1, w12);
-  GAGEN_SCATTER(J_S, 60, 2, w12);
-  GAGEN_SCATTER(J_S, 60, 3, w12);
+  GAGEN_SCATTER(out_J_S, 60, 1, w12);
+  GAGEN_SCATTER(out_J_S, 60, 2, w12);
+  GAGEN_SCATTER(out_J_S, 60, 3, w12);
   w2 = gagen_v_splat((-1.2));
-  GAGEN_SCATTER(J_S, 60, 4, w2);
-  GAGEN_SCATTER(J_S, 60, 5, w12);
-  GAGEN_SCATTER(J_S, 60, 6, w12);
-  GAGEN_SCATTER(J_S, 60, 7, w36);
+  GAGEN_SCATTER(out_J_S, 60, 4, w2);
+  GAGEN_SCATTER(out_J_S, 60, 5, w12);
+  GAGEN_SCATTER(out_J_S, 60, 6, w12);
+  GAGEN_SCATTER(out_J_S, 60, 7, w36);
   w12 = -w3;
-  GAGEN_SCATTER(J_S, 60, 8, w12);
+  GAGEN_SCATTER(out_J_S, 60, 8, w12);
   w12 = gagen_v_splat(0.07);
   w12 = w12 * w24;
-  GAGEN_SCATTER(J_S, 60, 9, w12);
+  GAGEN_SCATTER(out_J_S, 60, 9, w12);
   w81 = w81 * w3;
   w81 = -w81;
-  GAGEN_SCATTER(J_S, 60, 10, w81);
+  GAGEN_SCATTER(out_J_S, 60, 10, w81);
   w81 = gagen_v_splat(0.6);
   w12 = gagen_v_splat(0.00198175);
   w12 = w12 * w3;
@@ -11739,10 +11739,10 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w3 = w3 * w36;
   w3 = w94 * w3;
   w2 = w2 + w3;
-  GAGEN_SCATTER(J_S, 60, 11, w2);
-  GAGEN_SCATTER(J_S, 60, 12, w6);
-  GAGEN_SCATTER(J_S, 60, 13, w4);
-  GAGEN_SCATTER(J_S, 60, 14, w104);
+  GAGEN_SCATTER(out_J_S, 60, 11, w2);
+  GAGEN_SCATTER(out_J_S, 60, 12, w6);
+  GAGEN_SCATTER(out_J_S, 60, 13, w4);
+  GAGEN_SCATTER(out_J_S, 60, 14, w104);
   w2 = gagen_v_splat(0.0095);
   w17 = w2 * w17;
   w94 = w94 * w24;
@@ -11756,7 +11756,7 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w94 = -w94;
   w94 = w94 + w94;
   w94 = -w94;
-  GAGEN_SCATTER(J_S, 60, 15, w94);
+  GAGEN_SCATTER(out_J_S, 60, 15, w94);
   w2 = w2 * w30;
   w2 = w2 - w81;
   w2 = w2 - w12;
@@ -11764,21 +11764,21 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w24 = w104 * w24;
   w6 = w6 + w24;
   w6 = w6 + w6;
-  GAGEN_SCATTER(J_S, 60, 16, w6);
+  GAGEN_SCATTER(out_J_S, 60, 16, w6);
   w4 = w4 * w2;
   w104 = w104 * w17;
   w4 = w4 - w104;
   w4 = w4 + w4;
-  GAGEN_SCATTER(J_S, 60, 17, w4);
+  GAGEN_SCATTER(out_J_S, 60, 17, w4);
   w4 = gagen_v_splat(1.9224917487388276);
   w4 = w4 * w5;
   w51 = w51 * w84;
   w4 = w4 + w51;
   w52 = w52 * w86;
   w4 = w4 - w52;
-  GAGEN_SCATTER(J_S, 60, 18, w4);
-  GAGEN_SCATTER(J_S, 60, 19, w50);
-  GAGEN_SCATTER(J_S, 60, 20, w46);
+  GAGEN_SCATTER(out_J_S, 60, 18, w4);
+  GAGEN_SCATTER(out_J_S, 60, 19, w50);
+  GAGEN_SCATTER(out_J_S, 60, 20, w46);
   w13 = w13 + w71;
   w13 = w13 - w40;
   w13 = w13 - w37;
@@ -11792,23 +11792,23 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w82 = w82 - w73;
   w73 = w50 * w82;
   w52 = w52 + w73;
-  GAGEN_SCATTER(J_S, 60, 21, w52);
+  GAGEN_SCATTER(out_J_S, 60, 21, w52);
   w82 = w46 * w82;
   w103 = w103 - w70;
   w103 = w103 - w8;
   w103 = w103 - w35;
   w4 = w4 * w103;
   w82 = w82 - w4;
-  GAGEN_SCATTER(J_S, 60, 22, w82);
+  GAGEN_SCATTER(out_J_S, 60, 22, w82);
   w50 = w50 * w103;
   w46 = w46 * w13;
   w50 = w50 + w46;
   w50 = -w50;
-  GAGEN_SCATTER(J_S, 60, 23, w50);
-  GAGEN_SCATTER(J_S, 60, 24, w87);
+  GAGEN_SCATTER(out_J_S, 60, 23, w50);
+  GAGEN_SCATTER(out_J_S, 60, 24, w87);
   w50 = -w38;
-  GAGEN_SCATTER(J_S, 60, 25, w50);
-  GAGEN_SCATTER(J_S, 60, 26, w10);
+  GAGEN_SCATTER(out_J_S, 60, 25, w50);
+  GAGEN_SCATTER(out_J_S, 60, 26, w10);
   w13 = w13 + w75;
   w13 = w13 - w43;
   w50 = w87 * w13;
@@ -11816,22 +11816,22 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w83 = w83 - w85;
   w46 = w38 * w83;
   w50 = w50 - w46;
-  GAGEN_SCATTER(J_S, 60, 27, w50);
+  GAGEN_SCATTER(out_J_S, 60, 27, w50);
   w50 = w10 * w83;
   w103 = w103 - w74;
   w103 = w103 - w76;
   w87 = w87 * w103;
   w50 = w50 - w87;
-  GAGEN_SCATTER(J_S, 60, 28, w50);
+  GAGEN_SCATTER(out_J_S, 60, 28, w50);
   w10 = w10 * w13;
   w38 = w38 * w103;
   w10 = w10 - w38;
   w10 = -w10;
-  GAGEN_SCATTER(J_S, 60, 29, w10);
-  GAGEN_SCATTER(J_S, 60, 30, w91);
+  GAGEN_SCATTER(out_J_S, 60, 29, w10);
+  GAGEN_SCATTER(out_J_S, 60, 30, w91);
   w10 = -w15;
-  GAGEN_SCATTER(J_S, 60, 31, w10);
-  GAGEN_SCATTER(J_S, 60, 32, w31);
+  GAGEN_SCATTER(out_J_S, 60, 31, w10);
+  GAGEN_SCATTER(out_J_S, 60, 32, w31);
   w13 = w13 - w53;
   w10 = gagen_v_splat(0.1032);
   w38 = w10 * w15;
@@ -11842,22 +11842,22 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w83 = w83 - w50;
   w50 = w15 * w83;
   w38 = w38 - w50;
-  GAGEN_SCATTER(J_S, 60, 33, w38);
+  GAGEN_SCATTER(out_J_S, 60, 33, w38);
   w83 = w31 * w83;
   w103 = w103 - w77;
   w10 = w10 * w31;
   w103 = w103 - w10;
   w91 = w91 * w103;
   w83 = w83 - w91;
-  GAGEN_SCATTER(J_S, 60, 34, w83);
+  GAGEN_SCATTER(out_J_S, 60, 34, w83);
   w31 = w31 * w13;
   w15 = w15 * w103;
   w31 = w31 - w15;
   w31 = -w31;
-  GAGEN_SCATTER(J_S, 60, 35, w31);
-  GAGEN_SCATTER(J_S, 60, 36, w96);
-  GAGEN_SCATTER(J_S, 60, 37, w60);
-  GAGEN_SCATTER(J_S, 60, 38, w23);
+  GAGEN_SCATTER(out_J_S, 60, 35, w31);
+  GAGEN_SCATTER(out_J_S, 60, 36, w96);
+  GAGEN_SCATTER(out_J_S, 60, 37, w60);
+  GAGEN_SCATTER(out_J_S, 60, 38, w23);
   w31 = w44 + w71;
   w31 = w31 - w40;
   w31 = w31 - w37;
@@ -11872,7 +11872,7 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w103 = w103 - w101;
   w13 = w60 * w103;
   w15 = w15 + w13;
-  GAGEN_SCATTER(J_S, 60, 39, w15);
+  GAGEN_SCATTER(out_J_S, 60, 39, w15);
   w103 = w23 * w103;
   w15 = w29 - w70;
   w15 = w15 - w8;
@@ -11883,15 +11883,15 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w15 = w15 - w78;
   w96 = w96 * w15;
   w103 = w103 - w96;
-  GAGEN_SCATTER(J_S, 60, 40, w103);
+  GAGEN_SCATTER(out_J_S, 60, 40, w103);
   w60 = w60 * w15;
   w23 = w23 * w31;
   w60 = w60 + w23;
   w60 = -w60;
-  GAGEN_SCATTER(J_S, 60, 41, w60);
-  GAGEN_SCATTER(J_S, 60, 42, w93);
-  GAGEN_SCATTER(J_S, 60, 43, w47);
-  GAGEN_SCATTER(J_S, 60, 44, w32);
+  GAGEN_SCATTER(out_J_S, 60, 41, w60);
+  GAGEN_SCATTER(out_J_S, 60, 42, w93);
+  GAGEN_SCATTER(out_J_S, 60, 43, w47);
+  GAGEN_SCATTER(out_J_S, 60, 44, w32);
   w60 = gagen_v_splat(0.1);
   w25 = w60 * w25;
   w44 = w44 + w25;
@@ -11915,7 +11915,7 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w92 = w92 - w89;
   w61 = w47 * w92;
   w64 = w64 + w61;
-  GAGEN_SCATTER(J_S, 60, 45, w64);
+  GAGEN_SCATTER(out_J_S, 60, 45, w64);
   w92 = w32 * w92;
   w60 = w60 * w32;
   w29 = w29 + w60;
@@ -11930,15 +11930,15 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w29 = w29 - w62;
   w60 = w93 * w29;
   w92 = w92 - w60;
-  GAGEN_SCATTER(J_S, 60, 46, w92);
+  GAGEN_SCATTER(out_J_S, 60, 46, w92);
   w29 = w47 * w29;
   w44 = w32 * w44;
   w29 = w29 + w44;
   w29 = -w29;
-  GAGEN_SCATTER(J_S, 60, 47, w29);
-  GAGEN_SCATTER(J_S, 60, 48, w99);
-  GAGEN_SCATTER(J_S, 60, 49, w19);
-  GAGEN_SCATTER(J_S, 60, 50, w67);
+  GAGEN_SCATTER(out_J_S, 60, 47, w29);
+  GAGEN_SCATTER(out_J_S, 60, 48, w99);
+  GAGEN_SCATTER(out_J_S, 60, 49, w19);
+  GAGEN_SCATTER(out_J_S, 60, 50, w67);
   w58 = w58 + w71;
   w58 = w58 - w40;
   w58 = w58 - w37;
@@ -11955,7 +11955,7 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w90 = w90 - w89;
   w44 = w19 * w90;
   w29 = w29 + w44;
-  GAGEN_SCATTER(J_S, 60, 51, w29);
+  GAGEN_SCATTER(out_J_S, 60, 51, w29);
   w90 = w67 * w90;
   w55 = w55 - w70;
   w55 = w55 - w8;
@@ -11968,24 +11968,24 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w55 = w55 - w62;
   w99 = w99 * w55;
   w90 = w90 - w99;
-  GAGEN_SCATTER(J_S, 60, 52, w90);
+  GAGEN_SCATTER(out_J_S, 60, 52, w90);
   w19 = w19 * w55;
   w67 = w67 * w58;
   w19 = w19 + w67;
   w19 = -w19;
-  GAGEN_SCATTER(J_S, 60, 53, w19);
+  GAGEN_SCATTER(out_J_S, 60, 53, w19);
   w93 = w66 * w93;
   w95 = w16 * w95;
   w93 = w93 + w95;
-  GAGEN_SCATTER(J_S, 60, 54, w93);
+  GAGEN_SCATTER(out_J_S, 60, 54, w93);
   w47 = w66 * w47;
   w63 = w16 * w63;
   w47 = w47 - w63;
-  GAGEN_SCATTER(J_S, 60, 55, w47);
+  GAGEN_SCATTER(out_J_S, 60, 55, w47);
   w66 = w66 * w32;
   w16 = w16 * w56;
   w66 = w66 + w16;
-  GAGEN_SCATTER(J_S, 60, 56, w66);
+  GAGEN_SCATTER(out_J_S, 60, 56, w66);
   w57 = w57 + w71;
   w57 = w57 - w40;
   w57 = w57 - w37;
@@ -12002,7 +12002,7 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w97 = w97 - w89;
   w89 = w47 * w97;
   w79 = w79 + w89;
-  GAGEN_SCATTER(J_S, 60, 57, w79);
+  GAGEN_SCATTER(out_J_S, 60, 57, w79);
   w97 = w66 * w97;
   w65 = w65 - w70;
   w65 = w65 - w8;
@@ -12015,30 +12015,30 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block(const double *restric
   w65 = w65 - w62;
   w93 = w93 * w65;
   w97 = w97 - w93;
-  GAGEN_SCATTER(J_S, 60, 58, w97);
+  GAGEN_SCATTER(out_J_S, 60, 58, w97);
   w47 = w47 * w65;
   w66 = w66 * w57;
   w47 = w47 + w66;
   w47 = -w47;
-  GAGEN_SCATTER(J_S, 60, 59, w47);
+  GAGEN_SCATTER(out_J_S, 60, 59, w47);
 }
 #endif
 
-void two_g1_sphere_g1b_right_hand_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void two_g1_sphere_g1b_right_hand_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 60 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 60 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 60 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 60 * gagen_a + gagen_o, 1, 0);
     }
-    two_g1_sphere_g1b_right_hand_fk_jacobian_block(q + 10 * s, M + 8 * s, P + 5 * s, J_S + 60 * s);
+    two_g1_sphere_g1b_right_hand_fk_jacobian_block(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 60 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    two_g1_sphere_g1b_right_hand_fk_jacobian(q + 10 * s, M + 8 * s, P + 5 * s, J_S + 60 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    two_g1_sphere_g1b_right_hand_fk_jacobian(in_q + 10 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 60 * gagen_s);
   }
 }
 
@@ -12048,7 +12048,7 @@ void two_g1_sphere_g1b_right_hand_fk_jacobian_batch(long n, const double *restri
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -12061,14 +12061,14 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w0 = gagen_v_splat(0.9902682552548409);
   w1 = gagen_v_splat(9.868683842420437e-05);
   w2 = gagen_v_splat(0.5);
-  w3 = GAGEN_GATHER(q, 10, 0);
+  w3 = GAGEN_GATHER(in_q, 10, 0);
   w3 = w2 * w3;
   w4 = gagen_v_sin(w3);
-  w5 = GAGEN_GATHER(q, 10, 1);
+  w5 = GAGEN_GATHER(in_q, 10, 1);
   w5 = w2 * w5;
   w6 = gagen_v_sin(w5);
   w7 = w4 * w6;
-  w8 = GAGEN_GATHER(q, 10, 2);
+  w8 = GAGEN_GATHER(in_q, 10, 2);
   w8 = w2 * w8;
   w9 = gagen_v_sin(w8);
   w10 = w7 * w9;
@@ -12099,7 +12099,7 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w11 = w11 + w7;
   w7 = w18 * w11;
   w14 = w14 - w7;
-  w7 = GAGEN_GATHER(q, 10, 3);
+  w7 = GAGEN_GATHER(in_q, 10, 3);
   w7 = w2 * w7;
   w22 = gagen_v_cos(w7);
   w23 = w14 * w22;
@@ -12136,7 +12136,7 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w10 = w10 - w15;
   w15 = w25 * w10;
   w17 = w17 + w15;
-  w15 = GAGEN_GATHER(q, 10, 4);
+  w15 = GAGEN_GATHER(in_q, 10, 4);
   w15 = w2 * w15;
   w11 = gagen_v_cos(w15);
   w18 = w17 * w11;
@@ -12147,7 +12147,7 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w15 = gagen_v_sin(w15);
   w10 = w19 * w15;
   w18 = w18 + w10;
-  w10 = GAGEN_GATHER(q, 10, 5);
+  w10 = GAGEN_GATHER(in_q, 10, 5);
   w10 = w2 * w10;
   w23 = gagen_v_cos(w10);
   w20 = w18 * w23;
@@ -12169,7 +12169,7 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w10 = gagen_v_sin(w10);
   w25 = w24 * w10;
   w20 = w20 + w25;
-  w25 = GAGEN_GATHER(q, 10, 6);
+  w25 = GAGEN_GATHER(in_q, 10, 6);
   w25 = w2 * w25;
   w1 = gagen_v_cos(w25);
   w14 = w20 * w1;
@@ -12185,7 +12185,7 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w25 = gagen_v_sin(w25);
   w17 = w12 * w25;
   w14 = w14 - w17;
-  w17 = GAGEN_GATHER(q, 10, 7);
+  w17 = GAGEN_GATHER(in_q, 10, 7);
   w17 = w2 * w17;
   w21 = gagen_v_cos(w17);
   w13 = w14 * w21;
@@ -12201,7 +12201,7 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w17 = gagen_v_sin(w17);
   w18 = w0 * w17;
   w13 = w13 + w18;
-  w18 = GAGEN_GATHER(q, 10, 8);
+  w18 = GAGEN_GATHER(in_q, 10, 8);
   w18 = w2 * w18;
   w16 = gagen_v_cos(w18);
   w26 = w13 * w16;
@@ -12217,7 +12217,7 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w18 = gagen_v_sin(w18);
   w19 = w12 * w18;
   w26 = w26 - w19;
-  w19 = GAGEN_GATHER(q, 10, 9);
+  w19 = GAGEN_GATHER(in_q, 10, 9);
   w19 = w2 * w19;
   w27 = gagen_v_cos(w19);
   w28 = w26 * w27;
@@ -12233,11 +12233,11 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w19 = gagen_v_sin(w19);
   w14 = w20 * w19;
   w28 = w28 + w14;
-  GAGEN_SCATTER(M, 8, 0, w28);
+  GAGEN_SCATTER(out_M, 8, 0, w28);
   w20 = w20 * w27;
   w26 = w26 * w19;
   w20 = w20 - w26;
-  GAGEN_SCATTER(M, 8, 1, w20);
+  GAGEN_SCATTER(out_M, 8, 1, w20);
   w13 = w13 * w18;
   w12 = w12 * w16;
   w13 = w13 + w12;
@@ -12247,11 +12247,11 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w0 = w0 - w24;
   w24 = w0 * w19;
   w12 = w12 + w24;
-  GAGEN_SCATTER(M, 8, 2, w12);
+  GAGEN_SCATTER(out_M, 8, 2, w12);
   w0 = w0 * w27;
   w13 = w13 * w19;
   w0 = w0 - w13;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w13 = gagen_v_splat(0.007927);
   w24 = w3 * w4;
   w13 = w13 * w24;
@@ -12649,14 +12649,14 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w54 = w18 * w28;
   w80 = w80 - w54;
   w80 = w2 * w80;
-  GAGEN_SCATTER(M, 8, 4, w80);
+  GAGEN_SCATTER(out_M, 8, 4, w80);
   w80 = w98 * w0;
   w54 = w18 * w20;
   w80 = w80 - w54;
   w54 = w69 * w28;
   w80 = w80 - w54;
   w80 = w2 * w80;
-  GAGEN_SCATTER(M, 8, 5, w80);
+  GAGEN_SCATTER(out_M, 8, 5, w80);
   w80 = w18 * w12;
   w54 = w69 * w0;
   w80 = w80 + w54;
@@ -12664,44 +12664,44 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w80 = w80 + w28;
   w80 = w2 * w80;
   w80 = -w80;
-  GAGEN_SCATTER(M, 8, 6, w80);
+  GAGEN_SCATTER(out_M, 8, 6, w80);
   w12 = w69 * w12;
   w0 = w18 * w0;
   w12 = w12 - w0;
   w20 = w98 * w20;
   w12 = w12 - w20;
   w12 = w2 * w12;
-  GAGEN_SCATTER(M, 8, 7, w12);
+  GAGEN_SCATTER(out_M, 8, 7, w12);
   w12 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w12);
-  GAGEN_SCATTER(P, 5, 1, w18);
-  GAGEN_SCATTER(P, 5, 2, w69);
-  GAGEN_SCATTER(P, 5, 3, w98);
+  GAGEN_SCATTER(out_P, 5, 0, w12);
+  GAGEN_SCATTER(out_P, 5, 1, w18);
+  GAGEN_SCATTER(out_P, 5, 2, w69);
+  GAGEN_SCATTER(out_P, 5, 3, w98);
   w18 = w18 * w18;
   w69 = w69 * w69;
   w18 = w18 + w69;
   w98 = w98 * w98;
   w18 = w18 + w98;
   w2 = w2 * w18;
-  GAGEN_SCATTER(P, 5, 4, w2);
-  GAGEN_SCATTER(J_S, 60, 0, w12);
+  GAGEN_SCATTER(out_P, 5, 4, w2);
+  GAGEN_SCATTER(out_J_S, 60, 0, w12);
   w12 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 60, 1, w12);
-  GAGEN_SCATTER(J_S, 60, 2, w12);
-  GAGEN_SCATTER(J_S, 60, 3, w12);
+  GAGEN_SCATTER(out_J_S, 60, 1, w12);
+  GAGEN_SCATTER(out_J_S, 60, 2, w12);
+  GAGEN_SCATTER(out_J_S, 60, 3, w12);
   w2 = gagen_v_splat((-1.2));
-  GAGEN_SCATTER(J_S, 60, 4, w2);
-  GAGEN_SCATTER(J_S, 60, 5, w12);
-  GAGEN_SCATTER(J_S, 60, 6, w12);
-  GAGEN_SCATTER(J_S, 60, 7, w36);
+  GAGEN_SCATTER(out_J_S, 60, 4, w2);
+  GAGEN_SCATTER(out_J_S, 60, 5, w12);
+  GAGEN_SCATTER(out_J_S, 60, 6, w12);
+  GAGEN_SCATTER(out_J_S, 60, 7, w36);
   w12 = -w3;
-  GAGEN_SCATTER(J_S, 60, 8, w12);
+  GAGEN_SCATTER(out_J_S, 60, 8, w12);
   w12 = gagen_v_splat(0.07);
   w12 = w12 * w24;
-  GAGEN_SCATTER(J_S, 60, 9, w12);
+  GAGEN_SCATTER(out_J_S, 60, 9, w12);
   w81 = w81 * w3;
   w81 = -w81;
-  GAGEN_SCATTER(J_S, 60, 10, w81);
+  GAGEN_SCATTER(out_J_S, 60, 10, w81);
   w81 = gagen_v_splat(0.6);
   w12 = gagen_v_splat(0.00198175);
   w12 = w12 * w3;
@@ -12712,10 +12712,10 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w3 = w3 * w36;
   w3 = w94 * w3;
   w2 = w2 + w3;
-  GAGEN_SCATTER(J_S, 60, 11, w2);
-  GAGEN_SCATTER(J_S, 60, 12, w6);
-  GAGEN_SCATTER(J_S, 60, 13, w4);
-  GAGEN_SCATTER(J_S, 60, 14, w104);
+  GAGEN_SCATTER(out_J_S, 60, 11, w2);
+  GAGEN_SCATTER(out_J_S, 60, 12, w6);
+  GAGEN_SCATTER(out_J_S, 60, 13, w4);
+  GAGEN_SCATTER(out_J_S, 60, 14, w104);
   w2 = gagen_v_splat(0.0095);
   w17 = w2 * w17;
   w94 = w94 * w24;
@@ -12729,7 +12729,7 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w94 = -w94;
   w94 = w94 + w94;
   w94 = -w94;
-  GAGEN_SCATTER(J_S, 60, 15, w94);
+  GAGEN_SCATTER(out_J_S, 60, 15, w94);
   w2 = w2 * w30;
   w2 = w2 - w81;
   w2 = w2 - w12;
@@ -12737,21 +12737,21 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w24 = w104 * w24;
   w6 = w6 + w24;
   w6 = w6 + w6;
-  GAGEN_SCATTER(J_S, 60, 16, w6);
+  GAGEN_SCATTER(out_J_S, 60, 16, w6);
   w4 = w4 * w2;
   w104 = w104 * w17;
   w4 = w4 - w104;
   w4 = w4 + w4;
-  GAGEN_SCATTER(J_S, 60, 17, w4);
+  GAGEN_SCATTER(out_J_S, 60, 17, w4);
   w4 = gagen_v_splat(1.9224917487388276);
   w4 = w4 * w5;
   w51 = w51 * w84;
   w4 = w4 + w51;
   w52 = w52 * w86;
   w4 = w4 - w52;
-  GAGEN_SCATTER(J_S, 60, 18, w4);
-  GAGEN_SCATTER(J_S, 60, 19, w50);
-  GAGEN_SCATTER(J_S, 60, 20, w46);
+  GAGEN_SCATTER(out_J_S, 60, 18, w4);
+  GAGEN_SCATTER(out_J_S, 60, 19, w50);
+  GAGEN_SCATTER(out_J_S, 60, 20, w46);
   w13 = w13 + w71;
   w13 = w13 - w40;
   w13 = w13 - w37;
@@ -12765,23 +12765,23 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w82 = w82 - w73;
   w73 = w50 * w82;
   w52 = w52 + w73;
-  GAGEN_SCATTER(J_S, 60, 21, w52);
+  GAGEN_SCATTER(out_J_S, 60, 21, w52);
   w82 = w46 * w82;
   w103 = w103 - w70;
   w103 = w103 - w8;
   w103 = w103 - w35;
   w4 = w4 * w103;
   w82 = w82 - w4;
-  GAGEN_SCATTER(J_S, 60, 22, w82);
+  GAGEN_SCATTER(out_J_S, 60, 22, w82);
   w50 = w50 * w103;
   w46 = w46 * w13;
   w50 = w50 + w46;
   w50 = -w50;
-  GAGEN_SCATTER(J_S, 60, 23, w50);
-  GAGEN_SCATTER(J_S, 60, 24, w87);
+  GAGEN_SCATTER(out_J_S, 60, 23, w50);
+  GAGEN_SCATTER(out_J_S, 60, 24, w87);
   w50 = -w38;
-  GAGEN_SCATTER(J_S, 60, 25, w50);
-  GAGEN_SCATTER(J_S, 60, 26, w10);
+  GAGEN_SCATTER(out_J_S, 60, 25, w50);
+  GAGEN_SCATTER(out_J_S, 60, 26, w10);
   w13 = w13 + w75;
   w13 = w13 - w43;
   w50 = w87 * w13;
@@ -12789,22 +12789,22 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w83 = w83 - w85;
   w46 = w38 * w83;
   w50 = w50 - w46;
-  GAGEN_SCATTER(J_S, 60, 27, w50);
+  GAGEN_SCATTER(out_J_S, 60, 27, w50);
   w50 = w10 * w83;
   w103 = w103 - w74;
   w103 = w103 - w76;
   w87 = w87 * w103;
   w50 = w50 - w87;
-  GAGEN_SCATTER(J_S, 60, 28, w50);
+  GAGEN_SCATTER(out_J_S, 60, 28, w50);
   w10 = w10 * w13;
   w38 = w38 * w103;
   w10 = w10 - w38;
   w10 = -w10;
-  GAGEN_SCATTER(J_S, 60, 29, w10);
-  GAGEN_SCATTER(J_S, 60, 30, w91);
+  GAGEN_SCATTER(out_J_S, 60, 29, w10);
+  GAGEN_SCATTER(out_J_S, 60, 30, w91);
   w10 = -w15;
-  GAGEN_SCATTER(J_S, 60, 31, w10);
-  GAGEN_SCATTER(J_S, 60, 32, w31);
+  GAGEN_SCATTER(out_J_S, 60, 31, w10);
+  GAGEN_SCATTER(out_J_S, 60, 32, w31);
   w13 = w13 - w53;
   w10 = gagen_v_splat(0.1032);
   w38 = w10 * w15;
@@ -12815,22 +12815,22 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w83 = w83 - w50;
   w50 = w15 * w83;
   w38 = w38 - w50;
-  GAGEN_SCATTER(J_S, 60, 33, w38);
+  GAGEN_SCATTER(out_J_S, 60, 33, w38);
   w83 = w31 * w83;
   w103 = w103 - w77;
   w10 = w10 * w31;
   w103 = w103 - w10;
   w91 = w91 * w103;
   w83 = w83 - w91;
-  GAGEN_SCATTER(J_S, 60, 34, w83);
+  GAGEN_SCATTER(out_J_S, 60, 34, w83);
   w31 = w31 * w13;
   w15 = w15 * w103;
   w31 = w31 - w15;
   w31 = -w31;
-  GAGEN_SCATTER(J_S, 60, 35, w31);
-  GAGEN_SCATTER(J_S, 60, 36, w96);
-  GAGEN_SCATTER(J_S, 60, 37, w60);
-  GAGEN_SCATTER(J_S, 60, 38, w23);
+  GAGEN_SCATTER(out_J_S, 60, 35, w31);
+  GAGEN_SCATTER(out_J_S, 60, 36, w96);
+  GAGEN_SCATTER(out_J_S, 60, 37, w60);
+  GAGEN_SCATTER(out_J_S, 60, 38, w23);
   w31 = w44 + w71;
   w31 = w31 - w40;
   w31 = w31 - w37;
@@ -12845,7 +12845,7 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w103 = w103 - w101;
   w13 = w60 * w103;
   w15 = w15 + w13;
-  GAGEN_SCATTER(J_S, 60, 39, w15);
+  GAGEN_SCATTER(out_J_S, 60, 39, w15);
   w103 = w23 * w103;
   w15 = w29 - w70;
   w15 = w15 - w8;
@@ -12856,15 +12856,15 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w15 = w15 - w78;
   w96 = w96 * w15;
   w103 = w103 - w96;
-  GAGEN_SCATTER(J_S, 60, 40, w103);
+  GAGEN_SCATTER(out_J_S, 60, 40, w103);
   w60 = w60 * w15;
   w23 = w23 * w31;
   w60 = w60 + w23;
   w60 = -w60;
-  GAGEN_SCATTER(J_S, 60, 41, w60);
-  GAGEN_SCATTER(J_S, 60, 42, w93);
-  GAGEN_SCATTER(J_S, 60, 43, w47);
-  GAGEN_SCATTER(J_S, 60, 44, w32);
+  GAGEN_SCATTER(out_J_S, 60, 41, w60);
+  GAGEN_SCATTER(out_J_S, 60, 42, w93);
+  GAGEN_SCATTER(out_J_S, 60, 43, w47);
+  GAGEN_SCATTER(out_J_S, 60, 44, w32);
   w60 = gagen_v_splat(0.1);
   w25 = w60 * w25;
   w44 = w44 + w25;
@@ -12888,7 +12888,7 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w92 = w92 - w89;
   w61 = w47 * w92;
   w64 = w64 + w61;
-  GAGEN_SCATTER(J_S, 60, 45, w64);
+  GAGEN_SCATTER(out_J_S, 60, 45, w64);
   w92 = w32 * w92;
   w60 = w60 * w32;
   w29 = w29 + w60;
@@ -12903,15 +12903,15 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w29 = w29 - w62;
   w60 = w93 * w29;
   w92 = w92 - w60;
-  GAGEN_SCATTER(J_S, 60, 46, w92);
+  GAGEN_SCATTER(out_J_S, 60, 46, w92);
   w29 = w47 * w29;
   w44 = w32 * w44;
   w29 = w29 + w44;
   w29 = -w29;
-  GAGEN_SCATTER(J_S, 60, 47, w29);
-  GAGEN_SCATTER(J_S, 60, 48, w99);
-  GAGEN_SCATTER(J_S, 60, 49, w19);
-  GAGEN_SCATTER(J_S, 60, 50, w67);
+  GAGEN_SCATTER(out_J_S, 60, 47, w29);
+  GAGEN_SCATTER(out_J_S, 60, 48, w99);
+  GAGEN_SCATTER(out_J_S, 60, 49, w19);
+  GAGEN_SCATTER(out_J_S, 60, 50, w67);
   w58 = w58 + w71;
   w58 = w58 - w40;
   w58 = w58 - w37;
@@ -12928,7 +12928,7 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w90 = w90 - w89;
   w44 = w19 * w90;
   w29 = w29 + w44;
-  GAGEN_SCATTER(J_S, 60, 51, w29);
+  GAGEN_SCATTER(out_J_S, 60, 51, w29);
   w90 = w67 * w90;
   w55 = w55 - w70;
   w55 = w55 - w8;
@@ -12941,24 +12941,24 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w55 = w55 - w62;
   w99 = w99 * w55;
   w90 = w90 - w99;
-  GAGEN_SCATTER(J_S, 60, 52, w90);
+  GAGEN_SCATTER(out_J_S, 60, 52, w90);
   w19 = w19 * w55;
   w67 = w67 * w58;
   w19 = w19 + w67;
   w19 = -w19;
-  GAGEN_SCATTER(J_S, 60, 53, w19);
+  GAGEN_SCATTER(out_J_S, 60, 53, w19);
   w93 = w66 * w93;
   w95 = w16 * w95;
   w93 = w93 + w95;
-  GAGEN_SCATTER(J_S, 60, 54, w93);
+  GAGEN_SCATTER(out_J_S, 60, 54, w93);
   w47 = w66 * w47;
   w63 = w16 * w63;
   w47 = w47 - w63;
-  GAGEN_SCATTER(J_S, 60, 55, w47);
+  GAGEN_SCATTER(out_J_S, 60, 55, w47);
   w66 = w66 * w32;
   w16 = w16 * w56;
   w66 = w66 + w16;
-  GAGEN_SCATTER(J_S, 60, 56, w66);
+  GAGEN_SCATTER(out_J_S, 60, 56, w66);
   w57 = w57 + w71;
   w57 = w57 - w40;
   w57 = w57 - w37;
@@ -12975,7 +12975,7 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w97 = w97 - w89;
   w89 = w47 * w97;
   w79 = w79 + w89;
-  GAGEN_SCATTER(J_S, 60, 57, w79);
+  GAGEN_SCATTER(out_J_S, 60, 57, w79);
   w97 = w66 * w97;
   w65 = w65 - w70;
   w65 = w65 - w8;
@@ -12988,12 +12988,12 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
   w65 = w65 - w62;
   w93 = w93 * w65;
   w97 = w97 - w93;
-  GAGEN_SCATTER(J_S, 60, 58, w97);
+  GAGEN_SCATTER(out_J_S, 60, 58, w97);
   w47 = w47 * w65;
   w66 = w66 * w57;
   w47 = w47 + w66;
   w47 = -w47;
-  GAGEN_SCATTER(J_S, 60, 59, w47);
+  GAGEN_SCATTER(out_J_S, 60, 59, w47);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -13001,14 +13001,14 @@ static void two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(long gagen_ld
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void two_g1_sphere_g1b_right_hand_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void two_g1_sphere_g1b_right_hand_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 73L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 73L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    two_g1_sphere_g1b_right_hand_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  two_g1_sphere_g1b_right_hand_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  two_g1_sphere_g1b_right_hand_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }

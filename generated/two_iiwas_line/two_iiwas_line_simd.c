@@ -149,20 +149,20 @@ static inline void gagen_stream_fence(int stream) {
 
 #if GAGEN_SIMD
 /* chain arm0: motor and end point: GAGEN_W consecutive samples at once */
-static void two_iiwas_line_arm0_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void two_iiwas_line_arm0_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_sin(w7);
   w9 = w6 * w8;
@@ -179,7 +179,7 @@ static void two_iiwas_line_arm0_fk_block(const double *restrict q, double *restr
   w16 = w15 * w8;
   w12 = w12 - w16;
   w12 = w12 + w12;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w1 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w12 * w18;
@@ -206,7 +206,7 @@ static void two_iiwas_line_arm0_fk_block(const double *restrict q, double *restr
   w13 = w13 + w13;
   w10 = w13 * w17;
   w9 = w9 - w10;
-  w15 = GAGEN_GATHER(q, 7, 4);
+  w15 = GAGEN_GATHER(in_q, 7, 4);
   w15 = w1 * w15;
   w6 = gagen_v_cos(w15);
   w21 = w9 * w6;
@@ -230,7 +230,7 @@ static void two_iiwas_line_arm0_fk_block(const double *restrict q, double *restr
   w11 = w11 - w12;
   w12 = w11 * w15;
   w19 = w19 - w12;
-  w13 = GAGEN_GATHER(q, 7, 5);
+  w13 = GAGEN_GATHER(in_q, 7, 5);
   w13 = w1 * w13;
   w14 = gagen_v_cos(w13);
   w23 = w19 * w14;
@@ -254,7 +254,7 @@ static void two_iiwas_line_arm0_fk_block(const double *restrict q, double *restr
   w20 = w20 - w16;
   w16 = w20 * w13;
   w26 = w26 - w16;
-  w9 = GAGEN_GATHER(q, 7, 6);
+  w9 = GAGEN_GATHER(in_q, 7, 6);
   w9 = w1 * w9;
   w11 = gagen_v_cos(w9);
   w22 = w26 * w11;
@@ -269,12 +269,12 @@ static void two_iiwas_line_arm0_fk_block(const double *restrict q, double *restr
   w27 = w10 * w9;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w10 = w10 * w11;
   w26 = w26 * w9;
   w10 = w10 - w26;
   w10 = w0 * w10;
-  GAGEN_SCATTER(M, 8, 1, w10);
+  GAGEN_SCATTER(out_M, 8, 1, w10);
   w24 = w24 + w19;
   w24 = w24 + w20;
   w24 = w24 - w12;
@@ -285,12 +285,12 @@ static void two_iiwas_line_arm0_fk_block(const double *restrict q, double *restr
   w16 = w25 * w9;
   w12 = w12 + w16;
   w12 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 2, w12);
+  GAGEN_SCATTER(out_M, 8, 2, w12);
   w25 = w25 * w11;
   w24 = w24 * w9;
   w25 = w25 - w24;
   w0 = w0 * w25;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w25 = gagen_v_splat(0.4);
   w24 = w18 * w18;
   w9 = w17 * w17;
@@ -407,14 +407,14 @@ static void two_iiwas_line_arm0_fk_block(const double *restrict q, double *restr
   w28 = w25 * w22;
   w3 = w3 - w28;
   w3 = w1 * w3;
-  GAGEN_SCATTER(M, 8, 4, w3);
+  GAGEN_SCATTER(out_M, 8, 4, w3);
   w3 = w21 * w0;
   w28 = w25 * w10;
   w3 = w3 - w28;
   w28 = w8 * w22;
   w3 = w3 - w28;
   w3 = w1 * w3;
-  GAGEN_SCATTER(M, 8, 5, w3);
+  GAGEN_SCATTER(out_M, 8, 5, w3);
   w3 = w25 * w12;
   w28 = w8 * w0;
   w3 = w3 + w28;
@@ -422,43 +422,43 @@ static void two_iiwas_line_arm0_fk_block(const double *restrict q, double *restr
   w3 = w3 + w22;
   w3 = w1 * w3;
   w3 = -w3;
-  GAGEN_SCATTER(M, 8, 6, w3);
+  GAGEN_SCATTER(out_M, 8, 6, w3);
   w12 = w8 * w12;
   w0 = w25 * w0;
   w12 = w12 - w0;
   w10 = w21 * w10;
   w12 = w12 - w10;
   w12 = w1 * w12;
-  GAGEN_SCATTER(M, 8, 7, w12);
+  GAGEN_SCATTER(out_M, 8, 7, w12);
   w12 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w12);
-  GAGEN_SCATTER(P, 5, 1, w25);
-  GAGEN_SCATTER(P, 5, 2, w8);
-  GAGEN_SCATTER(P, 5, 3, w21);
+  GAGEN_SCATTER(out_P, 5, 0, w12);
+  GAGEN_SCATTER(out_P, 5, 1, w25);
+  GAGEN_SCATTER(out_P, 5, 2, w8);
+  GAGEN_SCATTER(out_P, 5, 3, w21);
   w25 = w25 * w25;
   w8 = w8 * w8;
   w25 = w25 + w8;
   w21 = w21 * w21;
   w25 = w25 + w21;
   w1 = w1 * w25;
-  GAGEN_SCATTER(P, 5, 4, w1);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
 }
 #endif
 
-void two_iiwas_line_arm0_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void two_iiwas_line_arm0_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    two_iiwas_line_arm0_fk_block(q + 7 * s, M + 8 * s, P + 5 * s);
+    two_iiwas_line_arm0_fk_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    two_iiwas_line_arm0_fk(q + 7 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    two_iiwas_line_arm0_fk(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -468,20 +468,20 @@ void two_iiwas_line_arm0_fk_batch(long n, const double *restrict q, double *rest
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void two_iiwas_line_arm0_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void two_iiwas_line_arm0_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_sin(w7);
   w9 = w6 * w8;
@@ -498,7 +498,7 @@ static void two_iiwas_line_arm0_fk_block_columns(long gagen_ld, int gagen_stream
   w16 = w15 * w8;
   w12 = w12 - w16;
   w12 = w12 + w12;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w1 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w12 * w18;
@@ -525,7 +525,7 @@ static void two_iiwas_line_arm0_fk_block_columns(long gagen_ld, int gagen_stream
   w13 = w13 + w13;
   w10 = w13 * w17;
   w9 = w9 - w10;
-  w15 = GAGEN_GATHER(q, 7, 4);
+  w15 = GAGEN_GATHER(in_q, 7, 4);
   w15 = w1 * w15;
   w6 = gagen_v_cos(w15);
   w21 = w9 * w6;
@@ -549,7 +549,7 @@ static void two_iiwas_line_arm0_fk_block_columns(long gagen_ld, int gagen_stream
   w11 = w11 - w12;
   w12 = w11 * w15;
   w19 = w19 - w12;
-  w13 = GAGEN_GATHER(q, 7, 5);
+  w13 = GAGEN_GATHER(in_q, 7, 5);
   w13 = w1 * w13;
   w14 = gagen_v_cos(w13);
   w23 = w19 * w14;
@@ -573,7 +573,7 @@ static void two_iiwas_line_arm0_fk_block_columns(long gagen_ld, int gagen_stream
   w20 = w20 - w16;
   w16 = w20 * w13;
   w26 = w26 - w16;
-  w9 = GAGEN_GATHER(q, 7, 6);
+  w9 = GAGEN_GATHER(in_q, 7, 6);
   w9 = w1 * w9;
   w11 = gagen_v_cos(w9);
   w22 = w26 * w11;
@@ -588,12 +588,12 @@ static void two_iiwas_line_arm0_fk_block_columns(long gagen_ld, int gagen_stream
   w27 = w10 * w9;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w10 = w10 * w11;
   w26 = w26 * w9;
   w10 = w10 - w26;
   w10 = w0 * w10;
-  GAGEN_SCATTER(M, 8, 1, w10);
+  GAGEN_SCATTER(out_M, 8, 1, w10);
   w24 = w24 + w19;
   w24 = w24 + w20;
   w24 = w24 - w12;
@@ -604,12 +604,12 @@ static void two_iiwas_line_arm0_fk_block_columns(long gagen_ld, int gagen_stream
   w16 = w25 * w9;
   w12 = w12 + w16;
   w12 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 2, w12);
+  GAGEN_SCATTER(out_M, 8, 2, w12);
   w25 = w25 * w11;
   w24 = w24 * w9;
   w25 = w25 - w24;
   w0 = w0 * w25;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w25 = gagen_v_splat(0.4);
   w24 = w18 * w18;
   w9 = w17 * w17;
@@ -726,14 +726,14 @@ static void two_iiwas_line_arm0_fk_block_columns(long gagen_ld, int gagen_stream
   w28 = w25 * w22;
   w3 = w3 - w28;
   w3 = w1 * w3;
-  GAGEN_SCATTER(M, 8, 4, w3);
+  GAGEN_SCATTER(out_M, 8, 4, w3);
   w3 = w21 * w0;
   w28 = w25 * w10;
   w3 = w3 - w28;
   w28 = w8 * w22;
   w3 = w3 - w28;
   w3 = w1 * w3;
-  GAGEN_SCATTER(M, 8, 5, w3);
+  GAGEN_SCATTER(out_M, 8, 5, w3);
   w3 = w25 * w12;
   w28 = w8 * w0;
   w3 = w3 + w28;
@@ -741,26 +741,26 @@ static void two_iiwas_line_arm0_fk_block_columns(long gagen_ld, int gagen_stream
   w3 = w3 + w22;
   w3 = w1 * w3;
   w3 = -w3;
-  GAGEN_SCATTER(M, 8, 6, w3);
+  GAGEN_SCATTER(out_M, 8, 6, w3);
   w12 = w8 * w12;
   w0 = w25 * w0;
   w12 = w12 - w0;
   w10 = w21 * w10;
   w12 = w12 - w10;
   w12 = w1 * w12;
-  GAGEN_SCATTER(M, 8, 7, w12);
+  GAGEN_SCATTER(out_M, 8, 7, w12);
   w12 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w12);
-  GAGEN_SCATTER(P, 5, 1, w25);
-  GAGEN_SCATTER(P, 5, 2, w8);
-  GAGEN_SCATTER(P, 5, 3, w21);
+  GAGEN_SCATTER(out_P, 5, 0, w12);
+  GAGEN_SCATTER(out_P, 5, 1, w25);
+  GAGEN_SCATTER(out_P, 5, 2, w8);
+  GAGEN_SCATTER(out_P, 5, 3, w21);
   w25 = w25 * w25;
   w8 = w8 * w8;
   w25 = w25 + w8;
   w21 = w21 * w21;
   w25 = w25 + w21;
   w1 = w1 * w25;
-  GAGEN_SCATTER(P, 5, 4, w1);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -768,35 +768,35 @@ static void two_iiwas_line_arm0_fk_block_columns(long gagen_ld, int gagen_stream
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void two_iiwas_line_arm0_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void two_iiwas_line_arm0_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    two_iiwas_line_arm0_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    two_iiwas_line_arm0_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  two_iiwas_line_arm0_fk_columns_from(s, n, ld, q, M, P);
+  two_iiwas_line_arm0_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain arm0: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void two_iiwas_line_arm0_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void two_iiwas_line_arm0_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   gagen_v w36, w37, w38, w39, w40, w41, w42, w43, w44, w45;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_sin(w7);
   w9 = w6 * w8;
@@ -813,7 +813,7 @@ static void two_iiwas_line_arm0_fk_jacobian_block(const double *restrict q, doub
   w16 = w15 * w8;
   w12 = w12 - w16;
   w12 = w12 + w12;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w1 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w12 * w18;
@@ -840,7 +840,7 @@ static void two_iiwas_line_arm0_fk_jacobian_block(const double *restrict q, doub
   w13 = w13 + w13;
   w10 = w13 * w17;
   w9 = w9 - w10;
-  w15 = GAGEN_GATHER(q, 7, 4);
+  w15 = GAGEN_GATHER(in_q, 7, 4);
   w15 = w1 * w15;
   w6 = gagen_v_cos(w15);
   w21 = w9 * w6;
@@ -864,7 +864,7 @@ static void two_iiwas_line_arm0_fk_jacobian_block(const double *restrict q, doub
   w11 = w11 - w12;
   w12 = w11 * w15;
   w19 = w19 - w12;
-  w13 = GAGEN_GATHER(q, 7, 5);
+  w13 = GAGEN_GATHER(in_q, 7, 5);
   w13 = w1 * w13;
   w14 = gagen_v_cos(w13);
   w23 = w19 * w14;
@@ -888,7 +888,7 @@ static void two_iiwas_line_arm0_fk_jacobian_block(const double *restrict q, doub
   w20 = w20 - w16;
   w16 = w20 * w13;
   w26 = w26 - w16;
-  w9 = GAGEN_GATHER(q, 7, 6);
+  w9 = GAGEN_GATHER(in_q, 7, 6);
   w9 = w1 * w9;
   w11 = gagen_v_cos(w9);
   w22 = w26 * w11;
@@ -903,12 +903,12 @@ static void two_iiwas_line_arm0_fk_jacobian_block(const double *restrict q, doub
   w27 = w10 * w9;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w10 = w10 * w11;
   w26 = w26 * w9;
   w10 = w10 - w26;
   w10 = w0 * w10;
-  GAGEN_SCATTER(M, 8, 1, w10);
+  GAGEN_SCATTER(out_M, 8, 1, w10);
   w24 = w24 + w19;
   w24 = w24 + w20;
   w24 = w24 - w12;
@@ -919,12 +919,12 @@ static void two_iiwas_line_arm0_fk_jacobian_block(const double *restrict q, doub
   w16 = w25 * w9;
   w12 = w12 + w16;
   w12 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 2, w12);
+  GAGEN_SCATTER(out_M, 8, 2, w12);
   w25 = w25 * w11;
   w24 = w24 * w9;
   w25 = w25 - w24;
   w0 = w0 * w25;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w25 = gagen_v_splat(0.4);
   w24 = w18 * w18;
   w9 = w17 * w17;
@@ -1041,14 +1041,14 @@ static void two_iiwas_line_arm0_fk_jacobian_block(const double *restrict q, doub
   w4 = w19 * w22;
   w35 = w35 - w4;
   w35 = w1 * w35;
-  GAGEN_SCATTER(M, 8, 4, w35);
+  GAGEN_SCATTER(out_M, 8, 4, w35);
   w35 = w43 * w0;
   w4 = w19 * w10;
   w35 = w35 - w4;
   w4 = w31 * w22;
   w35 = w35 - w4;
   w35 = w1 * w35;
-  GAGEN_SCATTER(M, 8, 5, w35);
+  GAGEN_SCATTER(out_M, 8, 5, w35);
   w35 = w19 * w12;
   w4 = w31 * w0;
   w35 = w35 + w4;
@@ -1056,52 +1056,52 @@ static void two_iiwas_line_arm0_fk_jacobian_block(const double *restrict q, doub
   w35 = w35 + w22;
   w35 = w1 * w35;
   w35 = -w35;
-  GAGEN_SCATTER(M, 8, 6, w35);
+  GAGEN_SCATTER(out_M, 8, 6, w35);
   w12 = w31 * w12;
   w0 = w19 * w0;
   w12 = w12 - w0;
   w10 = w43 * w10;
   w12 = w12 - w10;
   w12 = w1 * w12;
-  GAGEN_SCATTER(M, 8, 7, w12);
+  GAGEN_SCATTER(out_M, 8, 7, w12);
   w12 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w12);
-  GAGEN_SCATTER(P, 5, 1, w19);
-  GAGEN_SCATTER(P, 5, 2, w31);
-  GAGEN_SCATTER(P, 5, 3, w43);
+  GAGEN_SCATTER(out_P, 5, 0, w12);
+  GAGEN_SCATTER(out_P, 5, 1, w19);
+  GAGEN_SCATTER(out_P, 5, 2, w31);
+  GAGEN_SCATTER(out_P, 5, 3, w43);
   w19 = w19 * w19;
   w31 = w31 * w31;
   w19 = w19 + w31;
   w43 = w43 * w43;
   w19 = w19 + w43;
   w1 = w1 * w19;
-  GAGEN_SCATTER(P, 5, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 0, w12);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 0, w12);
   w12 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w12);
-  GAGEN_SCATTER(J_S, 42, 2, w12);
-  GAGEN_SCATTER(J_S, 42, 3, w12);
-  GAGEN_SCATTER(J_S, 42, 4, w26);
-  GAGEN_SCATTER(J_S, 42, 5, w12);
-  GAGEN_SCATTER(J_S, 42, 6, w12);
+  GAGEN_SCATTER(out_J_S, 42, 1, w12);
+  GAGEN_SCATTER(out_J_S, 42, 2, w12);
+  GAGEN_SCATTER(out_J_S, 42, 3, w12);
+  GAGEN_SCATTER(out_J_S, 42, 4, w26);
+  GAGEN_SCATTER(out_J_S, 42, 5, w12);
+  GAGEN_SCATTER(out_J_S, 42, 6, w12);
   w12 = -w2;
-  GAGEN_SCATTER(J_S, 42, 7, w12);
+  GAGEN_SCATTER(out_J_S, 42, 7, w12);
   w12 = -w21;
-  GAGEN_SCATTER(J_S, 42, 8, w12);
+  GAGEN_SCATTER(out_J_S, 42, 8, w12);
   w36 = w36 * w2;
   w36 = -w36;
-  GAGEN_SCATTER(J_S, 42, 9, w36);
+  GAGEN_SCATTER(out_J_S, 42, 9, w36);
   w36 = gagen_v_splat(0.72);
   w36 = w36 * w16;
   w36 = -w36;
-  GAGEN_SCATTER(J_S, 42, 10, w36);
+  GAGEN_SCATTER(out_J_S, 42, 10, w36);
   w2 = w26 * w2;
   w2 = -w2;
-  GAGEN_SCATTER(J_S, 42, 11, w2);
-  GAGEN_SCATTER(J_S, 42, 12, w5);
+  GAGEN_SCATTER(out_J_S, 42, 11, w2);
+  GAGEN_SCATTER(out_J_S, 42, 12, w5);
   w2 = -w33;
-  GAGEN_SCATTER(J_S, 42, 13, w2);
-  GAGEN_SCATTER(J_S, 42, 14, w17);
+  GAGEN_SCATTER(out_J_S, 42, 13, w2);
+  GAGEN_SCATTER(out_J_S, 42, 14, w17);
   w2 = gagen_v_splat(0.18);
   w36 = gagen_v_splat(0.10225);
   w16 = w36 * w5;
@@ -1114,14 +1114,14 @@ static void two_iiwas_line_arm0_fk_jacobian_block(const double *restrict q, doub
   w19 = w1 * w19;
   w12 = w12 - w19;
   w12 = -w12;
-  GAGEN_SCATTER(J_S, 42, 15, w12);
+  GAGEN_SCATTER(out_J_S, 42, 15, w12);
   w36 = w36 * w17;
   w36 = w25 - w36;
   w12 = w5 * w36;
   w16 = w17 * w16;
   w12 = w12 + w16;
   w12 = w12 + w12;
-  GAGEN_SCATTER(J_S, 42, 16, w12);
+  GAGEN_SCATTER(out_J_S, 42, 16, w12);
   w36 = w33 * w36;
   w36 = -w36;
   w36 = w36 + w36;
@@ -1129,12 +1129,12 @@ static void two_iiwas_line_arm0_fk_jacobian_block(const double *restrict q, doub
   w12 = w12 * w21;
   w1 = w1 * w12;
   w36 = w36 - w1;
-  GAGEN_SCATTER(J_S, 42, 17, w36);
+  GAGEN_SCATTER(out_J_S, 42, 17, w36);
   w36 = w7 * w9;
   w1 = -w36;
-  GAGEN_SCATTER(J_S, 42, 18, w1);
-  GAGEN_SCATTER(J_S, 42, 19, w15);
-  GAGEN_SCATTER(J_S, 42, 20, w30);
+  GAGEN_SCATTER(out_J_S, 42, 18, w1);
+  GAGEN_SCATTER(out_J_S, 42, 19, w15);
+  GAGEN_SCATTER(out_J_S, 42, 20, w30);
   w1 = w36 * w9;
   w1 = w1 * w21;
   w1 = w32 * w1;
@@ -1146,24 +1146,24 @@ static void two_iiwas_line_arm0_fk_jacobian_block(const double *restrict q, doub
   w19 = w19 + w19;
   w1 = w1 + w19;
   w1 = -w1;
-  GAGEN_SCATTER(J_S, 42, 21, w1);
+  GAGEN_SCATTER(out_J_S, 42, 21, w1);
   w16 = w30 * w16;
   w17 = w12 * w17;
   w25 = w25 - w17;
   w36 = w36 * w25;
   w16 = w16 - w36;
   w16 = w16 + w16;
-  GAGEN_SCATTER(J_S, 42, 22, w16);
+  GAGEN_SCATTER(out_J_S, 42, 22, w16);
   w16 = w15 * w25;
   w16 = w16 + w16;
   w36 = w30 * w9;
   w36 = w36 * w21;
   w32 = w32 * w36;
   w16 = w16 - w32;
-  GAGEN_SCATTER(J_S, 42, 23, w16);
-  GAGEN_SCATTER(J_S, 42, 24, w40);
-  GAGEN_SCATTER(J_S, 42, 25, w3);
-  GAGEN_SCATTER(J_S, 42, 26, w44);
+  GAGEN_SCATTER(out_J_S, 42, 23, w16);
+  GAGEN_SCATTER(out_J_S, 42, 24, w40);
+  GAGEN_SCATTER(out_J_S, 42, 25, w3);
+  GAGEN_SCATTER(out_J_S, 42, 26, w44);
   w16 = gagen_v_splat(0.09225);
   w32 = w16 * w3;
   w12 = w12 * w33;
@@ -1177,7 +1177,7 @@ static void two_iiwas_line_arm0_fk_jacobian_block(const double *restrict q, doub
   w33 = w33 - w36;
   w33 = w33 + w33;
   w33 = -w33;
-  GAGEN_SCATTER(J_S, 42, 27, w33);
+  GAGEN_SCATTER(out_J_S, 42, 27, w33);
   w18 = w18 - w11;
   w16 = w16 * w18;
   w16 = w25 + w16;
@@ -1185,26 +1185,26 @@ static void two_iiwas_line_arm0_fk_jacobian_block(const double *restrict q, doub
   w38 = w44 * w38;
   w40 = w40 + w38;
   w40 = w40 + w40;
-  GAGEN_SCATTER(J_S, 42, 28, w40);
+  GAGEN_SCATTER(out_J_S, 42, 28, w40);
   w16 = w3 * w16;
   w44 = w44 * w32;
   w16 = w16 + w44;
   w16 = w16 + w16;
-  GAGEN_SCATTER(J_S, 42, 29, w16);
+  GAGEN_SCATTER(out_J_S, 42, 29, w16);
   w42 = w6 * w42;
   w7 = w27 * w7;
   w7 = w7 * w9;
   w42 = w42 + w7;
-  GAGEN_SCATTER(J_S, 42, 30, w42);
+  GAGEN_SCATTER(out_J_S, 42, 30, w42);
   w29 = w6 * w29;
   w15 = w27 * w15;
   w29 = w29 - w15;
-  GAGEN_SCATTER(J_S, 42, 31, w29);
+  GAGEN_SCATTER(out_J_S, 42, 31, w29);
   w6 = w6 * w28;
   w27 = w27 * w30;
   w6 = w6 + w27;
   w27 = -w6;
-  GAGEN_SCATTER(J_S, 42, 32, w27);
+  GAGEN_SCATTER(out_J_S, 42, 32, w27);
   w27 = gagen_v_splat(0.2);
   w3 = w27 * w3;
   w3 = w3 - w12;
@@ -1216,23 +1216,23 @@ static void two_iiwas_line_arm0_fk_jacobian_block(const double *restrict q, doub
   w12 = w12 - w5;
   w12 = w12 + w12;
   w12 = -w12;
-  GAGEN_SCATTER(J_S, 42, 33, w12);
+  GAGEN_SCATTER(out_J_S, 42, 33, w12);
   w27 = w27 * w18;
   w25 = w25 + w27;
   w42 = w42 * w25;
   w39 = w6 * w39;
   w42 = w42 - w39;
   w42 = w42 + w42;
-  GAGEN_SCATTER(J_S, 42, 34, w42);
+  GAGEN_SCATTER(out_J_S, 42, 34, w42);
   w29 = w29 * w25;
   w6 = w6 * w3;
   w29 = w29 - w6;
   w29 = w29 + w29;
-  GAGEN_SCATTER(J_S, 42, 35, w29);
-  GAGEN_SCATTER(J_S, 42, 36, w41);
+  GAGEN_SCATTER(out_J_S, 42, 35, w29);
+  GAGEN_SCATTER(out_J_S, 42, 36, w41);
   w23 = w23 - w20;
-  GAGEN_SCATTER(J_S, 42, 37, w23);
-  GAGEN_SCATTER(J_S, 42, 38, w14);
+  GAGEN_SCATTER(out_J_S, 42, 37, w23);
+  GAGEN_SCATTER(out_J_S, 42, 38, w14);
   w20 = gagen_v_splat(0.081);
   w13 = w20 * w13;
   w8 = w8 + w13;
@@ -1242,7 +1242,7 @@ static void two_iiwas_line_arm0_fk_jacobian_block(const double *restrict q, doub
   w37 = w37 + w13;
   w13 = w23 * w37;
   w34 = w34 + w13;
-  GAGEN_SCATTER(J_S, 42, 39, w34);
+  GAGEN_SCATTER(out_J_S, 42, 39, w34);
   w37 = w14 * w37;
   w20 = w20 * w14;
   w45 = w45 + w20;
@@ -1250,30 +1250,30 @@ static void two_iiwas_line_arm0_fk_jacobian_block(const double *restrict q, doub
   w45 = w45 + w24;
   w41 = w41 * w45;
   w37 = w37 - w41;
-  GAGEN_SCATTER(J_S, 42, 40, w37);
+  GAGEN_SCATTER(out_J_S, 42, 40, w37);
   w23 = w23 * w45;
   w14 = w14 * w8;
   w23 = w23 + w14;
   w23 = -w23;
-  GAGEN_SCATTER(J_S, 42, 41, w23);
+  GAGEN_SCATTER(out_J_S, 42, 41, w23);
 }
 #endif
 
-void two_iiwas_line_arm0_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void two_iiwas_line_arm0_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 42 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 42 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 42 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 42 * gagen_a + gagen_o, 1, 0);
     }
-    two_iiwas_line_arm0_fk_jacobian_block(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+    two_iiwas_line_arm0_fk_jacobian_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    two_iiwas_line_arm0_fk_jacobian(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    two_iiwas_line_arm0_fk_jacobian(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 }
 
@@ -1283,21 +1283,21 @@ void two_iiwas_line_arm0_fk_jacobian_batch(long n, const double *restrict q, dou
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void two_iiwas_line_arm0_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void two_iiwas_line_arm0_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   gagen_v w36, w37, w38, w39, w40, w41, w42, w43, w44, w45;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_sin(w7);
   w9 = w6 * w8;
@@ -1314,7 +1314,7 @@ static void two_iiwas_line_arm0_fk_jacobian_block_columns(long gagen_ld, int gag
   w16 = w15 * w8;
   w12 = w12 - w16;
   w12 = w12 + w12;
-  w17 = GAGEN_GATHER(q, 7, 3);
+  w17 = GAGEN_GATHER(in_q, 7, 3);
   w17 = w1 * w17;
   w18 = gagen_v_cos(w17);
   w19 = w12 * w18;
@@ -1341,7 +1341,7 @@ static void two_iiwas_line_arm0_fk_jacobian_block_columns(long gagen_ld, int gag
   w13 = w13 + w13;
   w10 = w13 * w17;
   w9 = w9 - w10;
-  w15 = GAGEN_GATHER(q, 7, 4);
+  w15 = GAGEN_GATHER(in_q, 7, 4);
   w15 = w1 * w15;
   w6 = gagen_v_cos(w15);
   w21 = w9 * w6;
@@ -1365,7 +1365,7 @@ static void two_iiwas_line_arm0_fk_jacobian_block_columns(long gagen_ld, int gag
   w11 = w11 - w12;
   w12 = w11 * w15;
   w19 = w19 - w12;
-  w13 = GAGEN_GATHER(q, 7, 5);
+  w13 = GAGEN_GATHER(in_q, 7, 5);
   w13 = w1 * w13;
   w14 = gagen_v_cos(w13);
   w23 = w19 * w14;
@@ -1389,7 +1389,7 @@ static void two_iiwas_line_arm0_fk_jacobian_block_columns(long gagen_ld, int gag
   w20 = w20 - w16;
   w16 = w20 * w13;
   w26 = w26 - w16;
-  w9 = GAGEN_GATHER(q, 7, 6);
+  w9 = GAGEN_GATHER(in_q, 7, 6);
   w9 = w1 * w9;
   w11 = gagen_v_cos(w9);
   w22 = w26 * w11;
@@ -1404,12 +1404,12 @@ static void two_iiwas_line_arm0_fk_jacobian_block_columns(long gagen_ld, int gag
   w27 = w10 * w9;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w10 = w10 * w11;
   w26 = w26 * w9;
   w10 = w10 - w26;
   w10 = w0 * w10;
-  GAGEN_SCATTER(M, 8, 1, w10);
+  GAGEN_SCATTER(out_M, 8, 1, w10);
   w24 = w24 + w19;
   w24 = w24 + w20;
   w24 = w24 - w12;
@@ -1420,12 +1420,12 @@ static void two_iiwas_line_arm0_fk_jacobian_block_columns(long gagen_ld, int gag
   w16 = w25 * w9;
   w12 = w12 + w16;
   w12 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 2, w12);
+  GAGEN_SCATTER(out_M, 8, 2, w12);
   w25 = w25 * w11;
   w24 = w24 * w9;
   w25 = w25 - w24;
   w0 = w0 * w25;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w25 = gagen_v_splat(0.4);
   w24 = w18 * w18;
   w9 = w17 * w17;
@@ -1542,14 +1542,14 @@ static void two_iiwas_line_arm0_fk_jacobian_block_columns(long gagen_ld, int gag
   w4 = w19 * w22;
   w35 = w35 - w4;
   w35 = w1 * w35;
-  GAGEN_SCATTER(M, 8, 4, w35);
+  GAGEN_SCATTER(out_M, 8, 4, w35);
   w35 = w43 * w0;
   w4 = w19 * w10;
   w35 = w35 - w4;
   w4 = w31 * w22;
   w35 = w35 - w4;
   w35 = w1 * w35;
-  GAGEN_SCATTER(M, 8, 5, w35);
+  GAGEN_SCATTER(out_M, 8, 5, w35);
   w35 = w19 * w12;
   w4 = w31 * w0;
   w35 = w35 + w4;
@@ -1557,52 +1557,52 @@ static void two_iiwas_line_arm0_fk_jacobian_block_columns(long gagen_ld, int gag
   w35 = w35 + w22;
   w35 = w1 * w35;
   w35 = -w35;
-  GAGEN_SCATTER(M, 8, 6, w35);
+  GAGEN_SCATTER(out_M, 8, 6, w35);
   w12 = w31 * w12;
   w0 = w19 * w0;
   w12 = w12 - w0;
   w10 = w43 * w10;
   w12 = w12 - w10;
   w12 = w1 * w12;
-  GAGEN_SCATTER(M, 8, 7, w12);
+  GAGEN_SCATTER(out_M, 8, 7, w12);
   w12 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w12);
-  GAGEN_SCATTER(P, 5, 1, w19);
-  GAGEN_SCATTER(P, 5, 2, w31);
-  GAGEN_SCATTER(P, 5, 3, w43);
+  GAGEN_SCATTER(out_P, 5, 0, w12);
+  GAGEN_SCATTER(out_P, 5, 1, w19);
+  GAGEN_SCATTER(out_P, 5, 2, w31);
+  GAGEN_SCATTER(out_P, 5, 3, w43);
   w19 = w19 * w19;
   w31 = w31 * w31;
   w19 = w19 + w31;
   w43 = w43 * w43;
   w19 = w19 + w43;
   w1 = w1 * w19;
-  GAGEN_SCATTER(P, 5, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 0, w12);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 0, w12);
   w12 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w12);
-  GAGEN_SCATTER(J_S, 42, 2, w12);
-  GAGEN_SCATTER(J_S, 42, 3, w12);
-  GAGEN_SCATTER(J_S, 42, 4, w26);
-  GAGEN_SCATTER(J_S, 42, 5, w12);
-  GAGEN_SCATTER(J_S, 42, 6, w12);
+  GAGEN_SCATTER(out_J_S, 42, 1, w12);
+  GAGEN_SCATTER(out_J_S, 42, 2, w12);
+  GAGEN_SCATTER(out_J_S, 42, 3, w12);
+  GAGEN_SCATTER(out_J_S, 42, 4, w26);
+  GAGEN_SCATTER(out_J_S, 42, 5, w12);
+  GAGEN_SCATTER(out_J_S, 42, 6, w12);
   w12 = -w2;
-  GAGEN_SCATTER(J_S, 42, 7, w12);
+  GAGEN_SCATTER(out_J_S, 42, 7, w12);
   w12 = -w21;
-  GAGEN_SCATTER(J_S, 42, 8, w12);
+  GAGEN_SCATTER(out_J_S, 42, 8, w12);
   w36 = w36 * w2;
   w36 = -w36;
-  GAGEN_SCATTER(J_S, 42, 9, w36);
+  GAGEN_SCATTER(out_J_S, 42, 9, w36);
   w36 = gagen_v_splat(0.72);
   w36 = w36 * w16;
   w36 = -w36;
-  GAGEN_SCATTER(J_S, 42, 10, w36);
+  GAGEN_SCATTER(out_J_S, 42, 10, w36);
   w2 = w26 * w2;
   w2 = -w2;
-  GAGEN_SCATTER(J_S, 42, 11, w2);
-  GAGEN_SCATTER(J_S, 42, 12, w5);
+  GAGEN_SCATTER(out_J_S, 42, 11, w2);
+  GAGEN_SCATTER(out_J_S, 42, 12, w5);
   w2 = -w33;
-  GAGEN_SCATTER(J_S, 42, 13, w2);
-  GAGEN_SCATTER(J_S, 42, 14, w17);
+  GAGEN_SCATTER(out_J_S, 42, 13, w2);
+  GAGEN_SCATTER(out_J_S, 42, 14, w17);
   w2 = gagen_v_splat(0.18);
   w36 = gagen_v_splat(0.10225);
   w16 = w36 * w5;
@@ -1615,14 +1615,14 @@ static void two_iiwas_line_arm0_fk_jacobian_block_columns(long gagen_ld, int gag
   w19 = w1 * w19;
   w12 = w12 - w19;
   w12 = -w12;
-  GAGEN_SCATTER(J_S, 42, 15, w12);
+  GAGEN_SCATTER(out_J_S, 42, 15, w12);
   w36 = w36 * w17;
   w36 = w25 - w36;
   w12 = w5 * w36;
   w16 = w17 * w16;
   w12 = w12 + w16;
   w12 = w12 + w12;
-  GAGEN_SCATTER(J_S, 42, 16, w12);
+  GAGEN_SCATTER(out_J_S, 42, 16, w12);
   w36 = w33 * w36;
   w36 = -w36;
   w36 = w36 + w36;
@@ -1630,12 +1630,12 @@ static void two_iiwas_line_arm0_fk_jacobian_block_columns(long gagen_ld, int gag
   w12 = w12 * w21;
   w1 = w1 * w12;
   w36 = w36 - w1;
-  GAGEN_SCATTER(J_S, 42, 17, w36);
+  GAGEN_SCATTER(out_J_S, 42, 17, w36);
   w36 = w7 * w9;
   w1 = -w36;
-  GAGEN_SCATTER(J_S, 42, 18, w1);
-  GAGEN_SCATTER(J_S, 42, 19, w15);
-  GAGEN_SCATTER(J_S, 42, 20, w30);
+  GAGEN_SCATTER(out_J_S, 42, 18, w1);
+  GAGEN_SCATTER(out_J_S, 42, 19, w15);
+  GAGEN_SCATTER(out_J_S, 42, 20, w30);
   w1 = w36 * w9;
   w1 = w1 * w21;
   w1 = w32 * w1;
@@ -1647,24 +1647,24 @@ static void two_iiwas_line_arm0_fk_jacobian_block_columns(long gagen_ld, int gag
   w19 = w19 + w19;
   w1 = w1 + w19;
   w1 = -w1;
-  GAGEN_SCATTER(J_S, 42, 21, w1);
+  GAGEN_SCATTER(out_J_S, 42, 21, w1);
   w16 = w30 * w16;
   w17 = w12 * w17;
   w25 = w25 - w17;
   w36 = w36 * w25;
   w16 = w16 - w36;
   w16 = w16 + w16;
-  GAGEN_SCATTER(J_S, 42, 22, w16);
+  GAGEN_SCATTER(out_J_S, 42, 22, w16);
   w16 = w15 * w25;
   w16 = w16 + w16;
   w36 = w30 * w9;
   w36 = w36 * w21;
   w32 = w32 * w36;
   w16 = w16 - w32;
-  GAGEN_SCATTER(J_S, 42, 23, w16);
-  GAGEN_SCATTER(J_S, 42, 24, w40);
-  GAGEN_SCATTER(J_S, 42, 25, w3);
-  GAGEN_SCATTER(J_S, 42, 26, w44);
+  GAGEN_SCATTER(out_J_S, 42, 23, w16);
+  GAGEN_SCATTER(out_J_S, 42, 24, w40);
+  GAGEN_SCATTER(out_J_S, 42, 25, w3);
+  GAGEN_SCATTER(out_J_S, 42, 26, w44);
   w16 = gagen_v_splat(0.09225);
   w32 = w16 * w3;
   w12 = w12 * w33;
@@ -1678,7 +1678,7 @@ static void two_iiwas_line_arm0_fk_jacobian_block_columns(long gagen_ld, int gag
   w33 = w33 - w36;
   w33 = w33 + w33;
   w33 = -w33;
-  GAGEN_SCATTER(J_S, 42, 27, w33);
+  GAGEN_SCATTER(out_J_S, 42, 27, w33);
   w18 = w18 - w11;
   w16 = w16 * w18;
   w16 = w25 + w16;
@@ -1686,26 +1686,26 @@ static void two_iiwas_line_arm0_fk_jacobian_block_columns(long gagen_ld, int gag
   w38 = w44 * w38;
   w40 = w40 + w38;
   w40 = w40 + w40;
-  GAGEN_SCATTER(J_S, 42, 28, w40);
+  GAGEN_SCATTER(out_J_S, 42, 28, w40);
   w16 = w3 * w16;
   w44 = w44 * w32;
   w16 = w16 + w44;
   w16 = w16 + w16;
-  GAGEN_SCATTER(J_S, 42, 29, w16);
+  GAGEN_SCATTER(out_J_S, 42, 29, w16);
   w42 = w6 * w42;
   w7 = w27 * w7;
   w7 = w7 * w9;
   w42 = w42 + w7;
-  GAGEN_SCATTER(J_S, 42, 30, w42);
+  GAGEN_SCATTER(out_J_S, 42, 30, w42);
   w29 = w6 * w29;
   w15 = w27 * w15;
   w29 = w29 - w15;
-  GAGEN_SCATTER(J_S, 42, 31, w29);
+  GAGEN_SCATTER(out_J_S, 42, 31, w29);
   w6 = w6 * w28;
   w27 = w27 * w30;
   w6 = w6 + w27;
   w27 = -w6;
-  GAGEN_SCATTER(J_S, 42, 32, w27);
+  GAGEN_SCATTER(out_J_S, 42, 32, w27);
   w27 = gagen_v_splat(0.2);
   w3 = w27 * w3;
   w3 = w3 - w12;
@@ -1717,23 +1717,23 @@ static void two_iiwas_line_arm0_fk_jacobian_block_columns(long gagen_ld, int gag
   w12 = w12 - w5;
   w12 = w12 + w12;
   w12 = -w12;
-  GAGEN_SCATTER(J_S, 42, 33, w12);
+  GAGEN_SCATTER(out_J_S, 42, 33, w12);
   w27 = w27 * w18;
   w25 = w25 + w27;
   w42 = w42 * w25;
   w39 = w6 * w39;
   w42 = w42 - w39;
   w42 = w42 + w42;
-  GAGEN_SCATTER(J_S, 42, 34, w42);
+  GAGEN_SCATTER(out_J_S, 42, 34, w42);
   w29 = w29 * w25;
   w6 = w6 * w3;
   w29 = w29 - w6;
   w29 = w29 + w29;
-  GAGEN_SCATTER(J_S, 42, 35, w29);
-  GAGEN_SCATTER(J_S, 42, 36, w41);
+  GAGEN_SCATTER(out_J_S, 42, 35, w29);
+  GAGEN_SCATTER(out_J_S, 42, 36, w41);
   w23 = w23 - w20;
-  GAGEN_SCATTER(J_S, 42, 37, w23);
-  GAGEN_SCATTER(J_S, 42, 38, w14);
+  GAGEN_SCATTER(out_J_S, 42, 37, w23);
+  GAGEN_SCATTER(out_J_S, 42, 38, w14);
   w20 = gagen_v_splat(0.081);
   w13 = w20 * w13;
   w8 = w8 + w13;
@@ -1743,7 +1743,7 @@ static void two_iiwas_line_arm0_fk_jacobian_block_columns(long gagen_ld, int gag
   w37 = w37 + w13;
   w13 = w23 * w37;
   w34 = w34 + w13;
-  GAGEN_SCATTER(J_S, 42, 39, w34);
+  GAGEN_SCATTER(out_J_S, 42, 39, w34);
   w37 = w14 * w37;
   w20 = w20 * w14;
   w45 = w45 + w20;
@@ -1751,12 +1751,12 @@ static void two_iiwas_line_arm0_fk_jacobian_block_columns(long gagen_ld, int gag
   w45 = w45 + w24;
   w41 = w41 * w45;
   w37 = w37 - w41;
-  GAGEN_SCATTER(J_S, 42, 40, w37);
+  GAGEN_SCATTER(out_J_S, 42, 40, w37);
   w23 = w23 * w45;
   w14 = w14 * w8;
   w23 = w23 + w14;
   w23 = -w23;
-  GAGEN_SCATTER(J_S, 42, 41, w23);
+  GAGEN_SCATTER(out_J_S, 42, 41, w23);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -1764,34 +1764,34 @@ static void two_iiwas_line_arm0_fk_jacobian_block_columns(long gagen_ld, int gag
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void two_iiwas_line_arm0_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void two_iiwas_line_arm0_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    two_iiwas_line_arm0_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    two_iiwas_line_arm0_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  two_iiwas_line_arm0_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  two_iiwas_line_arm0_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }
 
 #if GAGEN_SIMD
 /* chain arm1: motor and end point: GAGEN_W consecutive samples at once */
-static void two_iiwas_line_arm1_fk_block(const double *restrict q, double *restrict M, double *restrict P) {
+static void two_iiwas_line_arm1_fk_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w6 * w8;
@@ -1808,7 +1808,7 @@ static void two_iiwas_line_arm1_fk_block(const double *restrict q, double *restr
   w15 = w14 * w8;
   w13 = w13 - w15;
   w13 = w13 + w13;
-  w16 = GAGEN_GATHER(q, 7, 3);
+  w16 = GAGEN_GATHER(in_q, 7, 3);
   w16 = w1 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w13 * w17;
@@ -1834,7 +1834,7 @@ static void two_iiwas_line_arm1_fk_block(const double *restrict q, double *restr
   w6 = w6 + w6;
   w14 = w6 * w16;
   w21 = w21 - w14;
-  w10 = GAGEN_GATHER(q, 7, 4);
+  w10 = GAGEN_GATHER(in_q, 7, 4);
   w10 = w1 * w10;
   w11 = gagen_v_cos(w10);
   w12 = w21 * w11;
@@ -1858,7 +1858,7 @@ static void two_iiwas_line_arm1_fk_block(const double *restrict q, double *restr
   w19 = w19 + w9;
   w9 = w19 * w10;
   w20 = w20 - w9;
-  w6 = GAGEN_GATHER(q, 7, 5);
+  w6 = GAGEN_GATHER(in_q, 7, 5);
   w6 = w1 * w6;
   w13 = gagen_v_cos(w6);
   w23 = w20 * w13;
@@ -1882,7 +1882,7 @@ static void two_iiwas_line_arm1_fk_block(const double *restrict q, double *restr
   w18 = w18 - w21;
   w21 = w18 * w6;
   w26 = w26 - w21;
-  w15 = GAGEN_GATHER(q, 7, 6);
+  w15 = GAGEN_GATHER(in_q, 7, 6);
   w15 = w1 * w15;
   w19 = gagen_v_cos(w15);
   w22 = w26 * w19;
@@ -1897,12 +1897,12 @@ static void two_iiwas_line_arm1_fk_block(const double *restrict q, double *restr
   w27 = w12 * w15;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w12 = w12 * w19;
   w26 = w26 * w15;
   w12 = w12 - w26;
   w12 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 1, w12);
+  GAGEN_SCATTER(out_M, 8, 1, w12);
   w24 = w24 + w20;
   w24 = w24 + w18;
   w24 = w24 - w9;
@@ -1913,12 +1913,12 @@ static void two_iiwas_line_arm1_fk_block(const double *restrict q, double *restr
   w21 = w25 * w15;
   w9 = w9 + w21;
   w9 = w0 * w9;
-  GAGEN_SCATTER(M, 8, 2, w9);
+  GAGEN_SCATTER(out_M, 8, 2, w9);
   w25 = w25 * w19;
   w24 = w24 * w15;
   w25 = w25 - w24;
   w0 = w0 * w25;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w25 = gagen_v_splat(0.4);
   w24 = w17 * w16;
   w24 = w24 + w24;
@@ -2034,14 +2034,14 @@ static void two_iiwas_line_arm1_fk_block(const double *restrict q, double *restr
   w18 = w10 * w22;
   w3 = w3 - w18;
   w3 = w1 * w3;
-  GAGEN_SCATTER(M, 8, 4, w3);
+  GAGEN_SCATTER(out_M, 8, 4, w3);
   w3 = w23 * w0;
   w18 = w10 * w12;
   w3 = w3 - w18;
   w18 = w16 * w22;
   w3 = w3 - w18;
   w3 = w1 * w3;
-  GAGEN_SCATTER(M, 8, 5, w3);
+  GAGEN_SCATTER(out_M, 8, 5, w3);
   w3 = w10 * w9;
   w18 = w16 * w0;
   w3 = w3 + w18;
@@ -2049,43 +2049,43 @@ static void two_iiwas_line_arm1_fk_block(const double *restrict q, double *restr
   w3 = w3 + w22;
   w3 = w1 * w3;
   w3 = -w3;
-  GAGEN_SCATTER(M, 8, 6, w3);
+  GAGEN_SCATTER(out_M, 8, 6, w3);
   w9 = w16 * w9;
   w0 = w10 * w0;
   w9 = w9 - w0;
   w12 = w23 * w12;
   w9 = w9 - w12;
   w9 = w1 * w9;
-  GAGEN_SCATTER(M, 8, 7, w9);
+  GAGEN_SCATTER(out_M, 8, 7, w9);
   w9 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w9);
-  GAGEN_SCATTER(P, 5, 1, w10);
-  GAGEN_SCATTER(P, 5, 2, w16);
-  GAGEN_SCATTER(P, 5, 3, w23);
+  GAGEN_SCATTER(out_P, 5, 0, w9);
+  GAGEN_SCATTER(out_P, 5, 1, w10);
+  GAGEN_SCATTER(out_P, 5, 2, w16);
+  GAGEN_SCATTER(out_P, 5, 3, w23);
   w10 = w10 * w10;
   w16 = w16 * w16;
   w10 = w10 + w16;
   w23 = w23 * w23;
   w10 = w10 + w23;
   w1 = w1 * w10;
-  GAGEN_SCATTER(P, 5, 4, w1);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
 }
 #endif
 
-void two_iiwas_line_arm1_fk_batch(long n, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void two_iiwas_line_arm1_fk_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
     }
-    two_iiwas_line_arm1_fk_block(q + 7 * s, M + 8 * s, P + 5 * s);
+    two_iiwas_line_arm1_fk_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    two_iiwas_line_arm1_fk(q + 7 * s, M + 8 * s, P + 5 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    two_iiwas_line_arm1_fk(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s);
   }
 }
 
@@ -2095,20 +2095,20 @@ void two_iiwas_line_arm1_fk_batch(long n, const double *restrict q, double *rest
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void two_iiwas_line_arm1_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P) {
+static void two_iiwas_line_arm1_fk_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w6 * w8;
@@ -2125,7 +2125,7 @@ static void two_iiwas_line_arm1_fk_block_columns(long gagen_ld, int gagen_stream
   w15 = w14 * w8;
   w13 = w13 - w15;
   w13 = w13 + w13;
-  w16 = GAGEN_GATHER(q, 7, 3);
+  w16 = GAGEN_GATHER(in_q, 7, 3);
   w16 = w1 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w13 * w17;
@@ -2151,7 +2151,7 @@ static void two_iiwas_line_arm1_fk_block_columns(long gagen_ld, int gagen_stream
   w6 = w6 + w6;
   w14 = w6 * w16;
   w21 = w21 - w14;
-  w10 = GAGEN_GATHER(q, 7, 4);
+  w10 = GAGEN_GATHER(in_q, 7, 4);
   w10 = w1 * w10;
   w11 = gagen_v_cos(w10);
   w12 = w21 * w11;
@@ -2175,7 +2175,7 @@ static void two_iiwas_line_arm1_fk_block_columns(long gagen_ld, int gagen_stream
   w19 = w19 + w9;
   w9 = w19 * w10;
   w20 = w20 - w9;
-  w6 = GAGEN_GATHER(q, 7, 5);
+  w6 = GAGEN_GATHER(in_q, 7, 5);
   w6 = w1 * w6;
   w13 = gagen_v_cos(w6);
   w23 = w20 * w13;
@@ -2199,7 +2199,7 @@ static void two_iiwas_line_arm1_fk_block_columns(long gagen_ld, int gagen_stream
   w18 = w18 - w21;
   w21 = w18 * w6;
   w26 = w26 - w21;
-  w15 = GAGEN_GATHER(q, 7, 6);
+  w15 = GAGEN_GATHER(in_q, 7, 6);
   w15 = w1 * w15;
   w19 = gagen_v_cos(w15);
   w22 = w26 * w19;
@@ -2214,12 +2214,12 @@ static void two_iiwas_line_arm1_fk_block_columns(long gagen_ld, int gagen_stream
   w27 = w12 * w15;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w12 = w12 * w19;
   w26 = w26 * w15;
   w12 = w12 - w26;
   w12 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 1, w12);
+  GAGEN_SCATTER(out_M, 8, 1, w12);
   w24 = w24 + w20;
   w24 = w24 + w18;
   w24 = w24 - w9;
@@ -2230,12 +2230,12 @@ static void two_iiwas_line_arm1_fk_block_columns(long gagen_ld, int gagen_stream
   w21 = w25 * w15;
   w9 = w9 + w21;
   w9 = w0 * w9;
-  GAGEN_SCATTER(M, 8, 2, w9);
+  GAGEN_SCATTER(out_M, 8, 2, w9);
   w25 = w25 * w19;
   w24 = w24 * w15;
   w25 = w25 - w24;
   w0 = w0 * w25;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w25 = gagen_v_splat(0.4);
   w24 = w17 * w16;
   w24 = w24 + w24;
@@ -2351,14 +2351,14 @@ static void two_iiwas_line_arm1_fk_block_columns(long gagen_ld, int gagen_stream
   w18 = w10 * w22;
   w3 = w3 - w18;
   w3 = w1 * w3;
-  GAGEN_SCATTER(M, 8, 4, w3);
+  GAGEN_SCATTER(out_M, 8, 4, w3);
   w3 = w23 * w0;
   w18 = w10 * w12;
   w3 = w3 - w18;
   w18 = w16 * w22;
   w3 = w3 - w18;
   w3 = w1 * w3;
-  GAGEN_SCATTER(M, 8, 5, w3);
+  GAGEN_SCATTER(out_M, 8, 5, w3);
   w3 = w10 * w9;
   w18 = w16 * w0;
   w3 = w3 + w18;
@@ -2366,26 +2366,26 @@ static void two_iiwas_line_arm1_fk_block_columns(long gagen_ld, int gagen_stream
   w3 = w3 + w22;
   w3 = w1 * w3;
   w3 = -w3;
-  GAGEN_SCATTER(M, 8, 6, w3);
+  GAGEN_SCATTER(out_M, 8, 6, w3);
   w9 = w16 * w9;
   w0 = w10 * w0;
   w9 = w9 - w0;
   w12 = w23 * w12;
   w9 = w9 - w12;
   w9 = w1 * w9;
-  GAGEN_SCATTER(M, 8, 7, w9);
+  GAGEN_SCATTER(out_M, 8, 7, w9);
   w9 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w9);
-  GAGEN_SCATTER(P, 5, 1, w10);
-  GAGEN_SCATTER(P, 5, 2, w16);
-  GAGEN_SCATTER(P, 5, 3, w23);
+  GAGEN_SCATTER(out_P, 5, 0, w9);
+  GAGEN_SCATTER(out_P, 5, 1, w10);
+  GAGEN_SCATTER(out_P, 5, 2, w16);
+  GAGEN_SCATTER(out_P, 5, 3, w23);
   w10 = w10 * w10;
   w16 = w16 * w16;
   w10 = w10 + w16;
   w23 = w23 * w23;
   w10 = w10 + w23;
   w1 = w1 * w10;
-  GAGEN_SCATTER(P, 5, 4, w1);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -2393,35 +2393,35 @@ static void two_iiwas_line_arm1_fk_block_columns(long gagen_ld, int gagen_stream
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void two_iiwas_line_arm1_fk_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P) {
-  long s = 0;
+void two_iiwas_line_arm1_fk_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    two_iiwas_line_arm1_fk_block_columns(ld, stream, q + s, M + s, P + s);
+  const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    two_iiwas_line_arm1_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  two_iiwas_line_arm1_fk_columns_from(s, n, ld, q, M, P);
+  two_iiwas_line_arm1_fk_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P);
 }
 
 #if GAGEN_SIMD
 /* chain arm1: motor, end point and spatial (geometric) Jacobian: GAGEN_W consecutive samples at once */
-static void two_iiwas_line_arm1_fk_jacobian_block(const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void two_iiwas_line_arm1_fk_jacobian_block(const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   gagen_v w36, w37, w38, w39, w40, w41, w42, w43, w44, w45, w46;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w6 * w8;
@@ -2438,7 +2438,7 @@ static void two_iiwas_line_arm1_fk_jacobian_block(const double *restrict q, doub
   w15 = w14 * w8;
   w13 = w13 - w15;
   w13 = w13 + w13;
-  w16 = GAGEN_GATHER(q, 7, 3);
+  w16 = GAGEN_GATHER(in_q, 7, 3);
   w16 = w1 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w13 * w17;
@@ -2464,7 +2464,7 @@ static void two_iiwas_line_arm1_fk_jacobian_block(const double *restrict q, doub
   w6 = w6 + w6;
   w14 = w6 * w16;
   w21 = w21 - w14;
-  w10 = GAGEN_GATHER(q, 7, 4);
+  w10 = GAGEN_GATHER(in_q, 7, 4);
   w10 = w1 * w10;
   w11 = gagen_v_cos(w10);
   w12 = w21 * w11;
@@ -2488,7 +2488,7 @@ static void two_iiwas_line_arm1_fk_jacobian_block(const double *restrict q, doub
   w19 = w19 + w9;
   w9 = w19 * w10;
   w20 = w20 - w9;
-  w6 = GAGEN_GATHER(q, 7, 5);
+  w6 = GAGEN_GATHER(in_q, 7, 5);
   w6 = w1 * w6;
   w13 = gagen_v_cos(w6);
   w23 = w20 * w13;
@@ -2512,7 +2512,7 @@ static void two_iiwas_line_arm1_fk_jacobian_block(const double *restrict q, doub
   w18 = w18 - w21;
   w21 = w18 * w6;
   w26 = w26 - w21;
-  w15 = GAGEN_GATHER(q, 7, 6);
+  w15 = GAGEN_GATHER(in_q, 7, 6);
   w15 = w1 * w15;
   w19 = gagen_v_cos(w15);
   w22 = w26 * w19;
@@ -2527,12 +2527,12 @@ static void two_iiwas_line_arm1_fk_jacobian_block(const double *restrict q, doub
   w27 = w12 * w15;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w12 = w12 * w19;
   w26 = w26 * w15;
   w12 = w12 - w26;
   w12 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 1, w12);
+  GAGEN_SCATTER(out_M, 8, 1, w12);
   w24 = w24 + w20;
   w24 = w24 + w18;
   w24 = w24 - w9;
@@ -2543,12 +2543,12 @@ static void two_iiwas_line_arm1_fk_jacobian_block(const double *restrict q, doub
   w21 = w25 * w15;
   w9 = w9 + w21;
   w9 = w0 * w9;
-  GAGEN_SCATTER(M, 8, 2, w9);
+  GAGEN_SCATTER(out_M, 8, 2, w9);
   w25 = w25 * w19;
   w24 = w24 * w15;
   w25 = w25 - w24;
   w0 = w0 * w25;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w25 = gagen_v_splat(0.4);
   w24 = w17 * w16;
   w24 = w24 + w24;
@@ -2664,14 +2664,14 @@ static void two_iiwas_line_arm1_fk_jacobian_block(const double *restrict q, doub
   w13 = w26 * w22;
   w34 = w34 - w13;
   w34 = w1 * w34;
-  GAGEN_SCATTER(M, 8, 4, w34);
+  GAGEN_SCATTER(out_M, 8, 4, w34);
   w34 = w42 * w0;
   w13 = w26 * w12;
   w34 = w34 - w13;
   w13 = w33 * w22;
   w34 = w34 - w13;
   w34 = w1 * w34;
-  GAGEN_SCATTER(M, 8, 5, w34);
+  GAGEN_SCATTER(out_M, 8, 5, w34);
   w34 = w26 * w9;
   w13 = w33 * w0;
   w34 = w34 + w13;
@@ -2679,49 +2679,49 @@ static void two_iiwas_line_arm1_fk_jacobian_block(const double *restrict q, doub
   w34 = w34 + w22;
   w34 = w1 * w34;
   w34 = -w34;
-  GAGEN_SCATTER(M, 8, 6, w34);
+  GAGEN_SCATTER(out_M, 8, 6, w34);
   w9 = w33 * w9;
   w0 = w26 * w0;
   w9 = w9 - w0;
   w12 = w42 * w12;
   w9 = w9 - w12;
   w9 = w1 * w9;
-  GAGEN_SCATTER(M, 8, 7, w9);
+  GAGEN_SCATTER(out_M, 8, 7, w9);
   w9 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w9);
-  GAGEN_SCATTER(P, 5, 1, w26);
-  GAGEN_SCATTER(P, 5, 2, w33);
-  GAGEN_SCATTER(P, 5, 3, w42);
+  GAGEN_SCATTER(out_P, 5, 0, w9);
+  GAGEN_SCATTER(out_P, 5, 1, w26);
+  GAGEN_SCATTER(out_P, 5, 2, w33);
+  GAGEN_SCATTER(out_P, 5, 3, w42);
   w26 = w26 * w26;
   w33 = w33 * w33;
   w26 = w26 + w33;
   w42 = w42 * w42;
   w26 = w26 + w42;
   w1 = w1 * w26;
-  GAGEN_SCATTER(P, 5, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 0, w9);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 0, w9);
   w9 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w9);
-  GAGEN_SCATTER(J_S, 42, 2, w9);
-  GAGEN_SCATTER(J_S, 42, 3, w9);
+  GAGEN_SCATTER(out_J_S, 42, 1, w9);
+  GAGEN_SCATTER(out_J_S, 42, 2, w9);
+  GAGEN_SCATTER(out_J_S, 42, 3, w9);
   w1 = gagen_v_splat((-0.8));
-  GAGEN_SCATTER(J_S, 42, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 5, w9);
-  GAGEN_SCATTER(J_S, 42, 6, w9);
-  GAGEN_SCATTER(J_S, 42, 7, w2);
-  GAGEN_SCATTER(J_S, 42, 8, w23);
+  GAGEN_SCATTER(out_J_S, 42, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 5, w9);
+  GAGEN_SCATTER(out_J_S, 42, 6, w9);
+  GAGEN_SCATTER(out_J_S, 42, 7, w2);
+  GAGEN_SCATTER(out_J_S, 42, 8, w23);
   w35 = w35 * w2;
-  GAGEN_SCATTER(J_S, 42, 9, w35);
+  GAGEN_SCATTER(out_J_S, 42, 9, w35);
   w35 = gagen_v_splat(0.72);
   w35 = w35 * w14;
-  GAGEN_SCATTER(J_S, 42, 10, w35);
+  GAGEN_SCATTER(out_J_S, 42, 10, w35);
   w43 = w43 * w2;
   w43 = -w43;
-  GAGEN_SCATTER(J_S, 42, 11, w43);
-  GAGEN_SCATTER(J_S, 42, 12, w19);
-  GAGEN_SCATTER(J_S, 42, 13, w20);
+  GAGEN_SCATTER(out_J_S, 42, 11, w43);
+  GAGEN_SCATTER(out_J_S, 42, 12, w19);
+  GAGEN_SCATTER(out_J_S, 42, 13, w20);
   w43 = -w44;
-  GAGEN_SCATTER(J_S, 42, 14, w43);
+  GAGEN_SCATTER(out_J_S, 42, 14, w43);
   w43 = gagen_v_splat(0.18);
   w2 = gagen_v_splat(0.10225);
   w35 = w2 * w19;
@@ -2733,7 +2733,7 @@ static void two_iiwas_line_arm1_fk_jacobian_block(const double *restrict q, doub
   w1 = w1 * w23;
   w1 = w9 * w1;
   w14 = w14 - w1;
-  GAGEN_SCATTER(J_S, 42, 15, w14);
+  GAGEN_SCATTER(out_J_S, 42, 15, w14);
   w2 = w2 * w44;
   w2 = w25 - w2;
   w14 = w19 * w2;
@@ -2741,7 +2741,7 @@ static void two_iiwas_line_arm1_fk_jacobian_block(const double *restrict q, doub
   w14 = w14 + w35;
   w14 = -w14;
   w14 = w14 + w14;
-  GAGEN_SCATTER(J_S, 42, 16, w14);
+  GAGEN_SCATTER(out_J_S, 42, 16, w14);
   w2 = w20 * w2;
   w2 = w2 + w2;
   w14 = w44 * w5;
@@ -2749,14 +2749,14 @@ static void two_iiwas_line_arm1_fk_jacobian_block(const double *restrict q, doub
   w9 = w9 * w14;
   w2 = w2 + w9;
   w2 = -w2;
-  GAGEN_SCATTER(J_S, 42, 17, w2);
+  GAGEN_SCATTER(out_J_S, 42, 17, w2);
   w2 = w8 * w5;
   w9 = -w2;
-  GAGEN_SCATTER(J_S, 42, 18, w9);
+  GAGEN_SCATTER(out_J_S, 42, 18, w9);
   w9 = -w10;
-  GAGEN_SCATTER(J_S, 42, 19, w9);
+  GAGEN_SCATTER(out_J_S, 42, 19, w9);
   w9 = -w31;
-  GAGEN_SCATTER(J_S, 42, 20, w9);
+  GAGEN_SCATTER(out_J_S, 42, 20, w9);
   w9 = w2 * w5;
   w9 = w9 * w23;
   w9 = w7 * w9;
@@ -2766,25 +2766,25 @@ static void two_iiwas_line_arm1_fk_jacobian_block(const double *restrict q, doub
   w1 = w10 * w35;
   w1 = w1 + w1;
   w9 = w9 - w1;
-  GAGEN_SCATTER(J_S, 42, 21, w9);
+  GAGEN_SCATTER(out_J_S, 42, 21, w9);
   w44 = w14 * w44;
   w25 = w25 - w44;
   w2 = w2 * w25;
   w35 = w31 * w35;
   w2 = w2 - w35;
   w2 = w2 + w2;
-  GAGEN_SCATTER(J_S, 42, 22, w2);
+  GAGEN_SCATTER(out_J_S, 42, 22, w2);
   w2 = w10 * w25;
   w2 = w2 + w2;
   w35 = w31 * w5;
   w35 = w35 * w23;
   w7 = w7 * w35;
   w2 = w2 - w7;
-  GAGEN_SCATTER(J_S, 42, 23, w2);
-  GAGEN_SCATTER(J_S, 42, 24, w39);
+  GAGEN_SCATTER(out_J_S, 42, 23, w2);
+  GAGEN_SCATTER(out_J_S, 42, 24, w39);
   w2 = -w3;
-  GAGEN_SCATTER(J_S, 42, 25, w2);
-  GAGEN_SCATTER(J_S, 42, 26, w24);
+  GAGEN_SCATTER(out_J_S, 42, 25, w2);
+  GAGEN_SCATTER(out_J_S, 42, 26, w24);
   w2 = gagen_v_splat(0.09225);
   w38 = w38 + w37;
   w37 = w2 * w38;
@@ -2798,32 +2798,32 @@ static void two_iiwas_line_arm1_fk_jacobian_block(const double *restrict q, doub
   w7 = w7 - w20;
   w7 = w7 + w7;
   w7 = -w7;
-  GAGEN_SCATTER(J_S, 42, 27, w7);
+  GAGEN_SCATTER(out_J_S, 42, 27, w7);
   w37 = w24 * w37;
   w2 = w2 * w24;
   w2 = w25 + w2;
   w39 = w39 * w2;
   w37 = w37 - w39;
   w37 = w37 + w37;
-  GAGEN_SCATTER(J_S, 42, 28, w37);
+  GAGEN_SCATTER(out_J_S, 42, 28, w37);
   w2 = w3 * w2;
   w35 = w24 * w35;
   w2 = w2 - w35;
   w2 = w2 + w2;
-  GAGEN_SCATTER(J_S, 42, 29, w2);
+  GAGEN_SCATTER(out_J_S, 42, 29, w2);
   w41 = w11 * w41;
   w8 = w6 * w8;
   w8 = w8 * w5;
   w41 = w41 + w8;
-  GAGEN_SCATTER(J_S, 42, 30, w41);
+  GAGEN_SCATTER(out_J_S, 42, 30, w41);
   w10 = w6 * w10;
   w18 = w11 * w18;
   w10 = w10 - w18;
-  GAGEN_SCATTER(J_S, 42, 31, w10);
+  GAGEN_SCATTER(out_J_S, 42, 31, w10);
   w11 = w11 * w17;
   w6 = w6 * w31;
   w11 = w11 + w6;
-  GAGEN_SCATTER(J_S, 42, 32, w11);
+  GAGEN_SCATTER(out_J_S, 42, 32, w11);
   w6 = gagen_v_splat(0.2);
   w3 = w6 * w3;
   w3 = w3 - w14;
@@ -2836,24 +2836,24 @@ static void two_iiwas_line_arm1_fk_jacobian_block(const double *restrict q, doub
   w14 = -w14;
   w14 = w14 + w14;
   w14 = -w14;
-  GAGEN_SCATTER(J_S, 42, 33, w14);
+  GAGEN_SCATTER(out_J_S, 42, 33, w14);
   w38 = w11 * w38;
   w6 = w6 * w24;
   w25 = w25 + w6;
   w41 = w41 * w25;
   w38 = w38 - w41;
   w38 = w38 + w38;
-  GAGEN_SCATTER(J_S, 42, 34, w38);
+  GAGEN_SCATTER(out_J_S, 42, 34, w38);
   w10 = w10 * w25;
   w11 = w11 * w3;
   w10 = w10 + w11;
   w10 = -w10;
   w10 = w10 + w10;
-  GAGEN_SCATTER(J_S, 42, 35, w10);
-  GAGEN_SCATTER(J_S, 42, 36, w40);
+  GAGEN_SCATTER(out_J_S, 42, 35, w10);
+  GAGEN_SCATTER(out_J_S, 42, 36, w40);
   w30 = w30 - w28;
-  GAGEN_SCATTER(J_S, 42, 37, w30);
-  GAGEN_SCATTER(J_S, 42, 38, w27);
+  GAGEN_SCATTER(out_J_S, 42, 37, w30);
+  GAGEN_SCATTER(out_J_S, 42, 38, w27);
   w28 = gagen_v_splat(0.081);
   w32 = w28 * w32;
   w16 = w16 + w32;
@@ -2862,36 +2862,36 @@ static void two_iiwas_line_arm1_fk_jacobian_block(const double *restrict q, doub
   w36 = w36 + w10;
   w10 = w30 * w36;
   w32 = w32 + w10;
-  GAGEN_SCATTER(J_S, 42, 39, w32);
+  GAGEN_SCATTER(out_J_S, 42, 39, w32);
   w36 = w27 * w36;
   w28 = w28 * w27;
   w45 = w45 + w28;
   w40 = w40 * w45;
   w36 = w36 - w40;
-  GAGEN_SCATTER(J_S, 42, 40, w36);
+  GAGEN_SCATTER(out_J_S, 42, 40, w36);
   w30 = w30 * w45;
   w27 = w27 * w16;
   w30 = w30 + w27;
   w30 = -w30;
-  GAGEN_SCATTER(J_S, 42, 41, w30);
+  GAGEN_SCATTER(out_J_S, 42, 41, w30);
 }
 #endif
 
-void two_iiwas_line_arm1_fk_jacobian_batch(long n, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void two_iiwas_line_arm1_fk_jacobian_batch(long gagen_n, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 8 * GAGEN_W + 7; o += 8) __builtin_prefetch(M + 8 * a + o, 1, 0);
-      for (int o = 0; o < 5 * GAGEN_W + 7; o += 8) __builtin_prefetch(P + 5 * a + o, 1, 0);
-      for (int o = 0; o < 42 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_S + 42 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 8 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_M + 8 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 5 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_P + 5 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 42 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_S + 42 * gagen_a + gagen_o, 1, 0);
     }
-    two_iiwas_line_arm1_fk_jacobian_block(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+    two_iiwas_line_arm1_fk_jacobian_block(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    two_iiwas_line_arm1_fk_jacobian(q + 7 * s, M + 8 * s, P + 5 * s, J_S + 42 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    two_iiwas_line_arm1_fk_jacobian(in_q + 7 * gagen_s, out_M + 8 * gagen_s, out_P + 5 * gagen_s, out_J_S + 42 * gagen_s);
   }
 }
 
@@ -2901,21 +2901,21 @@ void two_iiwas_line_arm1_fk_jacobian_batch(long n, const double *restrict q, dou
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void two_iiwas_line_arm1_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
+static void two_iiwas_line_arm1_fk_jacobian_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
   gagen_v w36, w37, w38, w39, w40, w41, w42, w43, w44, w45, w46;
   w0 = gagen_v_splat(0.125);
   w1 = gagen_v_splat(0.5);
-  w2 = GAGEN_GATHER(q, 7, 0);
+  w2 = GAGEN_GATHER(in_q, 7, 0);
   w2 = w1 * w2;
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 7, 1);
+  w4 = GAGEN_GATHER(in_q, 7, 1);
   w4 = w1 * w4;
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
-  w7 = GAGEN_GATHER(q, 7, 2);
+  w7 = GAGEN_GATHER(in_q, 7, 2);
   w7 = w1 * w7;
   w8 = gagen_v_cos(w7);
   w9 = w6 * w8;
@@ -2932,7 +2932,7 @@ static void two_iiwas_line_arm1_fk_jacobian_block_columns(long gagen_ld, int gag
   w15 = w14 * w8;
   w13 = w13 - w15;
   w13 = w13 + w13;
-  w16 = GAGEN_GATHER(q, 7, 3);
+  w16 = GAGEN_GATHER(in_q, 7, 3);
   w16 = w1 * w16;
   w17 = gagen_v_cos(w16);
   w18 = w13 * w17;
@@ -2958,7 +2958,7 @@ static void two_iiwas_line_arm1_fk_jacobian_block_columns(long gagen_ld, int gag
   w6 = w6 + w6;
   w14 = w6 * w16;
   w21 = w21 - w14;
-  w10 = GAGEN_GATHER(q, 7, 4);
+  w10 = GAGEN_GATHER(in_q, 7, 4);
   w10 = w1 * w10;
   w11 = gagen_v_cos(w10);
   w12 = w21 * w11;
@@ -2982,7 +2982,7 @@ static void two_iiwas_line_arm1_fk_jacobian_block_columns(long gagen_ld, int gag
   w19 = w19 + w9;
   w9 = w19 * w10;
   w20 = w20 - w9;
-  w6 = GAGEN_GATHER(q, 7, 5);
+  w6 = GAGEN_GATHER(in_q, 7, 5);
   w6 = w1 * w6;
   w13 = gagen_v_cos(w6);
   w23 = w20 * w13;
@@ -3006,7 +3006,7 @@ static void two_iiwas_line_arm1_fk_jacobian_block_columns(long gagen_ld, int gag
   w18 = w18 - w21;
   w21 = w18 * w6;
   w26 = w26 - w21;
-  w15 = GAGEN_GATHER(q, 7, 6);
+  w15 = GAGEN_GATHER(in_q, 7, 6);
   w15 = w1 * w15;
   w19 = gagen_v_cos(w15);
   w22 = w26 * w19;
@@ -3021,12 +3021,12 @@ static void two_iiwas_line_arm1_fk_jacobian_block_columns(long gagen_ld, int gag
   w27 = w12 * w15;
   w22 = w22 + w27;
   w22 = w0 * w22;
-  GAGEN_SCATTER(M, 8, 0, w22);
+  GAGEN_SCATTER(out_M, 8, 0, w22);
   w12 = w12 * w19;
   w26 = w26 * w15;
   w12 = w12 - w26;
   w12 = w0 * w12;
-  GAGEN_SCATTER(M, 8, 1, w12);
+  GAGEN_SCATTER(out_M, 8, 1, w12);
   w24 = w24 + w20;
   w24 = w24 + w18;
   w24 = w24 - w9;
@@ -3037,12 +3037,12 @@ static void two_iiwas_line_arm1_fk_jacobian_block_columns(long gagen_ld, int gag
   w21 = w25 * w15;
   w9 = w9 + w21;
   w9 = w0 * w9;
-  GAGEN_SCATTER(M, 8, 2, w9);
+  GAGEN_SCATTER(out_M, 8, 2, w9);
   w25 = w25 * w19;
   w24 = w24 * w15;
   w25 = w25 - w24;
   w0 = w0 * w25;
-  GAGEN_SCATTER(M, 8, 3, w0);
+  GAGEN_SCATTER(out_M, 8, 3, w0);
   w25 = gagen_v_splat(0.4);
   w24 = w17 * w16;
   w24 = w24 + w24;
@@ -3158,14 +3158,14 @@ static void two_iiwas_line_arm1_fk_jacobian_block_columns(long gagen_ld, int gag
   w13 = w26 * w22;
   w34 = w34 - w13;
   w34 = w1 * w34;
-  GAGEN_SCATTER(M, 8, 4, w34);
+  GAGEN_SCATTER(out_M, 8, 4, w34);
   w34 = w42 * w0;
   w13 = w26 * w12;
   w34 = w34 - w13;
   w13 = w33 * w22;
   w34 = w34 - w13;
   w34 = w1 * w34;
-  GAGEN_SCATTER(M, 8, 5, w34);
+  GAGEN_SCATTER(out_M, 8, 5, w34);
   w34 = w26 * w9;
   w13 = w33 * w0;
   w34 = w34 + w13;
@@ -3173,49 +3173,49 @@ static void two_iiwas_line_arm1_fk_jacobian_block_columns(long gagen_ld, int gag
   w34 = w34 + w22;
   w34 = w1 * w34;
   w34 = -w34;
-  GAGEN_SCATTER(M, 8, 6, w34);
+  GAGEN_SCATTER(out_M, 8, 6, w34);
   w9 = w33 * w9;
   w0 = w26 * w0;
   w9 = w9 - w0;
   w12 = w42 * w12;
   w9 = w9 - w12;
   w9 = w1 * w9;
-  GAGEN_SCATTER(M, 8, 7, w9);
+  GAGEN_SCATTER(out_M, 8, 7, w9);
   w9 = gagen_v_splat(1.0);
-  GAGEN_SCATTER(P, 5, 0, w9);
-  GAGEN_SCATTER(P, 5, 1, w26);
-  GAGEN_SCATTER(P, 5, 2, w33);
-  GAGEN_SCATTER(P, 5, 3, w42);
+  GAGEN_SCATTER(out_P, 5, 0, w9);
+  GAGEN_SCATTER(out_P, 5, 1, w26);
+  GAGEN_SCATTER(out_P, 5, 2, w33);
+  GAGEN_SCATTER(out_P, 5, 3, w42);
   w26 = w26 * w26;
   w33 = w33 * w33;
   w26 = w26 + w33;
   w42 = w42 * w42;
   w26 = w26 + w42;
   w1 = w1 * w26;
-  GAGEN_SCATTER(P, 5, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 0, w9);
+  GAGEN_SCATTER(out_P, 5, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 0, w9);
   w9 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_S, 42, 1, w9);
-  GAGEN_SCATTER(J_S, 42, 2, w9);
-  GAGEN_SCATTER(J_S, 42, 3, w9);
+  GAGEN_SCATTER(out_J_S, 42, 1, w9);
+  GAGEN_SCATTER(out_J_S, 42, 2, w9);
+  GAGEN_SCATTER(out_J_S, 42, 3, w9);
   w1 = gagen_v_splat((-0.8));
-  GAGEN_SCATTER(J_S, 42, 4, w1);
-  GAGEN_SCATTER(J_S, 42, 5, w9);
-  GAGEN_SCATTER(J_S, 42, 6, w9);
-  GAGEN_SCATTER(J_S, 42, 7, w2);
-  GAGEN_SCATTER(J_S, 42, 8, w23);
+  GAGEN_SCATTER(out_J_S, 42, 4, w1);
+  GAGEN_SCATTER(out_J_S, 42, 5, w9);
+  GAGEN_SCATTER(out_J_S, 42, 6, w9);
+  GAGEN_SCATTER(out_J_S, 42, 7, w2);
+  GAGEN_SCATTER(out_J_S, 42, 8, w23);
   w35 = w35 * w2;
-  GAGEN_SCATTER(J_S, 42, 9, w35);
+  GAGEN_SCATTER(out_J_S, 42, 9, w35);
   w35 = gagen_v_splat(0.72);
   w35 = w35 * w14;
-  GAGEN_SCATTER(J_S, 42, 10, w35);
+  GAGEN_SCATTER(out_J_S, 42, 10, w35);
   w43 = w43 * w2;
   w43 = -w43;
-  GAGEN_SCATTER(J_S, 42, 11, w43);
-  GAGEN_SCATTER(J_S, 42, 12, w19);
-  GAGEN_SCATTER(J_S, 42, 13, w20);
+  GAGEN_SCATTER(out_J_S, 42, 11, w43);
+  GAGEN_SCATTER(out_J_S, 42, 12, w19);
+  GAGEN_SCATTER(out_J_S, 42, 13, w20);
   w43 = -w44;
-  GAGEN_SCATTER(J_S, 42, 14, w43);
+  GAGEN_SCATTER(out_J_S, 42, 14, w43);
   w43 = gagen_v_splat(0.18);
   w2 = gagen_v_splat(0.10225);
   w35 = w2 * w19;
@@ -3227,7 +3227,7 @@ static void two_iiwas_line_arm1_fk_jacobian_block_columns(long gagen_ld, int gag
   w1 = w1 * w23;
   w1 = w9 * w1;
   w14 = w14 - w1;
-  GAGEN_SCATTER(J_S, 42, 15, w14);
+  GAGEN_SCATTER(out_J_S, 42, 15, w14);
   w2 = w2 * w44;
   w2 = w25 - w2;
   w14 = w19 * w2;
@@ -3235,7 +3235,7 @@ static void two_iiwas_line_arm1_fk_jacobian_block_columns(long gagen_ld, int gag
   w14 = w14 + w35;
   w14 = -w14;
   w14 = w14 + w14;
-  GAGEN_SCATTER(J_S, 42, 16, w14);
+  GAGEN_SCATTER(out_J_S, 42, 16, w14);
   w2 = w20 * w2;
   w2 = w2 + w2;
   w14 = w44 * w5;
@@ -3243,14 +3243,14 @@ static void two_iiwas_line_arm1_fk_jacobian_block_columns(long gagen_ld, int gag
   w9 = w9 * w14;
   w2 = w2 + w9;
   w2 = -w2;
-  GAGEN_SCATTER(J_S, 42, 17, w2);
+  GAGEN_SCATTER(out_J_S, 42, 17, w2);
   w2 = w8 * w5;
   w9 = -w2;
-  GAGEN_SCATTER(J_S, 42, 18, w9);
+  GAGEN_SCATTER(out_J_S, 42, 18, w9);
   w9 = -w10;
-  GAGEN_SCATTER(J_S, 42, 19, w9);
+  GAGEN_SCATTER(out_J_S, 42, 19, w9);
   w9 = -w31;
-  GAGEN_SCATTER(J_S, 42, 20, w9);
+  GAGEN_SCATTER(out_J_S, 42, 20, w9);
   w9 = w2 * w5;
   w9 = w9 * w23;
   w9 = w7 * w9;
@@ -3260,25 +3260,25 @@ static void two_iiwas_line_arm1_fk_jacobian_block_columns(long gagen_ld, int gag
   w1 = w10 * w35;
   w1 = w1 + w1;
   w9 = w9 - w1;
-  GAGEN_SCATTER(J_S, 42, 21, w9);
+  GAGEN_SCATTER(out_J_S, 42, 21, w9);
   w44 = w14 * w44;
   w25 = w25 - w44;
   w2 = w2 * w25;
   w35 = w31 * w35;
   w2 = w2 - w35;
   w2 = w2 + w2;
-  GAGEN_SCATTER(J_S, 42, 22, w2);
+  GAGEN_SCATTER(out_J_S, 42, 22, w2);
   w2 = w10 * w25;
   w2 = w2 + w2;
   w35 = w31 * w5;
   w35 = w35 * w23;
   w7 = w7 * w35;
   w2 = w2 - w7;
-  GAGEN_SCATTER(J_S, 42, 23, w2);
-  GAGEN_SCATTER(J_S, 42, 24, w39);
+  GAGEN_SCATTER(out_J_S, 42, 23, w2);
+  GAGEN_SCATTER(out_J_S, 42, 24, w39);
   w2 = -w3;
-  GAGEN_SCATTER(J_S, 42, 25, w2);
-  GAGEN_SCATTER(J_S, 42, 26, w24);
+  GAGEN_SCATTER(out_J_S, 42, 25, w2);
+  GAGEN_SCATTER(out_J_S, 42, 26, w24);
   w2 = gagen_v_splat(0.09225);
   w38 = w38 + w37;
   w37 = w2 * w38;
@@ -3292,32 +3292,32 @@ static void two_iiwas_line_arm1_fk_jacobian_block_columns(long gagen_ld, int gag
   w7 = w7 - w20;
   w7 = w7 + w7;
   w7 = -w7;
-  GAGEN_SCATTER(J_S, 42, 27, w7);
+  GAGEN_SCATTER(out_J_S, 42, 27, w7);
   w37 = w24 * w37;
   w2 = w2 * w24;
   w2 = w25 + w2;
   w39 = w39 * w2;
   w37 = w37 - w39;
   w37 = w37 + w37;
-  GAGEN_SCATTER(J_S, 42, 28, w37);
+  GAGEN_SCATTER(out_J_S, 42, 28, w37);
   w2 = w3 * w2;
   w35 = w24 * w35;
   w2 = w2 - w35;
   w2 = w2 + w2;
-  GAGEN_SCATTER(J_S, 42, 29, w2);
+  GAGEN_SCATTER(out_J_S, 42, 29, w2);
   w41 = w11 * w41;
   w8 = w6 * w8;
   w8 = w8 * w5;
   w41 = w41 + w8;
-  GAGEN_SCATTER(J_S, 42, 30, w41);
+  GAGEN_SCATTER(out_J_S, 42, 30, w41);
   w10 = w6 * w10;
   w18 = w11 * w18;
   w10 = w10 - w18;
-  GAGEN_SCATTER(J_S, 42, 31, w10);
+  GAGEN_SCATTER(out_J_S, 42, 31, w10);
   w11 = w11 * w17;
   w6 = w6 * w31;
   w11 = w11 + w6;
-  GAGEN_SCATTER(J_S, 42, 32, w11);
+  GAGEN_SCATTER(out_J_S, 42, 32, w11);
   w6 = gagen_v_splat(0.2);
   w3 = w6 * w3;
   w3 = w3 - w14;
@@ -3330,24 +3330,24 @@ static void two_iiwas_line_arm1_fk_jacobian_block_columns(long gagen_ld, int gag
   w14 = -w14;
   w14 = w14 + w14;
   w14 = -w14;
-  GAGEN_SCATTER(J_S, 42, 33, w14);
+  GAGEN_SCATTER(out_J_S, 42, 33, w14);
   w38 = w11 * w38;
   w6 = w6 * w24;
   w25 = w25 + w6;
   w41 = w41 * w25;
   w38 = w38 - w41;
   w38 = w38 + w38;
-  GAGEN_SCATTER(J_S, 42, 34, w38);
+  GAGEN_SCATTER(out_J_S, 42, 34, w38);
   w10 = w10 * w25;
   w11 = w11 * w3;
   w10 = w10 + w11;
   w10 = -w10;
   w10 = w10 + w10;
-  GAGEN_SCATTER(J_S, 42, 35, w10);
-  GAGEN_SCATTER(J_S, 42, 36, w40);
+  GAGEN_SCATTER(out_J_S, 42, 35, w10);
+  GAGEN_SCATTER(out_J_S, 42, 36, w40);
   w30 = w30 - w28;
-  GAGEN_SCATTER(J_S, 42, 37, w30);
-  GAGEN_SCATTER(J_S, 42, 38, w27);
+  GAGEN_SCATTER(out_J_S, 42, 37, w30);
+  GAGEN_SCATTER(out_J_S, 42, 38, w27);
   w28 = gagen_v_splat(0.081);
   w32 = w28 * w32;
   w16 = w16 + w32;
@@ -3356,18 +3356,18 @@ static void two_iiwas_line_arm1_fk_jacobian_block_columns(long gagen_ld, int gag
   w36 = w36 + w10;
   w10 = w30 * w36;
   w32 = w32 + w10;
-  GAGEN_SCATTER(J_S, 42, 39, w32);
+  GAGEN_SCATTER(out_J_S, 42, 39, w32);
   w36 = w27 * w36;
   w28 = w28 * w27;
   w45 = w45 + w28;
   w40 = w40 * w45;
   w36 = w36 - w40;
-  GAGEN_SCATTER(J_S, 42, 40, w36);
+  GAGEN_SCATTER(out_J_S, 42, 40, w36);
   w30 = w30 * w45;
   w27 = w27 * w16;
   w30 = w30 + w27;
   w30 = -w30;
-  GAGEN_SCATTER(J_S, 42, 41, w30);
+  GAGEN_SCATTER(out_J_S, 42, 41, w30);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -3375,21 +3375,21 @@ static void two_iiwas_line_arm1_fk_jacobian_block_columns(long gagen_ld, int gag
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void two_iiwas_line_arm1_fk_jacobian_batch_columns(long n, long ld, const double *restrict q, double *restrict M, double *restrict P, double *restrict J_S) {
-  long s = 0;
+void two_iiwas_line_arm1_fk_jacobian_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_M, double *restrict out_P, double *restrict out_J_S) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    two_iiwas_line_arm1_fk_jacobian_block_columns(ld, stream, q + s, M + s, P + s, J_S + s);
+  const int gagen_stream = gagen_n * 55L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    two_iiwas_line_arm1_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  two_iiwas_line_arm1_fk_jacobian_columns_from(s, n, ld, q, M, P, J_S);
+  two_iiwas_line_arm1_fk_jacobian_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_M, out_P, out_J_S);
 }
 
 #if GAGEN_SIMD
 /* the cooperative line X_c(q) and J_c: GAGEN_W consecutive samples at once */
-static void two_iiwas_line_primitive_block(const double *restrict q, double *restrict X_c, double *restrict J_c) {
+static void two_iiwas_line_primitive_block(const double *restrict in_q, double *restrict out_X_c, double *restrict out_J_c) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -3399,17 +3399,17 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   gagen_v w72, w73, w74, w75, w76, w77, w78, w79;
   w0 = gagen_v_splat(0.8);
   w1 = gagen_v_splat(0.42);
-  w2 = GAGEN_GATHER(q, 14, 8);
+  w2 = GAGEN_GATHER(in_q, 14, 8);
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 14, 7);
+  w4 = GAGEN_GATHER(in_q, 14, 7);
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
   w7 = w1 * w6;
   w8 = w0 - w7;
   w9 = gagen_v_splat(0.4);
-  w10 = GAGEN_GATHER(q, 14, 10);
+  w10 = GAGEN_GATHER(in_q, 14, 10);
   w11 = gagen_v_sin(w10);
-  w12 = GAGEN_GATHER(q, 14, 9);
+  w12 = GAGEN_GATHER(in_q, 14, 9);
   w13 = gagen_v_cos(w12);
   w2 = gagen_v_cos(w2);
   w14 = w13 * w2;
@@ -3426,11 +3426,11 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w18 = w9 * w16;
   w8 = w8 + w18;
   w19 = gagen_v_splat(0.126);
-  w20 = GAGEN_GATHER(q, 14, 12);
+  w20 = GAGEN_GATHER(in_q, 14, 12);
   w21 = gagen_v_cos(w20);
   w22 = w21 * w16;
   w20 = gagen_v_sin(w20);
-  w23 = GAGEN_GATHER(q, 14, 11);
+  w23 = GAGEN_GATHER(in_q, 14, 11);
   w24 = gagen_v_cos(w23);
   w15 = w10 * w15;
   w25 = w11 * w3;
@@ -3448,16 +3448,16 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w22 = w22 - w26;
   w26 = w19 * w22;
   w29 = w8 + w26;
-  w30 = GAGEN_GATHER(q, 14, 3);
+  w30 = GAGEN_GATHER(in_q, 14, 3);
   w31 = gagen_v_cos(w30);
-  w32 = GAGEN_GATHER(q, 14, 1);
+  w32 = GAGEN_GATHER(in_q, 14, 1);
   w33 = gagen_v_sin(w32);
   w34 = w31 * w33;
-  w35 = GAGEN_GATHER(q, 14, 0);
+  w35 = GAGEN_GATHER(in_q, 14, 0);
   w36 = gagen_v_cos(w35);
   w37 = w34 * w36;
   w30 = gagen_v_sin(w30);
-  w38 = GAGEN_GATHER(q, 14, 2);
+  w38 = GAGEN_GATHER(in_q, 14, 2);
   w39 = gagen_v_cos(w38);
   w32 = gagen_v_cos(w32);
   w40 = w39 * w32;
@@ -3469,11 +3469,11 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w42 = w30 * w41;
   w43 = w37 - w42;
   w44 = w9 * w43;
-  w45 = GAGEN_GATHER(q, 14, 5);
+  w45 = GAGEN_GATHER(in_q, 14, 5);
   w46 = gagen_v_cos(w45);
   w47 = w46 * w43;
   w45 = gagen_v_sin(w45);
-  w48 = GAGEN_GATHER(q, 14, 4);
+  w48 = GAGEN_GATHER(in_q, 14, 4);
   w49 = gagen_v_sin(w48);
   w50 = w38 * w32;
   w51 = w50 * w36;
@@ -3496,7 +3496,7 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w56 = w1 * w55;
   w41 = w41 + w56;
   w57 = w29 - w41;
-  GAGEN_SCATTER(X_c, 6, 0, w57);
+  GAGEN_SCATTER(out_X_c, 6, 0, w57);
   w14 = w14 * w4;
   w57 = w12 * w5;
   w14 = w14 + w57;
@@ -3547,11 +3547,11 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w67 = w1 * w66;
   w65 = w65 + w67;
   w68 = w61 - w65;
-  GAGEN_SCATTER(X_c, 6, 1, w68);
+  GAGEN_SCATTER(out_X_c, 6, 1, w68);
   w68 = w41 * w61;
   w69 = w65 * w29;
   w68 = w68 - w69;
-  GAGEN_SCATTER(X_c, 6, 2, w68);
+  GAGEN_SCATTER(out_X_c, 6, 2, w68);
   w68 = gagen_v_splat(0.36);
   w69 = w1 * w2;
   w69 = w68 + w69;
@@ -3596,59 +3596,59 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w19 = w19 * w46;
   w19 = w11 + w19;
   w45 = w20 - w19;
-  GAGEN_SCATTER(X_c, 6, 3, w45);
+  GAGEN_SCATTER(out_X_c, 6, 3, w45);
   w45 = w41 * w20;
   w30 = w19 * w29;
   w45 = w45 - w30;
-  GAGEN_SCATTER(X_c, 6, 4, w45);
+  GAGEN_SCATTER(out_X_c, 6, 4, w45);
   w45 = w65 * w20;
   w30 = w19 * w61;
   w45 = w45 - w30;
-  GAGEN_SCATTER(X_c, 6, 5, w45);
-  GAGEN_SCATTER(J_c, 84, 0, w65);
+  GAGEN_SCATTER(out_X_c, 6, 5, w45);
+  GAGEN_SCATTER(out_J_c, 84, 0, w65);
   w52 = w52 + w56;
   w45 = -w52;
-  GAGEN_SCATTER(J_c, 84, 1, w45);
+  GAGEN_SCATTER(out_J_c, 84, 1, w45);
   w45 = w61 * w65;
   w39 = w29 * w52;
   w45 = w45 + w39;
   w45 = -w45;
-  GAGEN_SCATTER(J_c, 84, 2, w45);
+  GAGEN_SCATTER(out_J_c, 84, 2, w45);
   w45 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_c, 84, 3, w45);
+  GAGEN_SCATTER(out_J_c, 84, 3, w45);
   w39 = w20 * w65;
   w39 = -w39;
-  GAGEN_SCATTER(J_c, 84, 4, w39);
+  GAGEN_SCATTER(out_J_c, 84, 4, w39);
   w52 = w20 * w52;
-  GAGEN_SCATTER(J_c, 84, 5, w52);
+  GAGEN_SCATTER(out_J_c, 84, 5, w52);
   w52 = w19 * w36;
   w39 = w68 * w36;
   w52 = w52 - w39;
   w39 = -w52;
-  GAGEN_SCATTER(J_c, 84, 6, w39);
+  GAGEN_SCATTER(out_J_c, 84, 6, w39);
   w39 = w19 * w35;
   w75 = w68 * w35;
   w39 = w39 - w75;
   w75 = -w39;
-  GAGEN_SCATTER(J_c, 84, 7, w75);
+  GAGEN_SCATTER(out_J_c, 84, 7, w75);
   w75 = w61 * w52;
   w76 = w29 * w39;
   w75 = w75 - w76;
-  GAGEN_SCATTER(J_c, 84, 8, w75);
+  GAGEN_SCATTER(out_J_c, 84, 8, w75);
   w75 = w65 * w35;
   w76 = w41 * w36;
   w75 = w75 + w76;
   w76 = w0 * w36;
   w75 = w75 + w76;
-  GAGEN_SCATTER(J_c, 84, 9, w75);
+  GAGEN_SCATTER(out_J_c, 84, 9, w75);
   w52 = w20 * w52;
   w76 = w29 * w75;
   w52 = w52 + w76;
-  GAGEN_SCATTER(J_c, 84, 10, w52);
+  GAGEN_SCATTER(out_J_c, 84, 10, w52);
   w39 = w20 * w39;
   w75 = w61 * w75;
   w39 = w39 + w75;
-  GAGEN_SCATTER(J_c, 84, 11, w39);
+  GAGEN_SCATTER(out_J_c, 84, 11, w39);
   w39 = w19 * w33;
   w75 = w39 * w35;
   w52 = w68 * w66;
@@ -3656,7 +3656,7 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w52 = w52 + w76;
   w75 = w75 - w52;
   w52 = -w75;
-  GAGEN_SCATTER(J_c, 84, 12, w52);
+  GAGEN_SCATTER(out_J_c, 84, 12, w52);
   w52 = w41 * w32;
   w39 = w39 * w36;
   w52 = w52 - w39;
@@ -3672,11 +3672,11 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w77 = w77 + w77;
   w52 = w52 + w77;
   w77 = -w52;
-  GAGEN_SCATTER(J_c, 84, 13, w77);
+  GAGEN_SCATTER(out_J_c, 84, 13, w77);
   w77 = w61 * w75;
   w79 = w29 * w52;
   w77 = w77 - w79;
-  GAGEN_SCATTER(J_c, 84, 14, w77);
+  GAGEN_SCATTER(out_J_c, 84, 14, w77);
   w76 = w66 * w76;
   w76 = -w76;
   w76 = w76 + w76;
@@ -3692,15 +3692,15 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w36 = w77 * w36;
   w76 = w76 - w36;
   w36 = -w76;
-  GAGEN_SCATTER(J_c, 84, 15, w36);
+  GAGEN_SCATTER(out_J_c, 84, 15, w36);
   w75 = w20 * w75;
   w36 = w29 * w76;
   w75 = w75 - w36;
-  GAGEN_SCATTER(J_c, 84, 16, w75);
+  GAGEN_SCATTER(out_J_c, 84, 16, w75);
   w52 = w20 * w52;
   w76 = w61 * w76;
   w52 = w52 - w76;
-  GAGEN_SCATTER(J_c, 84, 17, w52);
+  GAGEN_SCATTER(out_J_c, 84, 17, w52);
   w52 = w19 * w64;
   w76 = w65 * w38;
   w76 = w76 * w33;
@@ -3717,7 +3717,7 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w79 = -w79;
   w79 = w79 + w79;
   w52 = w52 + w79;
-  GAGEN_SCATTER(J_c, 84, 18, w52);
+  GAGEN_SCATTER(out_J_c, 84, 18, w52);
   w36 = w51 * w36;
   w55 = w75 * w55;
   w55 = w9 - w55;
@@ -3730,12 +3730,12 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w76 = w19 * w51;
   w36 = w36 - w76;
   w76 = -w36;
-  GAGEN_SCATTER(J_c, 84, 19, w76);
+  GAGEN_SCATTER(out_J_c, 84, 19, w76);
   w76 = w61 * w52;
   w79 = w29 * w36;
   w76 = w76 + w79;
   w76 = -w76;
-  GAGEN_SCATTER(J_c, 84, 20, w76);
+  GAGEN_SCATTER(out_J_c, 84, 20, w76);
   w76 = w41 * w64;
   w79 = w65 * w51;
   w76 = w76 + w79;
@@ -3747,16 +3747,16 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w79 = w1 * w79;
   w76 = w76 - w79;
   w79 = -w76;
-  GAGEN_SCATTER(J_c, 84, 21, w79);
+  GAGEN_SCATTER(out_J_c, 84, 21, w79);
   w52 = w20 * w52;
   w79 = w29 * w76;
   w52 = w52 + w79;
   w52 = -w52;
-  GAGEN_SCATTER(J_c, 84, 22, w52);
+  GAGEN_SCATTER(out_J_c, 84, 22, w52);
   w36 = w20 * w36;
   w76 = w61 * w76;
   w36 = w36 - w76;
-  GAGEN_SCATTER(J_c, 84, 23, w36);
+  GAGEN_SCATTER(out_J_c, 84, 23, w36);
   w36 = w65 * w74;
   w76 = w19 * w62;
   w36 = w36 + w76;
@@ -3773,7 +3773,7 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w79 = w79 - w35;
   w79 = w79 + w79;
   w36 = w36 + w79;
-  GAGEN_SCATTER(J_c, 84, 24, w36);
+  GAGEN_SCATTER(out_J_c, 84, 24, w36);
   w79 = w41 * w74;
   w42 = w42 - w37;
   w37 = w76 * w42;
@@ -3786,12 +3786,12 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w74 = w19 * w43;
   w79 = w79 - w74;
   w74 = -w79;
-  GAGEN_SCATTER(J_c, 84, 25, w74);
+  GAGEN_SCATTER(out_J_c, 84, 25, w74);
   w74 = w61 * w36;
   w13 = w29 * w79;
   w74 = w74 + w13;
   w74 = -w74;
-  GAGEN_SCATTER(J_c, 84, 26, w74);
+  GAGEN_SCATTER(out_J_c, 84, 26, w74);
   w74 = w41 * w62;
   w13 = w65 * w43;
   w74 = w74 + w13;
@@ -3801,16 +3801,16 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w37 = w37 + w37;
   w74 = w74 + w37;
   w37 = -w74;
-  GAGEN_SCATTER(J_c, 84, 27, w37);
+  GAGEN_SCATTER(out_J_c, 84, 27, w37);
   w36 = w20 * w36;
   w37 = w29 * w74;
   w36 = w36 + w37;
   w36 = -w36;
-  GAGEN_SCATTER(J_c, 84, 28, w36);
+  GAGEN_SCATTER(out_J_c, 84, 28, w36);
   w79 = w20 * w79;
   w74 = w61 * w74;
   w79 = w79 - w74;
-  GAGEN_SCATTER(J_c, 84, 29, w79);
+  GAGEN_SCATTER(out_J_c, 84, 29, w79);
   w31 = w49 * w31;
   w38 = w48 * w38;
   w38 = w38 * w33;
@@ -3832,7 +3832,7 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w66 = w66 - w32;
   w66 = w66 + w66;
   w38 = w38 + w66;
-  GAGEN_SCATTER(J_c, 84, 30, w38);
+  GAGEN_SCATTER(out_J_c, 84, 30, w38);
   w66 = w41 * w31;
   w42 = w64 * w42;
   w55 = w55 + w42;
@@ -3847,12 +3847,12 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w31 = w19 * w49;
   w66 = w66 + w31;
   w31 = -w66;
-  GAGEN_SCATTER(J_c, 84, 31, w31);
+  GAGEN_SCATTER(out_J_c, 84, 31, w31);
   w31 = w61 * w38;
   w73 = w29 * w66;
   w31 = w31 + w73;
   w31 = -w31;
-  GAGEN_SCATTER(J_c, 84, 32, w31);
+  GAGEN_SCATTER(out_J_c, 84, 32, w31);
   w31 = w41 * w53;
   w73 = w65 * w49;
   w31 = w31 - w73;
@@ -3862,16 +3862,16 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w53 = w53 + w53;
   w31 = w31 + w53;
   w53 = -w31;
-  GAGEN_SCATTER(J_c, 84, 33, w53);
+  GAGEN_SCATTER(out_J_c, 84, 33, w53);
   w38 = w20 * w38;
   w53 = w29 * w31;
   w38 = w38 + w53;
   w38 = -w38;
-  GAGEN_SCATTER(J_c, 84, 34, w38);
+  GAGEN_SCATTER(out_J_c, 84, 34, w38);
   w66 = w20 * w66;
   w31 = w61 * w31;
   w66 = w66 - w31;
-  GAGEN_SCATTER(J_c, 84, 35, w66);
+  GAGEN_SCATTER(out_J_c, 84, 35, w66);
   w66 = gagen_v_splat(0.081);
   w50 = w66 * w50;
   w63 = w63 + w50;
@@ -3887,7 +3887,7 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w40 = w19 * w34;
   w67 = w67 - w40;
   w40 = -w67;
-  GAGEN_SCATTER(J_c, 84, 36, w40);
+  GAGEN_SCATTER(out_J_c, 84, 36, w40);
   w11 = w47 * w11;
   w40 = w41 * w46;
   w11 = w11 + w40;
@@ -3900,11 +3900,11 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w46 = w19 * w47;
   w11 = w11 - w46;
   w46 = -w11;
-  GAGEN_SCATTER(J_c, 84, 37, w46);
+  GAGEN_SCATTER(out_J_c, 84, 37, w46);
   w46 = w61 * w67;
   w56 = w29 * w11;
   w46 = w46 - w56;
-  GAGEN_SCATTER(J_c, 84, 38, w46);
+  GAGEN_SCATTER(out_J_c, 84, 38, w46);
   w46 = w41 * w34;
   w56 = w65 * w47;
   w46 = w46 + w56;
@@ -3913,62 +3913,62 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w47 = w47 * w63;
   w46 = w46 - w47;
   w47 = -w46;
-  GAGEN_SCATTER(J_c, 84, 39, w47);
+  GAGEN_SCATTER(out_J_c, 84, 39, w47);
   w67 = w20 * w67;
   w47 = w29 * w46;
   w67 = w67 - w47;
-  GAGEN_SCATTER(J_c, 84, 40, w67);
+  GAGEN_SCATTER(out_J_c, 84, 40, w67);
   w11 = w20 * w11;
   w46 = w61 * w46;
   w11 = w11 - w46;
-  GAGEN_SCATTER(J_c, 84, 41, w11);
+  GAGEN_SCATTER(out_J_c, 84, 41, w11);
   w11 = -w61;
-  GAGEN_SCATTER(J_c, 84, 42, w11);
+  GAGEN_SCATTER(out_J_c, 84, 42, w11);
   w18 = w18 - w7;
   w18 = w18 + w26;
-  GAGEN_SCATTER(J_c, 84, 43, w18);
+  GAGEN_SCATTER(out_J_c, 84, 43, w18);
   w26 = w65 * w61;
   w7 = w41 * w18;
   w26 = w26 + w7;
-  GAGEN_SCATTER(J_c, 84, 44, w26);
-  GAGEN_SCATTER(J_c, 84, 45, w45);
-  GAGEN_SCATTER(J_c, 84, 46, w30);
+  GAGEN_SCATTER(out_J_c, 84, 44, w26);
+  GAGEN_SCATTER(out_J_c, 84, 45, w45);
+  GAGEN_SCATTER(out_J_c, 84, 46, w30);
   w18 = w19 * w18;
   w18 = -w18;
-  GAGEN_SCATTER(J_c, 84, 47, w18);
+  GAGEN_SCATTER(out_J_c, 84, 47, w18);
   w18 = w68 * w5;
   w30 = w20 * w5;
   w18 = w18 - w30;
-  GAGEN_SCATTER(J_c, 84, 48, w18);
+  GAGEN_SCATTER(out_J_c, 84, 48, w18);
   w30 = w68 * w4;
   w45 = w20 * w4;
   w30 = w30 - w45;
-  GAGEN_SCATTER(J_c, 84, 49, w30);
+  GAGEN_SCATTER(out_J_c, 84, 49, w30);
   w45 = w41 * w30;
   w26 = w65 * w18;
   w45 = w45 - w26;
-  GAGEN_SCATTER(J_c, 84, 50, w45);
+  GAGEN_SCATTER(out_J_c, 84, 50, w45);
   w45 = w29 * w5;
   w26 = w61 * w4;
   w45 = w45 + w26;
   w0 = w0 * w5;
   w45 = w45 - w0;
-  GAGEN_SCATTER(J_c, 84, 51, w45);
+  GAGEN_SCATTER(out_J_c, 84, 51, w45);
   w0 = w41 * w45;
   w18 = w19 * w18;
   w0 = w0 - w18;
-  GAGEN_SCATTER(J_c, 84, 52, w0);
+  GAGEN_SCATTER(out_J_c, 84, 52, w0);
   w45 = w65 * w45;
   w30 = w19 * w30;
   w45 = w45 - w30;
-  GAGEN_SCATTER(J_c, 84, 53, w45);
+  GAGEN_SCATTER(out_J_c, 84, 53, w45);
   w68 = w68 * w58;
   w45 = w20 * w3;
   w30 = w45 * w4;
   w0 = w61 * w2;
   w30 = w30 + w0;
   w68 = w68 - w30;
-  GAGEN_SCATTER(J_c, 84, 54, w68);
+  GAGEN_SCATTER(out_J_c, 84, 54, w68);
   w30 = w29 * w2;
   w0 = w39 * w6;
   w0 = w9 - w0;
@@ -3982,11 +3982,11 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w30 = w30 + w18;
   w45 = w45 * w5;
   w30 = w30 + w45;
-  GAGEN_SCATTER(J_c, 84, 55, w30);
+  GAGEN_SCATTER(out_J_c, 84, 55, w30);
   w45 = w41 * w30;
   w18 = w65 * w68;
   w45 = w45 - w18;
-  GAGEN_SCATTER(J_c, 84, 56, w45);
+  GAGEN_SCATTER(out_J_c, 84, 56, w45);
   w45 = w29 * w3;
   w45 = w45 * w4;
   w18 = w61 * w3;
@@ -3999,15 +3999,15 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w0 = w0 * w4;
   w77 = w77 * w0;
   w45 = w45 - w77;
-  GAGEN_SCATTER(J_c, 84, 57, w45);
+  GAGEN_SCATTER(out_J_c, 84, 57, w45);
   w77 = w41 * w45;
   w68 = w19 * w68;
   w77 = w77 - w68;
-  GAGEN_SCATTER(J_c, 84, 58, w77);
+  GAGEN_SCATTER(out_J_c, 84, 58, w77);
   w45 = w65 * w45;
   w30 = w19 * w30;
   w45 = w45 - w30;
-  GAGEN_SCATTER(J_c, 84, 59, w45);
+  GAGEN_SCATTER(out_J_c, 84, 59, w45);
   w45 = w12 * w3;
   w30 = w45 * w3;
   w30 = w30 * w4;
@@ -4022,7 +4022,7 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w68 = w60 * w77;
   w68 = w68 + w68;
   w30 = w30 - w68;
-  GAGEN_SCATTER(J_c, 84, 60, w30);
+  GAGEN_SCATTER(out_J_c, 84, 60, w30);
   w6 = w75 * w6;
   w9 = w9 - w6;
   w45 = w45 * w9;
@@ -4034,11 +4034,11 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w45 = w45 - w77;
   w77 = w20 * w28;
   w45 = w45 + w77;
-  GAGEN_SCATTER(J_c, 84, 61, w45);
+  GAGEN_SCATTER(out_J_c, 84, 61, w45);
   w77 = w41 * w45;
   w6 = w65 * w30;
   w77 = w77 - w6;
-  GAGEN_SCATTER(J_c, 84, 62, w77);
+  GAGEN_SCATTER(out_J_c, 84, 62, w77);
   w77 = w60 * w9;
   w77 = w77 + w77;
   w6 = w29 * w60;
@@ -4049,15 +4049,15 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w6 = w6 * w4;
   w1 = w1 * w6;
   w77 = w77 - w1;
-  GAGEN_SCATTER(J_c, 84, 63, w77);
+  GAGEN_SCATTER(out_J_c, 84, 63, w77);
   w1 = w41 * w77;
   w30 = w19 * w30;
   w1 = w1 - w30;
-  GAGEN_SCATTER(J_c, 84, 64, w1);
+  GAGEN_SCATTER(out_J_c, 84, 64, w1);
   w77 = w65 * w77;
   w45 = w19 * w45;
   w77 = w77 - w45;
-  GAGEN_SCATTER(J_c, 84, 65, w77);
+  GAGEN_SCATTER(out_J_c, 84, 65, w77);
   w77 = w61 * w72;
   w45 = w20 * w57;
   w77 = w77 - w45;
@@ -4074,7 +4074,7 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w45 = w45 + w45;
   w77 = w77 + w45;
   w45 = -w77;
-  GAGEN_SCATTER(J_c, 84, 66, w45);
+  GAGEN_SCATTER(out_J_c, 84, 66, w45);
   w45 = w29 * w72;
   w70 = w16 * w70;
   w76 = w76 * w16;
@@ -4085,11 +4085,11 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w45 = w45 + w70;
   w70 = w20 * w16;
   w45 = w45 - w70;
-  GAGEN_SCATTER(J_c, 84, 67, w45);
+  GAGEN_SCATTER(out_J_c, 84, 67, w45);
   w70 = w65 * w77;
   w72 = w41 * w45;
   w70 = w70 + w72;
-  GAGEN_SCATTER(J_c, 84, 68, w70);
+  GAGEN_SCATTER(out_J_c, 84, 68, w70);
   w70 = w61 * w16;
   w72 = w29 * w57;
   w70 = w70 - w72;
@@ -4098,15 +4098,15 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w76 = w76 - w1;
   w76 = w76 + w76;
   w70 = w70 + w76;
-  GAGEN_SCATTER(J_c, 84, 69, w70);
+  GAGEN_SCATTER(out_J_c, 84, 69, w70);
   w77 = w19 * w77;
   w76 = w41 * w70;
   w77 = w77 + w76;
-  GAGEN_SCATTER(J_c, 84, 70, w77);
+  GAGEN_SCATTER(out_J_c, 84, 70, w77);
   w70 = w65 * w70;
   w45 = w19 * w45;
   w70 = w70 - w45;
-  GAGEN_SCATTER(J_c, 84, 71, w70);
+  GAGEN_SCATTER(out_J_c, 84, 71, w70);
   w10 = w23 * w10;
   w12 = w24 * w12;
   w12 = w12 * w3;
@@ -4129,7 +4129,7 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w75 = w75 + w75;
   w12 = w12 + w75;
   w75 = -w12;
-  GAGEN_SCATTER(J_c, 84, 72, w75);
+  GAGEN_SCATTER(out_J_c, 84, 72, w75);
   w75 = w29 * w10;
   w23 = w23 * w15;
   w24 = w24 * w28;
@@ -4143,11 +4143,11 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w75 = w75 + w71;
   w71 = w20 * w23;
   w75 = w75 - w71;
-  GAGEN_SCATTER(J_c, 84, 73, w75);
+  GAGEN_SCATTER(out_J_c, 84, 73, w75);
   w71 = w65 * w12;
   w10 = w41 * w75;
   w71 = w71 + w10;
-  GAGEN_SCATTER(J_c, 84, 74, w71);
+  GAGEN_SCATTER(out_J_c, 84, 74, w71);
   w71 = w29 * w60;
   w10 = w61 * w23;
   w71 = w71 + w10;
@@ -4157,15 +4157,15 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w60 = -w60;
   w60 = w60 + w60;
   w71 = w71 + w60;
-  GAGEN_SCATTER(J_c, 84, 75, w71);
+  GAGEN_SCATTER(out_J_c, 84, 75, w71);
   w12 = w19 * w12;
   w60 = w41 * w71;
   w12 = w12 + w60;
-  GAGEN_SCATTER(J_c, 84, 76, w12);
+  GAGEN_SCATTER(out_J_c, 84, 76, w12);
   w71 = w65 * w71;
   w75 = w19 * w75;
   w71 = w71 - w75;
-  GAGEN_SCATTER(J_c, 84, 77, w71);
+  GAGEN_SCATTER(out_J_c, 84, 77, w71);
   w27 = w66 * w27;
   w17 = w17 + w27;
   w27 = w21 * w17;
@@ -4178,7 +4178,7 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w27 = w27 - w59;
   w59 = w20 * w25;
   w27 = w27 - w59;
-  GAGEN_SCATTER(J_c, 84, 78, w27);
+  GAGEN_SCATTER(out_J_c, 84, 78, w27);
   w69 = w22 * w69;
   w59 = w29 * w21;
   w69 = w69 + w59;
@@ -4188,11 +4188,11 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w69 = w69 - w21;
   w20 = w20 * w22;
   w69 = w69 - w20;
-  GAGEN_SCATTER(J_c, 84, 79, w69);
+  GAGEN_SCATTER(out_J_c, 84, 79, w69);
   w20 = w41 * w69;
   w21 = w65 * w27;
   w20 = w20 - w21;
-  GAGEN_SCATTER(J_c, 84, 80, w20);
+  GAGEN_SCATTER(out_J_c, 84, 80, w20);
   w29 = w29 * w25;
   w61 = w61 * w22;
   w29 = w29 + w61;
@@ -4200,32 +4200,32 @@ static void two_iiwas_line_primitive_block(const double *restrict q, double *res
   w29 = w29 - w25;
   w22 = w22 * w17;
   w29 = w29 - w22;
-  GAGEN_SCATTER(J_c, 84, 81, w29);
+  GAGEN_SCATTER(out_J_c, 84, 81, w29);
   w41 = w41 * w29;
   w27 = w19 * w27;
   w41 = w41 - w27;
-  GAGEN_SCATTER(J_c, 84, 82, w41);
+  GAGEN_SCATTER(out_J_c, 84, 82, w41);
   w65 = w65 * w29;
   w19 = w19 * w69;
   w65 = w65 - w19;
-  GAGEN_SCATTER(J_c, 84, 83, w65);
+  GAGEN_SCATTER(out_J_c, 84, 83, w65);
 }
 #endif
 
-void two_iiwas_line_primitive_batch(long n, const double *restrict q, double *restrict X_c, double *restrict J_c) {
-  long s = 0;
+void two_iiwas_line_primitive_batch(long gagen_n, const double *restrict in_q, double *restrict out_X_c, double *restrict out_J_c) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    if (s + (GAGEN_AHEAD + 2) * GAGEN_W <= n) {  /* outputs of a later block: prefetch for writing */
-      const long a = s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
-      for (int o = 0; o < 6 * GAGEN_W + 7; o += 8) __builtin_prefetch(X_c + 6 * a + o, 1, 0);
-      for (int o = 0; o < 84 * GAGEN_W + 7; o += 8) __builtin_prefetch(J_c + 84 * a + o, 1, 0);
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    if (gagen_s + (GAGEN_AHEAD + 2) * GAGEN_W <= gagen_n) {  /* outputs of a later block: prefetch for writing */
+      const long gagen_a = gagen_s + GAGEN_AHEAD * GAGEN_W;  /* every 64-byte line of them, however aligned */
+      for (int gagen_o = 0; gagen_o < 6 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_X_c + 6 * gagen_a + gagen_o, 1, 0);
+      for (int gagen_o = 0; gagen_o < 84 * GAGEN_W + 7; gagen_o += 8) __builtin_prefetch(out_J_c + 84 * gagen_a + gagen_o, 1, 0);
     }
-    two_iiwas_line_primitive_block(q + 14 * s, X_c + 6 * s, J_c + 84 * s);
+    two_iiwas_line_primitive_block(in_q + 14 * gagen_s, out_X_c + 6 * gagen_s, out_J_c + 84 * gagen_s);
   }
 #endif
-  for (; s < n; ++s) {
-    two_iiwas_line_primitive(q + 14 * s, X_c + 6 * s, J_c + 84 * s);
+  for (; gagen_s < gagen_n; ++gagen_s) {
+    two_iiwas_line_primitive(in_q + 14 * gagen_s, out_X_c + 6 * gagen_s, out_J_c + 84 * gagen_s);
   }
 }
 
@@ -4235,7 +4235,7 @@ void two_iiwas_line_primitive_batch(long n, const double *restrict q, double *re
 #undef GAGEN_SCATTER
 #define GAGEN_GATHER(p, stride, k) gagen_load_columns((p) + (k) * gagen_ld)
 #define GAGEN_SCATTER(p, stride, k, v) gagen_store_columns((p) + (k) * gagen_ld, (v), gagen_stream)
-static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stream, const double *restrict q, double *restrict X_c, double *restrict J_c) {
+static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stream, const double *restrict in_q, double *restrict out_X_c, double *restrict out_J_c) {
   gagen_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   gagen_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   gagen_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -4245,17 +4245,17 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   gagen_v w72, w73, w74, w75, w76, w77, w78, w79;
   w0 = gagen_v_splat(0.8);
   w1 = gagen_v_splat(0.42);
-  w2 = GAGEN_GATHER(q, 14, 8);
+  w2 = GAGEN_GATHER(in_q, 14, 8);
   w3 = gagen_v_sin(w2);
-  w4 = GAGEN_GATHER(q, 14, 7);
+  w4 = GAGEN_GATHER(in_q, 14, 7);
   w5 = gagen_v_cos(w4);
   w6 = w3 * w5;
   w7 = w1 * w6;
   w8 = w0 - w7;
   w9 = gagen_v_splat(0.4);
-  w10 = GAGEN_GATHER(q, 14, 10);
+  w10 = GAGEN_GATHER(in_q, 14, 10);
   w11 = gagen_v_sin(w10);
-  w12 = GAGEN_GATHER(q, 14, 9);
+  w12 = GAGEN_GATHER(in_q, 14, 9);
   w13 = gagen_v_cos(w12);
   w2 = gagen_v_cos(w2);
   w14 = w13 * w2;
@@ -4272,11 +4272,11 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w18 = w9 * w16;
   w8 = w8 + w18;
   w19 = gagen_v_splat(0.126);
-  w20 = GAGEN_GATHER(q, 14, 12);
+  w20 = GAGEN_GATHER(in_q, 14, 12);
   w21 = gagen_v_cos(w20);
   w22 = w21 * w16;
   w20 = gagen_v_sin(w20);
-  w23 = GAGEN_GATHER(q, 14, 11);
+  w23 = GAGEN_GATHER(in_q, 14, 11);
   w24 = gagen_v_cos(w23);
   w15 = w10 * w15;
   w25 = w11 * w3;
@@ -4294,16 +4294,16 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w22 = w22 - w26;
   w26 = w19 * w22;
   w29 = w8 + w26;
-  w30 = GAGEN_GATHER(q, 14, 3);
+  w30 = GAGEN_GATHER(in_q, 14, 3);
   w31 = gagen_v_cos(w30);
-  w32 = GAGEN_GATHER(q, 14, 1);
+  w32 = GAGEN_GATHER(in_q, 14, 1);
   w33 = gagen_v_sin(w32);
   w34 = w31 * w33;
-  w35 = GAGEN_GATHER(q, 14, 0);
+  w35 = GAGEN_GATHER(in_q, 14, 0);
   w36 = gagen_v_cos(w35);
   w37 = w34 * w36;
   w30 = gagen_v_sin(w30);
-  w38 = GAGEN_GATHER(q, 14, 2);
+  w38 = GAGEN_GATHER(in_q, 14, 2);
   w39 = gagen_v_cos(w38);
   w32 = gagen_v_cos(w32);
   w40 = w39 * w32;
@@ -4315,11 +4315,11 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w42 = w30 * w41;
   w43 = w37 - w42;
   w44 = w9 * w43;
-  w45 = GAGEN_GATHER(q, 14, 5);
+  w45 = GAGEN_GATHER(in_q, 14, 5);
   w46 = gagen_v_cos(w45);
   w47 = w46 * w43;
   w45 = gagen_v_sin(w45);
-  w48 = GAGEN_GATHER(q, 14, 4);
+  w48 = GAGEN_GATHER(in_q, 14, 4);
   w49 = gagen_v_sin(w48);
   w50 = w38 * w32;
   w51 = w50 * w36;
@@ -4342,7 +4342,7 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w56 = w1 * w55;
   w41 = w41 + w56;
   w57 = w29 - w41;
-  GAGEN_SCATTER(X_c, 6, 0, w57);
+  GAGEN_SCATTER(out_X_c, 6, 0, w57);
   w14 = w14 * w4;
   w57 = w12 * w5;
   w14 = w14 + w57;
@@ -4393,11 +4393,11 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w67 = w1 * w66;
   w65 = w65 + w67;
   w68 = w61 - w65;
-  GAGEN_SCATTER(X_c, 6, 1, w68);
+  GAGEN_SCATTER(out_X_c, 6, 1, w68);
   w68 = w41 * w61;
   w69 = w65 * w29;
   w68 = w68 - w69;
-  GAGEN_SCATTER(X_c, 6, 2, w68);
+  GAGEN_SCATTER(out_X_c, 6, 2, w68);
   w68 = gagen_v_splat(0.36);
   w69 = w1 * w2;
   w69 = w68 + w69;
@@ -4442,59 +4442,59 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w19 = w19 * w46;
   w19 = w11 + w19;
   w45 = w20 - w19;
-  GAGEN_SCATTER(X_c, 6, 3, w45);
+  GAGEN_SCATTER(out_X_c, 6, 3, w45);
   w45 = w41 * w20;
   w30 = w19 * w29;
   w45 = w45 - w30;
-  GAGEN_SCATTER(X_c, 6, 4, w45);
+  GAGEN_SCATTER(out_X_c, 6, 4, w45);
   w45 = w65 * w20;
   w30 = w19 * w61;
   w45 = w45 - w30;
-  GAGEN_SCATTER(X_c, 6, 5, w45);
-  GAGEN_SCATTER(J_c, 84, 0, w65);
+  GAGEN_SCATTER(out_X_c, 6, 5, w45);
+  GAGEN_SCATTER(out_J_c, 84, 0, w65);
   w52 = w52 + w56;
   w45 = -w52;
-  GAGEN_SCATTER(J_c, 84, 1, w45);
+  GAGEN_SCATTER(out_J_c, 84, 1, w45);
   w45 = w61 * w65;
   w39 = w29 * w52;
   w45 = w45 + w39;
   w45 = -w45;
-  GAGEN_SCATTER(J_c, 84, 2, w45);
+  GAGEN_SCATTER(out_J_c, 84, 2, w45);
   w45 = gagen_v_splat(0.0);
-  GAGEN_SCATTER(J_c, 84, 3, w45);
+  GAGEN_SCATTER(out_J_c, 84, 3, w45);
   w39 = w20 * w65;
   w39 = -w39;
-  GAGEN_SCATTER(J_c, 84, 4, w39);
+  GAGEN_SCATTER(out_J_c, 84, 4, w39);
   w52 = w20 * w52;
-  GAGEN_SCATTER(J_c, 84, 5, w52);
+  GAGEN_SCATTER(out_J_c, 84, 5, w52);
   w52 = w19 * w36;
   w39 = w68 * w36;
   w52 = w52 - w39;
   w39 = -w52;
-  GAGEN_SCATTER(J_c, 84, 6, w39);
+  GAGEN_SCATTER(out_J_c, 84, 6, w39);
   w39 = w19 * w35;
   w75 = w68 * w35;
   w39 = w39 - w75;
   w75 = -w39;
-  GAGEN_SCATTER(J_c, 84, 7, w75);
+  GAGEN_SCATTER(out_J_c, 84, 7, w75);
   w75 = w61 * w52;
   w76 = w29 * w39;
   w75 = w75 - w76;
-  GAGEN_SCATTER(J_c, 84, 8, w75);
+  GAGEN_SCATTER(out_J_c, 84, 8, w75);
   w75 = w65 * w35;
   w76 = w41 * w36;
   w75 = w75 + w76;
   w76 = w0 * w36;
   w75 = w75 + w76;
-  GAGEN_SCATTER(J_c, 84, 9, w75);
+  GAGEN_SCATTER(out_J_c, 84, 9, w75);
   w52 = w20 * w52;
   w76 = w29 * w75;
   w52 = w52 + w76;
-  GAGEN_SCATTER(J_c, 84, 10, w52);
+  GAGEN_SCATTER(out_J_c, 84, 10, w52);
   w39 = w20 * w39;
   w75 = w61 * w75;
   w39 = w39 + w75;
-  GAGEN_SCATTER(J_c, 84, 11, w39);
+  GAGEN_SCATTER(out_J_c, 84, 11, w39);
   w39 = w19 * w33;
   w75 = w39 * w35;
   w52 = w68 * w66;
@@ -4502,7 +4502,7 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w52 = w52 + w76;
   w75 = w75 - w52;
   w52 = -w75;
-  GAGEN_SCATTER(J_c, 84, 12, w52);
+  GAGEN_SCATTER(out_J_c, 84, 12, w52);
   w52 = w41 * w32;
   w39 = w39 * w36;
   w52 = w52 - w39;
@@ -4518,11 +4518,11 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w77 = w77 + w77;
   w52 = w52 + w77;
   w77 = -w52;
-  GAGEN_SCATTER(J_c, 84, 13, w77);
+  GAGEN_SCATTER(out_J_c, 84, 13, w77);
   w77 = w61 * w75;
   w79 = w29 * w52;
   w77 = w77 - w79;
-  GAGEN_SCATTER(J_c, 84, 14, w77);
+  GAGEN_SCATTER(out_J_c, 84, 14, w77);
   w76 = w66 * w76;
   w76 = -w76;
   w76 = w76 + w76;
@@ -4538,15 +4538,15 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w36 = w77 * w36;
   w76 = w76 - w36;
   w36 = -w76;
-  GAGEN_SCATTER(J_c, 84, 15, w36);
+  GAGEN_SCATTER(out_J_c, 84, 15, w36);
   w75 = w20 * w75;
   w36 = w29 * w76;
   w75 = w75 - w36;
-  GAGEN_SCATTER(J_c, 84, 16, w75);
+  GAGEN_SCATTER(out_J_c, 84, 16, w75);
   w52 = w20 * w52;
   w76 = w61 * w76;
   w52 = w52 - w76;
-  GAGEN_SCATTER(J_c, 84, 17, w52);
+  GAGEN_SCATTER(out_J_c, 84, 17, w52);
   w52 = w19 * w64;
   w76 = w65 * w38;
   w76 = w76 * w33;
@@ -4563,7 +4563,7 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w79 = -w79;
   w79 = w79 + w79;
   w52 = w52 + w79;
-  GAGEN_SCATTER(J_c, 84, 18, w52);
+  GAGEN_SCATTER(out_J_c, 84, 18, w52);
   w36 = w51 * w36;
   w55 = w75 * w55;
   w55 = w9 - w55;
@@ -4576,12 +4576,12 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w76 = w19 * w51;
   w36 = w36 - w76;
   w76 = -w36;
-  GAGEN_SCATTER(J_c, 84, 19, w76);
+  GAGEN_SCATTER(out_J_c, 84, 19, w76);
   w76 = w61 * w52;
   w79 = w29 * w36;
   w76 = w76 + w79;
   w76 = -w76;
-  GAGEN_SCATTER(J_c, 84, 20, w76);
+  GAGEN_SCATTER(out_J_c, 84, 20, w76);
   w76 = w41 * w64;
   w79 = w65 * w51;
   w76 = w76 + w79;
@@ -4593,16 +4593,16 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w79 = w1 * w79;
   w76 = w76 - w79;
   w79 = -w76;
-  GAGEN_SCATTER(J_c, 84, 21, w79);
+  GAGEN_SCATTER(out_J_c, 84, 21, w79);
   w52 = w20 * w52;
   w79 = w29 * w76;
   w52 = w52 + w79;
   w52 = -w52;
-  GAGEN_SCATTER(J_c, 84, 22, w52);
+  GAGEN_SCATTER(out_J_c, 84, 22, w52);
   w36 = w20 * w36;
   w76 = w61 * w76;
   w36 = w36 - w76;
-  GAGEN_SCATTER(J_c, 84, 23, w36);
+  GAGEN_SCATTER(out_J_c, 84, 23, w36);
   w36 = w65 * w74;
   w76 = w19 * w62;
   w36 = w36 + w76;
@@ -4619,7 +4619,7 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w79 = w79 - w35;
   w79 = w79 + w79;
   w36 = w36 + w79;
-  GAGEN_SCATTER(J_c, 84, 24, w36);
+  GAGEN_SCATTER(out_J_c, 84, 24, w36);
   w79 = w41 * w74;
   w42 = w42 - w37;
   w37 = w76 * w42;
@@ -4632,12 +4632,12 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w74 = w19 * w43;
   w79 = w79 - w74;
   w74 = -w79;
-  GAGEN_SCATTER(J_c, 84, 25, w74);
+  GAGEN_SCATTER(out_J_c, 84, 25, w74);
   w74 = w61 * w36;
   w13 = w29 * w79;
   w74 = w74 + w13;
   w74 = -w74;
-  GAGEN_SCATTER(J_c, 84, 26, w74);
+  GAGEN_SCATTER(out_J_c, 84, 26, w74);
   w74 = w41 * w62;
   w13 = w65 * w43;
   w74 = w74 + w13;
@@ -4647,16 +4647,16 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w37 = w37 + w37;
   w74 = w74 + w37;
   w37 = -w74;
-  GAGEN_SCATTER(J_c, 84, 27, w37);
+  GAGEN_SCATTER(out_J_c, 84, 27, w37);
   w36 = w20 * w36;
   w37 = w29 * w74;
   w36 = w36 + w37;
   w36 = -w36;
-  GAGEN_SCATTER(J_c, 84, 28, w36);
+  GAGEN_SCATTER(out_J_c, 84, 28, w36);
   w79 = w20 * w79;
   w74 = w61 * w74;
   w79 = w79 - w74;
-  GAGEN_SCATTER(J_c, 84, 29, w79);
+  GAGEN_SCATTER(out_J_c, 84, 29, w79);
   w31 = w49 * w31;
   w38 = w48 * w38;
   w38 = w38 * w33;
@@ -4678,7 +4678,7 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w66 = w66 - w32;
   w66 = w66 + w66;
   w38 = w38 + w66;
-  GAGEN_SCATTER(J_c, 84, 30, w38);
+  GAGEN_SCATTER(out_J_c, 84, 30, w38);
   w66 = w41 * w31;
   w42 = w64 * w42;
   w55 = w55 + w42;
@@ -4693,12 +4693,12 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w31 = w19 * w49;
   w66 = w66 + w31;
   w31 = -w66;
-  GAGEN_SCATTER(J_c, 84, 31, w31);
+  GAGEN_SCATTER(out_J_c, 84, 31, w31);
   w31 = w61 * w38;
   w73 = w29 * w66;
   w31 = w31 + w73;
   w31 = -w31;
-  GAGEN_SCATTER(J_c, 84, 32, w31);
+  GAGEN_SCATTER(out_J_c, 84, 32, w31);
   w31 = w41 * w53;
   w73 = w65 * w49;
   w31 = w31 - w73;
@@ -4708,16 +4708,16 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w53 = w53 + w53;
   w31 = w31 + w53;
   w53 = -w31;
-  GAGEN_SCATTER(J_c, 84, 33, w53);
+  GAGEN_SCATTER(out_J_c, 84, 33, w53);
   w38 = w20 * w38;
   w53 = w29 * w31;
   w38 = w38 + w53;
   w38 = -w38;
-  GAGEN_SCATTER(J_c, 84, 34, w38);
+  GAGEN_SCATTER(out_J_c, 84, 34, w38);
   w66 = w20 * w66;
   w31 = w61 * w31;
   w66 = w66 - w31;
-  GAGEN_SCATTER(J_c, 84, 35, w66);
+  GAGEN_SCATTER(out_J_c, 84, 35, w66);
   w66 = gagen_v_splat(0.081);
   w50 = w66 * w50;
   w63 = w63 + w50;
@@ -4733,7 +4733,7 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w40 = w19 * w34;
   w67 = w67 - w40;
   w40 = -w67;
-  GAGEN_SCATTER(J_c, 84, 36, w40);
+  GAGEN_SCATTER(out_J_c, 84, 36, w40);
   w11 = w47 * w11;
   w40 = w41 * w46;
   w11 = w11 + w40;
@@ -4746,11 +4746,11 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w46 = w19 * w47;
   w11 = w11 - w46;
   w46 = -w11;
-  GAGEN_SCATTER(J_c, 84, 37, w46);
+  GAGEN_SCATTER(out_J_c, 84, 37, w46);
   w46 = w61 * w67;
   w56 = w29 * w11;
   w46 = w46 - w56;
-  GAGEN_SCATTER(J_c, 84, 38, w46);
+  GAGEN_SCATTER(out_J_c, 84, 38, w46);
   w46 = w41 * w34;
   w56 = w65 * w47;
   w46 = w46 + w56;
@@ -4759,62 +4759,62 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w47 = w47 * w63;
   w46 = w46 - w47;
   w47 = -w46;
-  GAGEN_SCATTER(J_c, 84, 39, w47);
+  GAGEN_SCATTER(out_J_c, 84, 39, w47);
   w67 = w20 * w67;
   w47 = w29 * w46;
   w67 = w67 - w47;
-  GAGEN_SCATTER(J_c, 84, 40, w67);
+  GAGEN_SCATTER(out_J_c, 84, 40, w67);
   w11 = w20 * w11;
   w46 = w61 * w46;
   w11 = w11 - w46;
-  GAGEN_SCATTER(J_c, 84, 41, w11);
+  GAGEN_SCATTER(out_J_c, 84, 41, w11);
   w11 = -w61;
-  GAGEN_SCATTER(J_c, 84, 42, w11);
+  GAGEN_SCATTER(out_J_c, 84, 42, w11);
   w18 = w18 - w7;
   w18 = w18 + w26;
-  GAGEN_SCATTER(J_c, 84, 43, w18);
+  GAGEN_SCATTER(out_J_c, 84, 43, w18);
   w26 = w65 * w61;
   w7 = w41 * w18;
   w26 = w26 + w7;
-  GAGEN_SCATTER(J_c, 84, 44, w26);
-  GAGEN_SCATTER(J_c, 84, 45, w45);
-  GAGEN_SCATTER(J_c, 84, 46, w30);
+  GAGEN_SCATTER(out_J_c, 84, 44, w26);
+  GAGEN_SCATTER(out_J_c, 84, 45, w45);
+  GAGEN_SCATTER(out_J_c, 84, 46, w30);
   w18 = w19 * w18;
   w18 = -w18;
-  GAGEN_SCATTER(J_c, 84, 47, w18);
+  GAGEN_SCATTER(out_J_c, 84, 47, w18);
   w18 = w68 * w5;
   w30 = w20 * w5;
   w18 = w18 - w30;
-  GAGEN_SCATTER(J_c, 84, 48, w18);
+  GAGEN_SCATTER(out_J_c, 84, 48, w18);
   w30 = w68 * w4;
   w45 = w20 * w4;
   w30 = w30 - w45;
-  GAGEN_SCATTER(J_c, 84, 49, w30);
+  GAGEN_SCATTER(out_J_c, 84, 49, w30);
   w45 = w41 * w30;
   w26 = w65 * w18;
   w45 = w45 - w26;
-  GAGEN_SCATTER(J_c, 84, 50, w45);
+  GAGEN_SCATTER(out_J_c, 84, 50, w45);
   w45 = w29 * w5;
   w26 = w61 * w4;
   w45 = w45 + w26;
   w0 = w0 * w5;
   w45 = w45 - w0;
-  GAGEN_SCATTER(J_c, 84, 51, w45);
+  GAGEN_SCATTER(out_J_c, 84, 51, w45);
   w0 = w41 * w45;
   w18 = w19 * w18;
   w0 = w0 - w18;
-  GAGEN_SCATTER(J_c, 84, 52, w0);
+  GAGEN_SCATTER(out_J_c, 84, 52, w0);
   w45 = w65 * w45;
   w30 = w19 * w30;
   w45 = w45 - w30;
-  GAGEN_SCATTER(J_c, 84, 53, w45);
+  GAGEN_SCATTER(out_J_c, 84, 53, w45);
   w68 = w68 * w58;
   w45 = w20 * w3;
   w30 = w45 * w4;
   w0 = w61 * w2;
   w30 = w30 + w0;
   w68 = w68 - w30;
-  GAGEN_SCATTER(J_c, 84, 54, w68);
+  GAGEN_SCATTER(out_J_c, 84, 54, w68);
   w30 = w29 * w2;
   w0 = w39 * w6;
   w0 = w9 - w0;
@@ -4828,11 +4828,11 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w30 = w30 + w18;
   w45 = w45 * w5;
   w30 = w30 + w45;
-  GAGEN_SCATTER(J_c, 84, 55, w30);
+  GAGEN_SCATTER(out_J_c, 84, 55, w30);
   w45 = w41 * w30;
   w18 = w65 * w68;
   w45 = w45 - w18;
-  GAGEN_SCATTER(J_c, 84, 56, w45);
+  GAGEN_SCATTER(out_J_c, 84, 56, w45);
   w45 = w29 * w3;
   w45 = w45 * w4;
   w18 = w61 * w3;
@@ -4845,15 +4845,15 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w0 = w0 * w4;
   w77 = w77 * w0;
   w45 = w45 - w77;
-  GAGEN_SCATTER(J_c, 84, 57, w45);
+  GAGEN_SCATTER(out_J_c, 84, 57, w45);
   w77 = w41 * w45;
   w68 = w19 * w68;
   w77 = w77 - w68;
-  GAGEN_SCATTER(J_c, 84, 58, w77);
+  GAGEN_SCATTER(out_J_c, 84, 58, w77);
   w45 = w65 * w45;
   w30 = w19 * w30;
   w45 = w45 - w30;
-  GAGEN_SCATTER(J_c, 84, 59, w45);
+  GAGEN_SCATTER(out_J_c, 84, 59, w45);
   w45 = w12 * w3;
   w30 = w45 * w3;
   w30 = w30 * w4;
@@ -4868,7 +4868,7 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w68 = w60 * w77;
   w68 = w68 + w68;
   w30 = w30 - w68;
-  GAGEN_SCATTER(J_c, 84, 60, w30);
+  GAGEN_SCATTER(out_J_c, 84, 60, w30);
   w6 = w75 * w6;
   w9 = w9 - w6;
   w45 = w45 * w9;
@@ -4880,11 +4880,11 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w45 = w45 - w77;
   w77 = w20 * w28;
   w45 = w45 + w77;
-  GAGEN_SCATTER(J_c, 84, 61, w45);
+  GAGEN_SCATTER(out_J_c, 84, 61, w45);
   w77 = w41 * w45;
   w6 = w65 * w30;
   w77 = w77 - w6;
-  GAGEN_SCATTER(J_c, 84, 62, w77);
+  GAGEN_SCATTER(out_J_c, 84, 62, w77);
   w77 = w60 * w9;
   w77 = w77 + w77;
   w6 = w29 * w60;
@@ -4895,15 +4895,15 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w6 = w6 * w4;
   w1 = w1 * w6;
   w77 = w77 - w1;
-  GAGEN_SCATTER(J_c, 84, 63, w77);
+  GAGEN_SCATTER(out_J_c, 84, 63, w77);
   w1 = w41 * w77;
   w30 = w19 * w30;
   w1 = w1 - w30;
-  GAGEN_SCATTER(J_c, 84, 64, w1);
+  GAGEN_SCATTER(out_J_c, 84, 64, w1);
   w77 = w65 * w77;
   w45 = w19 * w45;
   w77 = w77 - w45;
-  GAGEN_SCATTER(J_c, 84, 65, w77);
+  GAGEN_SCATTER(out_J_c, 84, 65, w77);
   w77 = w61 * w72;
   w45 = w20 * w57;
   w77 = w77 - w45;
@@ -4920,7 +4920,7 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w45 = w45 + w45;
   w77 = w77 + w45;
   w45 = -w77;
-  GAGEN_SCATTER(J_c, 84, 66, w45);
+  GAGEN_SCATTER(out_J_c, 84, 66, w45);
   w45 = w29 * w72;
   w70 = w16 * w70;
   w76 = w76 * w16;
@@ -4931,11 +4931,11 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w45 = w45 + w70;
   w70 = w20 * w16;
   w45 = w45 - w70;
-  GAGEN_SCATTER(J_c, 84, 67, w45);
+  GAGEN_SCATTER(out_J_c, 84, 67, w45);
   w70 = w65 * w77;
   w72 = w41 * w45;
   w70 = w70 + w72;
-  GAGEN_SCATTER(J_c, 84, 68, w70);
+  GAGEN_SCATTER(out_J_c, 84, 68, w70);
   w70 = w61 * w16;
   w72 = w29 * w57;
   w70 = w70 - w72;
@@ -4944,15 +4944,15 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w76 = w76 - w1;
   w76 = w76 + w76;
   w70 = w70 + w76;
-  GAGEN_SCATTER(J_c, 84, 69, w70);
+  GAGEN_SCATTER(out_J_c, 84, 69, w70);
   w77 = w19 * w77;
   w76 = w41 * w70;
   w77 = w77 + w76;
-  GAGEN_SCATTER(J_c, 84, 70, w77);
+  GAGEN_SCATTER(out_J_c, 84, 70, w77);
   w70 = w65 * w70;
   w45 = w19 * w45;
   w70 = w70 - w45;
-  GAGEN_SCATTER(J_c, 84, 71, w70);
+  GAGEN_SCATTER(out_J_c, 84, 71, w70);
   w10 = w23 * w10;
   w12 = w24 * w12;
   w12 = w12 * w3;
@@ -4975,7 +4975,7 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w75 = w75 + w75;
   w12 = w12 + w75;
   w75 = -w12;
-  GAGEN_SCATTER(J_c, 84, 72, w75);
+  GAGEN_SCATTER(out_J_c, 84, 72, w75);
   w75 = w29 * w10;
   w23 = w23 * w15;
   w24 = w24 * w28;
@@ -4989,11 +4989,11 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w75 = w75 + w71;
   w71 = w20 * w23;
   w75 = w75 - w71;
-  GAGEN_SCATTER(J_c, 84, 73, w75);
+  GAGEN_SCATTER(out_J_c, 84, 73, w75);
   w71 = w65 * w12;
   w10 = w41 * w75;
   w71 = w71 + w10;
-  GAGEN_SCATTER(J_c, 84, 74, w71);
+  GAGEN_SCATTER(out_J_c, 84, 74, w71);
   w71 = w29 * w60;
   w10 = w61 * w23;
   w71 = w71 + w10;
@@ -5003,15 +5003,15 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w60 = -w60;
   w60 = w60 + w60;
   w71 = w71 + w60;
-  GAGEN_SCATTER(J_c, 84, 75, w71);
+  GAGEN_SCATTER(out_J_c, 84, 75, w71);
   w12 = w19 * w12;
   w60 = w41 * w71;
   w12 = w12 + w60;
-  GAGEN_SCATTER(J_c, 84, 76, w12);
+  GAGEN_SCATTER(out_J_c, 84, 76, w12);
   w71 = w65 * w71;
   w75 = w19 * w75;
   w71 = w71 - w75;
-  GAGEN_SCATTER(J_c, 84, 77, w71);
+  GAGEN_SCATTER(out_J_c, 84, 77, w71);
   w27 = w66 * w27;
   w17 = w17 + w27;
   w27 = w21 * w17;
@@ -5024,7 +5024,7 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w27 = w27 - w59;
   w59 = w20 * w25;
   w27 = w27 - w59;
-  GAGEN_SCATTER(J_c, 84, 78, w27);
+  GAGEN_SCATTER(out_J_c, 84, 78, w27);
   w69 = w22 * w69;
   w59 = w29 * w21;
   w69 = w69 + w59;
@@ -5034,11 +5034,11 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w69 = w69 - w21;
   w20 = w20 * w22;
   w69 = w69 - w20;
-  GAGEN_SCATTER(J_c, 84, 79, w69);
+  GAGEN_SCATTER(out_J_c, 84, 79, w69);
   w20 = w41 * w69;
   w21 = w65 * w27;
   w20 = w20 - w21;
-  GAGEN_SCATTER(J_c, 84, 80, w20);
+  GAGEN_SCATTER(out_J_c, 84, 80, w20);
   w29 = w29 * w25;
   w61 = w61 * w22;
   w29 = w29 + w61;
@@ -5046,15 +5046,15 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
   w29 = w29 - w25;
   w22 = w22 * w17;
   w29 = w29 - w22;
-  GAGEN_SCATTER(J_c, 84, 81, w29);
+  GAGEN_SCATTER(out_J_c, 84, 81, w29);
   w41 = w41 * w29;
   w27 = w19 * w27;
   w41 = w41 - w27;
-  GAGEN_SCATTER(J_c, 84, 82, w41);
+  GAGEN_SCATTER(out_J_c, 84, 82, w41);
   w65 = w65 * w29;
   w19 = w19 * w69;
   w65 = w65 - w19;
-  GAGEN_SCATTER(J_c, 84, 83, w65);
+  GAGEN_SCATTER(out_J_c, 84, 83, w65);
 }
 #undef GAGEN_GATHER
 #undef GAGEN_SCATTER
@@ -5062,14 +5062,14 @@ static void two_iiwas_line_primitive_block_columns(long gagen_ld, int gagen_stre
 #define GAGEN_SCATTER(p, stride, k, v) gagen_scatter((p) + (k), (stride), (v))
 #endif
 
-void two_iiwas_line_primitive_batch_columns(long n, long ld, const double *restrict q, double *restrict X_c, double *restrict J_c) {
-  long s = 0;
+void two_iiwas_line_primitive_batch_columns(long gagen_n, long gagen_ld, const double *restrict in_q, double *restrict out_X_c, double *restrict out_J_c) {
+  long gagen_s = 0;
 #if GAGEN_SIMD
-  const int stream = n * 90L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
-  for (; s + GAGEN_W <= n; s += GAGEN_W) {
-    two_iiwas_line_primitive_block_columns(ld, stream, q + s, X_c + s, J_c + s);
+  const int gagen_stream = gagen_n * 90L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
+    two_iiwas_line_primitive_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_X_c + gagen_s, out_J_c + gagen_s);
   }
-  gagen_stream_fence(stream);
+  gagen_stream_fence(gagen_stream);
 #endif
-  two_iiwas_line_primitive_columns_from(s, n, ld, q, X_c, J_c);
+  two_iiwas_line_primitive_columns_from(gagen_s, gagen_n, gagen_ld, in_q, out_X_c, out_J_c);
 }

@@ -55,3 +55,52 @@ def test_a_file_name_that_is_no_identifier_is_refused_before_anything_is_written
     with pytest.raises(KernelError, match="module name"):
         build(source, out, compile_c=False, progress=lambda _: None)
     assert not out.exists()
+
+
+# names a user may well choose that are also the generated code's own identifiers: its locals (w<i>),
+# the templates' loop variables (s, n, k, ld, s0, stream), libm's functions and macros, a port and
+# another port with the templates' old "_s" suffix
+CLASHING = '''
+import gagen
+
+
+@gagen.kernel(algebra="ga3d", inputs={**{name: "scalar" for name in ("s", "n", "k", "ld", "w0", "sin", "NAN",
+                                                                     "x", "x_s")}, "ga": "algebra"},
+              outputs={"stream": "scalar", "s0": "scalar", "w1": "scalar"})
+def clash(s, n, k, ld, w0, sin, NAN, x, x_s, ga):
+    return {"stream": s * n + k * ld, "s0": w0 * sin - NAN, "w1": x * x_s + ga.math.sin(x)}
+'''
+
+
+@pytest.mark.compiling
+def test_port_names_that_are_identifiers_of_the_generated_code_compile_and_agree(tmp_path):
+    import numpy as np
+
+    from gagen.runtime import load
+
+    source = tmp_path / "clashing.py"
+    source.write_text(CLASHING)
+    build(source, tmp_path / "clashing", progress=lambda _: None)
+    c = load(tmp_path / "clashing").c
+    values = [np.array([v]) for v in (0.5, 2.0, -1.5, 3.0, 0.25, 1.5, -2.0, 0.7, 1.1)]
+    stream, s0, w1 = c.clash(*values)
+    np.testing.assert_allclose([stream[0], s0[0], w1[0]],
+                               [0.5 * 2.0 - 1.5 * 3.0, 0.25 * 1.5 + 2.0, 0.7 * 1.1 + np.sin(0.7)], rtol=1e-15)
+    batch = [np.tile(v, (37, 1)) for v in values]  # the batched forms' loops too
+    outs = c.clash.batch(*batch)
+    np.testing.assert_allclose(outs[2][:, 0], 0.7 * 1.1 + np.sin(0.7), rtol=1e-15)
+
+
+def test_ports_whose_c_size_macros_would_collide_are_refused(tmp_path):
+    source = tmp_path / "macros.py"
+    source.write_text('''
+import gagen
+
+
+@gagen.kernel(algebra="ga3d", inputs={"r": 1, "R": 2}, outputs={"y": "scalar"})
+def twin(r, R):
+    return {"y": r[0] + R[1]}
+''')
+    with pytest.raises(ValueError, match="TWIN_R_SIZE"):
+        build(source, tmp_path / "out", compile_c=False, progress=lambda _: None)
+    assert not (tmp_path / "out").exists()

@@ -5,6 +5,7 @@ turn, 2 on a bad spec)."""
 
 from __future__ import annotations
 
+import dataclasses
 from itertools import pairwise
 from pathlib import Path
 
@@ -92,8 +93,7 @@ def test_a_slot_is_its_travel_carried_by_its_body():
     np.testing.assert_allclose(segment, [[0, 3], [0, 5]], rtol=0, atol=1e-15)  # x = 0, 3 ≤ y ≤ 5
     four = load_linkage(FOUR_BAR)  # a slot on the rocker (drawing only: no mobility check here)
     slot = Prismatic(("coupler", "P"), "rocker", (4.0, 1.0), (0.6, 0.8), (-1.0, 2.0))
-    carried = Linkage(four.name, four.ground, four.bodies, (*four.joints, slot), four.crank, four.pivot,
-                      four.trace)
+    carried = dataclasses.replace(four, joints=(*four.joints, slot))
     angle, shift = 0.9, np.array([4.0, 0.0]) - _turn(0.9) @ np.array([4.0, 0.0])  # the rocker about D
     row = _moved(four, {"crank": (0.0, np.zeros(2)), "coupler": (0.0, np.zeros(2)), "rocker": (angle, shift)})
     [(on, segment)] = plots.slot_segments(carried, row)
@@ -111,8 +111,7 @@ def test_paths_skip_fixed_points_and_merge_joints():
     np.testing.assert_allclose(np.hypot(*paths[("crank", "B")].T), 1.0, rtol=0, atol=1e-12)
     np.testing.assert_allclose(np.hypot(*(paths[("coupler", "C")] - [4, 0]).T), 3.0, rtol=0, atol=1e-12)
     assert plots.traced(linkage) == [("coupler", "P")]
-    untraced = Linkage(linkage.name, linkage.ground, linkage.bodies, linkage.joints, linkage.crank,
-                       linkage.pivot, None)
+    untraced = dataclasses.replace(linkage, trace=None)
     assert plots.traced(untraced) == [("coupler", "B"), ("coupler", "C"), ("coupler", "P"), ("rocker", "C")]
 
 
@@ -124,9 +123,9 @@ def test_summary_names_the_worst_step():
     trajectory.halvings[20] = 2
     text = summary(linkage, trajectory)
     assert "36 crank steps over 360°" in text
-    assert "min 1.000e-03 at crank 90.0°" in text
-    assert "max 7 (at 200.0°)" in text
-    assert "step halvings: 2 in 1 step(s) (max 2, first at 200.0°)" in text
+    assert "min 1.000e-03 at crank 90.000°" in text
+    assert "max 7 (at crank 200.000°)" in text
+    assert "step halvings: 2 in 1 step(s) (max 2, first at crank 200.000°)" in text
     assert "failures: 0" in text
 
 

@@ -1,8 +1,9 @@
 """A planar linkage's constraints in 2D CGA, G(3,1) with the null basis e0, e∞ [LINK 3], [MATH §8].
 
 Each body b has an SE(2) motor R_b (on 1, e12, e1∞, e2∞); its points are X = R_b up(x) R_b~, with
-up(x) = e0 + x + ½|x|² e∞ and x the point at the initial configuration (the body's frame). The crank's
-motor is the turn by θ about its ground pivot p, T(p) R(θ) T(p)~.
+up(x) = e0 + x + ½|x|² e∞ and x the point at the initial configuration (the body's frame). The driven
+body's motor is the driver's: a crank's turn by θ about its ground pivot p, T(p) R(θ) T(p)~, or a
+slider's translation by s along its slot, T(s d).
 
 Residuals that vanish *linearly* at a solution, so Newton converges quadratically (the paper's
 x_i ∧ x_j has ‖x_i ∧ x_j‖² = ¼|a − b|⁴, a double root):
@@ -11,7 +12,10 @@ x_i ∧ x_j has ‖x_i ∧ x_j‖² = ¼|a − b|⁴, a double root):
   points, loc(X_a) − loc(X_b): two rows, the difference a − b itself;
 - prismatic (a point slides on a line carried by a body): the incidence of the point with the line,
   (X ∧ L)_{e012∞} / w, with L = R up(c) ∧ up(c + d) ∧ e∞ R~ and w its value for a point at unit
-  distance: one row, the signed distance of the point from the line.
+  distance: one row, the signed distance of the point from the line;
+- slider (a block on a line): the prismatic row, and the sine of the block's turn relative to the
+  line's body, u_a × u_b with u the slot direction as each body carries it (X(c + d) − X(c)): zero
+  and of slope 1 at the solution.
 
 The Jacobian is taken with respect to left perturbations of the moving bodies, R_b ← e^{−ε·B/2} R_b
 with B = (e12, e1∞, e2∞): the derivative of a body's world point is the commutator X × B (likewise a
@@ -24,7 +28,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from gagen.algebra.protocol import Multivector
-from gagen.apps.linkage.spec import GROUND, Linkage, Prismatic, Revolute
+from gagen.apps.linkage.spec import GROUND, Driver, Linkage, Prismatic, Revolute, Slider
 from gagen.symbolic.backend import to_exact
 
 GENERATORS = ("e12", "e1inf", "e2inf")  # the Lie algebra se(2): rotation, translations
@@ -58,6 +62,17 @@ def crank_motor(like: Multivector, pivot: Sequence[Any], angle: Any) -> Multivec
     return translator(like, p) * rotor(like, angle) * translator(like, [-p[0], -p[1]])
 
 
+def driver_motor(like: Multivector, driver: Driver, pivot: Sequence[Any] | None, value: Any) -> Multivector:
+    """The driven body's motor at the driver's value: the crank's turn by θ about its pivot, or the
+    slider's translation by s along its slot (the world direction: the ground carries every driver's
+    slot or its point)."""
+    if driver.slide is None:
+        return crank_motor(like, pivot, value)
+    d = _exact(driver.slide.direction)
+    sign = 1 if driver.slide.on == GROUND else -1  # a ground point in the block's slot: the block moves −s
+    return translator(like, [sign * value * d[0], sign * value * d[1]])
+
+
 def _exact(xy: Sequence[Any]) -> list[Any]:
     """Spec numbers as exact constants; symbolic values (a parametric kernel's inputs) as they are."""
     return [v if to_exact(v) is None else to_exact(v) for v in xy]
@@ -78,22 +93,27 @@ Coordinates = Mapping[tuple[str, str], Sequence[Any]]  # (body or ground, point)
 
 class Frames:
     """The world motors of a linkage's bodies at one configuration (moving bodies' motors given, the
-    crank's from its angle) and the world points and lines they carry. ``coordinates`` replaces the
-    spec's initial points (a parametric kernel's inputs: one kernel for a family of mechanisms)."""
+    driven body's from the driver's value) and the world points and lines they carry. ``coordinates``
+    replaces the spec's initial points (a parametric kernel's inputs: one kernel for a family of
+    mechanisms)."""
 
     def __init__(self, like: Multivector, linkage: Linkage, motors: Mapping[str, Multivector], angle: Any,
                  coordinates: Coordinates | None = None):
         self.like, self.linkage = like, linkage
         self.coordinates = coordinates
-        pivot = self.initial((GROUND, linkage.pivot))
-        self.motors = {**motors, linkage.crank: crank_motor(like, pivot, angle)}
+        pivot = None if linkage.pivot is None else self.initial((GROUND, linkage.pivot))
+        self.motors = {**motors, linkage.crank: driver_motor(like, linkage.driver, pivot, angle)}
 
     def initial(self, ref: tuple[str, str]) -> list[Any]:
         return _exact(self.coordinates[ref] if self.coordinates is not None else self.linkage.point(ref))
 
     def point(self, ref: tuple[str, str]) -> Multivector:
-        x = up(self.like, self.initial(ref))
-        return x if ref[0] == GROUND else self.motors[ref[0]].sandwich(x)
+        return self.moved(ref[0], self.initial(ref))
+
+    def moved(self, body: str, xy: Sequence[Any]) -> Multivector:
+        """The world point of ``body`` (or the ground) that is at ``xy`` at the initial configuration."""
+        x = up(self.like, xy)
+        return x if body == GROUND else self.motors[body].sandwich(x)
 
 
 def _generators(like: Multivector) -> list[Multivector]:
@@ -133,8 +153,35 @@ def constraints(like: Multivector, linkage: Linkage, motors: Mapping[str, Multiv
                           for col, g in zip(columns_of(joint.on), generators, strict=False)})
             rows.append((x ^ line)[PSEUDOSCALAR] * scale)
             grads.append(entry)
+            if isinstance(joint, Slider):
+                rows_, entry = _no_turn(frames, generators, joint, columns_of)
+                rows.append(rows_)
+                grads.append(entry)
     columns = [[g.get(col, 0) for g in grads] for col in range(3 * len(moving))]
     return rows, columns
+
+
+def _no_turn(frames: Frames, generators: list[Multivector], joint: Slider,
+             columns_of: Any) -> tuple[Any, dict[int, Any]]:
+    """A slider's second row, u_a × u_b: the slot direction d as the point's body and as the slot's body
+    carry it (the difference of their points at c + d and c), crossed; its columns from the points'
+    commutators, exact as the others."""
+    c, d = _exact(joint.through), _exact(joint.direction)
+    ends = (c, [c[0] + d[0], c[1] + d[1]])
+
+    def direction(body: str) -> tuple[list[Any], list[list[Any]]]:
+        start, end = (frames.moved(body, xy) for xy in ends)
+        u = [a - b for a, b in zip(location(end), location(start), strict=True)]
+        moved = [[a - b for a, b in zip(location(end.commutator(g)), location(start.commutator(g)),
+                                        strict=True)] for g in generators]
+        return u, moved
+
+    (ua, da), (ub, db) = direction(joint.point[0]), direction(joint.on)
+    entry = {col: du[0] * ub[1] - du[1] * ub[0]
+             for col, du in zip(columns_of(joint.point[0]), da, strict=False)}
+    entry.update({col: ua[0] * du[1] - ua[1] * du[0]
+                  for col, du in zip(columns_of(joint.on), db, strict=False)})
+    return ua[0] * ub[1] - ua[1] * ub[0], entry
 
 
 def positions(like: Multivector, linkage: Linkage, motors: Mapping[str, Multivector], angle: Any,
@@ -148,9 +195,22 @@ def positions(like: Multivector, linkage: Linkage, motors: Mapping[str, Multivec
     return out
 
 
+def cayley_rotor(like: Multivector, angle: Any, norm2: Any = 1) -> Multivector:
+    """The Cayley rotor (1 − (ε/2) e12)/√(1 + ε²/4): a counter-clockwise turn by 2 atan(ε/2), which is
+    ε to first order, for one square root where the exact rotor needs a sine and a cosine; divided
+    besides by √norm2 (a motor's R R~, to renormalise it in the same square root)."""
+    half = angle * 0.5
+    scale = 1 / like.math.sqrt((1 + half * half) * norm2)
+    return like.make({"1": scale, "e12": -half * scale})
+
+
 def retract(like: Multivector, motor: Multivector, step: Sequence[Any]) -> Multivector:
-    """R ← T(Δt) R(Δθ) R for the Lie-algebra step (Δθ on e12, Δt on e1∞, e2∞): it agrees with
-    e^{−ΔB/2} R to first order, which keeps Newton quadratic, and keeps R an exact SE(2) motor."""
+    """R ← T(Δt) C(Δθ) R for the Lie-algebra step (Δθ on e12, Δt on e1∞, e2∞), C the Cayley rotor: it
+    agrees with e^{−ΔB/2} R to first order, which keeps Newton quadratic, and costs no trigonometric
+    call. C also divides by √(R R~) = √(R₁² + R₁₂²), so R stays a unit SE(2) motor to rounding
+    instead of drifting over thousands of updates (a point's weight, and so every length, would
+    drift with it)."""
     dtheta, dx, dy = step
-    # e^{−ε e12/2} = rotor(ε), the counter-clockwise turn by ε; e^{−ε e1∞/2} = translator((ε, 0))
-    return translator(like, [dx, dy]) * rotor(like, dtheta) * motor
+    norm2 = motor["1"] * motor["1"] + motor["e12"] * motor["e12"]
+    # e^{−ε e12/2} ≈ the turn by ε; e^{−ε e1∞/2} = translator((ε, 0))
+    return translator(like, [dx, dy]) * cayley_rotor(like, dtheta, norm2) * motor

@@ -1,5 +1,6 @@
-"""The ``gagen linkage`` run of one mechanism: compile its kernels, follow the crank from the initial
-configuration, summarise the solver's work per step, and write the pictures (``plots``)."""
+"""The ``gagen linkage`` run of one mechanism: compile its kernels, follow the driver from the initial
+configuration (a crank through whole turns, a slider through its stroke), summarise the solver's work
+per step, and write the pictures (``plots``)."""
 
 from __future__ import annotations
 
@@ -27,23 +28,41 @@ def crank_angles(steps: int, revolutions: int = 1) -> np.ndarray:
     return np.linspace(0.0, 2 * np.pi * revolutions, steps * revolutions + 1)
 
 
+def driver_path(linkage: Linkage, steps: int, cycles: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """The driver's values over ``cycles`` cycles of ``steps`` equal phase steps, and the phases (rad):
+    a crank's angle is its phase (turning backwards for a negative rate); a slider runs its stroke
+    s = a sin φ from the initial configuration, a the stroke's upper end where sin φ ≥ 0 and its lower
+    end's magnitude where sin φ < 0 (out to one end, back, out to the other, back)."""
+    phases = crank_angles(steps, cycles)
+    if linkage.driver.slide is None:
+        return np.copysign(1.0, linkage.driver.rate) * phases, phases
+    lower, upper = linkage.stroke()
+    sine = np.sin(phases)
+    return np.where(sine >= 0, upper, -lower) * sine, phases
+
+
 def summary(linkage: Linkage, trajectory: Trajectory) -> str:
     """Steps, Newton iterations, the worst residual, the least σ_min of J and where, halvings and
     failures, in a few lines."""
-    t, deg = trajectory, np.degrees(trajectory.angles)
+    t, deg = trajectory, np.degrees(trajectory.phase)
     worst = int(np.argmin(t.sigma_min))
     halved = int(np.count_nonzero(t.halvings))
     finite = t.condition[np.isfinite(t.condition)]
-    first = f" (max {int(t.halvings.max())}, first at {deg[int(np.argmax(t.halvings > 0))]:.1f}°)"
+    first = f" (max {int(t.halvings.max())}, first at {linkage.at(t.angles[int(np.argmax(t.halvings > 0))])})"
+    driver = linkage.driver
+    steps = f"{len(t.angles) - 1} {driver.kind} steps over " + (
+        f"{deg[-1] - deg[0]:.0f}°" if driver.slide is None else
+        f"its stroke s ∈ [{t.angles.min():.4g}, {t.angles.max():.4g}] ({deg[-1] - deg[0]:.0f}° of phase)")
     lines = [
-        f"{linkage.name}: {len(t.angles) - 1} crank steps over {deg[-1] - deg[0]:.0f}°, "
-        f"{len(linkage.bodies)} bodies, {len(linkage.joints)} joints, {linkage.constraint_rows} "
-        f"constraint rows",
+        f"{linkage.name}: {steps}, {len(linkage.bodies)} bodies, {len(linkage.joints)} joints, "
+        f"{linkage.constraint_rows} constraint rows",
+        f"  driver: {driver.body} ({driver.kind}), rate {driver.rate:g} rad/s: a cycle takes "
+        f"{2 * np.pi / abs(driver.rate):.4g} s",
         f"  mobility: Grübler–Kutzbach {linkage.mobility()}; constraint Jacobian rank {t.rank} for "
         f"{t.unknowns} unknowns and {linkage.constraint_rows} rows at the initial configuration",
         f"  Newton iterations per step: mean {t.iterations.mean():.2f}, max {t.iterations.max()} "
-        f"(at {deg[int(np.argmax(t.iterations))]:.1f}°); max residual {t.residuals.max():.2e}",
-        f"  σ_min(J): min {t.sigma_min[worst]:.3e} at crank {deg[worst]:.1f}°; max condition number "
+        f"(at {linkage.at(t.angles[int(np.argmax(t.iterations))])}); max residual {t.residuals.max():.2e}",
+        f"  σ_min(J): min {t.sigma_min[worst]:.3e} at {linkage.at(t.angles[worst])}; max condition number "
         f"{finite.max() if finite.size else np.inf:.3g}",
         f"  step halvings: {int(t.halvings.sum())} in {halved} step(s)"
         + (first if halved else ""),
@@ -72,8 +91,9 @@ def run(linkage: Linkage, out: str | Path, steps: int = 360, revolutions: int = 
     progress(f"{linkage.name}: compiling the kernels (gagen.compile cache)")
     k = kernels(linkage)
     seconds["compile"] = time.perf_counter() - start
-    progress(f"{linkage.name}: simulating {steps * revolutions} crank steps")
-    trajectory = simulate(k, linkage, crank_angles(steps, revolutions), progress=progress)
+    progress(f"{linkage.name}: simulating {steps * revolutions} {linkage.driver.kind} steps")
+    values, phases = driver_path(linkage, steps, revolutions)
+    trajectory = simulate(k, linkage, values, phases=phases, progress=progress)
     seconds["simulate"] = time.perf_counter() - start - seconds["compile"]
     mark = time.perf_counter()
     files = [plots.coupler_curve(linkage, trajectory, folder / "coupler_curve.png"),
@@ -88,4 +108,4 @@ def run(linkage: Linkage, out: str | Path, steps: int = 360, revolutions: int = 
     return Run(linkage, trajectory, files, seconds)
 
 
-__all__ = ["ROBOTS", "Run", "bundled", "crank_angles", "run", "summary"]
+__all__ = ["ROBOTS", "Run", "bundled", "crank_angles", "driver_path", "run", "summary"]

@@ -1,17 +1,21 @@
 """The kernel catalogue of a linkage, as front-end kernels over cga2d (``gagen.kernel``):
 
-- ``constraints``: R (the moving bodies' motors, 4 each, ``linkage.unknown`` order) and the crank
-  angle θ → F (the residual rows) and J (∂F/∂ε, three columns per moving body);
-- ``positions``: R, θ → every named point of every body (x, y);
-- ``retract``: R and a Lie-algebra step ΔB (3 per body) → T(Δt) R(Δθ) R per body;
+- ``constraints``: R (the moving bodies' motors, 4 each, ``linkage.unknown`` order) and the driver's
+  value (the crank angle ``theta`` or the slider's displacement ``s``) → F (the residual rows) and J
+  (∂F/∂ε, three columns per moving body);
+- ``positions``: R, θ (or s) → every named point of every body (x, y);
+- ``retract``: R and a Lie-algebra step ΔB (3 per body) → T(Δt) C(Δθ) R per body (C: the Cayley rotor);
 - ``newton_step`` (when the constraints are as many as the unknowns, as in every mechanism of mobility
   1 without redundant joints): R, θ → the next Newton iterate and max |F| at R, the linear solve
-  flattened into the kernel (CasADi's symbolic QR).
+  flattened into the kernel (``elimination``: a revolute tree's 2 × 2 blocks and a dense solve of the
+  bodies' turns; CasADi's symbolic QR of J where no revolute tree reaches every body).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import inspect
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +23,8 @@ import casadi as ca
 import numpy as np
 
 from gagen.apps.linkage.constraints import MOTOR, constraints, positions, retract
-from gagen.apps.linkage.spec import GROUND, Linkage, Prismatic, Revolute, load_linkage
+from gagen.apps.linkage.elimination import structured_solve
+from gagen.apps.linkage.spec import GROUND, Linkage, Prismatic, Revolute, Slider, load_linkage
 from gagen.build import check_identifier
 from gagen.codegen.ir import ModuleSource
 from gagen.errors import read_input
@@ -42,7 +47,7 @@ def row_labels(linkage: Linkage) -> tuple[str, ...]:
         if isinstance(joint, Revolute):
             labels += [f"j{i}_x", f"j{i}_y"]
         elif isinstance(joint, Prismatic):
-            labels.append(f"j{i}_d")
+            labels += [f"j{i}_d", f"j{i}_turn"] if isinstance(joint, Slider) else [f"j{i}_d"]
     return tuple(labels)
 
 
@@ -62,14 +67,18 @@ def identity_motors(linkage: Linkage) -> np.ndarray:
 
 
 def _near(linkage: Linkage, rng: np.random.Generator) -> list[np.ndarray]:
-    """Motors a little off the initial configuration, and a crank angle (for --check)."""
+    """Motors a little off the initial configuration, and a driver value (for --check): a crank angle,
+    or a slider displacement of up to a tenth of the mechanism's size."""
     motors = []
     for _ in linkage.unknown:
         a, t = rng.uniform(-0.2, 0.2), rng.uniform(-0.1, 0.1, 2)
         c, s = np.cos(a / 2), np.sin(a / 2)
         # T(t) R(a): (1 − ½ t∧e∞)(c − s e12) on 1, e12, e1∞, e2∞
         motors += [c, -s, -0.5 * (t[0] * c - t[1] * s), -0.5 * (t[1] * c + t[0] * s)]
-    return [np.array(motors), np.array([rng.uniform(-np.pi, np.pi)])]
+    if linkage.driver.slide is None:
+        return [np.array(motors), np.array([rng.uniform(-np.pi, np.pi)])]
+    size = float(np.ptp(initial_points(linkage)))
+    return [np.array(motors), np.array([rng.uniform(-0.1, 0.1) * size])]
 
 
 def initial_labels(linkage: Linkage) -> tuple[str, ...]:
@@ -93,13 +102,24 @@ def _coordinates(linkage: Linkage, X0: Any) -> dict[tuple[str, str], list[Any]] 
     return {ref: [X0[2 * i], X0[2 * i + 1]] for i, ref in enumerate(refs)}
 
 
+def _with_arguments(fn: Callable, names: list[str]) -> Callable:
+    """``fn`` called with the values in order, under the plain signature ``names``: the front end reads
+    the inputs' names from it (the driver's is ``theta`` or ``s``)."""
+    def call(*values: Any) -> Any:
+        return fn(*values)
+
+    kind = inspect.Parameter.POSITIONAL_OR_KEYWORD
+    call.__signature__ = inspect.Signature([inspect.Parameter(n, kind) for n in names])  # type: ignore[attr-defined]
+    return call
+
+
 def linkage_kernels(linkage: Linkage, parametric: bool = False) -> list[KernelFunction]:
     """The kernels of one linkage, or with ``parametric`` of the family of linkages of its topology:
     every kernel but ``retract`` then also takes the initial points ``X0`` (``initial_labels``), so one
     compiled module solves many mechanisms of different dimensions, batched."""
     n, m = len(linkage.unknown), linkage.constraint_rows
     R = scalars(4 * n, motor_labels(linkage))
-    inputs: dict[str, Any] = {"R": R, "theta": "scalar"}
+    inputs: dict[str, Any] = {"R": R, linkage.driver.input: "scalar"}
     if parametric:
         inputs["X0"] = scalars(2 * (len(linkage.ground) + sum(map(len, linkage.bodies.values()))),
                                initial_labels(linkage))
@@ -119,8 +139,8 @@ def linkage_kernels(linkage: Linkage, parametric: bool = False) -> list[KernelFu
 
     def with_points(fn: Any) -> Any:  # the function with the signature the declared inputs name
         if parametric:
-            return fn
-        return lambda R, theta, ga: fn(R, theta, None, ga)
+            return _with_arguments(fn, list(inputs))
+        return _with_arguments(lambda R, value, ga: fn(R, value, None, ga), list(inputs))
 
     def sample(rng: np.random.Generator) -> list[np.ndarray]:
         return [*_near(linkage, rng), *([initial_points(linkage)] if parametric else [])]
@@ -134,7 +154,7 @@ def linkage_kernels(linkage: Linkage, parametric: bool = False) -> list[KernelFu
                                 inputs=inputs, sample=sample,
                                 outputs={"F": scalars(m, rows), "J": matrix(scalars(m, rows), 3 * n)})
     retraction = KernelFunction(retract_values, algebra="cga2d", name="retract",
-                                doc=f"{linkage.name}: the Newton update R ← T(Δt) R(Δθ) R of every "
+                                doc=f"{linkage.name}: the Newton update R ← T(Δt) C(Δθ) R of every "
                                     f"moving body",
                                 inputs={"R": R, "dB": scalars(3 * n, step_labels(linkage)), "ga": "algebra"},
                                 outputs={"R_next": R}, sample=sample_step)
@@ -148,10 +168,14 @@ def linkage_kernels(linkage: Linkage, parametric: bool = False) -> list[KernelFu
         return {"R_next": [float(v) for v in R_next.reshape(-1)], "residual": float(np.max(np.abs(F)))}
 
     def newton_rule(symbols: dict[str, Any]) -> dict[str, Any]:
-        # the compiler's: F and J from the constraints kernel's graph, ΔB = −J⁻¹F by CasADi's
-        # symbolic QR (the system is square for a mechanism of mobility 1), then the retraction
+        # the compiler's: F and J from the constraints kernel's graph, ΔB = −J⁻¹F (the system is
+        # square for a mechanism of mobility 1) by the revolute tree's elimination and a dense solve
+        # of the turns (``elimination``), else CasADi's symbolic QR of J; then the retraction
         F, J = constraint.trace().function(*(symbols[name] for name in inputs if name != "ga"))
-        return {"R_next": retraction.trace().function(symbols["R"], -ca.solve(J, F)),
+        step = structured_solve(linkage, F, J)
+        if step is None:
+            step = -ca.solve(J, F)
+        return {"R_next": retraction.trace().function(symbols["R"], step),
                 "residual": ca.mmax(ca.fabs(F))}
 
     position = KernelFunction(with_points(position_values), algebra="cga2d", name="positions",
@@ -162,7 +186,8 @@ def linkage_kernels(linkage: Linkage, parametric: bool = False) -> list[KernelFu
     if m == 3 * n:
         kernels.append(KernelFunction(
             with_points(newton_values), algebra="cga2d", name="newton_step",
-            doc=f"{linkage.name}: one Newton step at crank angle theta, and max |F| before it",
+            doc=f"{linkage.name}: one Newton step at the driver's {linkage.driver.input}, and max |F| before "
+                f"it",
             inputs=inputs, outputs={"R_next": R, "residual": "scalar"}, sample=sample, rule=newton_rule))
     return kernels
 
@@ -175,6 +200,8 @@ def linkage_source(spec: str | Path) -> ModuleSource:
     source = source_of(linkage_kernels(linkage), linkage.name, path.name, read_input(path, "spec"),
                        f"gagen build {path.name}")
     meta = {**source.meta, "app": "linkage", "bodies": linkage.unknown, "crank": linkage.crank}
+    if linkage.driver.slide is not None:
+        meta["driver"] = "slider"
     title = (f"kernels of {linkage.name}, a planar linkage ({len(linkage.bodies)} moving links, "
              f"{len(linkage.joints)} joints)")
     return dataclasses.replace(source, title=title, meta=meta)

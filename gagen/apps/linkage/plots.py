@@ -78,21 +78,31 @@ def rigid_motion(initial: np.ndarray, current: np.ndarray) -> tuple[np.ndarray, 
     return R, b - a @ R.T
 
 
-def _crank_radius(linkage: Linkage) -> float:
+def _driver_scale(linkage: Linkage) -> float:
+    """The crank's radius, or a slider's stroke length: the size of the input motion."""
+    if linkage.pivot is None:
+        lower, upper = linkage.stroke()
+        return upper - lower
     pivot = np.array(linkage.ground[linkage.pivot])
     return max(max(float(np.hypot(*(np.array(p) - pivot))) for p in linkage.bodies[linkage.crank].values()),
                1e-9)
 
 
+def _short(linkage: Linkage, value: float) -> str:
+    """The driver's value for a label: the crank angle in degrees, or the slider's s."""
+    return f"{np.degrees(value):.0f}°" if linkage.pivot is not None else f"s={value:.2g}"
+
+
 def slot_segments(linkage: Linkage, row: np.ndarray) -> list[tuple[str, np.ndarray]]:
     """Each prismatic joint's slot as (carrying body, 2 × 2 segment) in the configuration of ``row``:
-    its travel (or ±``SLOT_LENGTH`` crank radii) along the line, moved with the body that holds it."""
+    its travel (or ±``SLOT_LENGTH`` crank radii, or slider strokes) along the line, moved with the body
+    that holds it."""
     points = body_points(linkage, row)
     out = []
     for joint in linkage.joints:
         if not isinstance(joint, Prismatic):
             continue
-        lo, hi = joint.travel or (-SLOT_LENGTH * _crank_radius(linkage), SLOT_LENGTH * _crank_radius(linkage))
+        lo, hi = joint.travel or (-SLOT_LENGTH * _driver_scale(linkage), SLOT_LENGTH * _driver_scale(linkage))
         ends = np.array(joint.through) + np.outer([lo, hi], joint.direction)
         if joint.on != GROUND:
             initial = np.array([linkage.bodies[joint.on][n] for n in outline(linkage, joint.on)])
@@ -190,12 +200,13 @@ def _frame_axes(ax: Any, lo: np.ndarray, hi: np.ndarray) -> None:
 
 def coupler_curve(linkage: Linkage, trajectory: Trajectory, path: str | Path, poses: int = 4) -> Path:
     """The traced curve(s) (bold; every other moving point's path thin) and the mechanism at ``poses``
-    crank angles spread over the first revolution (the first solid, the others faded)."""
+    driver phases spread over the first cycle (the first solid, the others faded)."""
     fig = _figure((7, 6))
     ax = fig.add_subplot(1, 1, 1)
     n = len(trajectory.angles)
-    turns = trajectory.angles[0] + 2 * np.pi * np.arange(max(poses, 1)) / max(poses, 1)  # over one turn
-    rows = np.unique([int(np.argmin(np.abs(trajectory.angles - a))) for a in turns])
+    phase = trajectory.phase
+    turns = phase[0] + 2 * np.pi * np.arange(max(poses, 1)) / max(poses, 1)  # over one cycle
+    rows = np.unique([int(np.argmin(np.abs(phase - a))) for a in turns])
     lo, hi = _extent(linkage, trajectory, np.arange(n))
     bold = set(traced(linkage))
     every = paths(linkage, trajectory)
@@ -213,13 +224,14 @@ def coupler_curve(linkage: Linkage, trajectory: Trajectory, path: str | Path, po
         if k > 0:
             for body, name in traced(linkage):
                 i = labels.index(f"{body}_{name}_x")
-                ax.annotate(f"{np.degrees(trajectory.angles[r]):.0f}°", trajectory.points[r, i:i + 2],
+                ax.annotate(_short(linkage, trajectory.angles[r]), trajectory.points[r, i:i + 2],
                             textcoords="offset points", xytext=(5, 5), fontsize=8, color="0.3")
     _frame_axes(ax, lo, hi)
     ax.legend(loc="best", fontsize=8, title="traced", title_fontsize=8)
-    shown = ", ".join(f"{np.degrees(trajectory.angles[r]):.0f}°" for r in rows)
-    ax.set_title(f"{linkage.name}: traced curve; the mechanism at crank {shown}\n"
-                 f"(crank green, ground blue, traced curve magenta, other paths grey)", fontsize=10)
+    shown = ", ".join(_short(linkage, trajectory.angles[r]) for r in rows)
+    kind = linkage.driver.kind
+    ax.set_title(f"{linkage.name}: traced curve; the mechanism at {kind} {shown}\n"
+                 f"({kind} green, ground blue, traced curve magenta, other paths grey)", fontsize=10)
     fig.tight_layout()
     out = Path(path)
     fig.savefig(out, dpi=100)
@@ -232,9 +244,9 @@ def animate(linkage: Linkage, trajectory: Trajectory, path: str | Path, frames: 
     drawn up to the current step."""
     from matplotlib.animation import PillowWriter
 
-    n = len(trajectory.angles)
-    end = n - 1 if n > 1 and np.isclose((trajectory.angles[-1] - trajectory.angles[0]) % (2 * np.pi), 0) \
-        and trajectory.angles[-1] != trajectory.angles[0] else n  # a closed loop: its last step is the first
+    n, phase = len(trajectory.angles), trajectory.phase
+    end = n - 1 if n > 1 and np.isclose((phase[-1] - phase[0]) % (2 * np.pi), 0) \
+        and phase[-1] != phase[0] else n  # a closed loop: its last step is the first
     picks = np.unique(np.linspace(0, max(end - 1, 0), max(2, frames)).round().astype(int))
     fig = _figure((size, size))
     ax = fig.add_subplot(1, 1, 1)
@@ -244,7 +256,7 @@ def animate(linkage: Linkage, trajectory: Trajectory, path: str | Path, frames: 
     labels = point_labels(linkage)
     columns = [labels.index(f"{b}_{p}_x") for b, p in traced(linkage)]
     curves = [ax.plot([], [], "-", color=TRACE_COLOUR, lw=1.5, zorder=6)[0] for _ in columns]
-    title = ax.set_title(f"{linkage.name}: crank 360°")  # a full-width title for the layout
+    title = ax.set_title(f"{linkage.name}: {linkage.at(np.pi)}")  # a full-width title for the layout
     fig.tight_layout()
     out = Path(path)
     writer = PillowWriter(fps=fps)
@@ -253,7 +265,8 @@ def animate(linkage: Linkage, trajectory: Trajectory, path: str | Path, frames: 
             mech.update(trajectory.points[r])
             for curve, i in zip(curves, columns, strict=True):
                 curve.set_data(trajectory.points[:r + 1, i], trajectory.points[:r + 1, i + 1])
-            title.set_text(f"{linkage.name}: crank {np.degrees(trajectory.angles[r]):.0f}°")
+            title.set_text(f"{linkage.name}: {_short(linkage, trajectory.angles[r])}, "
+                           f"t = {phase[r] / abs(linkage.driver.rate):.2f} s")
             writer.grab_frame()
             if (k + 1) % 30 == 0 or k + 1 == len(picks):
                 progress(f"  animation: frame {k + 1}/{len(picks)}")
@@ -261,43 +274,45 @@ def animate(linkage: Linkage, trajectory: Trajectory, path: str | Path, frames: 
 
 
 def solver_stats(linkage: Linkage, trajectory: Trajectory, path: str | Path) -> Path:
-    """Per step over the crank angle: Newton iterations (steps with halvings marked), the final residual
-    max |F| (log, the tolerance dashed, failures red) and σ_min of J with its condition number (log)."""
+    """Per step over time (the driver's phase over its rate): Newton iterations (steps with halvings
+    marked), the final residual max |F| (log, the tolerance dashed, failures red) and σ_min of J with
+    its condition number (log)."""
     fig = _figure((9, 8))
-    deg = np.degrees(trajectory.angles)
+    time = trajectory.phase / abs(linkage.driver.rate)  # the time axis, s
     its, res, halv = fig.add_subplot(3, 1, 1), fig.add_subplot(3, 1, 2), fig.add_subplot(3, 1, 3)
-    its.step(deg, trajectory.iterations, where="mid", color="C0", label="Newton iterations")
+    its.step(time, trajectory.iterations, where="mid", color="C0", label="Newton iterations")
     halved = trajectory.halvings > 0
     if halved.any():
-        its.plot(deg[halved], trajectory.iterations[halved], "v", color="C3", ms=5, label="step halved")
+        its.plot(time[halved], trajectory.iterations[halved], "v", color="C3", ms=5, label="step halved")
     from matplotlib.ticker import MaxNLocator
 
     its.yaxis.set_major_locator(MaxNLocator(integer=True))
     its.set_ylabel("iterations")
     its.legend(fontsize=8, loc="upper right")
     floor = 1e-18  # an exact zero on a log axis
-    res.semilogy(deg, np.maximum(trajectory.residuals, floor), ".", color="C0", ms=3, label="max |F|")
+    res.semilogy(time, np.maximum(trajectory.residuals, floor), ".", color="C0", ms=3, label="max |F|")
     res.axhline(TOLERANCE, color="C3", ls="--", lw=0.8, label=f"tolerance {TOLERANCE:g}")
     failed = trajectory.residuals >= TOLERANCE
     if failed.any():
-        res.semilogy(deg[failed], trajectory.residuals[failed], "x", color="C3", ms=7, label="not converged")
+        res.semilogy(time[failed], trajectory.residuals[failed], "x", color="C3", ms=7, label="not converged")
     res.set_ylabel("final residual")
     res.legend(fontsize=8, loc="upper right")
     sig = halv
-    sig.semilogy(deg, np.maximum(trajectory.sigma_min, floor), color="C2", label="σ_min(J)")
+    sig.semilogy(time, np.maximum(trajectory.sigma_min, floor), color="C2", label="σ_min(J)")
     sig.set_ylabel("σ_min(J)", color="C2")
     cond = sig.twinx()
-    cond.semilogy(deg, np.where(np.isfinite(trajectory.condition), trajectory.condition, np.nan), color="C1",
+    cond.semilogy(time, np.where(np.isfinite(trajectory.condition), trajectory.condition, np.nan), color="C1",
                   label="cond(J)")
     cond.set_ylabel("σ_max / σ_min", color="C1")
     worst = int(np.argmin(trajectory.sigma_min))
-    sig.axvline(deg[worst], color="0.5", ls=":", lw=0.8)
-    sig.set_xlabel("crank angle [°]")
+    sig.axvline(time[worst], color="0.5", ls=":", lw=0.8)
+    sig.set_xlabel(f"time [s] ({'crank angle' if linkage.pivot is not None else 'stroke phase'} = "
+                   f"{abs(linkage.driver.rate):g} rad/s × t)")
     for ax in (its, res, sig):
         ax.grid(alpha=0.3)
-        ax.set_xlim(deg[0], deg[-1])
-    fig.suptitle(f"{linkage.name}: Newton per crank step ({len(deg)} steps; min σ_min "
-                 f"{trajectory.sigma_min[worst]:.3g} at {deg[worst]:.1f}°)", fontsize=11)
+        ax.set_xlim(time[0], time[-1])
+    fig.suptitle(f"{linkage.name}: Newton per {linkage.driver.kind} step ({len(time)} steps; min σ_min "
+                 f"{trajectory.sigma_min[worst]:.3g} at {linkage.at(trajectory.angles[worst])})", fontsize=11)
     fig.tight_layout()
     out = Path(path)
     fig.savefig(out, dpi=100)

@@ -1,8 +1,9 @@
 """The Lie-algebra Newton solver of a planar linkage [LINK 3.3-3.4], on its generated kernels.
 
-At a crank angle θ the moving bodies' motors R solve F(R, θ) = 0: Newton on se(2), J ΔB = −F (least
-squares, by SVD, when the constraints are redundant), R_b ← T(Δt) R(Δθ) R_b (``retract``). The crank
-is advanced step by step and each solve starts from the previous configuration (continuation), which
+At a driver value θ (a crank angle, or a slider's displacement s) the moving bodies' motors R solve
+F(R, θ) = 0: Newton on se(2), J ΔB = −F (least squares, by SVD, when the constraints are redundant),
+R_b ← T(Δt) C(Δθ) R_b (``retract``; C the Cayley rotor, the turn by 2 atan(Δθ/2)). The driver is
+advanced step by step and each solve starts from the previous configuration (continuation), which
 keeps the mechanism on its assembly branch. Every step reports its Newton iterations, the final
 residual (max |F|), and the conditioning of J (its smallest singular value and σ_max/σ_min): near a
 singular configuration (a dead point of the four-bar, a branch point) the crank step is halved, up
@@ -19,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from gagen.apps.linkage.kernels import identity_motors, linkage_kernels, point_labels
-from gagen.apps.linkage.spec import Linkage
+from gagen.apps.linkage.spec import GROUND, Linkage, Prismatic, slot_coordinate
 
 TOLERANCE = 1e-12  # max |F| (m) at convergence
 MAX_ITERATIONS = 30
@@ -44,7 +45,7 @@ class Solve:
 
 @dataclass
 class Trajectory:
-    angles: np.ndarray
+    angles: np.ndarray  # the driver's values: crank angles (rad) or slider displacements (m)
     motors: np.ndarray  # (steps, 4 × moving bodies)
     points: np.ndarray  # (steps, 2 × named body points), ``point_labels`` order
     iterations: np.ndarray
@@ -56,6 +57,11 @@ class Trajectory:
     rank: int = 0  # of J at the assembled initial configuration (3 × moving bodies when well posed)
     unknowns: int = 0
     limits: list[str] = field(default_factory=list)  # prismatic joints outside their travel
+    phases: np.ndarray | None = None  # the driver's cycle phase (rad; the crank angle for a crank)
+
+    @property
+    def phase(self) -> np.ndarray:
+        return self.angles if self.phases is None else self.phases
 
 
 class Kernels:
@@ -81,7 +87,7 @@ def kernels(linkage: Linkage, module: Any | None = None) -> Kernels:
 
 def newton(k: Kernels, motors: np.ndarray, angle: float, *, tolerance: float = TOLERANCE,
            max_iterations: int = MAX_ITERATIONS) -> Solve:
-    """Newton on se(2) from ``motors`` at the crank angle ``angle``."""
+    """Newton on se(2) from ``motors`` at the driver's value ``angle``."""
     R = np.array(motors, dtype=float)
     theta = np.array([angle])
     residuals = []
@@ -114,11 +120,26 @@ def _conditioned(k: Kernels, R: np.ndarray, theta: np.ndarray, iterations: int,
     return Solve(R, iterations, residuals, sigma_min, float(s[0] / sigma_min) if sigma_min > 0 else np.inf)
 
 
-def _crank_motion(linkage: Linkage, a: float, b: float) -> float:
-    """How far the crank's farthest point moves when it turns from a to b (the input motion)."""
+def _driver_motion(linkage: Linkage, a: float, b: float) -> float:
+    """How far the driven body's farthest point moves when the driver goes from a to b (the input
+    motion): the crank's radius times the turn, or the slider's displacement."""
+    if linkage.pivot is None:
+        return abs(b - a)
     pivot = np.array(linkage.ground[linkage.pivot])
     radius = max(np.hypot(*(np.array(p) - pivot)) for p in linkage.bodies[linkage.crank].values())
     return float(radius * abs(b - a))
+
+
+def driven_pose(linkage: Linkage, value: float) -> tuple[np.ndarray, np.ndarray]:
+    """(rotation matrix, translation) of the driven body at the driver's value."""
+    slide = linkage.driver.slide
+    if slide is not None:
+        sign = 1.0 if slide.on == GROUND else -1.0
+        return np.eye(2), sign * value * np.array(slide.direction)
+    pivot = np.array(linkage.ground[linkage.pivot])
+    c, s = np.cos(value), np.sin(value)
+    rotation = np.array([[c, -s], [s, c]])
+    return rotation, pivot - rotation @ pivot
 
 
 def _advance(k: Kernels, linkage: Linkage, R: np.ndarray, points: np.ndarray, start: float, target: float,
@@ -132,15 +153,17 @@ def _advance(k: Kernels, linkage: Linkage, R: np.ndarray, points: np.ndarray, st
         if not solve.converged:
             return solve, np.inf
         moved = np.asarray(k.positions(solve.motors, np.array([b]))).reshape(-1)
-        ratio = max(ratio, float(np.max(np.abs(moved - points))) / max(_crank_motion(linkage, a, b), 1e-300))
+        ratio = max(ratio, float(np.max(np.abs(moved - points))) / max(_driver_motion(linkage, a, b), 1e-300))
         R, points = solve.motors, moved
     return solve, ratio
 
 
 def simulate(k: Kernels, linkage: Linkage, angles: Sequence[float], *, max_halvings: int = 8,
-             jump: float = 20.0, progress: Callable[[str], None] = lambda _: None) -> Trajectory:
-    """Follow the crank through ``angles`` (rad, from the initial configuration), continuing each
-    solve from the previous one; the first solve assembles the initial guess (identity motors).
+             jump: float = 20.0, progress: Callable[[str], None] = lambda _: None,
+             phases: Sequence[float] | None = None) -> Trajectory:
+    """Follow the driver through ``angles`` (crank angles in rad, or slider displacements, from the
+    initial configuration; ``phases`` their cycle phase, for the plots), continuing each solve from
+    the previous one; the first solve assembles the initial guess (identity motors).
 
     A step is cut into 2, 4, … equal parts (at most 2^max_halvings) while Newton fails or some body
     point moves more than ``jump`` times as far as the crank's farthest point in a part: near a
@@ -154,7 +177,7 @@ def simulate(k: Kernels, linkage: Linkage, angles: Sequence[float], *, max_halvi
     rows: dict[str, list[Any]] = {key: [] for key in ("motors", "points", "iterations", "residuals",
                                                       "sigma_min", "condition", "halvings")}
     failures: list[str] = [] if first.converged else [
-        f"assembly at crank {np.degrees(previous):.3f}°: max |F| = {first.residual:.2e}; the initial "
+        f"assembly at {linkage.at(previous)}: max |F| = {first.residual:.2e}; the initial "
         f"points do not close the loop"]
     rank, unknowns = initial_rank(k, R, previous)
     if rank < unknowns:
@@ -171,7 +194,7 @@ def simulate(k: Kernels, linkage: Linkage, angles: Sequence[float], *, max_halvi
             if solve.converged and ratio <= jump:
                 break
         if not solve.converged:
-            failures.append(f"step {index} (crank {np.degrees(target):.3f}°): Newton stopped at max |F| = "
+            failures.append(f"step {index} ({linkage.at(target)}): Newton stopped at max |F| = "
                             f"{solve.residual:.2e} after {solve.iterations} iterations, {halvings} halvings "
                             f"(σ_min of J {solve.sigma_min:.2e}): a singular or unreachable configuration")
         else:
@@ -185,12 +208,13 @@ def simulate(k: Kernels, linkage: Linkage, angles: Sequence[float], *, max_halvi
         rows["condition"].append(solve.condition)
         rows["halvings"].append(halvings)
         if index % 100 == 0:
-            progress(f"  step {index}/{len(angles)}: crank {np.degrees(target):.1f}°, {solve.iterations} "
+            progress(f"  step {index}/{len(angles)}: {linkage.at(target)}, {solve.iterations} "
                      f"iterations, max |F| {solve.residual:.1e}")
     trajectory = Trajectory(angles, np.array(rows["motors"]), np.array(rows["points"]),
                             np.array(rows["iterations"]), np.array(rows["residuals"]),
                             np.array(rows["sigma_min"]), np.array(rows["condition"]),
-                            np.array(rows["halvings"]), failures, rank, unknowns)
+                            np.array(rows["halvings"]), failures, rank, unknowns,
+                            phases=None if phases is None else np.asarray(phases, dtype=float))
     trajectory.limits = travel_limits(linkage, trajectory)
     return trajectory
 
@@ -207,39 +231,36 @@ def _pose(motor: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
 
 
 def travel_limits(linkage: Linkage, trajectory: Trajectory) -> list[str]:
-    """Every prismatic joint whose point leaves its travel, with the crank angles where it does: the
+    """Every prismatic joint whose point leaves its travel, with the driver's values where it does: the
     point's coordinate (x − through)·direction along the slot, in the frame of the body (or ground)
     that carries the slot."""
-    from gagen.apps.linkage.spec import GROUND, Prismatic
-
     out = []
     for number, joint in enumerate(linkage.joints):
         if not isinstance(joint, Prismatic) or joint.travel is None:
             continue
-        column = point_index(linkage, *joint.point)
+        fixed = joint.point[0] == GROUND
+        column = 0 if fixed else point_index(linkage, *joint.point)
         along = []
         frames = zip(trajectory.angles, trajectory.motors, trajectory.points, strict=True)
         for angle, motors, points in frames:
-            x = points[column:column + 2]
+            x = np.array(linkage.point(joint.point)) if fixed else points[column:column + 2]
             if joint.on != GROUND:
                 if joint.on == linkage.crank:
-                    pivot = np.array(linkage.ground[linkage.pivot])
-                    c, s = np.cos(angle), np.sin(angle)
-                    rotation, shift = np.array([[c, -s], [s, c]]), pivot - np.array([[c, -s], [s, c]]) @ pivot
+                    rotation, shift = driven_pose(linkage, angle)
                 else:
                     i = linkage.unknown.index(joint.on)
                     rotation, shift = _pose(motors[4 * i:4 * i + 4])
                 x = rotation.T @ (x - shift)  # into the carrying body's frame
-            along.append(float((x - np.array(joint.through)) @ np.array(joint.direction)))
+            along.append(slot_coordinate(joint, x))
         along_ = np.array(along)
         lo, hi = joint.travel
         outside = (along_ < lo - TRAVEL_TOLERANCE) | (along_ > hi + TRAVEL_TOLERANCE)
         if outside.any():
-            degrees = np.degrees(trajectory.angles[outside])
+            values = trajectory.angles[outside]
             out.append(f"joint {number} ({joint.point[0]}.{joint.point[1]} in a slot of {joint.on}) leaves "
-                       f"its travel [{lo:g}, {hi:g}] at {outside.sum()} step(s), crank "
-                       f"{degrees.min():.1f}° … {degrees.max():.1f}° (from {along_.min():.4g} to "
-                       f"{along_.max():.4g})")
+                       f"its travel [{lo:g}, {hi:g}] at {outside.sum()} step(s), "
+                       f"{linkage.at(values.min())} … {linkage.at(values.max())} (from {along_.min():.4g} "
+                       f"to {along_.max():.4g})")
     return out
 
 

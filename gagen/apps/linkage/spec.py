@@ -18,19 +18,29 @@ A spec::
       # "slot" names the body carrying the line: YAML reads a key "on" as true):
       # - {prismatic: {point: slider.P, slot: ground, through: [0, 0], direction: [0, 1], travel: [3, 5]}}
       #   travel: the range of (x − through)·direction the point may take
-    driver: {body: crank, pivot: ground.A}   # the crank turns about the pivot
+      # a slider block (a prismatic pair: the point on the line and no turning relative to the line's
+      # body; two constraints), same keys:
+      # - {slider: {point: block.P, slot: ground, through: [0, 0], direction: [1, 0], travel: [1, 2.6]}}
+    driver: {body: crank, pivot: ground.A, rate: 1.0}   # the crank turns about the pivot
     trace: coupler.P                          # the coupler point whose curve is drawn
+
+The driver is a crank (a body pinned to a ground point by a revolute joint; it turns by θ about it) or
+a slider (a body on a ground ``slider`` joint; it translates by s along the slot). ``pivot`` names the
+crank's ground point (optional where one revolute pins it). ``rate`` (rad/s, default 1) sets the time
+axis: the crank angle is θ = rate · t; a slider runs its stroke as s = amplitude · sin(rate · t) over
+its travel.
 
 The initial configuration needs to be assembled only roughly: the solver assembles it exactly at the
 crank's initial angle first. Each body's frame is the world frame at that configuration.
 
 Errors are ``SpecError``s naming the file, the field with its line and what was expected (the strict
 reader of every spec, ``gagen.yaml_document``): unknown bodies or points, a joint joining a body to
-itself, a body no joint reaches from the ground (dangling), a driver whose pivot is not the crank's
-ground pivot, bad numbers. Mobility is counted by Grübler–Kutzbach, 3 (n − 1) − 2 j_R − j_P with the
-ground among the n links and a prismatic joint (a pin in a slot) taking one freedom; a count other
-than 1 is reported by name (over- or under-constrained). The rank of the constraint Jacobian at the
-initial configuration is checked by the solver (``gagen.apps.linkage.solver``).
+itself, a body no joint reaches from the ground (dangling), a driver that is neither a crank nor a
+slider (or whose pivot is not the crank's ground pivot), bad numbers. Mobility is counted by
+Grübler–Kutzbach, 3 (n − 1) − 2 j_R − 2 j_S − j_P with the ground among the n links, a slider (a block
+on a line) taking two freedoms and a prismatic joint (a pin in a slot) one; a count other than 1 is
+reported by name (over- or under-constrained). The rank of the constraint Jacobian at the initial
+configuration is checked by the solver (``gagen.apps.linkage.solver``).
 """
 
 from __future__ import annotations
@@ -44,7 +54,9 @@ from gagen.yaml_document import Document, identifier, known_keys, number, requir
 
 TOP_KEYS = ("app", "name", "ground", "bodies", "joints", "driver", "trace")
 PRISMATIC_KEYS = ("point", "slot", "through", "direction", "travel")
-DRIVER_KEYS = ("body", "pivot")
+JOINT_KINDS = ("revolute", "prismatic", "slider")
+DRIVER_KEYS = ("body", "pivot", "rate")
+MAX_RATE = 1e4
 GROUND = "ground"
 MAX_COORDINATE = 1e4
 Point = tuple[float, float]
@@ -74,7 +86,34 @@ class Prismatic:
         return 1
 
 
+@dataclass(frozen=True)
+class Slider(Prismatic):
+    """A slider block: the point on the line (as a prismatic joint) and, besides, no turning relative
+    to the body carrying the line, a lower pair of two constraints."""
+
+    @property
+    def rows(self) -> int:
+        return 2
+
+
 Joint = Revolute | Prismatic
+
+
+@dataclass(frozen=True)
+class Driver:
+    body: str
+    pivot: str | None  # a crank's ground point; None for a slider
+    slide: Slider | None = None  # a slider's joint to the ground; None for a crank
+    rate: float = 1.0  # rad/s of the crank angle or of the slider's stroke phase
+
+    @property
+    def kind(self) -> str:
+        return "crank" if self.slide is None else "slider"
+
+    @property
+    def input(self) -> str:
+        """The driver's coordinate: the crank angle θ (rad) or the slider's displacement s (m)."""
+        return "theta" if self.slide is None else "s"
 
 
 @dataclass(frozen=True)
@@ -83,19 +122,27 @@ class Linkage:
     ground: dict[str, Point]
     bodies: dict[str, dict[str, Point]]
     joints: tuple[Joint, ...]
-    crank: str
-    pivot: str  # the ground point the crank turns about
+    driver: Driver
     trace: tuple[str, str] | None = None
 
     @property
+    def crank(self) -> str:
+        """The driven body (a crank, or a slider block)."""
+        return self.driver.body
+
+    @property
+    def pivot(self) -> str | None:
+        return self.driver.pivot
+
+    @property
     def unknown(self) -> list[str]:
-        """The bodies the solver moves: all but the crank, in spec order."""
+        """The bodies the solver moves: all but the driven one, in spec order."""
         return [b for b in self.bodies if b != self.crank]
 
     @property
     def active_joints(self) -> tuple[Joint, ...]:
-        """The joints the solver enforces: all but those between the crank and the ground (the crank's
-        pivot, which the driver's motion keeps by construction)."""
+        """The joints the solver enforces: all but those between the driven body and the ground (the
+        crank's pivot or the slider's slot, which the driver's motion keeps by construction)."""
         fixed = {GROUND, self.crank}
         return tuple(j for j in self.joints if not {*_bodies(j)} <= fixed)
 
@@ -104,13 +151,34 @@ class Linkage:
         return sum(j.rows for j in self.active_joints)
 
     def mobility(self) -> int:
-        """Grübler–Kutzbach: 3 (n − 1) − 2 j_R − j_P, the ground counted among the n links."""
+        """Grübler–Kutzbach: 3 (n − 1) − 2 j_R − 2 j_S − j_P (revolute, slider, pin in slot), the ground
+        counted among the n links."""
         n = len(self.bodies) + 1
-        return 3 * (n - 1) - sum(2 if isinstance(j, Revolute) else 1 for j in self.joints)
+        return 3 * (n - 1) - sum(2 if isinstance(j, Revolute) else j.rows for j in self.joints)
 
     def point(self, ref: tuple[str, str]) -> Point:
         body, name = ref
         return self.ground[name] if body == GROUND else self.bodies[body][name]
+
+    def at(self, value: float) -> str:
+        """The driver at a value, for messages: "crank 12.0°" or "slider s = 0.25"."""
+        return f"crank {math.degrees(value):.3f}°" if self.driver.slide is None else f"slider s = {value:.4g}"
+
+    def stroke(self) -> tuple[float, float]:
+        """A slider driver's range of s (lower < 0 < upper): its travel, as a displacement from the
+        initial configuration."""
+        slide = self.driver.slide
+        if slide is None or slide.travel is None:
+            raise ValueError(f"{self.name}: the driver is not a slider with a travel")
+        start = slot_coordinate(slide, self.point(slide.point))
+        lo, hi = slide.travel
+        # the ground carries the slot: the point's coordinate is start + s; the block carries it: start − s
+        return (lo - start, hi - start) if slide.on == GROUND else (start - hi, start - lo)
+
+
+def slot_coordinate(joint: Prismatic, x: Point) -> float:
+    """A point's coordinate along a slot, (x − through)·direction, in the frame of the slot's body."""
+    return (x[0] - joint.through[0]) * joint.direction[0] + (x[1] - joint.through[1]) * joint.direction[1]
 
 
 def _bodies(joint: Joint) -> tuple[str, str]:
@@ -147,9 +215,10 @@ def _ref(spec: Document, value: Any, field: str, ground: dict, bodies: dict) -> 
 
 
 def _joint(spec: Document, value: Any, field: str, ground: dict, bodies: dict) -> Joint:
-    if not isinstance(value, dict) or len(value) != 1 or next(iter(value)) not in ("revolute", "prismatic"):
-        raise spec.error(field, f"got {show(value)}; expected {{revolute: [body.point, body.point]}} or "
-                                f"{{prismatic: {{point, slot, through, direction, travel}}}}")
+    if not isinstance(value, dict) or len(value) != 1 or next(iter(value)) not in JOINT_KINDS:
+        raise spec.error(field, f"got {show(value)}; expected {{revolute: [body.point, body.point]}}, "
+                                f"{{prismatic: {{point, slot, through, direction, travel}}}} (a pin in a "
+                                f"slot) or {{slider: {{…the same keys}}}} (a slider block)")
     kind, body = next(iter(value.items()))
     where = f"{field}.{kind}"
     if kind == "revolute":
@@ -186,7 +255,47 @@ def _joint(spec: Document, value: Any, field: str, ground: dict, bodies: dict) -
             raise spec.error(f"{where}.travel", f"got {show(body['travel'])}; expected [lower, upper] with "
                                                 f"lower < upper")
         travel = (lo, hi)
-    return Prismatic(point, on, through, (dx / norm, dy / norm), travel)
+    kind_of = Slider if kind == "slider" else Prismatic
+    return kind_of(point, on, through, (dx / norm, dy / norm), travel)
+
+
+def _driver(spec: Document, driver: dict, ground: dict, bodies: dict, joints: tuple[Joint, ...]) -> Driver:
+    """A crank (pinned to a ground point by a revolute joint) or a slider (on a ground slider joint)."""
+    known_keys(spec, driver, "driver", DRIVER_KEYS)
+    body = require(spec, driver, "body", "driver.body", str, "the crank or slider body")
+    if body not in bodies:
+        raise spec.error("driver.body", f"unknown body {body!r}; the bodies: {', '.join(bodies)}")
+    rate = driver.get("rate", 1.0)
+    if not number(rate, MAX_RATE) or rate == 0:
+        raise spec.error("driver.rate", f"got {show(rate)}; expected a non-zero rate in rad/s within "
+                                        f"±{MAX_RATE:g}")
+    pivots = [j.b[1] for j in joints if isinstance(j, Revolute) and j.a[0] == body and j.b[0] == GROUND]
+    slides = [j for j in joints if isinstance(j, Slider) and {j.point[0], j.on} == {body, GROUND}]
+    if "pivot" in driver:
+        pivot = _ref(spec, require(spec, driver, "pivot", "driver.pivot", str, "ground.point"),
+                     "driver.pivot", ground, bodies)
+        if pivot[0] != GROUND:
+            raise spec.error("driver.pivot", f"got {pivot[0]}.{pivot[1]}; the crank turns about a ground "
+                                             f"point")
+        if pivot[1] not in pivots:
+            raise spec.error("driver.pivot", f"no revolute joint pins {body} to ground.{pivot[1]}; the crank "
+                                             f"turns about its ground pivot")
+        return Driver(body, pivot[1], None, float(rate))
+    if len(pivots) == 1 and not slides:
+        return Driver(body, pivots[0], None, float(rate))
+    if len(slides) == 1 and not pivots:
+        slide = slides[0]
+        along = slot_coordinate(slide, ground[slide.point[1]] if slide.point[0] == GROUND
+                                else bodies[body][slide.point[1]])
+        if slide.travel is None or not slide.travel[0] < along < slide.travel[1]:
+            raise spec.error("driver", f"the slider {body} runs its stroke over its joint's travel: give the "
+                                       f"slider joint a travel [lower, upper] with the initial position "
+                                       f"{along:g} strictly inside (got {show(slide.travel)})")
+        return Driver(body, None, slide, float(rate))
+    raise spec.error("driver", f"{body} is pinned to the ground by {len(pivots)} revolute and {len(slides)} "
+                               f"slider joint(s); a driver is a crank (one revolute joint to a ground point, "
+                               f"or name it with pivot: ground.<point>) or a slider (one slider joint to "
+                               f"the ground)")
 
 
 def _connected(linkage: Linkage) -> list[str]:
@@ -225,21 +334,11 @@ def load_linkage(path: str | Path) -> Linkage:
         bodies[body] = _points(spec, points, f"bodies.{body}", "the body's points")
     joints_data = require(spec, data, "joints", "joints", list, "a list of joints")
     joints = tuple(_joint(spec, j, f"joints[{i}]", ground, bodies) for i, j in enumerate(joints_data))
-    driver = require(spec, data, "driver", "driver", dict, "{body: crank, pivot: ground.point}")
-    known_keys(spec, driver, "driver", DRIVER_KEYS)
-    crank = require(spec, driver, "body", "driver.body", str, "the crank body")
-    if crank not in bodies:
-        raise spec.error("driver.body", f"unknown body {crank!r}; the bodies: {', '.join(bodies)}")
-    pivot = _ref(spec, require(spec, driver, "pivot", "driver.pivot", str, "ground.point"), "driver.pivot",
-                 ground, bodies)
-    if pivot[0] != GROUND:
-        raise spec.error("driver.pivot", f"got {pivot[0]}.{pivot[1]}; the crank turns about a ground point")
-    pinned = any(isinstance(j, Revolute) and j.a[0] == crank and j.b == pivot for j in joints)
-    if not pinned:
-        raise spec.error("driver.pivot", f"no revolute joint pins {crank} to ground.{pivot[1]}; the crank "
-                                         f"turns about its ground pivot")
+    listed_driver = require(spec, data, "driver", "driver", dict,
+                            "{body: crank, pivot: ground.point} or {body: slider}")
+    driver = _driver(spec, listed_driver, ground, bodies, joints)
     trace = _ref(spec, data["trace"], "trace", ground, bodies) if "trace" in data else None
-    linkage = Linkage(name, ground, bodies, joints, crank, pivot[1], trace)
+    linkage = Linkage(name, ground, bodies, joints, driver, trace)
     dangling = _connected(linkage)
     if dangling:
         raise spec.error("joints", f"no joint connects {', '.join(dangling)} to the ground (directly or "
@@ -248,6 +347,7 @@ def load_linkage(path: str | Path) -> Linkage:
     if mobility != 1:
         kind = "over-constrained" if mobility < 1 else "under-constrained"
         raise spec.error("joints", f"the mechanism is {kind}: Grübler–Kutzbach counts {mobility} "
-                                   f"degrees of freedom (3 × {len(bodies)} moving links − 2 per revolute − 1 "
-                                   f"per prismatic joint); one crank drives a mechanism of exactly 1")
+                                   f"degrees of freedom (3 × {len(bodies)} moving links − 2 per revolute or "
+                                   f"slider − 1 per prismatic joint); one driver moves a mechanism of "
+                                   f"exactly 1")
     return linkage

@@ -6,6 +6,7 @@ kernel's flat CasADi graph; compiled into ``lib<name>_<tag>.so`` and called thro
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Mapping
 from pathlib import Path
@@ -14,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 from gagen.codegen.backends.base import Backend, Context, Output, module_name, module_tag
 
 if TYPE_CHECKING:
-    from gagen.codegen.ir import Kernel, ModuleSource
+    from gagen.codegen.ir import Kernel, ModuleSource, Port
     from gagen.runtime import GeneratedModule
 
 # kernels up to this many C statements also get a SIMD batch (the chains' FK and FK + Jacobian): it
@@ -27,11 +28,35 @@ def c_name(module: str, kernel: Kernel) -> str:
     return f"{module}_{kernel.name}"
 
 
+def c_ports(kernel: Kernel) -> tuple[list[Port], list[Port]]:
+    """The kernel's inputs and outputs under their C parameter names, ``in_<name>`` and ``out_<name>``:
+    a user's name (``s``, ``n``, ``w0``, ``sin``, ``NAN``…) can then never meet an identifier of the
+    generated code (its locals ``w<i>``, the templates' ``gagen_*``) or of libm and its macros."""
+    return ([dataclasses.replace(p, name=f"in_{p.name}") for p in kernel.inputs],
+            [dataclasses.replace(p, name=f"out_{p.name}") for p in kernel.outputs])
+
+
 def params(kernel: Kernel, restrict: str) -> str:
-    """The C parameter list: ``const double *<restrict> <input>, ..., double *<restrict> <output>, ...``."""
-    ins = [f"const double *{restrict} {p.name}" for p in kernel.inputs]
-    outs = [f"double *{restrict} {p.name}" for p in kernel.outputs]
-    return ", ".join(ins + outs)
+    """The C parameter list: ``const double *<restrict> in_<input>, ..., double *<restrict> out_<output>,
+    ...``."""
+    ins, outs = c_ports(kernel)
+    return ", ".join([f"const double *{restrict} {p.name}" for p in ins] +
+                     [f"double *{restrict} {p.name}" for p in outs])
+
+
+def _check_size_macros(source: ModuleSource) -> None:
+    """The header's ``<MODULE>_<KERNEL>_<PORT>_SIZE`` macros must not define one name twice with two
+    sizes (ports ``R`` and ``r``, or kernel ``a_b`` with port ``c`` beside kernel ``a`` with port
+    ``b_c``); two with the same size (a vector ``b`` and a bivector ``B`` in ga3d) are one macro."""
+    seen: dict[str, tuple[str, int]] = {}
+    for kernel in source.kernels.values():
+        for p in (*kernel.inputs, *kernel.outputs):
+            macro = f"{c_name(source.name, kernel)}_{p.name}".upper()
+            where = f"kernel {kernel.name}, {p.name} (size {p.size})"
+            if macro in seen and seen[macro][1] != p.size:
+                raise ValueError(f"{source.name}: {where} and {seen[macro][0]} give the same C macro "
+                                 f"{macro}_SIZE; rename one of them")
+            seen[macro] = where, p.size
 
 
 def library(manifest: Mapping[str, Any]) -> str:
@@ -50,9 +75,11 @@ class CBackend(Backend):
         from gagen.codegen.backends.c import printer
 
         contexts, entries = [], {}
+        _check_size_macros(source)
         for i, kernel in enumerate(source.kernels.values(), 1):
             start = time.perf_counter()
-            names = ([p.name for p in kernel.inputs], [p.name for p in kernel.outputs])
+            ins, outs = c_ports(kernel)
+            names = ([p.name for p in ins], [p.name for p in outs])
             body = printer.emit_body(kernel.function, *names)
             # the SIMD batch doubles a kernel's code: only kernels up to SIMD_MAX_STATEMENTS get one
             vector = (printer.emit_body(kernel.function, *names, vector=True)
@@ -60,7 +87,8 @@ class CBackend(Backend):
             ops = kernel.op_count
             function = c_name(source.name, kernel)
             contexts.append({"c_name": function, "doc": kernel.doc, "inputs": kernel.inputs,
-                             "outputs": kernel.outputs, "ops": str(ops), "locals": body.locals,
+                             "outputs": kernel.outputs, "c_inputs": ins, "c_outputs": outs,
+                             "ops": str(ops), "locals": body.locals,
                              "statements": body.statements,
                              "vector_locals": vector.locals if vector else (),
                              "vector_statements": vector.statements if vector else (),
