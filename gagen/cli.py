@@ -283,7 +283,7 @@ def _cmd_linkage(args: argparse.Namespace) -> int:
         return 2
     out, status, start = Path(args.out), 0, time.perf_counter()
     print(f"{len(linkages)} mechanism(s): {', '.join(m.name for m in linkages)}; {args.steps} steps per "
-          f"revolution, {args.revolutions} revolution(s)", flush=True)
+          f"cycle, {args.revolutions} cycle(s)", flush=True)
     for linkage in linkages:
         try:
             result = demo.run(linkage, out / linkage.name, steps=args.steps, revolutions=args.revolutions,
@@ -385,13 +385,14 @@ def main(argv: list[str] | None = None) -> int:
     walk.add_argument("--no-animation", action="store_true", help="skip the GIF")
     walk.set_defaults(run=_cmd_walk)
 
-    linkage = sub.add_parser("linkage", help="planar linkages: Lie-algebra Newton along a crank revolution; "
-                             "per-step report, traced curves, solver plots and a GIF")
+    linkage = sub.add_parser("linkage", help="planar linkages: Lie-algebra Newton along the driver's cycle "
+                             "(a crank's revolution, a slider's stroke); per-step report, traced curves, "
+                             "solver plots and a GIF")
     linkage.add_argument("spec", nargs="*", help="linkage spec(s) (default: every bundled one in "
                          "gagen/apps/linkage/robots)")
-    linkage.add_argument("--steps", type=positive_int, default=360, help="crank steps per revolution "
-                         "(default 360)")
-    linkage.add_argument("--revolutions", type=positive_int, default=1, help="crank revolutions (default 1)")
+    linkage.add_argument("--steps", type=positive_int, default=360, help="driver steps per cycle: per crank "
+                         "revolution or slider stroke (default 360)")
+    linkage.add_argument("--revolutions", type=positive_int, default=1, help="driver cycles (default 1)")
     linkage.add_argument("--out", default="linkage", help="folder; each mechanism's files go to "
                          "<out>/<name>/ (default linkage/)")
     linkage.add_argument("--frames", type=positive_int, default=72, help="GIF frames (default 72)")

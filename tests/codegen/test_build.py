@@ -42,10 +42,11 @@ HEX = re.compile(r"[0-9a-f]{12}")
 
 
 def _committed(folder: Path) -> dict[str, bytes]:
-    """The files of a module folder that are committed: all but the compiled ones and the build key."""
+    """The files of a module folder that are committed: all but the compiled ones, the build key, and a
+    first-use compilation's temporary files (another test process may be compiling the module)."""
     return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*"))
             if p.is_file() and not p.name.endswith((".so", ".dylib")) and p.name != ".build-key"
-            and "__pycache__" not in p.parts}
+            and ".partial" not in p.name and "__pycache__" not in p.parts}
 
 
 def _golden() -> dict[str, Path]:

@@ -160,8 +160,9 @@ def test_compiled_step_equals_the_interpreter_reference(kernel, built):
 @needs_cc
 def test_header_declares_the_step(built):
     header = built.header.read_text()
-    assert "void smc_step(const double *GAGEN_RESTRICT q, const double *GAGEN_RESTRICT x_ref, " \
-           "double *GAGEN_RESTRICT x, double *GAGEN_RESTRICT J, double *GAGEN_RESTRICT u);" in header
+    assert "void smc_step(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_x_ref, " \
+           "double *GAGEN_RESTRICT out_x, double *GAGEN_RESTRICT out_J, " \
+           "double *GAGEN_RESTRICT out_u);" in header
     assert "#define SMC_STEP_Q_SIZE 7" in header and "#define SMC_STEP_X_REF_SIZE 6" in header
     assert built.header.name == "smc.h" and built.source.name == "smc.c"
     assert built.meta["flops"] < 1500  # the LDLᵀ solve keeps the step near 1k flops

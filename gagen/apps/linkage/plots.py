@@ -90,7 +90,7 @@ def _driver_scale(linkage: Linkage) -> float:
 
 def _short(linkage: Linkage, value: float) -> str:
     """The driver's value for a label: the crank angle in degrees, or the slider's s."""
-    return f"{np.degrees(value):.0f}°" if linkage.pivot is not None else f"s={value:.2g}"
+    return f"{np.degrees(value):.0f}°" if linkage.pivot is not None else f"s={round(value, 4) + 0.0:g}"
 
 
 def slot_segments(linkage: Linkage, row: np.ndarray) -> list[tuple[str, np.ndarray]]:
