@@ -5,7 +5,9 @@
   catalogue (fk, Jacobians, primitive, similarity, task), goals and the control scenarios;
 - ``hexapod``: hexapod legs in PGA and CGA [HEX]: kinematics, IK, ground contact, a tripod gait;
 - ``linkage``: closed-loop planar linkages in 2D CGA [LINK]: constraint kernels, a Lie-algebra
-  Newton solver.
+  Newton solver;
+- ``stereo``: stereo symmetry-line pose estimation in CGA [SMC IV]: a calibrated rig (YAML), the
+  geometry kernels (image lines to the 3D symmetry axis, reprojection, triangulation).
 
 A spec names its application by its top-level ``app`` key (default ``cooperative``);
 :func:`spec_source` hands it to that application's module source.
@@ -21,7 +23,8 @@ from gagen.codegen.ir import ModuleSource
 # app name -> (module, function making the ModuleSource of a spec path)
 SPEC_APPS = {"cooperative": ("gagen.apps.cooperative.module", "cooperative_source"),
              "hexapod": ("gagen.apps.hexapod.module", "hexapod_source"),
-             "linkage": ("gagen.apps.linkage.kernels", "linkage_source")}
+             "linkage": ("gagen.apps.linkage.kernels", "linkage_source"),
+             "stereo": ("gagen.apps.stereo.kernels", "stereo_source")}
 
 
 def spec_app(path: str | Path) -> str:

@@ -1,0 +1,187 @@
+"""A calibrated stereo rig (YAML, ``app: stereo``): two pinhole cameras, the right camera's pose in the
+left camera's frame, the left camera's pose in the robot's base frame, and the object's colour.
+
+    app: stereo
+    name: stereo_rig
+    cameras:                                   # pinhole intrinsics in pixels (no distortion)
+      left:  {fx: 600, fy: 600, cx: 319.5, cy: 239.5, width: 640, height: 480}
+      right: {fx: 600, fy: 600, cx: 319.5, cy: 239.5, width: 640, height: 480}
+    right_in_left: {xyz: [0.12, 0, 0], rpy: [0, 0, 0]}   # X_left = R X_right + t (m, rad)
+    left_in_base: {xyz: [-0.36, 0.15, 1.25], rpy: [3.1416, 0, 0]}  # X_base = R X_left + t
+    segmentation: {hue: [100, 130], saturation: [80, 255], value: [40, 255]}   # OpenCV HSV ranges
+
+Camera frames follow OpenCV: x right, y down, z forward (the optical axis); a pixel (u, v) has the
+normalised image coordinates x = (u − cx)/fx, y = (v − cy)/fy, the point (x, y, 1) of the image plane
+z = 1. ``rpy`` is the URDF convention, R = Rz(yaw) Ry(pitch) Rx(roll). Errors name the file, the field
+with its line and what was expected (``gagen.yaml_document``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gagen.yaml_document import Document, identifier, known_keys, number, require, show
+
+TOP_KEYS = ("app", "name", "cameras", "right_in_left", "left_in_base", "segmentation")
+CAMERA_KEYS = ("fx", "fy", "cx", "cy", "width", "height")
+POSE_KEYS = ("xyz", "rpy")
+SEGMENTATION_KEYS = ("hue", "saturation", "value")
+HSV_LIMITS = {"hue": 179, "saturation": 255, "value": 255}  # OpenCV's 8-bit HSV
+MAX_PIXELS = 16384
+MAX_DISTANCE = 1e3  # m
+
+
+@dataclass(frozen=True)
+class Camera:
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    width: int
+    height: int
+
+    @property
+    def K(self) -> np.ndarray:
+        return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
+
+    def normalised(self, pixels: np.ndarray) -> np.ndarray:
+        """Pixels (…, 2) → normalised image coordinates (…, 2)."""
+        p = np.asarray(pixels, dtype=float)
+        return np.stack([(p[..., 0] - self.cx) / self.fx, (p[..., 1] - self.cy) / self.fy], axis=-1)
+
+    def pixels(self, normalised: np.ndarray) -> np.ndarray:
+        """Normalised image coordinates (…, 2) → pixels (…, 2)."""
+        x = np.asarray(normalised, dtype=float)
+        return np.stack([x[..., 0] * self.fx + self.cx, x[..., 1] * self.fy + self.cy], axis=-1)
+
+    def project(self, points: np.ndarray) -> np.ndarray:
+        """Points (…, 3) in this camera's frame → pixels (…, 2)."""
+        p = np.asarray(points, dtype=float)
+        return self.pixels(p[..., :2] / p[..., 2:3])
+
+
+@dataclass(frozen=True)
+class Pose:
+    """A rigid transformation x ↦ R x + t."""
+
+    R: np.ndarray
+    t: np.ndarray
+
+    @property
+    def matrix(self) -> np.ndarray:
+        out = np.eye(4)
+        out[:3, :3], out[:3, 3] = self.R, self.t
+        return out
+
+    def apply(self, points: np.ndarray) -> np.ndarray:
+        return np.asarray(points, dtype=float) @ self.R.T + self.t
+
+    def inverse(self) -> Pose:
+        return Pose(self.R.T, -self.R.T @ self.t)
+
+
+@dataclass(frozen=True)
+class Rig:
+    name: str
+    left: Camera
+    right: Camera
+    right_in_left: Pose  # X_left = R X_right + t
+    left_in_base: Pose  # X_base = R X_left + t
+    hsv_low: tuple[int, int, int]  # inclusive OpenCV HSV range of the object's colour
+    hsv_high: tuple[int, int, int]
+
+    @property
+    def baseline(self) -> float:
+        return float(np.linalg.norm(self.right_in_left.t))
+
+
+def rpy_matrix(rpy: tuple[float, float, float]) -> np.ndarray:
+    """URDF roll-pitch-yaw: Rz(yaw) Ry(pitch) Rx(roll)."""
+    r, p, y = rpy
+    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
+    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                     [-sp, cp * sr, cp * cr]])
+
+
+def _camera(spec: Document, value: Any, field: str) -> Camera:
+    if not isinstance(value, dict):
+        raise spec.error(field, f"got {show(value)}; expected {{fx, fy, cx, cy, width, height}} in pixels")
+    known_keys(spec, value, field, CAMERA_KEYS)
+    numbers = {}
+    for key in CAMERA_KEYS:
+        v = require(spec, value, key, f"{field}.{key}", (int, float), "a number of pixels")
+        if not number(v, MAX_PIXELS) or v <= 0 or (key in ("width", "height") and v != int(v)):
+            raise spec.error(f"{field}.{key}", f"got {show(v)}; expected a positive "
+                                               f"{'whole ' if key in ('width', 'height') else ''}number "
+                                               f"of pixels up to {MAX_PIXELS}")
+        numbers[key] = v
+    return Camera(float(numbers["fx"]), float(numbers["fy"]), float(numbers["cx"]), float(numbers["cy"]),
+                  int(numbers["width"]), int(numbers["height"]))
+
+
+def _triple(spec: Document, value: Any, field: str, bound: float) -> tuple[float, float, float]:
+    if not isinstance(value, list) or len(value) != 3 or not all(number(v, bound) for v in value):
+        raise spec.error(field, f"got {show(value)}; expected three finite numbers within ±{bound:g}")
+    return float(value[0]), float(value[1]), float(value[2])
+
+
+def _pose(spec: Document, value: Any, field: str) -> Pose:
+    if not isinstance(value, dict):
+        raise spec.error(field, f"got {show(value)}; expected {{xyz: [x, y, z], rpy: [roll, pitch, yaw]}}")
+    known_keys(spec, value, field, POSE_KEYS)
+    xyz = _triple(spec, require(spec, value, "xyz", f"{field}.xyz", list, "[x, y, z] in m"), f"{field}.xyz",
+                  MAX_DISTANCE)
+    rpy = _triple(spec, value.get("rpy", [0, 0, 0]), f"{field}.rpy", 4 * math.pi)
+    return Pose(rpy_matrix(rpy), np.array(xyz))
+
+
+def _segmentation(spec: Document, value: Any) -> tuple[tuple[int, int, int], tuple[int, int, int]]:
+    if not isinstance(value, dict):
+        raise spec.error("segmentation", f"got {show(value)}; expected {{hue: [lo, hi], saturation: "
+                                         f"[lo, hi], value: [lo, hi]}} (OpenCV 8-bit HSV)")
+    known_keys(spec, value, "segmentation", SEGMENTATION_KEYS)
+    low, high = [], []
+    for key in SEGMENTATION_KEYS:
+        field = f"segmentation.{key}"
+        pair = require(spec, value, key, field, list, f"[lo, hi] within 0 … {HSV_LIMITS[key]}")
+        if len(pair) != 2 or not all(isinstance(v, int) and not isinstance(v, bool) for v in pair) \
+                or not 0 <= pair[0] <= pair[1] <= HSV_LIMITS[key]:
+            raise spec.error(field, f"got {show(pair)}; expected [lo, hi], whole numbers with "
+                                    f"0 ≤ lo ≤ hi ≤ {HSV_LIMITS[key]}")
+        low.append(pair[0])
+        high.append(pair[1])
+    return (low[0], low[1], low[2]), (high[0], high[1], high[2])
+
+
+def load_rig(path: str | Path) -> Rig:
+    """The stereo rig of a calibration file."""
+    spec = Document(Path(path), "a mapping with app: stereo, name, cameras, right_in_left, left_in_base and "
+                                "segmentation")
+    data = spec.data
+    known_keys(spec, data, "", TOP_KEYS)
+    if data.get("app") != "stereo":
+        raise spec.error("app", f"got {show(data.get('app'))}; a stereo rig says app: stereo")
+    name = identifier(spec, require(spec, data, "name", "name", str, "the rig's name"), "name",
+                      "the rig's name")
+    cameras = require(spec, data, "cameras", "cameras", dict, "{left: {...}, right: {...}}")
+    known_keys(spec, cameras, "cameras", ("left", "right"))
+    left = _camera(spec, require(spec, cameras, "left", "cameras.left", dict, "the left camera"),
+                   "cameras.left")
+    right = _camera(spec, require(spec, cameras, "right", "cameras.right", dict, "the right camera"),
+                    "cameras.right")
+    listed = require(spec, data, "right_in_left", "right_in_left", dict,
+                     "the right camera's pose in the left camera's frame")
+    right_in_left = _pose(spec, listed, "right_in_left")
+    if np.linalg.norm(right_in_left.t) < 1e-6:
+        raise spec.error("right_in_left.xyz", "got a zero baseline; expected the right camera's centre apart "
+                                              "from the left one's")
+    left_in_base = _pose(spec, data.get("left_in_base", {"xyz": [0, 0, 0]}), "left_in_base")
+    low, high = _segmentation(spec, require(spec, data, "segmentation", "segmentation", dict,
+                                            "the object's HSV colour range"))
+    return Rig(name, left, right, right_in_left, left_in_base, low, high)
