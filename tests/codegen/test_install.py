@@ -81,6 +81,10 @@ def test_a_non_editable_install_builds_a_python_file_of_kernels_and_loads_it(tmp
     hexapod = installed / "apps" / "hexapod" / "robots"
     assert sorted(p.name for p in hexapod.iterdir() if p.suffix in (".yaml", ".urdf")) == \
         ["hexapod.urdf", "hexapod.yaml"]
+    for app in ("linkage", "stereo"):  # every app's bundled specs ship (gagen linkage runs them by default)
+        shipped_specs = sorted(p.name for p in (installed / "apps" / app / "robots").glob("*.yaml"))
+        ours = sorted(p.name for p in (REPO / "gagen" / "apps" / app / "robots").glob("*.yaml"))
+        assert shipped_specs == ours and ours
 
     (work / "tiny.py").write_text(KERNELS)
     env["PYTHONPATH"] = str(site)  # the install, before the editable one of the environment
