@@ -83,6 +83,25 @@ static inline double bench_median(double *v, int n) {
     return (n % 2) ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+/* The doubles of a file written by a Python driver (numpy's tobytes): a malloc'd array and its length,
+ * or NULL when the file cannot be read. */
+static inline double *bench_read_doubles(const char *path, long *count) {
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    fseek(f, 0, SEEK_END);
+    long bytes = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    double *data = (double *)malloc((size_t)(bytes > 0 ? bytes : 1));
+    *count = bytes / (long)sizeof(double);
+    if (fread(data, sizeof(double), (size_t)*count, f) != (size_t)*count) {
+        fclose(f);
+        free(data);
+        return NULL;
+    }
+    fclose(f);
+    return data;
+}
+
 /* repeats from argv[1] (default BENCH_REPEATS, at least 21) */
 static inline int bench_repeats(int argc, char **argv) {
     int r = argc > 1 ? atoi(argv[1]) : BENCH_REPEATS;

@@ -18,19 +18,6 @@
 #include "hexapod.h"
 #include "hexapod_fkj.h"
 
-static double *read_all(const char *path, long *count) {
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    long bytes = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    double *data = (double *)malloc((size_t)bytes);
-    *count = bytes / (long)sizeof(double);
-    if (fread(data, sizeof(double), (size_t)*count, f) != (size_t)*count) { fclose(f); return NULL; }
-    fclose(f);
-    return data;
-}
-
 /* DLS steps from q0 until the error before a step is below tolerance; returns the number of steps taken */
 static int dls_solve(const double *q0, const double *target, double damping, double tolerance,
                      int max_iterations, double *q, double *err) {
@@ -49,7 +36,7 @@ static int dls_solve(const double *q0, const double *target, double damping, dou
 
 int main(int argc, char **argv) {
     long count = 0;
-    double *in = argc > 1 ? read_all(argv[1], &count) : NULL;
+    double *in = argc > 1 ? bench_read_doubles(argv[1], &count) : NULL;
     if (!in || count < 10) {
         fprintf(stderr, "usage: %s INPUTS [REPEATS]\n", argv[0]);
         return 2;

@@ -20,19 +20,6 @@
 
 #include LINKAGE_HEADER
 
-static double *read_all(const char *path, long *count) {
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    long bytes = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    double *data = (double *)malloc((size_t)bytes);
-    *count = bytes / (long)sizeof(double);
-    if (fread(data, sizeof(double), (size_t)*count, f) != (size_t)*count) { fclose(f); return NULL; }
-    fclose(f);
-    return data;
-}
-
 /* Newton at crank angle *theta from R (updated in place): kernel calls until the residual before a step
  * is below tolerance; returns the number of calls (the last one only confirms convergence). */
 static int crank_step(double *R, double *next, int n_R, const double *theta, double tolerance,
@@ -46,7 +33,7 @@ static int crank_step(double *R, double *next, int n_R, const double *theta, dou
 
 int main(int argc, char **argv) {
     long count = 0;
-    double *in = argc > 2 ? read_all(argv[1], &count) : NULL;
+    double *in = argc > 2 ? bench_read_doubles(argv[1], &count) : NULL;
     if (!in || count < 4) {
         fprintf(stderr, "usage: %s INPUTS OUTPUT [REPEATS]\n", argv[0]);
         return 2;

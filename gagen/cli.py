@@ -2,8 +2,9 @@
 metric and blade order), ``kernels`` (a spec's kernel catalogue with op counts) and ``build`` (the
 generated module of a spec or of a Python file of kernels, optionally checked against the
 interpreter), ``reach`` (IPOPT cooperative reaching on a paper scenario), ``smc`` (sliding-mode
-tracking in a real-time loop), ``walk`` (a hexapod's tripod gait, with plots and an animation) and
-``linkage`` (planar linkages along a crank revolution: solver report, traced curves, a GIF)."""
+tracking in a real-time loop), ``walk`` (a hexapod's tripod gait, with plots and an animation),
+``linkage`` (planar linkages along a crank revolution: solver report, traced curves, a GIF) and
+``stereo`` (a bottle's symmetry axis from a rendered stereo pair as the sliding-mode reference)."""
 
 from __future__ import annotations
 
@@ -145,6 +146,28 @@ def _check(spec: str, folder, samples: int, tolerance: float) -> int:
     return 1 if failed else 0
 
 
+def non_negative_float(text: str) -> float:
+    """argparse type: a finite number ≥ 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"expected a finite number ≥ 0, got {text!r}")
+    return value
+
+
+def non_negative_int(text: str) -> int:
+    """argparse type: an integer ≥ 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected an integer ≥ 0, got {text!r}")
+    return value
+
+
 def positive_float(text: str) -> float:
     """argparse type: a finite number > 0 (nan, inf, 0 and negatives are refused with a message)."""
     try:
@@ -260,6 +283,50 @@ def _cmd_walk(args: argparse.Namespace) -> int:
               f"{len(result.past_limits)} joint-limit violation(s); first: {result.flags()[0]}",
               file=sys.stderr)
         return 1
+    return 0
+
+
+def _cmd_stereo(args: argparse.Namespace) -> int:
+    import time
+
+    from gagen.apps.stereo import track
+    from gagen.apps.stereo.calibration import load_rig
+    from gagen.apps.stereo.scene import SceneOptions
+    from gagen.codegen.compiler import CompileError
+    from gagen.errors import SpecError
+
+    try:
+        rig = load_rig(args.rig)
+    except (SpecError, FileNotFoundError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    out, start = Path(args.out), time.perf_counter()
+    options = SceneOptions(vertex_jitter=args.noise, pixel_noise=args.pixel_noise, blur=args.blur,
+                           clutter=args.clutter)
+    print(f"stereo symmetry-axis tracking: {rig.name} ({rig.baseline:g} m baseline), {args.duration:g} s, "
+          f"frames at {track.FPS:g} Hz, sliding-mode control at {track.RATE:g} Hz", flush=True)
+    try:
+        run = track.close_loop(rig, args.duration, options=options, seed=args.seed,
+                               progress=lambda line: print(line, flush=True))
+    except (RuntimeError, CompileError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    e = track.tracking_errors(run, transient=min(0.5, args.duration / 2))
+    frames = len(run.frame_times)
+    render, estimate = (1e3 * run.seconds[k] / frames for k in ("render", "estimate"))
+    print(f"  frames: {frames}, failed {len(run.failures)}; render {render:.1f} ms, estimate "
+          f"{estimate:.1f} ms per frame pair")
+    print(f"  estimate vs the rendered pose: position median {1e3 * e['estimate_position_median']:.2f} mm "
+          f"(max {1e3 * e['estimate_position_max']:.2f}), axis median {e['estimate_axis_median_deg']:.3f}° "
+          f"(max {e['estimate_axis_max_deg']:.3f}°)")
+    print(f"  tracking: end point within {1e3 * e['position_vs_estimate']:.2f} mm of the estimate and "
+          f"{1e3 * e['position_vs_truth']:.2f} mm of the true path; direction within "
+          f"{e['direction_vs_truth']:.3f} of the true axis")
+    for failure in run.failures[:5]:
+        print(f"  failed: {failure}")
+    for path in track.plots(run, rig, out):
+        print(f"  wrote {path}")
+    print(f"done in {time.perf_counter() - start:.1f} s")
     return 0
 
 
@@ -384,6 +451,23 @@ def main(argv: list[str] | None = None) -> int:
     walk.add_argument("--frames", type=positive_int, default=90, help="GIF frames (default 90)")
     walk.add_argument("--no-animation", action="store_true", help="skip the GIF")
     walk.set_defaults(run=_cmd_walk)
+
+    stereo = sub.add_parser("stereo", help="a moving bottle rendered by a stereo rig at 30 Hz, its "
+                            "symmetry axis estimated in CGA each frame, tracked by the Panda's sliding-mode "
+                            "loop (plots)")
+    rig = Path(__file__).resolve().parent / "apps" / "stereo" / "robots" / "stereo_rig.yaml"
+    stereo.add_argument("--rig", default=str(rig), help="calibration file (default: the bundled rig)")
+    stereo.add_argument("--duration", type=positive_float, default=5.0, help="seconds (default 5)")
+    stereo.add_argument("--noise", type=non_negative_float, default=1.0,
+                        help="σ of the rendered vertices, px (default 1)")
+    stereo.add_argument("--pixel-noise", type=non_negative_float, default=2.0,
+                        help="σ of the pixel values, grey levels (default 2)")
+    stereo.add_argument("--blur", type=non_negative_float, default=0.0,
+                        help="σ of a Gaussian blur, px (default 0)")
+    stereo.add_argument("--clutter", type=non_negative_int, default=0, help="background shapes (default 0)")
+    stereo.add_argument("--seed", type=int, default=0, help="random seed of the noise (default 0)")
+    stereo.add_argument("--out", default="plots/stereo", help="folder for the log and the plots")
+    stereo.set_defaults(run=_cmd_stereo)
 
     linkage = sub.add_parser("linkage", help="planar linkages: Lie-algebra Newton along the driver's cycle "
                              "(a crank's revolution, a slider's stroke); per-step report, traced curves, "

@@ -87,7 +87,7 @@ def test_malformed_spec_names_file_field_and_expectation(tmp_path, text, field, 
 
 def test_unknown_app_is_refused_before_any_application_reads_it(tmp_path):
     path = _spec(tmp_path, "app: gripper\nname: x\n")
-    with pytest.raises(SpecError, match="expected one of cooperative, hexapod, linkage"):
+    with pytest.raises(SpecError, match="expected one of cooperative, hexapod, linkage, stereo"):
         spec_app(path)
 
 

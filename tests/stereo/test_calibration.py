@@ -16,9 +16,9 @@ RIG = Path(__file__).resolve().parents[2] / "gagen" / "apps" / "stereo" / "robot
 
 def test_bundled_rig_sees_the_reference_path_from_one_metre_above():
     """The paper's reference path (x = −0.3 ± 0.1, y = 0.15, z = 0.25 in the base) is 1 m in front of
-    the left camera, inside both images, and the baseline is 0.12 m along camera x = base x."""
+    the left camera, inside both images, and the baseline is 0.25 m along camera x = base x."""
     rig = load_rig(RIG)
-    assert rig.baseline == pytest.approx(0.12, abs=1e-15)
+    assert rig.baseline == pytest.approx(0.25, abs=1e-15)
     to_left = rig.left_in_base.inverse()
     for x in (-0.4, -0.3, -0.2):
         p_left = to_left.apply(np.array([x, 0.15, 0.25]))
@@ -58,9 +58,9 @@ def test_pixels_and_normalised_coordinates_invert_each_other():
     ("width: 640, height: 480}\nright", "width: 640.5, height: 480}\nright", "cameras.right.width", "whole"),
     ("cy: 239.5, width: 640, height: 480}\n  right", "cy: 239.5, width: 640}\n  right", "cameras.left.height",
      "missing"),
-    ("right_in_left: {xyz: [0.12, 0, 0]", "right_in_left: {xyz: [0, 0, 0]", "right_in_left.xyz",
+    ("right_in_left: {xyz: [0.25, 0, 0]", "right_in_left: {xyz: [0, 0, 0]", "right_in_left.xyz",
      "zero baseline"),
-    ("right_in_left: {xyz: [0.12, 0, 0]", "right_in_left: {xyz: [0.12, 0, .nan]", "right_in_left.xyz",
+    ("right_in_left: {xyz: [0.25, 0, 0]", "right_in_left: {xyz: [0.25, 0, .nan]", "right_in_left.xyz",
      "three finite numbers"),
     ("rpy: [3.141592653589793, 0, 0]", "rpy: [3.14, 0]", "left_in_base.rpy", "three finite numbers"),
     ("hue: [100, 130]", "hue: [100, 190]", "segmentation.hue", "≤ 179"),

@@ -3,7 +3,7 @@
 matrices, plane normals, the intersection line of two planes, perspective and orthogonal projections
 of 3D lines, triangulation of known points, and the degenerate epipolar case.
 
-Two rigs: the bundled one (the right camera 12 cm along the left one's x, no rotation) and a rotated
+Two rigs: the bundled one (the right camera 25 cm along the left one's x, no rotation) and a rotated
 one (a turned and offset right camera), so that the stereo motor's rotation is exercised too."""
 
 from __future__ import annotations

@@ -6,8 +6,8 @@ left camera's frame, the left camera's pose in the robot's base frame, and the o
     cameras:                                   # pinhole intrinsics in pixels (no distortion)
       left:  {fx: 600, fy: 600, cx: 319.5, cy: 239.5, width: 640, height: 480}
       right: {fx: 600, fy: 600, cx: 319.5, cy: 239.5, width: 640, height: 480}
-    right_in_left: {xyz: [0.12, 0, 0], rpy: [0, 0, 0]}   # X_left = R X_right + t (m, rad)
-    left_in_base: {xyz: [-0.36, 0.15, 1.25], rpy: [3.1416, 0, 0]}  # X_base = R X_left + t
+    right_in_left: {xyz: [0.25, 0, 0], rpy: [0, 0, 0]}   # X_left = R X_right + t (m, rad)
+    left_in_base: {xyz: [-0.425, 0.15, 1.25], rpy: [3.1416, 0, 0]}  # X_base = R X_left + t
     segmentation: {hue: [100, 130], saturation: [80, 255], value: [40, 255]}   # OpenCV HSV ranges
 
 Camera frames follow OpenCV: x right, y down, z forward (the optical axis); a pixel (u, v) has the
@@ -98,6 +98,16 @@ class Rig:
     @property
     def baseline(self) -> float:
         return float(np.linalg.norm(self.right_in_left.t))
+
+
+def canonical_line(theta: float, r: float) -> tuple[float, float]:
+    """An image line x cos θ + y sin θ = r with θ ∈ (−π/2, π/2] ((θ, r) and (θ + π, −r) are one line)."""
+    theta = math.atan2(math.sin(theta), math.cos(theta))
+    if theta > math.pi / 2:
+        return theta - math.pi, -r
+    if theta <= -math.pi / 2:
+        return theta + math.pi, -r
+    return theta, r
 
 
 def rpy_matrix(rpy: tuple[float, float, float]) -> np.ndarray:

@@ -67,10 +67,11 @@ def hesse_of(point: np.ndarray, direction: np.ndarray) -> np.ndarray:
 def random_scene(rig: Rig, rng: np.random.Generator, min_conditioning: float = 0.03,
                  noise: float = 0.0) -> Scene:
     """An axis through a point 0.8-1.2 m deep, within ±0.15 m of the rig's middle across, with a random
-    direction such that both planes meet at a sine of at least ``min_conditioning`` (≈ 0.1 at best for
-    a 12 cm baseline at 1 m) and neither image line runs near infinity; the mass centre within 5 cm of
-    the axis' point; ``noise``: the standard deviation of N(0, noise²) added to the image centres
-    (normalised units), so that their viewing lines miss each other by a measurable gap."""
+    direction such that both planes meet at a sine of at least ``min_conditioning`` (≈ baseline / depth
+    at best: 0.25 for the bundled rig at 1 m) and neither image line runs near infinity; the mass
+    centre within 5 cm of the axis' point; ``noise``: the standard deviation of N(0, noise²) added to
+    the image centres (normalised units), so that their viewing lines miss each other by a measurable
+    gap."""
     R, t = rig.right_in_left.R, rig.right_in_left.t
     while True:
         p = np.array([t[0] / 2, t[1] / 2, 0.0]) + rng.uniform([-0.15, -0.15, 0.8], [0.15, 0.15, 1.2])
