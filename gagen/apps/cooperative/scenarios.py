@@ -74,6 +74,9 @@ SCENARIOS: dict[str, Scenario] = {
     "circle": Scenario("circle", "three_pandas_circle",
                        "three Franka Pandas (21 DOF) reaching a larger circle [COOP Fig. 8]",
                        translation=(0.0, 0.0, 0.1), rotation=((1.0, 0.0, 0.0), 0.2), dilation=1.3),
+    "torso_circle": Scenario("torso_circle", "g1_torso_circle",
+                             "Unitree G1 torso point and hands (17 DOF) reaching a smaller, turned circle "
+                             "[COOP Fig. 9]", rotation=((0.0, 0.0, 1.0), 0.1), dilation=0.9),
     "plane": Scenario("plane", "leap_three_fingers_plane",
                       "LEAP Hand, three fingers (12 DOF), reaching a plane [COOP Fig. 11]",
                       translation=(0.0, 0.0, 0.01), rotation=((1.0, 0.0, 0.0), 0.2)),
