@@ -77,6 +77,11 @@ SCENARIOS: dict[str, Scenario] = {
     "torso_circle": Scenario("torso_circle", "g1_torso_circle",
                              "Unitree G1 torso point and hands (17 DOF) reaching a smaller, turned circle "
                              "[COOP Fig. 9]", rotation=((0.0, 0.0, 1.0), 0.1), dilation=0.9),
+    "collaboration_circle": Scenario("collaboration_circle", "panda_g1_circle",
+                                     "a Franka Panda and a Unitree G1 (24 DOF) lifting, tilting and "
+                                     "enlarging a circle together [COOP Fig. 10]",
+                                     translation=(0.0, 0.0, 0.05), rotation=((1.0, 0.0, 0.0), 0.2),
+                                     dilation=1.1),
     "plane": Scenario("plane", "leap_three_fingers_plane",
                       "LEAP Hand, three fingers (12 DOF), reaching a plane [COOP Fig. 11]",
                       translation=(0.0, 0.0, 0.01), rotation=((1.0, 0.0, 0.0), 0.2)),
