@@ -7,7 +7,8 @@ Every program is built into benchmarks/build/, redone only when its command or a
 - ``matrix_chain``: matrix_chain_bench.c and CasADi's C for matrix_chain.py's functions, -O3;
 - ``gagen_fk``, ``gagen_fk_O3``: gagen_fk_bench.c linked to generated/panda_point/panda_point.c compiled
   with gagen's own flags (gagen.codegen.compiler.FLAGS), and with the same flags but -O3;
-- ``circle``: circle_bench.c linked to generated/three_pandas_circle/three_pandas_circle.c, gagen's flags.
+- ``circle``: circle_bench.c linked to generated/three_pandas_circle/three_pandas_circle.c, gagen's flags;
+- ``impedance``: impedance_step.cpp (Pinocchio, Eigen) linked to generated/three_iiwas_circle's C.
 
 The drivers (the *_bench.c timing loops) are compiled with -O3 -march=native; only the kernels' flags
 differ between gagen_fk and gagen_fk_O3.
@@ -30,7 +31,7 @@ BUILD = BENCH / "build"
 GENERATED = ROOT / "generated"
 DRIVER_CFLAGS = ["-std=c99", "-O3", "-march=native"]
 CXXFLAGS = ["-std=c++17", "-O3", "-march=native", "-DNDEBUG", "-w"]
-PROGRAMS = ("pinocchio", "matrix_chain", "gagen_fk", "gagen_fk_O3", "circle")
+PROGRAMS = ("pinocchio", "matrix_chain", "gagen_fk", "gagen_fk_O3", "circle", "impedance")
 
 
 def c_compiler() -> list[str]:
@@ -163,6 +164,21 @@ def build(wanted: set[str], force: bool = False) -> tuple[dict[str, Path], list[
                              driver, [harness, hdr])]
         links.append(_link(cc, [kernels, simd, driver], BUILD / "circle_bench", [*_vector_libs(), "-lm"]))
         programs["circle"] = BUILD / "circle_bench"
+
+    if "impedance" in wanted:
+        pin = pinocchio_paths()
+        folder = GENERATED / "three_iiwas_circle"
+        src, hdr = folder / "three_iiwas_circle.c", folder / "three_iiwas_circle.h"
+        kernels, simd = BUILD / "impedance_kernels.o", BUILD / "impedance_kernels_simd.o"
+        driver = BUILD / "impedance_step.o"
+        cxx = [*CXXFLAGS, *pin["defines"], *pin["includes"], f"-I{BENCH}", f"-I{folder}"]
+        objects += [_compile(cc, [*gagen_cflags(), f"-I{folder}"], src, kernels, [hdr]),
+                    _compile(cc, [*gagen_cflags("-O3"), f"-I{folder}"], folder / "three_iiwas_circle_simd.c",
+                             simd, [hdr]),
+                    _compile(["g++"], cxx, BENCH / "impedance_step.cpp", driver, [harness, hdr])]
+        links.append(_link(["g++"], [kernels, simd, driver], BUILD / "impedance_step",
+                           [*pin["libs"], *_vector_libs(), "-lm"]))
+        programs["impedance"] = BUILD / "impedance_step"
 
     if "matrix_chain" in wanted:
         import matrix_chain

@@ -26,7 +26,7 @@ def load(folder: str | Path) -> GeneratedModule:
     return _load(folder)
 
 
-_FRONT_END = ("kernel", "compile", "scalars", "blades", "matrix", "KernelError", "KernelFunction")
+_FRONT_END = ("kernel", "compile", "scalars", "blades", "matrix", "along", "KernelError", "KernelFunction")
 
 
 def __getattr__(name: str) -> Any:

@@ -32,7 +32,7 @@ import numpy as np
 
 from gagen.algebra.signature import cga3d
 from gagen.apps.cooperative.system import System
-from gagen.frontend import KernelFunction
+from gagen.frontend import KernelFunction, split_derivative
 from gagen.interp import MultiVector
 from gagen.model import kinematics as K
 from gagen.model.conformal import SIMILARITY, SIMILARITY_GENERATOR
@@ -84,6 +84,7 @@ class Sample:
     label: str  # a configuration's name, or "<name>~<i>" for a random sample near it
     q: np.ndarray
     desired: MultiVector  # a random V_Sd for the task kernel
+    velocity: np.ndarray  # a random q̇ (rad/s or m/s, each in [−1, 1]) for the rate kernel
 
 
 def relative_error(value, reference: np.ndarray) -> float:
@@ -134,44 +135,69 @@ class _Differences:
         return self._memo[key]
 
     def _value(self, of: str, arrays: Sequence[np.ndarray]) -> np.ndarray:
-        return _dense_value(self.values(arrays)[of], self.function.algebra)
+        values = self.values(arrays)
+        if of in values:
+            return _dense_value(values[of], self.function.algebra)
+        # a Jacobian the function does not give (J_G q̇ differentiated again for J̇ q̇): by differences
+        # with one fixed step, so that it is a smooth function of the outer difference's input
+        return np.concatenate(self._columns(self.function.jacobians[of], arrays, nested=True)[0])
 
-    def _central(self, of: str, arrays: Sequence[np.ndarray], port: int, i: int, h: float) -> np.ndarray:
+    def _central(self, of: str, arrays: Sequence[np.ndarray], port: int, step: np.ndarray,
+                 h: float) -> np.ndarray:
         plus = [np.array(a, dtype=float) for a in arrays]
         minus = [np.array(a, dtype=float) for a in arrays]
-        plus[port].reshape(-1)[i] += h
-        minus[port].reshape(-1)[i] -= h
+        plus[port] = plus[port] + h * step.reshape(plus[port].shape)
+        minus[port] = minus[port] - h * step.reshape(minus[port].shape)
         return (self._value(of, plus) - self._value(of, minus)) * (0.5 / h)
 
-    def _richardson(self, of: str, arrays, port: int, i: int, h: float) -> np.ndarray:
+    def _richardson(self, of: str, arrays, port: int, step: np.ndarray, h: float) -> np.ndarray:
         # the h² error terms of the two central differences cancel
-        return (4 * self._central(of, arrays, port, i, h / 2) - self._central(of, arrays, port, i, h)) / 3
+        half, full = (self._central(of, arrays, port, step, s) for s in (h / 2, h))
+        return (4 * half - full) / 3
 
-    def derivative(self, of: str, arrays: Sequence[np.ndarray], port: int, i: int) -> np.ndarray:
-        estimates = [self._richardson(of, arrays, port, i, FD_STEPS[0]),
-                     self._richardson(of, arrays, port, i, FD_STEPS[1])]
+    def derivative(self, of: str, arrays: Sequence[np.ndarray], port: int, step: np.ndarray) -> np.ndarray:
+        """The derivative of output ``of`` along ``step`` (a vector of input ``port``'s size)."""
+        estimates = [self._richardson(of, arrays, port, step, FD_STEPS[0]),
+                     self._richardson(of, arrays, port, step, FD_STEPS[1])]
         gaps = [_size(estimates[1] - estimates[0])]
         if gaps[0] > FD_AGREE * max(_size(estimates[1]), FLOOR):
             for h in FD_STEPS[2:]:
-                estimates.append(self._richardson(of, arrays, port, i, h))
+                estimates.append(self._richardson(of, arrays, port, step, h))
                 gaps.append(_size(estimates[-1] - estimates[-2]))
         return estimates[1 + int(np.argmin(gaps))]
 
-    def jacobian(self, derivative: tuple, arrays: Sequence[np.ndarray], rows: Sequence[str]) -> np.ndarray:
-        """The Jacobian output (rows × entries of the input) from differences: ∂of/∂wrt, each column
-        passed through ``post(value, column)`` when the Jacobian is a transformed one."""
-        of, wrt, *post = derivative
+    def _columns(self, derivative: tuple, arrays: Sequence[np.ndarray],
+                 nested: bool = False) -> tuple[list[np.ndarray], bool]:
+        """The dense columns of a declared Jacobian by differences, and whether they are multivectors:
+        one per entry of the input, or one along the direction input of a directional Jacobian."""
+        of, wrt, post, direction = split_derivative(derivative)
         port = next(k for k, p in enumerate(self.in_ports) if p.name == wrt)
-        algebra = self.function.algebra
-        value = self.values(arrays)[of]
-        is_multivector = isinstance(value, MultiVector)
+        size = len(self.in_ports[port].rows)
+        if direction is None:
+            steps = list(np.eye(size))
+        else:
+            along = next(k for k, p in enumerate(self.in_ports) if p.name == direction)
+            steps = [np.asarray(arrays[along], dtype=float).reshape(size)]
+        value = self.values(arrays).get(of)
+        is_multivector = isinstance(value, MultiVector) if value is not None else \
+            self._columns(self.function.jacobians[of], arrays)[1]
         columns = []
-        for i in range(len(self.in_ports[port].rows)):
-            column = self.derivative(of, arrays, port, i)
-            if post:
-                column = post[0](value, MultiVector(algebra, column)).coeffs
-            columns.append(_rows(column, rows, algebra, is_multivector))
-        return np.array(columns).T
+        for step in steps:
+            column = self._richardson(of, arrays, port, step, FD_STEPS[0]) if nested else \
+                self.derivative(of, arrays, port, step)
+            if post is not None:
+                column = post(value, MultiVector(self.function.algebra, column)).coeffs
+                is_multivector = True
+            columns.append(np.asarray(column, dtype=float))
+        return columns, is_multivector
+
+    def jacobian(self, derivative: tuple, arrays: Sequence[np.ndarray], rows: Sequence[str]) -> np.ndarray:
+        """The Jacobian output (rows × entries of the input, or rows × 1 along a direction) from
+        differences: ∂of/∂wrt, each column passed through ``post(value, column)`` when the Jacobian is a
+        transformed one."""
+        columns, is_multivector = self._columns(derivative, arrays)
+        algebra = self.function.algebra
+        return np.array([_rows(c, rows, algebra, is_multivector) for c in columns]).T
 
 
 def _size(x: np.ndarray) -> float:
@@ -315,14 +341,17 @@ def samples(system: System, configurations: Mapping[str, Sequence[float]] | Sequ
         generator = zero.make(dict(zip(SIMILARITY_GENERATOR, rng.uniform(-0.5, 0.5, 7), strict=True)))
         return exp_similarity(generator)
 
-    out = [Sample(name, np.array(q, dtype=float), desired()) for name, q in named.items()]
+    def velocity() -> np.ndarray:
+        return rng.uniform(-1.0, 1.0, system.dof)
+
+    out = [Sample(name, np.array(q, dtype=float), desired(), velocity()) for name, q in named.items()]
     for i in range(count):
         name, centre = centres[i % len(centres)]
         lo = np.maximum(centre - spread, lower)
         hi = np.minimum(centre + spread, upper)
         outside = lo > hi  # a centre outside the limits: anywhere within them
         lo, hi = np.where(outside, lower, lo), np.where(outside, upper, hi)
-        out.append(Sample(f"{name}~{i}", rng.uniform(lo, hi), desired()))
+        out.append(Sample(f"{name}~{i}", rng.uniform(lo, hi), desired(), velocity()))
     return out
 
 
@@ -339,7 +368,8 @@ def check_module(module: GeneratedModule, system: System,
                  count: int = 5, seed: int = 0, progress: Callable[[str], None] = lambda _: None,
                  rtol: float = VALUE_RTOL, fd_rtol: float = FD_RTOL) -> list[Discrepancy]:
     """Every kernel of a cooperative system's module on the samples (see ``samples``): the chain
-    kernels on each chain's joints, ``task`` also on a random V_Sd (``check_kernels``)."""
+    kernels on each chain's joints, ``task`` also on a random V_Sd, ``similarity_rate`` on a random q̇
+    (``check_kernels``)."""
     from gagen.apps.cooperative.catalogue import kernel_functions
 
     functions = kernel_functions(system)
@@ -354,8 +384,9 @@ def check_module(module: GeneratedModule, system: System,
             if name in chain_of:
                 arrays = [np.array(system.split(list(sample.q))[chain_of[name]], dtype=float)]
             else:
-                arrays = [sample.q if p["name"] == "q" else np.array([sample.desired[b] for b in SIMILARITY])
-                          for p in entry["inputs"]]
+                by_port = {"q": sample.q, "qd": sample.velocity,
+                           "V_Sd": np.array([sample.desired[b] for b in SIMILARITY])}
+                arrays = [by_port[p["name"]] for p in entry["inputs"]]
             points.append((sample.label, arrays))
         inputs[name] = points
     return check_kernels(module, functions, inputs, progress=progress, rtol=rtol, fd_rtol=fd_rtol)

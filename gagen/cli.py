@@ -226,7 +226,7 @@ def _cmd_reach(args: argparse.Namespace) -> int:
 
     try:  # the library's own checks (e.g. a horizon too short for N steps) as one line, not a traceback
         return scenarios([args.scenario, "--out", args.out, "--N", str(args.N), "--horizon",
-                          repr(args.horizon)])
+                          repr(args.horizon)] + (["--view", "--port", str(args.port)] if args.view else []))
     except ValueError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
@@ -235,7 +235,38 @@ def _cmd_reach(args: argparse.Namespace) -> int:
 def _cmd_nullspace(args: argparse.Namespace) -> int:
     from gagen.apps.cooperative.nullspace_demo import main as demo
 
-    return demo(["--out", args.out])
+    return demo(["--out", args.out] + (["--view", "--port", str(args.port)] if args.view else []))
+
+
+def _cmd_impedance(args: argparse.Namespace) -> int:
+    from gagen.apps.cooperative.impedance_demo import main as demo
+    from gagen.dynamics.rigid_body import DynamicsError
+
+    try:  # a missing Pinocchio or a degenerate run as one line, not a traceback
+        view = ["--view", "--port", str(args.port)] if args.view else []
+        return demo(["--out", args.out, "--runs", str(args.runs), "--spread", repr(args.spread),
+                     "--duration", repr(args.duration), *view])
+    except DynamicsError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+
+
+def _cmd_view(args: argparse.Namespace) -> int:
+    from gagen.viewer.command import run
+
+    return run(args)
+
+
+def _cmd_teleop(args: argparse.Namespace) -> int:
+    from gagen.apps.cooperative.teleop import main as teleop
+
+    source = ["--trace", args.trace] if args.trace else ["--keyboard"] if args.keyboard else ["--spacemouse"]
+    try:  # a malformed trace, an unknown system, a missing SpaceMouse: one line, not a traceback
+        return teleop([args.system, *source, "--dt", repr(args.dt), "--out", args.out]
+                      + (["--first-order"] if args.first_order else []))
+    except (ValueError, RuntimeError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
 
 
 def _cmd_walk(args: argparse.Namespace) -> int:
@@ -371,6 +402,16 @@ def _cmd_linkage(args: argparse.Namespace) -> int:
     return status
 
 
+def _view_arguments(parser: argparse.ArgumentParser, what: str) -> None:
+    """``--view`` and ``--port``: play a demo's joint trajectory in the browser (gagen.viewer)."""
+    parser.add_argument("--view", action="store_true",
+                        help=f"then play {what} in the browser viewer (http://127.0.0.1:PORT) until Ctrl-C")
+    from gagen.viewer import DEFAULT_PORT
+
+    parser.add_argument("--port", type=int, default=DEFAULT_PORT,
+                        help=f"the viewer's port on 127.0.0.1 (default {DEFAULT_PORT})")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="gagen", description="Symbolic code generation for conformal "
                                      "geometric algebra in robotics.")
@@ -411,12 +452,45 @@ def main(argv: list[str] | None = None) -> int:
     reach.add_argument("--out", default="plots", help="folder for the plots (default plots/)")
     reach.add_argument("--N", type=positive_int, default=100, help="time steps (default 100)")
     reach.add_argument("--horizon", type=positive_float, default=2.5, help="seconds (default 2.5)")
+    _view_arguments(reach, "the optimal trajectory")
     reach.set_defaults(run=_cmd_reach)
 
     nullspace = sub.add_parser("nullspace", help="one of three Pandas moves along the circle through N(q), "
                                "with and without the projection (plots)")
     nullspace.add_argument("--out", default="plots", help="folder for the plot (default plots/)")
+    _view_arguments(nullspace, "both runs")
     nullspace.set_defaults(run=_cmd_nullspace)
+
+    impedance = sub.add_parser("impedance", help="similarity impedance control of three iiwa 14 on a "
+                               "circle and a plane: runs of Pinocchio forward dynamics [COOP Fig. 6]")
+    impedance.add_argument("--out", default="plots/impedance", help="folder for the plot and the report")
+    impedance.add_argument("--runs", type=positive_int, default=10,
+                           help="random starts per case (default 10)")
+    impedance.add_argument("--spread", type=non_negative_float, default=0.2,
+                           help="rad around the paper's q0, per joint (default 0.2)")
+    impedance.add_argument("--duration", type=positive_float, default=4.0, help="seconds (default 4)")
+    _view_arguments(impedance, "the first run")
+    impedance.set_defaults(run=_cmd_impedance)
+
+    from gagen.viewer.command import add_arguments as view_arguments
+
+    view = sub.add_parser("view", help="a system's robots and primitive in the browser, or as a PNG rendered "
+                          "by headless Chromium (--png)")
+    view_arguments(view)
+    view.set_defaults(run=_cmd_view)
+
+    teleop = sub.add_parser("teleop", help="teleoperate a cooperative primitive with six axes (a trace, the "
+                            "keyboard or a SpaceMouse) by differential kinematics; report and plot")
+    teleop.add_argument("system", help="a bundled system, e.g. leap_hand_sphere, three_pandas_circle")
+    teleop_source = teleop.add_mutually_exclusive_group(required=True)
+    teleop_source.add_argument("--trace", help="replay a trace file (CSV: t,tx,ty,tz,rx,ry,rz)")
+    teleop_source.add_argument("--keyboard", action="store_true", help="drive from the terminal's keys")
+    teleop_source.add_argument("--spacemouse", action="store_true",
+                               help="drive with a 3Dconnexion SpaceMouse (pip install 'gagen[teleop]')")
+    teleop.add_argument("--dt", type=positive_float, default=0.01, help="time step, s (default 0.01)")
+    teleop.add_argument("--first-order", action="store_true", help="plain q <- q + dt q̇ steps, uncorrected")
+    teleop.add_argument("--out", default="plots/teleop", help="folder for the report (default plots/teleop/)")
+    teleop.set_defaults(run=_cmd_teleop)
 
     smc = sub.add_parser("smc", help="sliding-mode pose tracking of a Panda in a real-time C loop (plots)")
     smc.add_argument("--duration", type=positive_float, default=10.0, help="seconds (default 10)")

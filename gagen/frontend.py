@@ -30,8 +30,11 @@ can replace AD: the function returns an output of that name itself (the robot ke
 joint lines), or ``rule(inputs) -> {name: casadi.SX}`` gives the compiler's own expressions for any
 outputs (e.g. a chain rule through intermediate variables), the function staying their reference.
 ``(output, input, post)`` declares a transformed Jacobian, column by column ``post(value, ∂value)``
-on the interpreter (e.g. the generator Jacobian −2 V~ ∂V). Checks hold every Jacobian the function
-does not return against differences of the reference.
+on the interpreter (e.g. the generator Jacobian −2 V~ ∂V). A trailing ``gagen.along("v")`` makes it
+directional: one column, (∂output/∂input)·v for another input v of the input's size (a Jacobian-vector
+product: a twist J q̇, or J̇ q̇ as the directional derivative of such a column along q̇). Checks hold
+every Jacobian the function does not return against differences of the reference (along v for a
+directional one; nested differences where its output is itself such a Jacobian).
 
 The same function runs on the reference interpreter (``KernelFunction.reference``): that is the
 kernel's reference for ``gagen build --check`` and the tests.
@@ -66,6 +69,27 @@ from gagen.symbolic.casadi_backend import CasadiBackend
 
 ALGEBRA = "algebra"  # the declaration of the context argument
 IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
+
+
+@dataclass(frozen=True)
+class Along:
+    """The direction of a directional Jacobian declaration: the input it is taken along."""
+
+    input: str
+
+
+def along(name: str) -> Along:
+    """Mark a Jacobian declaration directional: ``("V_S", "q", post, gagen.along("qd"))`` is the one
+    column (∂V_S/∂q)·qd (see the module docstring)."""
+    return Along(name)
+
+
+def split_derivative(declaration: tuple) -> tuple[str, str, Callable | None, str | None]:
+    """(output, input, post or None, direction input or None) of a Jacobian declaration."""
+    of, wrt, *rest = declaration
+    post = next((r for r in rest if not isinstance(r, Along)), None)
+    direction = next((r.input for r in rest if isinstance(r, Along)), None)
+    return of, wrt, post, direction
 
 
 class KernelError(ValueError):
@@ -321,17 +345,25 @@ class KernelFunction:
             [(f"d{o}_d{i}", (o, i)) for o, i in jacobians]
         found = {}
         inputs = {n for n, d in self.params if d.kind != ALGEBRA}
+        sizes = {n: d.size for n, d in self.params if d.kind != ALGEBRA}
         for name, pair in pairs:
             check_name(name, self.name, f"Jacobian {name!r}")
-            if not (isinstance(pair, tuple) and len(pair) in (2, 3)) \
-                    or (len(pair) == 3 and not callable(pair[2])):
-                raise self._error(f"Jacobian {name}", f"expected (output, input) or (output, input, "
-                                                                 f"post), got {pair!r}")
+            rest = pair[2:] if isinstance(pair, tuple) else ()
+            well_formed = isinstance(pair, tuple) and 2 <= len(pair) <= 4 and (
+                [type(r) for r in rest] in ([], [Along]) or (callable(rest[0]) and not isinstance(
+                    rest[0], Along) and (len(rest) == 1 or isinstance(rest[1], Along))))
+            if not well_formed:
+                raise self._error(f"Jacobian {name}", "expected (output, input) or (output, input, post), "
+                                                      f"optionally ending in along(input); got {pair!r}")
             if name in inputs:
                 raise self._error(f"Jacobian {name}", "has the name of an input")
             if pair[1] not in inputs:
                 raise self._error(f"Jacobian {name}", f"{pair[1]!r} is not an input "
                                                                  f"(inputs: {', '.join(sorted(inputs))})")
+            direction = split_derivative(pair)[3]
+            if direction is not None and (direction not in inputs or sizes[direction] != sizes[pair[1]]):
+                raise self._error(f"Jacobian {name}", f"along {direction!r}: expected an input of "
+                                                      f"{sizes[pair[1]]} entries, like {pair[1]!r}")
             found[name] = pair
         return found
 
@@ -373,7 +405,8 @@ class KernelFunction:
             outputs = [(Port(*self._shape(n, v)), self._column_sx(n, v, backend)) for n, v in results]
         by_name = {p.name: i for i, (p, _) in enumerate(outputs)}
         derivatives = {}
-        for name, (of, wrt, *post) in self.jacobians.items():
+        for name, declaration in self.jacobians.items():
+            of, wrt, post, direction = split_derivative(declaration)
             hidden = of not in by_name and name in declared and name in overrides
             if of not in by_name and not hidden:  # (a hidden value: returned for the checks, not an output)
                 raise self._error(f"Jacobian {name}", f"{of!r} is not an output "
@@ -383,13 +416,14 @@ class KernelFunction:
                 raise self._error(f"Jacobian {name}", f"output {of} is a matrix; Jacobians are "
                                                                  "of multivectors, scalars and vectors")
             in_port = next(p for p, _ in ports if p.name == wrt)
-            derivatives[name] = (of, wrt, *post)
-            shape = (len(port.rows), in_port.size)
+            derivatives[name] = declaration
+            columns = 1 if direction is not None else in_port.size
+            shape = (len(port.rows), columns)
             if hidden:
                 by_name[name] = len(outputs)
                 outputs.append((port, None))
-                if port.cols != in_port.size:
-                    raise self._error(f"output {name}", f"as d{of}/d{wrt} it needs {in_port.size} "
+                if port.cols != columns:
+                    raise self._error(f"output {name}", f"as d{of}/d{wrt} it needs {columns} "
                                                                    f"columns, got {port.cols}")
                 continue
             if name in by_name or name in declared:  # the function's own rule, or declared rows: check
@@ -404,7 +438,7 @@ class KernelFunction:
             if post and name not in overrides:
                 raise self._error(f"Jacobian {name}", "a transformed Jacobian needs a rule")
             by_name[name] = len(outputs)
-            outputs.append((given if name in declared else Port(name, port.rows, in_port.size), None))
+            outputs.append((given if name in declared else Port(name, port.rows, columns), None))
         for name, expression in overrides.items():
             if name not in by_name:
                 raise self._error(f"rule output {name}", "is neither an output nor a declared Jacobian")
@@ -415,10 +449,13 @@ class KernelFunction:
                                                                     f"got {got}")
             outputs[by_name[name]] = (port, expression)
         symbols = {p.name: sx for p, sx in ports}
-        for name, (of, wrt, *_) in derivatives.items():  # AD for the Jacobians nobody supplied
+        for name, declaration in derivatives.items():  # AD for the Jacobians nobody supplied
+            of, wrt, _, direction = split_derivative(declaration)
             i = by_name[name]
             if outputs[i][1] is None:
-                outputs[i] = (outputs[i][0], ca.jacobian(outputs[by_name[of]][1], symbols[wrt]))
+                value = outputs[by_name[of]][1]
+                outputs[i] = (outputs[i][0], ca.jacobian(value, symbols[wrt]) if direction is None
+                              else ca.jtimes(value, symbols[wrt], symbols[direction]))
         results_names = tuple(names)
         if self.output_names:  # the declared order (Jacobians may be listed among the outputs)
             rank = {n: i for i, n in enumerate(self.output_names)}

@@ -50,8 +50,10 @@ RESERVED_WORDS = C_KEYWORDS | CPP_KEYWORDS | PYTHON_KEYWORDS
 
 # the kernels every system has, and the suffixes of each chain's kernels
 # (gagen.apps.cooperative.catalogue.build_kernels)
-SYSTEM_KERNELS = ("primitive", "similarity", "similarity_jacobians", "task")
+SYSTEM_KERNELS = ("primitive", "similarity", "similarity_jacobians", "task", "similarity_rate")
 CHAIN_KERNEL_SUFFIXES = ("fk", "fk_jacobian", "jacobians")
+# the kernels of systems of exactly two chains (gagen.apps.cooperative.dual_task)
+DUAL_TASK_KERNELS = ("dual_task", "dual_task_jacobians")
 
 IDENTIFIER_RULE = (f"a letter, then letters, digits and single underscores between them (no '-', no "
                    f"leading, trailing or double '_'), not a C, C++ or Python keyword, at most {MAX_LENGTH} "

@@ -29,6 +29,7 @@
  *   four_pandas_sphere_similarity mul=1758 add=1365 neg=89 div=26 cos=24 fabs=5 if_else_zero=130 lt=9 not=5 sign=1 sin=24 sqrt=2 (flops=3238)
  *   four_pandas_sphere_similarity_jacobians mul=2506 add=1814 neg=214 div=45 atanh=1 cos=24 fabs=7 if_else_zero=448 lt=11 not=6 sign=1 sin=24 sqrt=2 (flops=4579)
  *   four_pandas_sphere_task      mul=3544 add=2732 neg=372 div=100 atan2=1 atanh=1 cos=24 fabs=7 if_else_zero=516 lt=14 not=8 sign=1 sin=24 sqrt=4 (flops=6748)
+ *   four_pandas_sphere_similarity_rate mul=5382 add=4503 neg=28 div=71 cos=24 fabs=5 if_else_zero=20 lt=9 not=5 sign=1 sin=24 sqrt=2 (flops=9984)
  */
 #ifndef GAGEN_FOUR_PANDAS_SPHERE_H
 #define GAGEN_FOUR_PANDAS_SPHERE_H
@@ -357,6 +358,24 @@ void four_pandas_sphere_task_batch_argv(long n, const double *const *arg, double
 void four_pandas_sphere_task_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 void four_pandas_sphere_task_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
 void four_pandas_sphere_task_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
+
+/* similarity twist V_S = J_G,Sc q' and the rate term J_G,Sc' q'
+ *   in  q            [28] arm0/panda_joint1, arm0/panda_joint2, arm0/panda_joint3, arm0/panda_joint4,...
+ *   in  qd           [28] arm0/panda_joint1, arm0/panda_joint2, arm0/panda_joint3, arm0/panda_joint4,...
+ *   out V_S          [7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
+ *   out Jdot_qdot    [7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
+ */
+#define FOUR_PANDAS_SPHERE_SIMILARITY_RATE_Q_SIZE 28
+#define FOUR_PANDAS_SPHERE_SIMILARITY_RATE_QD_SIZE 28
+#define FOUR_PANDAS_SPHERE_SIMILARITY_RATE_V_S_SIZE 7
+#define FOUR_PANDAS_SPHERE_SIMILARITY_RATE_JDOT_QDOT_SIZE 7
+void four_pandas_sphere_similarity_rate(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void four_pandas_sphere_similarity_rate_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void four_pandas_sphere_similarity_rate_argv(const double *const *arg, double *const *res);
+void four_pandas_sphere_similarity_rate_batch_argv(long n, const double *const *arg, double *const *res);
+void four_pandas_sphere_similarity_rate_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void four_pandas_sphere_similarity_rate_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
+void four_pandas_sphere_similarity_rate_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
 
 #ifdef __cplusplus
 }

@@ -23,6 +23,9 @@
  *   g1_arms_line_similarity      mul=1525 add=1370 neg=194 div=114 cos=17 fabs=6 if_else_zero=390 lt=8 not=5 sign=3 sin=17 sqrt=3 (flops=3203)
  *   g1_arms_line_similarity_jacobians mul=2151 add=1817 neg=141 div=171 atan2=2 cos=17 fabs=7 if_else_zero=598 lt=12 not=8 sign=3 sin=17 sqrt=7 (flops=4280)
  *   g1_arms_line_task            mul=2679 add=2370 neg=265 div=188 atan2=1 atanh=1 cos=17 fabs=8 if_else_zero=673 lt=13 not=8 sign=3 sin=17 sqrt=5 (flops=5502)
+ *   g1_arms_line_similarity_rate mul=4695 add=4328 neg=260 div=319 cos=17 fabs=6 if_else_zero=553 lt=8 not=5 sign=3 sin=17 sqrt=3 (flops=9602)
+ *   g1_arms_line_dual_task       mul=2079 add=1716 neg=15 div=43 cos=17 if_else_zero=2 lt=1 not=1 sin=17 sqrt=1 (flops=3853)
+ *   g1_arms_line_dual_task_jacobians mul=3333 add=2592 neg=134 div=43 cos=17 if_else_zero=2 lt=1 not=1 sin=17 sqrt=1 (flops=6102)
  */
 #ifndef GAGEN_G1_ARMS_LINE_H
 #define GAGEN_G1_ARMS_LINE_H
@@ -227,6 +230,64 @@ void g1_arms_line_task_batch_argv(long n, const double *const *arg, double *cons
 void g1_arms_line_task_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 void g1_arms_line_task_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
 void g1_arms_line_task_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
+
+/* similarity twist V_S = J_G,Sc q' and the rate term J_G,Sc' q'
+ *   in  q            [17] g1/waist_yaw_joint, g1/waist_roll_joint, g1/waist_pitch_joint,...
+ *   in  qd           [17] g1/waist_yaw_joint, g1/waist_roll_joint, g1/waist_pitch_joint,...
+ *   out V_S          [7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
+ *   out Jdot_qdot    [7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
+ */
+#define G1_ARMS_LINE_SIMILARITY_RATE_Q_SIZE 17
+#define G1_ARMS_LINE_SIMILARITY_RATE_QD_SIZE 17
+#define G1_ARMS_LINE_SIMILARITY_RATE_V_S_SIZE 7
+#define G1_ARMS_LINE_SIMILARITY_RATE_JDOT_QDOT_SIZE 7
+void g1_arms_line_similarity_rate(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void g1_arms_line_similarity_rate_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void g1_arms_line_similarity_rate_argv(const double *const *arg, double *const *res);
+void g1_arms_line_similarity_rate_batch_argv(long n, const double *const *arg, double *const *res);
+void g1_arms_line_similarity_rate_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void g1_arms_line_similarity_rate_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
+void g1_arms_line_similarity_rate_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+
+/* cooperative dual task space: relative and absolute motors M_r, M_a and their geometric Jacobians J_r, J_a
+ *   in  q            [17] g1/waist_yaw_joint, g1/waist_roll_joint, g1/waist_pitch_joint,...
+ *   out M_r          [8] 1, e12, e13, e23, e1inf, e2inf, e3inf, e123inf
+ *   out M_a          [8] 1, e12, e13, e23, e1inf, e2inf, e3inf, e123inf
+ *   out J_r          [6x17] e12, e13, e23, e1inf, e2inf, e3inf
+ *   out J_a          [6x17] e12, e13, e23, e1inf, e2inf, e3inf
+ */
+#define G1_ARMS_LINE_DUAL_TASK_Q_SIZE 17
+#define G1_ARMS_LINE_DUAL_TASK_M_R_SIZE 8
+#define G1_ARMS_LINE_DUAL_TASK_M_A_SIZE 8
+#define G1_ARMS_LINE_DUAL_TASK_J_R_SIZE 102
+#define G1_ARMS_LINE_DUAL_TASK_J_A_SIZE 102
+void g1_arms_line_dual_task(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M_r, double *GAGEN_RESTRICT out_M_a, double *GAGEN_RESTRICT out_J_r, double *GAGEN_RESTRICT out_J_a);
+void g1_arms_line_dual_task_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M_r, double *GAGEN_RESTRICT out_M_a, double *GAGEN_RESTRICT out_J_r, double *GAGEN_RESTRICT out_J_a);
+void g1_arms_line_dual_task_argv(const double *const *arg, double *const *res);
+void g1_arms_line_dual_task_batch_argv(long n, const double *const *arg, double *const *res);
+void g1_arms_line_dual_task_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M_r, double *GAGEN_RESTRICT out_M_a, double *GAGEN_RESTRICT out_J_r, double *GAGEN_RESTRICT out_J_a);
+void g1_arms_line_dual_task_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
+void g1_arms_line_dual_task_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M_r, double *GAGEN_RESTRICT out_M_a, double *GAGEN_RESTRICT out_J_r, double *GAGEN_RESTRICT out_J_a);
+
+/* cooperative dual task space: M_r, M_a and their analytic Jacobians J_Ar = dM_r/dq, J_Aa = dM_a/dq
+ *   in  q            [17] g1/waist_yaw_joint, g1/waist_roll_joint, g1/waist_pitch_joint,...
+ *   out M_r          [8] 1, e12, e13, e23, e1inf, e2inf, e3inf, e123inf
+ *   out M_a          [8] 1, e12, e13, e23, e1inf, e2inf, e3inf, e123inf
+ *   out J_Ar         [8x17] 1, e12, e13, e23, e1inf, e2inf, e3inf, e123inf
+ *   out J_Aa         [8x17] 1, e12, e13, e23, e1inf, e2inf, e3inf, e123inf
+ */
+#define G1_ARMS_LINE_DUAL_TASK_JACOBIANS_Q_SIZE 17
+#define G1_ARMS_LINE_DUAL_TASK_JACOBIANS_M_R_SIZE 8
+#define G1_ARMS_LINE_DUAL_TASK_JACOBIANS_M_A_SIZE 8
+#define G1_ARMS_LINE_DUAL_TASK_JACOBIANS_J_AR_SIZE 136
+#define G1_ARMS_LINE_DUAL_TASK_JACOBIANS_J_AA_SIZE 136
+void g1_arms_line_dual_task_jacobians(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M_r, double *GAGEN_RESTRICT out_M_a, double *GAGEN_RESTRICT out_J_Ar, double *GAGEN_RESTRICT out_J_Aa);
+void g1_arms_line_dual_task_jacobians_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M_r, double *GAGEN_RESTRICT out_M_a, double *GAGEN_RESTRICT out_J_Ar, double *GAGEN_RESTRICT out_J_Aa);
+void g1_arms_line_dual_task_jacobians_argv(const double *const *arg, double *const *res);
+void g1_arms_line_dual_task_jacobians_batch_argv(long n, const double *const *arg, double *const *res);
+void g1_arms_line_dual_task_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M_r, double *GAGEN_RESTRICT out_M_a, double *GAGEN_RESTRICT out_J_Ar, double *GAGEN_RESTRICT out_J_Aa);
+void g1_arms_line_dual_task_jacobians_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
+void g1_arms_line_dual_task_jacobians_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M_r, double *GAGEN_RESTRICT out_M_a, double *GAGEN_RESTRICT out_J_Ar, double *GAGEN_RESTRICT out_J_Aa);
 
 #ifdef __cplusplus
 }

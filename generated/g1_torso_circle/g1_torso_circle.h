@@ -26,6 +26,7 @@
  *   g1_torso_circle_similarity   mul=1972 add=1699 neg=50 div=61 cos=17 fabs=6 if_else_zero=259 lt=12 not=7 sign=1 sin=17 sqrt=4 (flops=3782)
  *   g1_torso_circle_similarity_jacobians mul=3978 add=3260 neg=301 div=130 atan2=2 atanh=1 cos=17 fabs=7 if_else_zero=1324 lt=16 not=10 sign=1 sin=17 sqrt=8 (flops=7669)
  *   g1_torso_circle_task         mul=3584 add=3095 neg=154 div=135 atan2=1 atanh=1 cos=17 fabs=8 if_else_zero=655 lt=17 not=10 sign=1 sin=17 sqrt=6 (flops=6968)
+ *   g1_torso_circle_similarity_rate mul=5952 add=5362 neg=65 div=163 cos=17 fabs=6 if_else_zero=249 lt=12 not=7 sign=1 sin=17 sqrt=4 (flops=11542)
  */
 #ifndef GAGEN_G1_TORSO_CIRCLE_H
 #define GAGEN_G1_TORSO_CIRCLE_H
@@ -292,6 +293,24 @@ void g1_torso_circle_task_batch_argv(long n, const double *const *arg, double *c
 void g1_torso_circle_task_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 void g1_torso_circle_task_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
 void g1_torso_circle_task_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
+
+/* similarity twist V_S = J_G,Sc q' and the rate term J_G,Sc' q'
+ *   in  q            [17] g1/waist_yaw_joint, g1/waist_roll_joint, g1/waist_pitch_joint,...
+ *   in  qd           [17] g1/waist_yaw_joint, g1/waist_roll_joint, g1/waist_pitch_joint,...
+ *   out V_S          [7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
+ *   out Jdot_qdot    [7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
+ */
+#define G1_TORSO_CIRCLE_SIMILARITY_RATE_Q_SIZE 17
+#define G1_TORSO_CIRCLE_SIMILARITY_RATE_QD_SIZE 17
+#define G1_TORSO_CIRCLE_SIMILARITY_RATE_V_S_SIZE 7
+#define G1_TORSO_CIRCLE_SIMILARITY_RATE_JDOT_QDOT_SIZE 7
+void g1_torso_circle_similarity_rate(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void g1_torso_circle_similarity_rate_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void g1_torso_circle_similarity_rate_argv(const double *const *arg, double *const *res);
+void g1_torso_circle_similarity_rate_batch_argv(long n, const double *const *arg, double *const *res);
+void g1_torso_circle_similarity_rate_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void g1_torso_circle_similarity_rate_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
+void g1_torso_circle_similarity_rate_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
 
 #ifdef __cplusplus
 }

@@ -29,6 +29,7 @@
  *   leap_hand_sphere_similarity  mul=1340 add=1148 neg=62 div=26 cos=16 fabs=5 if_else_zero=82 lt=9 not=5 sign=1 sin=16 sqrt=2 (flops=2576)
  *   leap_hand_sphere_similarity_jacobians mul=1908 add=1477 neg=166 div=45 atanh=1 cos=16 fabs=7 if_else_zero=400 lt=11 not=6 sign=1 sin=16 sqrt=2 (flops=3596)
  *   leap_hand_sphere_task        mul=3018 add=2443 neg=360 div=100 atan2=1 atanh=1 cos=16 fabs=7 if_else_zero=468 lt=14 not=8 sign=1 sin=16 sqrt=4 (flops=5921)
+ *   leap_hand_sphere_similarity_rate mul=3996 add=3517 neg=16 div=71 cos=16 fabs=5 if_else_zero=20 lt=9 not=5 sign=1 sin=16 sqrt=2 (flops=7600)
  */
 #ifndef GAGEN_LEAP_HAND_SPHERE_H
 #define GAGEN_LEAP_HAND_SPHERE_H
@@ -357,6 +358,24 @@ void leap_hand_sphere_task_batch_argv(long n, const double *const *arg, double *
 void leap_hand_sphere_task_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 void leap_hand_sphere_task_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
 void leap_hand_sphere_task_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
+
+/* similarity twist V_S = J_G,Sc q' and the rate term J_G,Sc' q'
+ *   in  q            [16] leap/1, leap/0, leap/2, leap/3, leap/5, leap/4, leap/6, leap/7, leap/9,...
+ *   in  qd           [16] leap/1, leap/0, leap/2, leap/3, leap/5, leap/4, leap/6, leap/7, leap/9,...
+ *   out V_S          [7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
+ *   out Jdot_qdot    [7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
+ */
+#define LEAP_HAND_SPHERE_SIMILARITY_RATE_Q_SIZE 16
+#define LEAP_HAND_SPHERE_SIMILARITY_RATE_QD_SIZE 16
+#define LEAP_HAND_SPHERE_SIMILARITY_RATE_V_S_SIZE 7
+#define LEAP_HAND_SPHERE_SIMILARITY_RATE_JDOT_QDOT_SIZE 7
+void leap_hand_sphere_similarity_rate(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void leap_hand_sphere_similarity_rate_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void leap_hand_sphere_similarity_rate_argv(const double *const *arg, double *const *res);
+void leap_hand_sphere_similarity_rate_batch_argv(long n, const double *const *arg, double *const *res);
+void leap_hand_sphere_similarity_rate_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void leap_hand_sphere_similarity_rate_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
+void leap_hand_sphere_similarity_rate_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
 
 #ifdef __cplusplus
 }

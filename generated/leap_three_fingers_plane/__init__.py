@@ -3,12 +3,12 @@
 From leap_three_fingers_plane.yaml (sha256 799377387ecbc5ec). Do not edit: run `gagen build leap_three_fingers_plane.yaml`.
 
     from generated.leap_three_fingers_plane import casadi, c
-    casadi.task       # casadi.Function: numbers, SX or MX (drops into casadi.nlpsol)
-    c.task(...)       # compiled C (CPython binding): numpy in, numpy out
-    c.task.batch(...) # n samples at once, shape (n, size) each
-    c.task.batch_columns(...)  # the same with samples last, (size, n): fastest for large n
+    casadi.similarity_rate       # casadi.Function: numbers, SX or MX (drops into casadi.nlpsol)
+    c.similarity_rate(...)       # compiled C (CPython binding): numpy in, numpy out
+    c.similarity_rate.batch(...) # n samples at once, shape (n, size) each
+    c.similarity_rate.batch_columns(...)  # the same with samples last, (size, n): fastest for large n
 
-Kernels: index_fk, index_fk_jacobian, index_jacobians, middle_fk, middle_fk_jacobian, middle_jacobians, thumb_fk, thumb_fk_jacobian, thumb_jacobians, primitive, similarity, similarity_jacobians, task.
+Kernels: index_fk, index_fk_jacobian, index_jacobians, middle_fk, middle_fk_jacobian, middle_jacobians, thumb_fk, thumb_fk_jacobian, thumb_jacobians, primitive, similarity, similarity_jacobians, task, similarity_rate.
 Shapes, row labels and op counts are in manifest.json (``MANIFEST``).
 """
 

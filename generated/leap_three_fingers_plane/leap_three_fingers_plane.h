@@ -26,6 +26,7 @@
  *   leap_three_fingers_plane_similarity mul=1007 add=832 neg=141 div=90 cos=12 fabs=6 if_else_zero=384 lt=8 not=5 sign=3 sin=12 sqrt=3 (flops=2070)
  *   leap_three_fingers_plane_similarity_jacobians mul=1408 add=1087 neg=141 div=145 atan2=2 cos=12 fabs=7 if_else_zero=569 lt=12 not=8 sign=3 sin=12 sqrt=7 (flops=2781)
  *   leap_three_fingers_plane_task mul=2504 add=2087 neg=182 div=164 atan2=1 atanh=1 cos=12 fabs=8 if_else_zero=818 lt=13 not=8 sign=3 sin=12 sqrt=5 (flops=4937)
+ *   leap_three_fingers_plane_similarity_rate mul=3137 add=2711 neg=260 div=262 cos=12 fabs=6 if_else_zero=605 lt=8 not=5 sign=3 sin=12 sqrt=3 (flops=6370)
  */
 #ifndef GAGEN_LEAP_THREE_FINGERS_PLANE_H
 #define GAGEN_LEAP_THREE_FINGERS_PLANE_H
@@ -292,6 +293,24 @@ void leap_three_fingers_plane_task_batch_argv(long n, const double *const *arg, 
 void leap_three_fingers_plane_task_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 void leap_three_fingers_plane_task_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
 void leap_three_fingers_plane_task_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
+
+/* similarity twist V_S = J_G,Sc q' and the rate term J_G,Sc' q'
+ *   in  q            [12] leap/1, leap/0, leap/2, leap/3, leap/5, leap/4, leap/6, leap/7, leap/12,...
+ *   in  qd           [12] leap/1, leap/0, leap/2, leap/3, leap/5, leap/4, leap/6, leap/7, leap/12,...
+ *   out V_S          [7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
+ *   out Jdot_qdot    [7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
+ */
+#define LEAP_THREE_FINGERS_PLANE_SIMILARITY_RATE_Q_SIZE 12
+#define LEAP_THREE_FINGERS_PLANE_SIMILARITY_RATE_QD_SIZE 12
+#define LEAP_THREE_FINGERS_PLANE_SIMILARITY_RATE_V_S_SIZE 7
+#define LEAP_THREE_FINGERS_PLANE_SIMILARITY_RATE_JDOT_QDOT_SIZE 7
+void leap_three_fingers_plane_similarity_rate(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void leap_three_fingers_plane_similarity_rate_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void leap_three_fingers_plane_similarity_rate_argv(const double *const *arg, double *const *res);
+void leap_three_fingers_plane_similarity_rate_batch_argv(long n, const double *const *arg, double *const *res);
+void leap_three_fingers_plane_similarity_rate_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void leap_three_fingers_plane_similarity_rate_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
+void leap_three_fingers_plane_similarity_rate_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
 
 #ifdef __cplusplus
 }

@@ -1055,6 +1055,74 @@ static PyObject *make_leap_three_fingers_plane_task(PyObject *self, PyObject *co
   return make(call_leap_three_fingers_plane_task, args, nargs);
 }
 
+static const npy_intp leap_three_fingers_plane_similarity_rate_in_shape[][2] = {{12, 1}, {12, 1}};
+static const npy_intp leap_three_fingers_plane_similarity_rate_out_shape[][2] = {{7, 1}, {7, 1}};
+
+/* run the kernel on inputs[0 .. 1]; out: NULL or None (fresh arrays) or the tuple of outputs */
+static PyObject *run_leap_three_fingers_plane_similarity_rate(Kernel *b, PyObject *const *inputs, Py_ssize_t n, PyObject *out) {
+  enum { N_IN = 2, N_OUT = 2 };
+  const npy_intp (*in_shape)[2] = leap_three_fingers_plane_similarity_rate_in_shape, (*out_shape)[2] = leap_three_fingers_plane_similarity_rate_out_shape;
+  if (n != N_IN) return slow_call(b, inputs, n, out);
+  const double *in[N_IN];
+  for (int i = 0; i < N_IN; ++i) {
+    if (!(in[i] = fast_input(inputs[i], in_shape[i][0], in_shape[i][1]))) return slow_call(b, inputs, n, out);
+  }
+  double *res[N_OUT];
+  PyObject *result;
+  if (out == NULL || out == Py_None) {
+    result = PyTuple_New(N_OUT);
+    if (!result) return NULL;
+    for (int j = 0; j < N_OUT; ++j) {
+      PyObject *a = new_output(out_shape[j][0], out_shape[j][1]);
+      if (!a) {
+        Py_DECREF(result);
+        return NULL;
+      }
+      PyTuple_SET_ITEM(result, j, a);
+      res[j] = (double *)PyArray_DATA((PyArrayObject *)a);
+    }
+  } else {
+    if (!PyTuple_CheckExact(out) || PyTuple_GET_SIZE(out) != N_OUT) return slow_call(b, inputs, n, out);
+    for (int j = 0; j < N_OUT; ++j) {
+      if (!(res[j] = fast_output(PyTuple_GET_ITEM(out, j), out_shape[j][0], out_shape[j][1]))) {
+        return slow_call(b, inputs, n, out);
+      }
+    }
+    result = out;
+    for (int j = 0; j < N_OUT; ++j) {
+      const npy_intp size = out_shape[j][0] * out_shape[j][1];
+      for (int i = 0; i < N_IN; ++i) {
+        if (overlap(res[j], size, in[i], in_shape[i][0] * in_shape[i][1])) return slow_call(b, inputs, n, out);
+      }
+      for (int i = 0; i < j; ++i) {
+        if (overlap(res[j], size, res[i], out_shape[i][0] * out_shape[i][1])) return slow_call(b, inputs, n, out);
+      }
+    }
+    Py_INCREF(result);
+  }
+  ((void (*)(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot))b->kernel)(in[0], in[1], res[0], res[1]);
+  return result;
+}
+
+/* k(q, qd, out=None) -> fresh outputs, or out */
+static PyObject *call_leap_three_fingers_plane_similarity_rate(PyObject *self, PyObject *const *args, size_t nargsf, PyObject *kwnames) {
+  Kernel *b = (Kernel *)self;
+  Py_ssize_t nargs = PyVectorcall_NARGS(nargsf);
+  PyObject *out = b->out;
+  if (kwnames && PyTuple_GET_SIZE(kwnames)) {
+    if (PyTuple_GET_SIZE(kwnames) != 1 || PyUnicode_CompareWithASCIIString(PyTuple_GET_ITEM(kwnames, 0), "out")) {
+      return PyObject_Vectorcall(b->slow, args, (size_t)nargs, kwnames);  /* it names the error */
+    }
+    out = args[nargs];
+  }
+  return run_leap_three_fingers_plane_similarity_rate(b, args, nargs, out);
+}
+
+static PyObject *make_leap_three_fingers_plane_similarity_rate(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+  (void)self;
+  return make(call_leap_three_fingers_plane_similarity_rate, args, nargs);
+}
+
 static PyMethodDef methods[] = {
   {"make_index_fk", (PyCFunction)(void (*)(void))make_leap_three_fingers_plane_index_fk, METH_FASTCALL, NULL},
   {"make_index_fk_jacobian", (PyCFunction)(void (*)(void))make_leap_three_fingers_plane_index_fk_jacobian, METH_FASTCALL, NULL},
@@ -1069,6 +1137,7 @@ static PyMethodDef methods[] = {
   {"make_similarity", (PyCFunction)(void (*)(void))make_leap_three_fingers_plane_similarity, METH_FASTCALL, NULL},
   {"make_similarity_jacobians", (PyCFunction)(void (*)(void))make_leap_three_fingers_plane_similarity_jacobians, METH_FASTCALL, NULL},
   {"make_task", (PyCFunction)(void (*)(void))make_leap_three_fingers_plane_task, METH_FASTCALL, NULL},
+  {"make_similarity_rate", (PyCFunction)(void (*)(void))make_leap_three_fingers_plane_similarity_rate, METH_FASTCALL, NULL},
   {NULL, NULL, 0, NULL}
 };
 

@@ -3,12 +3,12 @@
 From panda_point.yaml (sha256 c0de11e79de637f1). Do not edit: run `gagen build panda_point.yaml`.
 
     from generated.panda_point import casadi, c
-    casadi.task       # casadi.Function: numbers, SX or MX (drops into casadi.nlpsol)
-    c.task(...)       # compiled C (CPython binding): numpy in, numpy out
-    c.task.batch(...) # n samples at once, shape (n, size) each
-    c.task.batch_columns(...)  # the same with samples last, (size, n): fastest for large n
+    casadi.similarity_rate       # casadi.Function: numbers, SX or MX (drops into casadi.nlpsol)
+    c.similarity_rate(...)       # compiled C (CPython binding): numpy in, numpy out
+    c.similarity_rate.batch(...) # n samples at once, shape (n, size) each
+    c.similarity_rate.batch_columns(...)  # the same with samples last, (size, n): fastest for large n
 
-Kernels: arm0_fk, arm0_fk_jacobian, arm0_jacobians, primitive, similarity, similarity_jacobians, task.
+Kernels: arm0_fk, arm0_fk_jacobian, arm0_jacobians, primitive, similarity, similarity_jacobians, task, similarity_rate.
 Shapes, row labels and op counts are in manifest.json (``MANIFEST``).
 """
 

@@ -20,6 +20,7 @@
  *   panda_point_similarity       mul=147 add=97 neg=7 div=0 cos=6 sin=6 (flops=251)
  *   panda_point_similarity_jacobians mul=167 add=100 neg=13 div=0 cos=6 sin=6 (flops=280)
  *   panda_point_task             mul=343 add=291 neg=5 div=21 atan2=1 atanh=1 cos=6 fabs=2 if_else_zero=10 lt=5 not=3 sin=6 sqrt=2 (flops=660)
+ *   panda_point_similarity_rate  mul=459 add=345 neg=2 div=0 cos=6 sin=6 (flops=806)
  */
 #ifndef GAGEN_PANDA_POINT_H
 #define GAGEN_PANDA_POINT_H
@@ -162,6 +163,24 @@ void panda_point_task_batch_argv(long n, const double *const *arg, double *const
 void panda_point_task_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 void panda_point_task_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
 void panda_point_task_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
+
+/* similarity twist V_S = J_G,Sc q' and the rate term J_G,Sc' q'
+ *   in  q            [7] arm0/panda_joint1, arm0/panda_joint2, arm0/panda_joint3, arm0/panda_joint4,...
+ *   in  qd           [7] arm0/panda_joint1, arm0/panda_joint2, arm0/panda_joint3, arm0/panda_joint4,...
+ *   out V_S          [7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
+ *   out Jdot_qdot    [7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
+ */
+#define PANDA_POINT_SIMILARITY_RATE_Q_SIZE 7
+#define PANDA_POINT_SIMILARITY_RATE_QD_SIZE 7
+#define PANDA_POINT_SIMILARITY_RATE_V_S_SIZE 7
+#define PANDA_POINT_SIMILARITY_RATE_JDOT_QDOT_SIZE 7
+void panda_point_similarity_rate(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void panda_point_similarity_rate_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void panda_point_similarity_rate_argv(const double *const *arg, double *const *res);
+void panda_point_similarity_rate_batch_argv(long n, const double *const *arg, double *const *res);
+void panda_point_similarity_rate_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void panda_point_similarity_rate_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
+void panda_point_similarity_rate_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
 
 #ifdef __cplusplus
 }

@@ -26,6 +26,7 @@
  *   three_iiwas_plane_similarity mul=1373 add=1040 neg=155 div=90 cos=18 fabs=6 if_else_zero=438 lt=8 not=5 sign=3 sin=18 sqrt=3 (flops=2658)
  *   three_iiwas_plane_similarity_jacobians mul=1936 add=1403 neg=153 div=145 atan2=2 cos=18 fabs=7 if_else_zero=713 lt=12 not=8 sign=3 sin=18 sqrt=7 (flops=3637)
  *   three_iiwas_plane_task       mul=2897 add=2313 neg=196 div=164 atan2=1 atanh=1 cos=18 fabs=8 if_else_zero=818 lt=13 not=8 sign=3 sin=18 sqrt=5 (flops=5570)
+ *   three_iiwas_plane_similarity_rate mul=4355 add=3598 neg=287 div=262 cos=18 fabs=6 if_else_zero=605 lt=8 not=5 sign=3 sin=18 sqrt=3 (flops=8502)
  */
 #ifndef GAGEN_THREE_IIWAS_PLANE_H
 #define GAGEN_THREE_IIWAS_PLANE_H
@@ -292,6 +293,24 @@ void three_iiwas_plane_task_batch_argv(long n, const double *const *arg, double 
 void three_iiwas_plane_task_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 void three_iiwas_plane_task_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
 void three_iiwas_plane_task_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
+
+/* similarity twist V_S = J_G,Sc q' and the rate term J_G,Sc' q'
+ *   in  q            [21] arm0/iiwa_joint_1, arm0/iiwa_joint_2, arm0/iiwa_joint_3, arm0/iiwa_joint_4,...
+ *   in  qd           [21] arm0/iiwa_joint_1, arm0/iiwa_joint_2, arm0/iiwa_joint_3, arm0/iiwa_joint_4,...
+ *   out V_S          [7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
+ *   out Jdot_qdot    [7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
+ */
+#define THREE_IIWAS_PLANE_SIMILARITY_RATE_Q_SIZE 21
+#define THREE_IIWAS_PLANE_SIMILARITY_RATE_QD_SIZE 21
+#define THREE_IIWAS_PLANE_SIMILARITY_RATE_V_S_SIZE 7
+#define THREE_IIWAS_PLANE_SIMILARITY_RATE_JDOT_QDOT_SIZE 7
+void three_iiwas_plane_similarity_rate(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void three_iiwas_plane_similarity_rate_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void three_iiwas_plane_similarity_rate_argv(const double *const *arg, double *const *res);
+void three_iiwas_plane_similarity_rate_batch_argv(long n, const double *const *arg, double *const *res);
+void three_iiwas_plane_similarity_rate_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void three_iiwas_plane_similarity_rate_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
+void three_iiwas_plane_similarity_rate_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
 
 #ifdef __cplusplus
 }

@@ -26,6 +26,7 @@
  *   three_pandas_circle_similarity mul=1826 add=1422 neg=54 div=61 cos=18 fabs=6 if_else_zero=287 lt=12 not=7 sign=1 sin=18 sqrt=4 (flops=3363)
  *   three_pandas_circle_similarity_jacobians mul=3760 add=2863 neg=301 div=130 atan2=2 atanh=1 cos=18 fabs=7 if_else_zero=1344 lt=16 not=10 sign=1 sin=18 sqrt=8 (flops=7054)
  *   three_pandas_circle_task     mul=3438 add=2818 neg=152 div=135 atan2=1 atanh=1 cos=18 fabs=8 if_else_zero=655 lt=17 not=10 sign=1 sin=18 sqrt=6 (flops=6543)
+ *   three_pandas_circle_similarity_rate mul=5653 add=4768 neg=81 div=163 cos=18 fabs=6 if_else_zero=249 lt=12 not=7 sign=1 sin=18 sqrt=4 (flops=10665)
  */
 #ifndef GAGEN_THREE_PANDAS_CIRCLE_H
 #define GAGEN_THREE_PANDAS_CIRCLE_H
@@ -292,6 +293,24 @@ void three_pandas_circle_task_batch_argv(long n, const double *const *arg, doubl
 void three_pandas_circle_task_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 void three_pandas_circle_task_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
 void three_pandas_circle_task_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
+
+/* similarity twist V_S = J_G,Sc q' and the rate term J_G,Sc' q'
+ *   in  q            [21] arm0/panda_joint1, arm0/panda_joint2, arm0/panda_joint3, arm0/panda_joint4,...
+ *   in  qd           [21] arm0/panda_joint1, arm0/panda_joint2, arm0/panda_joint3, arm0/panda_joint4,...
+ *   out V_S          [7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
+ *   out Jdot_qdot    [7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
+ */
+#define THREE_PANDAS_CIRCLE_SIMILARITY_RATE_Q_SIZE 21
+#define THREE_PANDAS_CIRCLE_SIMILARITY_RATE_QD_SIZE 21
+#define THREE_PANDAS_CIRCLE_SIMILARITY_RATE_V_S_SIZE 7
+#define THREE_PANDAS_CIRCLE_SIMILARITY_RATE_JDOT_QDOT_SIZE 7
+void three_pandas_circle_similarity_rate(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void three_pandas_circle_similarity_rate_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void three_pandas_circle_similarity_rate_argv(const double *const *arg, double *const *res);
+void three_pandas_circle_similarity_rate_batch_argv(long n, const double *const *arg, double *const *res);
+void three_pandas_circle_similarity_rate_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void three_pandas_circle_similarity_rate_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
+void three_pandas_circle_similarity_rate_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
 
 #ifdef __cplusplus
 }

@@ -3,12 +3,12 @@
 From two_g1_sphere.yaml (sha256 b466f0b86e171b7e). Do not edit: run `gagen build two_g1_sphere.yaml`.
 
     from generated.two_g1_sphere import casadi, c
-    casadi.task       # casadi.Function: numbers, SX or MX (drops into casadi.nlpsol)
-    c.task(...)       # compiled C (CPython binding): numpy in, numpy out
-    c.task.batch(...) # n samples at once, shape (n, size) each
-    c.task.batch_columns(...)  # the same with samples last, (size, n): fastest for large n
+    casadi.similarity_rate       # casadi.Function: numbers, SX or MX (drops into casadi.nlpsol)
+    c.similarity_rate(...)       # compiled C (CPython binding): numpy in, numpy out
+    c.similarity_rate.batch(...) # n samples at once, shape (n, size) each
+    c.similarity_rate.batch_columns(...)  # the same with samples last, (size, n): fastest for large n
 
-Kernels: g1a_left_hand_fk, g1a_left_hand_fk_jacobian, g1a_left_hand_jacobians, g1a_right_hand_fk, g1a_right_hand_fk_jacobian, g1a_right_hand_jacobians, g1b_left_hand_fk, g1b_left_hand_fk_jacobian, g1b_left_hand_jacobians, g1b_right_hand_fk, g1b_right_hand_fk_jacobian, g1b_right_hand_jacobians, primitive, similarity, similarity_jacobians, task.
+Kernels: g1a_left_hand_fk, g1a_left_hand_fk_jacobian, g1a_left_hand_jacobians, g1a_right_hand_fk, g1a_right_hand_fk_jacobian, g1a_right_hand_jacobians, g1b_left_hand_fk, g1b_left_hand_fk_jacobian, g1b_left_hand_jacobians, g1b_right_hand_fk, g1b_right_hand_fk_jacobian, g1b_right_hand_jacobians, primitive, similarity, similarity_jacobians, task, similarity_rate.
 Shapes, row labels and op counts are in manifest.json (``MANIFEST``).
 """
 

@@ -29,6 +29,7 @@
  *   two_g1_sphere_similarity     mul=2391 add=2223 neg=135 div=26 cos=34 fabs=5 if_else_zero=154 lt=9 not=5 sign=1 sin=34 sqrt=2 (flops=4775)
  *   two_g1_sphere_similarity_jacobians mul=3319 add=2822 neg=239 div=45 atanh=1 cos=34 fabs=7 if_else_zero=472 lt=11 not=6 sign=1 sin=34 sqrt=2 (flops=6425)
  *   two_g1_sphere_task           mul=4285 add=3680 neg=379 div=100 atan2=1 atanh=1 cos=34 fabs=7 if_else_zero=540 lt=14 not=8 sign=1 sin=34 sqrt=4 (flops=8444)
+ *   two_g1_sphere_similarity_rate mul=7132 add=6678 neg=16 div=71 cos=34 fabs=5 if_else_zero=20 lt=9 not=5 sign=1 sin=34 sqrt=2 (flops=13897)
  */
 #ifndef GAGEN_TWO_G1_SPHERE_H
 #define GAGEN_TWO_G1_SPHERE_H
@@ -357,6 +358,24 @@ void two_g1_sphere_task_batch_argv(long n, const double *const *arg, double *con
 void two_g1_sphere_task_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 void two_g1_sphere_task_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
 void two_g1_sphere_task_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
+
+/* similarity twist V_S = J_G,Sc q' and the rate term J_G,Sc' q'
+ *   in  q            [34] g1a/waist_yaw_joint, g1a/waist_roll_joint, g1a/waist_pitch_joint,...
+ *   in  qd           [34] g1a/waist_yaw_joint, g1a/waist_roll_joint, g1a/waist_pitch_joint,...
+ *   out V_S          [7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
+ *   out Jdot_qdot    [7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
+ */
+#define TWO_G1_SPHERE_SIMILARITY_RATE_Q_SIZE 34
+#define TWO_G1_SPHERE_SIMILARITY_RATE_QD_SIZE 34
+#define TWO_G1_SPHERE_SIMILARITY_RATE_V_S_SIZE 7
+#define TWO_G1_SPHERE_SIMILARITY_RATE_JDOT_QDOT_SIZE 7
+void two_g1_sphere_similarity_rate(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void two_g1_sphere_similarity_rate_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void two_g1_sphere_similarity_rate_argv(const double *const *arg, double *const *res);
+void two_g1_sphere_similarity_rate_batch_argv(long n, const double *const *arg, double *const *res);
+void two_g1_sphere_similarity_rate_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void two_g1_sphere_similarity_rate_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
+void two_g1_sphere_similarity_rate_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
 
 #ifdef __cplusplus
 }

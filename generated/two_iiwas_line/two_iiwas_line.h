@@ -23,6 +23,9 @@
  *   two_iiwas_line_similarity    mul=1168 add=946 neg=167 div=114 cos=12 fabs=6 if_else_zero=372 lt=8 not=5 sign=3 sin=12 sqrt=3 (flops=2395)
  *   two_iiwas_line_similarity_jacobians mul=1650 add=1273 neg=124 div=171 atan2=2 cos=12 fabs=7 if_else_zero=544 lt=12 not=8 sign=3 sin=12 sqrt=7 (flops=3218)
  *   two_iiwas_line_task          mul=2304 add=1931 neg=268 div=188 atan2=1 atanh=1 cos=12 fabs=8 if_else_zero=673 lt=13 not=8 sign=3 sin=12 sqrt=5 (flops=4691)
+ *   two_iiwas_line_similarity_rate mul=3681 add=3170 neg=268 div=319 cos=12 fabs=6 if_else_zero=553 lt=8 not=5 sign=3 sin=12 sqrt=3 (flops=7438)
+ *   two_iiwas_line_dual_task     mul=1603 add=1277 neg=21 div=40 cos=14 if_else_zero=2 lt=1 not=1 sin=14 sqrt=1 (flops=2941)
+ *   two_iiwas_line_dual_task_jacobians mul=2693 add=2059 neg=121 div=40 cos=14 if_else_zero=2 lt=1 not=1 sin=14 sqrt=1 (flops=4913)
  */
 #ifndef GAGEN_TWO_IIWAS_LINE_H
 #define GAGEN_TWO_IIWAS_LINE_H
@@ -227,6 +230,64 @@ void two_iiwas_line_task_batch_argv(long n, const double *const *arg, double *co
 void two_iiwas_line_task_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
 void two_iiwas_line_task_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
 void two_iiwas_line_task_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_V_Sd, double *GAGEN_RESTRICT out_e, double *GAGEN_RESTRICT out_J_Be);
+
+/* similarity twist V_S = J_G,Sc q' and the rate term J_G,Sc' q'
+ *   in  q            [14] arm0/iiwa_joint_1, arm0/iiwa_joint_2, arm0/iiwa_joint_3, arm0/iiwa_joint_4,...
+ *   in  qd           [14] arm0/iiwa_joint_1, arm0/iiwa_joint_2, arm0/iiwa_joint_3, arm0/iiwa_joint_4,...
+ *   out V_S          [7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
+ *   out Jdot_qdot    [7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
+ */
+#define TWO_IIWAS_LINE_SIMILARITY_RATE_Q_SIZE 14
+#define TWO_IIWAS_LINE_SIMILARITY_RATE_QD_SIZE 14
+#define TWO_IIWAS_LINE_SIMILARITY_RATE_V_S_SIZE 7
+#define TWO_IIWAS_LINE_SIMILARITY_RATE_JDOT_QDOT_SIZE 7
+void two_iiwas_line_similarity_rate(const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void two_iiwas_line_similarity_rate_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void two_iiwas_line_similarity_rate_argv(const double *const *arg, double *const *res);
+void two_iiwas_line_similarity_rate_batch_argv(long n, const double *const *arg, double *const *res);
+void two_iiwas_line_similarity_rate_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+void two_iiwas_line_similarity_rate_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
+void two_iiwas_line_similarity_rate_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, const double *GAGEN_RESTRICT in_qd, double *GAGEN_RESTRICT out_V_S, double *GAGEN_RESTRICT out_Jdot_qdot);
+
+/* cooperative dual task space: relative and absolute motors M_r, M_a and their geometric Jacobians J_r, J_a
+ *   in  q            [14] arm0/iiwa_joint_1, arm0/iiwa_joint_2, arm0/iiwa_joint_3, arm0/iiwa_joint_4,...
+ *   out M_r          [8] 1, e12, e13, e23, e1inf, e2inf, e3inf, e123inf
+ *   out M_a          [8] 1, e12, e13, e23, e1inf, e2inf, e3inf, e123inf
+ *   out J_r          [6x14] e12, e13, e23, e1inf, e2inf, e3inf
+ *   out J_a          [6x14] e12, e13, e23, e1inf, e2inf, e3inf
+ */
+#define TWO_IIWAS_LINE_DUAL_TASK_Q_SIZE 14
+#define TWO_IIWAS_LINE_DUAL_TASK_M_R_SIZE 8
+#define TWO_IIWAS_LINE_DUAL_TASK_M_A_SIZE 8
+#define TWO_IIWAS_LINE_DUAL_TASK_J_R_SIZE 84
+#define TWO_IIWAS_LINE_DUAL_TASK_J_A_SIZE 84
+void two_iiwas_line_dual_task(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M_r, double *GAGEN_RESTRICT out_M_a, double *GAGEN_RESTRICT out_J_r, double *GAGEN_RESTRICT out_J_a);
+void two_iiwas_line_dual_task_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M_r, double *GAGEN_RESTRICT out_M_a, double *GAGEN_RESTRICT out_J_r, double *GAGEN_RESTRICT out_J_a);
+void two_iiwas_line_dual_task_argv(const double *const *arg, double *const *res);
+void two_iiwas_line_dual_task_batch_argv(long n, const double *const *arg, double *const *res);
+void two_iiwas_line_dual_task_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M_r, double *GAGEN_RESTRICT out_M_a, double *GAGEN_RESTRICT out_J_r, double *GAGEN_RESTRICT out_J_a);
+void two_iiwas_line_dual_task_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
+void two_iiwas_line_dual_task_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M_r, double *GAGEN_RESTRICT out_M_a, double *GAGEN_RESTRICT out_J_r, double *GAGEN_RESTRICT out_J_a);
+
+/* cooperative dual task space: M_r, M_a and their analytic Jacobians J_Ar = dM_r/dq, J_Aa = dM_a/dq
+ *   in  q            [14] arm0/iiwa_joint_1, arm0/iiwa_joint_2, arm0/iiwa_joint_3, arm0/iiwa_joint_4,...
+ *   out M_r          [8] 1, e12, e13, e23, e1inf, e2inf, e3inf, e123inf
+ *   out M_a          [8] 1, e12, e13, e23, e1inf, e2inf, e3inf, e123inf
+ *   out J_Ar         [8x14] 1, e12, e13, e23, e1inf, e2inf, e3inf, e123inf
+ *   out J_Aa         [8x14] 1, e12, e13, e23, e1inf, e2inf, e3inf, e123inf
+ */
+#define TWO_IIWAS_LINE_DUAL_TASK_JACOBIANS_Q_SIZE 14
+#define TWO_IIWAS_LINE_DUAL_TASK_JACOBIANS_M_R_SIZE 8
+#define TWO_IIWAS_LINE_DUAL_TASK_JACOBIANS_M_A_SIZE 8
+#define TWO_IIWAS_LINE_DUAL_TASK_JACOBIANS_J_AR_SIZE 112
+#define TWO_IIWAS_LINE_DUAL_TASK_JACOBIANS_J_AA_SIZE 112
+void two_iiwas_line_dual_task_jacobians(const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M_r, double *GAGEN_RESTRICT out_M_a, double *GAGEN_RESTRICT out_J_Ar, double *GAGEN_RESTRICT out_J_Aa);
+void two_iiwas_line_dual_task_jacobians_batch(long gagen_n, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M_r, double *GAGEN_RESTRICT out_M_a, double *GAGEN_RESTRICT out_J_Ar, double *GAGEN_RESTRICT out_J_Aa);
+void two_iiwas_line_dual_task_jacobians_argv(const double *const *arg, double *const *res);
+void two_iiwas_line_dual_task_jacobians_batch_argv(long n, const double *const *arg, double *const *res);
+void two_iiwas_line_dual_task_jacobians_batch_columns(long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M_r, double *GAGEN_RESTRICT out_M_a, double *GAGEN_RESTRICT out_J_Ar, double *GAGEN_RESTRICT out_J_Aa);
+void two_iiwas_line_dual_task_jacobians_batch_columns_argv(long n, long ld, const double *const *arg, double *const *res);
+void two_iiwas_line_dual_task_jacobians_columns_from(long gagen_s0, long gagen_n, long gagen_ld, const double *GAGEN_RESTRICT in_q, double *GAGEN_RESTRICT out_M_r, double *GAGEN_RESTRICT out_M_a, double *GAGEN_RESTRICT out_J_Ar, double *GAGEN_RESTRICT out_J_Aa);
 
 #ifdef __cplusplus
 }

@@ -76,7 +76,10 @@ def test_a_non_editable_install_builds_a_python_file_of_kernels_and_loads_it(tmp
     assert shipped == ours and "codegen/backends/cpython/templates/binding.c.j2" in ours
     assert (installed / "control" / "smc_loop.c").is_file()
     bundled = sorted(p.name for p in (installed / "apps" / "cooperative" / "robots").glob("*.yaml"))
-    assert bundled == sorted(p.name for p in (REPO / "robots").glob("*.yaml")) and len(bundled) == 12
+    assert bundled == sorted(p.name for p in (REPO / "robots").glob("*.yaml")) and len(bundled) == 13
+    traces = sorted(p.name for p in (installed / "apps" / "cooperative" / "traces").glob("*.csv"))
+    assert traces == sorted(p.name for p in (REPO / "gagen" / "apps" / "cooperative" / "traces").glob("*.csv"))
+    assert traces  # gagen teleop --trace replays the bundled traces after a non-editable install
     assert len(list((installed / "apps" / "cooperative" / "robots").glob("*/*.urdf"))) == 4
     hexapod = installed / "apps" / "hexapod" / "robots"
     assert sorted(p.name for p in hexapod.iterdir() if p.suffix in (".yaml", ".urdf")) == \

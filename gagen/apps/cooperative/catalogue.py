@@ -14,7 +14,14 @@ Per system:
 - ``primitive``: q → X_c, J_c [COOP Eq. 14-17];
 - ``similarity``: q → V_Sc, its conditioning and J_G,Sc = −2 V_Sc~ J_A,Sc [Eq. 28-30];
 - ``similarity_jacobians``: q → J_A,Sc = ∂V_Sc/∂q, log V_Sc and J_B = ∂ log V_Sc/∂q [Eq. 29, 31];
-- ``task``: (q, V_Sd) → e = log(V_Sc~ V_Sd) and J_Be = ∂e/∂q [Eq. 40-44].
+- ``task``: (q, V_Sd) → e = log(V_Sc~ V_Sd) and J_Be = ∂e/∂q [Eq. 40-44];
+- ``similarity_rate``: (q, q̇) → the similarity twist V_S = J_G,Sc q̇ and J̇_G,Sc q̇, the derivative of J_G
+  along q̇ [Eq. 33-34], which the task-space dynamics need (C_Sc, Eq. 37): J_G q̇ differentiated along
+  q̇ by forward-mode AD (``casadi.jtimes``) on J_G's graph, no second derivative matrix formed;
+- with exactly two chains, the cooperative dual task space [Eq. 10-11] (``dual_task`` module):
+  ``dual_task``: q → the relative and absolute motors M_r, M_a and their geometric Jacobians;
+  ``dual_task_jacobians``: q → M_r, M_a and ∂M_r/∂q, ∂M_a/∂q (both carry the motors, as every chain
+  kernel carries M and P).
 
 No kernel is the union of the others: each output is computed by exactly one kernel, which keeps
 the generated C (and its compile time) proportional to what is asked.
@@ -35,9 +42,10 @@ import casadi as ca
 
 from gagen.algebra.multivector import SparseMultivector
 from gagen.algebra.signature import cga3d
+from gagen.apps.cooperative.dual_task import dual_task_kernel_functions
 from gagen.apps.cooperative.system import Chain, System
 from gagen.codegen.ir import Kernel
-from gagen.frontend import KernelFunction, scalars
+from gagen.frontend import KernelFunction, along, scalars, split_derivative
 from gagen.model import kinematics as K
 from gagen.model.conformal import (
     EUCLID,
@@ -283,6 +291,10 @@ class _SystemGraph:
         def expressions(inputs: dict[str, ca.SX]) -> dict[str, ca.SX]:
             vsd = inputs.get("V_Sd", ca.SX.zeros(len(SIMILARITY)))
             values = dict(zip(self.NAMES, self.function(inputs["q"], vsd), strict=True))
+            if RATE_INPUT in inputs:  # V_S = J_G q̇ and its derivative along q̇ (J̇_G q̇) by forward AD
+                qd = inputs[RATE_INPUT]
+                values["V_S"] = ca.mtimes(values["J_G"], qd)
+                values["Jdot_qdot"] = ca.jtimes(values["V_S"], inputs["q"], qd)
             return {name: values[name] for name in names}
 
         return expressions
@@ -336,7 +348,7 @@ class _SystemValues:
 
         return self._remember(self._task, tuple(q) if numeric else None, task)
 
-    def function(self, names: Sequence[str]) -> Callable[..., dict[str, Any]]:
+    def function(self, names: Sequence[str], extra: Sequence[str] = ()) -> Callable[..., dict[str, Any]]:
         def values(ga: Any, q: Sequence[Any], V_Sd: Any = None) -> dict[str, Any]:
             at = self._at(ga, q)
             found = {"X_c": lambda: at["X_c"], "V_Sc": lambda: at["V_Sc"],
@@ -346,8 +358,11 @@ class _SystemValues:
                      "e": lambda: log_similarity(~at["V_Sc"] * V_Sd)}
             return {name: found[name]() for name in names}
 
-        if "e" in names:
+        extra = list(extra)
+        if extra == ["V_Sd"]:
             return lambda ga, q, V_Sd: values(ga, q, V_Sd)
+        if extra == [RATE_INPUT]:  # q̇ is read by the compiler's rule only: the rates' reference is
+            return lambda ga, q, qd: values(ga, q)  # differences of V_Sc along it
         return lambda ga, q: values(ga, q)
 
 
@@ -368,7 +383,11 @@ SYSTEM_KERNELS = (
     ("task", "task error e = log(V_Sc~ V_Sd) and J_Be",
      {"e": "similarity_generator", "J_Be": "similarity_generator"},
      {"J_Be": ("e", "q")}),
+    ("similarity_rate", "similarity twist V_S = J_G,Sc q' and the rate term J_G,Sc' q'",
+     {"V_S": "similarity_generator", "Jdot_qdot": "similarity_generator"},
+     {"V_S": ("V_Sc", "q", _generator_column, along("qd")), "Jdot_qdot": ("V_S", "q", along("qd"))}),
 )
+RATE_INPUT = "qd"  # the joint velocities of ``similarity_rate``
 
 
 def system_kernel_functions(system: System) -> dict[str, KernelFunction]:
@@ -380,22 +399,28 @@ def system_kernel_functions(system: System) -> dict[str, KernelFunction]:
     functions = {}
     for name, doc, outputs, jacobians in SYSTEM_KERNELS:
         declared = {k: (primitive_blades(system.kind) if d == "X_c" else d) for k, d in outputs.items()}
-        declared = {k: (d, system.dof) if k in jacobians else d for k, d in declared.items()}
+        declared = {k: (d, system.dof) if k in jacobians and split_derivative(jacobians[k])[3] is None
+                    else d for k, d in declared.items()}
         inputs = {"ga": "algebra", "q": scalars(system.dof, labels)}
         if name == "task":
             inputs["V_Sd"] = "similarity"
+        if name == "similarity_rate":
+            inputs[RATE_INPUT] = scalars(system.dof, labels)
         # a Jacobian taken of an output the kernel does not return (J_A of V_Sc) is still declared on it
         hidden = sorted({of for of, *_ in jacobians.values()} - set(declared))
         values = [*(k for k in declared if k not in jacobians), *hidden]
+        extra = [k for k in inputs if k not in ("ga", "q")]
         functions[name] = KernelFunction(
-            reference.function(values), algebra=cga3d(), name=name, doc=doc.format(kind=system.kind),
+            reference.function(values, extra), algebra=cga3d(), name=name, doc=doc.format(kind=system.kind),
             inputs=inputs, outputs=declared, jacobians=jacobians, rule=graph.rule(list(declared)))
     return functions
 
 
 def kernel_functions(system: System) -> dict[str, KernelFunction]:
-    """Every kernel of ``system`` as a front-end kernel, in catalogue order (chains first)."""
-    return {**chain_kernel_functions(system), **system_kernel_functions(system)}
+    """Every kernel of ``system`` as a front-end kernel, in catalogue order (chains first, the dual task
+    space last)."""
+    return {**chain_kernel_functions(system), **system_kernel_functions(system),
+            **dual_task_kernel_functions(system)}
 
 
 def build_kernels(system: System) -> dict[str, Kernel]:

@@ -25,7 +25,8 @@ PACKAGE = Path(__file__).resolve().parents[2]  # gagen/
 # the key (the code generator, gagen/codegen and build.py, is in the build's own key)
 NOT_IN_KEY = {"build.py", "codegen", "runtime.py", "cli.py", "check.py", "report.py", "demo.py",
               "apps/cooperative/scenarios.py", "apps/cooperative/nullspace_demo.py",
-              "apps/cooperative/goals.py", "apps/hexapod",
+              "apps/cooperative/goals.py", "apps/cooperative/impedance_demo.py", "apps/cooperative/teleop.py",
+              "apps/cooperative/teleop_input.py", "apps/hexapod", "dynamics", "viewer",
               "crosscheck.py", "goals.py", "conventions.py", "control", "interp"}
 
 

@@ -47,6 +47,7 @@ from numpy.typing import NDArray
 from gagen.apps.cooperative.bundled import bundled_systems, generated_folder, ready_configuration
 from gagen.control.differential import damped_pseudo_inverse, nullspace_projector
 from gagen.runtime import GeneratedModule, load
+from gagen.viewer import DEFAULT_PORT
 
 SYSTEM = "three_pandas_circle"
 ARMS = 3
@@ -279,6 +280,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--steps", type=int, default=DEFAULT_STEPS)
     parser.add_argument("--dt", type=float, default=DEFAULT_DT, help="RK4 step (s)")
     parser.add_argument("--gain", type=float, default=DEFAULT_GAIN, help="k in q̇_sec = J_p⁺ k (p_target − p)")
+    parser.add_argument("--view", action="store_true", help="then play both runs in the browser viewer")
+    parser.add_argument("--port", type=int, default=DEFAULT_PORT, help="the viewer's port on 127.0.0.1")
     args = parser.parse_args(argv)
     results = [run(projected, steps=args.steps, dt=args.dt, gain=args.gain) for projected in (True, False)]
     c = results[0].circle
@@ -292,6 +295,11 @@ def main(argv: Sequence[str] | None = None) -> int:
               f"final {r.similarity_distance[-1]:.3e}, "
               f"off circle max {r.circle_distance.max():.3e} m")
     print(f"plot: {plot(results, args.out)}")
+    if args.view:  # the two runs one after the other, in a loop, until Ctrl-C (gagen.viewer)
+        from gagen.viewer.scene import Scene, serve
+
+        serve(Scene(bundled_systems()[SYSTEM], results[0].q[0], port=args.port),
+              [(r.label, r.t, r.q) for r in results])
     return 0
 
 

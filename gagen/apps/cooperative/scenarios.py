@@ -49,6 +49,7 @@ from gagen.control.ocp import (
     task_errors,
 )
 from gagen.runtime import GeneratedModule, load
+from gagen.viewer import DEFAULT_PORT
 
 LABELS = {"e12": "e12", "e13": "e13", "e23": "e23", "e0inf": "e0∞", "e1inf": "e1∞", "e2inf": "e2∞",
           "e3inf": "e3∞"}
@@ -345,11 +346,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=Path("plots"), help="folder for the PNG plots")
     parser.add_argument("--N", type=positive_int, default=DEFAULT_N, help="time steps")
     parser.add_argument("--horizon", type=positive_float, default=DEFAULT_HORIZON, help="seconds")
+    parser.add_argument("--view", action="store_true", help="then play the trajectories in the browser")
+    parser.add_argument("--port", type=int, default=DEFAULT_PORT, help="the viewer's port on 127.0.0.1")
     args = parser.parse_args(argv)
     names = list(SCENARIOS) if args.scenario == "all" else [args.scenario]
     ok = True
+    solved = []
     for name in names:
         r = run(name, args.out, N=args.N, horizon=args.horizon)
+        solved.append(r)
         res = r.result
         ok &= res.success
         print(f"{name} ({r.scenario.system}, {r.q0.size} DOF, N = {args.N}): {res.iterations} iterations, "
@@ -359,7 +364,21 @@ def main(argv: Sequence[str] | None = None) -> int:
               file=sys.stdout if res.success else sys.stderr)
         for p in r.plots:
             print(f"  {p}")
+    if args.view:
+        view(solved, args.port)
     return 0 if ok else 1
+
+
+def view(results: Sequence[ScenarioResult], port: int) -> None:
+    """Play each scenario's optimal trajectory in the browser viewer, one system after another, each
+    until Ctrl-C (``gagen.viewer``)."""
+    from gagen.viewer.scene import Scene, serve
+
+    for r in results:
+        system = bundled_systems()[r.scenario.system]
+        t = r.result.dt * np.arange(r.result.q.shape[0])
+        print(f"{r.scenario.name}: {r.scenario.title}")
+        serve(Scene(system, r.result.q[0], port=port), [(r.scenario.name, t, r.result.q)])
 
 
 if __name__ == "__main__":

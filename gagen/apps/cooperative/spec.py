@@ -51,6 +51,7 @@ from gagen.errors import SpecError
 from gagen.model.kinematics import JOINT_KINDS, Joint
 from gagen.model.primitives import KINDS, points_needed
 from gagen.names import (
+    DUAL_TASK_KERNELS,
     SYSTEM_KERNELS,
     chain_kernel_names,
 )
@@ -147,7 +148,8 @@ def _chain(spec: Document, value: Any, field: str) -> Chain:
 def _check_kernel_names(spec: Document, chains: tuple[Chain, ...]) -> None:
     """Every chain's kernel names differ from each other and from the system kernels, up to case
     (the C header upper-cases them in its size macros)."""
-    owner = {kernel.lower(): f"the system kernel {kernel!r}" for kernel in SYSTEM_KERNELS}
+    system_kernels = SYSTEM_KERNELS + (DUAL_TASK_KERNELS if len(chains) == 2 else ())
+    owner = {kernel.lower(): f"the system kernel {kernel!r}" for kernel in system_kernels}
     for i, chain in enumerate(chains):
         for j, other in enumerate(chains[:i]):
             if chain.name == other.name:

@@ -1,0 +1,122 @@
+"""``gagen view`` / ``python -m gagen.viewer``: one configuration of a system in the browser, or as a PNG.
+
+    gagen view three_pandas_circle                      # serve it on http://127.0.0.1:8080 until Ctrl-C
+    gagen view three_pandas_circle --png frame.png      # headless Chromium renders it to a PNG
+    gagen view robots/two_iiwas_line.yaml --q 0,0.5,... --size 1280x960 --no-primitive --png f.png
+
+SYSTEM is a bundled system's name or a spec file; the configuration is the spec's ``ready`` one unless
+``--configuration NAME`` or ``--q`` (the system's joint vector, comma-separated) says otherwise.
+Exit status: 0, 1 when the browser fails, 2 for malformed arguments.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from gagen.viewer import DEFAULT_PORT
+
+DEFAULT_SIZE = (1024, 768)
+
+
+def size(text: str) -> tuple[int, int]:
+    match = re.fullmatch(r"\s*(\d{1,5})\s*[xX×]\s*(\d{1,5})\s*", text)
+    if not match or not all(16 <= int(v) <= 8192 for v in match.groups()):
+        raise argparse.ArgumentTypeError(f"expected WIDTHxHEIGHT in pixels (16 to 8192 each), e.g. 1024x768; "
+                                         f"got {text!r}")
+    return int(match[1]), int(match[2])
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("system", help="a bundled system (e.g. three_pandas_circle) or a spec file")
+    parser.add_argument("--q", help="the joint vector, comma-separated (default: the ready configuration)")
+    parser.add_argument("--configuration", default="ready", help="a configuration named in the spec")
+    parser.add_argument("--png", type=Path, help="render headless to this PNG and exit (needs Chromium)")
+    parser.add_argument("--size", type=size, default=DEFAULT_SIZE, help="PNG size, WIDTHxHEIGHT (1024x768)")
+    parser.add_argument("--no-primitive", action="store_true", help="draw the robots only")
+    parser.add_argument("--frames", choices=("none", "ends", "all"), default="ends",
+                        help="joint frames drawn: each chain's base and end (default), all, none")
+    parser.add_argument("--port", type=int, default=DEFAULT_PORT,
+                        help=f"server port on 127.0.0.1 (default {DEFAULT_PORT}; 0: any free one)")
+
+
+def _system(name: str):
+    """(System, configurations) of a bundled system's name or a spec file."""
+    from gagen.apps.cooperative.bundled import bundled_specs
+    from gagen.apps.cooperative.spec import load_system
+
+    specs = bundled_specs()
+    if name in specs:
+        return load_system(specs[name])
+    if Path(name).is_file():
+        return load_system(Path(name))
+    raise ValueError(f"system {name!r}: not a bundled system ({', '.join(specs)}) nor a spec file")
+
+
+def configuration(args: argparse.Namespace, system, named: dict[str, list[float]]) -> Any:
+    """The joint vector (numpy) from ``--q`` or ``--configuration``."""
+    import numpy as np
+
+    if args.q is not None:
+        try:
+            q = np.array([float(v) for v in args.q.split(",")])
+        except ValueError:
+            raise ValueError(f"--q: expected {system.dof} comma-separated numbers, got {args.q!r}") from None
+        if q.shape != (system.dof,) or not np.all(np.isfinite(q)):
+            raise ValueError(f"--q: expected {system.dof} finite comma-separated numbers for "
+                             f"{system.name}, got {q.shape[0]}")
+        return q
+    if args.configuration not in named:
+        raise ValueError(f"--configuration: {system.name} names {', '.join(named) or 'no configurations'}; "
+                         f"got {args.configuration!r}")
+    return np.array(named[args.configuration], dtype=float)
+
+
+def run(args: argparse.Namespace) -> int:
+    from gagen.errors import SpecError
+    from gagen.viewer.browser import BrowserError, export_png
+    from gagen.viewer.scene import Scene
+
+    try:
+        system, named = _system(args.system)
+        q = configuration(args, system, named)
+    except (ValueError, SpecError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    if args.png is not None:
+        start = time.monotonic()
+        width, height = args.size
+        try:
+            path, _ = export_png(system, q, args.png, width=width, height=height,
+                                 primitive=not args.no_primitive, frames=args.frames)
+        except BrowserError as e:
+            print(f"error: {e}", file=sys.stderr)
+            return 1
+        print(f"{system.name}: wrote {path} ({width}x{height}) in {time.monotonic() - start:.1f} s")
+        return 0
+    try:
+        scene = Scene(system, q, port=args.port, frames=args.frames)
+    except ValueError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    scene.show_primitive(not args.no_primitive)
+    print(f"viewer: open {scene.url} in a browser (Ctrl-C to stop)", flush=True)
+    try:
+        while True:
+            time.sleep(1.0)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        scene.close()
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m gagen.viewer", description=__doc__.split("\n")[0])
+    add_arguments(parser)
+    return run(parser.parse_args(argv))

@@ -1,0 +1,253 @@
+"""What the viewer draws, in plain numpy: the chains' joint frames and the primitive through their end points.
+
+No meshes are bundled with the robots, so a robot is drawn from its kinematic chain: the origin of every
+joint frame along it (the base placement first, the chain's end point last). Each frame is the URDF
+composition T ← T · T(xyz) Rz(yaw) Ry(pitch) Rx(roll), then the joint's motion (a rotation about its
+axis or a translation along it) — the same convention as ``gagen.model.kinematics``, computed here with
+4 × 4 matrices so that drawing needs no algebra (the tests hold the end points to the generated FK).
+
+The primitive is drawn from its spanning end points [COOP Table 1]: a point; a point pair; the line
+through two points; the circle through three (circumcentre, radius, normal (x2 − x1) × (x3 − x1)); the
+plane through three; the sphere through four (circumsphere). Points that do not span the primitive
+(collinear for a circle, coplanar for a sphere, coincident for a line) give a ``Shape`` with
+``degenerate`` set, drawn as the polyline through the points.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from gagen.apps.cooperative.system import System
+from gagen.model.kinematics import Joint
+
+TOLERANCE = 1e-9  # relative: below it, points are taken as not spanning their primitive
+Array = NDArray[np.float64]
+
+
+# -- chains --------------------------------------------------------------------------------------------
+def rotation(axis: Sequence[float], angle: float) -> Array:
+    """Rotation matrix by ``angle`` about the unit ``axis`` (Rodrigues)."""
+    x, y, z = axis
+    k = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+    return np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * (k @ k)
+
+
+def rpy_matrix(rpy: Sequence[float]) -> Array:
+    """URDF rpy: Rz(yaw) Ry(pitch) Rx(roll)."""
+    roll, pitch, yaw = rpy
+    return rotation((0, 0, 1), yaw) @ rotation((0, 1, 0), pitch) @ rotation((1, 0, 0), roll)
+
+
+def _transform(r: Array, t: Sequence[float]) -> Array:
+    m = np.eye(4)
+    m[:3, :3], m[:3, 3] = r, t
+    return m
+
+
+@dataclass(frozen=True)
+class ChainPose:
+    """One chain at one configuration: ``frames`` (k + 1, 4, 4) are the frame of each of its k joints
+    (after the joint's fixed transform, before its motion: its origin lies on the joint axis) and, last,
+    the end frame (after every joint: its origin is the chain's end point); ``moving`` (k,) marks the
+    moving joints."""
+
+    name: str
+    frames: Array
+    moving: tuple[bool, ...]
+
+    @property
+    def origins(self) -> Array:
+        """(k + 1, 3): every joint origin along the chain, then the end point."""
+        return self.frames[:, :3, 3]
+
+    @property
+    def end_point(self) -> Array:
+        return self.frames[-1, :3, 3]
+
+
+def chain_frames(joints: Sequence[Joint], values: Sequence[float]) -> Array:
+    """(k + 1, 4, 4): see :class:`ChainPose`; ``values`` holds each moving joint's value in chain order
+    (mimic followers included: ``Chain.joint_values``)."""
+    moving = iter(values)
+    frame = np.eye(4)
+    frames = []
+    for joint in joints:
+        frame = frame @ _transform(rpy_matrix(joint.rpy), joint.xyz)
+        frames.append(frame)
+        if joint.moves:
+            value = float(next(moving))
+            if joint.kind == "prismatic":
+                frame = frame @ _transform(np.eye(3), value * np.asarray(joint.axis, dtype=float))
+            else:
+                frame = frame @ _transform(rotation(joint.axis, value), (0.0, 0.0, 0.0))
+    if next(moving, None) is not None:
+        raise ValueError(f"more joint values than the chain's {sum(j.moves for j in joints)} moving joints")
+    frames.append(frame)
+    return np.array(frames)
+
+
+def system_pose(system: System, q: Sequence[float]) -> list[ChainPose]:
+    """Every chain of ``system`` at q (the system's joint vector, ``System.split`` order)."""
+    return [ChainPose(chain.name, chain_frames(chain.joints, values), tuple(j.moves for j in chain.joints))
+            for chain, values in zip(system.chains, system.joint_values(list(q)), strict=True)]
+
+
+def end_points(system: System, q: Sequence[float]) -> Array:
+    """(chains, 3): the spanning end points P_i(q_i)."""
+    return np.array([pose.end_point for pose in system_pose(system, q)])
+
+
+# -- primitives ----------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Shape:
+    """The primitive of ``kind`` through ``points`` (n, 3). Rounds: ``centre``, ``radius`` and, for a
+    circle, the unit ``normal`` ((x2 − x1) × (x3 − x1) direction); a line: ``centre`` = the points' midpoint,
+    ``direction`` (x2 − x1, unit); a plane: ``centre`` = the centroid, ``normal`` as for a circle. A
+    point pair: ``centre`` (midpoint) and ``radius`` (half the distance)."""
+
+    kind: str
+    points: Array
+    centre: Array
+    radius: float = 0.0
+    normal: Array | None = None
+    direction: Array | None = None
+    degenerate: bool = False
+
+    @property
+    def size(self) -> float:
+        """A length for drawing flats: the largest distance of a point from the centre (≥ 5 cm)."""
+        return max(0.05, float(np.max(np.linalg.norm(self.points - self.centre, axis=1))))
+
+
+def _scale(points: Array) -> float:
+    return max(1.0, float(np.max(np.abs(points))))
+
+
+def circumcircle(a: Array, b: Array, c: Array) -> tuple[Array, float, Array] | None:
+    """(centre, radius, unit normal) of the circle through three points; None when they are collinear."""
+    u, v = b - a, c - a
+    n = np.cross(u, v)
+    nn = float(n @ n)
+    if math.sqrt(nn) <= TOLERANCE * float(np.linalg.norm(u) * np.linalg.norm(v)):  # sin of the angle at a
+        return None
+    centre = a + (float(u @ u) * np.cross(v, n) + float(v @ v) * np.cross(n, u)) / (2.0 * nn)
+    return centre, float(np.linalg.norm(centre - a)), n / math.sqrt(nn)
+
+
+def circumsphere(points: Array) -> tuple[Array, float] | None:
+    """(centre, radius) of the sphere through four points; None when they are coplanar."""
+    a = points[0]
+    rows = points[1:] - a  # |x − a|² = r² for the others: 2 (p_i − a)·(x − a) = |p_i − a|²
+    # the volume against the edge lengths' product: scale-free, zero for coplanar points
+    if abs(float(np.linalg.det(rows))) <= TOLERANCE * float(np.prod(np.linalg.norm(rows, axis=1))):
+        return None
+    offset = np.linalg.solve(2.0 * rows, np.einsum("ij,ij->i", rows, rows))
+    return a + offset, float(np.linalg.norm(offset))
+
+
+def shape(kind: str, points: Array | Sequence[Sequence[float]]) -> Shape:
+    """The primitive of ``kind`` through ``points``; see :class:`Shape`."""
+    p = np.asarray(points, dtype=float)
+    need = {"point": 1, "point_pair": 2, "line": 2, "circle": 3, "plane": 3, "sphere": 4}
+    if kind not in need:
+        raise ValueError(f"unknown primitive kind {kind!r}; expected one of {', '.join(need)}")
+    if p.shape != (need[kind], 3):
+        raise ValueError(f"a {kind} is drawn through {need[kind]} points, got an array of shape {p.shape}")
+    centroid = p.mean(axis=0)
+    if kind == "point":
+        return Shape(kind, p, p[0])
+    if kind in ("point_pair", "line"):
+        d = p[1] - p[0]
+        length = float(np.linalg.norm(d))
+        degenerate = length <= TOLERANCE * _scale(p)
+        direction = None if degenerate else d / length
+        return Shape(kind, p, centroid, radius=length / 2.0, direction=direction, degenerate=degenerate)
+    if kind in ("circle", "plane"):
+        fit = circumcircle(*p)
+        if fit is None:
+            return Shape(kind, p, centroid, degenerate=True)
+        centre, radius, normal = fit
+        return (Shape(kind, p, centre, radius, normal) if kind == "circle"
+                else Shape(kind, p, centroid, normal=normal))
+    fit = circumsphere(p)
+    if fit is None:
+        return Shape(kind, p, centroid, degenerate=True)
+    return Shape(kind, p, fit[0], fit[1])
+
+
+def basis(normal: Array) -> tuple[Array, Array]:
+    """Two unit vectors completing ``normal`` to a right-handed orthonormal frame (a, b, normal)."""
+    n = normal / np.linalg.norm(normal)
+    a = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+    a /= np.linalg.norm(a)
+    return a, np.cross(n, a)
+
+
+def ring(centre: Array, radius: float, normal: Array, samples: int = 129) -> Array:
+    """(samples, 3): the closed polyline of a circle (first point repeated last)."""
+    a, b = basis(normal)
+    t = np.linspace(0.0, 2.0 * np.pi, samples)
+    return centre + radius * (np.outer(np.cos(t), a) + np.outer(np.sin(t), b))
+
+
+def polylines(s: Shape, extent: float | None = None) -> list[Array]:
+    """Polylines (each (k, 3)) that draw the shape: a circle; a sphere's three great circles (in the
+    coordinate planes); a line's segment through the points extended by ``extent`` (default: half their
+    distance, at least 10 cm) each way; a plane's square patch outline of half-size ``extent`` (default
+    1.5 × ``Shape.size``) with its diagonals; a point pair's segment; a point's three-axis cross. A
+    degenerate shape: the polyline through its points."""
+    if s.degenerate:
+        return [s.points]
+    if s.kind == "circle":
+        return [ring(s.centre, s.radius, s.normal)]
+    if s.kind == "sphere":
+        return [ring(s.centre, s.radius, np.eye(3)[i]) for i in range(3)]
+    if s.kind == "line":
+        e = max(0.1, s.radius) if extent is None else extent
+        return [np.array([s.points[0] - e * s.direction, s.points[1] + e * s.direction])]
+    if s.kind == "plane":
+        h = 1.5 * s.size if extent is None else extent
+        a, b = basis(s.normal)
+        corners = [s.centre + h * (i * a + j * b) for i, j in ((1, 1), (-1, 1), (-1, -1), (1, -1), (1, 1))]
+        return [np.array(corners), np.array([corners[0], corners[2]]), np.array([corners[1], corners[3]])]
+    if s.kind == "point_pair":
+        return [s.points]
+    h = 0.04 if extent is None else extent
+    return [np.array([s.centre - h * e, s.centre + h * e]) for e in np.eye(3)]
+
+
+def segments(lines: Sequence[Array]) -> Array:
+    """(n, 2, 3): the segments of polylines, as line-segment primitives take them."""
+    parts = [np.stack([line[:-1], line[1:]], axis=1) for line in lines if len(line) > 1]
+    return np.concatenate(parts) if parts else np.zeros((0, 2, 3))
+
+
+def quaternion(r: Array) -> Array:
+    """(w, x, y, z) of a rotation matrix (Shepperd's method: the largest diagonal term first)."""
+    t = float(np.trace(r))
+    if t > 0.0:
+        s = 2.0 * math.sqrt(1.0 + t)
+        q = [0.25 * s, (r[2, 1] - r[1, 2]) / s, (r[0, 2] - r[2, 0]) / s, (r[1, 0] - r[0, 1]) / s]
+    else:
+        i = int(np.argmax(np.diag(r)))
+        j, k = (i + 1) % 3, (i + 2) % 3
+        s = 2.0 * math.sqrt(max(0.0, 1.0 + r[i, i] - r[j, j] - r[k, k]))
+        q = [0.0, 0.0, 0.0, 0.0]
+        q[0] = (r[k, j] - r[j, k]) / s
+        q[1 + i] = 0.25 * s
+        q[1 + j] = (r[j, i] + r[i, j]) / s
+        q[1 + k] = (r[k, i] + r[i, k]) / s
+    v = np.array(q)
+    return v / np.linalg.norm(v)
+
+
+def aligning(direction: Array) -> Array:
+    """A rotation matrix taking +z to the unit ``direction`` (a cylinder's axis)."""
+    z = direction / np.linalg.norm(direction)
+    a, b = basis(z)
+    return np.column_stack([a, b, z])

@@ -1,0 +1,122 @@
+"""The Pinocchio model of a cooperative system: placement and joint order against the generated
+kinematics, dynamics against single-robot models and closed forms, and the refusals."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gagen.dynamics.rigid_body import GRAVITY, DynamicsError, SystemDynamics
+
+pin = pytest.importorskip("pinocchio")
+
+ROOT = Path(__file__).resolve().parents[2]
+ROBOTS = ROOT / "robots"
+
+
+@pytest.fixture(scope="module")
+def pandas() -> SystemDynamics:
+    return SystemDynamics(ROBOTS / "three_pandas_circle.yaml")
+
+
+def test_end_points_match_the_generated_kinematics(pandas):
+    """Each arm's flange in the Pinocchio model = the generated chain kernel's end point, at random q:
+    base placement, joint order and the URDF's kinematics agree."""
+    from gagen.apps.cooperative.bundled import generated_folder
+    from gagen.runtime import load
+
+    module = load(generated_folder() / "three_pandas_circle")
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        q = rng.uniform(-1.5, 1.5, 21)
+        for i in range(3):
+            _, point = getattr(module.c, f"arm{i}_fk")(q[7 * i:7 * i + 7])
+            assert np.abs(pandas.link_position(q, f"arm{i}", "panda_link8") - point[1:4]).max() <= 1e-13
+
+
+def test_mass_matrix_is_three_single_panda_blocks(pandas):
+    """M is block diagonal, each block the single Panda's M from its URDF (Pinocchio on the file
+    alone): the arms do not couple, and the joint order maps as it should."""
+    single = pin.buildModelFromUrdf(str(ROBOTS / "panda" / "panda.urdf"))
+    data = single.createData()
+    rng = np.random.default_rng(1)
+    q = rng.uniform(-1.5, 1.5, 21)
+    M = pandas.mass_matrix(q)
+    assert np.abs(M - M.T).max() == 0.0
+    for i in range(3):
+        block = pin.crba(single, data, q[7 * i:7 * i + 7])
+        block = np.triu(block) + np.triu(block, 1).T
+        rows = slice(7 * i, 7 * i + 7)
+        assert np.abs(M[rows, rows] - block).max() <= 1e-12
+        off = np.delete(M[rows], np.s_[7 * i:7 * i + 7], axis=1)
+        assert np.abs(off).max() == 0.0
+
+
+def test_gravity_does_not_depend_on_the_turned_bases(pandas):
+    """The arms stand on the floor turned about z: with equal joint values their gravity torques are
+    equal, and at the stretched-up configuration (all links above joint 1) joint 1 carries none."""
+    q = np.tile(np.random.default_rng(2).uniform(-1.0, 1.0, 7), 3)
+    g = pandas.gravity(q)
+    assert np.abs(g[:7] - g[7:14]).max() <= 1e-12 and np.abs(g[:7] - g[14:]).max() <= 1e-12
+    assert abs(pandas.gravity(np.zeros(21))[0]) <= 1e-12
+
+
+def test_potential_energy_is_the_mass_times_the_centre_height(pandas):
+    """U = m g z_com, with the moving mass of the URDFs' inertials (three Pandas, 13.786 kg each over
+    links 1-7 from the FER inertials.yaml; link0 is welded to the floor and takes no part)."""
+    per_arm = 2.7907 + 2.5420 + 2.2513 + 2.2037 + 2.2855 + 1.353 + 0.35973
+    assert pandas.total_mass() == pytest.approx(3 * per_arm, rel=1e-12)
+    q = np.zeros(21)
+    com = pin.centerOfMass(pandas.model, pandas.data, q)
+    assert pandas.potential_energy(q) == pytest.approx(pandas.total_mass() * GRAVITY * com[2], rel=1e-12)
+
+
+def test_forward_dynamics_inverts_the_equation_of_motion(pandas):
+    rng = np.random.default_rng(3)
+    q, qd, tau = rng.uniform(-1, 1, 21), rng.uniform(-1, 1, 21), rng.uniform(-5, 5, 21)
+    qdd = pandas.forward(q, qd, tau)
+    assert np.abs(pandas.mass_matrix(q) @ qdd + pandas.bias(q, qd) - tau).max() <= 1e-10
+
+
+def test_joint_order_is_the_systems(tmp_path):
+    """A spec listing the arms in the other order gives the same dynamics, permuted."""
+    import yaml
+
+    data = yaml.safe_load((ROBOTS / "two_pandas_point_pair.yaml").read_text())
+    data["chains"] = data["chains"][::-1]
+    for chain in data["chains"]:
+        chain["urdf"] = str(ROBOTS / chain["urdf"])
+    spec = tmp_path / "swapped.yaml"
+    spec.write_text(yaml.safe_dump(data))
+    base, other = SystemDynamics(ROBOTS / "two_pandas_point_pair.yaml"), SystemDynamics(spec)
+    q = np.random.default_rng(4).uniform(-1, 1, 14)
+    perm = np.r_[7:14, 0:7]  # other's q = base's q with the arms swapped
+    assert [c.name for c in other.system.chains] == [c.name for c in base.system.chains][::-1]
+    assert np.abs(other.gravity(q[perm]) - base.gravity(q)[perm]).max() <= 1e-12
+    M, M_other = base.mass_matrix(q), other.mass_matrix(q[perm])
+    assert np.abs(M_other - M[np.ix_(perm, perm)]).max() <= 1e-12
+
+
+def test_a_urdf_without_inertias_is_refused(tmp_path):
+    (tmp_path / "arm").mkdir()
+    urdf = (ROBOTS / "iiwa14" / "iiwa14.urdf").read_text()
+    link = urdf.index('"iiwa_link_3"')
+    start, end = urdf.index("<inertial>", link), urdf.index("</inertial>", link)
+    (tmp_path / "arm" / "iiwa14.urdf").write_text(urdf[:start] + urdf[end + len("</inertial>"):])
+    spec = (ROBOTS / "two_iiwas_line.yaml").read_text().replace("urdf: iiwa14/", "urdf: arm/")
+    (tmp_path / "line.yaml").write_text(spec)
+    with pytest.raises(DynamicsError, match=r"iiwa14\.urdf: the links moved by joints .*iiwa_joint_3"):
+        SystemDynamics(tmp_path / "line.yaml")
+
+
+def test_bundled_robots_without_inertias_are_refused_by_name():
+    with pytest.raises(DynamicsError, match=r"g1_upper_body\.urdf: the links moved by joints"):
+        SystemDynamics(ROBOTS / "two_g1_sphere.yaml")
+
+
+def test_chains_without_urdf_are_refused(tmp_path):
+    spec = tmp_path / "explicit.yaml"
+    spec.write_text("name: listed\nprimitive: point\nchains:\n  - name: finger\n    joints:\n"
+                    "      - {name: j1, type: revolute, axis: [0, 0, 1], xyz: [0, 0, 0.1], rpy: [0, 0, 0]}\n")
+    with pytest.raises(DynamicsError, match=r"explicit\.yaml: chains\[0\]: dynamics need a URDF"):
+        SystemDynamics(spec)
