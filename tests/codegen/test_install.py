@@ -78,7 +78,8 @@ def test_a_non_editable_install_builds_a_python_file_of_kernels_and_loads_it(tmp
     bundled = sorted(p.name for p in (installed / "apps" / "cooperative" / "robots").glob("*.yaml"))
     assert bundled == sorted(p.name for p in (REPO / "robots").glob("*.yaml")) and len(bundled) == 13
     traces = sorted(p.name for p in (installed / "apps" / "cooperative" / "traces").glob("*.csv"))
-    assert traces == sorted(p.name for p in (REPO / "gagen" / "apps" / "cooperative" / "traces").glob("*.csv"))
+    ours = sorted(p.name for p in (REPO / "gagen" / "apps" / "cooperative" / "traces").glob("*.csv"))
+    assert traces == ours
     assert traces  # gagen teleop --trace replays the bundled traces after a non-editable install
     assert len(list((installed / "apps" / "cooperative" / "robots").glob("*/*.urdf"))) == 4
     hexapod = installed / "apps" / "hexapod" / "robots"
