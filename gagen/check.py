@@ -127,6 +127,7 @@ class _Differences:
     def __init__(self, function: KernelFunction, in_ports: Sequence[_Entry]) -> None:
         self.function, self.in_ports = function, in_ports
         self._memo: dict[bytes, dict[str, Any]] = {}
+        self._inner: dict[str, float] = {}  # the step of a derived output's differences, when nested
 
     def values(self, arrays: Sequence[np.ndarray]) -> dict[str, Any]:
         key = b"".join(np.asarray(a, dtype=float).tobytes() for a in arrays)
@@ -138,9 +139,10 @@ class _Differences:
         values = self.values(arrays)
         if of in values:
             return _dense_value(values[of], self.function.algebra)
-        # a Jacobian the function does not give (J_G q̇ differentiated again for J̇ q̇): by differences
-        # with one fixed step, so that it is a smooth function of the outer difference's input
-        return np.concatenate(self._columns(self.function.jacobians[of], arrays, nested=True)[0])
+        # a Jacobian the function does not give, differentiated again (J̇ q̇ from J_G q̇): by differences
+        # with the step chosen once at the outer difference's point, so that it is a smooth function of
+        # the outer difference's input
+        return np.concatenate(self._columns(self.function.jacobians[of], arrays, self._inner[of])[0])
 
     def _central(self, of: str, arrays: Sequence[np.ndarray], port: int, step: np.ndarray,
                  h: float) -> np.ndarray:
@@ -155,8 +157,14 @@ class _Differences:
         half, full = (self._central(of, arrays, port, step, s) for s in (h / 2, h))
         return (4 * half - full) / 3
 
-    def derivative(self, of: str, arrays: Sequence[np.ndarray], port: int, step: np.ndarray) -> np.ndarray:
-        """The derivative of output ``of`` along ``step`` (a vector of input ``port``'s size)."""
+    def _adaptive(self, of: str, arrays: Sequence[np.ndarray], port: int, step: np.ndarray,
+                  larger: bool = False) -> tuple[np.ndarray, float]:
+        """The derivative of output ``of`` along ``step`` (a vector of input ``port``'s size), and the
+        step h whose Richardson estimate it is: of the two consecutive steps whose estimates agree best,
+        the smaller (``larger``: the larger, when the two agree to ``FD_AGREE``)."""
+        if of not in self.values(arrays):  # a derived output: its own differences' step, chosen here (the
+            # larger of an agreeing pair: the smoother function of the outer step, as accurate)
+            self._inner[of] = self._columns(self.function.jacobians[of], arrays, larger=True)[2]
         estimates = [self._richardson(of, arrays, port, step, FD_STEPS[0]),
                      self._richardson(of, arrays, port, step, FD_STEPS[1])]
         gaps = [_size(estimates[1] - estimates[0])]
@@ -164,12 +172,27 @@ class _Differences:
             for h in FD_STEPS[2:]:
                 estimates.append(self._richardson(of, arrays, port, step, h))
                 gaps.append(_size(estimates[-1] - estimates[-2]))
-        return estimates[1 + int(np.argmin(gaps))]
+        pair = int(np.argmin(gaps))
+        agree = gaps[pair] <= FD_AGREE * max(_size(estimates[pair + 1]), FLOOR)
+        best = pair if larger and agree else pair + 1
+        return estimates[best], FD_STEPS[best]
 
-    def _columns(self, derivative: tuple, arrays: Sequence[np.ndarray],
-                 nested: bool = False) -> tuple[list[np.ndarray], bool]:
-        """The dense columns of a declared Jacobian by differences, and whether they are multivectors:
-        one per entry of the input, or one along the direction input of a directional Jacobian."""
+    def derivative(self, of: str, arrays: Sequence[np.ndarray], port: int, step: np.ndarray) -> np.ndarray:
+        """The derivative of output ``of`` along ``step`` (a vector of input ``port``'s size)."""
+        return self._adaptive(of, arrays, port, step)[0]
+
+    def _is_multivector(self, of: str, arrays: Sequence[np.ndarray]) -> bool:
+        values = self.values(arrays)
+        if of in values:
+            return isinstance(values[of], MultiVector)
+        source, _, post, _ = split_derivative(self.function.jacobians[of])
+        return post is not None or self._is_multivector(source, arrays)
+
+    def _columns(self, derivative: tuple, arrays: Sequence[np.ndarray], fixed: float | None = None,
+                 larger: bool = False) -> tuple[list[np.ndarray], bool, float]:
+        """The dense columns of a declared Jacobian by differences, whether they are multivectors, and
+        the largest step used: one column per entry of the input, or one along the direction input of a
+        directional Jacobian; with ``fixed``, one Richardson estimate at that step."""
         of, wrt, post, direction = split_derivative(derivative)
         port = next(k for k, p in enumerate(self.in_ports) if p.name == wrt)
         size = len(self.in_ports[port].rows)
@@ -179,23 +202,24 @@ class _Differences:
             along = next(k for k, p in enumerate(self.in_ports) if p.name == direction)
             steps = [np.asarray(arrays[along], dtype=float).reshape(size)]
         value = self.values(arrays).get(of)
-        is_multivector = isinstance(value, MultiVector) if value is not None else \
-            self._columns(self.function.jacobians[of], arrays)[1]
-        columns = []
+        is_multivector = post is not None or self._is_multivector(of, arrays)
+        columns, used = [], 0.0
         for step in steps:
-            column = self._richardson(of, arrays, port, step, FD_STEPS[0]) if nested else \
-                self.derivative(of, arrays, port, step)
+            if fixed is None:
+                column, h = self._adaptive(of, arrays, port, step, larger)
+            else:
+                column, h = self._richardson(of, arrays, port, step, fixed), fixed
+            used = max(used, h)
             if post is not None:
                 column = post(value, MultiVector(self.function.algebra, column)).coeffs
-                is_multivector = True
             columns.append(np.asarray(column, dtype=float))
-        return columns, is_multivector
+        return columns, is_multivector, used
 
     def jacobian(self, derivative: tuple, arrays: Sequence[np.ndarray], rows: Sequence[str]) -> np.ndarray:
         """The Jacobian output (rows × entries of the input, or rows × 1 along a direction) from
         differences: ∂of/∂wrt, each column passed through ``post(value, column)`` when the Jacobian is a
         transformed one."""
-        columns, is_multivector = self._columns(derivative, arrays)
+        columns, is_multivector, _ = self._columns(derivative, arrays)
         algebra = self.function.algebra
         return np.array([_rows(c, rows, algebra, is_multivector) for c in columns]).T
 

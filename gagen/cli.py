@@ -263,7 +263,8 @@ def _cmd_teleop(args: argparse.Namespace) -> int:
     source = ["--trace", args.trace] if args.trace else ["--keyboard"] if args.keyboard else ["--spacemouse"]
     try:  # a malformed trace, an unknown system, a missing SpaceMouse: one line, not a traceback
         return teleop([args.system, *source, "--dt", repr(args.dt), "--out", args.out]
-                      + (["--first-order"] if args.first_order else []))
+                      + (["--first-order"] if args.first_order else [])
+                      + (["--view", "--port", str(args.port)] if args.view else []))
     except (ValueError, RuntimeError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
@@ -490,6 +491,7 @@ def main(argv: list[str] | None = None) -> int:
     teleop.add_argument("--dt", type=positive_float, default=0.01, help="time step, s (default 0.01)")
     teleop.add_argument("--first-order", action="store_true", help="plain q <- q + dt q̇ steps, uncorrected")
     teleop.add_argument("--out", default="plots/teleop", help="folder for the report (default plots/teleop/)")
+    _view_arguments(teleop, "the run")
     teleop.set_defaults(run=_cmd_teleop)
 
     smc = sub.add_parser("smc", help="sliding-mode pose tracking of a Panda in a real-time C loop (plots)")

@@ -38,6 +38,7 @@ from gagen.control.differential import CONTROLLABLE_DIMENSION
 from gagen.control.impedance import Gains, ImpedanceController, Run, random_starts, simulate
 from gagen.dynamics.rigid_body import SystemDynamics
 from gagen.runtime import load
+from gagen.viewer import DEFAULT_PORT
 
 ARM_REST = (0.0, -0.7854, 0.0, 1.3962, 0.0, 0.6109, 0.0)
 """q0 of each arm [COOP Section 4.1]."""
@@ -138,7 +139,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--duration", type=float, default=DURATION, help=f"seconds (default {DURATION:g})")
     parser.add_argument("--view", action="store_true", help="then play the circle's first run in the "
                                                              "browser viewer")
-    parser.add_argument("--port", type=int, default=8080, help="the viewer's port on 127.0.0.1")
+    parser.add_argument("--port", type=int, default=DEFAULT_PORT, help="the viewer's port on 127.0.0.1")
     args = parser.parse_args(argv)
     if args.runs < 1 or not args.spread >= 0 or not args.duration > 0:
         parser.error("--runs must be >= 1, --spread >= 0 and --duration > 0")

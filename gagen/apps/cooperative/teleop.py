@@ -77,6 +77,7 @@ from gagen.model.versors import (
     translator,
 )
 from gagen.runtime import GeneratedModule, load
+from gagen.viewer import DEFAULT_PORT
 
 TRACES = Path(__file__).resolve().parent / "traces"
 DEFAULT_DT = 0.01
@@ -548,6 +549,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--turn", type=float, default=Scales.rotation, help="rad/s at full deflection")
     parser.add_argument("--dilation", type=float, default=Scales.dilation, help="1/s at full deflection")
     parser.add_argument("--out", type=Path, default=Path("plots/teleop"), help="folder for the report")
+    parser.add_argument("--view", action="store_true", help="then replay the run in the browser viewer")
+    parser.add_argument("--port", type=int, default=DEFAULT_PORT, help="the viewer's port on 127.0.0.1")
     args = parser.parse_args(argv)
     if not (math.isfinite(args.dt) and args.dt > 0):
         parser.error(f"--dt: expected a positive number of seconds, got {args.dt}")
@@ -573,6 +576,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(text)
     for path in write_report(result, args.out, recorded, text):
         print(f"wrote {path}")
+    if args.view:  # the run in a loop until Ctrl-C, the primitive drawn live (gagen.viewer)
+        from gagen.apps.cooperative.bundled import bundled_systems
+        from gagen.viewer.scene import Scene, serve
+
+        serve(Scene(bundled_systems()[args.system], result.q[0], port=args.port),
+              [(f"{args.system} teleoperation", result.t, result.q)])
     return 0 if bool(np.all(result.converged)) else 1
 
 
