@@ -1,6 +1,6 @@
 """Reaching OCP benchmark: the three-Panda circle (21 DOF), N = 100, T = 2.5 s, solved by IPOPT.
 
-    python benchmarks/ocp.py [--N 100] [--repeats 5] [--no-external]
+    python benchmarks/ocp.py [--N 100] [--repeats 5] [--no-external] [--scenarios] [--solvers]
 
 The same NLP (``gagen.control.ocp.ReachingOCP``: multiple shooting, exact Hessian, multiplier updates
 until ‖e(q_N)‖ <= 1e-9) with the terminal error e(q_N) supplied six ways:
@@ -28,6 +28,12 @@ the NLP's Functions (CasADi's t_wall_nlp_* statistics; the rest is IPOPT, mostly
 system) and the final ‖e‖. All variants build the dynamics and running cost as the same flat SX
 Function (one call node when not expanded); only the terminal error's form changes. The
 target: the circle at N = 100 converges (‖e‖ < 1e-6) in <= 1 s wall.
+
+``--solvers``: every scenario of ``gagen reach`` with the generated kernel (flat SX NLP) solved three
+ways: IPOPT with the exact Hessian, IPOPT with the Gauss-Newton Hessian (``hess_lag``: 2R on u_k,
+2 J_Beᵀ Q J_Be on q_N) and FATROP (CasADi's structure-exploiting plugin, exact Hessian, the same NLP with
+its stage structure stated). Ratios are against IPOPT-gagen with the exact Hessian (the conventional
+IPOPT baseline is benchmarks/ocp_conventional.py). ``--solvers-only`` skips the tables above.
 """
 
 from __future__ import annotations
@@ -51,6 +57,10 @@ from gagen.apps.cooperative import scenarios  # noqa: E402
 from gagen.apps.cooperative.bundled import bundled_systems  # noqa: E402
 from gagen.codegen.compiler import FLAGS, find_compiler  # noqa: E402
 from gagen.control.ocp import ReachingOCP, target_from  # noqa: E402
+
+SOLVER_VARIANTS = (("IPOPT, exact Hessian", "ipopt", "exact"),
+                   ("IPOPT, Gauss-Newton", "ipopt", "gauss-newton"),
+                   ("FATROP, exact Hessian", "fatrop", "exact"))
 
 SYSTEM = "three_pandas_circle"
 
@@ -116,9 +126,9 @@ def mx_wrapper(task: ca.Function, m: int) -> ca.Function:
 
 
 def measure(label: str, task: ca.Function, expand: bool, q0, V_Sd, limits, N: int, repeats: int,
-            options: dict | None = None) -> dict:
+            options: dict | None = None, solver: str = "ipopt", hessian: str = "exact") -> dict:
     started = time.perf_counter()
-    ocp = ReachingOCP(task, q0.size, N=N, expand=expand, options=options)
+    ocp = ReachingOCP(task, q0.size, N=N, expand=expand, options=options, solver=solver, hessian=hessian)
     build = time.perf_counter() - started
     runs = [ocp.solve(q0, V_Sd, limits=limits) for _ in range(repeats)]
     last = runs[-1]
@@ -126,7 +136,7 @@ def measure(label: str, task: ca.Function, expand: bool, q0, V_Sd, limits, N: in
     return {"label": label, "expand": expand, "build": build, "iterations": last.iterations,
             "updates": last.updates, "wall": statistics.median(r.wall_time for r in runs),
             "functions": statistics.median(r.function_time for r in runs),
-            "error": last.error_norm, "success": last.success}
+            "error": last.error_norm, "success": last.success, "objective": last.objective}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -136,7 +146,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-external", action="store_true", help="skip the casadi.external variant")
     parser.add_argument("--scenarios", action="store_true",
                         help="also every paper scenario: generated kernels vs the GA formulas on MX")
+    parser.add_argument("--solvers", action="store_true",
+                        help="also every paper scenario: IPOPT (exact, Gauss-Newton Hessian) vs FATROP")
+    parser.add_argument("--solvers-only", action="store_true", help="only the --solvers table")
     args = parser.parse_args(argv)
+    if args.solvers_only:
+        every_solver(args.N, args.repeats)
+        return 0
 
     module = scenarios.module(SYSTEM)
     q0 = scenarios.ready(SYSTEM)
@@ -182,7 +198,36 @@ def main(argv: list[str] | None = None) -> int:
               f"| {'✓' if met else '✗'} |")
     if args.scenarios:
         every_scenario(args.N, args.repeats)
+    if args.solvers:
+        every_solver(args.N, args.repeats)
     return 0
+
+
+def every_solver(N: int, repeats: int) -> None:
+    """Each paper scenario, the generated task Function (flat NLP): IPOPT with the exact and the
+    Gauss-Newton Hessian, FATROP; ratios against IPOPT with the exact Hessian."""
+    rows = []
+    for name, s in scenarios.SCENARIOS.items():
+        module = scenarios.module(s.system)
+        q0, limits = scenarios.ready(s.system), scenarios.joint_limits(s.system)
+        V_Sd = target_from(np.array(module.c.similarity(q0)[0]), s.translation, s.rotation, s.dilation,
+                           kind=module.manifest["primitive"])
+        for label, solver, hessian in SOLVER_VARIANTS:
+            print(f"  {name}: {label} ...", file=sys.stderr, flush=True)
+            rows.append((name, q0.size, measure(label, module.casadi.task, True, q0, V_Sd, limits, N, repeats,
+                                                solver=solver, hessian=hessian)))
+    print(f"\n### Every scenario, N = {N}: IPOPT (exact / Gauss-Newton Hessian) vs FATROP, generated kernels "
+          f"({repeats} cold solves, median wall; × = IPOPT-gagen exact wall / this wall)\n")
+    print("| scenario | DOF | solver | build (s) | iterations | updates | wall (s) | ms / iteration "
+          "| × vs IPOPT exact | objective | final ‖e‖ | reached |")
+    print("| --- | --: | --- | --: | --: | --: | --: | --: | --: | --: | --: | --- |")
+    reference: dict[str, float] = {}
+    for name, dof, r in rows:
+        reference.setdefault(name, r["wall"])
+        print(f"| {name} | {dof} | {r['label']} | {r['build']:.2f} | {r['iterations']} | {r['updates']} "
+              f"| {r['wall']:.3f} | {1e3 * r['wall'] / max(r['iterations'], 1):.1f} "
+              f"| {reference[name] / r['wall']:.2f} | {r['objective']:.4e} | {r['error']:.1e} "
+              f"| {'✓' if r['success'] and r['error'] < 1e-9 else '✗'} |")
 
 
 def every_scenario(N: int, repeats: int) -> None:

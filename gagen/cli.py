@@ -226,7 +226,8 @@ def _cmd_reach(args: argparse.Namespace) -> int:
 
     try:  # the library's own checks (e.g. a horizon too short for N steps) as one line, not a traceback
         return scenarios([args.scenario, "--out", args.out, "--N", str(args.N), "--horizon",
-                          repr(args.horizon)] + (["--view", "--port", str(args.port)] if args.view else []))
+                          repr(args.horizon), "--solver", args.solver, "--hessian", args.hessian]
+                         + (["--view", "--port", str(args.port)] if args.view else []))
     except ValueError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
@@ -249,6 +250,14 @@ def _cmd_impedance(args: argparse.Namespace) -> int:
     except DynamicsError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
+
+
+def _cmd_mpc(args: argparse.Namespace) -> int:
+    from gagen.apps.cooperative.mpc_demo import main as demo
+
+    view = ["--view", "--port", str(args.port)] if args.view else []
+    return demo(["--out", args.out, "--rate", repr(args.rate), "--duration", repr(args.duration), *view]
+                + (["--no-animation"] if args.no_animation else []))
 
 
 def _cmd_view(args: argparse.Namespace) -> int:
@@ -453,6 +462,10 @@ def main(argv: list[str] | None = None) -> int:
     reach.add_argument("--out", default="plots", help="folder for the plots (default plots/)")
     reach.add_argument("--N", type=positive_int, default=100, help="time steps (default 100)")
     reach.add_argument("--horizon", type=positive_float, default=2.5, help="seconds (default 2.5)")
+    reach.add_argument("--solver", choices=("ipopt", "fatrop"), default="ipopt",
+                       help="NLP solver (default ipopt)")
+    reach.add_argument("--hessian", choices=("exact", "gauss-newton"), default="exact",
+                       help="Hessian of the Lagrangian (gauss-newton: IPOPT only; default exact)")
     _view_arguments(reach, "the optimal trajectory")
     reach.set_defaults(run=_cmd_reach)
 
@@ -472,6 +485,15 @@ def main(argv: list[str] | None = None) -> int:
     impedance.add_argument("--duration", type=positive_float, default=4.0, help="seconds (default 4)")
     _view_arguments(impedance, "the first run")
     impedance.set_defaults(run=_cmd_impedance)
+
+    mpc = sub.add_parser("mpc", help="cooperative MPC: three Pandas tracking a moving circle with "
+                         "warm-started iLQR in closed loop (report, plots, GIF)")
+    mpc.add_argument("--out", default="plots/mpc", help="folder for the report, plots and GIF")
+    mpc.add_argument("--rate", type=positive_float, default=100.0, help="control rate in Hz (default 100)")
+    mpc.add_argument("--duration", type=positive_float, default=4.0, help="seconds (default 4)")
+    mpc.add_argument("--no-animation", action="store_true", help="skip the GIF")
+    _view_arguments(mpc, "the run")
+    mpc.set_defaults(run=_cmd_mpc)
 
     from gagen.viewer.command import add_arguments as view_arguments
 

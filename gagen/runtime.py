@@ -270,6 +270,9 @@ class CKernel:
         self._in_shapes = [(p.rows, p.cols) for p in sig.inputs]
         self._out_shapes = [(p.rows, p.cols) for p in sig.outputs]
         c_name = entry["c_name"]
+        # the C function itself (inputs, then outputs, as flat double arrays), for C code that calls the
+        # kernel directly (the iLQR loop of gagen.control.ilqr)
+        self.address: int = ctypes.cast(getattr(library, c_name), ctypes.c_void_p).value or 0
         single = getattr(library, f"{c_name}_argv")
         single.argtypes, single.restype = [ctypes.c_void_p, ctypes.c_void_p], None
         self._batch = getattr(library, f"{c_name}_batch_argv")
@@ -283,7 +286,7 @@ class CKernel:
         self.binding = binding is not None
         self._make = None
         if binding is not None:
-            address = ctypes.cast(getattr(library, c_name), ctypes.c_void_p).value
+            address = self.address
             # make(out, info) -> the binding's kernel object f(*inputs, out=None) (vectorcall, attributes
             # from info): k(...) and k(..., out=...) go straight into C
             self._make = functools.partial(getattr(binding, f"make_{self.name}"), address, self._slow)

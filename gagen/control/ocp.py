@@ -32,6 +32,36 @@ multipliers: the terminal cost becomes ‖e(q_N) − s‖²_Q, and the shift s �
 ‖e(q_N)‖ <= 1e-9. The result is the Q/R → ∞ limit of the paper's problem: the least-effort motion
 that reaches V_Sd exactly. ``exact=False`` solves the paper's penalty problem as it stands.
 
+Solvers (``solver``): ``"ipopt"`` (general sparse interior point, MUMPS on the whole KKT system) or
+``"fatrop"`` (CasADi's FATROP plugin: an interior point whose linear algebra is a Riccati recursion over
+the stages, dense BLASFEO blocks per stage). The NLP is the same for both: its variables are already
+stage-wise (stage 0: u_0 only, since x_0 is a parameter; stage k = 1 … N−1: x_k then u_k; stage N:
+x_N), its constraints are the gap-closing rows x_{k+1} − (A x_k + B u_k) = 0 in stage order, joint
+limits and the rest condition are bounds on x_k. FATROP gets that structure stated (``structure_detection``
+"manual": nx = (0, 2m, …, 2m), nu = (m, …, m, 0), no path constraints) rather than detected. FATROP
+takes no dual start: its warm start is the primal point only. Measured (benchmarks/ocp.py --solvers),
+FATROP is slower than IPOPT here, not faster: its Riccati recursion factorises dense (3m)² stage blocks
+(A and B are treated as dense 2m × 3m matrices), while MUMPS sees that the double integrator decouples
+joint by joint (A, B are diagonal in blocks) and that only q_N carries a dense m × m block; the pip
+wheel's BLASFEO is moreover its generic C build (an AVX2 build made FATROP 2-3× faster, still not
+faster than IPOPT). It also takes more iterations (a monotone barrier update, where IPOPT runs the
+adaptive one) and, from the same start, may end in another local optimum of this redundant problem
+than IPOPT (both reach V_Sd exactly).
+
+Hessians (``hessian``): ``"exact"`` (CasADi's AD of the Lagrangian, second derivatives of e included)
+or ``"gauss-newton"`` (IPOPT only): the dynamics are linear, so the Lagrangian's Hessian is that of the
+cost, and its Gauss-Newton part is block diagonal: 2R on every u_k and 2 J_Beᵀ Q J_Be on q_N, with J_Be
+= ∂e/∂q the ``task`` kernel's own Jacobian output; the term 2 Σᵢ (Q(e − s))ᵢ ∇²eᵢ is dropped. It is
+handed to IPOPT as its ``hess_lag`` Function (the nlp_hess_l signature: x, p, lam_f, lam_g → the upper
+triangle), so no second derivatives of e are formed at all; the gradient stays exact, so the KKT points
+are the same (with the multiplier updates the dropped term does not vanish at the solution: there
+e − s = −s carries the multiplier of e(q_N) = 0, so Gauss-Newton converges only linearly in the
+nullspace directions, and a PSD model may settle in another local optimum than the exact Hessian's
+path). Cheaper iterations, sometimes more of them: see benchmarks/ocp.py --solvers. Why not a lifted
+residual r = e(q_N) − s with ‖r‖²_Q? Its constraint's multiplier brings λᵀ∇²e back into the exact
+Hessian: not Gauss-Newton. The FATROP plugin builds its own Hessian Function (it has no ``hess_lag``
+option), hence exact only.
+
 The plotted "bivector command" (``bivector_command``) is the similarity twist of the primitive along
 the trajectory, B_k = J_G,Sc(q_k) q̇_k (rows e12 e13 e23 e0∞ e1∞ e2∞ e3∞, w.r.t. V_Sc): the task-space
 command that the differential kinematics q̇ = J_G⁺ B of Eq. 48 turns back into the optimal joint
@@ -69,6 +99,24 @@ IPOPT_OPTIONS: dict[str, Any] = {
     "ipopt.mu_strategy": "adaptive",
     "print_time": False,
 }
+FATROP_OPTIONS: dict[str, Any] = {
+    "fatrop.print_level": 0,
+    "fatrop.tolerance": 1e-10,
+    "fatrop.max_iter": 500,
+    "print_time": False,
+}
+FATROP_WARM_OPTIONS: dict[str, Any] = {
+    # FATROP takes the previous primal point only (no multipliers): a small initial barrier keeps the
+    # iterate near it (the default 0.1 walks away and, on the circle, stalls with return flag 1)
+    "fatrop.mu_init": 1e-8,
+}
+GAUSS_NEWTON_OPTIONS: dict[str, Any] = {
+    # the constraints are linear, so second-order corrections have nothing to correct; with the
+    # Gauss-Newton model they only waste the line search (the plane stops in Error_In_Step_Computation)
+    "ipopt.max_soc": 0,
+}
+SOLVERS = ("ipopt", "fatrop")
+HESSIANS = ("exact", "gauss-newton")
 WARM_OPTIONS: dict[str, Any] = {
     "ipopt.warm_start_init_point": "yes",
     "ipopt.warm_start_bound_push": 1e-9,
@@ -115,8 +163,9 @@ class OCPResult:
     the part of it spent evaluating the NLP's CasADi Functions, the rest is IPOPT's own; ``build_time``:
     building the NLP and IPOPT's derivative functions, 0 when the NLP came from the cache);
     ``success``: IPOPT's return status (``status``, of the last solve) is one of ``IPOPT_SUCCESS``
-    and, for ``exact``, ‖e(q_N)‖ <= tol; ``message``: why it succeeded or not, in a sentence;
-    ``w``, ``lam_x``, ``lam_g``: the raw primal-dual solution (warm starts).
+    (FATROP's return flag 0 reads "Solve_Succeeded") and, for ``exact``, ‖e(q_N)‖ <= tol; ``message``:
+    why it succeeded or not, in a sentence; ``w``, ``lam_x``, ``lam_g``: the raw primal-dual solution
+    (warm starts); ``solver``: which solver produced it ("ipopt", "fatrop", …).
     """
 
     q: NDArray[np.float64]
@@ -139,6 +188,7 @@ class OCPResult:
     lam_x: NDArray[np.float64] = field(repr=False)
     lam_g: NDArray[np.float64] = field(repr=False)
     message: str = ""
+    solver: str = "ipopt"
 
     @property
     def N(self) -> int:
@@ -165,22 +215,41 @@ class ReachingOCP:
 
     ``task``: a CasADi Function (q[m], V_Sd[12]) -> (e[7], …), usually ``module.casadi.task``;
     ``expand``: nlpsol's option (True: the NLP, kernel included, becomes one flat SX graph);
-    ``rest``: constrain the final velocity q̇_N to zero.
+    ``rest``: constrain the final velocity q̇_N to zero; ``solver``: "ipopt" or "fatrop";
+    ``hessian``: "exact" or "gauss-newton" (IPOPT only; see the module docstring); ``options``: nlpsol
+    options on top of ``IPOPT_OPTIONS`` / ``FATROP_OPTIONS``.
     """
 
     def __init__(self, task: ca.Function, m: int, *, N: int = DEFAULT_N, horizon: float = DEFAULT_HORIZON,
                  R: ArrayLike = DEFAULT_R, Q: ArrayLike = DEFAULT_Q, rest: bool = True, expand: bool = True,
-                 options: dict[str, Any] | None = None) -> None:
+                 options: dict[str, Any] | None = None, solver: str = "ipopt",
+                 hessian: str = "exact") -> None:
         check_horizon(N, horizon)
+        if solver not in SOLVERS:
+            raise ValueError(f"solver must be one of {SOLVERS}, got {solver!r}")
+        if hessian not in HESSIANS:
+            raise ValueError(f"hessian must be one of {HESSIANS}, got {hessian!r}")
+        if solver == "fatrop" and hessian != "exact":
+            raise ValueError("the Gauss-Newton Hessian needs solver='ipopt': CasADi's FATROP plugin builds "
+                             "its own Hessian of the Lagrangian (it takes no hess_lag Function)")
         self.task, self.m, self.N, self.horizon, self.rest = task, m, N, float(horizon), rest
+        self.solver, self.hessian = solver, hessian
         self.dt = self.horizon / N
         self.R, self.Q = _weight(R, m, "R"), _weight(Q, len(BLADES), "Q")
         self.A, self.B = double_integrator(m, self.dt)
         self.expand = expand
-        self._options = {**IPOPT_OPTIONS, "expand": expand, **(options or {})}
+        if solver == "fatrop":  # the stage structure, stated: stage 0 holds u_0 only (x_0 is a parameter)
+            structure = {"structure_detection": "manual", "N": N, "nx": [0] + [2 * m] * N,
+                         "nu": [m] * N + [0], "ng": [0] * (N + 1)}
+            self._options = {**FATROP_OPTIONS, "expand": expand, **structure, **(options or {})}
+        else:
+            extra = GAUSS_NEWTON_OPTIONS if hessian == "gauss-newton" else {}
+            self._options = {**IPOPT_OPTIONS, "expand": expand, **extra, **(options or {})}
         self._solvers: dict[bool, ca.Function] = {}
         started = time.perf_counter()
         self._nlp = self._build()
+        if hessian == "gauss-newton":
+            self._options["hess_lag"] = self._gauss_newton_hessian()
         self._built = time.perf_counter() - started
         self._solver(warm=False)
         self.build_time = self._built
@@ -209,13 +278,40 @@ class ReachingOCP:
         e = (e[0] if isinstance(e, (list, tuple)) else e) - p[2 * m + 12:]
         return {"x": w, "p": p, "f": running + ca.bilin(ca.DM(self.Q), e, e), "g": g}
 
+    def _terminal_error(self, q: Any, V_Sd: Any) -> tuple[Any, Any]:
+        """(e, J_Be = ∂e/∂q) at q: the kernel's own Jacobian output where it has one, else CasADi's AD."""
+        out = self.task(q, V_Sd)
+        if isinstance(out, (list, tuple)) and len(out) > 1 and self.task.name_out(1) == "J_Be":
+            return out[0], out[1]
+        e = out[0] if isinstance(out, (list, tuple)) else out
+        return e, ca.jacobian(e, q)
+
+    def _gauss_newton_hessian(self) -> ca.Function:
+        """IPOPT's ``hess_lag``: lam_f × the Gauss-Newton Hessian of the cost (upper triangle), block
+        diagonal over w = u_0, x_1, …, u_{N-1}, x_N: 2R on each u_k, 2 J_Beᵀ Q J_Be on q_N, nothing on
+        the constraints (linear)."""
+        m, N = self.m, self.N
+        sym = ca.SX if self.task.is_a("SXFunction") else ca.MX
+        n_w, n_p = N * 3 * m, 2 * m + 12 + len(BLADES)
+        w, p = sym.sym("w", n_w), sym.sym("p", n_p)
+        lam_f, lam_g = sym.sym("lam_f"), sym.sym("lam_g", 2 * m * N)
+        _, J = self._terminal_error(w[n_w - 2 * m: n_w - m], p[2 * m: 2 * m + 12])
+        control = sym(ca.sparsify(ca.DM(np.triu(2.0 * self.R))))
+        terminal = ca.triu(2.0 * (J.T @ ca.DM(self.Q) @ J))
+        blocks = [block for _ in range(N - 1) for block in (control, sym(2 * m, 2 * m))]
+        H = lam_f * ca.diagcat(*blocks, control, terminal, sym(m, m))
+        return ca.Function("hess_gauss_newton", [w, p, lam_f, lam_g], [H], ["x", "p", "lam_f", "lam_g"],
+                           ["triu_hess_gamma_x_x"])
+
     def _solver(self, warm: bool) -> ca.Function:
-        """IPOPT for cold starts, or with warm_start_init_point (built on first use: the time goes to
-        the ``build_time`` of the result that needed it)."""
+        """The nlpsol for cold starts, or for warm starts (IPOPT: warm_start_init_point; FATROP: a small
+        initial barrier at the previous primal point, as it takes no multipliers). Built on first use:
+        the time goes to the ``build_time`` of the result that needed it."""
         if warm not in self._solvers:
             started = time.perf_counter()
-            options = {**self._options, **(WARM_OPTIONS if warm else {})}
-            self._solvers[warm] = ca.nlpsol("reach", "ipopt", self._nlp, options)
+            warm_options = WARM_OPTIONS if self.solver == "ipopt" else FATROP_WARM_OPTIONS
+            options = {**self._options, **(warm_options if warm else {})}
+            self._solvers[warm] = ca.nlpsol("reach", self.solver, self._nlp, options)
             self._built += time.perf_counter() - started
         return self._solvers[warm]
 
@@ -249,15 +345,7 @@ class ReachingOCP:
         (s is then −λ/2 Q⁻¹ for the multiplier λ of the constraint e(q_N) = 0).
         """
         m, N = self.m, self.N
-        q0 = np.asarray(q0, dtype=float).ravel()
-        qdot0 = np.zeros(m) if qdot0 is None else np.asarray(qdot0, dtype=float).ravel()
-        V_Sd = np.asarray(V_Sd, dtype=float).ravel()
-        if q0.size != m or qdot0.size != m or V_Sd.size != 12:
-            raise ValueError(f"need q0 and qdot0 of {m} values and V_Sd of 12, got {q0.size}, {qdot0.size}, "
-                             f"{V_Sd.size}")
-        for name, value in (("q0", q0), ("qdot0", qdot0), ("V_Sd", V_Sd)):
-            if not np.all(np.isfinite(value)):
-                raise ValueError(f"{name} must be finite, got {value}")
+        q0, qdot0, V_Sd = start_and_target(q0, qdot0, V_Sd, m)
         if not (isinstance(tol, (int, float)) and math.isfinite(tol) and tol >= 0):
             raise ValueError(f"tol must be a finite number >= 0, got {tol!r}")
         inf = np.full(m, np.inf)
@@ -294,24 +382,26 @@ class ReachingOCP:
             solution = solver(**call)
             wall += time.perf_counter() - started
             stats = solver.stats()
+            status = _status(self.solver, stats)
             iterations += int(stats["iter_count"])
             functions += sum(v for k, v in stats.items() if k.startswith("t_wall_nlp_"))
             w = np.array(solution["x"]).ravel()
             start = (w, np.array(solution["lam_x"]).ravel(), np.array(solution["lam_g"]).ravel())
             e = self._error(w[-2 * m: -m], V_Sd)  # q_N
-            if (not exact or str(stats["return_status"]) not in IPOPT_SUCCESS or np.linalg.norm(e) <= tol
+            if (not exact or status not in IPOPT_SUCCESS or np.linalg.norm(e) <= tol
                     or updates >= max_updates):
                 break
             shift = shift - e
             updates += 1
         u, x = self._layout(w)
-        status = str(stats["return_status"])
-        success, message = _verdict(status, float(np.linalg.norm(e)), exact, tol, updates, max_updates)
+        success, message = _verdict(status, float(np.linalg.norm(e)), exact, tol, updates, max_updates,
+                                    self.solver.upper())
         return OCPResult(q=np.vstack([q0, x[:, :m]]), qdot=np.vstack([qdot0, x[:, m:]]), u=u, dt=self.dt,
                          V_Sd=V_Sd, error=e, error_norm=float(np.linalg.norm(e)), shift=shift,
                          updates=updates, objective=float(solution["f"]), iterations=iterations,
                          wall_time=wall, function_time=functions, build_time=self._built, success=success,
-                         status=status, w=w, lam_x=start[1], lam_g=start[2], message=message)
+                         status=status, w=w, lam_x=start[1], lam_g=start[2], message=message,
+                         solver=self.solver)
 
     def _error(self, q: NDArray[np.float64], V_Sd: NDArray[np.float64]) -> NDArray[np.float64]:
         out = self.task(q, V_Sd)
@@ -323,19 +413,27 @@ IPOPT_SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 Feasible_Point_Found, which is no optimum)."""
 
 
+def _status(solver: str, stats: dict[str, Any]) -> str:
+    """IPOPT's return status; FATROP's integer return flag as "Solve_Succeeded" (0) or "FATROP flag n"."""
+    if solver == "fatrop":
+        flag = int(stats["return_status"])
+        return "Solve_Succeeded" if flag == 0 and stats["success"] else f"FATROP flag {flag}"
+    return str(stats["return_status"])
+
+
 def _verdict(status: str, error: float, exact: bool, tol: float, updates: int,
-             max_updates: int) -> tuple[bool, str]:
-    """(success, message) from IPOPT's return status and the final terminal error."""
+             max_updates: int, name: str = "IPOPT") -> tuple[bool, str]:
+    """(success, message) from the solver's return status and the final terminal error."""
     if status not in IPOPT_SUCCESS:
-        return False, f"IPOPT stopped with {status}; final ‖e(q_N)‖ = {error:.3g}"
+        return False, f"{name} stopped with {status}; final ‖e(q_N)‖ = {error:.3g}"
     if not exact:
-        return True, (f"IPOPT {status}; the penalty problem (exact=False) keeps a residual ‖e(q_N)‖ = "
+        return True, (f"{name} {status}; the penalty problem (exact=False) keeps a residual ‖e(q_N)‖ = "
                       f"{error:.3g}, not held to tol")
     if error > tol:
-        return False, (f"IPOPT {status}, but ‖e(q_N)‖ = {error:.3g} > tol {tol:g} after {updates} of at most "
-                       f"{max_updates} multiplier updates: the target is not reached (out of reach within "
-                       f"the joint limits and horizon, or tol below what the solver attains)")
-    return True, f"IPOPT {status}; ‖e(q_N)‖ = {error:.3g} <= tol {tol:g} after {updates} multiplier updates"
+        return False, (f"{name} {status}, but ‖e(q_N)‖ = {error:.3g} > tol {tol:g} after {updates} of at "
+                       f"most {max_updates} multiplier updates: the target is not reached (out of reach "
+                       f"within the joint limits and horizon, or tol below what the solver attains)")
+    return True, f"{name} {status}; ‖e(q_N)‖ = {error:.3g} <= tol {tol:g} after {updates} multiplier updates"
 
 
 def check_horizon(N: int, horizon: float) -> None:
@@ -345,6 +443,21 @@ def check_horizon(N: int, horizon: float) -> None:
     if isinstance(horizon, bool) or not isinstance(horizon, (int, float, np.floating)) \
             or not math.isfinite(horizon) or horizon <= 0:
         raise ValueError(f"horizon must be a finite number of seconds > 0, got {horizon!r}")
+
+
+def start_and_target(q0: ArrayLike, qdot0: ArrayLike | None, V_Sd: ArrayLike,
+                     m: int) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """(q0, q̇0 (zeros when None), V_Sd) as flat float arrays; ValueError unless m, m and 12 finite values."""
+    q0 = np.asarray(q0, dtype=float).ravel()
+    qdot0 = np.zeros(m) if qdot0 is None else np.asarray(qdot0, dtype=float).ravel()
+    V_Sd = np.asarray(V_Sd, dtype=float).ravel()
+    if q0.size != m or qdot0.size != m or V_Sd.size != 12:
+        raise ValueError(f"need q0 and qdot0 of {m} values and V_Sd of 12, got {q0.size}, {qdot0.size}, "
+                         f"{V_Sd.size}")
+    for name, value in (("q0", q0), ("qdot0", qdot0), ("V_Sd", V_Sd)):
+        if not np.all(np.isfinite(value)):
+            raise ValueError(f"{name} must be finite, got {value}")
+    return q0, qdot0, V_Sd
 
 
 def _box(bounds: tuple[ArrayLike, ArrayLike], m: int, name: str) -> tuple[NDArray, NDArray]:
@@ -369,8 +482,9 @@ def reach(module: Any, q0: ArrayLike, V_Sd: ArrayLike, *, N: int = DEFAULT_N,
           warm_start: OCPResult | None = None, qdot0: ArrayLike | None = None,
           velocity_limits: tuple[ArrayLike, ArrayLike] | None = None, rest: bool = True,
           exact: bool = True, tol: float = DEFAULT_TOL, task: ca.Function | None = None, expand: bool = True,
-          options: dict[str, Any] | None = None) -> OCPResult:
-    """Solve the reaching OCP of Eq. 53-57 for a generated ``module`` (``gagen.runtime.load``) with IPOPT.
+          options: dict[str, Any] | None = None, solver: str = "ipopt", hessian: str = "exact") -> OCPResult:
+    """Solve the reaching OCP of Eq. 53-57 for a generated ``module`` (``gagen.runtime.load``) with IPOPT
+    (or ``solver`` = "fatrop"; ``hessian`` = "gauss-newton": see ``ReachingOCP``).
 
     From rest at ``q0`` (or with velocity ``qdot0``) to the primitive of the desired similarity
     versor ``V_Sd`` (12 coefficients in the ``task`` kernel's V_Sd rows; see ``target_from``) in
@@ -385,12 +499,13 @@ def reach(module: Any, q0: ArrayLike, V_Sd: ArrayLike, *, N: int = DEFAULT_N,
     check_horizon(N, horizon)
     task = module.casadi.task if task is None else task
     m = int(module.manifest["dof"])
-    key = (id(task), m, N, float(horizon), _key(R), _key(Q), rest, expand,
+    key = (id(task), m, N, float(horizon), _key(R), _key(Q), rest, expand, solver, hessian,
            repr(sorted((options or {}).items())))
     ocp = _CACHE.get(key)
     built = 0.0
     if ocp is None or ocp.task is not task:
-        ocp = ReachingOCP(task, m, N=N, horizon=horizon, R=R, Q=Q, rest=rest, expand=expand, options=options)
+        ocp = ReachingOCP(task, m, N=N, horizon=horizon, R=R, Q=Q, rest=rest, expand=expand, options=options,
+                          solver=solver, hessian=hessian)
         built = ocp.build_time
         if len(_CACHE) >= _CACHE_SIZE:
             _CACHE.pop(next(iter(_CACHE)))

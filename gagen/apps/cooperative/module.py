@@ -26,7 +26,8 @@ PACKAGE = Path(__file__).resolve().parents[2]  # gagen/
 NOT_IN_KEY = {"build.py", "codegen", "runtime.py", "cli.py", "check.py", "report.py", "demo.py",
               "apps/cooperative/scenarios.py", "apps/cooperative/nullspace_demo.py",
               "apps/cooperative/goals.py", "apps/cooperative/impedance_demo.py", "apps/cooperative/teleop.py",
-              "apps/cooperative/teleop_input.py", "apps/hexapod", "dynamics", "viewer",
+              "apps/cooperative/teleop_input.py", "apps/cooperative/mpc_demo.py", "apps/hexapod", "dynamics",
+              "viewer",
               "crosscheck.py", "goals.py", "conventions.py", "control", "interp"}
 
 

@@ -14,6 +14,7 @@ and writes two plots into an output folder:
 
     python -m gagen.apps.cooperative.scenarios circle --out plots/ [--N 100] [--horizon 2.5]
     python -m gagen.apps.cooperative.scenarios all --out plots/
+    python -m gagen.apps.cooperative.scenarios circle --solver fatrop      # or --hessian gauss-newton
 """
 
 from __future__ import annotations
@@ -41,6 +42,8 @@ from gagen.control.ocp import (
     BLADES,
     DEFAULT_HORIZON,
     DEFAULT_N,
+    HESSIANS,
+    SOLVERS,
     OCPResult,
     bivector_command,
     multivector,
@@ -331,7 +334,8 @@ def plot_trajectory(s: Scenario, m: GeneratedModule, result: OCPResult, path: Pa
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_zlabel("z (m)")
-    ax.set_title(f"{s.title}\nN = {N}, T = {result.t[-1]:.2f} s: {result.iterations} IPOPT iterations, "
+    ax.set_title(f"{s.title}\nN = {N}, T = {result.t[-1]:.2f} s: {result.iterations} {result.solver.upper()} "
+                 f"iterations, "
                  f"{result.wall_time:.2f} s, final ‖e‖ = {result.error_norm:.1e}", fontsize=9)
     ax.legend(fontsize=8, loc="upper left")
     figure.savefig(path, dpi=110)
@@ -346,6 +350,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=Path("plots"), help="folder for the PNG plots")
     parser.add_argument("--N", type=positive_int, default=DEFAULT_N, help="time steps")
     parser.add_argument("--horizon", type=positive_float, default=DEFAULT_HORIZON, help="seconds")
+    parser.add_argument("--solver", choices=SOLVERS, default="ipopt", help="NLP solver (default ipopt)")
+    parser.add_argument("--hessian", choices=HESSIANS, default="exact",
+                        help="Hessian of the Lagrangian (gauss-newton: IPOPT only; default exact)")
     parser.add_argument("--view", action="store_true", help="then play the trajectories in the browser")
     parser.add_argument("--port", type=int, default=DEFAULT_PORT, help="the viewer's port on 127.0.0.1")
     args = parser.parse_args(argv)
@@ -353,11 +360,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     ok = True
     solved = []
     for name in names:
-        r = run(name, args.out, N=args.N, horizon=args.horizon)
+        r = run(name, args.out, N=args.N, horizon=args.horizon, solver=args.solver, hessian=args.hessian)
         solved.append(r)
         res = r.result
         ok &= res.success
-        print(f"{name} ({r.scenario.system}, {r.q0.size} DOF, N = {args.N}): {res.iterations} iterations, "
+        print(f"{name} ({r.scenario.system}, {r.q0.size} DOF, N = {args.N}): {args.solver}, {args.hessian} "
+              f"Hessian: {res.iterations} iterations, "
               f"{res.wall_time:.3f} s wall (+ {res.build_time:.3f} s building the NLP), "
               f"final ‖e‖ = {res.error_norm:.2e}, {res.status}")
         print(f"  {'reached' if res.success else 'NOT reached'}: {res.message}",
