@@ -462,8 +462,8 @@ def main(argv: list[str] | None = None) -> int:
     reach.add_argument("--out", default="plots", help="folder for the plots (default plots/)")
     reach.add_argument("--N", type=positive_int, default=100, help="time steps (default 100)")
     reach.add_argument("--horizon", type=positive_float, default=2.5, help="seconds (default 2.5)")
-    reach.add_argument("--solver", choices=("ipopt", "fatrop"), default="ipopt",
-                       help="NLP solver (default ipopt)")
+    reach.add_argument("--solver", choices=("ipopt", "fatrop", "ilqr"), default="ipopt",
+                       help="solver (default ipopt; ilqr: the structured iLQR in C)")
     reach.add_argument("--hessian", choices=("exact", "gauss-newton"), default="exact",
                        help="Hessian of the Lagrangian (gauss-newton: IPOPT only; default exact)")
     _view_arguments(reach, "the optimal trajectory")

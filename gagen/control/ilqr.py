@@ -312,7 +312,7 @@ class ILQR:
                          shift=shift, updates=updates, objective=objective, iterations=iterations,
                          wall_time=time.perf_counter() - started, function_time=0.0, build_time=0.0,
                          success=success, status=status, w=np.zeros(0), lam_x=np.zeros(0), lam_g=np.zeros(0),
-                         message=message)
+                         message=message, solver="ilqr")
 
 
 def _compiler_found() -> bool:

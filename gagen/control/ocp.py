@@ -484,7 +484,9 @@ def reach(module: Any, q0: ArrayLike, V_Sd: ArrayLike, *, N: int = DEFAULT_N,
           exact: bool = True, tol: float = DEFAULT_TOL, task: ca.Function | None = None, expand: bool = True,
           options: dict[str, Any] | None = None, solver: str = "ipopt", hessian: str = "exact") -> OCPResult:
     """Solve the reaching OCP of Eq. 53-57 for a generated ``module`` (``gagen.runtime.load``) with IPOPT
-    (or ``solver`` = "fatrop"; ``hessian`` = "gauss-newton": see ``ReachingOCP``).
+    (or ``solver`` = "fatrop"; ``hessian`` = "gauss-newton": see ``ReachingOCP``; or ``solver`` = "ilqr":
+    the structured iLQR of ``gagen.control.ilqr`` on the C ``task`` kernel, diagonal R only, no velocity
+    limits, ``exact`` always).
 
     From rest at ``q0`` (or with velocity ``qdot0``) to the primitive of the desired similarity
     versor ``V_Sd`` (12 coefficients in the ``task`` kernel's V_Sd rows; see ``target_from``) in
@@ -497,8 +499,16 @@ def reach(module: Any, q0: ArrayLike, V_Sd: ArrayLike, *, N: int = DEFAULT_N,
     ``task`` replaces ``module.casadi.task`` (e.g. a wrapped or external Function, for benchmarks).
     """
     check_horizon(N, horizon)
-    task = module.casadi.task if task is None else task
     m = int(module.manifest["dof"])
+    if solver == "ilqr":
+        from gagen.control.ilqr import ILQR
+
+        if velocity_limits is not None or hessian != "exact" or not exact:
+            raise ValueError("solver='ilqr' takes no velocity limits, always uses the Gauss-Newton model "
+                             "(hessian='exact' is its default) and always reaches the target exactly")
+        return ILQR(module.c.task if task is None else task, m, N=N, horizon=horizon, R=R, Q=Q,
+                    rest=rest).solve(q0, V_Sd, qdot0=qdot0, limits=limits, warm_start=warm_start, tol=tol)
+    task = module.casadi.task if task is None else task
     key = (id(task), m, N, float(horizon), _key(R), _key(Q), rest, expand, solver, hessian,
            repr(sorted((options or {}).items())))
     ocp = _CACHE.get(key)

@@ -162,3 +162,17 @@ def test_c_loop_equals_the_numpy_loop(name):
     assert np.abs(c.q[-1] - python.q[-1]).max() <= 1e-12
     with pytest.raises(ValueError, match="backend='c' needs a compiled kernel"):
         ILQR(lambda q, v: m.c.task(q, v), q0.size, backend="c")
+
+
+@pytest.mark.compiling
+def test_reach_dispatches_to_ilqr_and_refuses_what_it_cannot_do():
+    """``reach(..., solver="ilqr")`` is the structured iLQR (its result labelled so); velocity limits, an
+    inexact solve or another Hessian are refused with the reason."""
+    m, q0, V_Sd, limits = _problem("torso_circle")
+    result = reach(m, q0, V_Sd, N=N, limits=limits, solver="ilqr")
+    assert result.solver == "ilqr" and result.success and result.error_norm < 1e-9
+    direct = ILQR(m.c.task, q0.size, N=N).solve(q0, V_Sd, limits=limits)
+    assert np.array_equal(result.q, direct.q)
+    for bad in ({"velocity_limits": (-1.0, 1.0)}, {"exact": False}, {"hessian": "gauss-newton"}):
+        with pytest.raises(ValueError, match="solver='ilqr' takes no velocity limits"):
+            reach(m, q0, V_Sd, N=N, solver="ilqr", **bad)

@@ -189,4 +189,4 @@ def test_mutated_specs_and_urdfs_load_or_name_the_file_and_field(tmp_path):
     # the fuzzer is not vacuous: both outcomes, errors in many fields, no case near the deadline
     assert outcomes["system"] >= 10 and outcomes["spec error"] >= 150, outcomes
     assert len(fields) >= 10, fields
-    assert slowest < 1.0, slowest
+    assert slowest < 0.5 * CASE_SECONDS, slowest  # (a load-independent margin: 1.6 s was seen on a busy VM)

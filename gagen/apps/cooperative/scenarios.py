@@ -350,7 +350,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=Path("plots"), help="folder for the PNG plots")
     parser.add_argument("--N", type=positive_int, default=DEFAULT_N, help="time steps")
     parser.add_argument("--horizon", type=positive_float, default=DEFAULT_HORIZON, help="seconds")
-    parser.add_argument("--solver", choices=SOLVERS, default="ipopt", help="NLP solver (default ipopt)")
+    parser.add_argument("--solver", choices=(*SOLVERS, "ilqr"), default="ipopt",
+                        help="solver (default ipopt; ilqr: the structured iLQR in C)")
     parser.add_argument("--hessian", choices=HESSIANS, default="exact",
                         help="Hessian of the Lagrangian (gauss-newton: IPOPT only; default exact)")
     parser.add_argument("--view", action="store_true", help="then play the trajectories in the browser")
@@ -364,8 +365,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         solved.append(r)
         res = r.result
         ok &= res.success
-        print(f"{name} ({r.scenario.system}, {r.q0.size} DOF, N = {args.N}): {args.solver}, {args.hessian} "
-              f"Hessian: {res.iterations} iterations, "
+        hessian = "Gauss-Newton model" if args.solver == "ilqr" else f"{args.hessian} Hessian"
+        print(f"{name} ({r.scenario.system}, {r.q0.size} DOF, N = {args.N}): {args.solver}, {hessian}: "
+              f"{res.iterations} iterations, "
               f"{res.wall_time:.3f} s wall (+ {res.build_time:.3f} s building the NLP), "
               f"final ‖e‖ = {res.error_norm:.2e}, {res.status}")
         print(f"  {'reached' if res.success else 'NOT reached'}: {res.message}",
