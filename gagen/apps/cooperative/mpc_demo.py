@@ -32,6 +32,7 @@ from gagen.control.mpc import MPCRun, run
 from gagen.control.ocp import target_from, target_primitive
 from gagen.runtime import GeneratedModule, load
 from gagen.viewer import DEFAULT_PORT
+from gagen.viewer.geometry import circumcircle
 
 SYSTEM = "three_pandas_circle"
 AMPLITUDE = 0.05  # m
@@ -57,12 +58,11 @@ def setup() -> tuple[GeneratedModule, NDArray[np.float64], Any]:
 
 
 def circle_of(points: NDArray[np.float64]) -> tuple[NDArray, float, NDArray]:
-    """Centre, radius and unit normal of the circle through three points (closed form)."""
-    a, b, c = points
-    u, v = b - a, c - a
-    n = np.cross(u, v)
-    centre = a + (np.dot(v, v) * np.cross(n, u) + np.dot(u, u) * np.cross(v, n)) / (2 * np.dot(n, n))
-    return centre, float(np.linalg.norm(a - centre)), n / np.linalg.norm(n)
+    """Centre, radius and unit normal of the circle through three points (the viewer's closed form)."""
+    found = circumcircle(*np.asarray(points, dtype=float))
+    if found is None:
+        raise ValueError("the three end points are collinear: no circle through them")
+    return found
 
 
 def end_points(module: GeneratedModule, q: NDArray[np.float64]) -> NDArray[np.float64]:
