@@ -3,8 +3,9 @@ metric and blade order), ``kernels`` (a spec's kernel catalogue with op counts) 
 generated module of a spec or of a Python file of kernels, optionally checked against the
 interpreter), ``reach`` (IPOPT cooperative reaching on a paper scenario), ``smc`` (sliding-mode
 tracking in a real-time loop), ``walk`` (a hexapod's tripod gait, with plots and an animation),
-``linkage`` (planar linkages along a crank revolution: solver report, traced curves, a GIF) and
-``stereo`` (a bottle's symmetry axis from a rendered stereo pair as the sliding-mode reference)."""
+``linkage`` (planar linkages along a crank revolution: solver report, traced curves, a GIF),
+``stereo`` (a bottle's symmetry axis from a rendered stereo pair as the sliding-mode reference) and
+``sweep`` (chunked, resumable sweeps on Dask: manipulability maps, reachability of target circles)."""
 
 from __future__ import annotations
 
@@ -422,6 +423,15 @@ def _view_arguments(parser: argparse.ArgumentParser, what: str) -> None:
                         help=f"the viewer's port on 127.0.0.1 (default {DEFAULT_PORT})")
 
 
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    try:
+        from gagen.sweep.command import run
+    except ImportError as e:  # dask or pyarrow missing: say which extra brings them
+        print(f"error: gagen sweep needs the sweep extra (pip install 'gagen[sweep]'): {e}", file=sys.stderr)
+        return 2
+    return run(args)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="gagen", description="Symbolic code generation for conformal "
                                      "geometric algebra in robotics.")
@@ -580,6 +590,14 @@ def main(argv: list[str] | None = None) -> int:
     linkage.add_argument("--frames", type=positive_int, default=72, help="GIF frames (default 72)")
     linkage.add_argument("--no-animation", action="store_true", help="skip the GIF")
     linkage.set_defaults(run=_cmd_linkage)
+
+    sweep = sub.add_parser("sweep", help="distributed sweeps on Dask, chunked and resumable: the three "
+                           "Pandas' manipulability over random configurations, or iLQR reaching over target "
+                           "circles")
+    from gagen.sweep.command import add_arguments as sweep_arguments
+
+    sweep_arguments(sweep)
+    sweep.set_defaults(run=_cmd_sweep)
 
     args = parser.parse_args(argv)
     try:

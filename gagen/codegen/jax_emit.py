@@ -1,0 +1,99 @@
+"""Kernels as pure ``jax.numpy`` functions, emitted from the same flat graph as the C [issue 19, item 1].
+
+``jax_source(function)`` walks a CasADi SX Function's instructions in CasADi's order, as the C printer
+does (``gagen.codegen.backends.c.printer``), and writes one Python assignment per instruction on
+``jax.numpy``: the same operations in the same order, so the JAX kernel computes what the C kernel
+computes (to rounding: XLA may contract or reorder). Comparisons and the guards' selects become
+``jnp.where`` on 0/1 doubles, as CasADi evaluates them, so the functions trace, ``jit``, ``vmap`` and
+differentiate (``jax.grad``, ``jacfwd``) like any jnp code.
+
+``jax_kernel(module, name)`` gives a generated module's kernel that way, from its serialised CasADi
+Function: inputs are flat arrays (one per port, the C kernel's layout), outputs arrays shaped (rows,
+cols) like the C kernels'. JAX must run in float64 (``jax.config.update("jax_enable_x64", True)``;
+``jax_kernel`` does it). Not yet a module backend with committed files: built at load time.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import casadi as ca
+
+from gagen.codegen.backends.c.printer import _OPS, UnsupportedOperation, c_literal
+
+_BINARY = {"ADD": "{0} + {1}", "SUB": "{0} - {1}", "MUL": "{0} * {1}", "DIV": "{0} / {1}",
+           "LT": "jnp.where({0} < {1}, 1.0, 0.0)", "LE": "jnp.where({0} <= {1}, 1.0, 0.0)",
+           "EQ": "jnp.where({0} == {1}, 1.0, 0.0)", "NE": "jnp.where({0} != {1}, 1.0, 0.0)",
+           "AND": "jnp.where(({0} != 0) & ({1} != 0), 1.0, 0.0)",
+           "OR": "jnp.where(({0} != 0) | ({1} != 0), 1.0, 0.0)",
+           "IF_ELSE_ZERO": "jnp.where({0} != 0, {1}, 0.0)", "ATAN2": "jnp.arctan2({0}, {1})",
+           "POW": "jnp.power({0}, {1})", "CONSTPOW": "jnp.power({0}, {1})",
+           "FMIN": "jnp.minimum({0}, {1})", "FMAX": "jnp.maximum({0}, {1})",
+           "COPYSIGN": "jnp.copysign({0}, {1})", "FMOD": "jnp.fmod({0}, {1})", "HYPOT": "jnp.hypot({0}, {1})"}
+_UNARY = {"NEG": "-{0}", "SQ": "{0} * {0}", "TWICE": "{0} + {0}", "INV": "1.0 / {0}",
+          "NOT": "jnp.where({0} == 0, 1.0, 0.0)", "SIGN": "jnp.sign({0})", "FABS": "jnp.abs({0})",
+          "SQRT": "jnp.sqrt({0})", "SIN": "jnp.sin({0})", "COS": "jnp.cos({0})", "TAN": "jnp.tan({0})",
+          "ASIN": "jnp.arcsin({0})", "ACOS": "jnp.arccos({0})", "ATAN": "jnp.arctan({0})",
+          "SINH": "jnp.sinh({0})", "COSH": "jnp.cosh({0})", "TANH": "jnp.tanh({0})",
+          "ASINH": "jnp.arcsinh({0})", "ACOSH": "jnp.arccosh({0})", "ATANH": "jnp.arctanh({0})",
+          "EXP": "jnp.exp({0})", "LOG": "jnp.log({0})", "FLOOR": "jnp.floor({0})", "CEIL": "jnp.ceil({0})",
+          "LOG1P": "jnp.log1p({0})", "EXPM1": "jnp.expm1({0})"}
+
+
+def jax_source(function: ca.Function, name: str = "kernel") -> str:
+    """Python source of ``def <name>(in0, in1, …)`` evaluating ``function`` on jax.numpy (see the
+    module docstring); the outputs are returned as a tuple of (rows, cols) arrays."""
+    n_in, n_out = function.n_in(), function.n_out()
+    in_positions = [[int(i) for i in function.sparsity_in(i).find()] for i in range(n_in)]
+    out_positions = [[int(i) for i in function.sparsity_out(i).find()] for i in range(n_out)]
+    entries: list[list[str]] = [["0.0"] * function.numel_out(o) for o in range(n_out)]
+    lines = [f"def {name}({', '.join(f'in{i}' for i in range(n_in))}):"]
+    for k in range(function.n_instructions()):
+        op = _OPS.get(function.instruction_id(k), "?")
+        args, res = function.instruction_input(k), function.instruction_output(k)
+        w = [f"w{i}" for i in args]
+        if op == "OUTPUT":
+            # a later OUTPUT of the same slot never happens: each output entry is written once
+            lines.append(f"    o{res[0]}_{res[1]} = {w[0]}")
+            entries[res[0]][out_positions[res[0]][res[1]]] = f"o{res[0]}_{res[1]}"
+            continue
+        if op == "INPUT":
+            expr = f"in{args[0]}[{in_positions[args[0]][args[1]]}]"
+        elif op == "CONST":
+            value = function.instruction_constant(k)
+            expr = "jnp.nan" if value != value else c_literal(value).replace("INFINITY", "jnp.inf")
+        elif op in ("ASSIGN", "PARAMETER"):
+            expr = w[0]
+        elif op in _BINARY:
+            expr = _BINARY[op].format(*w)
+        elif op in _UNARY:
+            expr = _UNARY[op].format(*w)
+        else:
+            raise UnsupportedOperation(f"{function.name()}: no jax.numpy form for CasADi operation {op}")
+        lines.append(f"    w{res[0]} = {expr}")
+    outputs = []
+    for o in range(n_out):
+        rows, cols = function.size1_out(o), function.size2_out(o)
+        # column-major entries, as CasADi and the C kernels store them; a literal zero takes the dtype
+        stacked = ", ".join(f"jnp.asarray({e}, dtype=jnp.float64)" for e in entries[o]) or ""
+        outputs.append(f"jnp.stack([{stacked}]).reshape({cols}, {rows}).T" if entries[o]
+                       else f"jnp.zeros(({rows}, {cols}))")
+    lines.append(f"    return ({', '.join(outputs)},)")
+    return "\n".join(lines) + "\n"
+
+
+def jax_function(function: ca.Function, name: str = "kernel") -> Callable[..., tuple[Any, ...]]:
+    """The emitted function, compiled from its source (float64 JAX)."""
+    import jax
+    import jax.numpy as jnp
+
+    jax.config.update("jax_enable_x64", True)
+    namespace: dict[str, Any] = {"jnp": jnp}
+    exec(compile(jax_source(function, name), f"<gagen jax {name}>", "exec"), namespace)
+    return namespace[name]
+
+
+def jax_kernel(module: Any, name: str) -> Callable[..., tuple[Any, ...]]:
+    """A generated module's kernel ``name`` as a jax.numpy function (from its CasADi Function)."""
+    return jax_function(getattr(module.casadi, name), name)

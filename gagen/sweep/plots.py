@@ -1,0 +1,105 @@
+"""The sweeps' plots: a reachability map of target circles, and the similarity-manipulability index over
+the workspace (binned by the circle's centre). Both take the table a sweep wrote (``ChunkStore.read``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+from numpy.typing import NDArray
+
+FLOOR = 1e-12  # errors below this are drawn at it (a log colour scale has no 0)
+
+
+def _figure(size: tuple[float, float]) -> Any:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=size, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _column(table: pa.Table, name: str) -> NDArray:
+    return table.column(name).to_numpy()
+
+
+def reach_map(table: pa.Table, path: str | Path) -> Path:
+    """One panel per radius: the target centres' x-y grid coloured by the final error ‖e(q_N)‖ (log
+    scale), the reached targets ringed in white."""
+    from matplotlib.colors import LogNorm
+
+    x, y, radius = (_column(table, k) for k in ("centre_x", "centre_y", "radius"))
+    error, success = np.maximum(_column(table, "error"), FLOOR), _column(table, "success")
+    radii, xs, ys = np.unique(radius), np.unique(x), np.unique(y)
+    fig = _figure((4.6 * len(radii) + 0.6, 4.2))
+    norm = LogNorm(vmin=FLOOR, vmax=max(float(error.max()), 10 * FLOOR))
+    axes = fig.subplots(1, len(radii), squeeze=False)[0]
+    image = None
+    for ax, r in zip(axes, radii, strict=True):
+        mine = radius == r
+        grid = np.full((ys.size, xs.size), np.nan)
+        grid[np.searchsorted(ys, y[mine]), np.searchsorted(xs, x[mine])] = error[mine]
+        image = ax.pcolormesh(xs, ys, grid, norm=norm, cmap="viridis", shading="nearest")
+        reached = mine & success
+        ax.scatter(x[reached], y[reached], s=14, facecolors="none", edgecolors="white", linewidths=0.8)
+        ax.set(xlabel="centre x [m]", ylabel="centre y [m]", aspect="equal",
+               title=f"radius {r:g} m: reached {int(reached.sum())} of {int(mine.sum())}")
+    fig.colorbar(image, ax=list(axes), label="final error ‖e(q_N)‖ (ringed: reached)")
+    height = float(np.median(_column(table, "centre_z")))
+    fig.suptitle(f"three Pandas, iLQR from ready:\nhorizontal target circles at z = {height:.2f} m")
+    return _save(fig, path)
+
+
+def binned_median(a: NDArray, b: NDArray, value: NDArray, bins: int, ranges: list[tuple[float, float]]
+                  ) -> tuple[NDArray, NDArray, NDArray]:
+    """(median (bins_b, bins_a), a edges, b edges) of ``value`` over a bins × bins grid of (a, b); NaN in
+    empty bins, points outside ``ranges`` left out. The median, not the mean: the index spans decades
+    (near-collinear end points give huge circles), and a mean follows a bin's few largest values."""
+    a_edges, b_edges = (np.linspace(lo, hi, bins + 1) for lo, hi in ranges)
+    ia = np.searchsorted(a_edges, a, side="right") - 1
+    ib = np.searchsorted(b_edges, b, side="right") - 1
+    ia[a == a_edges[-1]] = bins - 1  # the last bin is closed on the right, as in np.histogram
+    ib[b == b_edges[-1]] = bins - 1
+    inside = (ia >= 0) & (ia < bins) & (ib >= 0) & (ib < bins)
+    flat = ib[inside] * bins + ia[inside]
+    order = np.argsort(flat, kind="stable")
+    keys, starts = np.unique(flat[order], return_index=True)
+    medians = np.full(bins * bins, np.nan)
+    for key, group in zip(keys, np.split(value[inside][order], starts[1:]), strict=True):
+        medians[key] = np.median(group)
+    return medians.reshape(bins, bins), a_edges, b_edges
+
+
+def manipulability_map(table: pa.Table, path: str | Path, bins: int = 40) -> Path:
+    """The median similarity-manipulability index of the sampled configurations binned by their circle's
+    centre: over x-y (top view) and x-z (side view), within the 1-99 % quantiles of the centres."""
+    from matplotlib.colors import LogNorm
+
+    centre = {k: _column(table, f"centre_{k}") for k in "xyz"}
+    index = _column(table, "index")
+    finite = np.isfinite(index) & np.all([np.isfinite(c) for c in centre.values()], axis=0) & (index > 0)
+    ranges = {k: tuple(np.quantile(c[finite], [0.01, 0.99])) for k, c in centre.items()}
+    fig = _figure((11, 4.6))
+    axes = fig.subplots(1, 2)
+    image = None
+    values = index[finite]
+    norm = LogNorm(vmin=float(np.quantile(values, 0.02)), vmax=float(np.quantile(values, 0.98)))
+    for ax, (a, b) in zip(axes, (("x", "y"), ("x", "z")), strict=True):
+        median, a_edges, b_edges = binned_median(centre[a][finite], centre[b][finite], values, bins,
+                                                 [ranges[a], ranges[b]])
+        image = ax.pcolormesh(a_edges, b_edges, median, norm=norm, cmap="magma")
+        ax.set(xlabel=f"circle centre {a} [m]", ylabel=f"circle centre {b} [m]", aspect="equal",
+               title=f"median index by centre {a}-{b}")
+    fig.colorbar(image, ax=list(axes), label="similarity-manipulability index (median per bin)")
+    fig.suptitle(f"three Pandas: {int(finite.sum())} random configurations within the joint limits")
+    return _save(fig, path)
+
+
+def _save(fig: Any, path: str | Path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    return path
