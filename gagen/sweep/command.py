@@ -9,33 +9,15 @@ import argparse
 import sys
 from pathlib import Path
 
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
-    return value
-
-
-def _positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not value > 0 or value == float("inf"):
-        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
-    return value
+from gagen.cli import non_negative_int, positive_float, positive_int
 
 
 def _common(parser: argparse.ArgumentParser, chunk: int) -> None:
     parser.add_argument("--out", required=True, help="folder of the chunk files, sweep.json and the plot; "
                         "a re-run into it skips the finished chunks")
-    parser.add_argument("--workers", type=_positive_int, default=2,
+    parser.add_argument("--workers", type=positive_int, default=2,
                         help="worker processes of the local cluster (default 2; ignored with --scheduler)")
-    parser.add_argument("--chunk", type=_positive_int, default=chunk,
+    parser.add_argument("--chunk", type=positive_int, default=chunk,
                         help=f"rows per chunk (default {chunk})")
     parser.add_argument("--scheduler", help="address of a running Dask scheduler (tcp://host:8786) instead "
                         "of a local cluster")
@@ -47,20 +29,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     manipulability = kinds.add_parser("manipulability", help="the similarity-manipulability index of the "
                                       "three Pandas over random configurations, by the circle's centre")
     _common(manipulability, 10_000)
-    manipulability.add_argument("--samples", type=_positive_int, default=200_000,
+    manipulability.add_argument("--samples", type=positive_int, default=200_000,
                                 help="random configurations (default 200000)")
-    manipulability.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    manipulability.add_argument("--seed", type=non_negative_int, default=0, help="random seed (default 0)")
     reach = kinds.add_parser("reach", help="iLQR reaching of a grid of horizontal target circles by the "
                              "three Pandas: success and final error per target, a reachability map")
     _common(reach, 16)
-    reach.add_argument("--grid", type=_positive_int, default=21, help="centres per axis (default 21)")
+    reach.add_argument("--grid", type=positive_int, default=21, help="centres per axis (default 21)")
     reach.add_argument("--span", type=float, default=0.6,
                        help="half-width of the centre grid, m (default 0.6)")
-    reach.add_argument("--radius", type=_positive_float, action="append",
+    reach.add_argument("--radius", type=positive_float, action="append",
                        help="target radius, m; repeat for several (default 0.5)")
     reach.add_argument("--height", type=float, default=0.59, help="the circles' height, m (default 0.59: "
                        "the ready configuration's)")
-    reach.add_argument("--N", type=_positive_int, default=50, help="iLQR time steps (default 50)")
+    reach.add_argument("--N", type=positive_int, default=50, help="iLQR time steps (default 50)")
 
 
 def run(args: argparse.Namespace) -> int:

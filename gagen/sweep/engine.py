@@ -117,10 +117,13 @@ def _compute(client: object, sweep: Sweep, todo: list[int], store: ChunkStore, o
         # with_results: the rows are gathered in the background as tasks finish, not one round trip each;
         # raise_errors=False: a chunk whose task raised comes back as its exception, the others go on
         for future, result in as_completed(list(futures), with_results=True, raise_errors=False):
-            index, failed = futures.pop(future), future.status == "error"
+            index, status = futures.pop(future), future.status
             future.release()  # the rows live on a worker until released: a long sweep would pile up
-            if failed:  # the result is then (type, exception, traceback)
+            if status == "error":  # the result is then (type, exception, traceback)
                 outcome.failed[index] = f"{type(result[1]).__name__}: {result[1]}"
+                continue
+            if status != "finished":  # cancelled: the scheduler went away or someone cancelled it
+                outcome.failed[index] = f"task {status}"
                 continue
             _, table = result
             store.write(index, table)

@@ -200,7 +200,7 @@ def test_the_command_line_refuses_bad_arguments(tmp_path, capsys):
     with pytest.raises(SystemExit) as exit_:
         main(["sweep", "manipulability", "--out", str(tmp_path), "--samples", "0"])
     assert exit_.value.code == 2
-    assert "--samples: expected a positive integer, got '0'" in capsys.readouterr().err
+    assert "--samples: expected an integer >= 1, got '0'" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         main(["sweep", "reach", "--out", str(tmp_path), "--radius", "-1"])
     assert "--radius: expected a finite number > 0, got '-1'" in capsys.readouterr().err
