@@ -27,7 +27,7 @@ NOT_IN_KEY = {"build.py", "codegen", "runtime.py", "cli.py", "check.py", "report
               "apps/cooperative/scenarios.py", "apps/cooperative/nullspace_demo.py",
               "apps/cooperative/goals.py", "apps/cooperative/impedance_demo.py", "apps/cooperative/teleop.py",
               "apps/cooperative/teleop_input.py", "apps/cooperative/mpc_demo.py", "apps/hexapod", "dynamics",
-              "viewer",
+              "viewer", "sweep",
               "crosscheck.py", "goals.py", "conventions.py", "control", "interp"}
 
 
