@@ -15,6 +15,7 @@ cols) like the C kernels'. JAX must run in float64 (``jax.config.update("jax_ena
 
 from __future__ import annotations
 
+import keyword
 from collections.abc import Callable
 from typing import Any
 
@@ -43,7 +44,10 @@ _UNARY = {"NEG": "-{0}", "SQ": "{0} * {0}", "TWICE": "{0} + {0}", "INV": "1.0 / 
 
 def jax_source(function: ca.Function, name: str = "kernel") -> str:
     """Python source of ``def <name>(in0, in1, …)`` evaluating ``function`` on jax.numpy (see the
-    module docstring); the outputs are returned as a tuple of (rows, cols) arrays."""
+    module docstring); the outputs are returned as a tuple of (rows, cols) arrays. ``name`` must be a
+    Python identifier and no keyword: it is written into the source that is executed."""
+    if not (isinstance(name, str) and name.isidentifier() and not keyword.iskeyword(name)):
+        raise ValueError(f"a JAX kernel's name must be a Python identifier and no keyword, got {name!r}")
     n_in, n_out = function.n_in(), function.n_out()
     in_positions = [[int(i) for i in function.sparsity_in(i).find()] for i in range(n_in)]
     out_positions = [[int(i) for i in function.sparsity_out(i).find()] for i in range(n_out)]

@@ -101,3 +101,12 @@ def test_unsupported_operations_are_named():
     x = ca.SX.sym("x")
     with pytest.raises(UnsupportedOperation, match=r"no jax\.numpy form for CasADi operation ERF"):
         jax_source(ca.Function("f", [x], [ca.erf(x)]))
+
+
+@pytest.mark.parametrize("name", ["f(): pass\nimport os\ndef g", "class", "a b", "", "1x"])
+def test_a_hostile_name_never_reaches_the_executed_source(name):
+    import casadi as ca
+
+    x = ca.SX.sym("x")
+    with pytest.raises(ValueError, match="must be a Python identifier"):
+        jax_source(ca.Function("f", [x], [x * 2]), name)
