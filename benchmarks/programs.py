@@ -8,7 +8,8 @@ Every program is built into benchmarks/build/, redone only when its command or a
 - ``gagen_fk``, ``gagen_fk_O3``: gagen_fk_bench.c linked to generated/panda_point/panda_point.c compiled
   with gagen's own flags (gagen.codegen.compiler.FLAGS), and with the same flags but -O3;
 - ``circle``: circle_bench.c linked to generated/three_pandas_circle/three_pandas_circle.c, gagen's flags;
-- ``impedance``: impedance_step.cpp (Pinocchio, Eigen) linked to generated/three_iiwas_circle's C.
+- ``impedance``: impedance_step.cpp (Pinocchio, Eigen) linked to generated/three_iiwas_circle's C;
+- ``floor``: floor_bench.c, gagen's flags: 8 angles' vector sine and cosine, and one flop's time.
 
 The drivers (the *_bench.c timing loops) are compiled with -O3 -march=native; only the kernels' flags
 differ between gagen_fk and gagen_fk_O3.
@@ -31,7 +32,7 @@ BUILD = BENCH / "build"
 GENERATED = ROOT / "generated"
 DRIVER_CFLAGS = ["-std=c99", "-O3", "-march=native"]
 CXXFLAGS = ["-std=c++17", "-O3", "-march=native", "-DNDEBUG", "-w"]
-PROGRAMS = ("pinocchio", "matrix_chain", "gagen_fk", "gagen_fk_O3", "circle", "impedance")
+PROGRAMS = ("pinocchio", "matrix_chain", "gagen_fk", "gagen_fk_O3", "circle", "impedance", "floor")
 
 
 def c_compiler() -> list[str]:
@@ -179,6 +180,13 @@ def build(wanted: set[str], force: bool = False) -> tuple[dict[str, Path], list[
         links.append(_link(["g++"], [kernels, simd, driver], BUILD / "impedance_step",
                            [*pin["libs"], *_vector_libs(), "-lm"]))
         programs["impedance"] = BUILD / "impedance_step"
+
+    if "floor" in wanted:  # with gagen's flags: the vector sine and cosine its kernels call
+        floor = BUILD / "floor_bench.o"
+        objects.append(_compile(cc, [*gagen_cflags(), f"-I{BENCH}"], BENCH / "floor_bench.c", floor,
+                                [harness]))
+        links.append(_link(cc, [floor], BUILD / "floor_bench", [*_vector_libs(), "-lm"]))
+        programs["floor"] = BUILD / "floor_bench"
 
     if "matrix_chain" in wanted:
         import matrix_chain

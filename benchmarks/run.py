@@ -185,6 +185,21 @@ def flag_label(optimisation: str | None = None) -> str:
     return f"`{level}`" if optimisation else f"`{level}` (gagen's)"
 
 
+def floor_ns(floor: dict, ops: dict) -> float:
+    """A kernel's floor on this machine [issue 19, item 2]: one 8-lane vector sine and cosine per 8 of
+    its angles, plus its flops at the scalar add/multiply throughput."""
+    angles = ops.get("calls", {}).get("sin", 0)
+    return -(-angles // 8) * floor["sincos8_ns"] + ops["flops"] * floor["flop_ns"]
+
+
+def floor_note(floor: dict) -> str:
+    how = (f"glibc's libmvec, {floor['vector']:.0f} lanes a call" if floor["vector"] else
+           "libm: no libmvec in this build")
+    return (f"- floor of a kernel: {fmt_ns(floor['sincos8_ns'])} ns per 8 angles (sine and cosine of 8 "
+            f"angles, {how}) + its flops × {floor['flop_ns']:.3f} ns (a scalar add or multiply at full "
+            "throughput); benchmarks/floor_bench.c, gagen's flags")
+
+
 def ops_cell(ops: dict) -> str:
     calls = ops.get("calls", {})
     paired = calls.get("sin") and calls.get("sin") == calls.get("cos")
@@ -230,10 +245,18 @@ def section_fk(ctx: Context) -> Section:
     ratio_fkj = g1["fk_jacobian_ns"] / ref_fkj
     fkj_target = s.target("Panda FK + J (gagen's flags) vs Pinocchio C++ (FK + computeFrameJacobian)",
                           ratio_fkj, 0.25, "×")
+    floor = ctx.run("floor")
+    fkj_floor = floor_ns(floor, kernel_entry(PANDA, "arm0_fk_jacobian")["op_count"])
+    floor_target = s.target("Panda FK + J single call vs its floor (8-lane sin + cos + flops)",
+                            g1["fk_jacobian_ns"] / fkj_floor, 1.5, "×")
     o1, o3 = flag_label(), flag_label("-O3")
     rows = [  # task, method, flags, ns, reference, flops, target
         ("floor", "7 × (sin, cos) of the joint values alone (libm)", "`-O3`", mc["sincos7_ns"], ref_fk,
          "0 + 7 sincos", ""),
+        ("floor", "sin + cos of 8 angles, vector (gagen's `gagen_sincos`)", o1, floor["sincos8_ns"], ref_fk,
+         "0 + 8 sincos", ""),
+        ("floor", "FK + 6×7 J: 8-lane sin + cos + its flops at the scalar add/mul rate", o1, fkj_floor,
+         ref_fkj, fkj_ops, ""),
         ("Panda FK", "Pinocchio C++: forwardKinematics + updateFramePlacement", "`-O3`", pin["fk_ns"], ref_fk,
          "–", ""),
         ("Panda FK", "4×4 matrix chain (CasADi SX → C)", "`-O3`", mc["fk_ns"], ref_fk, mc_cell("mc_fk"), ""),
@@ -252,7 +275,7 @@ def section_fk(ctx: Context) -> Section:
         ("FK + 6×7 J", "4×4 matrix chain, geometric J [z_i × (p_e − p_i); z_i]", "`-O3`",
          mc["fk_jacobian_geo_ns"], ref_fkj, mc_cell("mc_fk_jacobian_geo"), ""),
         ("FK + 6×7 J", "gagen `panda_point_arm0_fk_jacobian` (J_S = WORLD)", o1, g1["fk_jacobian_ns"],
-         ref_fkj, fkj_ops, fkj_target),
+         ref_fkj, fkj_ops, f"{fkj_target}; {floor_target} floor"),
         ("FK + 6×7 J", "gagen `panda_point_arm0_fk_jacobian` (J_S = WORLD)", o3, g3["fk_jacobian_ns"],
          ref_fkj, fkj_ops, ""),
         ("FK + 6×7 J", "gagen `panda_point_arm0_fk_jacobian_batch` (n = 1000, per configuration)", o1,
@@ -272,6 +295,7 @@ def section_fk(ctx: Context) -> Section:
         f"`{' '.join(programs.CXXFLAGS[:3])}`; matrix chain and timing loops "
         f"`{' '.join(programs.DRIVER_CFLAGS)}`",
         f"- {pin['n_configs']:.0f} configurations, median of {ctx.repeats} loops",
+        floor_note(floor),
         "- max |difference| from Pinocchio C++ at the first configuration (position, WORLD Jacobian): "
         f"gagen {check_gagen_fk(pin, g1):.1e} (`-O3`: {check_gagen_fk(pin, g3):.1e}), matrix chain "
         f"{max(np.max(np.abs(np.subtract(mc[k], pin[k]))) for k in ('p0', 'J0')):.1e}; matrix chain vs "
@@ -356,9 +380,15 @@ def section_circle(ctx: Context) -> Section:
     def ops(name):
         return str(kernel_entry(CIRCLE, name)["op_count"]["flops"])
 
+    floor = ctx.run("floor")
+    similarity_floor = floor_ns(floor, kernel_entry(CIRCLE, "similarity")["op_count"])
     rows = [  # measurement, flags, ns, flops, target
+        ("floor of `similarity`: its angles' 8-lane sin + cos + its flops at the scalar add/mul rate", o1,
+         similarity_floor, ops("similarity"), ""),
         ("`similarity` (V_Sc, conditioning, J_G,Sc): one call", o1, c["similarity_ns"], ops("similarity"),
-         s.target("three-Panda circle V_Sc + J_G,Sc per evaluation (C)", c["similarity_ns"], 1000, "ns")),
+         s.target("three-Panda circle V_Sc + J_G,Sc per evaluation (C)", c["similarity_ns"], 1000, "ns")
+         + "; " + s.target("three-Panda circle V_Sc + J_G,Sc vs its floor",
+                           c["similarity_ns"] / similarity_floor, 2.0, "×") + " floor"),
         ("`similarity_batch`, n = 1000, per configuration", o1, c["similarity_batch_ns"], ops("similarity"),
          ""),
         (f"`similarity_batch`, n = {fmt_count(big)}, per configuration", o1,
@@ -403,6 +433,7 @@ def section_circle(ctx: Context) -> Section:
              f"{BIG_REPEATS}; one thread. Kernels compiled with gagen's "
              f"`{' '.join(programs.gagen_cflags())}`",
              "- task's V_Sd: V_Sc at the last configuration",
+             floor_note(floor),
              f"- C `similarity` vs its CasADi Function (`m.casadi.similarity`) at the first configuration: "
              f"max |difference| {diff:.1e}",
              f"- {generated_status(CIRCLE)}"]
@@ -608,9 +639,9 @@ def main(argv=None) -> int:
 
     wanted = set()
     if "fk" in selected:
-        wanted |= {"pinocchio", "matrix_chain", "gagen_fk", "gagen_fk_O3"}
+        wanted |= {"pinocchio", "matrix_chain", "gagen_fk", "gagen_fk_O3", "floor"}
     if "circle" in selected:
-        wanted |= {"circle", "gagen_fk", "gagen_fk_O3"}
+        wanted |= {"circle", "gagen_fk", "gagen_fk_O3", "floor"}
     for folder in (PANDA, CIRCLE) if wanted else ():
         if not (folder / "manifest.json").exists():
             raise SystemExit(f"{os.path.relpath(folder, ROOT)} is missing: run "

@@ -10,8 +10,8 @@ system's kernel catalogue, ``gagen.apps.cooperative.module``) or a Python file's
 - ``manifest.json``: the module, its backends, kernels, ports (row labels, shapes, layout), op counts
   and every other file with its sha256;
 - the backends' files: ``casadi/<kernel>.casadi.gz``; ``<name>.h``, ``<name>.c``, ``<name>_simd.c``;
-  ``<name>_binding.c``;
-- ``__init__.py``: the Python module (a namespace per backend that has one: ``casadi``, ``c``);
+  ``<name>_binding.c``; ``<name>_jax.py``;
+- ``__init__.py``: the Python module (a namespace per backend that has one: ``casadi``, ``c``, ``jax``);
 - not committed: the compiled ``lib<name>_<tag>.so`` and binding ``_gagen_<name>_<tag>`` (``<tag>``:
   12 hex digits over the files' sha256; compiled on first use if absent), and ``.build-key``.
 

@@ -1,4 +1,5 @@
-"""Loading a generated module (``gagen.load(path)``): its manifest, CasADi Functions, and the C kernels.
+"""Loading a generated module (``gagen.load(path)``): its manifest, CasADi Functions, the C kernels and
+the JAX kernels.
 
 Calling a C kernel ``k = module.c.<kernel>``:
 
@@ -31,6 +32,13 @@ Inputs, the same rules on both paths and in the batches:
   and integer arrays and Python lists/scalars of numbers are converted to float64 (exact for
   integers up to 2**53). bool, complex, str/bytes, object and long-double (float128) inputs are
   refused with a TypeError naming the input: the conversion would drop or invent information.
+
+A JAX kernel ``module.jax.<kernel>`` (the ``jax`` backend, ``<name>_jax.py``) is a plain jax.numpy
+function with the same inputs (shapes as above; bool and complex refused), returning jax arrays of the
+same shapes, one output alone; float64 (loading it turns on ``jax_enable_x64``). No ``out``, ``bind``
+or ``batch``: it is pure, for ``jax.jit``, ``jax.vmap`` (the batch), ``jax.grad``/``jacfwd``. The file
+runs only if its sha256 is the manifest's. jax is optional: without it the module loads and
+``module.jax.<kernel>`` raises an ImportError saying what to install.
 """
 
 from __future__ import annotations
@@ -424,7 +432,7 @@ def _folder_lock(folder: Path) -> Iterator[None]:
 
 class GeneratedModule:
     """A folder written by ``gagen build``: its manifest, and a namespace of kernels per backend that
-    has one (``casadi``, ``c``), made from the manifest's ``"backends"`` through the registry
+    has one (``casadi``, ``c``, ``jax``), made from the manifest's ``"backends"`` through the registry
     (``gagen.codegen.backends``). What a backend compiles (the C library, the CPython binding) is
     compiled here on first use if the folder has only its sources."""
 

@@ -7,16 +7,19 @@ computes (to rounding: XLA may contract or reorder). Comparisons and the guards'
 ``jnp.where`` on 0/1 doubles, as CasADi evaluates them, so the functions trace, ``jit``, ``vmap`` and
 differentiate (``jax.grad``, ``jacfwd``) like any jnp code.
 
-``jax_kernel(module, name)`` gives a generated module's kernel that way, from its serialised CasADi
-Function: inputs are flat arrays (one per port, the C kernel's layout), outputs arrays shaped (rows,
-cols) like the C kernels'. JAX must run in float64 (``jax.config.update("jax_enable_x64", True)``;
-``jax_kernel`` does it). Not yet a module backend with committed files: built at load time.
+The ``jax`` backend (``gagen.codegen.backends.jax``) writes these statements into a module's committed
+``<name>_jax.py`` (``module.jax.<kernel>``: the C kernels' calling convention, no CasADi at load
+time). ``jax_kernel(module, name)`` is the raw form, emitted from a module's serialised CasADi
+Function when called (any module with the ``casadi`` backend): inputs flat arrays (one per port, the C
+kernel's layout), outputs always a tuple of (rows, cols) arrays. JAX must run in float64
+(``jax.config.update("jax_enable_x64", True)``; ``jax_kernel`` does it). Emitting needs only CasADi.
 """
 
 from __future__ import annotations
 
 import keyword
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import casadi as ca
@@ -30,7 +33,7 @@ _BINARY = {"ADD": "{0} + {1}", "SUB": "{0} - {1}", "MUL": "{0} * {1}", "DIV": "{
            "OR": "jnp.where(({0} != 0) | ({1} != 0), 1.0, 0.0)",
            "IF_ELSE_ZERO": "jnp.where({0} != 0, {1}, 0.0)", "ATAN2": "jnp.arctan2({0}, {1})",
            "POW": "jnp.power({0}, {1})", "CONSTPOW": "jnp.power({0}, {1})",
-           "FMIN": "jnp.minimum({0}, {1})", "FMAX": "jnp.maximum({0}, {1})",
+           "FMIN": "jnp.fmin({0}, {1})", "FMAX": "jnp.fmax({0}, {1})",
            "COPYSIGN": "jnp.copysign({0}, {1})", "FMOD": "jnp.fmod({0}, {1})", "HYPOT": "jnp.hypot({0}, {1})"}
 _UNARY = {"NEG": "-{0}", "SQ": "{0} * {0}", "TWICE": "{0} + {0}", "INV": "1.0 / {0}",
           "NOT": "jnp.where({0} == 0, 1.0, 0.0)", "SIGN": "jnp.sign({0})", "FABS": "jnp.abs({0})",
@@ -42,24 +45,30 @@ _UNARY = {"NEG": "-{0}", "SQ": "{0} * {0}", "TWICE": "{0} + {0}", "INV": "1.0 / 
           "LOG1P": "jnp.log1p({0})", "EXPM1": "jnp.expm1({0})"}
 
 
-def jax_source(function: ca.Function, name: str = "kernel") -> str:
-    """Python source of ``def <name>(in0, in1, …)`` evaluating ``function`` on jax.numpy (see the
-    module docstring); the outputs are returned as a tuple of (rows, cols) arrays. ``name`` must be a
-    Python identifier and no keyword: it is written into the source that is executed."""
-    if not (isinstance(name, str) and name.isidentifier() and not keyword.iskeyword(name)):
-        raise ValueError(f"a JAX kernel's name must be a Python identifier and no keyword, got {name!r}")
+@dataclass(frozen=True)
+class JaxBody:
+    """A Function's jax.numpy statements (one assignment each, unindented, reading inputs ``in<i>``:
+    flat arrays, CasADi's nonzeros in column-major order) and per output its column-major entries (a
+    local ``o<i>_<j>`` or the literal ``0.0`` of a structural zero) and its (rows, cols)."""
+
+    statements: list[str]
+    outputs: list[tuple[list[str], int, int]]
+
+
+def jax_body(function: ca.Function) -> JaxBody:
+    """The statements of ``function`` on jax.numpy (see the module docstring), in CasADi's order."""
     n_in, n_out = function.n_in(), function.n_out()
     in_positions = [[int(i) for i in function.sparsity_in(i).find()] for i in range(n_in)]
     out_positions = [[int(i) for i in function.sparsity_out(i).find()] for i in range(n_out)]
     entries: list[list[str]] = [["0.0"] * function.numel_out(o) for o in range(n_out)]
-    lines = [f"def {name}({', '.join(f'in{i}' for i in range(n_in))}):"]
+    lines = []
     for k in range(function.n_instructions()):
         op = _OPS.get(function.instruction_id(k), "?")
         args, res = function.instruction_input(k), function.instruction_output(k)
         w = [f"w{i}" for i in args]
         if op == "OUTPUT":
             # a later OUTPUT of the same slot never happens: each output entry is written once
-            lines.append(f"    o{res[0]}_{res[1]} = {w[0]}")
+            lines.append(f"o{res[0]}_{res[1]} = {w[0]}")
             entries[res[0]][out_positions[res[0]][res[1]]] = f"o{res[0]}_{res[1]}"
             continue
         if op == "INPUT":
@@ -75,15 +84,30 @@ def jax_source(function: ca.Function, name: str = "kernel") -> str:
             expr = _UNARY[op].format(*w)
         else:
             raise UnsupportedOperation(f"{function.name()}: no jax.numpy form for CasADi operation {op}")
-        lines.append(f"    w{res[0]} = {expr}")
-    outputs = []
-    for o in range(n_out):
-        rows, cols = function.size1_out(o), function.size2_out(o)
-        # column-major entries, as CasADi and the C kernels store them; a literal zero takes the dtype
-        stacked = ", ".join(f"jnp.asarray({e}, dtype=jnp.float64)" for e in entries[o]) or ""
-        outputs.append(f"jnp.stack([{stacked}]).reshape({cols}, {rows}).T" if entries[o]
-                       else f"jnp.zeros(({rows}, {cols}))")
-    lines.append(f"    return ({', '.join(outputs)},)")
+        lines.append(f"w{res[0]} = {expr}")
+    return JaxBody(lines, [(entries[o], function.size1_out(o), function.size2_out(o)) for o in range(n_out)])
+
+
+def stacked(entries: list[str], rows: int, cols: int, matrix: bool = True) -> str:
+    """The expression of one output from its column-major entries: a (rows, cols) array, or with
+    ``matrix=False`` a 1-D (rows * cols,) one."""
+    if not entries:
+        return f"jnp.zeros(({rows}, {cols}))" if matrix else f"jnp.zeros(({rows * cols},))"
+    # a literal zero takes the dtype
+    flat = f"jnp.stack([{', '.join(f'jnp.asarray({e}, dtype=jnp.float64)' for e in entries)}])"
+    return f"{flat}.reshape({cols}, {rows}).T" if matrix else flat
+
+
+def jax_source(function: ca.Function, name: str = "kernel") -> str:
+    """Python source of ``def <name>(in0, in1, …)`` evaluating ``function`` on jax.numpy (see the
+    module docstring); the outputs are returned as a tuple of (rows, cols) arrays. ``name`` must be a
+    Python identifier and no keyword: it is written into the source that is executed."""
+    if not (isinstance(name, str) and name.isidentifier() and not keyword.iskeyword(name)):
+        raise ValueError(f"a JAX kernel's name must be a Python identifier and no keyword, got {name!r}")
+    body = jax_body(function)
+    lines = [f"def {name}({', '.join(f'in{i}' for i in range(function.n_in()))}):"]
+    lines += [f"    {s}" for s in body.statements]
+    lines.append(f"    return ({', '.join(stacked(*o) for o in body.outputs)},)")
     return "\n".join(lines) + "\n"
 
 

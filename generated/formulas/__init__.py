@@ -2,11 +2,13 @@
 
 From formulas.py (sha256 4568caa89bea0042). Do not edit: run `gagen build formulas.py`.
 
-    from generated.formulas import casadi, c
+    from generated.formulas import casadi, c, jax
     casadi.move_point       # casadi.Function: numbers, SX or MX (drops into casadi.nlpsol)
     c.move_point(...)       # compiled C (CPython binding): numpy in, numpy out
     c.move_point.batch(...) # n samples at once, shape (n, size) each
     c.move_point.batch_columns(...)  # the same with samples last, (size, n): fastest for large n
+    jax.move_point(...)     # jax.numpy, float64 (needs jax): jit, vmap, grad; next to the
+                               # jax package: from generated.formulas import jax as formulas_jax
 
 Kernels: circle_through, circle_distance, plane_meet, move_point.
 Shapes, row labels and op counts are in manifest.json (``MANIFEST``).
@@ -20,3 +22,4 @@ _MODULE = GeneratedModule(Path(__file__).resolve().parent)
 MANIFEST = _MODULE.manifest
 casadi = _MODULE.casadi
 c = _MODULE.c
+jax = _MODULE.jax

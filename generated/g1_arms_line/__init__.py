@@ -2,11 +2,13 @@
 
 From g1_arms_line.yaml (sha256 99843ee907d52765). Do not edit: run `gagen build g1_arms_line.yaml`.
 
-    from generated.g1_arms_line import casadi, c
+    from generated.g1_arms_line import casadi, c, jax
     casadi.dual_task_jacobians       # casadi.Function: numbers, SX or MX (drops into casadi.nlpsol)
     c.dual_task_jacobians(...)       # compiled C (CPython binding): numpy in, numpy out
     c.dual_task_jacobians.batch(...) # n samples at once, shape (n, size) each
     c.dual_task_jacobians.batch_columns(...)  # the same with samples last, (size, n): fastest for large n
+    jax.dual_task_jacobians(...)     # jax.numpy, float64 (needs jax): jit, vmap, grad; next to the
+                               # jax package: from generated.g1_arms_line import jax as g1_arms_line_jax
 
 Kernels: left_hand_fk, left_hand_fk_jacobian, left_hand_jacobians, right_hand_fk, right_hand_fk_jacobian, right_hand_jacobians, primitive, similarity, similarity_jacobians, task, similarity_rate, dual_task, dual_task_jacobians.
 Shapes, row labels and op counts are in manifest.json (``MANIFEST``).
@@ -20,3 +22,4 @@ _MODULE = GeneratedModule(Path(__file__).resolve().parent)
 MANIFEST = _MODULE.manifest
 casadi = _MODULE.casadi
 c = _MODULE.c
+jax = _MODULE.jax

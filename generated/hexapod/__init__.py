@@ -2,11 +2,13 @@
 
 From hexapod.yaml (sha256 f62e7f131a0a2db2). Do not edit: run `gagen build hexapod.yaml`.
 
-    from generated.hexapod import casadi, c
+    from generated.hexapod import casadi, c, jax
     casadi.ground_cga       # casadi.Function: numbers, SX or MX (drops into casadi.nlpsol)
     c.ground_cga(...)       # compiled C (CPython binding): numpy in, numpy out
     c.ground_cga.batch(...) # n samples at once, shape (n, size) each
     c.ground_cga.batch_columns(...)  # the same with samples last, (size, n): fastest for large n
+    jax.ground_cga(...)     # jax.numpy, float64 (needs jax): jit, vmap, grad; next to the
+                               # jax package: from generated.hexapod import jax as hexapod_jax
 
 Kernels: front_left_fk_pga, front_left_fk_cga, front_left_ik, front_left_dls, middle_left_fk_pga, middle_left_fk_cga, middle_left_ik, middle_left_dls, rear_left_fk_pga, rear_left_fk_cga, rear_left_ik, rear_left_dls, rear_right_fk_pga, rear_right_fk_cga, rear_right_ik, rear_right_dls, middle_right_fk_pga, middle_right_fk_cga, middle_right_ik, middle_right_dls, front_right_fk_pga, front_right_fk_cga, front_right_ik, front_right_dls, body_fk_pga, body_fk_cga, body_ik, body_contact_pga, body_contact_cga, ground_pga, ground_cga.
 Shapes, row labels and op counts are in manifest.json (``MANIFEST``).
@@ -20,3 +22,4 @@ _MODULE = GeneratedModule(Path(__file__).resolve().parent)
 MANIFEST = _MODULE.manifest
 casadi = _MODULE.casadi
 c = _MODULE.c
+jax = _MODULE.jax

@@ -138,6 +138,21 @@ static inline void gagen_store_columns(double *p, gagen_v v, int stream) {
 #endif
   memcpy(p, &v, sizeof v);
 }
+/* Streamed through a tile: with vectors narrower than a 64-byte line (AVX2, SSE2) each output row's
+ * line is filled by 64 / (8 GAGEN_W) stores from as many blocks, and with one open line per row (55
+ * for the Panda FK + J) the write-combining buffers spill partial lines (AMD EPYC Zen 3, n = 100 000:
+ * 194 ns per sample, against 51 sample-major). So GAGEN_LINE samples at a time are computed into a
+ * tile on the stack, and each row's line is then stored whole (49 ns). */
+#define GAGEN_LINE 8
+static inline void gagen_tile_in(double *tile, const double *p, long ld, int rows) {
+  for (int k = 0; k < rows; ++k)
+    for (int l = 0; l < GAGEN_LINE; ++l) tile[k * GAGEN_LINE + l] = p[k * ld + l];
+}
+static inline void gagen_tile_out(double *p, long ld, const double *tile, int rows) {
+  for (int k = 0; k < rows; ++k)
+    for (int l = 0; l < GAGEN_LINE; l += GAGEN_W)
+      gagen_store_columns(p + k * ld + l, gagen_load_columns(tile + k * GAGEN_LINE + l), 1);
+}
 static inline void gagen_stream_fence(int stream) {
 #if GAGEN_HAVE_STREAM
   if (stream) _mm_sfence();
@@ -557,6 +572,25 @@ void hexapod_front_left_fk_pga_batch_columns(long gagen_n, long gagen_ld, const 
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 42L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_M[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_toe[4 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_p[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J[9 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_S[18 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 3);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_front_left_fk_pga_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_M + gagen_l, gagen_t_out_toe + gagen_l, gagen_t_out_p + gagen_l, gagen_t_out_J + gagen_l, gagen_t_out_S + gagen_l);
+      }
+      gagen_tile_out(out_M + gagen_s, gagen_ld, gagen_t_out_M, 8);
+      gagen_tile_out(out_toe + gagen_s, gagen_ld, gagen_t_out_toe, 4);
+      gagen_tile_out(out_p + gagen_s, gagen_ld, gagen_t_out_p, 3);
+      gagen_tile_out(out_J + gagen_s, gagen_ld, gagen_t_out_J, 9);
+      gagen_tile_out(out_S + gagen_s, gagen_ld, gagen_t_out_S, 18);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_front_left_fk_pga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
   }
@@ -1049,6 +1083,25 @@ void hexapod_front_left_fk_cga_batch_columns(long gagen_n, long gagen_ld, const 
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 43L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_M[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_toe[5 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_p[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J[9 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_S[18 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 3);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_front_left_fk_cga_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_M + gagen_l, gagen_t_out_toe + gagen_l, gagen_t_out_p + gagen_l, gagen_t_out_J + gagen_l, gagen_t_out_S + gagen_l);
+      }
+      gagen_tile_out(out_M + gagen_s, gagen_ld, gagen_t_out_M, 8);
+      gagen_tile_out(out_toe + gagen_s, gagen_ld, gagen_t_out_toe, 5);
+      gagen_tile_out(out_p + gagen_s, gagen_ld, gagen_t_out_p, 3);
+      gagen_tile_out(out_J + gagen_s, gagen_ld, gagen_t_out_J, 9);
+      gagen_tile_out(out_S + gagen_s, gagen_ld, gagen_t_out_S, 18);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_front_left_fk_cga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
   }
@@ -1248,6 +1301,23 @@ void hexapod_front_left_ik_batch_columns(long gagen_n, long gagen_ld, const doub
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 8L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_target[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_q_up[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_q_down[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_reach[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_excess[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_target, in_target + gagen_s, gagen_ld, 3);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_front_left_ik_block_columns(GAGEN_LINE, 0, gagen_t_in_target + gagen_l, gagen_t_out_q_up + gagen_l, gagen_t_out_q_down + gagen_l, gagen_t_out_reach + gagen_l, gagen_t_out_excess + gagen_l);
+      }
+      gagen_tile_out(out_q_up + gagen_s, gagen_ld, gagen_t_out_q_up, 3);
+      gagen_tile_out(out_q_down + gagen_s, gagen_ld, gagen_t_out_q_down, 3);
+      gagen_tile_out(out_reach + gagen_s, gagen_ld, gagen_t_out_reach, 1);
+      gagen_tile_out(out_excess + gagen_s, gagen_ld, gagen_t_out_excess, 1);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_front_left_ik_block_columns(gagen_ld, gagen_stream, in_target + gagen_s, out_q_up + gagen_s, out_q_down + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
   }
@@ -1725,6 +1795,23 @@ void hexapod_front_left_dls_batch_columns(long gagen_n, long gagen_ld, const dou
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 4L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_in_target[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_in_damping[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_q_next[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_error[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 3);
+      gagen_tile_in(gagen_t_in_target, in_target + gagen_s, gagen_ld, 3);
+      gagen_tile_in(gagen_t_in_damping, in_damping + gagen_s, gagen_ld, 1);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_front_left_dls_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_in_target + gagen_l, gagen_t_in_damping + gagen_l, gagen_t_out_q_next + gagen_l, gagen_t_out_error + gagen_l);
+      }
+      gagen_tile_out(out_q_next + gagen_s, gagen_ld, gagen_t_out_q_next, 3);
+      gagen_tile_out(out_error + gagen_s, gagen_ld, gagen_t_out_error, 1);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_front_left_dls_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, in_target + gagen_s, in_damping + gagen_s, out_q_next + gagen_s, out_error + gagen_s);
   }
@@ -2111,6 +2198,25 @@ void hexapod_middle_left_fk_pga_batch_columns(long gagen_n, long gagen_ld, const
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 42L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_M[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_toe[4 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_p[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J[9 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_S[18 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 3);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_middle_left_fk_pga_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_M + gagen_l, gagen_t_out_toe + gagen_l, gagen_t_out_p + gagen_l, gagen_t_out_J + gagen_l, gagen_t_out_S + gagen_l);
+      }
+      gagen_tile_out(out_M + gagen_s, gagen_ld, gagen_t_out_M, 8);
+      gagen_tile_out(out_toe + gagen_s, gagen_ld, gagen_t_out_toe, 4);
+      gagen_tile_out(out_p + gagen_s, gagen_ld, gagen_t_out_p, 3);
+      gagen_tile_out(out_J + gagen_s, gagen_ld, gagen_t_out_J, 9);
+      gagen_tile_out(out_S + gagen_s, gagen_ld, gagen_t_out_S, 18);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_middle_left_fk_pga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
   }
@@ -2549,6 +2655,25 @@ void hexapod_middle_left_fk_cga_batch_columns(long gagen_n, long gagen_ld, const
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 43L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_M[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_toe[5 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_p[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J[9 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_S[18 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 3);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_middle_left_fk_cga_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_M + gagen_l, gagen_t_out_toe + gagen_l, gagen_t_out_p + gagen_l, gagen_t_out_J + gagen_l, gagen_t_out_S + gagen_l);
+      }
+      gagen_tile_out(out_M + gagen_s, gagen_ld, gagen_t_out_M, 8);
+      gagen_tile_out(out_toe + gagen_s, gagen_ld, gagen_t_out_toe, 5);
+      gagen_tile_out(out_p + gagen_s, gagen_ld, gagen_t_out_p, 3);
+      gagen_tile_out(out_J + gagen_s, gagen_ld, gagen_t_out_J, 9);
+      gagen_tile_out(out_S + gagen_s, gagen_ld, gagen_t_out_S, 18);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_middle_left_fk_cga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
   }
@@ -2730,6 +2855,23 @@ void hexapod_middle_left_ik_batch_columns(long gagen_n, long gagen_ld, const dou
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 8L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_target[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_q_up[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_q_down[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_reach[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_excess[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_target, in_target + gagen_s, gagen_ld, 3);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_middle_left_ik_block_columns(GAGEN_LINE, 0, gagen_t_in_target + gagen_l, gagen_t_out_q_up + gagen_l, gagen_t_out_q_down + gagen_l, gagen_t_out_reach + gagen_l, gagen_t_out_excess + gagen_l);
+      }
+      gagen_tile_out(out_q_up + gagen_s, gagen_ld, gagen_t_out_q_up, 3);
+      gagen_tile_out(out_q_down + gagen_s, gagen_ld, gagen_t_out_q_down, 3);
+      gagen_tile_out(out_reach + gagen_s, gagen_ld, gagen_t_out_reach, 1);
+      gagen_tile_out(out_excess + gagen_s, gagen_ld, gagen_t_out_excess, 1);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_middle_left_ik_block_columns(gagen_ld, gagen_stream, in_target + gagen_s, out_q_up + gagen_s, out_q_down + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
   }
@@ -3191,6 +3333,23 @@ void hexapod_middle_left_dls_batch_columns(long gagen_n, long gagen_ld, const do
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 4L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_in_target[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_in_damping[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_q_next[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_error[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 3);
+      gagen_tile_in(gagen_t_in_target, in_target + gagen_s, gagen_ld, 3);
+      gagen_tile_in(gagen_t_in_damping, in_damping + gagen_s, gagen_ld, 1);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_middle_left_dls_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_in_target + gagen_l, gagen_t_in_damping + gagen_l, gagen_t_out_q_next + gagen_l, gagen_t_out_error + gagen_l);
+      }
+      gagen_tile_out(out_q_next + gagen_s, gagen_ld, gagen_t_out_q_next, 3);
+      gagen_tile_out(out_error + gagen_s, gagen_ld, gagen_t_out_error, 1);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_middle_left_dls_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, in_target + gagen_s, in_damping + gagen_s, out_q_next + gagen_s, out_error + gagen_s);
   }
@@ -3609,6 +3768,25 @@ void hexapod_rear_left_fk_pga_batch_columns(long gagen_n, long gagen_ld, const d
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 42L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_M[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_toe[4 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_p[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J[9 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_S[18 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 3);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_rear_left_fk_pga_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_M + gagen_l, gagen_t_out_toe + gagen_l, gagen_t_out_p + gagen_l, gagen_t_out_J + gagen_l, gagen_t_out_S + gagen_l);
+      }
+      gagen_tile_out(out_M + gagen_s, gagen_ld, gagen_t_out_M, 8);
+      gagen_tile_out(out_toe + gagen_s, gagen_ld, gagen_t_out_toe, 4);
+      gagen_tile_out(out_p + gagen_s, gagen_ld, gagen_t_out_p, 3);
+      gagen_tile_out(out_J + gagen_s, gagen_ld, gagen_t_out_J, 9);
+      gagen_tile_out(out_S + gagen_s, gagen_ld, gagen_t_out_S, 18);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_rear_left_fk_pga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
   }
@@ -4101,6 +4279,25 @@ void hexapod_rear_left_fk_cga_batch_columns(long gagen_n, long gagen_ld, const d
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 43L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_M[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_toe[5 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_p[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J[9 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_S[18 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 3);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_rear_left_fk_cga_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_M + gagen_l, gagen_t_out_toe + gagen_l, gagen_t_out_p + gagen_l, gagen_t_out_J + gagen_l, gagen_t_out_S + gagen_l);
+      }
+      gagen_tile_out(out_M + gagen_s, gagen_ld, gagen_t_out_M, 8);
+      gagen_tile_out(out_toe + gagen_s, gagen_ld, gagen_t_out_toe, 5);
+      gagen_tile_out(out_p + gagen_s, gagen_ld, gagen_t_out_p, 3);
+      gagen_tile_out(out_J + gagen_s, gagen_ld, gagen_t_out_J, 9);
+      gagen_tile_out(out_S + gagen_s, gagen_ld, gagen_t_out_S, 18);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_rear_left_fk_cga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
   }
@@ -4300,6 +4497,23 @@ void hexapod_rear_left_ik_batch_columns(long gagen_n, long gagen_ld, const doubl
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 8L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_target[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_q_up[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_q_down[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_reach[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_excess[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_target, in_target + gagen_s, gagen_ld, 3);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_rear_left_ik_block_columns(GAGEN_LINE, 0, gagen_t_in_target + gagen_l, gagen_t_out_q_up + gagen_l, gagen_t_out_q_down + gagen_l, gagen_t_out_reach + gagen_l, gagen_t_out_excess + gagen_l);
+      }
+      gagen_tile_out(out_q_up + gagen_s, gagen_ld, gagen_t_out_q_up, 3);
+      gagen_tile_out(out_q_down + gagen_s, gagen_ld, gagen_t_out_q_down, 3);
+      gagen_tile_out(out_reach + gagen_s, gagen_ld, gagen_t_out_reach, 1);
+      gagen_tile_out(out_excess + gagen_s, gagen_ld, gagen_t_out_excess, 1);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_rear_left_ik_block_columns(gagen_ld, gagen_stream, in_target + gagen_s, out_q_up + gagen_s, out_q_down + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
   }
@@ -4777,6 +4991,23 @@ void hexapod_rear_left_dls_batch_columns(long gagen_n, long gagen_ld, const doub
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 4L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_in_target[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_in_damping[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_q_next[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_error[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 3);
+      gagen_tile_in(gagen_t_in_target, in_target + gagen_s, gagen_ld, 3);
+      gagen_tile_in(gagen_t_in_damping, in_damping + gagen_s, gagen_ld, 1);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_rear_left_dls_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_in_target + gagen_l, gagen_t_in_damping + gagen_l, gagen_t_out_q_next + gagen_l, gagen_t_out_error + gagen_l);
+      }
+      gagen_tile_out(out_q_next + gagen_s, gagen_ld, gagen_t_out_q_next, 3);
+      gagen_tile_out(out_error + gagen_s, gagen_ld, gagen_t_out_error, 1);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_rear_left_dls_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, in_target + gagen_s, in_damping + gagen_s, out_q_next + gagen_s, out_error + gagen_s);
   }
@@ -5197,6 +5428,25 @@ void hexapod_rear_right_fk_pga_batch_columns(long gagen_n, long gagen_ld, const 
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 42L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_M[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_toe[4 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_p[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J[9 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_S[18 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 3);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_rear_right_fk_pga_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_M + gagen_l, gagen_t_out_toe + gagen_l, gagen_t_out_p + gagen_l, gagen_t_out_J + gagen_l, gagen_t_out_S + gagen_l);
+      }
+      gagen_tile_out(out_M + gagen_s, gagen_ld, gagen_t_out_M, 8);
+      gagen_tile_out(out_toe + gagen_s, gagen_ld, gagen_t_out_toe, 4);
+      gagen_tile_out(out_p + gagen_s, gagen_ld, gagen_t_out_p, 3);
+      gagen_tile_out(out_J + gagen_s, gagen_ld, gagen_t_out_J, 9);
+      gagen_tile_out(out_S + gagen_s, gagen_ld, gagen_t_out_S, 18);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_rear_right_fk_pga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
   }
@@ -5691,6 +5941,25 @@ void hexapod_rear_right_fk_cga_batch_columns(long gagen_n, long gagen_ld, const 
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 43L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_M[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_toe[5 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_p[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J[9 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_S[18 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 3);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_rear_right_fk_cga_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_M + gagen_l, gagen_t_out_toe + gagen_l, gagen_t_out_p + gagen_l, gagen_t_out_J + gagen_l, gagen_t_out_S + gagen_l);
+      }
+      gagen_tile_out(out_M + gagen_s, gagen_ld, gagen_t_out_M, 8);
+      gagen_tile_out(out_toe + gagen_s, gagen_ld, gagen_t_out_toe, 5);
+      gagen_tile_out(out_p + gagen_s, gagen_ld, gagen_t_out_p, 3);
+      gagen_tile_out(out_J + gagen_s, gagen_ld, gagen_t_out_J, 9);
+      gagen_tile_out(out_S + gagen_s, gagen_ld, gagen_t_out_S, 18);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_rear_right_fk_cga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
   }
@@ -5892,6 +6161,23 @@ void hexapod_rear_right_ik_batch_columns(long gagen_n, long gagen_ld, const doub
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 8L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_target[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_q_up[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_q_down[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_reach[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_excess[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_target, in_target + gagen_s, gagen_ld, 3);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_rear_right_ik_block_columns(GAGEN_LINE, 0, gagen_t_in_target + gagen_l, gagen_t_out_q_up + gagen_l, gagen_t_out_q_down + gagen_l, gagen_t_out_reach + gagen_l, gagen_t_out_excess + gagen_l);
+      }
+      gagen_tile_out(out_q_up + gagen_s, gagen_ld, gagen_t_out_q_up, 3);
+      gagen_tile_out(out_q_down + gagen_s, gagen_ld, gagen_t_out_q_down, 3);
+      gagen_tile_out(out_reach + gagen_s, gagen_ld, gagen_t_out_reach, 1);
+      gagen_tile_out(out_excess + gagen_s, gagen_ld, gagen_t_out_excess, 1);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_rear_right_ik_block_columns(gagen_ld, gagen_stream, in_target + gagen_s, out_q_up + gagen_s, out_q_down + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
   }
@@ -6369,6 +6655,23 @@ void hexapod_rear_right_dls_batch_columns(long gagen_n, long gagen_ld, const dou
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 4L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_in_target[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_in_damping[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_q_next[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_error[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 3);
+      gagen_tile_in(gagen_t_in_target, in_target + gagen_s, gagen_ld, 3);
+      gagen_tile_in(gagen_t_in_damping, in_damping + gagen_s, gagen_ld, 1);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_rear_right_dls_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_in_target + gagen_l, gagen_t_in_damping + gagen_l, gagen_t_out_q_next + gagen_l, gagen_t_out_error + gagen_l);
+      }
+      gagen_tile_out(out_q_next + gagen_s, gagen_ld, gagen_t_out_q_next, 3);
+      gagen_tile_out(out_error + gagen_s, gagen_ld, gagen_t_out_error, 1);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_rear_right_dls_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, in_target + gagen_s, in_damping + gagen_s, out_q_next + gagen_s, out_error + gagen_s);
   }
@@ -6763,6 +7066,25 @@ void hexapod_middle_right_fk_pga_batch_columns(long gagen_n, long gagen_ld, cons
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 42L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_M[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_toe[4 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_p[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J[9 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_S[18 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 3);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_middle_right_fk_pga_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_M + gagen_l, gagen_t_out_toe + gagen_l, gagen_t_out_p + gagen_l, gagen_t_out_J + gagen_l, gagen_t_out_S + gagen_l);
+      }
+      gagen_tile_out(out_M + gagen_s, gagen_ld, gagen_t_out_M, 8);
+      gagen_tile_out(out_toe + gagen_s, gagen_ld, gagen_t_out_toe, 4);
+      gagen_tile_out(out_p + gagen_s, gagen_ld, gagen_t_out_p, 3);
+      gagen_tile_out(out_J + gagen_s, gagen_ld, gagen_t_out_J, 9);
+      gagen_tile_out(out_S + gagen_s, gagen_ld, gagen_t_out_S, 18);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_middle_right_fk_pga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
   }
@@ -7209,6 +7531,25 @@ void hexapod_middle_right_fk_cga_batch_columns(long gagen_n, long gagen_ld, cons
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 43L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_M[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_toe[5 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_p[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J[9 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_S[18 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 3);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_middle_right_fk_cga_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_M + gagen_l, gagen_t_out_toe + gagen_l, gagen_t_out_p + gagen_l, gagen_t_out_J + gagen_l, gagen_t_out_S + gagen_l);
+      }
+      gagen_tile_out(out_M + gagen_s, gagen_ld, gagen_t_out_M, 8);
+      gagen_tile_out(out_toe + gagen_s, gagen_ld, gagen_t_out_toe, 5);
+      gagen_tile_out(out_p + gagen_s, gagen_ld, gagen_t_out_p, 3);
+      gagen_tile_out(out_J + gagen_s, gagen_ld, gagen_t_out_J, 9);
+      gagen_tile_out(out_S + gagen_s, gagen_ld, gagen_t_out_S, 18);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_middle_right_fk_cga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
   }
@@ -7390,6 +7731,23 @@ void hexapod_middle_right_ik_batch_columns(long gagen_n, long gagen_ld, const do
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 8L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_target[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_q_up[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_q_down[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_reach[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_excess[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_target, in_target + gagen_s, gagen_ld, 3);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_middle_right_ik_block_columns(GAGEN_LINE, 0, gagen_t_in_target + gagen_l, gagen_t_out_q_up + gagen_l, gagen_t_out_q_down + gagen_l, gagen_t_out_reach + gagen_l, gagen_t_out_excess + gagen_l);
+      }
+      gagen_tile_out(out_q_up + gagen_s, gagen_ld, gagen_t_out_q_up, 3);
+      gagen_tile_out(out_q_down + gagen_s, gagen_ld, gagen_t_out_q_down, 3);
+      gagen_tile_out(out_reach + gagen_s, gagen_ld, gagen_t_out_reach, 1);
+      gagen_tile_out(out_excess + gagen_s, gagen_ld, gagen_t_out_excess, 1);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_middle_right_ik_block_columns(gagen_ld, gagen_stream, in_target + gagen_s, out_q_up + gagen_s, out_q_down + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
   }
@@ -7851,6 +8209,23 @@ void hexapod_middle_right_dls_batch_columns(long gagen_n, long gagen_ld, const d
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 4L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_in_target[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_in_damping[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_q_next[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_error[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 3);
+      gagen_tile_in(gagen_t_in_target, in_target + gagen_s, gagen_ld, 3);
+      gagen_tile_in(gagen_t_in_damping, in_damping + gagen_s, gagen_ld, 1);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_middle_right_dls_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_in_target + gagen_l, gagen_t_in_damping + gagen_l, gagen_t_out_q_next + gagen_l, gagen_t_out_error + gagen_l);
+      }
+      gagen_tile_out(out_q_next + gagen_s, gagen_ld, gagen_t_out_q_next, 3);
+      gagen_tile_out(out_error + gagen_s, gagen_ld, gagen_t_out_error, 1);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_middle_right_dls_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, in_target + gagen_s, in_damping + gagen_s, out_q_next + gagen_s, out_error + gagen_s);
   }
@@ -8277,6 +8652,25 @@ void hexapod_front_right_fk_pga_batch_columns(long gagen_n, long gagen_ld, const
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 42L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_M[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_toe[4 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_p[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J[9 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_S[18 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 3);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_front_right_fk_pga_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_M + gagen_l, gagen_t_out_toe + gagen_l, gagen_t_out_p + gagen_l, gagen_t_out_J + gagen_l, gagen_t_out_S + gagen_l);
+      }
+      gagen_tile_out(out_M + gagen_s, gagen_ld, gagen_t_out_M, 8);
+      gagen_tile_out(out_toe + gagen_s, gagen_ld, gagen_t_out_toe, 4);
+      gagen_tile_out(out_p + gagen_s, gagen_ld, gagen_t_out_p, 3);
+      gagen_tile_out(out_J + gagen_s, gagen_ld, gagen_t_out_J, 9);
+      gagen_tile_out(out_S + gagen_s, gagen_ld, gagen_t_out_S, 18);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_front_right_fk_pga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
   }
@@ -8777,6 +9171,25 @@ void hexapod_front_right_fk_cga_batch_columns(long gagen_n, long gagen_ld, const
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 43L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_M[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_toe[5 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_p[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J[9 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_S[18 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 3);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_front_right_fk_cga_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_M + gagen_l, gagen_t_out_toe + gagen_l, gagen_t_out_p + gagen_l, gagen_t_out_J + gagen_l, gagen_t_out_S + gagen_l);
+      }
+      gagen_tile_out(out_M + gagen_s, gagen_ld, gagen_t_out_M, 8);
+      gagen_tile_out(out_toe + gagen_s, gagen_ld, gagen_t_out_toe, 5);
+      gagen_tile_out(out_p + gagen_s, gagen_ld, gagen_t_out_p, 3);
+      gagen_tile_out(out_J + gagen_s, gagen_ld, gagen_t_out_J, 9);
+      gagen_tile_out(out_S + gagen_s, gagen_ld, gagen_t_out_S, 18);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_front_right_fk_cga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
   }
@@ -8976,6 +9389,23 @@ void hexapod_front_right_ik_batch_columns(long gagen_n, long gagen_ld, const dou
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 8L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_target[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_q_up[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_q_down[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_reach[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_excess[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_target, in_target + gagen_s, gagen_ld, 3);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_front_right_ik_block_columns(GAGEN_LINE, 0, gagen_t_in_target + gagen_l, gagen_t_out_q_up + gagen_l, gagen_t_out_q_down + gagen_l, gagen_t_out_reach + gagen_l, gagen_t_out_excess + gagen_l);
+      }
+      gagen_tile_out(out_q_up + gagen_s, gagen_ld, gagen_t_out_q_up, 3);
+      gagen_tile_out(out_q_down + gagen_s, gagen_ld, gagen_t_out_q_down, 3);
+      gagen_tile_out(out_reach + gagen_s, gagen_ld, gagen_t_out_reach, 1);
+      gagen_tile_out(out_excess + gagen_s, gagen_ld, gagen_t_out_excess, 1);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_front_right_ik_block_columns(gagen_ld, gagen_stream, in_target + gagen_s, out_q_up + gagen_s, out_q_down + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
   }
@@ -9453,6 +9883,23 @@ void hexapod_front_right_dls_batch_columns(long gagen_n, long gagen_ld, const do
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 4L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_in_target[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_in_damping[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_q_next[3 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_error[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 3);
+      gagen_tile_in(gagen_t_in_target, in_target + gagen_s, gagen_ld, 3);
+      gagen_tile_in(gagen_t_in_damping, in_damping + gagen_s, gagen_ld, 1);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_front_right_dls_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_in_target + gagen_l, gagen_t_in_damping + gagen_l, gagen_t_out_q_next + gagen_l, gagen_t_out_error + gagen_l);
+      }
+      gagen_tile_out(out_q_next + gagen_s, gagen_ld, gagen_t_out_q_next, 3);
+      gagen_tile_out(out_error + gagen_s, gagen_ld, gagen_t_out_error, 1);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_front_right_dls_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, in_target + gagen_s, in_damping + gagen_s, out_q_next + gagen_s, out_error + gagen_s);
   }
@@ -11154,6 +11601,19 @@ void hexapod_body_fk_pga_batch_columns(long gagen_n, long gagen_ld, const double
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 342L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[18 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_p[18 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J[324 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 18);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_body_fk_pga_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_p + gagen_l, gagen_t_out_J + gagen_l);
+      }
+      gagen_tile_out(out_p + gagen_s, gagen_ld, gagen_t_out_p, 18);
+      gagen_tile_out(out_J + gagen_s, gagen_ld, gagen_t_out_J, 324);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_body_fk_pga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_p + gagen_s, out_J + gagen_s);
   }
@@ -12879,6 +13339,19 @@ void hexapod_body_fk_cga_batch_columns(long gagen_n, long gagen_ld, const double
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 342L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[18 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_p[18 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J[324 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 18);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_body_fk_cga_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_p + gagen_l, gagen_t_out_J + gagen_l);
+      }
+      gagen_tile_out(out_p + gagen_s, gagen_ld, gagen_t_out_p, 18);
+      gagen_tile_out(out_J + gagen_s, gagen_ld, gagen_t_out_J, 324);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_body_fk_cga_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_p + gagen_s, out_J + gagen_s);
   }
@@ -14405,6 +14878,23 @@ void hexapod_body_ik_batch_columns(long gagen_n, long gagen_ld, const double *re
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 30L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_pose[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_in_toes[18 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_q[18 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_reach[6 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_excess[6 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_pose, in_pose + gagen_s, gagen_ld, 8);
+      gagen_tile_in(gagen_t_in_toes, in_toes + gagen_s, gagen_ld, 18);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_body_ik_block_columns(GAGEN_LINE, 0, gagen_t_in_pose + gagen_l, gagen_t_in_toes + gagen_l, gagen_t_out_q + gagen_l, gagen_t_out_reach + gagen_l, gagen_t_out_excess + gagen_l);
+      }
+      gagen_tile_out(out_q + gagen_s, gagen_ld, gagen_t_out_q, 18);
+      gagen_tile_out(out_reach + gagen_s, gagen_ld, gagen_t_out_reach, 6);
+      gagen_tile_out(out_excess + gagen_s, gagen_ld, gagen_t_out_excess, 6);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_body_ik_block_columns(gagen_ld, gagen_stream, in_pose + gagen_s, in_toes + gagen_s, out_q + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
   }
@@ -16336,6 +16826,23 @@ void hexapod_body_contact_pga_batch_columns(long gagen_n, long gagen_ld, const d
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 24L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_pose[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_in_q[18 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_in_ground[4 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_distance[6 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_feet[18 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_pose, in_pose + gagen_s, gagen_ld, 8);
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 18);
+      gagen_tile_in(gagen_t_in_ground, in_ground + gagen_s, gagen_ld, 4);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_body_contact_pga_block_columns(GAGEN_LINE, 0, gagen_t_in_pose + gagen_l, gagen_t_in_q + gagen_l, gagen_t_in_ground + gagen_l, gagen_t_out_distance + gagen_l, gagen_t_out_feet + gagen_l);
+      }
+      gagen_tile_out(out_distance + gagen_s, gagen_ld, gagen_t_out_distance, 6);
+      gagen_tile_out(out_feet + gagen_s, gagen_ld, gagen_t_out_feet, 18);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_body_contact_pga_block_columns(gagen_ld, gagen_stream, in_pose + gagen_s, in_q + gagen_s, in_ground + gagen_s, out_distance + gagen_s, out_feet + gagen_s);
   }
@@ -18143,6 +18650,23 @@ void hexapod_body_contact_cga_batch_columns(long gagen_n, long gagen_ld, const d
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 24L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_pose[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_in_q[18 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_in_ground[4 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_distance[6 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_feet[18 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_pose, in_pose + gagen_s, gagen_ld, 8);
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 18);
+      gagen_tile_in(gagen_t_in_ground, in_ground + gagen_s, gagen_ld, 4);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_body_contact_cga_block_columns(GAGEN_LINE, 0, gagen_t_in_pose + gagen_l, gagen_t_in_q + gagen_l, gagen_t_in_ground + gagen_l, gagen_t_out_distance + gagen_l, gagen_t_out_feet + gagen_l);
+      }
+      gagen_tile_out(out_distance + gagen_s, gagen_ld, gagen_t_out_distance, 6);
+      gagen_tile_out(out_feet + gagen_s, gagen_ld, gagen_t_out_feet, 18);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_body_contact_cga_block_columns(gagen_ld, gagen_stream, in_pose + gagen_s, in_q + gagen_s, in_ground + gagen_s, out_distance + gagen_s, out_feet + gagen_s);
   }
@@ -18369,6 +18893,23 @@ void hexapod_ground_pga_batch_columns(long gagen_n, long gagen_ld, const double 
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 6L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_plane[4 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_in_toe[4 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_distance[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_foot[4 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_incidence[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_plane, in_plane + gagen_s, gagen_ld, 4);
+      gagen_tile_in(gagen_t_in_toe, in_toe + gagen_s, gagen_ld, 4);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_ground_pga_block_columns(GAGEN_LINE, 0, gagen_t_in_plane + gagen_l, gagen_t_in_toe + gagen_l, gagen_t_out_distance + gagen_l, gagen_t_out_foot + gagen_l, gagen_t_out_incidence + gagen_l);
+      }
+      gagen_tile_out(out_distance + gagen_s, gagen_ld, gagen_t_out_distance, 1);
+      gagen_tile_out(out_foot + gagen_s, gagen_ld, gagen_t_out_foot, 4);
+      gagen_tile_out(out_incidence + gagen_s, gagen_ld, gagen_t_out_incidence, 1);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_ground_pga_block_columns(gagen_ld, gagen_stream, in_plane + gagen_s, in_toe + gagen_s, out_distance + gagen_s, out_foot + gagen_s, out_incidence + gagen_s);
   }
@@ -18585,6 +19126,23 @@ void hexapod_ground_cga_batch_columns(long gagen_n, long gagen_ld, const double 
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 7L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_plane[4 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_in_toe[5 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_distance[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_foot[5 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_incidence[1 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_plane, in_plane + gagen_s, gagen_ld, 4);
+      gagen_tile_in(gagen_t_in_toe, in_toe + gagen_s, gagen_ld, 5);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        hexapod_ground_cga_block_columns(GAGEN_LINE, 0, gagen_t_in_plane + gagen_l, gagen_t_in_toe + gagen_l, gagen_t_out_distance + gagen_l, gagen_t_out_foot + gagen_l, gagen_t_out_incidence + gagen_l);
+      }
+      gagen_tile_out(out_distance + gagen_s, gagen_ld, gagen_t_out_distance, 1);
+      gagen_tile_out(out_foot + gagen_s, gagen_ld, gagen_t_out_foot, 5);
+      gagen_tile_out(out_incidence + gagen_s, gagen_ld, gagen_t_out_incidence, 1);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     hexapod_ground_cga_block_columns(gagen_ld, gagen_stream, in_plane + gagen_s, in_toe + gagen_s, out_distance + gagen_s, out_foot + gagen_s, out_incidence + gagen_s);
   }

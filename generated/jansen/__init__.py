@@ -2,11 +2,13 @@
 
 From jansen.yaml (sha256 bce21de541786433). Do not edit: run `gagen build jansen.yaml`.
 
-    from generated.jansen import casadi, c
+    from generated.jansen import casadi, c, jax
     casadi.newton_step       # casadi.Function: numbers, SX or MX (drops into casadi.nlpsol)
     c.newton_step(...)       # compiled C (CPython binding): numpy in, numpy out
     c.newton_step.batch(...) # n samples at once, shape (n, size) each
     c.newton_step.batch_columns(...)  # the same with samples last, (size, n): fastest for large n
+    jax.newton_step(...)     # jax.numpy, float64 (needs jax): jit, vmap, grad; next to the
+                               # jax package: from generated.jansen import jax as jansen_jax
 
 Kernels: constraints, positions, retract, newton_step.
 Shapes, row labels and op counts are in manifest.json (``MANIFEST``).
@@ -20,3 +22,4 @@ _MODULE = GeneratedModule(Path(__file__).resolve().parent)
 MANIFEST = _MODULE.manifest
 casadi = _MODULE.casadi
 c = _MODULE.c
+jax = _MODULE.jax

@@ -2,11 +2,13 @@
 
 From leap_hand_sphere.yaml (sha256 3e312f917a820696). Do not edit: run `gagen build leap_hand_sphere.yaml`.
 
-    from generated.leap_hand_sphere import casadi, c
+    from generated.leap_hand_sphere import casadi, c, jax
     casadi.similarity_rate       # casadi.Function: numbers, SX or MX (drops into casadi.nlpsol)
     c.similarity_rate(...)       # compiled C (CPython binding): numpy in, numpy out
     c.similarity_rate.batch(...) # n samples at once, shape (n, size) each
     c.similarity_rate.batch_columns(...)  # the same with samples last, (size, n): fastest for large n
+    jax.similarity_rate(...)     # jax.numpy, float64 (needs jax): jit, vmap, grad; next to the
+                               # jax package: from generated.leap_hand_sphere import jax as leap_hand_sphere_jax
 
 Kernels: index_fk, index_fk_jacobian, index_jacobians, middle_fk, middle_fk_jacobian, middle_jacobians, ring_fk, ring_fk_jacobian, ring_jacobians, thumb_fk, thumb_fk_jacobian, thumb_jacobians, primitive, similarity, similarity_jacobians, task, similarity_rate.
 Shapes, row labels and op counts are in manifest.json (``MANIFEST``).
@@ -20,3 +22,4 @@ _MODULE = GeneratedModule(Path(__file__).resolve().parent)
 MANIFEST = _MODULE.manifest
 casadi = _MODULE.casadi
 c = _MODULE.c
+jax = _MODULE.jax

@@ -138,6 +138,21 @@ static inline void gagen_store_columns(double *p, gagen_v v, int stream) {
 #endif
   memcpy(p, &v, sizeof v);
 }
+/* Streamed through a tile: with vectors narrower than a 64-byte line (AVX2, SSE2) each output row's
+ * line is filled by 64 / (8 GAGEN_W) stores from as many blocks, and with one open line per row (55
+ * for the Panda FK + J) the write-combining buffers spill partial lines (AMD EPYC Zen 3, n = 100 000:
+ * 194 ns per sample, against 51 sample-major). So GAGEN_LINE samples at a time are computed into a
+ * tile on the stack, and each row's line is then stored whole (49 ns). */
+#define GAGEN_LINE 8
+static inline void gagen_tile_in(double *tile, const double *p, long ld, int rows) {
+  for (int k = 0; k < rows; ++k)
+    for (int l = 0; l < GAGEN_LINE; ++l) tile[k * GAGEN_LINE + l] = p[k * ld + l];
+}
+static inline void gagen_tile_out(double *p, long ld, const double *tile, int rows) {
+  for (int k = 0; k < rows; ++k)
+    for (int l = 0; l < GAGEN_LINE; l += GAGEN_W)
+      gagen_store_columns(p + k * ld + l, gagen_load_columns(tile + k * GAGEN_LINE + l), 1);
+}
 static inline void gagen_stream_fence(int stream) {
 #if GAGEN_HAVE_STREAM
   if (stream) _mm_sfence();
@@ -622,6 +637,19 @@ void leap_hand_sphere_index_fk_batch_columns(long gagen_n, long gagen_ld, const 
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[4 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_M[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_P[5 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 4);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        leap_hand_sphere_index_fk_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_M + gagen_l, gagen_t_out_P + gagen_l);
+      }
+      gagen_tile_out(out_M + gagen_s, gagen_ld, gagen_t_out_M, 8);
+      gagen_tile_out(out_P + gagen_s, gagen_ld, gagen_t_out_P, 5);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     leap_hand_sphere_index_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
@@ -1300,6 +1328,21 @@ void leap_hand_sphere_index_fk_jacobian_batch_columns(long gagen_n, long gagen_l
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 37L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[4 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_M[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_P[5 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J_S[24 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 4);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        leap_hand_sphere_index_fk_jacobian_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_M + gagen_l, gagen_t_out_P + gagen_l, gagen_t_out_J_S + gagen_l);
+      }
+      gagen_tile_out(out_M + gagen_s, gagen_ld, gagen_t_out_M, 8);
+      gagen_tile_out(out_P + gagen_s, gagen_ld, gagen_t_out_P, 5);
+      gagen_tile_out(out_J_S + gagen_s, gagen_ld, gagen_t_out_J_S, 24);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     leap_hand_sphere_index_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
@@ -3427,6 +3470,31 @@ void leap_hand_sphere_index_jacobians_batch_columns(long gagen_n, long gagen_ld,
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 143L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[4 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_M[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_P[5 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J_S[24 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J_b[24 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J_A[32 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J_P[20 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_L[6 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J_L[24 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 4);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        leap_hand_sphere_index_jacobians_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_M + gagen_l, gagen_t_out_P + gagen_l, gagen_t_out_J_S + gagen_l, gagen_t_out_J_b + gagen_l, gagen_t_out_J_A + gagen_l, gagen_t_out_J_P + gagen_l, gagen_t_out_L + gagen_l, gagen_t_out_J_L + gagen_l);
+      }
+      gagen_tile_out(out_M + gagen_s, gagen_ld, gagen_t_out_M, 8);
+      gagen_tile_out(out_P + gagen_s, gagen_ld, gagen_t_out_P, 5);
+      gagen_tile_out(out_J_S + gagen_s, gagen_ld, gagen_t_out_J_S, 24);
+      gagen_tile_out(out_J_b + gagen_s, gagen_ld, gagen_t_out_J_b, 24);
+      gagen_tile_out(out_J_A + gagen_s, gagen_ld, gagen_t_out_J_A, 32);
+      gagen_tile_out(out_J_P + gagen_s, gagen_ld, gagen_t_out_J_P, 20);
+      gagen_tile_out(out_L + gagen_s, gagen_ld, gagen_t_out_L, 6);
+      gagen_tile_out(out_J_L + gagen_s, gagen_ld, gagen_t_out_J_L, 24);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     leap_hand_sphere_index_jacobians_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s, out_J_b + gagen_s, out_J_A + gagen_s, out_J_P + gagen_s, out_L + gagen_s, out_J_L + gagen_s);
   }
@@ -3910,6 +3978,19 @@ void leap_hand_sphere_middle_fk_batch_columns(long gagen_n, long gagen_ld, const
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[4 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_M[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_P[5 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 4);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        leap_hand_sphere_middle_fk_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_M + gagen_l, gagen_t_out_P + gagen_l);
+      }
+      gagen_tile_out(out_M + gagen_s, gagen_ld, gagen_t_out_M, 8);
+      gagen_tile_out(out_P + gagen_s, gagen_ld, gagen_t_out_P, 5);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     leap_hand_sphere_middle_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
@@ -4584,6 +4665,21 @@ void leap_hand_sphere_middle_fk_jacobian_batch_columns(long gagen_n, long gagen_
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 37L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[4 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_M[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_P[5 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J_S[24 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 4);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        leap_hand_sphere_middle_fk_jacobian_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_M + gagen_l, gagen_t_out_P + gagen_l, gagen_t_out_J_S + gagen_l);
+      }
+      gagen_tile_out(out_M + gagen_s, gagen_ld, gagen_t_out_M, 8);
+      gagen_tile_out(out_P + gagen_s, gagen_ld, gagen_t_out_P, 5);
+      gagen_tile_out(out_J_S + gagen_s, gagen_ld, gagen_t_out_J_S, 24);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     leap_hand_sphere_middle_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
@@ -6711,6 +6807,31 @@ void leap_hand_sphere_middle_jacobians_batch_columns(long gagen_n, long gagen_ld
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 143L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[4 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_M[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_P[5 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J_S[24 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J_b[24 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J_A[32 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J_P[20 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_L[6 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J_L[24 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 4);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        leap_hand_sphere_middle_jacobians_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_M + gagen_l, gagen_t_out_P + gagen_l, gagen_t_out_J_S + gagen_l, gagen_t_out_J_b + gagen_l, gagen_t_out_J_A + gagen_l, gagen_t_out_J_P + gagen_l, gagen_t_out_L + gagen_l, gagen_t_out_J_L + gagen_l);
+      }
+      gagen_tile_out(out_M + gagen_s, gagen_ld, gagen_t_out_M, 8);
+      gagen_tile_out(out_P + gagen_s, gagen_ld, gagen_t_out_P, 5);
+      gagen_tile_out(out_J_S + gagen_s, gagen_ld, gagen_t_out_J_S, 24);
+      gagen_tile_out(out_J_b + gagen_s, gagen_ld, gagen_t_out_J_b, 24);
+      gagen_tile_out(out_J_A + gagen_s, gagen_ld, gagen_t_out_J_A, 32);
+      gagen_tile_out(out_J_P + gagen_s, gagen_ld, gagen_t_out_J_P, 20);
+      gagen_tile_out(out_L + gagen_s, gagen_ld, gagen_t_out_L, 6);
+      gagen_tile_out(out_J_L + gagen_s, gagen_ld, gagen_t_out_J_L, 24);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     leap_hand_sphere_middle_jacobians_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s, out_J_b + gagen_s, out_J_A + gagen_s, out_J_P + gagen_s, out_L + gagen_s, out_J_L + gagen_s);
   }
@@ -7194,6 +7315,19 @@ void leap_hand_sphere_ring_fk_batch_columns(long gagen_n, long gagen_ld, const d
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[4 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_M[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_P[5 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 4);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        leap_hand_sphere_ring_fk_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_M + gagen_l, gagen_t_out_P + gagen_l);
+      }
+      gagen_tile_out(out_M + gagen_s, gagen_ld, gagen_t_out_M, 8);
+      gagen_tile_out(out_P + gagen_s, gagen_ld, gagen_t_out_P, 5);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     leap_hand_sphere_ring_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
@@ -7868,6 +8002,21 @@ void leap_hand_sphere_ring_fk_jacobian_batch_columns(long gagen_n, long gagen_ld
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 37L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[4 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_M[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_P[5 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J_S[24 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 4);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        leap_hand_sphere_ring_fk_jacobian_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_M + gagen_l, gagen_t_out_P + gagen_l, gagen_t_out_J_S + gagen_l);
+      }
+      gagen_tile_out(out_M + gagen_s, gagen_ld, gagen_t_out_M, 8);
+      gagen_tile_out(out_P + gagen_s, gagen_ld, gagen_t_out_P, 5);
+      gagen_tile_out(out_J_S + gagen_s, gagen_ld, gagen_t_out_J_S, 24);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     leap_hand_sphere_ring_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
@@ -9995,6 +10144,31 @@ void leap_hand_sphere_ring_jacobians_batch_columns(long gagen_n, long gagen_ld, 
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 143L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[4 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_M[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_P[5 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J_S[24 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J_b[24 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J_A[32 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J_P[20 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_L[6 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J_L[24 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 4);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        leap_hand_sphere_ring_jacobians_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_M + gagen_l, gagen_t_out_P + gagen_l, gagen_t_out_J_S + gagen_l, gagen_t_out_J_b + gagen_l, gagen_t_out_J_A + gagen_l, gagen_t_out_J_P + gagen_l, gagen_t_out_L + gagen_l, gagen_t_out_J_L + gagen_l);
+      }
+      gagen_tile_out(out_M + gagen_s, gagen_ld, gagen_t_out_M, 8);
+      gagen_tile_out(out_P + gagen_s, gagen_ld, gagen_t_out_P, 5);
+      gagen_tile_out(out_J_S + gagen_s, gagen_ld, gagen_t_out_J_S, 24);
+      gagen_tile_out(out_J_b + gagen_s, gagen_ld, gagen_t_out_J_b, 24);
+      gagen_tile_out(out_J_A + gagen_s, gagen_ld, gagen_t_out_J_A, 32);
+      gagen_tile_out(out_J_P + gagen_s, gagen_ld, gagen_t_out_J_P, 20);
+      gagen_tile_out(out_L + gagen_s, gagen_ld, gagen_t_out_L, 6);
+      gagen_tile_out(out_J_L + gagen_s, gagen_ld, gagen_t_out_J_L, 24);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     leap_hand_sphere_ring_jacobians_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s, out_J_b + gagen_s, out_J_A + gagen_s, out_J_P + gagen_s, out_L + gagen_s, out_J_L + gagen_s);
   }
@@ -10446,6 +10620,19 @@ void leap_hand_sphere_thumb_fk_batch_columns(long gagen_n, long gagen_ld, const 
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 13L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[4 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_M[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_P[5 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 4);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        leap_hand_sphere_thumb_fk_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_M + gagen_l, gagen_t_out_P + gagen_l);
+      }
+      gagen_tile_out(out_M + gagen_s, gagen_ld, gagen_t_out_M, 8);
+      gagen_tile_out(out_P + gagen_s, gagen_ld, gagen_t_out_P, 5);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     leap_hand_sphere_thumb_fk_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
   }
@@ -11122,6 +11309,21 @@ void leap_hand_sphere_thumb_fk_jacobian_batch_columns(long gagen_n, long gagen_l
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 37L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[4 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_M[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_P[5 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J_S[24 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 4);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        leap_hand_sphere_thumb_fk_jacobian_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_M + gagen_l, gagen_t_out_P + gagen_l, gagen_t_out_J_S + gagen_l);
+      }
+      gagen_tile_out(out_M + gagen_s, gagen_ld, gagen_t_out_M, 8);
+      gagen_tile_out(out_P + gagen_s, gagen_ld, gagen_t_out_P, 5);
+      gagen_tile_out(out_J_S + gagen_s, gagen_ld, gagen_t_out_J_S, 24);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     leap_hand_sphere_thumb_fk_jacobian_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
   }
@@ -13253,6 +13455,31 @@ void leap_hand_sphere_thumb_jacobians_batch_columns(long gagen_n, long gagen_ld,
   long gagen_s = 0;
 #if GAGEN_SIMD
   const int gagen_stream = gagen_n * 143L * (long)sizeof(double) > GAGEN_STREAM_BYTES;
+  if (GAGEN_W < GAGEN_LINE && gagen_stream) {
+    double gagen_t_in_q[4 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_M[8 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_P[5 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J_S[24 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J_b[24 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J_A[32 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J_P[20 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_L[6 * GAGEN_LINE] __attribute__((aligned(64)));
+    double gagen_t_out_J_L[24 * GAGEN_LINE] __attribute__((aligned(64)));
+    for (; gagen_s + GAGEN_LINE <= gagen_n; gagen_s += GAGEN_LINE) {
+      gagen_tile_in(gagen_t_in_q, in_q + gagen_s, gagen_ld, 4);
+      for (int gagen_l = 0; gagen_l < GAGEN_LINE; gagen_l += GAGEN_W) {
+        leap_hand_sphere_thumb_jacobians_block_columns(GAGEN_LINE, 0, gagen_t_in_q + gagen_l, gagen_t_out_M + gagen_l, gagen_t_out_P + gagen_l, gagen_t_out_J_S + gagen_l, gagen_t_out_J_b + gagen_l, gagen_t_out_J_A + gagen_l, gagen_t_out_J_P + gagen_l, gagen_t_out_L + gagen_l, gagen_t_out_J_L + gagen_l);
+      }
+      gagen_tile_out(out_M + gagen_s, gagen_ld, gagen_t_out_M, 8);
+      gagen_tile_out(out_P + gagen_s, gagen_ld, gagen_t_out_P, 5);
+      gagen_tile_out(out_J_S + gagen_s, gagen_ld, gagen_t_out_J_S, 24);
+      gagen_tile_out(out_J_b + gagen_s, gagen_ld, gagen_t_out_J_b, 24);
+      gagen_tile_out(out_J_A + gagen_s, gagen_ld, gagen_t_out_J_A, 32);
+      gagen_tile_out(out_J_P + gagen_s, gagen_ld, gagen_t_out_J_P, 20);
+      gagen_tile_out(out_L + gagen_s, gagen_ld, gagen_t_out_L, 6);
+      gagen_tile_out(out_J_L + gagen_s, gagen_ld, gagen_t_out_J_L, 24);
+    }
+  }
   for (; gagen_s + GAGEN_W <= gagen_n; gagen_s += GAGEN_W) {
     leap_hand_sphere_thumb_jacobians_block_columns(gagen_ld, gagen_stream, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s, out_J_b + gagen_s, out_J_A + gagen_s, out_J_P + gagen_s, out_L + gagen_s, out_J_L + gagen_s);
   }

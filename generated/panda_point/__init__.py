@@ -2,11 +2,13 @@
 
 From panda_point.yaml (sha256 c0de11e79de637f1). Do not edit: run `gagen build panda_point.yaml`.
 
-    from generated.panda_point import casadi, c
+    from generated.panda_point import casadi, c, jax
     casadi.similarity_rate       # casadi.Function: numbers, SX or MX (drops into casadi.nlpsol)
     c.similarity_rate(...)       # compiled C (CPython binding): numpy in, numpy out
     c.similarity_rate.batch(...) # n samples at once, shape (n, size) each
     c.similarity_rate.batch_columns(...)  # the same with samples last, (size, n): fastest for large n
+    jax.similarity_rate(...)     # jax.numpy, float64 (needs jax): jit, vmap, grad; next to the
+                               # jax package: from generated.panda_point import jax as panda_point_jax
 
 Kernels: arm0_fk, arm0_fk_jacobian, arm0_jacobians, primitive, similarity, similarity_jacobians, task, similarity_rate.
 Shapes, row labels and op counts are in manifest.json (``MANIFEST``).
@@ -20,3 +22,4 @@ _MODULE = GeneratedModule(Path(__file__).resolve().parent)
 MANIFEST = _MODULE.manifest
 casadi = _MODULE.casadi
 c = _MODULE.c
+jax = _MODULE.jax

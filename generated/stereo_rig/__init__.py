@@ -2,11 +2,13 @@
 
 From stereo_rig.yaml (sha256 c50d4432fd26cbc4). Do not edit: run `gagen build stereo_rig.yaml`.
 
-    from generated.stereo_rig import casadi, c
+    from generated.stereo_rig import casadi, c, jax
     casadi.estimate       # casadi.Function: numbers, SX or MX (drops into casadi.nlpsol)
     c.estimate(...)       # compiled C (CPython binding): numpy in, numpy out
     c.estimate.batch(...) # n samples at once, shape (n, size) each
     c.estimate.batch_columns(...)  # the same with samples last, (size, n): fastest for large n
+    jax.estimate(...)     # jax.numpy, float64 (needs jax): jit, vmap, grad; next to the
+                               # jax package: from generated.stereo_rig import jax as stereo_rig_jax
 
 Kernels: image_line, planes, axis, reproject, viewing_lines, triangulate, estimate.
 Shapes, row labels and op counts are in manifest.json (``MANIFEST``).
@@ -20,3 +22,4 @@ _MODULE = GeneratedModule(Path(__file__).resolve().parent)
 MANIFEST = _MODULE.manifest
 casadi = _MODULE.casadi
 c = _MODULE.c
+jax = _MODULE.jax

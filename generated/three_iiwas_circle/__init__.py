@@ -2,11 +2,13 @@
 
 From three_iiwas_circle.yaml (sha256 d30662524dddf930). Do not edit: run `gagen build three_iiwas_circle.yaml`.
 
-    from generated.three_iiwas_circle import casadi, c
+    from generated.three_iiwas_circle import casadi, c, jax
     casadi.similarity_rate       # casadi.Function: numbers, SX or MX (drops into casadi.nlpsol)
     c.similarity_rate(...)       # compiled C (CPython binding): numpy in, numpy out
     c.similarity_rate.batch(...) # n samples at once, shape (n, size) each
     c.similarity_rate.batch_columns(...)  # the same with samples last, (size, n): fastest for large n
+    jax.similarity_rate(...)     # jax.numpy, float64 (needs jax): jit, vmap, grad; next to the
+                               # jax package: from generated.three_iiwas_circle import jax as three_iiwas_circle_jax
 
 Kernels: arm0_fk, arm0_fk_jacobian, arm0_jacobians, arm1_fk, arm1_fk_jacobian, arm1_jacobians, arm2_fk, arm2_fk_jacobian, arm2_jacobians, primitive, similarity, similarity_jacobians, task, similarity_rate.
 Shapes, row labels and op counts are in manifest.json (``MANIFEST``).
@@ -20,3 +22,4 @@ _MODULE = GeneratedModule(Path(__file__).resolve().parent)
 MANIFEST = _MODULE.manifest
 casadi = _MODULE.casadi
 c = _MODULE.c
+jax = _MODULE.jax

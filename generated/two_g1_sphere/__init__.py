@@ -2,11 +2,13 @@
 
 From two_g1_sphere.yaml (sha256 b466f0b86e171b7e). Do not edit: run `gagen build two_g1_sphere.yaml`.
 
-    from generated.two_g1_sphere import casadi, c
+    from generated.two_g1_sphere import casadi, c, jax
     casadi.similarity_rate       # casadi.Function: numbers, SX or MX (drops into casadi.nlpsol)
     c.similarity_rate(...)       # compiled C (CPython binding): numpy in, numpy out
     c.similarity_rate.batch(...) # n samples at once, shape (n, size) each
     c.similarity_rate.batch_columns(...)  # the same with samples last, (size, n): fastest for large n
+    jax.similarity_rate(...)     # jax.numpy, float64 (needs jax): jit, vmap, grad; next to the
+                               # jax package: from generated.two_g1_sphere import jax as two_g1_sphere_jax
 
 Kernels: g1a_left_hand_fk, g1a_left_hand_fk_jacobian, g1a_left_hand_jacobians, g1a_right_hand_fk, g1a_right_hand_fk_jacobian, g1a_right_hand_jacobians, g1b_left_hand_fk, g1b_left_hand_fk_jacobian, g1b_left_hand_jacobians, g1b_right_hand_fk, g1b_right_hand_fk_jacobian, g1b_right_hand_jacobians, primitive, similarity, similarity_jacobians, task, similarity_rate.
 Shapes, row labels and op counts are in manifest.json (``MANIFEST``).
@@ -20,3 +22,4 @@ _MODULE = GeneratedModule(Path(__file__).resolve().parent)
 MANIFEST = _MODULE.manifest
 casadi = _MODULE.casadi
 c = _MODULE.c
+jax = _MODULE.jax

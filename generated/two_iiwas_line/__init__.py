@@ -2,11 +2,13 @@
 
 From two_iiwas_line.yaml (sha256 5b9656aeb9b486c3). Do not edit: run `gagen build two_iiwas_line.yaml`.
 
-    from generated.two_iiwas_line import casadi, c
+    from generated.two_iiwas_line import casadi, c, jax
     casadi.dual_task_jacobians       # casadi.Function: numbers, SX or MX (drops into casadi.nlpsol)
     c.dual_task_jacobians(...)       # compiled C (CPython binding): numpy in, numpy out
     c.dual_task_jacobians.batch(...) # n samples at once, shape (n, size) each
     c.dual_task_jacobians.batch_columns(...)  # the same with samples last, (size, n): fastest for large n
+    jax.dual_task_jacobians(...)     # jax.numpy, float64 (needs jax): jit, vmap, grad; next to the
+                               # jax package: from generated.two_iiwas_line import jax as two_iiwas_line_jax
 
 Kernels: arm0_fk, arm0_fk_jacobian, arm0_jacobians, arm1_fk, arm1_fk_jacobian, arm1_jacobians, primitive, similarity, similarity_jacobians, task, similarity_rate, dual_task, dual_task_jacobians.
 Shapes, row labels and op counts are in manifest.json (``MANIFEST``).
@@ -20,3 +22,4 @@ _MODULE = GeneratedModule(Path(__file__).resolve().parent)
 MANIFEST = _MODULE.manifest
 casadi = _MODULE.casadi
 c = _MODULE.c
+jax = _MODULE.jax

@@ -104,8 +104,10 @@ def test_every_kernel_c_single_batched_and_casadi_equal_the_interpreter(name):
         assert d.worst <= tolerance, d
 
 
-def test_c_and_casadi_give_the_same_doubles():
-    """The emitter replays CasADi's instructions in order (no FMA): identical results, bit for bit."""
+def test_c_and_casadi_agree_to_the_vector_trig_tolerance():
+    """The emitter replays CasADi's instructions in order (no FMA); only the joint angles' sines and
+    cosines may come from libmvec (within 4 ulp): the results agree to 1e-14 of each output's scale.
+    (Bit for bit with -DGAGEN_SCALAR_TRIG: tests/codegen/test_vector_trig.py.)"""
     module = _module("three_pandas_circle")
     rng = np.random.default_rng(3)
     for name in ("arm1_jacobians", "similarity", "task"):
@@ -114,7 +116,8 @@ def test_c_and_casadi_give_the_same_doubles():
         c_out = getattr(module.c, name)(*inputs)
         ca_out = getattr(module.casadi, name)(*inputs)
         for c, ref in zip(c_out, ca_out, strict=True):
-            assert np.array_equal(np.ravel(c, order="F"), np.asarray(ref).ravel(order="F"))
+            c, ref = np.ravel(c, order="F"), np.asarray(ref).ravel(order="F")
+            np.testing.assert_allclose(c, ref, rtol=0, atol=1e-14 * max(1.0, np.abs(ref).max()))
 
 
 def _files(folder: Path) -> dict[str, bytes]:

@@ -5,7 +5,10 @@ in build order (a backend comes after those it requires).
 - ``c``: the C kernels (header, source, SIMD batches; our printer over the flat graph), compiled into
   ``lib<name>_<tag>.so`` and called through ctypes (``module.c.<kernel>``);
 - ``cpython``: the CPython binding of the C kernels (``<name>_binding.c``, compiled to
-  ``_gagen_<name>_<tag>``), the fast path of ``module.c``; optional (without it: ctypes).
+  ``_gagen_<name>_<tag>``), the fast path of ``module.c``; optional (without it: ctypes);
+- ``jax``: every kernel as a pure jax.numpy function in ``<name>_jax.py`` (``module.jax.<kernel>``;
+  rendered from the CasADi Functions, nothing compiled; loading it needs jax, the rest of the module
+  does not). Last: nothing requires it, and the other backends' files stay as they were.
 
 ``gagen build`` renders every registered backend (or those it is given) and lists them in the
 manifest's ``"backends"``; ``gagen.runtime`` builds a module's namespaces from that list through
@@ -15,10 +18,10 @@ this registry. Adding a backend: a package ``backends/<name>/`` whose ``BACKEND`
 
 from __future__ import annotations
 
-from gagen.codegen.backends import c, casadi, cpython
+from gagen.codegen.backends import c, casadi, cpython, jax
 from gagen.codegen.backends.base import Backend, Context, Output, TemplateNotFound, module_name, module_tag
 
-BACKENDS: dict[str, Backend] = {b.name: b for b in (casadi.BACKEND, c.BACKEND, cpython.BACKEND)}
+BACKENDS: dict[str, Backend] = {b.name: b for b in (casadi.BACKEND, c.BACKEND, cpython.BACKEND, jax.BACKEND)}
 
 
 def select(names: list[str] | tuple[str, ...] | None = None) -> list[Backend]:

@@ -89,7 +89,7 @@ class CBackend(Backend):
             contexts.append({"c_name": function, "doc": kernel.doc, "inputs": kernel.inputs,
                              "outputs": kernel.outputs, "c_inputs": ins, "c_outputs": outs,
                              "ops": str(ops), "locals": body.locals,
-                             "statements": body.statements,
+                             "statements": body.statements, "trig": body.trig,
                              "vector_locals": vector.locals if vector else (),
                              "vector_statements": vector.statements if vector else (),
                              "params": params(kernel, "restrict"),

@@ -5,12 +5,19 @@ The instruction list is walked in CasADi's order, and each work-vector slot beco
 the same order, with libm for the transcendental calls: the C kernels and the CasADi Functions give
 the same doubles (compile without FMA contraction to keep it so). Outputs are dense column-major
 arrays; structural zeros of an output's sparsity are written as 0.
+
+One exception, for speed [issue 19, item 2]: the sines and cosines whose angles do not depend on
+another sine or cosine (the joint angles, or their halves in a motor) are evaluated together, up
+front, by one vector call per 8 angles (``gagen_sincos`` of the template: glibc's libmvec where the
+build has it, within 4 ulp of libm's; libm's own ``sin``/``cos`` otherwise or with
+``-DGAGEN_SCALAR_TRIG``, which gives CasADi's doubles again). The angles are recomputed for that
+prologue from the same instructions, so they are the same doubles the body would have passed to libm.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import casadi as ca
 
@@ -34,10 +41,92 @@ class UnsupportedOperation(ValueError):
 
 @dataclass(frozen=True)
 class CBody:
-    """The statements of one kernel body and the locals they use."""
+    """The statements of one kernel body and the locals they use; ``trig``: the statements of the
+    vector-trig prologue (empty when the kernel has fewer than two angles to batch)."""
 
     locals: tuple[str, ...]
     statements: tuple[str, ...]
+    trig: tuple[str, ...] = field(default=())
+
+
+# Angles per vector block of the trig prologue (the widest libmvec variant, AVX-512, has 8 lanes).
+TRIG_LANES = 8
+_TRIG = ("SIN", "COS")
+
+
+@dataclass(frozen=True)
+class _TrigPlan:
+    """Which instructions the prologue replaces: instruction index -> (SIN or COS, lane)."""
+
+    lanes: dict[int, tuple[str, int]]
+    prologue: tuple[str, ...]
+
+
+def _trig_plan(function: ca.Function, input_names: list[str],
+               in_positions: list[list[int]]) -> _TrigPlan | None:
+    """The vector-trig prologue of ``function`` (see the module docstring), or None when fewer than two
+    distinct angles qualify.
+
+    The instruction list reuses work-vector slots, so it is read as SSA first: each instruction's
+    arguments are the instructions that last wrote their slots. An angle qualifies when nothing it
+    depends on is a sine or cosine; the prologue replays just the instructions it depends on, as
+    ``gagen_a<k>`` constants (inputs and literals inline), into ``gagen_x``."""
+    writer: dict[int, int] = {}  # slot -> the instruction that last wrote it
+    ops: list[str] = []
+    deps: list[tuple[int, ...]] = []
+    tainted: list[bool] = []  # depends on a sine or cosine
+    angles: dict[int, int] = {}  # angle instruction -> lane
+    lanes: dict[int, tuple[str, int]] = {}
+    for k in range(function.n_instructions()):
+        op = _OPS.get(function.instruction_id(k), "?")
+        args, res = function.instruction_input(k), function.instruction_output(k)
+        d = () if op in ("INPUT", "CONST") else tuple(writer[a] for a in args)
+        ops.append(op)
+        deps.append(d)
+        tainted.append(op in _TRIG or any(tainted[j] for j in d))
+        if op in _TRIG and not tainted[d[0]]:
+            lane = angles.setdefault(d[0], len(angles))
+            lanes[k] = (op, lane)
+        if op != "OUTPUT":
+            writer[res[0]] = k
+    if len(angles) < 2:
+        return None
+    needed: set[int] = set()
+    stack = list(angles)
+    while stack:
+        k = stack.pop()
+        if k not in needed:
+            needed.add(k)
+            stack.extend(deps[k])
+    text: dict[int, str] = {}
+    prologue: list[str] = []
+    for k in sorted(needed):
+        op, w = ops[k], [text[j] for j in deps[k]]
+        if op == "INPUT":
+            i, nz = function.instruction_input(k)
+            text[k] = f"{input_names[i]}[{in_positions[i][nz]}]"
+            continue
+        if op == "CONST":
+            text[k] = c_literal(function.instruction_constant(k))
+            continue
+        if op in ("ASSIGN", "PARAMETER"):
+            text[k] = w[0]
+            continue
+        if op in _BINARY:
+            expr = _BINARY[op].format(*w)
+        elif op in _UNARY:
+            expr = _UNARY[op].format(*w)
+        elif op in _LIBM:
+            expr = f"{op.lower()}({w[0]})"
+        else:
+            return None  # the body's emitter names the operation
+        prologue.append(f"const double gagen_a{k} = {expr};")
+        text[k] = f"gagen_a{k}"
+    size = -(-len(angles) // TRIG_LANES) * TRIG_LANES
+    values = [text[k] for k in angles] + ["0.0"] * (size - len(angles))
+    prologue.append(f"double gagen_x[{size}] = {{{', '.join(values)}}}, gagen_s[{size}], gagen_c[{size}];")
+    prologue.append(f"gagen_sincos({len(angles)}, gagen_x, gagen_s, gagen_c);")
+    return _TrigPlan(lanes, tuple(prologue))
 
 
 def c_literal(value: float) -> str:
@@ -67,7 +156,8 @@ _VECTOR_UNARY = {"NEG": "-{0}", "SQ": "{0} * {0}", "TWICE": "{0} + {0}", "INV": 
 
 def emit_body(function: ca.Function, input_names: list[str], output_names: list[str], *,
               vector: bool = False) -> CBody:
-    """C statements evaluating ``function`` from arrays ``input_names`` into ``output_names``.
+    """C statements evaluating ``function`` from arrays ``input_names`` into ``output_names``, with
+    the vector-trig prologue (``CBody.trig``) in the scalar form.
 
     ``vector=True`` emits the same instructions on vectors of W samples (the template's ``gagen_v``
     type): inputs are gathered from and outputs scattered to W consecutive samples of the batched
@@ -89,6 +179,7 @@ def emit_body(function: ca.Function, input_names: list[str], output_names: list[
         zero = "gagen_v_splat(0.0)" if vector else "0.0"
         statements += [store(o, k, zero) for k in range(out_sizes[o]) if k not in written]
     binary, unary = (_VECTOR_BINARY, _VECTOR_UNARY) if vector else (_BINARY, _UNARY)
+    plan = None if vector else _trig_plan(function, input_names, in_positions)
     used: set[int] = set()
     for k in range(function.n_instructions()):
         op = _OPS.get(function.instruction_id(k), "?")
@@ -108,6 +199,9 @@ def emit_body(function: ca.Function, input_names: list[str], output_names: list[
             expr = f"gagen_v_splat({literal})" if vector else literal
         elif op in ("ASSIGN", "PARAMETER"):
             expr = w[0]
+        elif plan and k in plan.lanes:
+            kind, lane = plan.lanes[k]
+            expr = f"gagen_{kind[0].lower()}[{lane}]"
         elif op in binary:
             expr = binary[op].format(*w)
         elif op in unary:
@@ -121,4 +215,4 @@ def emit_body(function: ca.Function, input_names: list[str], output_names: list[
         else:
             raise UnsupportedOperation(f"{function.name()}: no C form for CasADi operation {op}")
         statements.append(f"{target} = {expr};")
-    return CBody(tuple(f"w{i}" for i in sorted(used)), tuple(statements))
+    return CBody(tuple(f"w{i}" for i in sorted(used)), tuple(statements), plan.prologue if plan else ())
