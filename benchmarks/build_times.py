@@ -2,8 +2,7 @@
 
 - ``sequential``: one ``gagen build SPEC -o ROOT/<name> --force`` process per spec, one after another;
   the wall time of each process (interpreter start and imports included) and the phases from gagen's
-  progress lines: "model and N kernel graphs built (X s)", "<system>: compiled <library> (X s)" (the
-  library and the CPython binding) and "<system>: built in Y s" (everything but interpreter start);
+  progress lines: "N kernel graphs ready (X s)", "<system>: compiled <library> and <binding> (X s)" and "<system>: built in Y s" (everything but interpreter start);
 - ``parallel``: all specs in one process through the Python API, ``build_many(specs, force=True,
   outputs=[ROOT/<name>, ...])``: models and C sources one after another while the C compiler runs on
   the finished ones on every core. Timed around the whole process.
@@ -18,8 +17,8 @@ import sys
 import time
 from pathlib import Path
 
-MODEL = re.compile(r"model and (\d+) kernel graphs built \(([\d.]+) s\)")
-COMPILED = re.compile(r"^\s*(\S+): compiled \S+ \(([\d.]+) s\)", re.M)
+MODEL = re.compile(r"(\d+) kernel graphs (?:built|ready) \(([\d.]+) s\)")
+COMPILED = re.compile(r"^\s*(\S+): compiled .* \(([\d.]+) s\)$", re.M)
 BUILT = re.compile(r"^(\S+): built in ([\d.]+) s", re.M)
 
 PARALLEL = """

@@ -41,7 +41,6 @@ sys.path.insert(0, str(BENCH))
 from run import machine, table  # noqa: E402 -- benchmarks/ is not a package
 
 from gagen.apps.cooperative.bundled import generated_folder  # noqa: E402
-from gagen.codegen.jax_emit import jax_kernel  # noqa: E402
 from gagen.robots.urdf import load_chain  # noqa: E402
 from gagen.runtime import load  # noqa: E402
 
@@ -102,11 +101,11 @@ def gagen_c(module: Any) -> Backend:
 def gagen_jax(module: Any, reference: Backend) -> Backend:
     import jax
 
-    batched = jax.jit(jax.vmap(jax_kernel(module, "arm0_fk_jacobian")))
+    batched = jax.jit(jax.vmap(module.jax.arm0_fk_jacobian))  # the module's committed JAX backend
 
     def convert(out: Any) -> tuple[np.ndarray, np.ndarray]:
-        M, P, J_S = (np.asarray(o) for o in out)  # (n, rows, cols): M and P have one column
-        return reference.convert((M[..., 0], P[..., 0], J_S))
+        M, P, J_S = (np.asarray(o) for o in out)  # (n, 8), (n, 5), (n, 6, 7): the C kernels' shapes
+        return reference.convert((M, P, J_S))
 
     return Backend("gagen JAX jit(vmap)", lambda Q: jax.block_until_ready(batched(Q)), convert,
                    JAX_TOLERANCE, f"JAX {jax.__version__} on {jax.devices()[0].platform}, float64")
