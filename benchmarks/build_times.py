@@ -2,7 +2,8 @@
 
 - ``sequential``: one ``gagen build SPEC -o ROOT/<name> --force`` process per spec, one after another;
   the wall time of each process (interpreter start and imports included) and the phases from gagen's
-  progress lines: "N kernel graphs ready (X s)", "<system>: compiled <library> and <binding> (X s)" and "<system>: built in Y s" (everything but interpreter start);
+  progress lines: "N kernel graphs ready (X s)", "<system>: compiled <library> and <binding> (X s)"
+  and "<system>: built in Y s" (everything but interpreter start);
 - ``parallel``: all specs in one process through the Python API, ``build_many(specs, force=True,
   outputs=[ROOT/<name>, ...])``: models and C sources one after another while the C compiler runs on
   the finished ones on every core. Timed around the whole process.

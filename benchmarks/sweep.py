@@ -4,12 +4,13 @@ processes, and the cost Dask adds per chunk [issue 19, item 3].
     python benchmarks/sweep.py [--samples 200000] [--grid 15] [--repeats 3]
 
 Rows: the manipulability sweep (batched C kernels and a stacked SVD per chunk of 10 000 random
-configurations of the three Pandas), the reach sweep (one cold iLQR solve per target circle, chunks of
-15), and an overhead row: the manipulability sweep in chunks of 10 configurations, where the work per
-chunk is small and the time is Dask's (task submission, pickling, the transfer of the rows) and the
-store's (one Parquet file written, fsync'd and renamed per chunk). Throughput counts the chunks' wall
-time only: the cluster's start and the workers' loading of the module are reported apart. Medians of
-``--repeats``, each into a fresh folder. Not part of the test suite.
+configurations of the three Pandas), the same over a regular grid of four joints (20 × 20 × 25 × 20 =
+200 000 configurations, the others at ``ready``), the reach sweep (one cold iLQR solve per target
+circle, chunks of 15), and an overhead row: the manipulability sweep in chunks of 10 configurations,
+where the work per chunk is small and the time is Dask's (task submission, pickling, the transfer of the
+rows) and the store's (one Parquet file written, fsync'd and renamed per chunk). Throughput counts the
+chunks' wall time only: the cluster's start and the workers' loading of the module are reported apart.
+Medians of ``--repeats``, each into a fresh folder. Not part of the test suite.
 """
 
 from __future__ import annotations
@@ -28,6 +29,8 @@ from run import machine, table  # noqa: E402 -- benchmarks/ is not a package
 
 from gagen.sweep.engine import connect, run, run_serial  # noqa: E402
 from gagen.sweep.problems import Manipulability, Reach, Sweep, prepare  # noqa: E402
+
+GRID = "arm0/panda_joint1=20,arm0/panda_joint2=20,arm1/panda_joint4=25,arm2/panda_joint6=20"
 
 
 def seconds(sweep: Sweep, repeats: int, client: object | None) -> float:
@@ -50,6 +53,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeats", type=int, default=3)
     args = ap.parse_args(argv)
     sweeps = {"manipulability (configurations/s)": Manipulability(samples=args.samples, chunk=10_000),
+              "manipulability on a grid (configurations/s)": Manipulability(grid=GRID, chunk=10_000),
               "reach (iLQR solves/s)": Reach(grid=args.grid, chunk=15),
               "overhead: 10 configurations per chunk": Manipulability(samples=10 * args.overhead_chunks,
                                                                       chunk=10)}
@@ -71,7 +75,7 @@ def main(argv: list[str] | None = None) -> int:
                       flush=True)
     rows = []
     for name, sweep in sweeps.items():
-        count = len(sweep.targets()) if isinstance(sweep, Reach) else sweep.samples
+        count = sweep.rows
         t = measured[name]
         if name.startswith("overhead"):
             per_chunk = [(t[w] - t["serial"]) / sweep.chunks * 1e3 for w in (1, 2)]

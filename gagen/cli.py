@@ -591,9 +591,9 @@ def main(argv: list[str] | None = None) -> int:
     linkage.add_argument("--no-animation", action="store_true", help="skip the GIF")
     linkage.set_defaults(run=_cmd_linkage)
 
-    sweep = sub.add_parser("sweep", help="distributed sweeps on Dask, chunked and resumable: the three "
-                           "Pandas' manipulability over random configurations, or iLQR reaching over target "
-                           "circles")
+    sweep = sub.add_parser("sweep", help="distributed sweeps on Dask, chunked and resumable: a bundled "
+                           "system's manipulability over random configurations or a grid, or iLQR reaching "
+                           "over target circles or spheres")
     from gagen.sweep.command import add_arguments as sweep_arguments
 
     sweep_arguments(sweep)

@@ -1,18 +1,31 @@
 """``gagen sweep {manipulability,reach}``: the command line of the sweeps (arguments, run, report, plot).
 
 The arguments need nothing beyond the standard library (every ``gagen`` call builds them); dask and pyarrow
-are imported only when a sweep runs."""
+are imported only when a sweep runs, and the system and the grid are checked then (they need its spec):
+their errors name the option."""
 
 from __future__ import annotations
 
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from gagen.cli import non_negative_int, positive_float, positive_int
 
+if TYPE_CHECKING:
+    from gagen.sweep.problems import Sweep
+
+DEFAULT_SYSTEM = "three_pandas_circle"  # = gagen.sweep.problems.DEFAULT_SYSTEM, without importing it
+OPTIONS = {"system": "--system", "grid": "--grid", "samples": "--samples", "seed": "--seed",
+           "chunk": "--chunk", "span": "--span", "radii": "--radius", "height": "--height", "N": "--N",
+           "normal": "--normal"}
+"""A SweepError's leading field -> the option that set it."""
+
 
 def _common(parser: argparse.ArgumentParser, chunk: int) -> None:
+    parser.add_argument("--system", default=DEFAULT_SYSTEM, help="bundled cooperative system (robots/*.yaml; "
+                        f"default {DEFAULT_SYSTEM})")
     parser.add_argument("--out", required=True, help="folder of the chunk files, sweep.json and the plot; "
                         "a re-run into it skips the finished chunks")
     parser.add_argument("--workers", type=positive_int, default=2,
@@ -26,41 +39,71 @@ def _common(parser: argparse.ArgumentParser, chunk: int) -> None:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     kinds = parser.add_subparsers(dest="sweep", required=True)
-    manipulability = kinds.add_parser("manipulability", help="the similarity-manipulability index of the "
-                                      "three Pandas over random configurations, by the circle's centre")
+    manipulability = kinds.add_parser("manipulability", help="the similarity-manipulability index and "
+                                      "ellipsoid volume over random configurations or a grid, mapped by "
+                                      "where the primitive is")
     _common(manipulability, 10_000)
-    manipulability.add_argument("--samples", type=positive_int, default=200_000,
-                                help="random configurations (default 200000)")
-    manipulability.add_argument("--seed", type=non_negative_int, default=0, help="random seed (default 0)")
-    reach = kinds.add_parser("reach", help="iLQR reaching of a grid of horizontal target circles by the "
-                             "three Pandas: success and final error per target, a reachability map")
+    drawn = manipulability.add_mutually_exclusive_group()
+    drawn.add_argument("--samples", type=positive_int, help="random configurations within the joint limits "
+                       "(the default: 200000)")
+    drawn.add_argument("--grid", action="append", metavar="JOINT=COUNT[:LOW:HIGH],...",
+                       help="a regular grid instead: COUNT values of each named joint (its label, e.g. "
+                       "arm0/panda_joint2, or its 0-based index in q) over its limits or [LOW, HIGH], the "
+                       "other joints at the ready configuration; repeat or join with commas")
+    manipulability.add_argument("--seed", type=non_negative_int, default=0,
+                                help="random seed of --samples (default 0)")
+    reach = kinds.add_parser("reach", help="iLQR reaching of a grid of target circles (horizontal) or "
+                             "spheres, for a system spanning a circle or a sphere: success and final error "
+                             "per target, a reachability map")
     _common(reach, 16)
     reach.add_argument("--grid", type=positive_int, default=21, help="centres per axis (default 21)")
-    reach.add_argument("--span", type=float, default=0.6,
-                       help="half-width of the centre grid, m (default 0.6)")
+    reach.add_argument("--span", type=float, help="half-width of the centre grid, m (default: 1.2 × the "
+                       "default radius, 0.6 for the three Pandas)")
     reach.add_argument("--radius", type=positive_float, action="append",
-                       help="target radius, m; repeat for several (default 0.5)")
-    reach.add_argument("--height", type=float, default=0.59, help="the circles' height, m (default 0.59: "
-                       "the ready configuration's)")
+                       help="target radius, m; repeat for several (default: the ready configuration's, to "
+                       "5 cm: 0.5 for the three Pandas)")
+    reach.add_argument("--height", type=float, help="the centres' height, m (default: the ready "
+                       "configuration's, to 1 cm: 0.59 for the three Pandas)")
+    reach.add_argument("--normal", type=float, nargs=3, metavar=("X", "Y", "Z"), help="the target circles' "
+                       "normal (default: the ready circle's, to 0.01: +z for the three Pandas); circles only")
     reach.add_argument("--N", type=positive_int, default=50, help="iLQR time steps (default 50)")
+
+
+def _named(error: Exception) -> str:
+    """The error with its leading field replaced by the option (``grid: …`` -> ``--grid: …``)."""
+    text = str(error)
+    field, colon, rest = text.partition(":")
+    return f"{OPTIONS[field]}:{rest}" if colon and field in OPTIONS else text
+
+
+def _sweep(args: argparse.Namespace) -> Sweep:
+    from gagen.sweep.problems import Manipulability, Reach
+
+    if args.sweep == "manipulability":
+        if args.grid is not None:
+            return Manipulability(grid=args.grid, chunk=args.chunk, seed=args.seed, system=args.system)
+        return Manipulability(samples=args.samples or 200_000, chunk=args.chunk, seed=args.seed,
+                              system=args.system)
+    return Reach(grid=args.grid, span=args.span, radii=tuple(args.radius) if args.radius else None,
+                 height=args.height, N=args.N, chunk=args.chunk, system=args.system,
+                 normal=tuple(args.normal) if args.normal else None)
 
 
 def run(args: argparse.Namespace) -> int:
     """Exit status 0 when every chunk is written, 1 when some failed (re-run to retry), 2 for bad input."""
     from gagen.sweep import plots
     from gagen.sweep.engine import run as run_sweep
-    from gagen.sweep.problems import Manipulability, Reach
     from gagen.sweep.store import ChunkStore, SweepError
 
     try:
-        if args.sweep == "manipulability":
-            sweep = Manipulability(samples=args.samples, chunk=args.chunk, seed=args.seed)
-        else:
-            sweep = Reach(grid=args.grid, span=args.span, radii=tuple(args.radius or (0.5,)),
-                          height=args.height, N=args.N, chunk=args.chunk)
+        sweep = _sweep(args)
+    except SweepError as e:
+        print(f"error: {_named(e)}", file=sys.stderr)
+        return 2
+    try:
         where = args.scheduler or f"a local cluster of {args.workers} worker processes"
-        print(f"{sweep.kind} sweep: {sweep.chunks} chunks of {sweep.chunk} into {args.out}, on {where}",
-              flush=True)
+        print(f"{sweep.kind} sweep of {sweep.system}: {sweep.rows} rows in {sweep.chunks} chunks of "
+              f"{sweep.chunk} into {args.out}, on {where}", flush=True)
         outcome = run_sweep(sweep, args.out, scheduler=args.scheduler, workers=args.workers,
                             progress=not args.no_progress)
     except (SweepError, OSError) as e:
@@ -76,11 +119,23 @@ def run(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return 1
     table = ChunkStore(args.out).read(sweep.chunks)
+    kind = sweep.cell.kind
     if sweep.kind == "reach":
-        reached = int(table.column("success").to_numpy().sum())
-        print(f"  reached {reached} of {table.num_rows} target circles")
-        path = plots.reach_map(table, Path(args.out) / "reachability.png")
+        reached = int(table.column("success").to_numpy(zero_copy_only=False).sum())
+        targets = "target spheres" if kind == "sphere" else (
+            "horizontal target circles" if sweep.normal == (0.0, 0.0, 1.0) else
+            f"target circles normal to ({', '.join(f'{n:g}' for n in sweep.normal)})")
+        print(f"  reached {reached} of {table.num_rows} {targets}")
+        path = plots.reach_map(table, Path(args.out) / "reachability.png", system=sweep.system,
+                               targets=targets)
     else:
-        path = plots.manipulability_map(table, Path(args.out) / "manipulability.png")
+        where = {"circle": "circle centre", "sphere": "sphere centre", "point_pair": "midpoint"}.get(
+            kind, "end points' centroid")
+        try:
+            path = plots.manipulability_map(table, Path(args.out) / "manipulability.png", system=sweep.system,
+                                            where=where)
+        except ValueError as e:
+            print(f"  no map: {e}")
+            return 0
     print(f"  wrote {path}")
     return 0

@@ -1,5 +1,6 @@
-"""The sweeps' plots: a reachability map of target circles, and the similarity-manipulability index over
-the workspace (binned by the circle's centre). Both take the table a sweep wrote (``ChunkStore.read``)."""
+"""The sweeps' plots: a reachability map of target primitives, and the similarity-manipulability ellipsoid
+volume over the workspace (binned by where the primitive is: a circle's or sphere's centre, else the end
+points' centroid). Both take the table a sweep wrote (``ChunkStore.read``)."""
 
 from __future__ import annotations
 
@@ -26,7 +27,8 @@ def _column(table: pa.Table, name: str) -> NDArray:
     return table.column(name).to_numpy()
 
 
-def reach_map(table: pa.Table, path: str | Path) -> Path:
+def reach_map(table: pa.Table, path: str | Path, system: str = "three_pandas_circle",
+              targets: str = "horizontal target circles") -> Path:
     """One panel per radius: the target centres' x-y grid coloured by the final error ‖e(q_N)‖ (log
     scale), the reached targets ringed in white."""
     from matplotlib.colors import LogNorm
@@ -49,14 +51,14 @@ def reach_map(table: pa.Table, path: str | Path) -> Path:
                title=f"radius {r:g} m: reached {int(reached.sum())} of {int(mine.sum())}")
     fig.colorbar(image, ax=list(axes), label="final error ‖e(q_N)‖ (ringed: reached)")
     height = float(np.median(_column(table, "centre_z")))
-    fig.suptitle(f"three Pandas, iLQR from ready:\nhorizontal target circles at z = {height:.2f} m")
+    fig.suptitle(f"{system}, iLQR from ready:\n{targets}, centres at z = {height:.2f} m")
     return _save(fig, path)
 
 
 def binned_median(a: NDArray, b: NDArray, value: NDArray, bins: int, ranges: list[tuple[float, float]]
                   ) -> tuple[NDArray, NDArray, NDArray]:
     """(median (bins_b, bins_a), a edges, b edges) of ``value`` over a bins × bins grid of (a, b); NaN in
-    empty bins, points outside ``ranges`` left out. The median, not the mean: the index spans decades
+    empty bins, points outside ``ranges`` left out. The median, not the mean: the volume spans decades
     (near-collinear end points give huge circles), and a mean follows a bin's few largest values."""
     a_edges, b_edges = (np.linspace(lo, hi, bins + 1) for lo, hi in ranges)
     ia = np.searchsorted(a_edges, a, side="right") - 1
@@ -73,28 +75,42 @@ def binned_median(a: NDArray, b: NDArray, value: NDArray, bins: int, ranges: lis
     return medians.reshape(bins, bins), a_edges, b_edges
 
 
-def manipulability_map(table: pa.Table, path: str | Path, bins: int = 40) -> Path:
-    """The median similarity-manipulability index of the sampled configurations binned by their circle's
-    centre: over x-y (top view) and x-z (side view), within the 1-99 % quantiles of the centres."""
+def _range(values: NDArray) -> tuple[float, float]:
+    """The 1-99 % quantiles, widened to 1 mm where they meet (a grid over joints that leave a coordinate
+    fixed)."""
+    lo, hi = (float(v) for v in np.quantile(values, [0.01, 0.99]))
+    return (lo, hi) if hi - lo > 1e-3 else ((lo + hi) / 2 - 5e-4, (lo + hi) / 2 + 5e-4)
+
+
+def manipulability_map(table: pa.Table, path: str | Path, bins: int = 40, system: str = "three_pandas_circle",
+                       where: str = "circle centre") -> Path:
+    """The median similarity-manipulability ellipsoid volume (column ``volume``: V_r · the product of
+    J_G's r largest singular values, ``gagen.sweep.problems``) of the configurations binned by where the
+    primitive is: over x-y (top view) and x-z (side view), within the 1-99 % quantiles of the places.
+    ``where`` names the place in the axis labels."""
     from matplotlib.colors import LogNorm
 
     centre = {k: _column(table, f"centre_{k}") for k in "xyz"}
-    index = _column(table, "index")
-    finite = np.isfinite(index) & np.all([np.isfinite(c) for c in centre.values()], axis=0) & (index > 0)
-    ranges = {k: tuple(np.quantile(c[finite], [0.01, 0.99])) for k, c in centre.items()}
+    volume = _column(table, "volume")
+    finite = np.isfinite(volume) & np.all([np.isfinite(c) for c in centre.values()], axis=0) & (volume > 0)
+    if not finite.any():
+        raise ValueError("no configuration has a finite, positive ellipsoid volume and a finite centre: "
+                         "nothing to map")
+    ranges = {k: _range(c[finite]) for k, c in centre.items()}
     fig = _figure((11, 4.6))
     axes = fig.subplots(1, 2)
     image = None
-    values = index[finite]
-    norm = LogNorm(vmin=float(np.quantile(values, 0.02)), vmax=float(np.quantile(values, 0.98)))
+    values = volume[finite]
+    low, high = (float(v) for v in np.quantile(values, [0.02, 0.98]))
+    norm = LogNorm(vmin=low, vmax=max(high, low * (1 + 1e-9)))
     for ax, (a, b) in zip(axes, (("x", "y"), ("x", "z")), strict=True):
         median, a_edges, b_edges = binned_median(centre[a][finite], centre[b][finite], values, bins,
                                                  [ranges[a], ranges[b]])
         image = ax.pcolormesh(a_edges, b_edges, median, norm=norm, cmap="magma")
-        ax.set(xlabel=f"circle centre {a} [m]", ylabel=f"circle centre {b} [m]", aspect="equal",
-               title=f"median index by centre {a}-{b}")
-    fig.colorbar(image, ax=list(axes), label="similarity-manipulability index (median per bin)")
-    fig.suptitle(f"three Pandas: {int(finite.sum())} random configurations within the joint limits")
+        ax.set(xlabel=f"{where} {a} [m]", ylabel=f"{where} {b} [m]", aspect="equal",
+               title=f"median volume by {where} {a}-{b}")
+    fig.colorbar(image, ax=list(axes), label="similarity-manipulability ellipsoid volume (median per bin)")
+    fig.suptitle(f"{system}: {int(finite.sum())} configurations within the joint limits")
     return _save(fig, path)
 
 

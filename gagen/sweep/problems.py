@@ -1,27 +1,38 @@
-"""What a sweep computes, chunk by chunk: the two sweeps of the three-Panda circle cell.
+"""What a sweep computes, chunk by chunk, for a bundled cooperative system (default: the three-Panda circle).
 
-- ``Manipulability``: ``samples`` random configurations, uniform within the joint limits, in chunks of
-  ``chunk``; per configuration the circle the three end points span (centre, radius, from the batched
-  arm FK kernels), the similarity kernel's ``conditioning`` output and the similarity-manipulability
-  index (``gagen.control.differential.manipulability_index`` of J_G at the circle's controllable rank,
-  6), from the batched C kernels (one call per chunk) and one stacked SVD. Chunk i draws its
-  configurations from ``default_rng([seed, i])``: any chunk can be recomputed alone, on any worker, with
-  the same numbers.
-- ``Reach``: a grid of target circles (centres on an x-y grid at one height, normal +z, each radius in
-  ``radii``), each solved by the structured iLQR (``gagen.control.ilqr``) from the ``ready``
-  configuration within the joint limits, cold-started so that a target's result does not depend on
-  which chunk or worker solved it; per target success, status, final error ‖e(q_N)‖, iterations,
-  multiplier updates, solve time and q_N.
+- ``Manipulability``: configurations of the system, either ``samples`` random ones uniform within the
+  joint limits (chunk i draws from ``default_rng([seed, i])``) or a regular ``grid`` over chosen joints,
+  the others at the ``ready`` configuration (``gagen.sweep.grid``: chunk i is the flat index range
+  [i·chunk, (i+1)·chunk)). Either way any chunk can be recomputed alone, on any worker, with the same
+  numbers. Per configuration: where the primitive the end points span is (``places.locate``: the centre
+  of a circle or sphere, else the end points' centroid) and its radius, the similarity kernel's
+  ``conditioning``, the similarity-manipulability ``index`` (``gagen.control.differential.
+  manipulability_index`` of J_G at the primitive's controllable rank r, ``CONTROLLABLE_DIMENSION``) and
+  the ellipsoid's ``volume``, V_r · index with V_r the volume of the unit r-ball: the r-dimensional
+  volume of {J_G q̇ : ‖q̇‖ ≤ 1}, whose semi-axes are J_G's r largest singular values. (√det(J_G J_Gᵀ),
+  Yoshikawa's measure, is 0 for every configuration here: J_G has 7 rows but rank r < 7.) All from the
+  batched C kernels (one call per chunk and per chain) and one stacked SVD.
+- ``Reach``: a grid of target primitives (centres on an x-y grid at one height, each radius in
+  ``radii``; circles about one ``normal`` for a system spanning a circle, spheres for one spanning a
+  sphere),
+  each solved by the structured iLQR (``gagen.control.ilqr``) from the ``ready`` configuration within
+  the joint limits, cold-started so that a target's result does not depend on which chunk or worker
+  solved it; per target success, status, final error ‖e(q_N)‖, iterations, multiplier updates, solve
+  time and q_N. Unset centre, radius, span and normal default to the ready primitive's (rounded to 1 cm,
+  its radius to 5 cm, the span 1.2 radii, the normal to 0.01): for the three Pandas (0, 0, 0.59), 0.5 m,
+  0.6 m and +z (horizontal circles).
 
-A sweep is a frozen, picklable description (shipped to the workers, with the ``Cell``: the joint limits
-and the ready configuration, read from the spec where the sweep is made); ``compute(i)`` is chunk i's
-rows as a pyarrow table. The generated module and the iLQR solver are loaded once per worker process.
+A sweep is a frozen, picklable description (shipped to the workers with its ``Cell``: the joint limits,
+the ready configuration and the chains, read from the spec where the sweep is made); ``compute(i)`` is
+chunk i's rows as a pyarrow table. The generated module and the iLQR solver are loaded once per worker
+process and system.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 from functools import cache
 from typing import Any
 
@@ -29,61 +40,88 @@ import numpy as np
 import pyarrow as pa
 from numpy.typing import NDArray
 
+from gagen.sweep import grid as grids
+from gagen.sweep.places import locate, unit_ball_volume
 from gagen.sweep.store import SweepError
 
-SYSTEM = "three_pandas_circle"
-ARMS = 3
-NORMAL = (0.0, 0.0, 1.0)  # the target circles lie in horizontal planes
-
-
-@cache
-def _module() -> Any:
-    from gagen.apps.cooperative.bundled import generated_folder
-    from gagen.runtime import load
-
-    return load(generated_folder() / SYSTEM)
+DEFAULT_SYSTEM = "three_pandas_circle"
+TARGETS = ("circle", "sphere")  # the primitives the reach sweep has targets for
 
 
 @dataclass(frozen=True)
 class Cell:
-    """What the chunks need to know of the system beyond its kernels: the joint limits, the ``ready``
-    configuration and the primitive's controllable dimension (the manipulability index's rank)."""
+    """What the chunks need to know of the system beyond its kernels: its name and primitive ``kind``,
+    the joint labels and limits, the ``ready`` configuration, the primitive's controllable dimension
+    (the manipulability index's rank) and per chain its FK kernel and its joints' indices in q."""
 
+    system: str
+    kind: str
+    joints: tuple[str, ...]
     lower: tuple[float, ...]
     upper: tuple[float, ...]
     ready: tuple[float, ...]
     rank: int
+    chains: tuple[tuple[str, tuple[int, ...]], ...]
+
+
+def _system_name(system: Any) -> str:
+    from gagen.apps.cooperative.bundled import bundled_specs
+
+    names = list(bundled_specs())
+    if not isinstance(system, str) or system not in names:
+        raise SweepError(f"system: expected a bundled cooperative system ({', '.join(names)}), "
+                         f"got {system!r}")
+    return system
 
 
 @cache
-def cell() -> Cell:
-    """The three-Panda cell, from its spec (≈ 1 s: the URDFs are parsed). Loaded once where a sweep is
-    described and shipped with it, so that a worker needs only the generated module."""
-    from gagen.apps.cooperative.bundled import bundled_specs
+def cell(system: str = DEFAULT_SYSTEM) -> Cell:
+    """The cell of bundled ``system``, from its spec (≈ 1 s the first time: the URDFs are parsed). Loaded
+    once where a sweep is described and shipped with it, so that a worker needs only the generated
+    module. A SweepError starting ``system:`` says why a system cannot be swept."""
+    from gagen.apps.cooperative.bundled import bundled_specs, generated_folder
     from gagen.apps.cooperative.spec import load_system
     from gagen.check import joint_limits
     from gagen.control.differential import CONTROLLABLE_DIMENSION
+    from gagen.symbolic.flatten import identifier
 
-    system, configurations = load_system(bundled_specs()[SYSTEM])
-    lower, upper, _ = joint_limits(system)
-    return Cell(tuple(lower.tolist()), tuple(upper.tolist()), tuple(map(float, configurations["ready"])),
-                CONTROLLABLE_DIMENSION[system.kind])
+    spec = bundled_specs()[_system_name(system)]
+    loaded, configurations = load_system(spec)
+    lower, upper, _ = joint_limits(loaded)
+    labels = tuple(f"{robot}/{joint}" for robot, joint in loaded.joint_keys)
+    unlimited = [label for label, lo, hi in zip(labels, lower, upper, strict=True)
+                 if not (np.isfinite(lo) and np.isfinite(hi))]
+    if unlimited:
+        raise SweepError(f"system: {system} has joints without limits ({', '.join(unlimited)}); the sweeps "
+                         "sample and grid within the joint limits")
+    if "ready" not in configurations:
+        raise SweepError(f"system: {spec} names no 'ready' configuration, which the sweeps start from")
+    if not (generated_folder() / system / "manifest.json").is_file():
+        raise SweepError(f"system: no generated module for {system} in {generated_folder()}; build it with "
+                         f"gagen build robots/{system}.yaml")
+    chains = tuple((identifier(f"{chain.name}_fk"), tuple(indices))
+                   for chain, indices in zip(loaded.chains, loaded.chain_indices(), strict=True))
+    return Cell(system, loaded.kind, labels, tuple(lower.tolist()), tuple(upper.tolist()),
+                tuple(map(float, configurations["ready"])), CONTROLLABLE_DIMENSION[loaded.kind], chains)
 
 
 @cache
-def _solver(N: int) -> Any:
+def _module(system: str = DEFAULT_SYSTEM) -> Any:
+    from gagen.apps.cooperative.bundled import generated_folder
+    from gagen.runtime import load
+
+    return load(generated_folder() / system)
+
+
+@cache
+def _solver(system: str, dof: int, N: int) -> Any:
     from gagen.control.ilqr import ILQR
 
-    return ILQR(_module().c.task, len(cell().lower), N=N)
+    return ILQR(_module(system).c.task, dof, N=N)
 
 
 def _limits(cell: Cell) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     return np.array(cell.lower), np.array(cell.upper)
-
-
-def _description(sweep: Any) -> dict[str, Any]:
-    """The sweep's parameters as ``sweep.json`` records them (the cell follows from the system)."""
-    return {"system": SYSTEM, **{k: v for k, v in asdict(sweep).items() if k != "cell"}}
 
 
 def _positive_int(value: Any, name: str) -> int:
@@ -99,52 +137,82 @@ def _finite(value: Any, name: str) -> float:
     return float(value)
 
 
-def circumcircles(a: NDArray, b: NDArray, c: NDArray) -> tuple[NDArray, NDArray]:
-    """Centres (n, 3) and radii (n,) of the circles through the rows of a, b, c (NaN when collinear)."""
-    u, v = b - a, c - a
-    n = np.cross(u, v)
-    nn = np.einsum("ij,ij->i", n, n)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        offset = (np.einsum("ij,ij->i", u, u)[:, None] * np.cross(v, n)
-                  + np.einsum("ij,ij->i", v, v)[:, None] * np.cross(n, u)) / (2.0 * nn[:, None])
-    return a + offset, np.linalg.norm(offset, axis=1)
+def end_points(found: Cell, q: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(n, chains, 3): every chain's end point for the rows of q (the batched FK kernels; a chain's columns
+    of q picked by index, since chains may share joints: a humanoid's waist drives both arms)."""
+    module = _module(found.system)
+    return np.stack([getattr(module.c, name).batch(np.ascontiguousarray(q[:, list(indices)]))[1][:, 1:4]
+                     for name, indices in found.chains], axis=1)
+
+
+def _make_cell(sweep: Any) -> Cell:
+    found = cell(_system_name(sweep.system))
+    object.__setattr__(sweep, "cell", found)
+    return found
 
 
 @dataclass(frozen=True)
 class Manipulability:
-    """The similarity-manipulability index over ``samples`` random configurations."""
+    """The similarity-manipulability index and ellipsoid volume over ``samples`` random configurations,
+    or over a ``grid`` (``gagen.sweep.grid``: a string such as ``"arm0/panda_joint2=50,arm0/panda_joint4=50"``
+    or ``"1=50,3=50"``, a sequence of such items, or ``Axis`` objects; kept as axes): exactly one of the
+    two."""
 
-    samples: int
+    samples: int | None = None
     chunk: int = 10_000
     seed: int = 0
+    grid: str | Sequence[str] | tuple[grids.Axis, ...] | None = None
+    system: str = DEFAULT_SYSTEM
     kind: str = field(default="manipulability", init=False)
     cell: Cell = field(default=None, init=False, repr=False, compare=False)  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "cell", cell())
-        _positive_int(self.samples, "samples")
+        found = _make_cell(self)
         _positive_int(self.chunk, "chunk")
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
-            raise SweepError(f"seed: expected an integer ≥ 0, got {self.seed!r}")
+        if self.grid is None:
+            _positive_int(self.samples, "samples")
+            if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+                raise SweepError(f"seed: expected an integer ≥ 0, got {self.seed!r}")
+            return
+        if self.samples is not None:
+            raise SweepError(f"grid: a sweep has random samples or a grid, not both (samples = "
+                             f"{self.samples!r})")
+        if self.seed != 0:
+            raise SweepError(f"seed: a grid has no random seed, got {self.seed!r}")
+        spec = self.grid
+        if isinstance(spec, tuple | list) and spec and all(isinstance(a, grids.Axis) for a in spec):
+            # re-checked against this system as text (repr round-trips every float)
+            spec = [f"{a.joint}={a.count}:{float(a.lower)!r}:{float(a.upper)!r}" for a in spec]
+        object.__setattr__(self, "grid", grids.parse(spec, found.joints, found.lower, found.upper))
+
+    @property
+    def rows(self) -> int:
+        return grids.size(self.grid) if self.grid is not None else self.samples
 
     @property
     def chunks(self) -> int:
-        return -(-self.samples // self.chunk)
+        return -(-self.rows // self.chunk)
 
     def description(self) -> dict[str, Any]:
-        return _description(self)
+        """The parameters as ``sweep.json`` records them (the cell follows from the system)."""
+        drawn = ({"samples": self.samples, "seed": self.seed} if self.grid is None else
+                 {"grid": [{"joint": a.name, "index": a.joint, "count": a.count, "lower": a.lower,
+                            "upper": a.upper} for a in self.grid], "fixed": list(self.cell.ready)})
+        return {"system": self.system, "kind": self.kind, "chunk": self.chunk, **drawn}
 
     def configurations(self, index: int) -> NDArray[np.float64]:
-        """Chunk ``index``'s configurations (rows), uniform within the joint limits."""
+        """Chunk ``index``'s configurations (rows): uniform within the joint limits, or the grid's."""
+        first = index * self.chunk
+        count = min(self.chunk, self.rows - first)
+        if self.grid is not None:
+            return grids.configurations(self.grid, self.cell.ready, first, count)
         lower, upper = _limits(self.cell)
-        count = min(self.chunk, self.samples - index * self.chunk)
         return lower + (upper - lower) * np.random.default_rng([self.seed, index]).random((count, lower.size))
 
     def compute(self, index: int) -> pa.Table:
-        module, q = _module(), self.configurations(index)
-        _, conditioning, J_G = module.c.similarity.batch(q)
-        ends = [getattr(module.c, f"arm{i}_fk").batch(q[:, 7 * i:7 * i + 7])[1][:, 1:4] for i in range(ARMS)]
-        centre, radius = circumcircles(*ends)
+        q = self.configurations(index)
+        _, conditioning, J_G = _module(self.system).c.similarity.batch(q)
+        centre, radius = locate(self.cell.kind, end_points(self.cell, q))
         rank = self.cell.rank
         # manipulability_index's definition (the product of the rank largest singular values) on numpy's
         # stacked SVD: 4× the throughput of one call per row, equal to it within a few ulp (not bit for bit)
@@ -152,30 +220,55 @@ class Manipulability:
         first = index * self.chunk
         return pa.table({"sample": np.arange(first, first + len(q), dtype=np.int64),
                          "centre_x": centre[:, 0], "centre_y": centre[:, 1], "centre_z": centre[:, 2],
-                         "radius": radius, "conditioning": conditioning[:, 0], "index": index_values})
+                         "radius": radius, "conditioning": conditioning[:, 0], "index": index_values,
+                         "volume": unit_ball_volume(rank) * index_values})
+
+
+def ready_primitive(found: Cell) -> tuple[NDArray[np.float64], float, NDArray[np.float64]]:
+    """Centre, radius and unit normal (a circle's; NaN otherwise) of the primitive the ready configuration
+    spans (single FK calls)."""
+    points = end_points(found, np.array([found.ready]))
+    centre, radius = locate(found.kind, points)
+    normal = np.full(3, np.nan)
+    if found.kind == "circle":
+        normal = np.cross(points[0, 1] - points[0, 0], points[0, 2] - points[0, 0])
+        normal /= np.linalg.norm(normal)
+    return centre[0], float(radius[0]), normal
 
 
 @dataclass(frozen=True)
 class Reach:
-    """iLQR reaching over target circles: centres on ``grid`` × ``grid`` points of [x ± span] × [y ± span]
-    around (x, y) at ``height``, for each of ``radii``; ``N`` time steps (horizon the iLQR default)."""
+    """iLQR reaching over target primitives: centres on ``grid`` × ``grid`` points of [x ± span] × [y ±
+    span] at ``height``, for each of ``radii`` (circles about ``normal``, or spheres); ``N`` time steps
+    (horizon the iLQR default). Unset (None) centre, radii, span and normal follow from the ready
+    configuration (see the module's docstring)."""
 
     grid: int = 21
-    span: float = 0.6
-    radii: tuple[float, ...] = (0.5,)
-    height: float = 0.59
-    x: float = 0.0
-    y: float = 0.0
+    span: float | None = None
+    radii: tuple[float, ...] | None = None
+    height: float | None = None
+    x: float | None = None
+    y: float | None = None
     N: int = 50
     chunk: int = 16
+    system: str = DEFAULT_SYSTEM
+    normal: tuple[float, float, float] | None = None
     kind: str = field(default="reach", init=False)
     cell: Cell = field(default=None, init=False, repr=False, compare=False)  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "cell", cell())
+        found = _make_cell(self)
+        if found.kind not in TARGETS:
+            raise SweepError(f"system: the reach sweep has circle and sphere targets; {self.system} spans a "
+                             f"{found.kind}")
         _positive_int(self.grid, "grid")
         _positive_int(self.N, "N")
         _positive_int(self.chunk, "chunk")
+        if self.normal is not None:
+            self._check_normal(found)
+        if None in (self.x, self.y, self.height, self.radii, self.span) or \
+                (self.normal is None and found.kind == "circle"):
+            self._defaults(found)
         for name in ("span", "height", "x", "y"):
             _finite(getattr(self, name), name)
         if self.span < 0:
@@ -186,30 +279,66 @@ class Reach:
             if _finite(r, "radii") <= 0:
                 raise SweepError(f"radii: expected radii > 0 m, got {r!r}")
 
+    def _check_normal(self, found: Cell) -> None:
+        if found.kind != "circle":
+            raise SweepError(f"normal: only circle targets have a normal; {self.system} spans a {found.kind}")
+        if not isinstance(self.normal, tuple | list) or len(self.normal) != 3:
+            raise SweepError(f"normal: expected 3 numbers, got {self.normal!r}")
+        normal = tuple(_finite(n, "normal") for n in self.normal)
+        if not any(normal):
+            raise SweepError(f"normal: expected a non-zero direction, got {self.normal!r}")
+        object.__setattr__(self, "normal", normal)
+
+    def _defaults(self, found: Cell) -> None:
+        centre, radius, normal = ready_primitive(found)
+        if not (np.all(np.isfinite(centre)) and math.isfinite(radius)):
+            raise SweepError(f"system: the ready configuration of {self.system} spans a degenerate "
+                             f"{found.kind}: give the centre, radius and span")
+        rounded = [round(float(c), 2) + 0.0 for c in centre]  # + 0.0: no −0.0 in sweep.json
+        r = round(round(radius / 0.05) * 0.05, 2) or 0.05
+        defaults = {"x": rounded[0], "y": rounded[1], "height": rounded[2], "radii": (r,),
+                    "span": round(1.2 * r, 2)}
+        if found.kind == "circle":
+            defaults["normal"] = tuple(round(float(n), 2) + 0.0 for n in normal)
+        for name, value in defaults.items():
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, value)
+
     def targets(self) -> NDArray[np.float64]:
         """(T, 4): centre x, y, z and radius of every target, radius-major, then x, then y."""
-        xs = self.x + np.linspace(-self.span, self.span, self.grid)
-        ys = self.y + np.linspace(-self.span, self.span, self.grid)
+        offsets = np.linspace(-self.span, self.span, self.grid) if self.grid > 1 else np.zeros(1)  # 1: (x, y)
+        xs, ys = self.x + offsets, self.y + offsets
         r, x, y = np.meshgrid(np.array(self.radii, dtype=float), xs, ys, indexing="ij")
         return np.column_stack([x.ravel(), y.ravel(), np.full(x.size, self.height), r.ravel()])
 
     @property
+    def rows(self) -> int:
+        return len(self.radii) * self.grid**2
+
+    @property
     def chunks(self) -> int:
-        return -(-len(self.radii) * self.grid**2 // self.chunk)
+        return -(-self.rows // self.chunk)
 
     def description(self) -> dict[str, Any]:
-        return _description(self)
+        names = ("grid", "span", "radii", "height", "x", "y", "normal", "N", "chunk", "kind")
+        return {"system": self.system, **{name: getattr(self, name) for name in names}}
 
-    def compute(self, index: int) -> pa.Table:
+    def goal(self, centre: NDArray[np.float64], radius: float) -> NDArray[np.float64]:
         from gagen.apps.cooperative import goals
 
-        solver, limits, q0 = _solver(self.N), _limits(self.cell), np.array(self.cell.ready)
+        if self.cell.kind == "sphere":
+            return goals.sphere(centre, radius)
+        return goals.circle(centre, radius, self.normal)
+
+    def compute(self, index: int) -> pa.Table:
+        solver = _solver(self.system, len(self.cell.lower), self.N)
+        limits, q0 = _limits(self.cell), np.array(self.cell.ready)
         first = index * self.chunk
         targets = self.targets()[first:first + self.chunk]
         rows: dict[str, list[Any]] = {k: [] for k in ("success", "status", "error", "iterations", "updates",
                                                       "solve_time", "q_final")}
         for cx, cy, cz, radius in targets:
-            result = solver.solve(q0, goals.circle([cx, cy, cz], radius, NORMAL), limits=limits)
+            result = solver.solve(q0, self.goal(np.array([cx, cy, cz]), radius), limits=limits)
             for key, value in (("success", result.success), ("status", result.status),
                                ("error", result.error_norm), ("iterations", result.iterations),
                                ("updates", result.updates), ("solve_time", result.wall_time),
@@ -227,10 +356,10 @@ Sweep = Manipulability | Reach
 
 
 def prepare(sweep: Sweep) -> None:
-    """Load what the chunks of ``sweep`` need (module, limits, solver) in this process, ahead of them."""
-    _module()
+    """Load what the chunks of ``sweep`` need (module, solver) in this process, ahead of them."""
+    _module(sweep.system)
     if isinstance(sweep, Reach):
-        _solver(sweep.N)
+        _solver(sweep.system, len(sweep.cell.lower), sweep.N)
 
 
 def compute_chunk(sweep: Sweep, index: int) -> tuple[int, pa.Table]:

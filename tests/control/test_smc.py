@@ -88,13 +88,17 @@ def test_step_kernel_matches_interpreter_finite_differences_and_numpy(function, 
 @pytest.mark.compiling
 @needs_cc
 def test_compiled_step_gives_casadis_doubles(function, built):
+    """CasADi's doubles but for the joint angles' sines and cosines, which the C step takes from
+    libmvec (within 4 ulp): x and J agree to 1e-13 of their scale; u, through the damped solve (|u| up
+    to ~30 here), to 1e-11 of its scale (5e-11 / 30 seen)."""
     step = built.step()
     for q in configurations(4, seed=11):
         x_ref = smc.reference(1.1)
         ours = step(q, x_ref)
         theirs = [np.asarray(v, dtype=float) for v in function(q, x_ref)]
-        for a, b in zip(ours, theirs, strict=True):
-            assert np.abs(a - b.reshape(a.shape)).max() <= 1e-13
+        for a, b, tolerance in zip(ours, theirs, (1e-13, 1e-13, 1e-11), strict=True):
+            b = b.reshape(a.shape)
+            assert np.abs(a - b).max() <= tolerance * max(1.0, np.abs(b).max())
 
 
 def test_damped_solve_needs_damping():

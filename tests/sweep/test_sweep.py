@@ -4,12 +4,13 @@ ones; the numbers themselves against single-call kernels and single iLQR solves;
 
 The cluster has worker *processes* (``processes=True``): a killed worker must be a process that dies
 (SIGKILL, as the kernel's OOM killer would) while the client and the other worker go on; with threads
-in one process there is nothing to kill but the whole test. One cluster serves the module's tests."""
+in one process there is nothing to kill but the whole test. One cluster (conftest.py) serves the tests."""
 
 from __future__ import annotations
 
 import os
 import signal
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -22,12 +23,6 @@ from gagen.sweep.problems import Manipulability, Reach
 from gagen.sweep.store import ChunkStore, SweepError, chunk_name
 
 SMALL_REACH = Reach(grid=3, span=0.5, radii=(0.5,), chunk=4)  # 9 targets, some reached, some not
-
-
-@pytest.fixture(scope="module")
-def client():
-    with connect(workers=2) as client:
-        yield client
 
 
 def _table(folder, sweep):
@@ -168,6 +163,9 @@ def test_a_killed_worker_loses_no_finished_chunk(tmp_path):
     (lambda: Reach(radii=(0.5, 0.0)), "radii"),
     (lambda: Reach(span=float("nan")), "span"),
     (lambda: Reach(grid=0), "grid"),
+    (lambda: Reach(normal=(0, 0, 0)), "normal"),
+    (lambda: Reach(normal=(0, 1)), "normal"),
+    (lambda: Reach(normal=(0, 1, float("inf"))), "normal"),
 ])
 def test_malformed_sweeps_are_refused_naming_the_field(make, field):
     with pytest.raises(SweepError, match=rf"^{field}: expected"):
@@ -219,7 +217,7 @@ def test_the_command_line_runs_on_a_scheduler_and_writes_the_map(client, tmp_pat
     assert main(arguments) == 0
     out = capsys.readouterr().out
     reached = int(ChunkStore(tmp_path).read(3).column("success").to_numpy(zero_copy_only=False).sum())
-    assert f"on {address}" in out and "computed 3 chunks" in out and f"reached {reached} of 9 targ" in out
+    assert f"on {address}" in out and "computed 3 chunks" in out and f"reached {reached} of 9 hori" in out
     assert (tmp_path / "reachability.png").stat().st_size > 10_000
     assert main(arguments) == 0  # resumed: nothing left to compute
     assert "computed 0 chunks" in capsys.readouterr().out
@@ -228,11 +226,9 @@ def test_the_command_line_runs_on_a_scheduler_and_writes_the_map(client, tmp_pat
 def test_a_chunk_that_raises_is_reported_and_retried_by_a_rerun(client, tmp_path):
     """A task that raises (here: limits of the wrong length, so the kernel refuses the configurations)
     fails its chunk alone; the run reports it, writes nothing for it, and a re-run computes it."""
-    from gagen.sweep.problems import Cell
-
     sweep = Manipulability(samples=200, chunk=100)
     broken = Manipulability(samples=200, chunk=100)
-    short = Cell(sweep.cell.lower[:20], sweep.cell.upper[:20], sweep.cell.ready, sweep.cell.rank)
+    short = replace(sweep.cell, lower=sweep.cell.lower[:20], upper=sweep.cell.upper[:20])
     object.__setattr__(broken, "cell", short)
     outcome = run(broken, tmp_path, client=client, progress=False)
     assert outcome.computed == [] and sorted(outcome.failed) == [0, 1]
