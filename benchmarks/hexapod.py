@@ -4,8 +4,8 @@ Pinocchio), every peer measured side by side in one run; markdown tables on stdo
     python benchmarks/hexapod.py            # ~10 s; ~25 s the first time (C compiles, cached)
     python benchmarks/hexapod.py --quick    # one round, fewer repeats
 
-Uses the committed generated/hexapod module (else builds gagen/apps/hexapod/robots/hexapod.yaml into a
-temporary folder). The FK + J peers that are not in it are compiled by the same compiler, through the
+Uses the committed generated/hexapod module (built on first use, ``gagen.modules``; else the gagen
+cache's). The FK + J peers that are not in it are compiled by the same compiler, through the
 front-end (``gagen.compile``), into one cached module ``hexapod_fkj``:
 
 - ``front_left_pj_pga``, ``front_left_pj_cga``: only p and J of ``leg_kinematics`` (the committed
@@ -464,14 +464,10 @@ def main() -> int:
     if [tuple(abs(a) for a in u) for u in leg.axes] != [(0, 0, 1), (0, 1, 0), (0, 1, 0)]:
         raise SystemExit(f"{LEG}: the numpy chain assumes axes ±z, ±y, ±y")
     with tempfile.TemporaryDirectory() as tmp:
-        if (COMMITTED / "manifest.json").is_file():
-            folder, origin = COMMITTED, "generated/hexapod (committed)"
-        else:
-            from gagen.build import build
+        from gagen.modules import module_folder
 
-            log("generated/hexapod is missing: building it into a temporary folder ...")
-            folder, origin = Path(tmp) / "hexapod", "built into a temporary folder for this run"
-            build(SPEC, out=folder, progress=lambda _: None)
+        folder = module_folder(SPEC)  # built on first use: generated/hexapod, else the gagen cache
+        origin = "generated/hexapod (committed)" if folder == COMMITTED else f"built into {folder}"
         module = load(folder)
         log("compiling the FK + J peers (gagen.compile, cached) ...")
         t0 = time.perf_counter()

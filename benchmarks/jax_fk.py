@@ -1,6 +1,6 @@
 """Panda FK + 6×7 Jacobian over many configurations: gagen's C batch, gagen's JAX kernel
-(``gagen.codegen.jax_emit``, jit(vmap) on the CPU) and the peers, adam-robotics' JAX backend (jit(vmap))
-and pytorch-kinematics (batched, float64; eager and under torch.compile) [issue 19, item 4].
+(``gagen.codegen.backends.jax.printer``, jit(vmap) on the CPU) and the peers, adam-robotics' JAX backend
+(jit(vmap)) and pytorch-kinematics (batched, float64; eager and under torch.compile) [issue 19, item 4].
 
     python benchmarks/jax_fk.py [--sizes 100000 1000000] [--repeats 5] [--budget 60]
 
@@ -40,9 +40,8 @@ sys.path.insert(0, str(BENCH))
 
 from run import machine, table  # noqa: E402 -- benchmarks/ is not a package
 
-from gagen.apps.cooperative.bundled import generated_folder  # noqa: E402
+from gagen.apps.cooperative.bundled import system_module  # noqa: E402
 from gagen.robots.urdf import load_chain  # noqa: E402
-from gagen.runtime import load  # noqa: E402
 
 ROBOTS = BENCH.parent / "robots"
 SYSTEM = "panda_point"
@@ -206,7 +205,7 @@ def main() -> int:
                         help="seconds of timed calls per backend and size: fewer repeats past it (≥ 1)")
     args = parser.parse_args()
     started = time.perf_counter()
-    module = load(generated_folder() / SYSTEM)
+    module = system_module(SYSTEM)
     chain = panda_chain()
     reference = gagen_c(module)
     backends: list[Backend | tuple[str, str]] = [reference, gagen_jax(module, reference)]

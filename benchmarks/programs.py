@@ -35,6 +35,15 @@ CXXFLAGS = ["-std=c++17", "-O3", "-march=native", "-DNDEBUG", "-w"]
 PROGRAMS = ("pinocchio", "matrix_chain", "gagen_fk", "gagen_fk_O3", "circle", "impedance", "floor")
 
 
+def bundled_folder(system: str) -> Path:
+    """The folder of a bundled system's generated module, built on first use (``gagen.modules``: the
+    committed ``generated/<system>``, else the gagen cache)."""
+    from gagen.apps.cooperative.bundled import bundled_specs
+    from gagen.modules import module_folder
+
+    return module_folder(bundled_specs()[system])
+
+
 def c_compiler() -> list[str]:
     """The C compiler gagen itself uses ($CC, else cc, gcc or clang)."""
     from gagen.codegen.compiler import find_compiler
@@ -168,7 +177,7 @@ def build(wanted: set[str], force: bool = False) -> tuple[dict[str, Path], list[
 
     if "impedance" in wanted:
         pin = pinocchio_paths()
-        folder = GENERATED / "three_iiwas_circle"
+        folder = bundled_folder("three_iiwas_circle")  # not committed: the gagen cache
         src, hdr = folder / "three_iiwas_circle.c", folder / "three_iiwas_circle.h"
         kernels, simd = BUILD / "impedance_kernels.o", BUILD / "impedance_kernels_simd.o"
         driver = BUILD / "impedance_step.o"

@@ -77,7 +77,8 @@ def gagen_calls(folder: str | Path, kernels: list[str], qs: np.ndarray, calls: i
     - ``fast_ns``: ``f(q)`` with ``f = k.bind()`` (``k.fast``): outputs bound once, the fastest call;
     - ``ctypes_ns``: ``k(q)`` through the ctypes fallback (the same kernel without the binding);
     - ``casadi_ns``: the generated CasADi Function called on the numpy q (``casadi.<kernel>(q)``)."""
-    from gagen.runtime import CKernel, load
+    from gagen.codegen.backends.c.loader import CKernel
+    from gagen.runtime import load
 
     module = load(folder)
     seq = _cycle([np.ascontiguousarray(q, dtype=float) for q in qs], calls)

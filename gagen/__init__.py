@@ -26,7 +26,9 @@ def load(folder: str | Path) -> GeneratedModule:
     return _load(folder)
 
 
-_FRONT_END = ("kernel", "compile", "scalars", "blades", "matrix", "along", "KernelError", "KernelFunction")
+# the front-end's names, and gagen.compile (a build into the cache), by the module that defines them
+_FRONT_END = {**dict.fromkeys(("kernel", "scalars", "blades", "matrix", "along", "KernelError",
+                               "KernelFunction"), "gagen.frontend"), "compile": "gagen.build"}
 
 
 def __getattr__(name: str) -> Any:
@@ -34,5 +36,5 @@ def __getattr__(name: str) -> Any:
     if name in _FRONT_END:
         from importlib import import_module
 
-        return getattr(import_module("gagen.frontend"), name)
+        return getattr(import_module(_FRONT_END[name]), name)
     raise AttributeError(f"module 'gagen' has no attribute {name!r}")

@@ -27,10 +27,13 @@ output folder missing or half-written. Elsewhere the old folder is renamed aside
 are serialised by ``flock`` on ``.<name>.lock`` beside it; sibling folders left by dead processes
 are removed when a build starts.
 
-Names reach the generated code only as checked identifiers (``[A-Za-z_][A-Za-z0-9_]*``, no C, C++
-or Python keyword), and labels (docs, joint names, the source's file name) only through the escaping
-filters of their context (``c_comment``, ``c_string``, ``py_doc``, ``py_string``), whatever the
-front-end let through; every file is written inside the output folder.
+Names reach the generated code only as checked identifiers (``gagen.names``: ``[A-Za-z][A-Za-z0-9_]*``,
+no C, C++ or Python keyword), and labels (docs, joint names, the source's file name) only through the
+escaping filters of their context (``c_comment``, ``c_string``, ``py_doc``, ``py_string``), whatever
+the front-end let through; every file is written inside the output folder.
+
+``gagen.compile`` (``compile`` here) builds kernels declared with ``gagen.kernel`` into a module in the
+cache folder (``cache_root()``), once per content, and loads it.
 """
 
 from __future__ import annotations
@@ -46,21 +49,24 @@ import re
 import shutil
 import sys
 import time
+import weakref
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from gagen import __version__
+from gagen import __version__, registry
+from gagen.code_digest import code_digest
 from gagen.codegen.backends import Backend, Context, select
 from gagen.codegen.backends.base import template
 from gagen.codegen.compiler import CompileError, CompilerNotFound
 from gagen.codegen.escape import c_comment, c_string, py_doc, py_string
 from gagen.codegen.ir import Kernel, ModuleSource, Port
 from gagen.errors import SpecError
-from gagen.names import RESERVED_WORDS
-from gagen.runtime import MANIFEST
+from gagen.frontend import KernelFunction, as_kernel, module_from_file, source_of
+from gagen.names import RESERVED_WORDS, identifier_problem
+from gagen.runtime import MANIFEST, load
 
 PACKAGE = Path(__file__).resolve().parent
 CODEGEN = PACKAGE / "codegen"  # the code generator: its sources and templates are in the build key
@@ -72,12 +78,8 @@ MANIFEST_KEYS = ("module", "title", "gagen_version", "source", "source_sha256", 
                  "files")
 
 
-IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 # module names prefix every C symbol and name files: bounded well below file-name limits (255 bytes)
 MAX_NAME = 100
-
-
-RESERVED = RESERVED_WORDS  # C, C++ and Python keywords: one list, the loader's
 
 
 class OutputError(RuntimeError):
@@ -90,13 +92,16 @@ class OutputError(RuntimeError):
 
 
 def check_identifier(name: object, what: str, spec: str | Path = "<system>", field: str = "name") -> str:
-    """``name`` if it can be a C and Python identifier (and a file name) as is, else a SpecError."""
-    if not isinstance(name, str) or not IDENTIFIER.fullmatch(name):
-        raise SpecError(spec, field, f"{what} {name!r} is not an identifier: expected letters, digits and "
-                                     f"underscores, not starting with a digit")
-    if name in RESERVED or name.startswith("__") or re.match(r"_[A-Z]", name):
-        raise SpecError(spec, field, f"{what} {name!r} is a C, C++ or Python keyword or a reserved name")
-    if len(name) > MAX_NAME:
+    """``name`` if it can be a C and Python identifier (and a file name) as is, by the identifier rule
+    of ``gagen.names`` (any underscores after the first letter, at most ``MAX_NAME`` characters: the C
+    function names ``<module>_<kernel>`` join two names), else a SpecError."""
+    problem = identifier_problem(name, single_underscores=False, max_length=MAX_NAME)
+    if not isinstance(name, str) or problem == "not an identifier":
+        raise SpecError(spec, field, f"{what} {name!r} is not an identifier: expected a letter, then "
+                                     f"letters, digits and underscores")
+    if problem is not None and name in RESERVED_WORDS:
+        raise SpecError(spec, field, f"{what} {name!r} is a C, C++ or Python keyword")
+    if problem is not None:
         raise SpecError(spec, field, f"{what} {name!r} is longer than {MAX_NAME} characters")
     return name
 
@@ -546,14 +551,36 @@ def load_source(path: str | Path, name: str | None = None) -> ModuleSource:
     overrides the module name, default the file's stem) or a robot spec (anything else)."""
     path = Path(path)
     if path.suffix == ".py":
-        from gagen.frontend import module_from_file
-
         return module_from_file(path, name)
     if name is not None:
         raise SpecError(path, "name", "a spec names its system itself (a module name is for .py files)")
-    from gagen.apps import spec_source
+    app, kind = registry.spec_kinds()[spec_kind(path).name]
+    source: ModuleSource = registry.function(kind.source)(path)
+    if source.key:  # what the source read, and the code making its kernels: the app's modules, their imports
+        source.key = hashlib.sha256(f"{source.key}\0{code_digest(app.kernel_modules)}".encode()).hexdigest()
+    return source
 
-    return spec_source(path)
+
+def spec_kind(path: str | Path) -> registry.SpecKind:
+    """The registered kind of a spec: its ``app`` key, or ``cooperative``; a SpecError for an unknown one
+    (or a malformed document)."""
+    from gagen.yaml_document import Document, show
+
+    spec = Document(Path(path), "a mapping (a spec)")
+    kinds = registry.spec_kinds()
+    kind = spec.data.get("app", registry.DEFAULT_SPEC_KIND)
+    if not isinstance(kind, str) or kind not in kinds:
+        raise spec.error("app", f"got {show(kind)}; expected one of {', '.join(kinds)}")
+    return kinds[kind][1]
+
+
+def spec_checker(path: str | Path) -> Callable[[str | Path, Path, int, float], int]:
+    """``gagen build --check`` of the module of a spec whose kernels are not front-end kernels (its kind's
+    ``check``)."""
+    kind = spec_kind(path)
+    if not kind.check:
+        raise SpecError(path, "app", f"the {kind.name} kind names no check for its modules")
+    return registry.function(kind.check)
 
 
 def build_many(paths: Sequence[str | Path], *, force: bool = False, compile_c: bool = True,
@@ -584,5 +611,50 @@ def build(path: str | Path, out: str | Path | None = None, *, name: str | None =
                       names=[name])[0]
 
 
+# -- gagen.compile: kernels built into the cache and loaded ----------------------------------------------
+
+# the compiled kernel of each KernelFunction given to gagen.compile without options (weak: a kernel
+# dropped by its user is not kept alive here)
+_COMPILED: weakref.WeakKeyDictionary[KernelFunction, Any] = weakref.WeakKeyDictionary()
+
+
+def cache_root() -> Path:
+    """Where ``gagen.compile`` keeps its modules: $GAGEN_CACHE, else ~/.cache/gagen (XDG_CACHE_HOME)."""
+    if os.environ.get("GAGEN_CACHE"):
+        return Path(os.environ["GAGEN_CACHE"]).expanduser()
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "gagen"
+
+
+def compile_kernels(kernels: Sequence[KernelFunction], *, name: str | None = None,
+                    folder: str | Path | None = None, progress: Callable[[str], None] | None = None) -> Any:
+    """Build the kernels into a module in the cache (once per content) and return the compiled
+    kernel (one) or the module's C namespace (several)."""
+    source = source_of(kernels, name or kernels[0].name)
+    target = Path(folder) if folder is not None else cache_root() / f"{source.name}-{source.key[:16]}"
+    # (a no-op when the folder is current; after a gagen upgrade its code generator's key differs and
+    # the module is rebuilt, so a cached module never outlives the generator that wrote it)
+    build_source(source, target, progress=progress or (lambda _: None))
+    module = load(target)
+    return getattr(module.c, kernels[0].name) if len(kernels) == 1 else module.c
+
+
+def compile(fn: Callable[..., Any] | None = None, **options: Any) -> Any:
+    """Compile one function (a ``@gagen.kernel`` or a plain function plus its declaration as keyword
+    arguments) to C behind the CPython binding, built once per content into the cache folder
+    (``cache_root()``). Returns the kernel: ``k(*inputs)`` (numpy in, numpy out), ``k.batch``,
+    ``k.casadi`` (the casadi.Function), ``k.c_source``, ``k.op_count``."""
+    build_options = {k: options.pop(k) for k in ("folder", "progress") if k in options}
+    if fn is None:
+        return lambda f: compile(f, **options, **build_options)
+    k = as_kernel(fn, options)
+    if build_options:
+        return compile_kernels([k], **build_options)
+    if k not in _COMPILED:
+        _COMPILED[k] = compile_kernels([k])
+    return _COMPILED[k]
+
+
 __all__ = ["BuildResult", "CompileError", "OutputError", "build", "build_key", "build_many", "build_source",
-           "c_comment", "c_string", "check_identifier", "load_source", "py_doc", "py_string", "render"]
+           "c_comment", "c_string", "cache_root", "check_identifier", "compile", "compile_kernels",
+           "load_source", "py_doc", "py_string", "render"]

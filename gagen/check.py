@@ -31,12 +31,12 @@ from typing import Any
 import numpy as np
 
 from gagen.algebra.signature import cga3d
-from gagen.apps.cooperative.system import System
 from gagen.frontend import KernelFunction, split_derivative
 from gagen.interp import MultiVector
 from gagen.model import kinematics as K
-from gagen.model.conformal import SIMILARITY, SIMILARITY_GENERATOR
+from gagen.model.conformal import SIMILARITY_GENERATOR
 from gagen.model.versors import exp_similarity
+from gagen.robots.system import System
 from gagen.runtime import GeneratedModule
 
 FD_STEPS = (1e-3, 1e-4, 1e-5)  # h of the Richardson-extrapolated central differences (rad or m)
@@ -385,35 +385,6 @@ def _named(configurations) -> dict[str, np.ndarray]:
     if isinstance(configurations, Mapping):
         return {str(k): np.array(v, dtype=float) for k, v in configurations.items()}
     return {"ready": np.array(configurations, dtype=float)}  # one unnamed configuration (older callers)
-
-
-def check_module(module: GeneratedModule, system: System,
-                 configurations: Mapping[str, Sequence[float]] | Sequence[float] | None = None,
-                 count: int = 5, seed: int = 0, progress: Callable[[str], None] = lambda _: None,
-                 rtol: float = VALUE_RTOL, fd_rtol: float = FD_RTOL) -> list[Discrepancy]:
-    """Every kernel of a cooperative system's module on the samples (see ``samples``): the chain
-    kernels on each chain's joints, ``task`` also on a random V_Sd, ``similarity_rate`` on a random q̇
-    (``check_kernels``)."""
-    from gagen.apps.cooperative.catalogue import kernel_functions
-
-    functions = kernel_functions(system)
-    pairs = samples(system, configurations, count, seed)
-    chain_of = {f"{c.name}_{suffix}": i for i, c in enumerate(system.chains)
-                for suffix in ("fk", "fk_jacobian", "jacobians")}
-    inputs = {}
-    for entry in module.manifest["kernels"]:
-        name = entry["name"]
-        points = []
-        for sample in pairs:
-            if name in chain_of:
-                arrays = [np.array(system.split(list(sample.q))[chain_of[name]], dtype=float)]
-            else:
-                by_port = {"q": sample.q, "qd": sample.velocity,
-                           "V_Sd": np.array([sample.desired[b] for b in SIMILARITY])}
-                arrays = [by_port[p["name"]] for p in entry["inputs"]]
-            points.append((sample.label, arrays))
-        inputs[name] = points
-    return check_kernels(module, functions, inputs, progress=progress, rtol=rtol, fd_rtol=fd_rtol)
 
 
 def _progress_line(number: int, total: int, name: str, found: list[Discrepancy]) -> str:

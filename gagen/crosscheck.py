@@ -76,11 +76,11 @@ def dense_outputs(kernel: FlatKernel, algebra: Algebra, values: Sequence[np.ndar
     """Scatter a kernel's outputs (ordered by port labels) into dense arrays (length 1 for scalars)."""
     dense_all = []
     for port, vals in zip(kernel.outputs, values, strict=True):
-        if port.labels == ("0",):
+        if port.rows == ("0",):
             dense_all.append(np.asarray(vals, dtype=float).reshape(1))
             continue
         dense = np.zeros(algebra.size)
-        for label, v in zip(port.labels, vals, strict=True):
+        for label, v in zip(port.rows, vals, strict=True):
             dense[algebra.blade(label)] = v
         dense_all.append(dense)
     return dense_all

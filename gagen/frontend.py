@@ -46,8 +46,6 @@ import ast
 import hashlib
 import importlib.util
 import inspect
-import os
-import re
 import sys
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
@@ -63,12 +61,10 @@ from gagen.algebra.multivector import SparseMultivector
 from gagen.algebra.signature import PRESETS, Algebra
 from gagen.codegen.ir import Kernel, ModuleSource, Port, make_kernel
 from gagen.interp import MultiVector
-from gagen.names import RESERVED_WORDS
+from gagen.kinds import ALGEBRA, Declaration
+from gagen.names import MAX_LENGTH, identifier_problem
 from gagen.symbolic.backend import Poly
 from gagen.symbolic.casadi_backend import CasadiBackend
-
-ALGEBRA = "algebra"  # the declaration of the context argument
-IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 
 
 @dataclass(frozen=True)
@@ -102,24 +98,6 @@ class KernelError(ValueError):
 
 
 # -- declarations --------------------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class Declaration:
-    """What one argument or output is: a multivector on ``blades`` (``kind`` names where they came
-    from), ``size`` scalars (``single``: one bare scalar), or the algebra context; ``cols`` > 1 for a
-    matrix output (a list of that many columns)."""
-
-    kind: str
-    blades: tuple[str, ...] = ()
-    size: int = 0
-    single: bool = False
-    labels: tuple[str, ...] | None = None
-    cols: int = 1
-
-    @property
-    def is_multivector(self) -> bool:
-        return self.kind not in (SCALAR, "scalars", ALGEBRA)
-
 
 def scalars(n: int, labels: Sequence[str] | None = None) -> Declaration:
     """A list of ``n`` scalars (row labels default to 0 … n−1)."""
@@ -221,11 +199,10 @@ def _kind_names(algebra: Algebra) -> set[str]:
 
 
 def check_name(name: object, kernel: str, what: str) -> str:
-    """``name`` if it can be a C and Python identifier as is, else a KernelError."""
-    if not isinstance(name, str) or not IDENTIFIER.fullmatch(name) or name in RESERVED_WORDS \
-            or len(name) > 64:
+    """``name`` if it can be a C and Python identifier as is (``gagen.names``), else a KernelError."""
+    if not isinstance(name, str) or identifier_problem(name, single_underscores=False) is not None:
         raise KernelError(kernel, what, f"{name!r} is not a valid name: expected a letter, then letters, "
-                                        "digits or underscores (at most 64), not a C, C++ or Python keyword")
+                          f"digits or underscores (at most {MAX_LENGTH}), not a C, C++ or Python keyword")
     return name
 
 
@@ -275,7 +252,6 @@ class KernelFunction:
         self._sample = sample
         self.rule = rule
         self._traced: _Traced | None = None
-        self._compiled: Any = None
         self.__doc__, self.__name__, self.__wrapped__ = fn.__doc__, self.name, fn
 
     def _error(self, where: str, expected: str) -> KernelError:
@@ -637,16 +613,6 @@ class KernelFunction:
             return [np.asarray(a, dtype=float) for a in self._sample(rng)]
         return [_sample_input(self.algebra, d, rng) for _, d in self.params if d.kind != ALGEBRA]
 
-    # -- building ---------------------------------------------------------------------------------------
-    def compile(self, **options: Any) -> Any:
-        """See :func:`gagen.compile`."""
-        if self._compiled is None or options:
-            compiled = compile_kernels([self], **options)
-            if options:
-                return compiled
-            self._compiled = compiled
-        return self._compiled
-
 
 def _sample_input(algebra: Algebra, d: Declaration, rng: np.random.Generator) -> np.ndarray:
     if not d.is_multivector:
@@ -715,7 +681,8 @@ def kernel(fn: Callable | None = None, **declaration: Any) -> Any:
     return KernelFunction(fn, **declaration)
 
 
-def _as_kernel(fn: Any, declaration: Mapping[str, Any]) -> KernelFunction:
+def as_kernel(fn: Any, declaration: Mapping[str, Any]) -> KernelFunction:
+    """``fn`` if it is a declared kernel already (and no declaration is given), else ``fn`` declared."""
     if isinstance(fn, KernelFunction):
         if declaration:
             raise TypeError(f"{fn.name} is declared already; pass the declaration to gagen.kernel only")
@@ -766,39 +733,3 @@ def module_from_file(path: str | Path, name: str | None = None) -> ModuleSource:
     if not found:
         raise KernelError(stem, str(path), "no @gagen.kernel function in it")
     return source_of(found, stem, path.name, path.read_bytes(), f"gagen build {path.name}")
-
-
-def cache_root() -> Path:
-    """Where ``gagen.compile`` keeps its modules: $GAGEN_CACHE, else ~/.cache/gagen (XDG_CACHE_HOME)."""
-    if os.environ.get("GAGEN_CACHE"):
-        return Path(os.environ["GAGEN_CACHE"]).expanduser()
-    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    return Path(base) / "gagen"
-
-
-def compile_kernels(kernels: Sequence[KernelFunction], *, name: str | None = None,
-                    folder: str | Path | None = None, progress: Callable[[str], None] | None = None) -> Any:
-    """Build the kernels into a module in the cache (once per content) and return the compiled
-    kernel (one) or the module's C namespace (several)."""
-    from gagen.build import build_source
-    from gagen.runtime import load
-
-    source = source_of(kernels, name or kernels[0].name)
-    target = Path(folder) if folder is not None else cache_root() / f"{source.name}-{source.key[:16]}"
-    # (a no-op when the folder is current; after a gagen upgrade its code generator's key differs and
-    # the module is rebuilt, so a cached module never outlives the generator that wrote it)
-    build_source(source, target, progress=progress or (lambda _: None))
-    module = load(target)
-    return getattr(module.c, kernels[0].name) if len(kernels) == 1 else module.c
-
-
-def compile(fn: Callable | None = None, **options: Any) -> Any:
-    """Compile one function (a ``@gagen.kernel`` or a plain function plus its declaration as keyword
-    arguments) to C behind the CPython binding, built once per content into the cache folder
-    (``cache_root()``). Returns the kernel: ``k(*inputs)`` (numpy in, numpy out), ``k.batch``,
-    ``k.casadi`` (the casadi.Function), ``k.c_source``, ``k.op_count``."""
-    build_options = {k: options.pop(k) for k in ("folder", "progress") if k in options}
-    if fn is None:
-        return lambda f: compile(f, **options, **build_options)
-    k = _as_kernel(fn, options)
-    return compile_kernels([k], **build_options) if build_options else k.compile()

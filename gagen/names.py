@@ -1,4 +1,11 @@
-"""The rules for names that reach generated code, file names and labels.
+"""The rules for names that reach generated code, file names and labels: the one identifier rule of
+gagen (``identifier_problem``), which the spec loaders, the front-end (``gagen.frontend``), the
+builder (``gagen.build``) and the backends apply, and the label rule.
+
+A name in generated code (a module, kernel or port name; a C symbol, a Python name, a file name) is a
+letter followed by letters, digits and underscores, not a C (C99 to C23), C++ or Python keyword, and
+bounded in length: so no name can start with ``_`` (the generated files' own names, ``_gagen_*``,
+``_Jax``, and reserved C names), break out of a string or comment, or leave the output folder.
 
 * **Identifiers** (the system name, chain names): the system name names the output folder, the C
   files, the C symbols ``<system>_<kernel>`` and a Python package; a chain name prefixes its kernels'
@@ -23,7 +30,8 @@ import keyword
 import re
 
 MAX_LENGTH = 64
-_IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9]*(?:_[A-Za-z0-9]+)*")
+_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
+_IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9]*(?:_[A-Za-z0-9]+)*")  # single underscores only
 _LABEL = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.:-]*")
 
 def _words(text: str) -> frozenset[str]:
@@ -62,14 +70,20 @@ LABEL_RULE = (f"letters, digits and '_', '.', ':', '-' (starting with a letter, 
               f"{MAX_LENGTH} characters")
 
 
-def identifier_problem(name: str) -> str | None:
-    """Why ``name`` cannot be a system or chain name (None when it can)."""
-    if not _IDENTIFIER.fullmatch(name):
+def identifier_problem(name: object, *, single_underscores: bool = True,
+                       max_length: int | None = MAX_LENGTH) -> str | None:
+    """Why ``name`` cannot be written into generated code as is (None when it can): ``"not an
+    identifier"``, ``"a C, C++ or Python keyword"`` or its length. By default the spec's form, for
+    system and chain names (single underscores between letters and digits, at most ``MAX_LENGTH``);
+    ``single_underscores=False`` allows any underscores after the first letter (names a user gives a
+    kernel, its arguments and outputs), and ``max_length`` another bound (None: none)."""
+    pattern = _IDENTIFIER if single_underscores else _NAME
+    if not isinstance(name, str) or not pattern.fullmatch(name):
         return "not an identifier"
     if name in RESERVED_WORDS:
         return "a C, C++ or Python keyword"
-    if len(name) > MAX_LENGTH:
-        return f"{len(name)} characters; at most {MAX_LENGTH}"
+    if max_length is not None and len(name) > max_length:
+        return f"{len(name)} characters; at most {max_length}"
     return None
 
 

@@ -7,8 +7,11 @@ selects by itself, whatever the tier: ``pytest -m compiling`` runs the compiling
 
 import os
 import signal
+import subprocess
 from collections.abc import Iterator
 from contextlib import contextmanager
+from functools import cache
+from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, settings
@@ -41,11 +44,38 @@ def _tier_applies(config) -> bool:
                 or any("::" in str(arg) for arg in config.args))
 
 
-# The committed generated modules the fast tier uses the C kernels of. A module compiles its C on first
-# use (after a fresh checkout or a rebuild of generated/: ≈ 5 s panda_point, ≈ 15 s three_pandas_circle,
-# up to 30 s the larger ones on a 2-core VM; then cached beside it), so a test that needs the C
-# kernels of any other one is marked ``compiling``.
+# The committed generated modules the fast tier uses the C kernels of. A module is built on first use
+# (``bundled_module``: a fresh clone has no CasADi files, so the committed ones are rebuilt, to the same
+# bytes, and compiled: ≈ 5 s panda_point, ≈ 15 s three_pandas_circle on a 2-core VM; every other bundled
+# module is built into the gagen cache, 5-30 s), so a test that needs any other module is ``compiling``.
 FAST_MODULES = frozenset({"panda_point", "three_pandas_circle"})
+
+REPO = Path(__file__).resolve().parents[1]
+# every bundled source by module name: each app's specs and the example Python files of kernels
+BUNDLED = {path.stem: path for pattern in ("gagen/apps/*/robots/*.yaml", "examples/*.py")
+           for path in sorted(REPO.glob(pattern))}
+
+
+def bundled_module(name: str):
+    """The generated module of the bundled source ``name``, loaded: built on first use where
+    ``gagen.modules`` puts it (the committed ``generated/<name>``, else the gagen cache, which the test
+    workers share: a module is built once per run, concurrent builds of it wait on its lock), once
+    per process. Call it in tests or fixtures, never at collection."""
+    from gagen.modules import bundled_module as built
+
+    return built(BUNDLED[name])
+
+
+@cache
+def committed_modules() -> tuple[str, ...]:
+    """The modules committed under generated/ (git's list; without git, the folders with a manifest)."""
+    try:
+        listed = subprocess.run(["git", "ls-files", "-z", "generated"], cwd=REPO, capture_output=True,
+                                check=True).stdout.decode().split("\0")
+        names = {Path(path).parts[1] for path in listed if Path(path).name == "manifest.json"}
+    except (OSError, subprocess.CalledProcessError):
+        names = {p.parent.name for p in (REPO / "generated").glob("*/manifest.json")}
+    return tuple(sorted(names))
 
 
 def tiered(values, fast, *marks):
@@ -144,7 +174,14 @@ def deadline(seconds: float) -> Iterator[None]:
 
 @pytest.fixture(autouse=True, scope="session")
 def _private_compile_cache(tmp_path_factory):
-    """gagen.compile caches into $GAGEN_CACHE (else ~/.cache/gagen): the tests use a fresh folder."""
+    """gagen.compile and the bundled modules cache into $GAGEN_CACHE (else ~/.cache/gagen): the tests
+    use a fresh folder, one for all pytest-xdist workers of a run (each module built once; builds of
+    one folder wait for each other on its lock)."""
     if "GAGEN_CACHE" not in os.environ:
-        os.environ["GAGEN_CACHE"] = str(tmp_path_factory.mktemp("gagen-cache"))
+        if os.environ.get("PYTEST_XDIST_WORKER"):  # the workers' temporary folders share a parent
+            folder = tmp_path_factory.getbasetemp().parent / "gagen-cache"
+            folder.mkdir(exist_ok=True)
+        else:
+            folder = tmp_path_factory.mktemp("gagen-cache")
+        os.environ["GAGEN_CACHE"] = str(folder)
     yield

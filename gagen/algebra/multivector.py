@@ -1,11 +1,12 @@
 """Sparse symbolic multivectors: the compiler's side of the multivector protocol.
 
 A :class:`SparseMultivector` stores only the blades that may be non-zero, each with a coefficient
-that is an exact constant or a ``Poly`` over native atoms of its scalar backend (CasADi SX or
-sympy, see ``gagen.symbolic.backend``). A bilinear product visits only pairs of stored blades whose
-product table entry is non-empty and sums the terms of each output blade in the scalar layer, so
-exact constants fold and identical monomials merge. Blades whose coefficient ends up exactly zero are
-dropped: the support of every result is what the sparsity analysis proves may be non-zero.
+that is an exact constant or a ``Poly`` over native atoms of its scalar backend (a
+:class:`~gagen.algebra.scalars.ScalarField`: ``gagen.symbolic``'s CasADi SX or sympy backend). A
+bilinear product visits only pairs of stored blades whose product table entry is non-empty and sums
+the terms of each output blade in the scalar layer, so exact constants fold and identical monomials
+merge. Blades whose coefficient ends up exactly zero are dropped: the support of every result is what
+the sparsity analysis proves may be non-zero.
 """
 
 from __future__ import annotations
@@ -18,8 +19,8 @@ import sympy
 
 from gagen.algebra.blade_rules import BladeRules, Entries, rules_for
 from gagen.algebra.protocol import BladeKey
+from gagen.algebra.scalars import ZERO, Scalar, ScalarField
 from gagen.algebra.signature import Algebra
-from gagen.symbolic.backend import ZERO, BackendMath, Scalar, ScalarBackend
 
 
 class SparseMultivector:
@@ -28,7 +29,7 @@ class SparseMultivector:
     __slots__ = ("algebra", "backend", "coeffs")
     __array_priority__ = 1000  # keep numpy scalars from broadcasting over us
 
-    def __init__(self, algebra: Algebra, backend: ScalarBackend, coeffs: Mapping[int, Scalar]) -> None:
+    def __init__(self, algebra: Algebra, backend: ScalarField, coeffs: Mapping[int, Scalar]) -> None:
         self.algebra = algebra
         self.backend = backend
         lifted = {b: backend.lift(c) for b, c in coeffs.items()}
@@ -38,7 +39,7 @@ class SparseMultivector:
 
     # -- construction --------------------------------------------------------------------------------
     @classmethod
-    def symbolic(cls, algebra: Algebra, backend: ScalarBackend, name: str,
+    def symbolic(cls, algebra: Algebra, backend: ScalarField, name: str,
                  blades: Iterable[BladeKey] | None = None) -> SparseMultivector:
         """A multivector whose coefficients on ``blades`` (default: all) are fresh symbols."""
         masks = [_mask(algebra, b) for b in (range(algebra.size) if blades is None else blades)]
@@ -54,9 +55,9 @@ class SparseMultivector:
         return SparseMultivector(self.algebra, self.backend, coeffs)
 
     @property
-    def math(self) -> BackendMath:
+    def math(self) -> Any:
         """sqrt, sin, cos, atan2, ... on scalars of this multivector's backend."""
-        return BackendMath(self.backend)
+        return self.backend.math
 
     # -- coefficients --------------------------------------------------------------------------------
     @property
@@ -218,7 +219,7 @@ class SparseMultivector:
         - ``(V X) Ṽ``, the two products one after the other;
         - ``X (V Ṽ) + 2 (½(V X − X V)) Ṽ`` (V X Ṽ − X V Ṽ = (V X − X V) Ṽ): the commutator's
           coefficients are short sums shared by every output, and for a unit versor the ``X ⟨V Ṽ⟩₀``
-          part cancels exactly against a correction ``X (1 − ‖V‖²)`` (``ScalarBackend._merge_cofactors``),
+          part cancels exactly against a correction ``X (1 − ‖V‖²)`` (``gagen.symbolic.backend``),
           leaving kingdon's ``X + 2 (½[V, X]) Ṽ``.
 
         The second form is weighed (the operations of each graph, ``graph_cost``) only when every

@@ -3,7 +3,8 @@
 Every road to code ends here: the public front-end (``gagen.kernel``) traces a user's function into a
 :class:`Kernel`, applications (the cooperative catalogue, …) do the same for their formulas, and a
 :class:`ModuleSource` groups the kernels of one generated module. The backends
-(``gagen.codegen.backends``) turn a ModuleSource into files; nothing else reaches them.
+(``gagen.codegen.backends``) turn a ModuleSource into files; nothing else reaches them. A kernel's
+ports are :class:`~gagen.symbolic.flatten.Port`, the one port of gagen, exported here too.
 """
 
 from __future__ import annotations
@@ -18,25 +19,9 @@ import numpy as np
 
 from gagen.symbolic import passes
 from gagen.symbolic.backend import ScalarBackend
-from gagen.symbolic.flatten import OpCount, casadi_op_count, identifier
+from gagen.symbolic.flatten import OpCount, Port, casadi_op_count, identifier
 
-
-@dataclass(frozen=True)
-class Port:
-    """A named input or output: one label per row (blade or joint) and a column count."""
-
-    name: str
-    rows: tuple[str, ...]
-    cols: int = 1
-
-    @property
-    def shape(self) -> tuple[int, int]:
-        return len(self.rows), self.cols
-
-    @property
-    def size(self) -> int:
-        return len(self.rows) * self.cols
-
+__all__ = ["Kernel", "ModuleSource", "Port", "Reference", "Sampler", "make_kernel"]
 
 # a kernel's reference: numpy inputs (one flat array per input port) -> one array per output port,
 # shaped (rows, cols); None for an output it cannot give (checked by differences instead)

@@ -22,8 +22,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from gagen.apps.cooperative.spec import load_system
-from gagen.apps.cooperative.system import System
+from gagen.robots.spec import load_system
+from gagen.robots.system import System
 from gagen.yaml_document import Document
 
 GRAVITY = 9.81  # m/s², along −z of the system frame

@@ -34,6 +34,7 @@ from gagen.symbolic.backend import to_exact
 
 SNAP = 1e-9  # rpy angles this close to a multiple of π/4 are taken as exactly that multiple
 JOINT_KINDS = ("revolute", "continuous", "prismatic", "fixed")
+TOOL_LINE = "e12"  # the tool's z axis through its origin, as a line bivector (rotation about z)
 
 
 @dataclass(frozen=True)

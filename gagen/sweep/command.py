@@ -11,7 +11,8 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from gagen.cli import non_negative_int, positive_float, positive_int
+from gagen.arguments import non_negative_int, positive_float, positive_int
+from gagen.registry import Verb
 
 if TYPE_CHECKING:
     from gagen.sweep.problems import Sweep
@@ -90,10 +91,15 @@ def _sweep(args: argparse.Namespace) -> Sweep:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Exit status 0 when every chunk is written, 1 when some failed (re-run to retry), 2 for bad input."""
-    from gagen.sweep import plots
-    from gagen.sweep.engine import run as run_sweep
-    from gagen.sweep.store import ChunkStore, SweepError
+    """Exit status 0 when every chunk is written, 1 when some failed (re-run to retry), 2 for bad input (or
+    a missing ``sweep`` extra)."""
+    try:
+        from gagen.sweep import plots, problems  # noqa: F401  (problems: pyarrow, before any work)
+        from gagen.sweep.engine import run as run_sweep
+        from gagen.sweep.store import ChunkStore, SweepError
+    except ImportError as e:  # dask or pyarrow missing: say which extra brings them
+        print(f"error: gagen sweep needs the sweep extra (pip install 'gagen[sweep]'): {e}", file=sys.stderr)
+        return 2
 
     try:
         sweep = _sweep(args)
@@ -139,3 +145,8 @@ def run(args: argparse.Namespace) -> int:
             return 0
     print(f"  wrote {path}")
     return 0
+
+
+VERBS = (Verb("sweep", "distributed sweeps on Dask, chunked and resumable: a bundled system's manipulability "
+              "over random configurations or a grid, or iLQR reaching over target circles or spheres",
+              add_arguments, run),)

@@ -5,8 +5,8 @@ The cluster is a ``LocalCluster`` of ``workers`` processes with one thread each 
 iLQR loop are single-threaded; separate processes keep one worker's crash from taking the others, and
 keep the BLAS of the stacked SVD to one thread per core), or, with ``scheduler``, an existing one at
 that address (``dask scheduler`` on one machine, ``dask worker ADDRESS`` on each: every worker needs
-gagen and the committed ``generated/`` modules; the output folder only needs to exist where this
-client runs, since the client writes the files).
+gagen, and builds the system's generated module on first use where ``gagen.modules`` puts it; the
+output folder only needs to exist where this client runs, since the client writes the files).
 
 Why the client writes: a chunk is finished when its file exists, and the file is written (atomically,
 ``gagen.sweep.store``) as soon as the chunk's rows arrive, so a worker killed afterwards loses nothing;

@@ -40,6 +40,7 @@ import numpy as np
 import pyarrow as pa
 from numpy.typing import NDArray
 
+from gagen.robots.points import end_points
 from gagen.sweep import grid as grids
 from gagen.sweep.places import locate, unit_ball_volume
 from gagen.sweep.store import SweepError
@@ -65,9 +66,9 @@ class Cell:
 
 
 def _system_name(system: Any) -> str:
-    from gagen.apps.cooperative.bundled import bundled_specs
+    from gagen.registry import bundled_specs
 
-    names = list(bundled_specs())
+    names = list(bundled_specs("cooperative"))
     if not isinstance(system, str) or system not in names:
         raise SweepError(f"system: expected a bundled cooperative system ({', '.join(names)}), "
                          f"got {system!r}")
@@ -76,16 +77,19 @@ def _system_name(system: Any) -> str:
 
 @cache
 def cell(system: str = DEFAULT_SYSTEM) -> Cell:
-    """The cell of bundled ``system``, from its spec (≈ 1 s the first time: the URDFs are parsed). Loaded
-    once where a sweep is described and shipped with it, so that a worker needs only the generated
-    module. A SweepError starting ``system:`` says why a system cannot be swept."""
-    from gagen.apps.cooperative.bundled import bundled_specs, generated_folder
-    from gagen.apps.cooperative.spec import load_system
+    """The cell of bundled ``system``, from its spec (≈ 1 s the first time: the URDFs are parsed; and
+    its generated module built on first use, ``gagen.modules``). Loaded once where a sweep is described
+    and shipped with it, so that a worker needs only the generated module. A SweepError starting
+    ``system:`` says why a system cannot be swept."""
+    from gagen.registry import bundled_specs
+    from gagen.build import CompileError, OutputError
     from gagen.check import joint_limits
     from gagen.control.differential import CONTROLLABLE_DIMENSION
+    from gagen.modules import module_folder
+    from gagen.robots.spec import load_system
     from gagen.symbolic.flatten import identifier
 
-    spec = bundled_specs()[_system_name(system)]
+    spec = bundled_specs("cooperative")[_system_name(system)]
     loaded, configurations = load_system(spec)
     lower, upper, _ = joint_limits(loaded)
     labels = tuple(f"{robot}/{joint}" for robot, joint in loaded.joint_keys)
@@ -96,9 +100,10 @@ def cell(system: str = DEFAULT_SYSTEM) -> Cell:
                          "sample and grid within the joint limits")
     if "ready" not in configurations:
         raise SweepError(f"system: {spec} names no 'ready' configuration, which the sweeps start from")
-    if not (generated_folder() / system / "manifest.json").is_file():
-        raise SweepError(f"system: no generated module for {system} in {generated_folder()}; build it with "
-                         f"gagen build robots/{system}.yaml")
+    try:  # built here on first use (the committed module, else the gagen cache), not in every worker
+        module_folder(spec)
+    except (CompileError, OutputError) as e:
+        raise SweepError(f"system: cannot build the generated module of {system}: {e}") from e
     chains = tuple((identifier(f"{chain.name}_fk"), tuple(indices))
                    for chain, indices in zip(loaded.chains, loaded.chain_indices(), strict=True))
     return Cell(system, loaded.kind, labels, tuple(lower.tolist()), tuple(upper.tolist()),
@@ -107,10 +112,10 @@ def cell(system: str = DEFAULT_SYSTEM) -> Cell:
 
 @cache
 def _module(system: str = DEFAULT_SYSTEM) -> Any:
-    from gagen.apps.cooperative.bundled import generated_folder
-    from gagen.runtime import load
+    from gagen.registry import bundled_specs
+    from gagen.modules import bundled_module
 
-    return load(generated_folder() / system)
+    return bundled_module(bundled_specs("cooperative")[system])
 
 
 @cache
@@ -135,14 +140,6 @@ def _finite(value: Any, name: str) -> float:
             or not math.isfinite(value):
         raise SweepError(f"{name}: expected a finite number, got {value!r}")
     return float(value)
-
-
-def end_points(found: Cell, q: NDArray[np.float64]) -> NDArray[np.float64]:
-    """(n, chains, 3): every chain's end point for the rows of q (the batched FK kernels; a chain's columns
-    of q picked by index, since chains may share joints: a humanoid's waist drives both arms)."""
-    module = _module(found.system)
-    return np.stack([getattr(module.c, name).batch(np.ascontiguousarray(q[:, list(indices)]))[1][:, 1:4]
-                     for name, indices in found.chains], axis=1)
 
 
 def _make_cell(sweep: Any) -> Cell:
@@ -212,7 +209,7 @@ class Manipulability:
     def compute(self, index: int) -> pa.Table:
         q = self.configurations(index)
         _, conditioning, J_G = _module(self.system).c.similarity.batch(q)
-        centre, radius = locate(self.cell.kind, end_points(self.cell, q))
+        centre, radius = locate(self.cell.kind, end_points(_module(self.system), q))
         rank = self.cell.rank
         # manipulability_index's definition (the product of the rank largest singular values) on numpy's
         # stacked SVD: 4× the throughput of one call per row, equal to it within a few ulp (not bit for bit)
@@ -227,7 +224,7 @@ class Manipulability:
 def ready_primitive(found: Cell) -> tuple[NDArray[np.float64], float, NDArray[np.float64]]:
     """Centre, radius and unit normal (a circle's; NaN otherwise) of the primitive the ready configuration
     spans (single FK calls)."""
-    points = end_points(found, np.array([found.ready]))
+    points = end_points(_module(found.system), np.array([found.ready]))
     centre, radius = locate(found.kind, points)
     normal = np.full(3, np.nan)
     if found.kind == "circle":
@@ -324,7 +321,7 @@ class Reach:
         return {"system": self.system, **{name: getattr(self, name) for name in names}}
 
     def goal(self, centre: NDArray[np.float64], radius: float) -> NDArray[np.float64]:
-        from gagen.apps.cooperative import goals
+        from gagen.control import goals
 
         if self.cell.kind == "sphere":
             return goals.sphere(centre, radius)

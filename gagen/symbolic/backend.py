@@ -24,11 +24,12 @@ import math
 from abc import ABC, abstractmethod
 from collections import Counter
 from collections.abc import Hashable, Sequence
-from typing import Any
+from typing import Any, TypeAlias
 
 import sympy
 
-ZERO = sympy.Integer(0)
+from gagen.algebra.scalars import ZERO, Exact
+
 ONE = sympy.Integer(1)
 
 Key = tuple[Hashable, ...]  # sorted identities of a term's atoms (commutative product)
@@ -91,7 +92,8 @@ class Poly:
         return " + ".join(f"{c}*{'*'.join(map(str, atoms)) or '1'}" for c, atoms in self.terms.values())
 
 
-Scalar = sympy.Expr | Poly
+SymbolicScalar: TypeAlias = Exact | Poly
+"""A scalar of the compiler's path as this layer holds it: an exact constant or a Poly."""
 
 
 def to_exact(value: Any) -> sympy.Expr | None:
@@ -179,7 +181,7 @@ class ScalarBackend(ABC):
         """cond ? a : b, without letting a NaN or Inf of the branch not taken leak through."""
 
     # -- entering the scalar layer ------------------------------------------------------------------
-    def lift(self, value: Any) -> Scalar:
+    def lift(self, value: Any) -> SymbolicScalar:
         """Exact constant or Poly for a number, a native expression, or a scalar of this layer."""
         if isinstance(value, Poly):
             return value
@@ -195,11 +197,16 @@ class ScalarBackend(ABC):
         """A native expression as a one-term Poly."""
         return Poly(self, {(self.key(native),): (ONE, (native,))})
 
-    def is_symbol(self, value: Scalar) -> bool:
+    @property
+    def math(self) -> BackendMath:
+        """sqrt, sin, cos, atan2, … ``lt``, ``if_else`` and ``shared`` on this backend's scalars."""
+        return BackendMath(self)
+
+    def is_symbol(self, value: SymbolicScalar) -> bool:
         """Whether a scalar is one free symbol of the backend (an input, not a computed value)."""
         return False
 
-    def graph_cost(self, values: Sequence[Scalar]) -> int:
+    def graph_cost(self, values: Sequence[SymbolicScalar]) -> int:
         """The operations of the graph that computes ``values`` (for choosing between exact forms)."""
         raise NotImplementedError
 
@@ -208,11 +215,11 @@ class ScalarBackend(ABC):
         return isinstance(value, sympy.Basic)
 
     @staticmethod
-    def is_zero(value: Scalar) -> bool:
+    def is_zero(value: SymbolicScalar) -> bool:
         return isinstance(value, sympy.Basic) and value == 0
 
     # -- arithmetic -----------------------------------------------------------------------------------
-    def add(self, *values: Any) -> Scalar:
+    def add(self, *values: Any) -> SymbolicScalar:
         const = ZERO
         terms: dict[Key, list[Any]] = {}
         for v in values:
@@ -270,19 +277,19 @@ class ScalarBackend(ABC):
                 else:
                     terms[key] = [cp, tuple(atoms) + tuple(atoms_p)]
 
-    def neg(self, a: Any) -> Scalar:
+    def neg(self, a: Any) -> SymbolicScalar:
         return self._scale(-ONE, self.lift(a))
 
-    def sub(self, a: Any, b: Any) -> Scalar:
+    def sub(self, a: Any, b: Any) -> SymbolicScalar:
         return self.add(a, self.neg(b))
 
-    def mul(self, *values: Any) -> Scalar:
-        result: Scalar = ONE
+    def mul(self, *values: Any) -> SymbolicScalar:
+        result: SymbolicScalar = ONE
         for v in values:
             result = self._mul2(result, self.lift(v))
         return result
 
-    def div(self, a: Any, b: Any) -> Scalar:
+    def div(self, a: Any, b: Any) -> SymbolicScalar:
         a, b = self.lift(a), self.lift(b)
         if self.is_exact(b):
             if b == 0:
@@ -292,7 +299,7 @@ class ScalarBackend(ABC):
             return ZERO
         return self.lift(self.native_divide(self.native(a), self.native(b)))
 
-    def call(self, fn: str, *args: Any) -> Scalar:
+    def call(self, fn: str, *args: Any) -> SymbolicScalar:
         """Math function; evaluated exactly when every argument is exact."""
         lifted = [self.lift(a) for a in args]
         if all(self.is_exact(a) for a in lifted):
@@ -307,7 +314,7 @@ class ScalarBackend(ABC):
             return bool(a < b)
         return self.native_less(self.native(a), self.native(b))
 
-    def select(self, cond: Any, a: Any, b: Any) -> Scalar:
+    def select(self, cond: Any, a: Any, b: Any) -> SymbolicScalar:
         """cond ? a : b; folded when the condition is known at build time."""
         if isinstance(cond, bool):
             self.removed["constant folding"] += 1
@@ -317,7 +324,7 @@ class ScalarBackend(ABC):
             return a
         return self.lift(self.native_select(cond, self.native(self.lift(a)), self.native(self.lift(b))))
 
-    def _mul2(self, a: Scalar, b: Scalar) -> Scalar:
+    def _mul2(self, a: SymbolicScalar, b: SymbolicScalar) -> SymbolicScalar:
         if self.is_exact(a):
             return self._scale(a, b)
         if self.is_exact(b):
@@ -334,7 +341,7 @@ class ScalarBackend(ABC):
                     terms[k] = [ca * cb, xa + xb]
         return self._poly(terms, ZERO)
 
-    def _scale(self, c: sympy.Expr, p: Scalar) -> Scalar:
+    def _scale(self, c: sympy.Expr, p: SymbolicScalar) -> SymbolicScalar:
         if c == 0:
             self.removed["exact zeros"] += 1
             return ZERO
@@ -373,7 +380,7 @@ class ScalarBackend(ABC):
         self._materialised[normal] = (1 / scale, node, [atoms for _, atoms in p.terms.values()])
         return ONE, node
 
-    def _poly(self, terms: dict[Key, list[Any]], const: sympy.Expr) -> Scalar:
+    def _poly(self, terms: dict[Key, list[Any]], const: sympy.Expr) -> SymbolicScalar:
         if () in terms:  # a Poly's own constant term joins the loose constants
             const = const + terms.pop(())[0]
         kept = {k: (c, atoms) for k, (c, atoms) in terms.items() if c != 0}
@@ -387,7 +394,7 @@ class ScalarBackend(ABC):
         return Poly(self, kept)
 
     # -- leaving the scalar layer ---------------------------------------------------------------------
-    def native(self, value: Scalar) -> Any:
+    def native(self, value: SymbolicScalar) -> Any:
         """One native expression for a scalar (materialised once per Poly)."""
         if self.is_exact(value):
             return self.constant(value)
@@ -440,10 +447,10 @@ class BackendMath:
     def lt(self, a: Any, b: Any) -> Any:
         return self._backend.less(a, b)
 
-    def if_else(self, cond: Any, a: Any, b: Any) -> Scalar:
+    def if_else(self, cond: Any, a: Any, b: Any) -> SymbolicScalar:
         return self._backend.select(cond, a, b)
 
-    def shared(self, a: Any) -> Scalar:
+    def shared(self, a: Any) -> SymbolicScalar:
         """``a`` as one node, computed once: products with it stay binary instead of expanding it
         into its terms (e.g. cos q = c² − s² of a joint, reused by every frame vector)."""
         value = self._backend.lift(a)

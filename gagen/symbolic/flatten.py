@@ -46,14 +46,26 @@ class OpCount:
 
 @dataclass(frozen=True)
 class Port:
-    """A named input or output: its entries, named (blade names for multivectors)."""
+    """A named input or output of a kernel: one label per row (a blade name for multivectors, a joint,
+    an index) and a column count. The one port of gagen: flat kernels, the backends' kernels
+    (``gagen.codegen.ir``) and the loaded C kernels (from a manifest's entries) all use it."""
 
     name: str
-    labels: tuple[str, ...]
+    rows: tuple[str, ...]
+    cols: int = 1
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return len(self.rows), self.cols
 
     @property
     def size(self) -> int:
-        return len(self.labels)
+        return len(self.rows) * self.cols
+
+    @property
+    def array_shape(self) -> tuple[int, ...]:
+        """The shape of its array in a call from Python: ``(rows,)`` for a vector, ``(rows, cols)``."""
+        return (len(self.rows),) if self.cols == 1 else self.shape
 
 
 @dataclass
@@ -109,7 +121,10 @@ def identifier(name: str) -> str:
 
 
 # -- CasADi ------------------------------------------------------------------------------------------
-_OP_NAMES = {getattr(ca, a): a[3:].lower() for a in dir(ca) if a.startswith("OP_")}
+# the name of each CasADi operation code ("ADD", "SIN", …), for every reader of a flat graph (the op
+# counts here, the backends' printers)
+OPCODES: dict[int, str] = {getattr(ca, a): a[3:] for a in dir(ca) if a.startswith("OP_")}
+_OP_NAMES = {code: name.lower() for code, name in OPCODES.items()}
 _IGNORED = {"const", "input", "output", "parameter", "assign"}
 _KIND = {"mul": "mul", "sq": "mul", "add": "add", "sub": "add", "twice": "add", "neg": "neg",
          "div": "div", "inv": "div"}

@@ -15,12 +15,12 @@ load on first use, so that the command line can import ``gagen.viewer.command`` 
 
 from typing import Any
 
-DEFAULT_PORT = 8080
+from gagen.arguments import DEFAULT_VIEWER_PORT as DEFAULT_PORT  # one default, the verbs'
 
 _EXPORTS = {"Scene": "scene", "serve": "scene", "render": "browser", "export_png": "browser",
             "export_frames": "browser", "find_chromium": "browser", "Camera": "camera", "framing": "camera",
             "Shape": "geometry", "shape": "geometry", "system_pose": "geometry", "end_points": "geometry"}
-__all__ = sorted(_EXPORTS)
+__all__ = ["DEFAULT_PORT", *sorted(_EXPORTS)]
 
 
 def __getattr__(name: str) -> Any:

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from gagen.apps.cooperative.system import System
+from gagen.robots.system import System
 from gagen.viewer.camera import Camera, framing
 from gagen.viewer.scene import Frames, Scene
 

@@ -19,6 +19,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from gagen.arguments import port
+from gagen.registry import Verb
 from gagen.viewer import DEFAULT_PORT
 
 DEFAULT_SIZE = (1024, 768)
@@ -41,21 +43,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-primitive", action="store_true", help="draw the robots only")
     parser.add_argument("--frames", choices=("none", "ends", "all"), default="ends",
                         help="joint frames drawn: each chain's base and end (default), all, none")
-    parser.add_argument("--port", type=int, default=DEFAULT_PORT,
+    parser.add_argument("--port", type=port, default=DEFAULT_PORT,
                         help=f"server port on 127.0.0.1 (default {DEFAULT_PORT}; 0: any free one)")
 
 
 def _system(name: str):
     """(System, configurations) of a bundled system's name or a spec file."""
-    from gagen.apps.cooperative.bundled import bundled_specs
-    from gagen.apps.cooperative.spec import load_system
+    from gagen.registry import resolve_spec
+    from gagen.robots.spec import load_system
 
-    specs = bundled_specs()
-    if name in specs:
-        return load_system(specs[name])
-    if Path(name).is_file():
-        return load_system(Path(name))
-    raise ValueError(f"system {name!r}: not a bundled system ({', '.join(specs)}) nor a spec file")
+    return load_system(resolve_spec(name, "cooperative"))
 
 
 def configuration(args: argparse.Namespace, system, named: dict[str, list[float]]) -> Any:
@@ -120,3 +117,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m gagen.viewer", description=__doc__.split("\n")[0])
     add_arguments(parser)
     return run(parser.parse_args(argv))
+
+
+VERBS = (Verb("view", "a system's robots and primitive in the browser, or as a PNG rendered by headless "
+                      "Chromium "
+              "(--png)", add_arguments, run),)

@@ -22,8 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from gagen.apps.cooperative.system import System
 from gagen.model.kinematics import Joint
+from gagen.robots.system import System
 
 TOLERANCE = 1e-9  # relative: below it, points are taken as not spanning their primitive
 Array = NDArray[np.float64]

@@ -26,7 +26,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from gagen.apps.cooperative.system import System
+from gagen.robots.system import System
 from gagen.viewer import DEFAULT_PORT
 from gagen.viewer.camera import Camera, framing
 from gagen.viewer.geometry import (

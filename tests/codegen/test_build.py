@@ -1,10 +1,12 @@
-"""`gagen build`: the committed generated modules (regenerated and compared byte for byte, and against
-the interpreter), determinism, the cache, atomic replacement, missing compilers, corrupted kernels
-caught by --check, and a generated CasADi Function inside IPOPT.
+"""`gagen build`: the committed generated modules (regenerated and compared byte for byte), every
+bundled module against the interpreter, determinism, the cache, atomic replacement, missing compilers,
+corrupted kernels caught by --check, and a generated CasADi Function inside IPOPT.
 
-The committed modules are golden files: ``test_committed_module_is_what_gagen_generates`` renders
-each one again in memory and compares bytes; ``GAGEN_UPDATE_GOLDEN=1`` rewrites them instead
-(``GAGEN_UPDATE_GOLDEN=1 pytest tests/codegen/test_build.py -k what_gagen_generates --full``)."""
+The committed modules (a representative few: ``generated/README.md``) are golden files:
+``test_committed_module_is_what_gagen_generates`` renders each one again in memory and compares the
+committed (text) files' bytes; ``GAGEN_UPDATE_GOLDEN=1`` rewrites them instead
+(``GAGEN_UPDATE_GOLDEN=1 pytest tests/codegen/test_build.py -k what_gagen_generates --full``). Every
+other bundled module is built on first use into the gagen cache (``conftest.bundled_module``)."""
 
 from __future__ import annotations
 
@@ -12,17 +14,16 @@ import json
 import os
 import re
 import shutil
-from functools import cache
 from pathlib import Path
 
 import casadi as ca
 import numpy as np
 import pytest
-from conftest import FAST_MODULES, tiered
+from conftest import BUNDLED, FAST_MODULES, bundled_module, committed_modules, tiered
 
-from gagen.apps.cooperative.bundled import ROBOTS, bundled_specs, bundled_systems, ready_configuration
+from gagen.apps.cooperative.bundled import bundled_specs, bundled_systems, ready_configuration
 from gagen.build import build, build_source, load_source, render
-from gagen.check import check_module
+from gagen.check import check_kernels, check_module, failures
 from gagen.errors import SpecError
 from gagen.runtime import load
 
@@ -32,33 +33,37 @@ SYSTEMS = bundled_systems()
 QUIET = {"progress": lambda _: None}
 
 
-@cache
 def _module(name: str):
-    return load(GENERATED / name)
+    return bundled_module(name)
 
 
 UPDATE_GOLDEN = os.environ.get("GAGEN_UPDATE_GOLDEN", "").strip() not in ("", "0")
 HEX = re.compile(r"[0-9a-f]{12}")
 
 
+def _binary(data: bytes) -> bool:
+    """A file git would not diff: the CasADi serialisations (gzip). Never committed."""
+    return b"\0" in data
+
+
 def _committed(folder: Path) -> dict[str, bytes]:
-    """The files of a module folder that are committed: all but the compiled ones, the build key, and a
-    first-use compilation's temporary files (another test process may be compiling the module)."""
+    """The files of a module folder that are committed: its text files, not the compiled ones, the
+    build key, a first-use compilation's temporary files (another test process may be compiling the
+    module) nor the CasADi serialisations (``casadi/``: binary, rebuilt on demand)."""
     return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*"))
             if p.is_file() and not p.name.endswith((".so", ".dylib")) and p.name != ".build-key"
-            and ".partial" not in p.name and "__pycache__" not in p.parts}
+            and ".partial" not in p.name and "__pycache__" not in p.parts
+            and p.relative_to(folder).parts[0] != "casadi"}
 
 
 def _golden() -> dict[str, Path]:
-    """Each committed module and the file it is generated from: robots/<system>.yaml for the bundled
-    systems, and for any other folder the file its manifest names, in an app's robots/ or examples/."""
-    origins = dict(bundled_specs())
-    for folder in sorted(GENERATED.iterdir()):
-        if folder.is_dir() and folder.name not in origins and (folder / "manifest.json").is_file():
-            name = json.loads((folder / "manifest.json").read_text()).get("source", "")
-            places = [ROBOTS, *sorted((REPO / "gagen" / "apps").glob("*/robots")), REPO / "examples"]
-            found = [place / name for place in places if name and (place / name).is_file()]
-            origins[folder.name] = found[0] if found else REPO / "examples" / f"{folder.name}.py"
+    """Each committed module and the file it is generated from (its manifest names it): a bundled spec
+    in an app's robots/, or a file of examples/."""
+    origins = {}
+    for name in committed_modules():
+        source = json.loads((GENERATED / name / "manifest.json").read_text()).get("source", "")
+        found = [path for path in BUNDLED.values() if path.name == source]
+        origins[name] = found[0] if found else REPO / "examples" / f"{name}.py"
     return origins
 
 
@@ -75,7 +80,8 @@ def test_committed_module_is_what_gagen_generates(name):
     source = load_source(origin, name if origin.suffix == ".py" else None)
     if UPDATE_GOLDEN:
         build_source(source, folder, force=True, compile_c=False, **QUIET)
-    expected, committed = render(source), _committed(folder)
+    expected = {path: data for path, data in render(source).items() if not _binary(data)}
+    committed = _committed(folder)
     where = origin.relative_to(REPO) if origin.is_relative_to(REPO) else origin
     hint = f"regenerate: gagen build {where} (or GAGEN_UPDATE_GOLDEN=1 for this test)"
     assert sorted(committed) == sorted(expected), f"{name}: other files than generated; {hint}"
@@ -85,11 +91,43 @@ def test_committed_module_is_what_gagen_generates(name):
 
 def test_committed_file_names_carry_no_hash():
     """Committed file names are fixed (compiled files carry the content tag, and are not committed)."""
-    folders = [p for p in GENERATED.iterdir() if p.is_dir()]
-    assert {p.name for p in folders} >= set(SYSTEMS)
-    for folder in folders:
-        hashed = [path for path in _committed(folder) if HEX.search(path)]
-        assert not hashed, f"{folder.name}: {hashed}"
+    for name in committed_modules():
+        hashed = [path for path in _committed(GENERATED / name) if HEX.search(path)]
+        assert not hashed, f"{name}: {hashed}"
+
+
+def _tracked(pattern: str = "generated") -> list[str]:
+    import subprocess
+
+    try:
+        listed = subprocess.run(["git", "ls-files", "-z", pattern], cwd=REPO, capture_output=True, check=True)
+    except (OSError, subprocess.CalledProcessError):
+        pytest.skip("not a git checkout")
+    return [path for path in listed.stdout.decode().split("\0") if path]
+
+
+def test_generated_is_lean_text_and_representative():
+    """generated/ in git: text files only (no NUL byte: the CasADi serialisations are rebuilt on
+    demand), at most 5 MB, and a representative set: a module of every application and of each
+    example file, each folder complete (every text file its manifest lists), nothing else tracked."""
+    tracked = _tracked()
+    binary = [path for path in tracked if _binary((REPO / path).read_bytes())]
+    assert not binary, f"binary files tracked under generated/: {binary}"
+    size = sum((REPO / path).stat().st_size for path in tracked)
+    assert size <= 5_000_000, f"generated/ tracks {size / 1e6:.2f} MB (at most 5 MB)"
+    names = committed_modules()
+    apps = {json.loads((GENERATED / n / "manifest.json").read_text()).get("app", "cooperative")
+            for n in names if BUNDLED.get(n, Path()).suffix == ".yaml"}
+    assert apps >= {"cooperative", "hexapod", "linkage", "stereo"}, apps
+    assert {p.stem for p in (REPO / "examples").glob("*.py")} <= set(names)
+    expected = {"generated/README.md"}
+    for name in names:
+        manifest = json.loads((GENERATED / name / "manifest.json").read_text())
+        expected |= {f"generated/{name}/manifest.json"} | {
+            f"generated/{name}/{path}" for path in manifest["files"] if not path.startswith("casadi/")}
+    assert sorted(tracked) == sorted(expected)
+    readme = (GENERATED / "README.md").read_text()
+    assert all(f"`{name}`" in readme for name in names), "generated/README.md names every committed module"
 
 
 @pytest.mark.slow  # 12-97 s a system (test_check plants errors into panda_point's kernels in the fast tier)
@@ -102,6 +140,24 @@ def test_every_kernel_c_single_batched_and_casadi_equal_the_interpreter(name):
     for d in report:
         tolerance = 1e-10 if d.reference == "interpreter" else 1e-6
         assert d.worst <= tolerance, d
+
+
+# the bundled sources whose kernels are front-end functions and that no other test file checks (the
+# hexapod's: tests/hexapod/test_contact.py; the stereo rig's: tests/stereo/test_geometry.py)
+FRONT_END = sorted(name for name, path in BUNDLED.items() if path.suffix == ".py" or "linkage" in path.parts)
+
+
+@pytest.mark.slow
+@pytest.mark.compiling
+@pytest.mark.parametrize("name", FRONT_END)
+def test_every_linkage_and_example_kernel_equals_the_interpreter(name):
+    """The module of each bundled linkage and example file (the committed ones, the others built into
+    the gagen cache on first use): every kernel (C single, C batched, CasADi) against its function on
+    the interpreter, as ``gagen build --check`` does."""
+    module = _module(name)
+    report = check_kernels(module, load_source(BUNDLED[name]).functions, count=3, seed=7)
+    assert {d.kernel for d in report} == set(module.kernel_names)
+    assert not failures(report), [d.message() for d in failures(report)]
 
 
 def test_c_and_casadi_agree_to_the_vector_trig_tolerance():
@@ -183,7 +239,7 @@ def test_check_catches_a_wrong_constant_in_the_c_source(tmp_path):
     """Scale the last link-length constant of the Panda FK kernel by 1.01 in the C source: --check
     must see it in the C rows and not in the (untouched) CasADi ones."""
     out = tmp_path / "m"
-    shutil.copytree(GENERATED / "panda_point", out, ignore=shutil.ignore_patterns("*.so", "*.dylib"))
+    shutil.copytree(_module("panda_point").folder, out, ignore=shutil.ignore_patterns("*.so", "*.dylib"))
     source = out / "panda_point.c"
     text = source.read_text()
     start = text.index("void panda_point_arm0_fk(")
@@ -221,7 +277,7 @@ def test_generated_casadi_function_inside_ipopt_solves_panda_ik_to_a_pose():
 def test_binding_and_ctypes_paths_agree_and_bad_inputs_are_named():
     """The CPython binding (the fast path) and the ctypes fallback give the same arrays; lists and
     strided arrays are converted; a wrong size names the input."""
-    from gagen.runtime import CKernel
+    from gagen.codegen.backends.c.loader import CKernel
 
     module = _module("three_pandas_circle")
     entry = next(k for k in module.manifest["kernels"] if k["name"] == "task")

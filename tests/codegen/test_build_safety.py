@@ -30,12 +30,12 @@ from gagen import build as build_module
 from gagen.apps.cooperative import module as cooperative_module
 from gagen.apps.cooperative.bundled import bundled_specs
 from gagen.apps.cooperative.module import cooperative_source
-from gagen.apps.cooperative.spec import load_system
-from gagen.apps.cooperative.system import Chain, System
 from gagen.build import build, build_key
 from gagen.cli import main
 from gagen.codegen.backends import BACKENDS
 from gagen.codegen.backends.c import library
+from gagen.robots.spec import load_system
+from gagen.robots.system import Chain, System
 
 SPEC = bundled_specs()["panda_point"]
 QUIET = {"progress": lambda _: None}
@@ -72,8 +72,8 @@ def _use(monkeypatch, system: System) -> None:
 # Child processes build a tiny system (the Panda chain cut after its first two joints): quick to build
 TINY = """
 import gagen.apps.cooperative.module
-from gagen.apps.cooperative.system import Chain, System
-from gagen.apps.cooperative.spec import load_system
+from gagen.robots.system import Chain, System
+from gagen.robots.spec import load_system
 
 
 def tiny(path):

@@ -19,9 +19,9 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 import pytest
-from conftest import tiered
+from conftest import BUNDLED, bundled_module, tiered
 
-from gagen.build import build, build_source, load_source, render
+from gagen.build import build_source, load_source, render
 from gagen.codegen.backends import BACKENDS
 from gagen.codegen.backends.jax import ModifiedFile
 from gagen.codegen.ir import ModuleSource, Port, make_kernel
@@ -240,14 +240,12 @@ def test_a_module_loads_without_jax_and_says_what_to_install(tmp_path):
     assert not report["jax_loaded"]
 
 
-# -- modules built here, against their C kernels ------------------------------------------------------
+# -- bundled modules, against their C kernels ----------------------------------------------------------
 
 @pytest.fixture(scope="module")
-def panda(tmp_path_factory):
-    """robots/panda_point.yaml built with every backend and compiled."""
-    folder = tmp_path_factory.mktemp("jax-backend") / "panda_point"
-    build(REPO / "robots" / "panda_point.yaml", folder, **QUIET)
-    return load(folder)
+def panda():
+    """robots/panda_point.yaml's module (every backend, compiled), built on first use."""
+    return bundled_module("panda_point")
 
 
 def _random_inputs(module, name: str, rng: np.random.Generator) -> list[np.ndarray]:
@@ -293,12 +291,11 @@ def test_a_compiled_module_without_jax_still_calls_c(panda):
 
 
 @pytest.mark.compiling
-def test_user_kernels_jax_equals_c_and_jacfwd_the_authored_jacobian(jax, tmp_path):
+def test_user_kernels_jax_equals_c_and_jacfwd_the_authored_jacobian(jax):
     """examples/formulas.py: every kernel on its own samples (circle_distance also on real circles,
     through three sampled points); circle_distance's generated J_d is jax.jacfwd of its JAX d with
     respect to X."""
-    result = build(REPO / "examples" / "formulas.py", tmp_path / "formulas", **QUIET)
-    module = load(result.folder)
+    module = bundled_module("formulas")
     functions = load_source(REPO / "examples" / "formulas.py").functions
     rng = np.random.default_rng(3)
 
@@ -320,19 +317,16 @@ def test_user_kernels_jax_equals_c_and_jacfwd_the_authored_jacobian(jax, tmp_pat
                "jacfwd d vs J_d")
 
 
-# -- the committed modules ----------------------------------------------------------------------------
+# -- the bundled modules ------------------------------------------------------------------------------
 
-GENERATED = REPO / "generated"
-COMMITTED = sorted(p.name for p in GENERATED.iterdir() if (p / "manifest.json").is_file()) \
-    if GENERATED.is_dir() else []
-
-
-@pytest.mark.parametrize("name", tiered(COMMITTED, {"panda_point"}, pytest.mark.compiling, pytest.mark.slow))
-def test_every_kernel_of_every_committed_module_is_its_c_kernel(jax, name):
-    """generated/<name>: every kernel, JAX against C on random inputs (NaN where C has NaN)."""
-    module = load(GENERATED / name)
+@pytest.mark.parametrize("name", tiered(sorted(BUNDLED), {"panda_point"}, pytest.mark.compiling,
+                                        pytest.mark.slow))
+def test_every_kernel_of_every_bundled_module_is_its_c_kernel(jax, name):
+    """Every bundled module (the committed generated/<name>, the others built into the gagen cache on
+    first use): every kernel, JAX against C on random inputs (NaN where C has NaN)."""
+    module = bundled_module(name)
     assert "jax" in module.manifest["backends"], \
-        f"generated/{name} was built before the jax backend: regenerate it (gagen build)"
+        f"{module.folder} was built before the jax backend: regenerate it (gagen build)"
     rng = np.random.default_rng(4)
     for kernel in module.kernel_names:
         for _ in range(2):

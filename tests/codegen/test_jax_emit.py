@@ -1,19 +1,18 @@
-"""Kernels as jax.numpy functions emitted from the flat graph (gagen.codegen.jax_emit) against the C
-kernels of the committed modules: values (1e-12 relative), a vmapped batch against the C batch, and
-jax.jacfwd of a JAX kernel against the generated Jacobian kernel."""
+"""Kernels as jax.numpy functions emitted from the flat graph (gagen.codegen.backends.jax.printer)
+against the C kernels of the bundled modules (built on first use): values (1e-12 relative), a vmapped
+batch against the C batch, and jax.jacfwd of a JAX kernel against the generated Jacobian kernel."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from gagen.apps.cooperative.bundled import bundled_systems, generated_folder
-from gagen.runtime import load
+from gagen.apps.cooperative.bundled import bundled_systems, system_module
 
 jax = pytest.importorskip("jax")
 jnp = pytest.importorskip("jax.numpy")
 
-from gagen.codegen.jax_emit import jax_kernel, jax_source  # noqa: E402 -- after the importorskip
+from gagen.codegen.backends.jax.printer import jax_kernel, jax_source  # noqa: E402 -- after the importorskip
 
 RTOL = 1e-12
 
@@ -40,7 +39,7 @@ def _close(jax_outputs, c_outputs, what: str) -> None:
 
 
 def test_every_kernel_of_panda_point():
-    module = load(generated_folder() / "panda_point")
+    module = system_module("panda_point")
     rng = np.random.default_rng(0)
     for entry in module.manifest["kernels"]:
         name = entry["name"]
@@ -55,7 +54,7 @@ def test_every_kernel_of_panda_point():
 @pytest.mark.parametrize("system", sorted(set(bundled_systems()) - {"panda_point"}))
 def test_system_kernels_of_every_bundled_system(system):
     """The task-space kernels (the largest graphs) of every other bundled system, eagerly."""
-    module = load(generated_folder() / system)
+    module = system_module(system)
     rng = np.random.default_rng(1)
     for name in ("similarity", "task", "similarity_rate"):
         inputs = _inputs(module, name, rng)
@@ -65,7 +64,7 @@ def test_system_kernels_of_every_bundled_system(system):
 def test_jit_vmap_and_jacfwd_on_panda_point():
     """jit(vmap(fk)) over a batch = the C batch; jacfwd of the JAX FK's end point = the generated point
     Jacobian J_P of ``arm0_jacobians``."""
-    module = load(generated_folder() / "panda_point")
+    module = system_module("panda_point")
     rng = np.random.default_rng(2)
     Q = rng.uniform(-1.5, 1.5, (64, 7))
     fk = jax_kernel(module, "arm0_fk")
@@ -84,7 +83,7 @@ def test_jit_vmap_and_jacfwd_on_panda_point():
 def test_jacfwd_of_the_task_error_is_the_generated_j_be():
     """Three Pandas: jax.jacfwd of the JAX ``task`` kernel's e equals the generated J_Be (which is built by
     the chain rule through the end points, not by AD of e)."""
-    module = load(generated_folder() / "three_pandas_circle")
+    module = system_module("three_pandas_circle")
     rng = np.random.default_rng(3)
     q, V_Sd = _inputs(module, "task", rng)
     task = jax_kernel(module, "task")

@@ -15,11 +15,11 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 import pytest
+from conftest import bundled_module
 
 from gagen.codegen.compiler import compile_shared, library_name, vector_math
 from gagen.runtime import load
 
-GENERATED = Path(__file__).resolve().parents[2] / "generated"
 TOLERANCE = 1e-14
 SAMPLES = 10_000
 
@@ -97,9 +97,9 @@ def _compare(folder: Path, kernels: list[str], tmp_path: Path) -> int:
 
 @pytest.mark.compiling
 def test_panda_kernels_with_vector_trig_equal_the_scalar_ones(tmp_path):
-    module = load(GENERATED / "panda_point")
+    module = bundled_module("panda_point")
     kernels = [entry["name"] for entry in module.manifest["kernels"]]
-    differing = _compare(GENERATED / "panda_point", kernels, tmp_path)
+    differing = _compare(module.folder, kernels, tmp_path)
     if vector_math():  # libmvec is in use: the test must see its doubles, not libm's again
         assert differing > 0
 
@@ -107,7 +107,7 @@ def test_panda_kernels_with_vector_trig_equal_the_scalar_ones(tmp_path):
 @pytest.mark.compiling
 @pytest.mark.slow
 def test_three_panda_similarity_with_vector_trig_equals_the_scalar_one(tmp_path):
-    _compare(GENERATED / "three_pandas_circle", ["similarity", "task"], tmp_path)
+    _compare(bundled_module("three_pandas_circle").folder, ["similarity", "task"], tmp_path)
 
 
 @pytest.mark.compiling

@@ -8,11 +8,10 @@ the explicit Tikhonov formula, and end points of the chain kernels.
 from __future__ import annotations
 
 from functools import cache
-from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import FAST_MODULES, tiered
+from conftest import FAST_MODULES, bundled_module, tiered
 
 from gagen.apps.cooperative.bundled import bundled_systems, ready_configuration
 from gagen.control import (
@@ -24,9 +23,6 @@ from gagen.control import (
     nullspace_projector,
     solve_ik,
 )
-from gagen.runtime import load
-
-GENERATED = Path(__file__).resolve().parents[2] / "generated"
 
 # one bundled system per primitive kind
 BY_KIND = {
@@ -39,9 +35,8 @@ BY_KIND = {
 }
 
 
-@cache
 def module(name: str):
-    return load(GENERATED / name)
+    return bundled_module(name)
 
 
 @cache

@@ -12,25 +12,20 @@
 
 from __future__ import annotations
 
-from functools import cache
-from pathlib import Path
-
 import numpy as np
 import pytest
+from conftest import bundled_module
 from scipy.optimize import brentq
 
 from gagen.cli import main
 from gagen.control import smc
 from gagen.control.ik import STATUSES, solve_ik
 from gagen.control.ocp import reach
-from gagen.runtime import load
-
-GENERATED = Path(__file__).resolve().parents[2] / "generated"
+from gagen.control.smc import runner as _runner  # noqa: F401  (smc.runner, patched below)
 
 
-@cache
 def _module(name: str):
-    return load(GENERATED / name)
+    return bundled_module(name)
 
 
 def _cli(argv: list[str], capsys) -> tuple[int, str]:
@@ -90,7 +85,7 @@ def test_run_loop_refuses_before_building(kwargs, message, monkeypatch):
     def no_build(*args, **kw):
         raise AssertionError("built before the arguments were checked")
 
-    monkeypatch.setattr(smc, "build", no_build)
+    monkeypatch.setattr(smc.runner, "build", no_build)
     with pytest.raises(ValueError, match=message.replace("(", r"\(").replace(")", r"\)")):
         smc.run_loop(**kwargs)
 

@@ -1,4 +1,4 @@
-"""Stating goals (``gagen.apps.cooperative.goals``: V_Sd from a desired primitive) and the chain
+"""Stating goals (``gagen.control.goals``: V_Sd from a desired primitive) and the chain
 kernels' layouts
 (``gagen.conventions``: J_S in Pinocchio's [v; ω] WORLD layout, the motor as a 4 × 4 transform).
 
@@ -14,16 +14,16 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import pytest
+from conftest import bundled_module
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gagen.algebra.signature import cga3d
-from gagen.apps.cooperative import goals
+from gagen.control import goals
 from gagen.control import solve_ik
 from gagen.conventions import from_pinocchio_world, motor_to_homogeneous, to_pinocchio_world
 from gagen.interp import MultiVector
 from gagen.model.conformal import SIMILARITY
-from gagen.runtime import load
 
 ROOT = Path(__file__).resolve().parents[2]
 ALG = cga3d()
@@ -134,14 +134,14 @@ def test_degenerate_or_malformed_goals_are_refused(call, message):
 
 def test_ik_reaches_a_circle_stated_by_centre_radius_normal():
     """The user's path: state the circle, solve IK on the generated task kernel, get that circle."""
-    m = load(ROOT / "generated" / "three_pandas_circle")
+    m = bundled_module("three_pandas_circle")
     task = m.casadi.task
 
     def kernel(q, V_Sd):
         e, J = task(q, V_Sd)
         return np.array(e).ravel(), np.array(J)
 
-    from gagen.apps.cooperative.spec import load_system
+    from gagen.robots.spec import load_system
 
     _, configurations = load_system(ROOT / "robots" / "three_pandas_circle.yaml")
     q0 = np.array(configurations["ready"])
@@ -160,7 +160,7 @@ def test_ik_reaches_a_circle_stated_by_centre_radius_normal():
 @pytest.fixture(scope="module")
 def panda():
     model = pin.buildModelFromUrdf(str(ROOT / "robots" / "panda" / "panda.urdf"))
-    module = load(ROOT / "generated" / "panda_point")
+    module = bundled_module("panda_point")
     return model, model.createData(), model.getFrameId("panda_link8"), module
 
 

@@ -8,17 +8,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import tiered
+from conftest import bundled_module, tiered
 
 import gagen.check as check
 from gagen.apps.cooperative.catalogue import kernel_functions
-from gagen.apps.cooperative.spec import load_system
-from gagen.apps.cooperative.system import Chain, System
 from gagen.model.kinematics import Joint
-from gagen.runtime import load
+from gagen.robots.spec import load_system
+from gagen.robots.system import Chain, System
 
 ROOT = Path(__file__).resolve().parents[2]
-GENERATED = ROOT / "generated"
 # a LEAP hand configuration drawn uniformly within the URDF limits (seed 1): its sphere is small and
 # its J_B reaches ~1e3, where plain central differences (h = 1e-6) miss the correct kernel by 7e-4
 # absolute, and even Richardson at h = 1e-3 by 2e-3 relative (the function turns on a smaller scale)
@@ -57,7 +55,7 @@ class _Planted:
 @pytest.fixture(scope="module")
 def panda():
     system, configurations = load_system(ROOT / "robots/panda_point.yaml")
-    return system, configurations, load(GENERATED / "panda_point")
+    return system, configurations, bundled_module("panda_point")
 
 
 PLANTED = [
@@ -107,7 +105,7 @@ def test_the_cli_check_names_the_failing_kernel_and_reports_progress(panda, monk
 @pytest.mark.slow
 def test_correct_leap_jacobians_pass_with_relative_step_adapted_differences():
     system, _ = load_system(ROOT / "robots/leap_hand_sphere.yaml")
-    module = load(GENERATED / "leap_hand_sphere")
+    module = bundled_module("leap_hand_sphere")
     q = np.array(WIDE_LEAP)
     # the old criterion: plain central differences (h = 1e-6) within 1e-6 absolute: fails this kernel
     entry = next(k for k in module.manifest["kernels"] if k["name"] == "similarity_jacobians")

@@ -15,19 +15,20 @@ from conftest import tiered
 
 from gagen.algebra.signature import cga3d
 from gagen.apps.cooperative.bundled import bundled_systems, ready_configuration
-from gagen.apps.cooperative.catalogue import TOOL_LINE, build_kernels
-from gagen.apps.cooperative.system import (
+from gagen.apps.cooperative.catalogue import build_kernels
+from gagen.interp import MultiVector
+from gagen.model import kinematics as K
+from gagen.model.conformal import SIMILARITY, SIMILARITY_GENERATOR
+from gagen.model.kinematics import TOOL_LINE
+from gagen.model.primitives import through, unit_primitive
+from gagen.model.similarity import cooperative_similarity
+from gagen.model.versors import exp_similarity, log_similarity
+from gagen.robots.system import (
     cooperative_jacobian,
     cooperative_primitive,
     similarity_of,
     task_error,
 )
-from gagen.interp import MultiVector
-from gagen.model import kinematics as K
-from gagen.model.conformal import SIMILARITY, SIMILARITY_GENERATOR
-from gagen.model.primitives import through, unit_primitive
-from gagen.model.similarity import cooperative_similarity
-from gagen.model.versors import exp_similarity, log_similarity
 
 ALG = cga3d()
 ZERO = MultiVector.zero(ALG)

@@ -23,10 +23,10 @@ import numpy as np
 import pytest
 
 from gagen.apps.cooperative.catalogue import _Graph, _task_space
-from gagen.apps.cooperative.system import Chain, System
 from gagen.model.conformal import SIMILARITY
 from gagen.model.kinematics import Joint
 from gagen.model.primitives import points_needed
+from gagen.robots.system import Chain, System
 
 NAMES = ("X_c", "V_Sc", "conditioning", "log_V", "e", "dX_c", "dV_Sc", "dG", "dlog_V", "de")
 EPSILONS = (1e-1, 1e-3, 1e-5, 1e-7, 3e-9, 1e-9, 1e-10, 1e-12, 1e-14, 1e-15)
@@ -212,7 +212,7 @@ def test_coincident_hands_of_two_pandas_through_the_kernels():
     """End to end: the two Pandas' hands placed 1e-3 … 1e-14 m apart (Gauss-Newton on arm1's end
     point), then the ``similarity`` and ``task`` kernels (CasADi Functions) with V_Sd = V_Sc(q)."""
     from gagen.apps.cooperative.catalogue import build_kernels
-    from gagen.apps.cooperative.spec import load_system
+    from gagen.robots.spec import load_system
 
     system, configurations = load_system("robots/two_pandas_point_pair.yaml")
     kernels = build_kernels(system)

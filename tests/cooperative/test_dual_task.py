@@ -34,13 +34,13 @@ from gagen.apps.cooperative.dual_task import (
     half_motor,
     relative_motor,
 )
-from gagen.apps.cooperative.spec import load_system
 from gagen.errors import SpecError
 from gagen.interp import MultiVector
 from gagen.model import kinematics as K
 from gagen.model.conformal import MOTOR, MOTOR_GENERATOR
 from gagen.model.versors import ROTOR, rotor, translator
 from gagen.names import DUAL_TASK_KERNELS
+from gagen.robots.spec import load_system
 
 ZERO = MultiVector.zero(cga3d())
 TWO_CHAINS = ("two_pandas_point_pair", "two_iiwas_line", "g1_arms_line")
@@ -346,13 +346,11 @@ def test_the_catalogue_has_the_dual_task_kernels_for_two_chains_only():
 # -- the generated kernels -----------------------------------------------------------------------------------
 
 @pytest.fixture(scope="module")
-def built(tmp_path_factory):
-    from gagen.build import build
-    from gagen.runtime import load
+def built():
+    """The two Pandas' module, built on first use into the gagen cache (shared with the other tests)."""
+    from gagen.apps.cooperative.bundled import system_module
 
-    folder = tmp_path_factory.mktemp("two_pandas") / PANDA
-    build(bundled_specs()[PANDA], out=folder, progress=lambda _: None)
-    return load(folder)
+    return system_module(PANDA)
 
 
 @pytest.mark.compiling

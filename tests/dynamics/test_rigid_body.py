@@ -22,10 +22,9 @@ def pandas() -> SystemDynamics:
 def test_end_points_match_the_generated_kinematics(pandas):
     """Each arm's flange in the Pinocchio model = the generated chain kernel's end point, at random q:
     base placement, joint order and the URDF's kinematics agree."""
-    from gagen.apps.cooperative.bundled import generated_folder
-    from gagen.runtime import load
+    from gagen.apps.cooperative.bundled import system_module
 
-    module = load(generated_folder() / "three_pandas_circle")
+    module = system_module("three_pandas_circle")
     rng = np.random.default_rng(0)
     for _ in range(5):
         q = rng.uniform(-1.5, 1.5, 21)

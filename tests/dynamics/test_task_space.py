@@ -65,11 +65,10 @@ def test_bad_rank_and_damping_are_refused():
 # -- on the three iiwas (Pinocchio + the generated kernels) ------------------------------------------
 @cache
 def _system():
-    from gagen.apps.cooperative.bundled import generated_folder
+    from gagen.apps.cooperative.bundled import system_module
     from gagen.dynamics.rigid_body import SystemDynamics
-    from gagen.runtime import load
 
-    return load(generated_folder() / "three_iiwas_circle"), SystemDynamics(SPEC)
+    return system_module("three_iiwas_circle"), SystemDynamics(SPEC)
 
 
 def _state(seed: int) -> tuple[np.ndarray, np.ndarray]:

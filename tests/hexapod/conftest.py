@@ -1,5 +1,5 @@
-"""Shared fixtures of the hexapod tests: the bundled spec, its Hexapod, and its module built once per
-session into a temporary folder (compiling tests only)."""
+"""Shared fixtures of the hexapod tests: the bundled spec, its Hexapod, and its module (the committed
+generated/hexapod, built on first use; compiling tests only)."""
 
 from __future__ import annotations
 
@@ -18,11 +18,9 @@ def hexapod() -> Hexapod:
 
 
 @pytest.fixture(scope="session")
-def hexapod_module(tmp_path_factory):
-    """The bundled hexapod's generated module (C, SIMD batch and CasADi), built once per session."""
-    from gagen.build import build
-    from gagen.runtime import load
+def hexapod_module():
+    """The bundled hexapod's generated module (C, SIMD batch and CasADi), built on first use
+    (``gagen.apps.hexapod.gait.hexapod_module``: the committed generated/hexapod)."""
+    from gagen.apps.hexapod.gait import hexapod_module
 
-    folder = tmp_path_factory.mktemp("hexapod") / "hexapod"
-    build(SPEC, out=folder, progress=lambda _: None)
-    return load(folder)
+    return hexapod_module(SPEC)

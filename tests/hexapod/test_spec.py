@@ -7,8 +7,8 @@ import math
 
 import pytest
 
-from gagen.apps import spec_app
 from gagen.apps.hexapod.spec import load_hexapod
+from gagen.build import spec_kind
 from gagen.errors import SpecError
 
 from .conftest import SPEC
@@ -47,7 +47,7 @@ def test_bundled_hexapod_has_the_papers_leg(hexapod):
         yaw = leg.rpy[2]
         assert math.isclose(yaw, math.radians(30 + 60 * i) if i < 3 else math.radians(30 + 60 * i - 360))
         assert math.isclose(math.hypot(*leg.xyz[:2]), 0.12, rel_tol=1e-11)
-    assert spec_app(SPEC) == "hexapod"
+    assert spec_kind(SPEC).name == "hexapod"
 
 
 def test_minimal_spec_and_overrides(tmp_path):
@@ -88,11 +88,11 @@ def test_malformed_spec_names_file_field_and_expectation(tmp_path, text, field, 
 def test_unknown_app_is_refused_before_any_application_reads_it(tmp_path):
     path = _spec(tmp_path, "app: gripper\nname: x\n")
     with pytest.raises(SpecError, match="expected one of cooperative, hexapod, linkage, stereo"):
-        spec_app(path)
+        spec_kind(path)
 
 
 def test_a_robot_spec_cannot_claim_another_app(tmp_path):
-    from gagen.apps.cooperative.spec import load_system
+    from gagen.robots.spec import load_system
 
     path = _spec(tmp_path, "app: hexapod\nname: t\nprimitive: point\nchains: []\n")
     with pytest.raises(SpecError, match="a robot spec is app: cooperative"):

@@ -206,8 +206,8 @@ def test_pose_kernel_values_equal_the_motor_sandwich_end_point():
         q = rng.uniform(-3, 3, 7)
         motor = forward_kinematics(like, PANDA, list(q))
         outputs = kernel(q)
-        np.testing.assert_allclose(outputs[0], [motor[b] for b in kernel.outputs[0].labels], atol=1e-12)
-        np.testing.assert_allclose(outputs[1], [end_point(motor)[b] for b in kernel.outputs[1].labels],
+        np.testing.assert_allclose(outputs[0], [motor[b] for b in kernel.outputs[0].rows], atol=1e-12)
+        np.testing.assert_allclose(outputs[1], [end_point(motor)[b] for b in kernel.outputs[1].rows],
                                    atol=1e-12)
 
 

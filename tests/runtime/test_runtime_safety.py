@@ -23,7 +23,8 @@ import pytest
 import gagen
 from gagen.apps.cooperative.bundled import bundled_specs
 from gagen.build import build
-from gagen.runtime import CKernel, load
+from gagen.codegen.backends.c.loader import CKernel, Signature
+from gagen.runtime import load
 
 
 @pytest.fixture(scope="module")
@@ -192,11 +193,9 @@ def test_inputs_follow_the_same_rules_on_both_paths(module, case):
 
 def test_matrix_ports_take_their_shape_or_flat_column_major():
     """No kernel has a matrix input yet; the rule (shared by both paths) on a (3, 7) port."""
-    from gagen.runtime import _Signature
-
     entry = {"name": "k", "inputs": [{"name": "A", "rows": list("abc"), "cols": 7}],
              "outputs": [{"name": "y", "rows": ["x"], "cols": 1}]}
-    sig = _Signature(entry)
+    sig = Signature(entry)
     port = sig.inputs[0]
     a = np.arange(21.0).reshape(3, 7)
     np.testing.assert_array_equal(sig.single_input(port, a), a.ravel(order="F"))

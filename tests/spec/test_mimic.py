@@ -18,12 +18,12 @@ import pytest
 
 from gagen.algebra.signature import cga3d
 from gagen.apps.cooperative.catalogue import build_kernels
-from gagen.apps.cooperative.spec import load_system
-from gagen.apps.cooperative.system import Chain, System
 from gagen.errors import SpecError
 from gagen.interp import MultiVector
 from gagen.model import kinematics as K
 from gagen.model.kinematics import Joint
+from gagen.robots.spec import load_system
+from gagen.robots.system import Chain, System
 from gagen.robots.urdf import load_chain
 
 URDF = Path(__file__).resolve().parents[1] / "data" / "mimic_gripper.urdf"

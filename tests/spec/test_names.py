@@ -11,8 +11,6 @@ from pathlib import Path
 import pytest
 
 from gagen.apps.cooperative.catalogue import build_kernels
-from gagen.apps.cooperative.spec import load_system
-from gagen.apps.cooperative.system import Chain, System
 from gagen.errors import SpecError
 from gagen.model.kinematics import Joint
 from gagen.names import (
@@ -23,6 +21,8 @@ from gagen.names import (
     label_problem,
     suggest_identifier,
 )
+from gagen.robots.spec import load_system
+from gagen.robots.system import Chain, System
 
 ROBOTS = Path(__file__).resolve().parents[2] / "robots"
 PANDA_URDF = ROBOTS / "panda" / "panda.urdf"

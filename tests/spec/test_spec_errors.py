@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from gagen.apps.cooperative.spec import load_system
 from gagen.errors import SpecError
+from gagen.robots.spec import load_system
 
 ROBOTS = Path(__file__).resolve().parents[2] / "robots"
 PANDA_URDF = ROBOTS / "panda" / "panda.urdf"

@@ -20,9 +20,9 @@ from pathlib import Path
 import yaml
 from conftest import deadline
 
-from gagen.apps.cooperative.spec import load_system
-from gagen.apps.cooperative.system import System
 from gagen.errors import SpecError
+from gagen.robots.spec import load_system
+from gagen.robots.system import System
 
 ROBOTS = Path(__file__).resolve().parents[2] / "robots"
 SPECS = sorted(ROBOTS.glob("*.yaml"))

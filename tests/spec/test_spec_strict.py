@@ -16,11 +16,11 @@ import pytest
 from conftest import deadline
 
 from gagen.algebra.signature import cga3d
-from gagen.apps.cooperative.spec import load_system
 from gagen.errors import SpecError
 from gagen.interp import MultiVector
 from gagen.model.conformal import EUCLID, location, vector
 from gagen.model.kinematics import end_point, forward_kinematics
+from gagen.robots.spec import load_system
 
 ROBOTS = Path(__file__).resolve().parents[2] / "robots"
 PANDA_URDF = ROBOTS / "panda" / "panda.urdf"

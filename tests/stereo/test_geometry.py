@@ -372,11 +372,11 @@ def test_parallel_planes_meet_at_infinity_with_finite_outputs():
 # -- the catalogue -----------------------------------------------------------------------------------------
 
 def test_the_catalogue_and_the_spec_app():
-    from gagen.apps import SPEC_APPS, spec_app
+    from gagen.build import spec_kind
 
     assert tuple(k.name for k in stereo_kernels(BUNDLED)) == KERNELS
-    assert spec_app(SPEC) == "stereo"
-    assert SPEC_APPS["stereo"] == ("gagen.apps.stereo.kernels", "stereo_source")
+    kind = spec_kind(SPEC)
+    assert (kind.name, kind.source) == ("stereo", "gagen.apps.stereo.kernels:stereo_source")
 
 
 def test_random_scenes_are_well_conditioned_and_consistent():
@@ -394,16 +394,14 @@ def test_random_scenes_are_well_conditioned_and_consistent():
 
 @pytest.fixture(scope="module")
 def compiled(tmp_path_factory):
-    """Both rigs' modules: the bundled one built from its file as ``gagen build`` does, the rotated one
-    through ``compile_kernels``."""
-    from gagen.build import build
+    """Both rigs' modules: the bundled one built from its file as ``gagen build`` does (the committed
+    generated/stereo_rig, built on first use), the rotated one through ``compile_kernels``."""
     from gagen.frontend import compile_kernels
-    from gagen.runtime import load
+    from gagen.modules import bundled_module
 
     folder = tmp_path_factory.mktemp("stereo")
-    build(SPEC, out=folder / "bundled", progress=lambda _: None)
     rotated = compile_kernels(stereo_kernels(ROTATED), name="rotated_rig", folder=folder / "rotated")
-    return {"bundled": load(folder / "bundled").c, "rotated": rotated}
+    return {"bundled": bundled_module(SPEC).c, "rotated": rotated}
 
 
 def _scenes(rig: Rig, n: int, seed: int):

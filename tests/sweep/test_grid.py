@@ -29,8 +29,8 @@ GRID = "arm0/panda_joint2=6, arm1/panda_joint4=5:-2.5:-0.5,20=4"
 def _expected_grid(sweep: Manipulability) -> np.ndarray:
     """The grid enumerated here from the spec's numbers: itertools.product, last joint fastest."""
     from gagen.apps.cooperative.bundled import bundled_specs
-    from gagen.apps.cooperative.spec import load_system
     from gagen.check import joint_limits
+    from gagen.robots.spec import load_system
 
     system, configurations = load_system(bundled_specs()["three_pandas_circle"])
     lower, upper, _ = joint_limits(system)

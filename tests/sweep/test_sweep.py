@@ -44,7 +44,8 @@ def test_manipulability_numbers_against_single_calls(tmp_path):
     """Independently of the chunk code: single-call kernels, manipulability_index per configuration and
     the viewer's circumcircle of the arms' end points."""
     from gagen.apps.cooperative.bundled import bundled_systems
-    from gagen.apps.cooperative.mpc_demo import circle_of, end_points
+    from gagen.apps.cooperative.mpc_demo import circle_of
+    from gagen.robots.points import end_points
     from gagen.check import joint_limits
     from gagen.control.differential import manipulability_index
     from gagen.sweep.problems import _module
@@ -69,11 +70,10 @@ def test_manipulability_numbers_against_single_calls(tmp_path):
 
 
 def test_reach_on_two_workers_equals_the_serial_loop_and_single_solves(client, tmp_path):
-    from gagen.apps.cooperative import goals
-    from gagen.apps.cooperative.bundled import bundled_systems, ready_configuration
+    from gagen.control import goals
+    from gagen.apps.cooperative.bundled import bundled_systems, ready_configuration, system_module
     from gagen.check import joint_limits
     from gagen.control.ilqr import ILQR
-    from gagen.runtime import load
 
     outcome = run(SMALL_REACH, tmp_path / "dask", client=client, progress=False)
     assert sorted(outcome.computed) == [0, 1, 2] and outcome.rows == 9
@@ -85,7 +85,7 @@ def test_reach_on_two_workers_equals_the_serial_loop_and_single_solves(client, t
     assert success[4] and success[7] and not success[0]  # the middle and (0.5, 0) are reached, a corner not
     # one target solved here, outside the sweep code, from the spec's own pieces
     system = bundled_systems()["three_pandas_circle"]
-    module = load("generated/three_pandas_circle")
+    module = system_module("three_pandas_circle")
     lower, upper, _ = joint_limits(system)
     result = ILQR(module.c.task, 21, N=50).solve(np.array(ready_configuration(system)),
                                                  goals.circle([0.5, 0.0, 0.59], 0.5, [0, 0, 1]),

@@ -21,11 +21,12 @@ UNIT_BALL = {3: 4 * math.pi / 3, 4: math.pi**2 / 2, 6: math.pi**3 / 6}  # volume
 
 def _system(name):
     from gagen.apps.cooperative.bundled import bundled_specs
-    from gagen.apps.cooperative.spec import load_system
+    from gagen.robots.spec import load_system
 
     return load_system(bundled_specs()[name])
 
 
+@pytest.mark.compiling  # the modules of other systems than FAST_MODULES: built on first use
 @pytest.mark.parametrize(("name", "grid"), [
     ("g1_torso_circle", None),  # three chains sharing the waist's three joints
     ("g1_torso_circle", "g1/waist_yaw_joint=3,g1/left_elbow_joint=4"),
@@ -37,10 +38,9 @@ def test_another_systems_numbers_equal_single_kernel_calls(tmp_path, name, grid)
     """Per configuration: the similarity kernel called once, manipulability_index at the primitive's rank
     from CONTROLLABLE_DIMENSION, the chains' FK called one by one on ``System.split`` and the viewer's
     ``shape`` of the end points."""
-    from gagen.apps.cooperative.bundled import generated_folder
+    from gagen.apps.cooperative.bundled import system_module
     from gagen.check import joint_limits
     from gagen.control.differential import CONTROLLABLE_DIMENSION, manipulability_index
-    from gagen.runtime import load
     from gagen.viewer.geometry import shape
 
     sweep = (Manipulability(samples=60, chunk=25, seed=7, system=name) if grid is None
@@ -48,7 +48,7 @@ def test_another_systems_numbers_equal_single_kernel_calls(tmp_path, name, grid)
     run_serial(sweep, tmp_path)
     table = ChunkStore(tmp_path).read(sweep.chunks)
     system, _ = _system(name)
-    module = load(generated_folder() / name)
+    module = system_module(name)
     rank = CONTROLLABLE_DIMENSION[system.kind]
     q = np.vstack([sweep.configurations(i) for i in range(sweep.chunks)])
     lower, upper, _ = joint_limits(system)
@@ -74,14 +74,14 @@ def test_another_systems_numbers_equal_single_kernel_calls(tmp_path, name, grid)
             assert np.isnan(column["radius"][row])
 
 
+@pytest.mark.compiling
 def test_a_sphere_systems_reach_target_equals_a_direct_solve(tmp_path):
     """One target sphere, the ready sphere's (rounded) centre and radius, solved by the sweep and by the
     iLQR called here on the spec's own pieces."""
-    from gagen.apps.cooperative import goals
-    from gagen.apps.cooperative.bundled import generated_folder
+    from gagen.control import goals
+    from gagen.apps.cooperative.bundled import system_module
     from gagen.check import joint_limits
     from gagen.control.ilqr import ILQR
-    from gagen.runtime import load
 
     sweep = Reach(grid=1, N=20, chunk=1, system="four_pandas_sphere")
     assert (sweep.x, sweep.y, sweep.height, sweep.radii) == (0.0, 0.0, 1.1, (0.7,))  # the ready sphere's
@@ -89,7 +89,7 @@ def test_a_sphere_systems_reach_target_equals_a_direct_solve(tmp_path):
     table = ChunkStore(tmp_path).read(1)
     system, configurations = _system("four_pandas_sphere")
     lower, upper, _ = joint_limits(system)
-    result = ILQR(load(generated_folder() / "four_pandas_sphere").c.task, 28, N=20).solve(
+    result = ILQR(system_module("four_pandas_sphere").c.task, 28, N=20).solve(
         np.array(configurations["ready"]), goals.sphere([0.0, 0.0, 1.1], 0.7), limits=(lower, upper))
     assert table.column("error")[0].as_py() == result.error_norm
     assert table.column("status")[0].as_py() == result.status
@@ -114,8 +114,9 @@ def test_systems_the_sweeps_cannot_handle_are_named(monkeypatch, tmp_path):
     with pytest.raises(SweepError, match=r"^normal: only circle targets have a normal; four_pandas_sphere "
                        r"spans a sphere"):
         Reach(system="four_pandas_sphere", normal=(0.0, 0.0, 1.0))
-    import gagen.apps.cooperative.bundled as bundled
     import gagen.check
+    import gagen.modules
+    from gagen.build import OutputError
 
     limits = gagen.check.joint_limits
 
@@ -129,9 +130,13 @@ def test_systems_the_sweeps_cannot_handle_are_named(monkeypatch, tmp_path):
                        r"\(arm0/panda_joint1\); the sweeps sample and grid within the joint limits"):
         cell.__wrapped__("panda_point")
     monkeypatch.setattr(gagen.check, "joint_limits", limits)
-    monkeypatch.setattr(bundled, "generated_folder", lambda: tmp_path)
-    with pytest.raises(SweepError, match=r"^system: no generated module for panda_point in .*; build it with "
-                       r"gagen build robots/panda_point\.yaml"):
+
+    def unwritable(spec):
+        raise OutputError(tmp_path / "panda_point", "Read-only file system")
+
+    monkeypatch.setattr(gagen.modules, "module_folder", unwritable)  # (the module is built on first use)
+    with pytest.raises(SweepError, match=r"^system: cannot build the generated module of panda_point: "
+                       r"cannot write .*panda_point: Read-only file system"):
         cell.__wrapped__("panda_point")
 
 

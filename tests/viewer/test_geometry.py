@@ -7,16 +7,16 @@ import math
 import numpy as np
 import pytest
 import yaml
+from conftest import FAST_MODULES, tiered
 from hypothesis import given
 from hypothesis import strategies as st
 
 from gagen.apps.cooperative.bundled import (
     bundled_specs,
     bundled_systems,
-    generated_folder,
     ready_configuration,
+    system_module,
 )
-from gagen.runtime import load
 from gagen.viewer.camera import Camera, framing
 from gagen.viewer.geometry import (
     TOLERANCE,
@@ -42,12 +42,10 @@ def _kernel_points(m, system, q):
     return np.array(points)
 
 
-@pytest.mark.parametrize("name", SYSTEMS)
+@pytest.mark.parametrize("name", tiered(SYSTEMS, FAST_MODULES, pytest.mark.compiling))
 def test_end_points_match_the_generated_fk(name):
     system = bundled_systems()[name]
-    if not (generated_folder() / name / "manifest.json").is_file():
-        pytest.skip(f"generated/{name} is not built (the committed modules are checked elsewhere)")
-    m = load(generated_folder() / name)
+    m = system_module(name)
     rng = np.random.default_rng(7)
     for q in [np.array(ready_configuration(system)), *rng.uniform(-1.5, 1.5, (3, system.dof))]:
         ours = np.array([pose.end_point for pose in system_pose(system, q)])
@@ -87,7 +85,7 @@ def test_circle_matches_the_conformal_primitive():
     from gagen.model.primitives import centre, radius, unit_normal
 
     system = bundled_systems()["three_pandas_circle"]
-    m = load(generated_folder() / system.name)
+    m = system_module(system.name)
     rows = next(p["rows"] for k in m.manifest["kernels"] if k["name"] == "primitive"
                 for p in k["outputs"] if p["name"] == "X_c")
     for q in [np.array(ready_configuration(system)), np.random.default_rng(5).uniform(-1, 1, system.dof)]:

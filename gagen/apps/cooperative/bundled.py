@@ -4,21 +4,15 @@ from __future__ import annotations
 
 from functools import cache
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from gagen.apps.cooperative.spec import load_system
-from gagen.apps.cooperative.system import System
+from gagen.robots.spec import load_system
+from gagen.robots.system import System
+
+if TYPE_CHECKING:
+    from gagen.runtime import GeneratedModule
 
 ROBOTS = Path(__file__).resolve().parent / "robots"  # shipped with the package; robots/ links here
-_CHECKOUT = Path(__file__).resolve().parents[3]  # the repository root, when gagen runs from a checkout
-
-
-def generated_folder() -> Path:
-    """Where the bundled systems' generated modules are: the checkout's committed ``generated/``, else
-    ``generated/`` in the working directory (where ``gagen build`` writes by default)."""
-    committed = _CHECKOUT / "generated"
-    if (committed / "panda_point" / "manifest.json").is_file():
-        return committed
-    return Path("generated").resolve()
 
 
 @cache
@@ -34,6 +28,15 @@ def _load(name: str) -> tuple[System, dict[str, list[float]]]:
 
 def bundled_systems() -> dict[str, System]:
     return {name: _load(name)[0] for name in bundled_specs()}
+
+
+def system_module(name: str) -> GeneratedModule:
+    """The generated module of the bundled system ``name``, loaded: built on first use
+    (``gagen.modules.bundled_module``: the committed ``generated/<name>`` in a checkout for the
+    representative systems, the gagen cache for the others), once per process."""
+    from gagen.modules import bundled_module
+
+    return bundled_module(bundled_specs()[name])
 
 
 def ready_configuration(system: System) -> list[float]:

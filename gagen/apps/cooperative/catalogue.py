@@ -43,7 +43,6 @@ import casadi as ca
 from gagen.algebra.multivector import SparseMultivector
 from gagen.algebra.signature import cga3d
 from gagen.apps.cooperative.dual_task import dual_task_kernel_functions
-from gagen.apps.cooperative.system import Chain, System
 from gagen.codegen.ir import Kernel
 from gagen.frontend import KernelFunction, along, scalars, split_derivative
 from gagen.model import kinematics as K
@@ -61,10 +60,9 @@ from gagen.model.conformal import (
 from gagen.model.primitives import points_needed, through, unit_primitive
 from gagen.model.similarity import cooperative_similarity, similarity_factors
 from gagen.model.versors import log_similarity
+from gagen.robots.system import Chain, System
 from gagen.symbolic.casadi_backend import CasadiBackend
 from gagen.symbolic.flatten import identifier
-
-TOOL_LINE = "e12"  # the tool's z axis through its origin, as a line bivector (rotation about z)
 
 
 class _Graph:
@@ -104,7 +102,7 @@ def _chain_function(chain: Chain, names: Sequence[str]) -> Callable[..., dict[st
     def kinematics(ga: Any, q: Sequence[Any]) -> dict[str, Any]:
         motor, lines, position = K.chain_pose(ga, chain.joints, q)
         end = point(position)  # = V_M e0 V_M~, from the position the chain carries
-        tool = ga.make({TOOL_LINE: 1})
+        tool = ga.make({K.TOOL_LINE: 1})
         values = {"M": lambda: motor, "P": lambda: end, "J_S": lambda: K.spatial_jacobian(lines),
                   "J_b": lambda: K.body_jacobian(motor, lines),
                   "J_A": lambda: K.analytic_jacobian(motor, lines),

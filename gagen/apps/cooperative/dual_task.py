@@ -28,11 +28,11 @@ from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
 
 from gagen.algebra.signature import cga3d
-from gagen.apps.cooperative.system import System
 from gagen.frontend import KernelFunction, scalars
 from gagen.model import kinematics as K
 from gagen.model.conformal import MOTOR, MOTOR_GENERATOR, ROTATION, TRANSLATION, part
 from gagen.model.versors import ROTOR, exp_motor, log_motor
+from gagen.robots.system import System
 
 
 def relative_motor(m1: Any, m2: Any) -> Any:

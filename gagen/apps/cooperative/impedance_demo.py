@@ -32,13 +32,11 @@ from typing import Any
 
 import numpy as np
 
-from gagen.apps.cooperative.bundled import ROBOTS, generated_folder
+from gagen.apps.cooperative.bundled import ROBOTS, system_module
 from gagen.check import joint_limits
 from gagen.control.differential import CONTROLLABLE_DIMENSION
 from gagen.control.impedance import Gains, ImpedanceController, Run, random_starts, simulate
 from gagen.dynamics.rigid_body import SystemDynamics
-from gagen.runtime import load
-from gagen.viewer import DEFAULT_PORT
 
 ARM_REST = (0.0, -0.7854, 0.0, 1.3962, 0.0, 0.6109, 0.0)
 """q0 of each arm [COOP Section 4.1]."""
@@ -72,7 +70,7 @@ class Result:
 
 def controller(system: str, gains: Gains) -> tuple[ImpedanceController, np.ndarray]:
     """The controller of a three-iiwa system with V_Sd = V_Sc(q0), and q0."""
-    module = load(generated_folder() / system)
+    module = system_module(system)
     dynamics = SystemDynamics(ROBOTS / f"{system}.yaml")
     q0 = np.tile(ARM_REST, 3)
     target, _, _ = module.c.similarity(q0)
@@ -131,18 +129,8 @@ def report(results: Sequence[Result], duration: float) -> str:
     return "\n".join(lines) + "\n"
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="gagen impedance", description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default="plots/impedance", help="folder for the plot and the report")
-    parser.add_argument("--runs", type=int, default=COUNT, help=f"random starts per case (default {COUNT})")
-    parser.add_argument("--spread", type=float, default=SPREAD, help=f"rad around q0 (default {SPREAD})")
-    parser.add_argument("--duration", type=float, default=DURATION, help=f"seconds (default {DURATION:g})")
-    parser.add_argument("--view", action="store_true", help="then play the circle's first run in the "
-                                                             "browser viewer")
-    parser.add_argument("--port", type=int, default=DEFAULT_PORT, help="the viewer's port on 127.0.0.1")
-    args = parser.parse_args(argv)
-    if args.runs < 1 or not args.spread >= 0 or not args.duration > 0:
-        parser.error("--runs must be >= 1, --spread >= 0 and --duration > 0")
+def run_command(args: argparse.Namespace) -> int:
+    """``gagen impedance`` on its parsed arguments (``gagen.apps.cooperative.commands``)."""
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     cases = [("circle", "paper"), ("circle", "tuned"), ("plane", "tuned")]
@@ -164,6 +152,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         serve(Scene(bundled_systems()[SYSTEMS["circle"]], cases[0][2][0], port=args.port), cases)
     tuned = [r for r in results if r.gains == "tuned"]
     return 0 if all(max(r.final_errors) < CONVERGED for r in tuned) else 1
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    from gagen.apps.cooperative.commands import verb
+
+    return verb("impedance").main(argv, prog="python -m gagen.apps.cooperative.impedance_demo")
 
 
 if __name__ == "__main__":

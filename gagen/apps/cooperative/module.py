@@ -14,21 +14,11 @@ from pathlib import Path
 
 from gagen import __version__
 from gagen.apps.cooperative.catalogue import build_kernels
-from gagen.apps.cooperative.spec import load_system
-from gagen.apps.cooperative.system import System
 from gagen.build import check_identifier
 from gagen.codegen.ir import Kernel, ModuleSource
 from gagen.errors import read_input
-
-PACKAGE = Path(__file__).resolve().parents[2]  # gagen/
-# the parts of gagen that take no part in making a system's kernel graphs: every other module is in
-# the key (the code generator, gagen/codegen and build.py, is in the build's own key)
-NOT_IN_KEY = {"build.py", "codegen", "runtime.py", "cli.py", "check.py", "report.py", "demo.py",
-              "apps/cooperative/scenarios.py", "apps/cooperative/nullspace_demo.py",
-              "apps/cooperative/goals.py", "apps/cooperative/impedance_demo.py", "apps/cooperative/teleop.py",
-              "apps/cooperative/teleop_input.py", "apps/cooperative/mpc_demo.py", "apps/hexapod", "dynamics",
-              "viewer", "sweep",
-              "crosscheck.py", "goals.py", "conventions.py", "control", "interp"}
+from gagen.robots.spec import load_system
+from gagen.robots.system import System
 
 
 class SystemKernels(Mapping[str, Kernel]):
@@ -54,17 +44,10 @@ class SystemKernels(Mapping[str, Kernel]):
 
 
 def system_key(system: System) -> str:
-    """What decides a system's kernels: the loaded system (every joint constant, so URDF edits that
-    change nothing do not rebuild), gagen's version and the source of every module that may make
-    them (all but ``NOT_IN_KEY``: a new module is in the key until it is known to take no part)."""
-    digest = hashlib.sha256()
-    digest.update(repr(system).encode())
-    digest.update(__version__.encode())
-    for module in sorted(PACKAGE.rglob("*.py")):
-        name = module.relative_to(PACKAGE).as_posix()
-        if not any(name == part or name.startswith(f"{part}/") for part in NOT_IN_KEY):
-            digest.update(name.encode() + b"\0" + module.read_bytes())
-    return digest.hexdigest()
+    """What a system's kernels are made from besides gagen's code: the loaded system (every joint constant,
+    so URDF edits that change nothing do not rebuild) and gagen's version. The build adds the code: the
+    import closure of the modules the application registers as making its kernels (``gagen.code_digest``)."""
+    return hashlib.sha256(f"{system!r}\0{__version__}".encode()).hexdigest()
 
 
 def cooperative_source(spec: str | Path) -> ModuleSource:

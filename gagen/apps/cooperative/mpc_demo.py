@@ -26,12 +26,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from gagen.apps.cooperative.bundled import bundled_systems, generated_folder, ready_configuration
+from gagen.apps.cooperative.bundled import bundled_systems, ready_configuration, system_module
 from gagen.check import joint_limits
 from gagen.control.mpc import MPCRun, run
 from gagen.control.ocp import target_from, target_primitive
-from gagen.runtime import GeneratedModule, load
-from gagen.viewer import DEFAULT_PORT
+from gagen.robots.points import end_points
+from gagen.runtime import GeneratedModule
 from gagen.viewer.geometry import circumcircle
 
 SYSTEM = "three_pandas_circle"
@@ -44,7 +44,7 @@ PERIOD = 4.0  # s
 
 def setup() -> tuple[GeneratedModule, NDArray[np.float64], Any]:
     """The module, the start configuration and the moving target t -> V_Sd(t)."""
-    module = load(generated_folder() / SYSTEM)
+    module = system_module(SYSTEM)
     q0 = np.array(ready_configuration(bundled_systems()[SYSTEM]), dtype=float)
     start = np.array(module.c.similarity(q0)[0])
 
@@ -63,11 +63,6 @@ def circle_of(points: NDArray[np.float64]) -> tuple[NDArray, float, NDArray]:
     if found is None:
         raise ValueError("the three end points are collinear: no circle through them")
     return found
-
-
-def end_points(module: GeneratedModule, q: NDArray[np.float64]) -> NDArray[np.float64]:
-    return np.array([np.asarray(getattr(module.c, f"arm{i}_fk")(q[7 * i:7 * i + 7])[1])[1:4]
-                     for i in range(3)])
 
 
 def report(result: MPCRun, rate: float) -> str:
@@ -162,17 +157,8 @@ def animate(module: GeneratedModule, result: MPCRun, target: Any, path: Path, fp
     return path
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="gagen mpc", description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default="plots/mpc", help="folder for the report, plots and GIF")
-    parser.add_argument("--rate", type=float, default=100.0, help="control rate in Hz (default 100)")
-    parser.add_argument("--duration", type=float, default=4.0, help="seconds (default 4)")
-    parser.add_argument("--no-animation", action="store_true", help="skip the GIF")
-    parser.add_argument("--view", action="store_true", help="then play the run in the browser viewer")
-    parser.add_argument("--port", type=int, default=DEFAULT_PORT, help="the viewer's port on 127.0.0.1")
-    args = parser.parse_args(argv)
-    if not (args.rate > 0 and args.duration > 0):
-        parser.error("--rate and --duration must be > 0")
+def run_command(args: argparse.Namespace) -> int:
+    """``gagen mpc`` on its parsed arguments (``gagen.apps.cooperative.commands``)."""
     module, q0, target = setup()
     limits = joint_limits(bundled_systems()[SYSTEM])[:2]
     result = run(module.c.task, target, q0, rate=args.rate, duration=args.duration, limits=limits,
@@ -190,6 +176,12 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         serve(Scene(bundled_systems()[SYSTEM], result.q[0], port=args.port), [("MPC", result.t, result.q)])
     return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    from gagen.apps.cooperative.commands import verb
+
+    return verb("mpc").main(argv, prog="python -m gagen.apps.cooperative.mpc_demo")
 
 
 if __name__ == "__main__":

@@ -44,10 +44,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from gagen.apps.cooperative.bundled import bundled_systems, generated_folder, ready_configuration
+from gagen.apps.cooperative.bundled import bundled_systems, ready_configuration, system_module
 from gagen.control.differential import damped_pseudo_inverse, nullspace_projector
-from gagen.runtime import GeneratedModule, load
-from gagen.viewer import DEFAULT_PORT
+from gagen.robots.points import end_points
+from gagen.runtime import GeneratedModule
 
 SYSTEM = "three_pandas_circle"
 ARMS = 3
@@ -64,7 +64,7 @@ ArrayLike3 = Sequence[float] | NDArray[np.float64]
 
 @cache
 def module() -> GeneratedModule:
-    return load(generated_folder() / SYSTEM)
+    return system_module(SYSTEM)
 
 
 def ready() -> NDArray[np.float64]:
@@ -116,15 +116,6 @@ def circumcircle(a: ArrayLike3, b: ArrayLike3, c: ArrayLike3) -> Circle:
         raise ValueError("collinear points have no circumcircle")
     centre = a + (float(u @ u) * np.cross(v, n) + float(v @ v) * np.cross(n, u)) / (2.0 * nn)
     return Circle(centre, float(np.linalg.norm(a - centre)), n / np.sqrt(nn))
-
-
-def end_points(m: GeneratedModule, q: NDArray[np.float64]) -> NDArray[np.float64]:
-    """(3, 3): the arms' Euclidean end points (rows e0 e1 e2 e3 e∞ of P, weight e0)."""
-    points = []
-    for i in range(ARMS):
-        P = np.array(getattr(m.c, f"arm{i}_fk")(q[i * ARM_DOF:(i + 1) * ARM_DOF])[1])
-        points.append(P[1:4] / P[0])
-    return np.array(points)
 
 
 # -- simulation --------------------------------------------------------------------------------------
@@ -273,16 +264,8 @@ def plot(results: Sequence[DemoResult], out_folder: str | Path, name: str = PLOT
 
 
 # -- command line ------------------------------------------------------------------------------------
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m gagen.apps.cooperative.nullspace_demo",
-                                     description=__doc__.split("\n")[0])
-    parser.add_argument("--out", type=Path, default=Path("plots"), help="folder for the PNG plot")
-    parser.add_argument("--steps", type=int, default=DEFAULT_STEPS)
-    parser.add_argument("--dt", type=float, default=DEFAULT_DT, help="RK4 step (s)")
-    parser.add_argument("--gain", type=float, default=DEFAULT_GAIN, help="k in q̇_sec = J_p⁺ k (p_target − p)")
-    parser.add_argument("--view", action="store_true", help="then play both runs in the browser viewer")
-    parser.add_argument("--port", type=int, default=DEFAULT_PORT, help="the viewer's port on 127.0.0.1")
-    args = parser.parse_args(argv)
+def run_command(args: argparse.Namespace) -> int:
+    """``gagen nullspace`` on its parsed arguments (``gagen.apps.cooperative.commands``)."""
     results = [run(projected, steps=args.steps, dt=args.dt, gain=args.gain) for projected in (True, False)]
     c = results[0].circle
     print(f"initial circle: centre {np.round(c.centre, 4)}, radius {c.radius:.4f} m, "
@@ -301,6 +284,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         serve(Scene(bundled_systems()[SYSTEM], results[0].q[0], port=args.port),
               [(r.label, r.t, r.q) for r in results])
     return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    from gagen.apps.cooperative.commands import verb
+
+    return verb("nullspace").main(argv, prog="python -m gagen.apps.cooperative.nullspace_demo")
 
 
 if __name__ == "__main__":

@@ -34,16 +34,14 @@ from numpy.typing import NDArray
 from gagen.apps.cooperative.bundled import (
     bundled_specs,
     bundled_systems,
-    generated_folder,
     ready_configuration,
+    system_module,
 )
-from gagen.cli import positive_float, positive_int
+from gagen.apps.cooperative.scenario_table import SCENARIOS, Scenario
 from gagen.control.ocp import (
     BLADES,
     DEFAULT_HORIZON,
     DEFAULT_N,
-    HESSIANS,
-    SOLVERS,
     OCPResult,
     bivector_command,
     multivector,
@@ -51,51 +49,11 @@ from gagen.control.ocp import (
     target_from,
     task_errors,
 )
-from gagen.runtime import GeneratedModule, load
-from gagen.viewer import DEFAULT_PORT
+from gagen.robots.points import end_points
+from gagen.runtime import GeneratedModule
 
 LABELS = {"e12": "e12", "e13": "e13", "e23": "e23", "e0inf": "e0∞", "e1inf": "e1∞", "e2inf": "e2∞",
           "e3inf": "e3∞"}
-
-
-@dataclass(frozen=True)
-class Scenario:
-    """A system and the similarity that moves its ready primitive to the target (see ``target_from``):
-    ``translation`` (m), ``rotation`` = (world axis, angle in rad) about the primitive's reference
-    point, ``dilation`` about it (rounds only)."""
-
-    name: str
-    system: str
-    title: str
-    translation: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    rotation: tuple[tuple[float, float, float], float] | None = None
-    dilation: float = 1.0
-
-
-SCENARIOS: dict[str, Scenario] = {
-    "line": Scenario("line", "g1_arms_line", "Unitree G1 arms (17 DOF) reaching a line [COOP Fig. 7]",
-                     translation=(0.05, 0.0, 0.1), rotation=((0.0, 0.0, 1.0), 0.3)),
-    "circle": Scenario("circle", "three_pandas_circle",
-                       "three Franka Pandas (21 DOF) reaching a larger circle [COOP Fig. 8]",
-                       translation=(0.0, 0.0, 0.1), rotation=((1.0, 0.0, 0.0), 0.2), dilation=1.3),
-    "torso_circle": Scenario("torso_circle", "g1_torso_circle",
-                             "Unitree G1 torso point and hands (17 DOF) reaching a smaller, turned circle "
-                             "[COOP Fig. 9]", rotation=((0.0, 0.0, 1.0), 0.1), dilation=0.9),
-    "collaboration_circle": Scenario("collaboration_circle", "panda_g1_circle",
-                                     "a Franka Panda and a Unitree G1 (24 DOF) lifting, tilting and "
-                                     "enlarging a circle together [COOP Fig. 10]",
-                                     translation=(0.0, 0.0, 0.05), rotation=((1.0, 0.0, 0.0), 0.2),
-                                     dilation=1.1),
-    "plane": Scenario("plane", "leap_three_fingers_plane",
-                      "LEAP Hand, three fingers (12 DOF), reaching a plane [COOP Fig. 11]",
-                      translation=(0.0, 0.0, 0.01), rotation=((1.0, 0.0, 0.0), 0.2)),
-    "hand_sphere": Scenario("hand_sphere", "leap_hand_sphere",
-                            "LEAP Hand, four fingers (16 DOF), reaching a smaller sphere [COOP Fig. 12]",
-                            translation=(0.01, 0.0, 0.0), dilation=0.85),
-    "humanoids_sphere": Scenario("humanoids_sphere", "two_g1_sphere",
-                                 "two Unitree G1s (34 DOF) reaching a sphere [COOP Fig. 13]",
-                                 translation=(0.0, 0.0, 0.1), dilation=1.15),
-}
 
 
 @dataclass(frozen=True)
@@ -114,7 +72,7 @@ class ScenarioResult:
 # -- systems -----------------------------------------------------------------------------------------
 @cache
 def module(system: str) -> GeneratedModule:
-    return load(generated_folder() / system)
+    return system_module(system)
 
 
 def ready(system: str) -> NDArray[np.float64]:
@@ -148,18 +106,6 @@ def joint_limits(system: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]
                 limits.setdefault(key, (float(joint.limit.lower), float(joint.limit.upper)))
     lower, upper = zip(*(limits[key] for key in sys_.joint_keys), strict=True)
     return np.array(lower), np.array(upper)
-
-
-def end_points(m: GeneratedModule, q: NDArray[np.float64]) -> NDArray[np.float64]:
-    """(chains, 3): each chain's Euclidean end point, from its ``<chain>_fk`` kernel."""
-    joints = {name: i for i, name in enumerate(m.manifest["joints"])}
-    points = []
-    for entry in m.manifest["kernels"]:
-        if entry["name"].endswith("_fk") and entry["name"] != "fk":
-            rows = entry["inputs"][0]["rows"]
-            p = np.array(getattr(m.c, entry["name"])(q[[joints[r] for r in rows]])[1])
-            points.append(p[1:4] / p[0])  # rows e0 e1 e2 e3 e∞: weight on e0
-    return np.array(points)
 
 
 def primitive_coefficients(m: GeneratedModule, q: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -343,20 +289,8 @@ def plot_trajectory(s: Scenario, m: GeneratedModule, result: OCPResult, path: Pa
 
 
 # -- command line ------------------------------------------------------------------------------------
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m gagen.apps.cooperative.scenarios",
-                                     description=__doc__.split("\n")[0])
-    parser.add_argument("scenario", choices=[*SCENARIOS, "all"])
-    parser.add_argument("--out", type=Path, default=Path("plots"), help="folder for the PNG plots")
-    parser.add_argument("--N", type=positive_int, default=DEFAULT_N, help="time steps")
-    parser.add_argument("--horizon", type=positive_float, default=DEFAULT_HORIZON, help="seconds")
-    parser.add_argument("--solver", choices=(*SOLVERS, "ilqr"), default="ipopt",
-                        help="solver (default ipopt; ilqr: the structured iLQR in C)")
-    parser.add_argument("--hessian", choices=HESSIANS, default="exact",
-                        help="Hessian of the Lagrangian (gauss-newton: IPOPT only; default exact)")
-    parser.add_argument("--view", action="store_true", help="then play the trajectories in the browser")
-    parser.add_argument("--port", type=int, default=DEFAULT_PORT, help="the viewer's port on 127.0.0.1")
-    args = parser.parse_args(argv)
+def run_command(args: argparse.Namespace) -> int:
+    """``gagen reach`` on its parsed arguments (``gagen.apps.cooperative.commands``)."""
     names = list(SCENARIOS) if args.scenario == "all" else [args.scenario]
     ok = True
     solved = []
@@ -389,6 +323,12 @@ def view(results: Sequence[ScenarioResult], port: int) -> None:
         t = r.result.dt * np.arange(r.result.q.shape[0])
         print(f"{r.scenario.name}: {r.scenario.title}")
         serve(Scene(system, r.result.q[0], port=port), [(r.scenario.name, t, r.result.q)])
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    from gagen.apps.cooperative.commands import verb
+
+    return verb("reach").main(argv, prog="python -m gagen.apps.cooperative.scenarios")
 
 
 if __name__ == "__main__":

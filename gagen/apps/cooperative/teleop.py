@@ -61,7 +61,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from gagen.algebra.signature import cga3d
-from gagen.apps.cooperative.bundled import bundled_systems, generated_folder, ready_configuration
+from gagen.apps.cooperative.bundled import bundled_systems, ready_configuration, system_module
 from gagen.apps.cooperative.teleop_input import AXES, Scales, Trace, format_trace, read_trace
 from gagen.control.differential import joint_velocity
 from gagen.control.ik import solve_ik
@@ -76,8 +76,7 @@ from gagen.model.versors import (
     rotor,
     translator,
 )
-from gagen.runtime import GeneratedModule, load
-from gagen.viewer import DEFAULT_PORT
+from gagen.runtime import GeneratedModule
 
 TRACES = Path(__file__).resolve().parent / "traces"
 DEFAULT_DT = 0.01
@@ -253,7 +252,7 @@ def bundled_kernels(system: str, backend: str = "c") -> Kernels:
     """``Kernels`` of a bundled system's committed module (generated/<system>)."""
     if system not in bundled_systems():
         raise ValueError(f"unknown system {system!r}; bundled: {', '.join(sorted(bundled_systems()))}")
-    return kernels(load(generated_folder() / system), backend)
+    return kernels(system_module(system), backend)
 
 
 START: dict[str, tuple[float, ...]] = {
@@ -534,26 +533,8 @@ def session_trace(r: TeleopResult) -> str:
 
 
 # -- command line ------------------------------------------------------------------------------------
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="gagen teleop", description=__doc__.split("\n")[0])
-    parser.add_argument("system", help="a bundled system, e.g. leap_hand_sphere, three_pandas_circle")
-    source = parser.add_mutually_exclusive_group(required=True)
-    source.add_argument("--trace", type=Path, help="replay a trace file (CSV t,tx,ty,tz,rx,ry,rz)")
-    source.add_argument("--keyboard", action="store_true", help="drive with the keyboard (a terminal)")
-    source.add_argument("--spacemouse", action="store_true", help="drive with a 3Dconnexion SpaceMouse")
-    parser.add_argument("--dt", type=float, default=DEFAULT_DT, help="time step in s (default 0.01)")
-    parser.add_argument("--frame", choices=FRAMES, default="world", help="command frame (default world)")
-    parser.add_argument("--first-order", action="store_true", help="plain Eq. 61 steps, no correction")
-    parser.add_argument("--duration", type=float, default=math.inf, help="stop a live run after this many s")
-    parser.add_argument("--speed", type=float, default=Scales.translation, help="m/s at full deflection")
-    parser.add_argument("--turn", type=float, default=Scales.rotation, help="rad/s at full deflection")
-    parser.add_argument("--dilation", type=float, default=Scales.dilation, help="1/s at full deflection")
-    parser.add_argument("--out", type=Path, default=Path("plots/teleop"), help="folder for the report")
-    parser.add_argument("--view", action="store_true", help="then replay the run in the browser viewer")
-    parser.add_argument("--port", type=int, default=DEFAULT_PORT, help="the viewer's port on 127.0.0.1")
-    args = parser.parse_args(argv)
-    if not (math.isfinite(args.dt) and args.dt > 0):
-        parser.error(f"--dt: expected a positive number of seconds, got {args.dt}")
+def run_command(args: argparse.Namespace) -> int:
+    """``gagen teleop`` on its parsed arguments (``gagen.apps.cooperative.commands``)."""
     k = bundled_kernels(args.system)
     options = {"dt": args.dt, "frame": args.frame, "correct": not args.first_order}
     recorded, rows = None, ""
@@ -583,6 +564,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         serve(Scene(bundled_systems()[args.system], result.q[0], port=args.port),
               [(f"{args.system} teleoperation", result.t, result.q)])
     return 0 if bool(np.all(result.converged)) else 1
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    from gagen.apps.cooperative.commands import verb
+
+    return verb("teleop").main(argv, prog="python -m gagen.apps.cooperative.teleop")
 
 
 if __name__ == "__main__":

@@ -31,13 +31,13 @@ The walk, step by step:
   nearest pose, so nothing is ever NaN.
 
 The module is the hexapod's generated module (:func:`hexapod_module`: the committed
-``generated/<name>`` for the bundled spec, else built once per spec content into the gagen cache).
+``generated/<name>`` for the bundled spec, else built once per spec file into the gagen cache; both
+built on first use, ``gagen.modules``).
 Plots and the animation are in ``gagen.apps.hexapod.plots``; ``gagen walk`` runs it all.
 """
 
 from __future__ import annotations
 
-import hashlib
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -47,11 +47,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from gagen.apps.hexapod.commands import SPEC
 from gagen.apps.hexapod.kernels import toe_position
 from gagen.apps.hexapod.spec import Hexapod, Leg, load_hexapod
-
-SPEC = Path(__file__).resolve().parent / "robots" / "hexapod.yaml"
-_CHECKOUT = Path(__file__).resolve().parents[3]  # the repository root, when gagen runs from a checkout
 
 Array = NDArray[np.float64]
 
@@ -59,29 +57,20 @@ Array = NDArray[np.float64]
 # -- the module -----------------------------------------------------------------------------------------
 
 def hexapod_module(spec: str | Path = SPEC, folder: str | Path | None = None,
-                   progress: Callable[[str], None] = print) -> Any:
+                   progress: Callable[[str], None] | None = None) -> Any:
     """The generated module of a hexapod spec, loaded (``gagen.runtime.GeneratedModule``).
 
     ``folder``: build into it (``gagen.build.build``, a no-op when up to date) and load it. Without
-    it, the bundled spec uses the checkout's committed ``generated/<name>`` when there is one; any
-    other spec (or a fresh install) is built once into ``gagen.frontend.cache_root()/<name>-<key>``,
-    keyed by the spec's bytes (``gagen build`` itself rebuilds it when gagen's code generator changed).
+    it, where ``gagen.modules.module_folder`` puts it: the checkout's committed ``generated/<name>``
+    for the bundled spec (rebuilt on first use in a fresh clone, which has no CasADi files), else
+    the gagen cache (``gagen.frontend.cache_root()/<name>-<key>``), built once per spec file.
     """
-    from gagen.build import build
-    from gagen.frontend import cache_root
+    from gagen.modules import module_folder
     from gagen.runtime import load
 
     spec = Path(spec)
     hexapod = load_hexapod(spec)
-    if folder is None:
-        committed = _CHECKOUT / "generated" / hexapod.name
-        if spec.resolve() == SPEC and (committed / "manifest.json").is_file():
-            return _checked(load(committed), hexapod)
-        key = hashlib.sha256(spec.read_bytes()).hexdigest()[:16]
-        folder = cache_root() / f"{hexapod.name}-{key}"
-    progress(f"building the kernels of {hexapod.name} into {folder} (first use, about 30 s)")
-    build(spec, out=folder, progress=progress)
-    return _checked(load(folder), hexapod)
+    return _checked(load(module_folder(spec, folder, progress=progress)), hexapod)
 
 
 def _checked(module: Any, hexapod: Hexapod) -> Any:

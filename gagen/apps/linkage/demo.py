@@ -12,10 +12,9 @@ from pathlib import Path
 import numpy as np
 
 from gagen.apps.linkage import plots
+from gagen.apps.linkage.commands import BUNDLED as ROBOTS
 from gagen.apps.linkage.solver import Trajectory, kernels, simulate
 from gagen.apps.linkage.spec import Linkage
-
-ROBOTS = Path(__file__).resolve().parent / "robots"
 
 
 def bundled() -> list[Path]:

@@ -1,5 +1,6 @@
 """What a backend is: :class:`Backend` (render, compile, open, load), what it renders (:class:`Output`)
-and what it renders from (:class:`Context`), plus the module tag that names compiled files."""
+and what it renders from (:class:`Context`), what it loads into (:class:`LoadedModule`), plus the
+module tag that names compiled files."""
 
 from __future__ import annotations
 
@@ -8,15 +9,42 @@ import hashlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 if TYPE_CHECKING:
     import jinja2
 
     from gagen.codegen.ir import ModuleSource
-    from gagen.runtime import GeneratedModule
 
 Progress = Callable[[str], None]
+
+
+class LoadedModule(Protocol):
+    """What a backend sees of a loaded module (``gagen.runtime.LoadedModule``, which sits above the
+    backends and hands itself to them)."""
+
+    folder: Path
+    manifest: dict[str, Any]
+
+    def entry(self, name: str) -> dict[str, Any]:
+        """The manifest's entry of kernel ``name``."""
+        ...
+
+    def path(self, relative: str) -> Path:
+        """``folder / relative``, refused unless it stays inside the folder."""
+        ...
+
+    def handle(self, backend: str) -> Any:
+        """What backend ``backend`` opened for this module, once; None for one it does not have."""
+        ...
+
+    def compile_missing(self) -> None:
+        """Compile what the backends compile if the folder has only their sources."""
+        ...
+
+    def __getattr__(self, namespace: str) -> Any:
+        """A backend's namespace of kernels (``casadi``, ``c``, ``jax``)."""
+        ...
 
 
 class TemplateNotFound(RuntimeError):
@@ -59,7 +87,7 @@ class Backend:
     """
 
     name: str = ""
-    namespace: str | None = None  # the GeneratedModule attribute of its kernels, or None
+    namespace: str | None = None  # the LoadedModule attribute of its kernels, or None
     requires: tuple[str, ...] = ()  # backends it needs in the same module (rendered before it)
     optional: str = ""  # non-empty: a failed compile is a warning, and this says what happens instead
     templates: Path | None = None  # its templates folder
@@ -73,10 +101,10 @@ class Backend:
     def compile(self, folder: Path, manifest: Mapping[str, Any]) -> None:
         return None
 
-    def open(self, module: GeneratedModule) -> Any:
+    def open(self, module: LoadedModule) -> Any:
         return None
 
-    def load(self, module: GeneratedModule, kernel: str) -> Any:
+    def load(self, module: LoadedModule, kernel: str) -> Any:
         raise AttributeError(f"the {self.name} backend has no kernels of its own")
 
     def template(self, name: str) -> jinja2.Template:

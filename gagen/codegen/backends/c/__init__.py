@@ -1,7 +1,8 @@
 """The C backend: the kernels as C99 (``<name>.h``, ``<name>.c``, and ``<name>_simd.c`` with the batched
 forms of the smaller kernels), from the statements our printer (``printer.py``) replays from each
 kernel's flat CasADi graph; compiled into ``lib<name>_<tag>.so`` and called through ctypes
-(``module.c.<kernel>``, or through the CPython binding when the module has the ``cpython`` backend).
+(``module.c.<kernel>``: ``loader.py``, or through the CPython binding when the module has the
+``cpython`` backend).
 """
 
 from __future__ import annotations
@@ -12,11 +13,10 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from gagen.codegen.backends.base import Backend, Context, Output, module_name, module_tag
+from gagen.codegen.backends.base import Backend, Context, LoadedModule, Output, module_name, module_tag
 
 if TYPE_CHECKING:
     from gagen.codegen.ir import Kernel, ModuleSource, Port
-    from gagen.runtime import GeneratedModule
 
 # kernels up to this many C statements also get a SIMD batch (the chains' FK and FK + Jacobian): it
 # runs GAGEN_W samples at once, and doubles the kernel's code and compile time
@@ -115,16 +115,17 @@ class CBackend(Backend):
 
         compile_shared(folder / manifest["c_source"], folder / library(manifest))
 
-    def open(self, module: GeneratedModule) -> Any:
+    def open(self, module: LoadedModule) -> Any:
         import ctypes
 
         module.compile_missing()
         return ctypes.CDLL(str(module.path(library(module.manifest))))
 
-    def load(self, module: GeneratedModule, kernel: str) -> Any:
-        from gagen.runtime import CKernel
+    def load(self, module: LoadedModule, kernel: str) -> Any:
+        from gagen.codegen.backends.c.loader import CKernel
 
-        return CKernel(module.library, module.entry(kernel), module.binding, module).entry_point()
+        library, binding = module.handle("c"), module.handle("cpython")
+        return CKernel(library, module.entry(kernel), binding, module).entry_point()
 
 
 BACKEND = CBackend()

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import casadi as ca
 
-_OPS = {getattr(ca, a): a[3:] for a in dir(ca) if a.startswith("OP_")}
+from gagen.symbolic.flatten import OPCODES
 
 _BINARY = {"ADD": "{0} + {1}", "SUB": "{0} - {1}", "MUL": "{0} * {1}", "DIV": "{0} / {1}",
            "LT": "{0} < {1}", "LE": "{0} <= {1}", "EQ": "{0} == {1}", "NE": "{0} != {1}",
@@ -78,7 +78,7 @@ def _trig_plan(function: ca.Function, input_names: list[str],
     angles: dict[int, int] = {}  # angle instruction -> lane
     lanes: dict[int, tuple[str, int]] = {}
     for k in range(function.n_instructions()):
-        op = _OPS.get(function.instruction_id(k), "?")
+        op = OPCODES.get(function.instruction_id(k), "?")
         args, res = function.instruction_input(k), function.instruction_output(k)
         d = () if op in ("INPUT", "CONST") else tuple(writer[a] for a in args)
         ops.append(op)
@@ -182,7 +182,7 @@ def emit_body(function: ca.Function, input_names: list[str], output_names: list[
     plan = None if vector else _trig_plan(function, input_names, in_positions)
     used: set[int] = set()
     for k in range(function.n_instructions()):
-        op = _OPS.get(function.instruction_id(k), "?")
+        op = OPCODES.get(function.instruction_id(k), "?")
         args, res = function.instruction_input(k), function.instruction_output(k)
         w = [f"w{i}" for i in args]
         if op == "OUTPUT":

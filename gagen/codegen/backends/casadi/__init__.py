@@ -7,11 +7,10 @@ from __future__ import annotations
 import gzip
 from typing import TYPE_CHECKING, Any
 
-from gagen.codegen.backends.base import Backend, Context, Output
+from gagen.codegen.backends.base import Backend, Context, LoadedModule, Output
 
 if TYPE_CHECKING:
     from gagen.codegen.ir import ModuleSource
-    from gagen.runtime import GeneratedModule
 
 
 class CasadiBackend(Backend):
@@ -27,7 +26,7 @@ class CasadiBackend(Backend):
             entries[kernel.name] = {"casadi": path}
         return Output(files, kernels=entries)
 
-    def load(self, module: GeneratedModule, kernel: str) -> Any:
+    def load(self, module: LoadedModule, kernel: str) -> Any:
         import casadi as ca
 
         data = gzip.decompress(module.path(module.entry(kernel)["casadi"]).read_bytes())

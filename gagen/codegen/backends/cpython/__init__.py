@@ -12,12 +12,11 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from gagen.codegen.backends.base import Backend, Context, Output, module_name, module_tag
+from gagen.codegen.backends.base import Backend, Context, LoadedModule, Output, module_name, module_tag
 from gagen.codegen.backends.c import c_name, params
 
 if TYPE_CHECKING:
     from gagen.codegen.ir import ModuleSource
-    from gagen.runtime import GeneratedModule
 
 BINDING_ABI = 2  # the calling convention of binding.c.j2 (make_<kernel>(address, slow, out, info))
 
@@ -51,7 +50,7 @@ class CPythonBackend(Backend):
 
         compile_binding(folder / manifest["binding_source"], binding_module(manifest))
 
-    def open(self, module: GeneratedModule) -> Any:
+    def open(self, module: LoadedModule) -> Any:
         """The binding module (compiled first if absent), or None: then ctypes."""
         from gagen.codegen.compiler import extension_path
 
@@ -60,7 +59,7 @@ class CPythonBackend(Backend):
         path = module.path(extension_path(Path("."), name).name)
         if not path.exists():
             return None
-        if name in sys.modules:  # loaded already (another GeneratedModule of the same content)
+        if name in sys.modules:  # loaded already (another module object of the same content)
             return sys.modules[name]
         try:
             spec = importlib.util.spec_from_file_location(name, path)

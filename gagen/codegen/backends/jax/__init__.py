@@ -1,5 +1,5 @@
 """The JAX backend: every kernel as a pure ``jax.numpy`` function, in one Python file per module,
-``<name>_jax.py`` (from ``templates/kernels.py.j2``), whose statements ``gagen.codegen.jax_emit``
+``<name>_jax.py`` (from ``templates/kernels.py.j2``), whose statements its printer (``printer.py``)
 replays from each kernel's flat CasADi graph; ``module.jax.<kernel>`` is that function.
 
 One flat file beside the C sources (``<name>.c``, ``<name>_binding.c``), not a ``jax/`` folder: it is
@@ -18,21 +18,17 @@ refused); the manifest itself is trusted, as it is for the C library.
 from __future__ import annotations
 
 import hashlib
-import keyword
-import re
 import types
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from gagen.codegen.backends.base import Backend, Context, Output, module_name, module_tag
+from gagen.codegen.backends.base import Backend, Context, LoadedModule, Output, module_name, module_tag
+from gagen.names import identifier_problem
 
 if TYPE_CHECKING:
     from gagen.codegen.ir import Kernel, ModuleSource
-    from gagen.runtime import GeneratedModule
 
 INSTALL = 'pip install jax (or pip install "gagen[jax]")'
-# the file's own globals are _Jax, _Jnp, _Flat and __all__: names gagen never gives a kernel or port
-_TAKEN = re.compile(r"__|_[A-Z]")
 
 
 class ModifiedFile(ValueError):
@@ -40,17 +36,17 @@ class ModifiedFile(ValueError):
 
 
 def _check(name: str, what: str) -> str:
-    """``name`` if it can be written into the file as a Python name (``gagen.build`` checks it first:
-    this is the backend's own line of defence)."""
-    if not (isinstance(name, str) and name.isidentifier() and name.isascii()
-            and not keyword.iskeyword(name) and not _TAKEN.match(name)):
+    """``name`` if it can be written into the file as a Python name by the identifier rule of
+    ``gagen.names`` (``gagen.build`` checks it first: this is the backend's own line of defence; no
+    name starts with ``_``, as the file's own globals ``_Jax``, ``_Jnp``, ``_Flat`` do)."""
+    if identifier_problem(name, single_underscores=False, max_length=None) is not None:
         raise ValueError(f"the jax backend cannot name a {what} {name!r}: not a plain Python identifier")
     return name
 
 
 def _kernel(kernel: Kernel) -> dict[str, Any]:
     """A kernel's template variables: its ports, parameters ``in_<port>``, statements and return."""
-    from gagen.codegen.jax_emit import jax_body, stacked
+    from gagen.codegen.backends.jax.printer import jax_body, stacked
 
     _check(kernel.name, "kernel")
     for p in (*kernel.inputs, *kernel.outputs):
@@ -92,8 +88,8 @@ class JaxBackend(Backend):
         context.progress(f"  {path}: {len(kernels)} jax.numpy kernels")
         return Output({path: text.encode()}, {"jax_source": path})
 
-    def open(self, module: GeneratedModule) -> types.ModuleType:
-        """The executed file, as a module object (once per GeneratedModule): jax imported, the bytes
+    def open(self, module: LoadedModule) -> types.ModuleType:
+        """The executed file, as a module object (once per loaded module): jax imported, the bytes
         read once, checked against the manifest's sha256, and those bytes executed."""
         import_jax()
         relative = source_path(module.manifest)
@@ -110,7 +106,7 @@ class JaxBackend(Backend):
         exec(compile(data, str(path), "exec"), namespace.__dict__)  # the checked bytes
         return namespace
 
-    def load(self, module: GeneratedModule, kernel: str) -> Any:
+    def load(self, module: LoadedModule, kernel: str) -> Any:
         return getattr(module.handle(self.name), kernel)
 
 

@@ -1,4 +1,5 @@
-"""Kernels as pure ``jax.numpy`` functions, emitted from the same flat graph as the C [issue 19, item 1].
+"""The JAX backend's printer: kernels as pure ``jax.numpy`` functions, emitted from the same flat graph
+as the C [issue 19, item 1].
 
 ``jax_source(function)`` walks a CasADi SX Function's instructions in CasADi's order, as the C printer
 does (``gagen.codegen.backends.c.printer``), and writes one Python assignment per instruction on
@@ -24,7 +25,8 @@ from typing import Any
 
 import casadi as ca
 
-from gagen.codegen.backends.c.printer import _OPS, UnsupportedOperation, c_literal
+from gagen.codegen.backends.c.printer import UnsupportedOperation, c_literal
+from gagen.symbolic.flatten import OPCODES
 
 _BINARY = {"ADD": "{0} + {1}", "SUB": "{0} - {1}", "MUL": "{0} * {1}", "DIV": "{0} / {1}",
            "LT": "jnp.where({0} < {1}, 1.0, 0.0)", "LE": "jnp.where({0} <= {1}, 1.0, 0.0)",
@@ -63,7 +65,7 @@ def jax_body(function: ca.Function) -> JaxBody:
     entries: list[list[str]] = [["0.0"] * function.numel_out(o) for o in range(n_out)]
     lines = []
     for k in range(function.n_instructions()):
-        op = _OPS.get(function.instruction_id(k), "?")
+        op = OPCODES.get(function.instruction_id(k), "?")
         args, res = function.instruction_input(k), function.instruction_output(k)
         w = [f"w{i}" for i in args]
         if op == "OUTPUT":

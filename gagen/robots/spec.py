@@ -46,7 +46,6 @@ import math
 from pathlib import Path
 from typing import Any
 
-from gagen.apps.cooperative.system import Chain, System
 from gagen.errors import SpecError
 from gagen.model.kinematics import JOINT_KINDS, Joint
 from gagen.model.primitives import KINDS, points_needed
@@ -55,6 +54,7 @@ from gagen.names import (
     SYSTEM_KERNELS,
     chain_kernel_names,
 )
+from gagen.robots.system import Chain, System
 from gagen.robots.urdf import MAX_ANGLE, MAX_COORDINATE, MIN_AXIS, load_chain
 from gagen.yaml_document import Document, identifier, known_keys, label, number, require, show, vector
 

@@ -5,7 +5,7 @@ coefficients of the similarity versor that moves the unit primitive X_u onto the
 X_d, in the ``V_Sd`` row order of the ``task`` kernel (``SIMILARITY``). This module builds it from
 what a user knows about X_d:
 
-    from gagen.apps.cooperative import goals
+    from gagen.control import goals
     V_Sd = goals.circle(centre=[0.6, 0.0, 0.5], radius=0.25, normal=[0, 0, 1])
     V_Sd = goals.line(point=[0.5, 0, 0.4], direction=[0, 1, 0])
     V_Sd = goals.plane(point=[0.3, 0, 0.2], normal=[0, 0, 1])

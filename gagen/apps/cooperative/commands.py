@@ -1,0 +1,141 @@
+"""The cooperative application's verbs: ``reach``, ``nullspace``, ``impedance``, ``mpc`` and ``teleop``.
+
+Each verb's arguments are defined here, once (``gagen <verb>`` and ``python -m`` of its module use the
+same ones); the work is done by the module that runs it, imported only when the verb runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from gagen.apps.cooperative.scenario_table import SCENARIOS
+from gagen.arguments import finite_float, non_negative_float, positive_float, positive_int, view_arguments
+from gagen.registry import Verb
+
+
+def _reach_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("scenario", choices=[*SCENARIOS, "all"], metavar="SCENARIO",
+                        help=f"one of {', '.join(SCENARIOS)}, or all")
+    parser.add_argument("--out", type=Path, default=Path("plots"), help="folder for the plots (default "
+                                                                        "plots/)")
+    parser.add_argument("--N", type=positive_int, default=100, help="time steps (default 100)")
+    parser.add_argument("--horizon", type=positive_float, default=2.5, help="seconds (default 2.5)")
+    parser.add_argument("--solver", choices=("ipopt", "fatrop", "ilqr"), default="ipopt",
+                        help="solver (default ipopt; ilqr: the structured iLQR in C)")
+    parser.add_argument("--hessian", choices=("exact", "gauss-newton"), default="exact",
+                        help="Hessian of the Lagrangian (gauss-newton: IPOPT only; default exact)")
+    view_arguments(parser, "the optimal trajectory")
+
+
+def _reach(args: argparse.Namespace) -> int:
+    from gagen.apps.cooperative.scenarios import run_command
+
+    try:  # the library's own checks (e.g. a horizon too short for N steps) as one line, not a traceback
+        return run_command(args)
+    except ValueError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+
+
+def _nullspace_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--out", type=Path, default=Path("plots"), help="folder for the plot (default "
+                                                                        "plots/)")
+    parser.add_argument("--steps", type=positive_int, default=400, help="RK4 steps (default 400)")
+    parser.add_argument("--dt", type=positive_float, default=0.01, help="RK4 step, s (default 0.01)")
+    parser.add_argument("--gain", type=finite_float, default=1.5,
+                        help="k in q̇_sec = J_p⁺ k (p_target − p) (default 1.5)")
+    view_arguments(parser, "both runs")
+
+
+def _nullspace(args: argparse.Namespace) -> int:
+    from gagen.apps.cooperative.nullspace_demo import run_command
+
+    return run_command(args)
+
+
+def _impedance_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--out", type=Path, default=Path("plots/impedance"),
+                        help="folder for the plot and the report (default plots/impedance/)")
+    parser.add_argument("--runs", type=positive_int, default=10, help="random starts per case (default 10)")
+    parser.add_argument("--spread", type=non_negative_float, default=0.2,
+                        help="rad around the paper's q0, per joint (default 0.2)")
+    parser.add_argument("--duration", type=positive_float, default=4.0, help="seconds (default 4)")
+    view_arguments(parser, "the circle's first run")
+
+
+def _impedance(args: argparse.Namespace) -> int:
+    from gagen.apps.cooperative.impedance_demo import run_command
+    from gagen.dynamics.rigid_body import DynamicsError
+
+    try:  # a missing Pinocchio or a degenerate run as one line, not a traceback
+        return run_command(args)
+    except DynamicsError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+
+
+def _mpc_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--out", type=Path, default=Path("plots/mpc"),
+                        help="folder for the report, plots and GIF (default plots/mpc/)")
+    parser.add_argument("--rate", type=positive_float, default=100.0, help="control rate in Hz (default 100)")
+    parser.add_argument("--duration", type=positive_float, default=4.0, help="seconds (default 4)")
+    parser.add_argument("--no-animation", action="store_true", help="skip the GIF")
+    view_arguments(parser, "the run")
+
+
+def _mpc(args: argparse.Namespace) -> int:
+    from gagen.apps.cooperative.mpc_demo import run_command
+
+    return run_command(args)
+
+
+def _teleop_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("system", help="a bundled system, e.g. leap_hand_sphere, three_pandas_circle")
+    source = parser.add_mutually_exclusive_group(required=True)
+    source.add_argument("--trace", type=Path, help="replay a trace file (CSV: t,tx,ty,tz,rx,ry,rz)")
+    source.add_argument("--keyboard", action="store_true", help="drive from the terminal's keys")
+    source.add_argument("--spacemouse", action="store_true",
+                        help="drive with a 3Dconnexion SpaceMouse (pip install 'gagen[teleop]')")
+    parser.add_argument("--dt", type=positive_float, default=0.01, help="time step, s (default 0.01)")
+    parser.add_argument("--frame", choices=("world", "body"), default="world",
+                        help="command frame (default world)")
+    parser.add_argument("--first-order", action="store_true", help="plain q <- q + dt q̇ steps, uncorrected")
+    parser.add_argument("--duration", type=positive_float, default=float("inf"),
+                        help="stop a live run after this many seconds (default: when a button quits)")
+    parser.add_argument("--speed", type=positive_float, default=0.05, help="m/s at full deflection (0.05)")
+    parser.add_argument("--turn", type=positive_float, default=0.5, help="rad/s at full deflection (0.5)")
+    parser.add_argument("--dilation", type=positive_float, default=0.5, help="1/s at full deflection (0.5)")
+    parser.add_argument("--out", type=Path, default=Path("plots/teleop"),
+                        help="folder for the report (default plots/teleop/)")
+    view_arguments(parser, "the run")
+
+
+def _teleop(args: argparse.Namespace) -> int:
+    from gagen.apps.cooperative.teleop import run_command
+
+    try:  # a malformed trace, an unknown system, a missing SpaceMouse: one line, not a traceback
+        return run_command(args)
+    except (ValueError, RuntimeError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+
+
+VERBS = (
+    Verb("reach", "cooperative reaching (IPOPT, FATROP or iLQR) on a paper scenario, with plots",
+         _reach_arguments, _reach),
+    Verb("nullspace", "one of three Pandas moves along the circle through N(q), with and without the "
+         "projection (plots)", _nullspace_arguments, _nullspace),
+    Verb("impedance", "similarity impedance control of three iiwa 14 on a circle and a plane: runs of "
+         "Pinocchio forward dynamics [COOP Fig. 6]", _impedance_arguments, _impedance),
+    Verb("mpc", "cooperative MPC: three Pandas tracking a moving circle with warm-started iLQR in closed "
+         "loop (report, plots, GIF)", _mpc_arguments, _mpc),
+    Verb("teleop", "teleoperate a cooperative primitive with six axes (a trace, the keyboard or a "
+         "SpaceMouse) by differential kinematics; report and plot", _teleop_arguments, _teleop),
+)
+
+
+def verb(name: str) -> Verb:
+    """One of this application's verbs, by name (the modules' ``python -m`` entry points)."""
+    return next(v for v in VERBS if v.name == name)

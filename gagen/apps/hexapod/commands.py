@@ -1,0 +1,93 @@
+"""The hexapod application's verb: ``walk`` (a tripod gait with plots and an animation)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+from gagen.arguments import positive_float, positive_int
+from gagen.registry import Verb
+
+BUNDLED = Path(__file__).resolve().parent / "robots"  # the bundled specs
+SPEC = BUNDLED / "hexapod.yaml"  # the bundled hexapod
+
+
+def _walk_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("spec", nargs="?", default=str(SPEC), help="hexapod spec (default: the bundled one)")
+    parser.add_argument("--out", default="walk", help="folder for the plots and the GIF (default walk/)")
+    parser.add_argument("--module", help="build the module into this folder (default: the committed "
+                        "generated/ for the bundled spec, else the gagen cache)")
+    parser.add_argument("--straight", type=float, default=0.3, help="straight part of the path, m "
+                        "(default 0.3)")
+    parser.add_argument("--turn", type=float, default=60.0, help="then an arc turning this far, degrees, "
+                        "+ left (default 60)")
+    parser.add_argument("--radius", type=positive_float, default=0.3, help="the arc's radius, m "
+                                                                           "(default 0.3)")
+    parser.add_argument("--height", type=positive_float, default=0.15, help="body height above the ground "
+                        "along its normal, m (default 0.15)")
+    parser.add_argument("--stride", type=positive_float, default=0.10, help="body travel per gait cycle "
+                        "(two steps), m (default 0.10)")
+    parser.add_argument("--step-time", type=positive_float, default=0.5, help="seconds per step "
+                                                                              "(default 0.5)")
+    parser.add_argument("--step-height", type=float, default=0.05, help="swing toe lift, m (default 0.05)")
+    parser.add_argument("--slope", type=float, default=0.0, help="ground slope, degrees (default 0: flat)")
+    parser.add_argument("--uphill", type=float, default=0.0, help="heading the ground rises towards, degrees "
+                        "from +x (default 0)")
+    parser.add_argument("--rate", type=positive_float, default=100.0, help="samples per second (default 100)")
+    parser.add_argument("--frames", type=positive_int, default=90, help="GIF frames (default 90)")
+    parser.add_argument("--no-animation", action="store_true", help="skip the GIF")
+
+
+def _walk(args: argparse.Namespace) -> int:
+    """A tripod gait of a hexapod: the report, plots and (unless --no-animation) a GIF in --out. Exit
+    status 1 when a leg is unreachable or a joint passes its limit anywhere on the walk (the files are
+    still written, to show where), 2 for a bad spec or parameters."""
+    import time
+
+    from gagen.apps.hexapod import gait
+    from gagen.codegen.compiler import CompileError
+    from gagen.errors import SpecError
+
+    start = time.perf_counter()
+    try:
+        hexapod = gait.load_hexapod(args.spec)
+        params = gait.GaitParameters(straight=args.straight, turn=math.radians(args.turn), radius=args.radius,
+                                     height=args.height, stride=args.stride, step_time=args.step_time,
+                                     step_height=args.step_height, rate=args.rate)
+        ground = gait.Ground(math.radians(args.slope), math.radians(args.uphill))
+        module = gait.hexapod_module(args.spec, args.module, progress=lambda line: print(line, flush=True))
+    except (SpecError, ValueError, FileNotFoundError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    except CompileError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    result = gait.walk(module, hexapod, params, ground, progress=lambda line: print(line, flush=True))
+    print(gait.summary(result))
+    print(f"walk computed in {time.perf_counter() - start:.2f} s")
+    from gagen.apps.hexapod import plots
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    for path in (plots.joint_angles(result, out / "joint_angles.png"),
+                 plots.toe_paths(result, out / "toe_paths.png")):
+        print(f"  wrote {path}")
+    if not args.no_animation:
+        print(f"animating {args.frames} frames (matplotlib 3D, Pillow GIF)", flush=True)
+        gif = plots.animate(result, out / "walk.gif", frames=args.frames,
+                            progress=lambda line: print(line, flush=True))
+        print(f"  wrote {gif} ({gif.stat().st_size / 1e6:.2f} MB)")
+    print(f"done in {time.perf_counter() - start:.2f} s")
+    if not result.ok:
+        print(f"error: the walk is not feasible: {len(result.unreachable)} unreachable run(s), "
+              f"{len(result.past_limits)} joint-limit violation(s); first: {result.flags()[0]}",
+              file=sys.stderr)
+        return 1
+    return 0
+
+
+VERBS = (Verb("walk", "a hexapod's tripod gait (straight, then a turn) on flat or sloped ground: slip, "
+                      "limit margins, "
+                 "reachability; plots and a GIF", _walk_arguments, _walk),)

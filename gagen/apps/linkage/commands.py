@@ -1,0 +1,70 @@
+"""The linkage application's verb: ``linkage`` (planar linkages along the driver's cycle)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from gagen.arguments import positive_int
+from gagen.registry import Verb
+
+BUNDLED = Path(__file__).resolve().parent / "robots"  # the bundled mechanisms
+
+
+def _linkage_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("spec", nargs="*", help="linkage spec(s) (default: every bundled one in "
+                        "gagen/apps/linkage/robots)")
+    parser.add_argument("--steps", type=positive_int, default=360, help="driver steps per cycle: per crank "
+                        "revolution or slider stroke (default 360)")
+    parser.add_argument("--revolutions", type=positive_int, default=1, help="driver cycles (default 1)")
+    parser.add_argument("--out", default="linkage", help="folder; each mechanism's files go to "
+                        "<out>/<name>/ (default linkage/)")
+    parser.add_argument("--frames", type=positive_int, default=72, help="GIF frames (default 72)")
+    parser.add_argument("--no-animation", action="store_true", help="skip the GIF")
+
+
+def _linkage(args: argparse.Namespace) -> int:
+    """Planar linkages: per mechanism a report of the Newton solve at every crank step, the traced curve,
+    the solver statistics and (unless --no-animation) a GIF in --out/<name>/. Exit status 2 for a bad
+    spec (every spec is read before anything is compiled), 1 when a step fails to converge (the files
+    are still written, to show where) or the kernels do not compile."""
+    import time
+
+    from gagen.apps.linkage import demo
+    from gagen.apps.linkage.spec import load_linkage
+    from gagen.codegen.compiler import CompileError
+    from gagen.errors import SpecError
+
+    specs = args.spec or [str(p) for p in demo.bundled()]
+    try:
+        linkages = [load_linkage(spec) for spec in specs]
+    except (SpecError, FileNotFoundError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    out, status, start = Path(args.out), 0, time.perf_counter()
+    print(f"{len(linkages)} mechanism(s): {', '.join(m.name for m in linkages)}; {args.steps} steps per "
+          f"cycle, {args.revolutions} cycle(s)", flush=True)
+    for linkage in linkages:
+        try:
+            result = demo.run(linkage, out / linkage.name, steps=args.steps, revolutions=args.revolutions,
+                              animation=not args.no_animation, frames=args.frames,
+                              progress=lambda line: print(line, flush=True))
+        except CompileError as e:
+            print(f"error: {linkage.name}: {e}", file=sys.stderr)
+            status = 1
+            continue
+        print(demo.summary(linkage, result.trajectory))
+        print("  time: " + ", ".join(f"{k} {v:.2f} s" for k, v in result.seconds.items()))
+        for path in result.files:
+            print(f"  wrote {path} ({path.stat().st_size / 1e3:.0f} kB)")
+        for failure in result.trajectory.failures:
+            print(f"error: {linkage.name}: {failure}", file=sys.stderr)
+        status = max(status, 1 if result.trajectory.failures else 0)
+    print(f"done in {time.perf_counter() - start:.2f} s")
+    return status
+
+
+VERBS = (Verb("linkage", "planar linkages: Lie-algebra Newton along the driver's cycle (a crank's "
+              "revolution, a slider's stroke); per-step report, traced curves, solver plots and a GIF",
+              _linkage_arguments, _linkage),)
