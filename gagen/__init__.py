@@ -1,10 +1,11 @@
 """gagen: a symbolic code-generation compiler for geometric algebra in robotics.
 
-``gagen.kernel`` declares a Python function over multivectors as a kernel and ``gagen.compile``
-compiles it (see ``gagen.frontend``); ``gagen.load(folder)`` opens a generated module. Subpackages:
-``algebra`` (algebra descriptions, kinds, exact blade rules, sparse symbolic multivectors),
-``symbolic`` (exact scalar layer, flattening, op counts), ``interp`` (the independent dense
-reference interpreter), ``model`` (the geometry, written once), ``codegen`` (the backends).
+``gagen.kernel`` declares a Python function over multivectors as a kernel (see ``gagen.frontend``)
+and ``gagen.compile`` compiles it (``gagen.build``); ``gagen.load(folder)`` opens a generated module
+(``gagen.runtime``). Subpackages: ``algebra`` (algebra descriptions, kinds, exact blade rules, sparse
+symbolic multivectors, the names of scalars), ``symbolic`` (exact scalar layer, flattening, op
+counts), ``interp`` (the independent dense reference interpreter), ``model`` (the geometry, written
+once), ``codegen`` (what the backends take, and the backends: printers, templates, loaders).
 """
 
 from __future__ import annotations

@@ -13,7 +13,8 @@ system's kernel catalogue, ``gagen.apps.cooperative.module``) or a Python file's
   ``<name>_binding.c``; ``<name>_jax.py``;
 - ``__init__.py``: the Python module (a namespace per backend that has one: ``casadi``, ``c``, ``jax``);
 - not committed: the compiled ``lib<name>_<tag>.so`` and binding ``_gagen_<name>_<tag>`` (``<tag>``:
-  12 hex digits over the files' sha256; compiled on first use if absent), and ``.build-key``.
+  12 hex digits over the files' sha256; compiled on first use if absent), ``.build-key`` and the
+  CasADi files (binary; a committed module is rebuilt on first use, ``gagen.modules``).
 
 Builds are deterministic (same source and gagen version → same bytes; nothing in the files depends on
 gagen's own source bytes, so a committed module is checked by regenerating it and comparing), cached
@@ -152,11 +153,11 @@ def build_key(source: ModuleSource, backends: Sequence[str] | None = None) -> st
     return digest.hexdigest()
 
 
-def _port_entry(port: Port) -> dict:
+def _port_entry(port: Port) -> dict[str, Any]:
     return {"name": port.name, "rows": list(port.rows), "cols": port.cols, "layout": "column-major"}
 
 
-def _kernel_entry(kernel: Kernel) -> dict:
+def _kernel_entry(kernel: Kernel) -> dict[str, Any]:
     ops = kernel.op_count
     return {"name": kernel.name, "doc": kernel.doc, "inputs": [_port_entry(p) for p in kernel.inputs],
             "outputs": [_port_entry(p) for p in kernel.outputs],
@@ -248,21 +249,22 @@ def _manifest(folder: Path) -> dict[str, Any] | None:
     return manifest if isinstance(manifest, dict) else None
 
 
-def _cached(folder: Path, key: str) -> bool:
-    """Whether ``folder`` holds the build ``key``: its ``.build-key`` says so and every file its
-    manifest lists is there with the listed sha256 (a deleted or damaged file rebuilds)."""
+def _cached(folder: Path, key: str) -> dict[str, Any] | None:
+    """The manifest of ``folder`` if it holds the build ``key`` (its ``.build-key`` says so and every
+    file its manifest lists is there with the listed sha256: a deleted or damaged file rebuilds), else
+    None."""
     try:
         if (folder / BUILD_KEY).read_text().strip() != key:
-            return False
+            return None
         manifest = _manifest(folder)
         if not manifest or not manifest["files"]:
-            return False
+            return None
         for name, digest in manifest["files"].items():
             if hashlib.sha256(_inside(folder, name).read_bytes()).hexdigest() != digest:
-                return False
-        return True
+                return None
+        return manifest
     except (OSError, ValueError, KeyError, TypeError, AttributeError, OutputError):
-        return False
+        return None
 
 
 def _compiled(folder: Path, manifest: dict[str, Any], backends: Sequence[Backend]) -> bool:
@@ -463,19 +465,19 @@ def _prepare(source: ModuleSource, out: str | Path | None, force: bool, compile_
             folder.parent.mkdir(parents=True, exist_ok=True)
             lock = _Lock(folder, progress)
         except OSError:
-            if not force and _cached(folder, key) and \
-                    (not compile_c or _compiled(folder, _manifest(folder), chosen)):
+            current = None if force else _cached(folder, key)
+            if current is not None and (not compile_c or _compiled(folder, current, chosen)):
                 # a read-only copy that is up to date: nothing to write, nothing to lock
                 progress(f"{name}: up to date ({folder})")
-                return BuildResult(folder, key, True, _compiled(folder, _manifest(folder), chosen),
+                return BuildResult(folder, key, True, _compiled(folder, current, chosen),
                                    time.perf_counter() - start, source)
             raise
         _clean_stale(folder)
-        if not force and _cached(folder, key):
-            manifest = _manifest(folder)
-            compiled = _compiled(folder, manifest, chosen)
+        current = None if force else _cached(folder, key)
+        if current is not None:
+            compiled = _compiled(folder, current, chosen)
             if compile_c and not compiled:  # the sources are current: only compiled files are missing
-                compiled = _compile(folder, manifest, chosen, progress)
+                compiled = _compile(folder, current, chosen, progress)
             progress(f"{name}: up to date ({folder})")
             lock.release()
             return BuildResult(folder, key, True, compiled, time.perf_counter() - start, source)
@@ -526,7 +528,7 @@ def _build_all(work: Iterable[tuple[Callable[[], ModuleSource], str | Path | Non
                jobs: int | None) -> list[BuildResult]:
     """Make each source and write its files one after another, while the C compiler runs on the
     previous ones in up to ``jobs`` (default: CPU count) parallel threads."""
-    results: list[BuildResult | Future] = []
+    results: list[BuildResult | Future[BuildResult]] = []
     with ThreadPoolExecutor(max_workers=jobs or os.cpu_count() or 1) as pool:
         try:
             for make, out in work:

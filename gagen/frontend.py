@@ -58,6 +58,7 @@ import sympy
 
 from gagen.algebra.kinds import SCALAR, kind_blades
 from gagen.algebra.multivector import SparseMultivector
+from gagen.algebra.protocol import BladeKey
 from gagen.algebra.signature import PRESETS, Algebra
 from gagen.codegen.ir import Kernel, ModuleSource, Port, make_kernel
 from gagen.interp import MultiVector
@@ -80,7 +81,7 @@ def along(name: str) -> Along:
     return Along(name)
 
 
-def split_derivative(declaration: tuple) -> tuple[str, str, Callable | None, str | None]:
+def split_derivative(declaration: tuple[Any, ...]) -> tuple[str, str, Callable[..., Any] | None, str | None]:
     """(output, input, post or None, direction input or None) of a Jacobian declaration."""
     of, wrt, *rest = declaration
     post = next((r for r in rest if not isinstance(r, Along)), None)
@@ -169,7 +170,8 @@ def _declaration(algebra: Algebra, value: Any, kernel: str, where: str) -> Decla
                                      f"'scalar', a number of scalars or 'algebra'; got {value!r}")
 
 
-def _annotation(fn: Callable, text: Any, algebra: Algebra, kernel: str = "", where: str = "argument") -> Any:
+def _annotation(fn: Callable[..., Any], text: Any, algebra: Algebra, kernel: str = "",
+                where: str = "argument") -> Any:
     """An annotation as written: kind names stay names (also under ``from __future__ import
     annotations``, which quotes them); anything else is evaluated in the function's globals (a bare
     name that is not defined there is taken as a kind, so that an unknown kind is reported as one)."""
@@ -222,17 +224,11 @@ def _kind_of(value: Any) -> str:
     return type(value).__name__
 
 
-@dataclass
-class _Traced:
-    kernel: Kernel
-    outputs: tuple[str, ...]  # the function's own outputs (not the AD Jacobians)
-
-
 class KernelFunction:
     """A Python function declared as a kernel. Calling it calls the function; ``trace()`` gives the
-    compiler's Kernel, ``reference(*arrays)`` the interpreter's values, ``compile()`` a compiled callable."""
+    compiler's Kernel, ``reference(*arrays)`` the interpreter's values; ``gagen.compile(k)`` compiles it."""
 
-    def __init__(self, fn: Callable, *, algebra: str | Algebra = "cga3d",
+    def __init__(self, fn: Callable[..., Any], *, algebra: str | Algebra = "cga3d",
                  inputs: Mapping[str, Any] | None = None,
                  outputs: Sequence[str] | Mapping[str, Any] | None = None,
                  jacobians: Mapping[str, tuple[str, str]] | Iterable[tuple[str, str]] | None = None,
@@ -251,7 +247,7 @@ class KernelFunction:
         self.jacobians = self._jacobians(jacobians)
         self._sample = sample
         self.rule = rule
-        self._traced: _Traced | None = None
+        self._traced: Kernel | None = None
         self.__doc__, self.__name__, self.__wrapped__ = fn.__doc__, self.name, fn
 
     def _error(self, where: str, expected: str) -> KernelError:
@@ -314,7 +310,7 @@ class KernelFunction:
             raise self._error("outputs", f"an output name is repeated in {names}")
         return names, declared
 
-    def _jacobians(self, jacobians: Any) -> dict[str, tuple]:
+    def _jacobians(self, jacobians: Any) -> dict[str, tuple[Any, ...]]:
         if jacobians is None:
             return {}
         pairs = jacobians.items() if isinstance(jacobians, Mapping) else \
@@ -348,11 +344,12 @@ class KernelFunction:
         """The kernel as the compiler sees it (traced once, then kept)."""
         if self._traced is None:
             self._traced = self._trace()
-        return self._traced.kernel
+        return self._traced
 
-    def _trace(self) -> _Traced:
+    def _trace(self) -> Kernel:
         backend = CasadiBackend()
-        args, ports = [], []
+        args: list[Any] = []
+        ports: list[tuple[Port, ca.SX]] = []
         for arg, d in self.params:
             if d.kind == ALGEBRA:
                 args.append(SparseMultivector(self.algebra, backend, {}))
@@ -373,11 +370,10 @@ class KernelFunction:
         own = [n for n in self.output_names or () if n not in self.jacobians]
         if declared and own and all(n in overrides for n in own):
             # the rule gives every output and the declaration every row: the function is the reference only
-            names = own
-            outputs = [(self._declared_port(n, declared[n]), None) for n in names]
+            outputs: list[tuple[Port, ca.SX | None]] = [(self._declared_port(n, declared[n]), None)
+                                                        for n in own]
         else:
             results = self._named_results(self._run(args, "compiler"))
-            names = [n for n, _ in results]
             outputs = [(Port(*self._shape(n, v)), self._column_sx(n, v, backend)) for n, v in results]
         by_name = {p.name: i for i, (p, _) in enumerate(outputs)}
         derivatives = {}
@@ -430,15 +426,16 @@ class KernelFunction:
             i = by_name[name]
             if outputs[i][1] is None:
                 value = outputs[by_name[of]][1]
+                assert value is not None  # (every output has its expression by now)
                 outputs[i] = (outputs[i][0], ca.jacobian(value, symbols[wrt]) if direction is None
                               else ca.jtimes(value, symbols[wrt], symbols[direction]))
-        results_names = tuple(names)
         if self.output_names:  # the declared order (Jacobians may be listed among the outputs)
             rank = {n: i for i, n in enumerate(self.output_names)}
             outputs.sort(key=lambda o: rank.get(o[0].name, len(rank)))
-        kernel = make_kernel(self.name, self.doc, ports, outputs, backend, reference=self.reference,
-                             derivatives=derivatives, sample=self.sample)
-        return _Traced(kernel, results_names)
+        expressions = [(p, e) for p, e in outputs if e is not None]
+        assert len(expressions) == len(outputs)  # (the rule, the function or AD gave each its expression)
+        return make_kernel(self.name, self.doc, ports, expressions, backend, reference=self.reference,
+                           derivatives=derivatives, sample=self.sample)
 
     def _run(self, args: list[Any], path: str) -> Any:
         try:
@@ -617,7 +614,7 @@ class KernelFunction:
 def _sample_input(algebra: Algebra, d: Declaration, rng: np.random.Generator) -> np.ndarray:
     if not d.is_multivector:
         return rng.uniform(-1.0, 1.0, d.size)
-    coefficients = dict(zip(d.blades, rng.normal(size=len(d.blades)), strict=True))
+    coefficients: dict[BladeKey, float] = dict(zip(d.blades, rng.normal(size=len(d.blades)), strict=True))
     x = MultiVector.from_blades(algebra, coefficients)
     shape = _SAMPLERS.get((algebra.name, d.kind))
     if shape is not None:
@@ -673,7 +670,7 @@ _SAMPLERS: dict[tuple[str, str], Callable[[Algebra, np.random.Generator], MultiV
 
 # -- the decorator, modules and compile --------------------------------------------------------------
 
-def kernel(fn: Callable | None = None, **declaration: Any) -> Any:
+def kernel(fn: Callable[..., Any] | None = None, **declaration: Any) -> Any:
     """Declare a function as a kernel: ``@gagen.kernel`` or ``@gagen.kernel(algebra=..., inputs=...,
     outputs=..., jacobians=..., name=..., doc=..., sample=...)`` (see the module docstring)."""
     if fn is None:
@@ -700,9 +697,9 @@ def source_of(kernels: Sequence[KernelFunction], name: str, source_name: str = "
             raise KernelError(k.name, "name", f"two kernels of module {name} have this name")
         traced[k.name] = k.trace()
     key = hashlib.sha256()
-    for k in traced.values():
-        key.update(repr((k.name, k.doc, k.inputs, k.outputs)).encode())
-        key.update(k.function.serialize().encode())
+    for t in traced.values():
+        key.update(repr((t.name, t.doc, t.inputs, t.outputs)).encode())
+        key.update(t.function.serialize().encode())
     algebras = sorted({k.algebra.name for k in kernels})
     return ModuleSource(name, f"user kernels over {', '.join(algebras)}", traced, source_name,
                         hashlib.sha256(source_text).hexdigest(),

@@ -12,7 +12,7 @@ other on its lock, across threads and processes):
   rebuilds it, to the same bytes, adding the CasADi serialisations (``casadi/*.casadi.gz``, never
   committed) and compiling;
 - any other file (the other bundled systems, a user's spec, every file of an installed gagen): the
-  gagen cache, ``gagen.frontend.cache_root()/<name>-<key>``, the key over the file's path and bytes
+  gagen cache, ``gagen.build.cache_root()/<name>-<key>``, the key over the file's path and bytes
   (the build's own key, kept in the folder, also covers what the file refers to and gagen's code
   generator: an edit of either rebuilds the same folder).
 
@@ -55,7 +55,7 @@ def committed_folder(path: str | Path, name: str) -> Path | None:
 
 def cache_folder(path: str | Path, name: str) -> Path:
     """``cache_root()/<name>-<key>``: where the module of ``path`` is built when it is not committed."""
-    from gagen.frontend import cache_root
+    from gagen.build import cache_root
 
     path = Path(path).resolve()
     key = hashlib.sha256(str(path).encode() + b"\0" + path.read_bytes()).hexdigest()[:16]

@@ -85,10 +85,9 @@ class App:
 def apps() -> tuple[App, ...]:
     """Every registered application, by package name: each package under ``gagen.apps``' path with an
     ``APP``."""
-    import gagen.apps
-
+    package = importlib.import_module("gagen.apps")  # by name: the core never imports an application itself
     found = []
-    for info in sorted(pkgutil.iter_modules(gagen.apps.__path__), key=lambda i: i.name):
+    for info in sorted(pkgutil.iter_modules(package.__path__), key=lambda i: i.name):
         if not info.ispkg:
             continue
         app = getattr(importlib.import_module(f"gagen.apps.{info.name}"), "APP", None)
@@ -131,14 +130,13 @@ def bundled_specs(app: str | None = None) -> dict[str, Path]:
     return found
 
 
-def resolve_spec(name_or_path: str | Path, app: str | None = None) -> Path:
+def resolve_spec(name_or_path: str | Path, app: str | None = None, what: str = "spec") -> Path:
     """A spec file from a bundled name (``three_pandas_circle``) or a path; a ValueError naming the bundled
-    ones when it is neither."""
+    ones when it is neither (``what``: the word for a spec in the message, e.g. ``system``)."""
     specs = bundled_specs(app)
     if isinstance(name_or_path, str) and name_or_path in specs:
         return specs[name_or_path]
     path = Path(name_or_path)
     if path.is_file():
         return path
-    raise ValueError(f"{str(name_or_path)!r}: neither a spec file nor a bundled "
-                     f"{app + ' ' if app else ''}spec ({', '.join(specs)})")
+    raise ValueError(f"{what} {str(name_or_path)!r}: not a bundled {what} ({', '.join(specs)}) nor a spec file")

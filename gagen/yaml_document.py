@@ -17,8 +17,11 @@ import yaml
 
 from gagen.errors import SpecError, read_input
 from gagen.names import IDENTIFIER_RULE, LABEL_RULE, identifier_problem, label_problem, suggest_identifier
-from gagen.robots.urdf import MAX_COORDINATE
 
+# bounds of the numbers of every input (specs and URDFs)
+MAX_COORDINATE = 1e6  # metres: a larger joint offset is a unit mistake or garbage
+MAX_ANGLE = 1e3  # radians, for rpy
+MIN_AXIS = 1e-12  # an axis shorter than this is taken as the zero vector
 MAX_NODES = 100_000  # YAML nodes of the document expanded through its aliases
 
 

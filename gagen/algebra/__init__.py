@@ -1,7 +1,9 @@
-"""The compiler's algebra: algebra descriptions, exact blade rules, sparse symbolic multivectors.
+"""The compiler's algebra: algebra descriptions, exact blade rules, sparse symbolic multivectors, and
+the names of the scalars they carry (``scalars``: what a sparse multivector asks of the scalar layer
+above it, ``gagen.symbolic``).
 
-Names load lazily, so that the reference interpreter, which needs only ``signature``, never
-imports the compiler's rules.
+Names load lazily, so that the reference interpreter, which needs only ``signature`` (and the names
+of ``scalars``), never imports the compiler's rules.
 """
 
 from importlib import import_module

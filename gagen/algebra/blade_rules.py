@@ -20,9 +20,10 @@ from functools import cache
 
 import sympy
 
+from gagen.algebra.scalars import Exact
 from gagen.algebra.signature import Algebra
 
-Entries = tuple[tuple[int, sympy.Expr], ...]
+Entries = tuple[tuple[int, Exact], ...]
 
 _ZERO = sympy.Integer(0)
 _ONE = sympy.Integer(1)
@@ -32,7 +33,7 @@ def _bits(mask: int) -> list[int]:
     return [i for i in range(mask.bit_length()) if mask >> i & 1]
 
 
-def _freeze(acc: dict[int, sympy.Expr]) -> Entries:
+def _freeze(acc: dict[int, Exact]) -> Entries:
     return tuple((b, c) for b, c in sorted(acc.items()) if c != 0)
 
 
@@ -46,25 +47,25 @@ class BladeRules:
         self._tables: dict[str, dict[tuple[int, int], Entries]] = {}
 
     # -- vector rules ------------------------------------------------------------------------------
-    def _vector_outer(self, i: int, blade: int) -> tuple[int, sympy.Expr] | None:
+    def _vector_outer(self, i: int, blade: int) -> tuple[int, Exact] | None:
         """e_i ∧ e_blade as (blade, ±1), or None if e_i is already in it."""
         if blade >> i & 1:
             return None
         lower = (blade & ((1 << i) - 1)).bit_count()  # swaps to move e_i into place
         return blade | 1 << i, (_ONE if lower % 2 == 0 else -_ONE)
 
-    def _vector_contract(self, i: int, blade: int) -> dict[int, sympy.Expr]:
+    def _vector_contract(self, i: int, blade: int) -> dict[int, Exact]:
         """e_i ⌋ e_blade = Σ_k (−1)^k (e_i · b_k) e_{blade without b_k}."""
-        out: dict[int, sympy.Expr] = {}
+        out: dict[int, Exact] = {}
         for k, j in enumerate(_bits(blade)):
             g = self._g[i][j]
             if g != 0:
                 out[blade & ~(1 << j)] = out.get(blade & ~(1 << j), _ZERO) + (g if k % 2 == 0 else -g)
         return out
 
-    def _vector_times(self, i: int, x: dict[int, sympy.Expr]) -> dict[int, sympy.Expr]:
+    def _vector_times(self, i: int, x: dict[int, Exact]) -> dict[int, Exact]:
         """e_i X for a multivector X given as {blade: coefficient}."""
-        out: dict[int, sympy.Expr] = {}
+        out: dict[int, Exact] = {}
         for blade, c in x.items():
             wedge = self._vector_outer(i, blade)
             if wedge is not None:
@@ -81,7 +82,7 @@ class BladeRules:
             self._gp[key] = _freeze(self._gp_dict(a, b))
         return self._gp[key]
 
-    def _gp_dict(self, a: int, b: int) -> dict[int, sympy.Expr]:
+    def _gp_dict(self, a: int, b: int) -> dict[int, Exact]:
         if a == 0:
             return {b: _ONE}
         low = (a & -a).bit_length() - 1
@@ -116,7 +117,7 @@ class BladeRules:
         return self._graded(a, b, 0)
 
     def commutator(self, a: int, b: int) -> Entries:
-        acc: dict[int, sympy.Expr] = {}
+        acc: dict[int, Exact] = {}
         half = sympy.Rational(1, 2)
         for blade, c in self.gp(a, b):
             acc[blade] = acc.get(blade, _ZERO) + half * c
@@ -157,7 +158,7 @@ class BladeRules:
             raise ValueError(f"algebra {self.algebra.name!r} is degenerate: its pseudoscalar has no inverse")
         return ((i, sympy.Integer(self.reverse_sign(i)) / norm),)
 
-    def _complement(self, blade: int) -> tuple[int, sympy.Expr]:
+    def _complement(self, blade: int) -> tuple[int, Exact]:
         """Right complement: e_A ∧ c(e_A) = I."""
         comp = self.algebra.pseudoscalar & ~blade
         ((_, sign),) = self.op(blade, comp)

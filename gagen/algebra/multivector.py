@@ -13,14 +13,16 @@ from __future__ import annotations
 
 from collections import Counter
 from collections.abc import Callable, Iterable, Mapping
-from typing import Any
+from typing import TypeAlias
 
 import sympy
 
 from gagen.algebra.blade_rules import BladeRules, Entries, rules_for
 from gagen.algebra.protocol import BladeKey
-from gagen.algebra.scalars import ZERO, Scalar, ScalarField
+from gagen.algebra.scalars import ZERO, Math, Scalar, ScalarField
 from gagen.algebra.signature import Algebra
+
+Operand: TypeAlias = "SparseMultivector | Scalar"  # the other side of a product or a sum
 
 
 class SparseMultivector:
@@ -47,7 +49,7 @@ class SparseMultivector:
         labels = [algebra.blade_name(m).replace("e", "", 1) if m else "s" for m in masks]
         return cls(algebra, backend, dict(zip(masks, backend.symbols(name, labels), strict=True)))
 
-    def make(self, coefficients: Mapping[BladeKey, Any]) -> SparseMultivector:
+    def make(self, coefficients: Mapping[BladeKey, Scalar]) -> SparseMultivector:
         return SparseMultivector(self.algebra, self.backend,
                                  {_mask(self.algebra, b): c for b, c in coefficients.items()})
 
@@ -55,7 +57,7 @@ class SparseMultivector:
         return SparseMultivector(self.algebra, self.backend, coeffs)
 
     @property
-    def math(self) -> Any:
+    def math(self) -> Math:
         """sqrt, sin, cos, atan2, ... on scalars of this multivector's backend."""
         return self.backend.math
 
@@ -77,24 +79,24 @@ class SparseMultivector:
         return " + ".join(f"({c})*{self.algebra.blade_name(b)}" for b, c in self.coeffs.items())
 
     # -- linear structure --------------------------------------------------------------------------
-    def _coerce(self, other: Any) -> SparseMultivector:
+    def _coerce(self, other: Operand) -> SparseMultivector:
         if isinstance(other, SparseMultivector):
             if other.algebra != self.algebra or other.backend is not self.backend:
                 raise TypeError("multivectors of different algebras or backends do not mix")
             return other
         return self._like({0: self.backend.lift(other)})
 
-    def __add__(self, other: Any) -> SparseMultivector:
+    def __add__(self, other: Operand) -> SparseMultivector:
         other = self._coerce(other)
         blades = sorted(set(self.coeffs) | set(other.coeffs))
         return self._like({b: self.backend.add(self[b], other[b]) for b in blades})
 
     __radd__ = __add__
 
-    def __sub__(self, other: Any) -> SparseMultivector:
+    def __sub__(self, other: Operand) -> SparseMultivector:
         return self + (-self._coerce(other))
 
-    def __rsub__(self, other: Any) -> SparseMultivector:
+    def __rsub__(self, other: Operand) -> SparseMultivector:
         return self._coerce(other) - self
 
     def __neg__(self) -> SparseMultivector:
@@ -112,7 +114,7 @@ class SparseMultivector:
     def _rules(self) -> BladeRules:
         return rules_for(self.algebra)
 
-    def _bilinear(self, other: Any, kind: str,
+    def _bilinear(self, other: Operand, kind: str,
                   keep: Callable[[int], bool] | None = None) -> SparseMultivector:
         other = self._coerce(other)
         rule = self._rules.table(kind)
@@ -130,35 +132,35 @@ class SparseMultivector:
                         acc.setdefault(blade, []).append(mul(c, product))
         return self._like({b: self.backend.add(*terms) for b, terms in sorted(acc.items())})
 
-    def gp(self, other: Any) -> SparseMultivector:
+    def gp(self, other: Operand) -> SparseMultivector:
         return self._bilinear(other, "gp")
 
-    def op(self, other: Any) -> SparseMultivector:
+    def op(self, other: Operand) -> SparseMultivector:
         return self._bilinear(other, "op")
 
-    def lc(self, other: Any) -> SparseMultivector:
+    def lc(self, other: Operand) -> SparseMultivector:
         return self._bilinear(other, "lc")
 
-    def rc(self, other: Any) -> SparseMultivector:
+    def rc(self, other: Operand) -> SparseMultivector:
         return self._bilinear(other, "rc")
 
     inner = lc
 
-    def sp(self, other: Any) -> Scalar:
+    def sp(self, other: Operand) -> Scalar:
         return self._bilinear(other, "sp").scalar()
 
-    def commutator(self, other: Any) -> SparseMultivector:
+    def commutator(self, other: Operand) -> SparseMultivector:
         return self._bilinear(other, "commutator")
 
-    def regressive(self, other: Any) -> SparseMultivector:
+    def regressive(self, other: Operand) -> SparseMultivector:
         return self.dual().op(self._coerce(other).dual()).undual()
 
-    def __mul__(self, other: Any) -> SparseMultivector:
+    def __mul__(self, other: Operand) -> SparseMultivector:
         if isinstance(other, SparseMultivector):
             return self.gp(other)
         return self.scale(other)
 
-    def __rmul__(self, other: Any) -> SparseMultivector:
+    def __rmul__(self, other: Operand) -> SparseMultivector:
         return self.scale(other)
 
     __xor__ = op
@@ -207,13 +209,14 @@ class SparseMultivector:
         return self.sp(self.reverse())
 
     def inverse(self) -> SparseMultivector:
-        return self.reverse() / self.norm_squared()
+        inverse: SparseMultivector = self.reverse() / self.norm_squared()
+        return inverse
 
     def normalized(self) -> SparseMultivector:
         n2 = self.norm_squared()
         return self.scale(self.backend.div(1, self.backend.call("sqrt", self.backend.call("fabs", n2))))
 
-    def sandwich(self, x: Any) -> SparseMultivector:
+    def sandwich(self, x: Operand) -> SparseMultivector:
         """⟨V X Ṽ⟩ on the grades of X, in one of two exact forms of the same polynomial:
 
         - ``(V X) Ṽ``, the two products one after the other;
@@ -225,8 +228,8 @@ class SparseMultivector:
         The second form is weighed (the operations of each graph, ``graph_cost``) only when every
         coefficient of V and X is a free symbol (a kernel's input multivectors): over computed versors
         (the kinematic chains) the two products stay, as their derivatives are cheaper there."""
-        x = self._coerce(x)
-        grades = x.grades
+        x_ = self._coerce(x)
+        grades = x_.grades
 
         def keep(b: int) -> bool:
             return b.bit_count() in grades
@@ -235,15 +238,15 @@ class SparseMultivector:
         rev = self.reverse()
 
         def two_products() -> SparseMultivector:
-            return self.gp(x)._bilinear(rev, "gp", keep=keep)
+            return self.gp(x_)._bilinear(rev, "gp", keep=keep)
 
-        given = [*self.coeffs.values(), *x.coeffs.values()]
+        given = [*self.coeffs.values(), *x_.coeffs.values()]
         if backend.expand_all or not all(backend.is_symbol(c) for c in given):
             return two_products()
 
         def commutator() -> SparseMultivector:
-            half = (self.gp(x) - x.gp(self)).scale(sympy.Rational(1, 2))
-            return x._bilinear(self.gp(rev), "gp", keep=keep) + half._bilinear(rev, "gp", keep=keep).scale(2)
+            half = (self.gp(x_) - x_.gp(self)).scale(sympy.Rational(1, 2))
+            return x_._bilinear(self.gp(rev), "gp", keep=keep) + half._bilinear(rev, "gp", keep=keep).scale(2)
 
         removed = backend.removed.copy()
         best: tuple[int, SparseMultivector, Counter[str]] | None = None

@@ -27,8 +27,9 @@ Conventions (both implementations):
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
-from typing import Any, Protocol, Self, runtime_checkable
+from typing import Protocol, Self, runtime_checkable
 
+from gagen.algebra.scalars import Math, Scalar
 from gagen.algebra.signature import Algebra
 
 BladeKey = int | str  # a bitmask or a blade name such as "e12", "e0inf", "1"
@@ -39,38 +40,38 @@ class Multivector(Protocol):
     algebra: Algebra
 
     @property
-    def math(self) -> Any:
+    def math(self) -> Math:
         """Namespace of scalar functions (sqrt, sin, cos, tan, asin, acos, atan, atan2, exp, log,
         sinh, cosh, tanh, asinh, acosh, atanh, fabs) for this implementation's scalars, plus
         ``lt(a, b)`` (a < b) and ``if_else(cond, a, b)`` for guarded, branch-free special cases, and
         ``shared(a)``: the same value, computed once where it is reused (identity on numbers)."""
 
     # -- construction of constants of the same kind (same backend) ------------------------------
-    def make(self, coefficients: Mapping[BladeKey, Any]) -> Self:
+    def make(self, coefficients: Mapping[BladeKey, Scalar]) -> Self:
         """A multivector of the same kind with the given coefficients (others zero)."""
 
     # -- coefficients ------------------------------------------------------------------------------
-    def __getitem__(self, blade: BladeKey) -> Any:
+    def __getitem__(self, blade: BladeKey) -> Scalar:
         """Coefficient of one blade (zero if absent)."""
 
     @property
     def grades(self) -> frozenset[int]:
         """Grades present: non-zero coefficients (interpreter) or the proven support (compiler)."""
 
-    def scalar(self) -> Any:
+    def scalar(self) -> Scalar:
         """The grade-0 coefficient ⟨X⟩₀ as a scalar."""
 
     # -- linear structure ---------------------------------------------------------------------------
-    def __add__(self, other: Self | Any) -> Self: ...
-    def __radd__(self, other: Any) -> Self: ...
-    def __sub__(self, other: Self | Any) -> Self: ...
-    def __rsub__(self, other: Any) -> Self: ...
+    def __add__(self, other: Self | Scalar) -> Self: ...
+    def __radd__(self, other: Scalar) -> Self: ...
+    def __sub__(self, other: Self | Scalar) -> Self: ...
+    def __rsub__(self, other: Scalar) -> Self: ...
     def __neg__(self) -> Self: ...
-    def __truediv__(self, scalar: Any) -> Self: ...
+    def __truediv__(self, scalar: Scalar) -> Self: ...
 
     # -- products ---------------------------------------------------------------------------------
-    def __mul__(self, other: Self | Any) -> Self: ...
-    def __rmul__(self, other: Any) -> Self: ...
+    def __mul__(self, other: Self | Scalar) -> Self: ...
+    def __rmul__(self, other: Scalar) -> Self: ...
     def __xor__(self, other: Self) -> Self: ...
     def __or__(self, other: Self) -> Self: ...
     def __and__(self, other: Self) -> Self: ...
@@ -91,7 +92,7 @@ class Multivector(Protocol):
     def inner(self, other: Self) -> Self:
         """The inner product of gagen = left contraction."""
 
-    def sp(self, other: Self) -> Any:
+    def sp(self, other: Self) -> Scalar:
         """Scalar product ⟨A B⟩₀, as a scalar."""
 
     def commutator(self, other: Self) -> Self:
@@ -113,7 +114,7 @@ class Multivector(Protocol):
 
     def dual(self) -> Self: ...
     def undual(self) -> Self: ...
-    def norm_squared(self) -> Any:
+    def norm_squared(self) -> Scalar:
         """⟨X X~⟩₀ as a scalar."""
 
     def inverse(self) -> Self:

@@ -31,6 +31,10 @@ Scalar: TypeAlias = Any
 """A scalar of either path: a float (the interpreter), or an exact constant, a ``Poly`` or a native
 expression (the compiler)."""
 
+Math: TypeAlias = Any
+"""A path's namespace of scalar functions (``Multivector.math``): sqrt, sin, …, ``lt``, ``if_else``,
+``shared`` on floats (``gagen.interp``) or on a scalar backend's scalars (``gagen.symbolic``)."""
+
 ZERO = sympy.Integer(0)
 
 
@@ -73,6 +77,6 @@ class ScalarField(Protocol):
         ...
 
     @property
-    def math(self) -> Any:
+    def math(self) -> Math:
         """The ``math``-like namespace over these scalars (the protocol's ``Multivector.math``)."""
         ...

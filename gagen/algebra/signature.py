@@ -20,7 +20,7 @@ from functools import cache, cached_property
 
 import sympy
 
-Exact = sympy.Expr
+from gagen.algebra.scalars import Exact
 
 
 @dataclass(frozen=True)

@@ -56,7 +56,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from gagen.control.ocp import (
+from gagen.control.reaching import (
     BLADES,
     DEFAULT_HORIZON,
     DEFAULT_N,
@@ -64,11 +64,11 @@ from gagen.control.ocp import (
     DEFAULT_R,
     DEFAULT_TOL,
     OCPResult,
-    _box,
-    _weight,
+    box,
     check_horizon,
     double_integrator,
     start_and_target,
+    weight,
 )
 
 Task = Callable[[NDArray[np.float64], NDArray[np.float64]], tuple[NDArray[np.float64], NDArray[np.float64]]]
@@ -108,8 +108,8 @@ def loop_library() -> ctypes.CDLL:
     global _LOOP
     with _LOOP_LOCK:
         if _LOOP is None:
+            from gagen.build import cache_root
             from gagen.codegen.compiler import FLAGS, compile_shared, library_name
-            from gagen.frontend import cache_root
 
             source = LOOP_SOURCE.read_bytes()
             tag = hashlib.sha256(source + " ".join(FLAGS).encode()).hexdigest()[:12]
@@ -154,12 +154,12 @@ class ILQR:
         if backend == "auto":
             backend = "c" if address and m <= MAX_C_DOF and _compiler_found() else "python"
         self.backend, self._address = backend, address
-        R_matrix = _weight(R, m, "R")
+        R_matrix = weight(R, m, "R")
         if np.any(R_matrix != np.diag(np.diag(R_matrix))) or np.any(np.diag(R_matrix) <= 0):
             raise ValueError("R must be diagonal and positive for the structured iLQR (one weight per joint)")
         self.task, self.m, self.N, self.horizon, self.rest = task, m, N, float(horizon), rest
         self.dt = self.horizon / N
-        self.R, self.Q = R_matrix, _weight(Q, len(BLADES), "Q")
+        self.R, self.Q = R_matrix, weight(Q, len(BLADES), "Q")
         self._Q_inverse = np.linalg.pinv(self.Q)  # on Q's range, for the Woodbury solve
         self.gramian = gramian(N, self.dt, np.diag(R_matrix).copy())
         self.A, self.B = double_integrator(m, self.dt)
@@ -244,7 +244,7 @@ class ILQR:
         m = self.m
         q0, qdot0, V_Sd = start_and_target(q0, qdot0, V_Sd, m)
         inf = np.full(m, np.inf)
-        lower, upper = (-inf, inf) if limits is None else _box(limits, m, "limits")
+        lower, upper = (-inf, inf) if limits is None else box(limits, m, "limits")
         if np.any(q0 < lower - 1e-12) or np.any(q0 > upper + 1e-12):
             raise ValueError("q0 lies outside the joint limits")
         a, c = self._terminal_quadratic(q0, qdot0)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 import numbers
 from collections.abc import Iterable, Mapping, Sequence
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -91,34 +91,35 @@ class MultiVector:
         return f"MultiVector({self.algebra.name}: {body or 0})"
 
     # -- linear structure -----------------------------------------------------------------------------
-    def _coerce(self, other: Any) -> MultiVector:
+    def _coerce(self, other: Any) -> MultiVector | None:
+        """``other`` as a multivector of this algebra (a scalar lifted), None when it is neither."""
         if isinstance(other, MultiVector):
             if other.algebra != self.algebra:
                 raise TypeError(f"cannot mix {self.algebra.name} and {other.algebra.name} multivectors")
             return other
         if _is_scalar(other):
             return MultiVector.from_blades(self.algebra, {0: other})
-        return NotImplemented
+        return None
 
     def _require(self, other: Any) -> MultiVector:
         o = self._coerce(other)
-        if o is NotImplemented:
+        if o is None:
             raise TypeError(f"cannot combine a multivector with {type(other).__name__}")
         return o
 
     def __add__(self, other: Any) -> MultiVector:
         o = self._coerce(other)
-        return NotImplemented if o is NotImplemented else self._like(self.coeffs + o.coeffs)
+        return NotImplemented if o is None else self._like(self.coeffs + o.coeffs)
 
     __radd__ = __add__
 
     def __sub__(self, other: Any) -> MultiVector:
         o = self._coerce(other)
-        return NotImplemented if o is NotImplemented else self._like(self.coeffs - o.coeffs)
+        return NotImplemented if o is None else self._like(self.coeffs - o.coeffs)
 
     def __rsub__(self, other: Any) -> MultiVector:
         o = self._coerce(other)
-        return NotImplemented if o is NotImplemented else self._like(o.coeffs - self.coeffs)
+        return NotImplemented if o is None else self._like(o.coeffs - self.coeffs)
 
     def __neg__(self) -> MultiVector:
         return self._like(-self.coeffs)
@@ -185,21 +186,21 @@ class MultiVector:
 
     def __rxor__(self, other: Any) -> MultiVector:
         o = self._coerce(other)
-        return NotImplemented if o is NotImplemented else o.op(self)
+        return NotImplemented if o is None else o.op(self)
 
     def __or__(self, other: Any) -> MultiVector:
         return self.lc(other)
 
     def __ror__(self, other: Any) -> MultiVector:
         o = self._coerce(other)
-        return NotImplemented if o is NotImplemented else o.lc(self)
+        return NotImplemented if o is None else o.lc(self)
 
     def __and__(self, other: Any) -> MultiVector:
         return self.regressive(other)
 
     def __rand__(self, other: Any) -> MultiVector:
         o = self._coerce(other)
-        return NotImplemented if o is NotImplemented else o.regressive(self)
+        return NotImplemented if o is None else o.regressive(self)
 
     def __invert__(self) -> MultiVector:
         return self.reverse()
@@ -222,7 +223,7 @@ class MultiVector:
 
     def grade(self, k: int | Iterable[int]) -> MultiVector:
         """Grade projection onto one grade or several."""
-        keep = [k] if isinstance(k, numbers.Integral) else list(k)
+        keep = [int(k)] if isinstance(k, numbers.Integral) else list(cast(Iterable[int], k))
         return self._like(np.where(np.isin(self._tables.grades, keep), self.coeffs, 0.0))
 
     @property

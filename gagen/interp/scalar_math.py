@@ -7,7 +7,8 @@ multivector protocol can call ``X.math.sqrt(...)`` or ``X.math.if_else(...)`` on
 from __future__ import annotations
 
 import math
-from typing import Any
+
+from gagen.algebra.scalars import Scalar
 
 
 class InterpMath:
@@ -36,11 +37,11 @@ class InterpMath:
         return a < b
 
     @staticmethod
-    def if_else(cond: bool, a: Any, b: Any) -> Any:
+    def if_else(cond: bool, a: Scalar, b: Scalar) -> Scalar:
         return a if cond else b
 
     @staticmethod
-    def shared(a: Any) -> Any:
+    def shared(a: Scalar) -> Scalar:
         """A value reused in many places: numbers are already shared."""
         return a
 

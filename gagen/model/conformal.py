@@ -6,9 +6,9 @@ Blade groups used across the model, in gagen's (gafro's) bitmask order.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
 
 from gagen.algebra.protocol import Multivector
+from gagen.algebra.scalars import Scalar
 from gagen.model.guarded import safe_reciprocal
 
 EUCLID = ("e1", "e2", "e3")
@@ -36,7 +36,7 @@ def einf(like: Multivector) -> Multivector:
     return like.make({"einf": 1})
 
 
-def vector(like: Multivector, xyz: Sequence[Any]) -> Multivector:
+def vector(like: Multivector, xyz: Sequence[Scalar]) -> Multivector:
     """Euclidean vector x1 e1 + x2 e2 + x3 e3."""
     return like.make(dict(zip(EUCLID, xyz, strict=True)))
 
@@ -46,7 +46,7 @@ def point(x: Multivector) -> Multivector:
     return e0(x) + x + einf(x) * (0.5 * x.sp(x))
 
 
-def point_weight(p: Multivector) -> Any:
+def point_weight(p: Multivector) -> Scalar:
     """−P·e∞: 1 for a normalised point, the scale of a scaled one."""
     return -p.sp(einf(p))
 
@@ -68,6 +68,6 @@ def unit(v: Multivector) -> Multivector:
     return v * safe_reciprocal(m, m.sqrt(v.sp(v)))
 
 
-def norm2(x: Multivector) -> Any:
+def norm2(x: Multivector) -> Scalar:
     """Σ of squared coefficients (the Euclidean 2-norm² of the coefficient array) [COOP Eq. 9]."""
     return sum((x[m] * x[m] for m in range(x.algebra.size)), start=0)

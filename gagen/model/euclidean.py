@@ -24,23 +24,23 @@ weights of both (zero exactly when P lies on Π).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
 
 from gagen.algebra.protocol import Multivector
+from gagen.algebra.scalars import Scalar
 from gagen.model import conformal
 from gagen.model.guarded import safe_reciprocal
 from gagen.model.versors import translator as conformal_translator
 
-Vec3 = list[Any]  # three scalars (numbers or symbolic)
+Vec3 = list[Scalar]  # three scalars (numbers or symbolic)
 
 ROTATION = ("e23", "e13", "e12")  # ω1 on e23, −ω2 on e13, ω3 on e12 (the generator u*)
 
 
-def cross(a: Sequence[Any], b: Sequence[Any]) -> Vec3:
+def cross(a: Sequence[Scalar], b: Sequence[Scalar]) -> Vec3:
     return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 
 
-def dot(a: Sequence[Any], b: Sequence[Any]) -> Any:
+def dot(a: Sequence[Scalar], b: Sequence[Scalar]) -> Scalar:
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
@@ -53,7 +53,7 @@ class Geometry:
     PSEUDOSCALAR: str
 
     # -- algebra-specific -------------------------------------------------------------------------
-    def point(self, like: Multivector, xyz: Sequence[Any]) -> Multivector:
+    def point(self, like: Multivector, xyz: Sequence[Scalar]) -> Multivector:
         raise NotImplementedError
 
     def location(self, p: Multivector, unit: bool = False) -> Vec3:
@@ -61,10 +61,10 @@ class Geometry:
         (a unit versor acting on a normalised point), so it is not divided by."""
         raise NotImplementedError
 
-    def translator(self, like: Multivector, t: Sequence[Any]) -> Multivector:
+    def translator(self, like: Multivector, t: Sequence[Scalar]) -> Multivector:
         raise NotImplementedError
 
-    def plane(self, like: Multivector, normal: Sequence[Any], offset: Any) -> Multivector:
+    def plane(self, like: Multivector, normal: Sequence[Scalar], offset: Scalar) -> Multivector:
         """The plane n·x = offset (n a unit normal: its positive side is where n points)."""
         raise NotImplementedError
 
@@ -72,7 +72,7 @@ class Geometry:
         """The plane's (unnormalised) normal n, of length its weight."""
         raise NotImplementedError
 
-    def point_weight(self, p: Multivector) -> Any:
+    def point_weight(self, p: Multivector) -> Scalar:
         raise NotImplementedError
 
     def project(self, plane: Multivector, p: Multivector) -> Multivector:
@@ -80,20 +80,20 @@ class Geometry:
         raise NotImplementedError
 
     # -- shared -------------------------------------------------------------------------------------
-    def rotation_generator(self, like: Multivector, axis: Sequence[Any]) -> Multivector:
+    def rotation_generator(self, like: Multivector, axis: Sequence[Scalar]) -> Multivector:
         """B = u3 e12 − u2 e13 + u1 e23: e^{−θB/2} turns by θ about u (right-handed)."""
         return like.make({"e23": axis[0], "e13": -axis[1], "e12": axis[2]})
 
-    def line(self, like: Multivector, centre: Sequence[Any], axis: Sequence[Any]) -> Multivector:
+    def line(self, like: Multivector, centre: Sequence[Scalar], axis: Sequence[Scalar]) -> Multivector:
         """The line through ``centre`` along the unit ``axis``, as the motor generator T(c) B T(c)~."""
         return self.translator(like, centre).sandwich(self.rotation_generator(like, axis))
 
-    def screw(self, line: Multivector, angle: Any) -> Multivector:
+    def screw(self, line: Multivector, angle: Scalar) -> Multivector:
         """e^{−θL/2} = cos(θ/2) − sin(θ/2) L: the turn by θ about a unit line L (L² = −1)."""
         m = line.math
         return m.cos(angle * 0.5) - line * m.sin(angle * 0.5)
 
-    def rotate(self, line: Multivector, cos: Any, sin: Any, x: Multivector) -> Multivector:
+    def rotate(self, line: Multivector, cos: Scalar, sin: Scalar, x: Multivector) -> Multivector:
         """e^{−θL/2} X e^{θL/2} for a unit line L, from cos θ and sin θ: X + sin θ D(X) + (1 − cos θ) D²(X)
         with D(X) = X × L = ½(XL − LX) (the commutator). Exact because D³ = −D: the rotation about
         L has the eigenvalues 0 and ±i on every grade. For a constant L, D is a constant linear map,
@@ -111,11 +111,11 @@ class Geometry:
     def origin(self, like: Multivector) -> Multivector:
         return self.point(like, [0, 0, 0])
 
-    def incidence(self, plane: Multivector, p: Multivector) -> Any:
+    def incidence(self, plane: Multivector, p: Multivector) -> Scalar:
         """Π ∧ P as a scalar (its pseudoscalar coefficient): zero exactly when P lies on Π."""
         return (plane ^ p)[self.PSEUDOSCALAR]
 
-    def signed_distance(self, plane: Multivector, p: Multivector) -> Any:
+    def signed_distance(self, plane: Multivector, p: Multivector) -> Scalar:
         """Height of P above Π along its normal: Π ∧ P over the weights of both."""
         m = p.math
         n = self.plane_normal(plane)
@@ -130,20 +130,20 @@ class Projective(Geometry):
     TRANSLATION = ("e01", "e02", "e03")
     PSEUDOSCALAR = "e0123"
 
-    def point(self, like: Multivector, xyz: Sequence[Any]) -> Multivector:
+    def point(self, like: Multivector, xyz: Sequence[Scalar]) -> Multivector:
         return like.make({"e123": 1, "e023": -xyz[0], "e013": xyz[1], "e012": -xyz[2]})
 
-    def point_weight(self, p: Multivector) -> Any:
+    def point_weight(self, p: Multivector) -> Scalar:
         return p["e123"]
 
     def location(self, p: Multivector, unit: bool = False) -> Vec3:
         w = 1 if unit else safe_reciprocal(p.math, p["e123"])
         return [-p["e023"] * w, p["e013"] * w, -p["e012"] * w]
 
-    def translator(self, like: Multivector, t: Sequence[Any]) -> Multivector:
+    def translator(self, like: Multivector, t: Sequence[Scalar]) -> Multivector:
         return like.make({"1": 1, "e01": -0.5 * t[0], "e02": -0.5 * t[1], "e03": -0.5 * t[2]})
 
-    def plane(self, like: Multivector, normal: Sequence[Any], offset: Any) -> Multivector:
+    def plane(self, like: Multivector, normal: Sequence[Scalar], offset: Scalar) -> Multivector:
         return like.make({"e1": normal[0], "e2": normal[1], "e3": normal[2], "e0": -offset})
 
     def plane_normal(self, plane: Multivector) -> Vec3:
@@ -163,20 +163,20 @@ class Conformal(Geometry):
     TRANSLATION = ("e1inf", "e2inf", "e3inf")
     PSEUDOSCALAR = "e0123inf"
 
-    def point(self, like: Multivector, xyz: Sequence[Any]) -> Multivector:
+    def point(self, like: Multivector, xyz: Sequence[Scalar]) -> Multivector:
         return conformal.point(conformal.vector(like, xyz))
 
-    def point_weight(self, p: Multivector) -> Any:
+    def point_weight(self, p: Multivector) -> Scalar:
         return conformal.point_weight(p)
 
     def location(self, p: Multivector, unit: bool = False) -> Vec3:
         x = p if unit else conformal.location(p)
         return [x[b] for b in conformal.EUCLID]
 
-    def translator(self, like: Multivector, t: Sequence[Any]) -> Multivector:
+    def translator(self, like: Multivector, t: Sequence[Scalar]) -> Multivector:
         return conformal_translator(conformal.vector(like, t))
 
-    def plane(self, like: Multivector, normal: Sequence[Any], offset: Any) -> Multivector:
+    def plane(self, like: Multivector, normal: Sequence[Scalar], offset: Scalar) -> Multivector:
         dual = like.make({"e1": normal[0], "e2": normal[1], "e3": normal[2], "einf": offset})
         return dual.undual()
 

@@ -15,28 +15,28 @@ no select at all, where a selected x makes AD put a select on every derivative p
 
 from __future__ import annotations
 
-from typing import Any
+from gagen.algebra.scalars import Math, Scalar
 
 SERIES_BELOW = 1e-4  # squared-angle threshold for the series branches
 TINY = 1e-300  # replaces an exactly-zero denominator so that nothing becomes Inf or NaN
 
 
-def _switch(m: Any, s: Any, series: Any, closed_form: Any) -> Any:
+def _switch(m: Math, s: Scalar, series: Scalar, closed_form: Scalar) -> Scalar:
     return m.if_else(m.lt(s, SERIES_BELOW), series, closed_form)
 
 
-def _safe(m: Any, s: Any) -> Any:
+def _safe(m: Math, s: Scalar) -> Scalar:
     """s where the closed form is used, a harmless s + 1 where the series is."""
     return s + m.if_else(m.lt(s, SERIES_BELOW), 1.0, 0.0)
 
 
-def cos_half_sqrt(m: Any, s: Any) -> Any:
+def cos_half_sqrt(m: Math, s: Scalar) -> Scalar:
     """cos(√s / 2) for s >= 0, smooth at s = 0."""
     series = 1 - s / 8 + s * s / 384 - s * s * s / 46080
     return _switch(m, s, series, m.cos(m.sqrt(_safe(m, s)) / 2))
 
 
-def sin_half_sqrt_over_sqrt(m: Any, s: Any) -> Any:
+def sin_half_sqrt_over_sqrt(m: Math, s: Scalar) -> Scalar:
     """sin(√s / 2) / √s for s >= 0, → ½ at s = 0."""
     series = 0.5 - s / 48 + s * s / 3840 - s * s * s / 645120
     safe = _safe(m, s)
@@ -44,7 +44,7 @@ def sin_half_sqrt_over_sqrt(m: Any, s: Any) -> Any:
     return _switch(m, s, series, m.sin(root / 2) / root)
 
 
-def atan2_sqrt_over_sqrt(m: Any, s: Any, w: Any) -> Any:
+def atan2_sqrt_over_sqrt(m: Math, s: Scalar, w: Scalar) -> Scalar:
     """atan2(√s, w) / √s for s >= 0; for w > 0 it tends to 1/w at s = 0 (the identity rotor)."""
     w_series = w + m.if_else(m.lt(s, SERIES_BELOW), 0.0, 3.0)  # w ≈ ±1 where the series is used
     z2 = s / (w_series * w_series)
@@ -54,6 +54,6 @@ def atan2_sqrt_over_sqrt(m: Any, s: Any, w: Any) -> Any:
     return _switch(m, s, series, m.atan2(root, w) / root)
 
 
-def safe_reciprocal(m: Any, x: Any) -> Any:
+def safe_reciprocal(m: Math, x: Scalar) -> Scalar:
     """1/x, with an exactly-zero (or subnormal) x moved TINY away from 0 so the result stays finite."""
     return 1 / (x + m.if_else(m.lt(m.fabs(x), TINY), m.if_else(m.lt(x, 0), -TINY, TINY), 0.0))

@@ -28,6 +28,7 @@ from typing import Any
 import sympy
 
 from gagen.algebra.protocol import Multivector
+from gagen.algebra.scalars import Scalar
 from gagen.model.conformal import e0, einf, vector
 from gagen.model.versors import exp_translator, translator
 from gagen.symbolic.backend import to_exact
@@ -89,7 +90,7 @@ def exact_angle(angle: float) -> sympy.Expr:
     return to_exact(angle)
 
 
-def _axis_rotor(like: Multivector, axis: int, angle: Any) -> Multivector:
+def _axis_rotor(like: Multivector, axis: int, angle: Scalar) -> Multivector:
     """Rotor about a basis axis (0, 1, 2 = x, y, z) by an exact or symbolic angle."""
     m = like.math
     c, s = m.cos(angle * sympy.Rational(1, 2)), m.sin(angle * sympy.Rational(1, 2))
@@ -143,7 +144,7 @@ def _unscaled(rotation: Multivector) -> tuple[Any, Any]:
     return (rotation, 1) if s == 1 else (rotation * (1 / s), s)
 
 
-def joint_motor(like: Multivector, joint: Joint, q: Any) -> Multivector:
+def joint_motor(like: Multivector, joint: Joint, q: Scalar) -> Multivector:
     """Motion of a joint by q: rotor about its axis, or translator along it."""
     n = [to_exact(a) for a in joint.axis]
     if joint.kind == "prismatic":
@@ -151,15 +152,6 @@ def joint_motor(like: Multivector, joint: Joint, q: Any) -> Multivector:
     m = like.math
     c, s = m.cos(q * 0.5), m.sin(q * 0.5)
     return like.make({"1": c, "e12": -s * n[2], "e13": s * n[1], "e23": -s * n[0]})
-
-
-def joint_generator(like: Multivector, joint: Joint) -> Multivector:
-    """The joint's unit generator B in its own frame, J(q) = e^{−qB/2}: n* for a revolute joint
-    (n3 e12 − n2 e13 + n1 e23), n ∧ e∞ for a prismatic one."""
-    n = [to_exact(a) for a in joint.axis]
-    if joint.kind == "prismatic":
-        return like.make({f"e{i + 1}inf": n[i] for i in range(3)})
-    return like.make({"e12": n[2], "e13": -n[1], "e23": n[0]})
 
 
 def chain_variables(joints: Sequence[Joint]) -> list[str]:
@@ -189,19 +181,19 @@ def _mimics(joints: Sequence[Joint]) -> bool:
     return any(j.mimic is not None for j in joints)
 
 
-def _constant(value: Any, c: float) -> Any:
+def _constant(value: Scalar, c: float) -> Scalar:
     """c as a plain float beside plain numbers (the interpreter), else as the exact value of the double."""
     return float(c) if isinstance(value, numbers.Real) and not isinstance(value, sympy.Basic) else to_exact(c)
 
 
-def _scaled(value: Any, factor: float) -> Any:
+def _scaled(value: Scalar, factor: float) -> Scalar:
     """value·factor, skipping the product for ±1."""
     if factor == 1:
         return value
     return -value if factor == -1 else value * _constant(value, factor)
 
 
-def joint_values(joints: Sequence[Joint], q: Sequence[Any]) -> list[Any]:
+def joint_values(joints: Sequence[Joint], q: Sequence[Scalar]) -> list[Scalar]:
     """Each moving joint's value from the chain's variables q (:func:`chain_variables`): a follower's
     is multiplier·q_leader + offset."""
     names = chain_variables(joints)
@@ -237,7 +229,7 @@ def variable_columns(joints: Sequence[Joint], columns: Sequence[Any]) -> list[An
     return out
 
 
-def chain_kinematics(like: Multivector, joints: Sequence[Joint], q: Sequence[Any]) -> tuple[Any, list[Any]]:
+def chain_kinematics(like: Multivector, joints: Sequence[Joint], q: Sequence[Scalar]) -> tuple[Any, list[Any]]:
     """(V_M(q), [L'_1 … L'_n]): the FK motor and each moving joint's generator carried to the base
     frame by everything before the joint's motion, L'_i = A_i B_i A_i~ [SMC Eq. 17-20].
 
@@ -248,7 +240,7 @@ def chain_kinematics(like: Multivector, joints: Sequence[Joint], q: Sequence[Any
     return motor, lines
 
 
-def chain_pose(like: Any, joints: Sequence[Joint], q: Sequence[Any], *,
+def chain_pose(like: Any, joints: Sequence[Joint], q: Sequence[Scalar], *,
                with_motor: bool = True) -> tuple[Any, list[Any], Any]:
     """(V_M, [L'_i], t): the FK motor, the carried joint lines and the end position t.
 
@@ -319,7 +311,7 @@ def chain_pose(like: Any, joints: Sequence[Joint], q: Sequence[Any], *,
     return motor, lines, position
 
 
-def _rotated_basis(like: Multivector, axis: Sequence[float], q: Any) -> list[Multivector]:
+def _rotated_basis(like: Multivector, axis: Sequence[float], q: Scalar) -> list[Multivector]:
     """The basis vectors turned by q about the unit axis n (link coordinates), by Rodrigues:
     R e_k = cos q e_k + sin q (n × e_k) + (1 − cos q) n_k n."""
     m = like.math
@@ -333,7 +325,7 @@ def _rotated_basis(like: Multivector, axis: Sequence[float], q: Any) -> list[Mul
     return images
 
 
-def forward_kinematics(like: Multivector, joints: Sequence[Joint], q: Sequence[Any]) -> Multivector:
+def forward_kinematics(like: Multivector, joints: Sequence[Joint], q: Sequence[Scalar]) -> Multivector:
     """V_M(q) = Π_j F_j J_j(q_j) for a chain; q has one entry per moving joint."""
     return chain_kinematics(like, joints, q)[0]
 

@@ -7,9 +7,9 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from functools import reduce
-from typing import Any
 
 from gagen.algebra.protocol import Multivector
+from gagen.algebra.scalars import Scalar
 from gagen.model.conformal import EUCLID, einf, norm2, normalized_point, part, point, unit, vector
 
 KINDS = ("point", "point_pair", "line", "circle", "plane", "sphere")
@@ -65,7 +65,7 @@ def centre(x: Multivector) -> Multivector:
     return normalized_point((x * einf(x) * x).grade(1))
 
 
-def radius_squared_parts(x: Multivector) -> tuple[Any, Any]:
+def radius_squared_parts(x: Multivector) -> tuple[Scalar, Scalar]:
     """(numerator, denominator) of r² = −⟨X X~⟩₀ / ⟨(e∞⌋X)(e∞⌋X)~⟩₀ for a round (OPNS).
 
     The denominator vanishes exactly for degenerate rounds (coincident, collinear or coplanar
@@ -75,12 +75,12 @@ def radius_squared_parts(x: Multivector) -> tuple[Any, Any]:
     return -x.norm_squared(), n.norm_squared()
 
 
-def radius_squared(x: Multivector) -> Any:
+def radius_squared(x: Multivector) -> Scalar:
     num, den = radius_squared_parts(x)
     return num / den
 
 
-def radius(x: Multivector) -> Any:
+def radius(x: Multivector) -> Scalar:
     return x.math.sqrt(radius_squared(x))
 
 
@@ -106,7 +106,7 @@ def project_point(p: Multivector, x: Multivector) -> Multivector:
     return (p | x) * x.inverse()
 
 
-def split_point_pair(pp: Multivector) -> tuple[Any, Any]:
+def split_point_pair(pp: Multivector) -> tuple[Scalar, Scalar]:
     """The two normalised points of a real point pair: (PP ∓ √(PP·PP)) / (−e∞·PP) [SMC Eq. 7]."""
     root = pp.math.sqrt(pp.sp(pp))
     v = -(einf(pp).lc(pp))
@@ -114,7 +114,7 @@ def split_point_pair(pp: Multivector) -> tuple[Any, Any]:
     return normalized_point((pp - root) * inv), normalized_point((pp + root) * inv)
 
 
-def contains_cost(x: Multivector, p: Multivector) -> Any:
+def contains_cost(x: Multivector, p: Multivector) -> Scalar:
     """‖X ∧ P‖²: zero exactly when the point P lies on X [COOP Eq. 3, 9]."""
     return norm2(x ^ p)
 

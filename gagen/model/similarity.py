@@ -30,6 +30,7 @@ from __future__ import annotations
 from typing import Any, NamedTuple
 
 from gagen.algebra.protocol import Multivector
+from gagen.algebra.scalars import Scalar
 from gagen.model.conformal import SIMILARITY, location
 from gagen.model.guarded import safe_reciprocal
 from gagen.model.primitives import (
@@ -57,7 +58,7 @@ class Factored(NamedTuple):
     and whether the spanning points are degenerate (a native boolean, or a bool when known)."""
 
     factors: tuple[Any, ...]
-    conditioning: Any
+    conditioning: Scalar
     degenerate: Any
 
     def versor(self) -> Any:
@@ -91,7 +92,7 @@ def similarity_factors(kind: str, x1: Multivector, x2: Multivector) -> Factored:
     return Factored(factors, conditioning, m.lt(m.fabs(size), DEGENERATE_BELOW))
 
 
-def _similarity(kind: str, x1: Multivector, x2: Multivector) -> tuple[tuple[Any, ...], Any, Any]:
+def _similarity(kind: str, x1: Multivector, x2: Multivector) -> tuple[tuple[Any, ...], Scalar, Scalar]:
     """(factors, conditioning, size): size is the part of the conditioning that measures how
     degenerate the spanning points are, without the orientation factor."""
     m = x1.math
@@ -126,7 +127,7 @@ def _similarity(kind: str, x1: Multivector, x2: Multivector) -> tuple[tuple[Any,
 RATIO_BOUND = 1e-24  # squared-radius ratios are squashed into (1e-24, 1e24): the dilator's k into (1e-6, 1e6)
 
 
-def _dilator_between(like: Multivector, r1_squared: Any, r2_squared: Any) -> Multivector:
+def _dilator_between(like: Multivector, r1_squared: Scalar, r2_squared: Scalar) -> Multivector:
     """The dilator taking radius r1 to r2, from the squared radii, with no logarithm:
     D = ½(k + 1/k) − ½(k − 1/k) e0∞ with k⁴ = r1²/r2², squashed as k⁴ = (N + εN')/(N' + εN),
     N = |r1²|, N' = |r2²|, ε = RATIO_BOUND.

@@ -15,6 +15,7 @@ from __future__ import annotations
 from typing import Any, NamedTuple
 
 from gagen.algebra.protocol import Multivector
+from gagen.algebra.scalars import Scalar
 from gagen.model.conformal import (
     DILATION,
     EUCLID,
@@ -55,7 +56,7 @@ def log_rotor(r: Multivector) -> Multivector:
     return br * (-2 * atan2_sqrt_over_sqrt(r.math, s, r.scalar()))
 
 
-def rotor(axis: Multivector, angle: Any) -> Multivector:
+def rotor(axis: Multivector, angle: Scalar) -> Multivector:
     """Rotor turning by ``angle`` about the unit Euclidean vector ``axis`` (right-handed)."""
     n1, n2, n3 = (axis[k] for k in EUCLID)
     return exp_rotor(axis.make({"e12": angle * n3, "e13": -angle * n2, "e23": angle * n1}))
@@ -88,19 +89,6 @@ def exp_dilator(b: Multivector) -> Multivector:
 def log_dilator(d: Multivector) -> Multivector:
     """λ e0∞ with λ = 2 atanh(−⟨D⟩_{e0∞} / ⟨D⟩₀) [Eq. 68], any positive scale of D."""
     return d.make({"e0inf": 2 * d.math.atanh(-d["e0inf"] / d.scalar())})
-
-
-def dilator_between_radii(like: Multivector, r1_squared: Any, r2_squared: Any) -> Multivector:
-    """The dilator taking radius r1 to radius r2, from the squared radii, with no logarithm:
-    D = ½(k + 1/k) − ½(k − 1/k) e0∞, k = (r1²/r2²)^¼ (exactly 1 for equal radii)."""
-    m = like.math
-    # |…|: for nearly coincident points the r² numerators cancel and may come out slightly negative
-    ratio = m.fabs(r1_squared * safe_reciprocal(m, r2_squared))
-    # ratios beyond 1e±100 only come from degenerate rounds: squash them into [1e-120, 1e120] so that
-    # nothing overflows, smoothly (no select for AD); ordinary ratios come through bit for bit
-    k = m.sqrt(m.sqrt((ratio + 1e-120) / (1 + ratio * 1e-120)))
-    inv = 1 / k
-    return like.make({"1": (k + inv) * 0.5, "e0inf": (inv - k) * 0.5})
 
 
 def dilator(like: Multivector, d: Multivector) -> Multivector:
@@ -157,7 +145,7 @@ class Versor(NamedTuple):
     """A versor and how well-conditioned its construction was (0 = degenerate; see each function)."""
 
     versor: Any
-    conditioning: Any
+    conditioning: Scalar
 
 
 def half_turn_perpendicular(v: Multivector) -> Multivector:

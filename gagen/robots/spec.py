@@ -55,8 +55,20 @@ from gagen.names import (
     chain_kernel_names,
 )
 from gagen.robots.system import Chain, System
-from gagen.robots.urdf import MAX_ANGLE, MAX_COORDINATE, MIN_AXIS, load_chain
-from gagen.yaml_document import Document, identifier, known_keys, label, number, require, show, vector
+from gagen.robots.urdf import load_chain
+from gagen.yaml_document import (
+    MAX_ANGLE,
+    MAX_COORDINATE,
+    MIN_AXIS,
+    Document,
+    identifier,
+    known_keys,
+    label,
+    number,
+    require,
+    show,
+    vector,
+)
 
 TOP_KEYS = ("app", "name", "primitive", "chains", "configurations")
 CHAIN_KEYS = ("name", "robot", "base", "tool", "urdf", "base_link", "tip_link", "joints")

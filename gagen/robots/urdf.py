@@ -27,11 +27,9 @@ from lxml import etree
 from gagen.errors import SpecError, read_input
 from gagen.model.kinematics import Joint
 from gagen.names import LABEL_RULE, label_problem
+from gagen.yaml_document import MAX_ANGLE, MAX_COORDINATE, MIN_AXIS
 
 _KINDS = {"revolute": "revolute", "continuous": "continuous", "prismatic": "prismatic", "fixed": "fixed"}
-MAX_COORDINATE = 1e6  # metres: a larger joint offset is a unit mistake or garbage
-MAX_ANGLE = 1e3  # radians, for rpy
-MIN_AXIS = 1e-12  # an axis shorter than this is taken as the zero vector
 
 
 def rpy_from_matrix(r: np.ndarray) -> tuple[float, float, float]:

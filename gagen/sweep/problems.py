@@ -81,11 +81,11 @@ def cell(system: str = DEFAULT_SYSTEM) -> Cell:
     its generated module built on first use, ``gagen.modules``). Loaded once where a sweep is described
     and shipped with it, so that a worker needs only the generated module. A SweepError starting
     ``system:`` says why a system cannot be swept."""
-    from gagen.registry import bundled_specs
     from gagen.build import CompileError, OutputError
     from gagen.check import joint_limits
     from gagen.control.differential import CONTROLLABLE_DIMENSION
     from gagen.modules import module_folder
+    from gagen.registry import bundled_specs
     from gagen.robots.spec import load_system
     from gagen.symbolic.flatten import identifier
 
@@ -112,8 +112,8 @@ def cell(system: str = DEFAULT_SYSTEM) -> Cell:
 
 @cache
 def _module(system: str = DEFAULT_SYSTEM) -> Any:
-    from gagen.registry import bundled_specs
     from gagen.modules import bundled_module
+    from gagen.registry import bundled_specs
 
     return bundled_module(bundled_specs("cooperative")[system])
 

@@ -23,16 +23,20 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from collections import Counter
-from collections.abc import Hashable, Sequence
+from collections.abc import Callable, Sequence
 from typing import Any, TypeAlias
 
 import sympy
 
-from gagen.algebra.scalars import ZERO, Exact
+from gagen.algebra.scalars import ZERO, Exact, Native, Scalar
 
 ONE = sympy.Integer(1)
 
-Key = tuple[Hashable, ...]  # sorted identities of a term's atoms (commutative product)
+AtomKey: TypeAlias = Any
+"""The identity of a native atom (``ScalarBackend.key``): hashable and orderable within one backend (a
+CasADi node's hash, sympy's sort key)."""
+Key: TypeAlias = tuple[AtomKey, ...]  # sorted identities of a term's atoms (commutative product)
+Normal: TypeAlias = tuple[tuple[Key, Exact], ...]  # a sum up to an exact factor (ScalarBackend._node)
 
 
 class Poly:
@@ -44,48 +48,48 @@ class Poly:
 
     __slots__ = ("_native", "backend", "terms")
 
-    def __init__(self, backend: ScalarBackend, terms: dict[Key, tuple[sympy.Expr, tuple[Any, ...]]]) -> None:
+    def __init__(self, backend: ScalarBackend, terms: dict[Key, tuple[Exact, tuple[Native, ...]]]) -> None:
         self.backend = backend
         self.terms = terms  # key -> (non-zero exact coefficient, atoms in first-seen order)
-        self._native: Any = None
+        self._native: Native = None
 
     def __len__(self) -> int:
         return len(self.terms)
 
-    def _operand(self, other: Any) -> Any:
+    def _operand(self, other: Scalar) -> Scalar:
         if isinstance(other, Poly) or to_exact(other) is not None or self.backend.is_native(other):
             return other
         return None
 
-    def __add__(self, other: Any) -> Any:
+    def __add__(self, other: Scalar) -> Scalar:
         o = self._operand(other)
         return NotImplemented if o is None else self.backend.add(self, o)
 
     __radd__ = __add__
 
-    def __sub__(self, other: Any) -> Any:
+    def __sub__(self, other: Scalar) -> Scalar:
         o = self._operand(other)
         return NotImplemented if o is None else self.backend.sub(self, o)
 
-    def __rsub__(self, other: Any) -> Any:
+    def __rsub__(self, other: Scalar) -> Scalar:
         o = self._operand(other)
         return NotImplemented if o is None else self.backend.sub(o, self)
 
-    def __mul__(self, other: Any) -> Any:
+    def __mul__(self, other: Scalar) -> Scalar:
         o = self._operand(other)
         return NotImplemented if o is None else self.backend.mul(self, o)
 
     __rmul__ = __mul__
 
-    def __truediv__(self, other: Any) -> Any:
+    def __truediv__(self, other: Scalar) -> Scalar:
         o = self._operand(other)
         return NotImplemented if o is None else self.backend.div(self, o)
 
-    def __rtruediv__(self, other: Any) -> Any:
+    def __rtruediv__(self, other: Scalar) -> Scalar:
         o = self._operand(other)
         return NotImplemented if o is None else self.backend.div(o, self)
 
-    def __neg__(self) -> Any:
+    def __neg__(self) -> SymbolicScalar:
         return self.backend.neg(self)
 
     def __repr__(self) -> str:
@@ -96,7 +100,7 @@ SymbolicScalar: TypeAlias = Exact | Poly
 """A scalar of the compiler's path as this layer holds it: an exact constant or a Poly."""
 
 
-def to_exact(value: Any) -> sympy.Expr | None:
+def to_exact(value: Any) -> Exact | None:
     """An exact sympy number for a Python/numpy/sympy number, else None.
 
     Floats become the exact rational value of the double (no guessing), so no precision is lost.
@@ -127,61 +131,61 @@ class ScalarBackend(ABC):
 
     def __init__(self) -> None:
         # a normalised sum -> (f, node, its atoms) with sum = f · node (see _node)
-        self._materialised: dict[tuple, tuple[sympy.Expr, Any, list]] = {}
+        self._materialised: dict[Normal, tuple[Exact, Native, list[tuple[Native, ...]]]] = {}
         # the key of a node made by _node -> (node, the Poly it computes), for merging by cofactor
-        self._node_polys: dict[Hashable, tuple[Any, Poly]] = {}
+        self._node_polys: dict[AtomKey, tuple[Native, Poly]] = {}
         # what the passes of gagen.symbolic.passes removed on this backend (see there)
         self.removed: Counter[str] = Counter()
 
     # -- to be provided by a backend -------------------------------------------------------------
     @abstractmethod
-    def symbols(self, name: str, labels: Sequence[str]) -> list[Any]:
+    def symbols(self, name: str, labels: Sequence[str]) -> list[Native]:
         """Fresh independent native symbols, one per label."""
 
     @abstractmethod
-    def is_native(self, value: Any) -> bool:
+    def is_native(self, value: object) -> bool:
         """Whether ``value`` is a native scalar expression of this backend."""
 
     @abstractmethod
-    def native_constant_value(self, x: Any) -> float | None:
+    def native_constant_value(self, x: Native) -> float | None:
         """The value of a native expression that is structurally a constant, else None."""
 
     @abstractmethod
-    def constant(self, value: sympy.Expr) -> Any:
+    def constant(self, value: Exact) -> Native:
         """Native constant for an exact value."""
 
     @abstractmethod
-    def key(self, atom: Any) -> Hashable:
+    def key(self, atom: Native) -> AtomKey:
         """Identity of a native atom (orderable), for merging terms with the same atoms."""
 
     @abstractmethod
-    def native_product(self, atoms: Sequence[Any]) -> Any: ...
+    def native_product(self, atoms: Sequence[Native]) -> Native: ...
 
     @abstractmethod
-    def native_sum(self, positive: Sequence[Any], negative: Sequence[Any]) -> Any:
+    def native_sum(self, positive: Sequence[Native], negative: Sequence[Native]) -> Native:
         """Σ positive − Σ negative, at least one of them non-empty."""
 
     @abstractmethod
-    def native_scale(self, value: sympy.Expr, x: Any) -> Any:
+    def native_scale(self, value: Exact, x: Native) -> Native:
         """value · x for an exact positive value other than 1."""
 
     @abstractmethod
-    def native_call(self, fn: str, *args: Any) -> Any:
+    def native_call(self, fn: str, *args: Native) -> Native:
         """A math function (see ``MATH_FUNCTIONS``) of native arguments."""
 
     @abstractmethod
-    def native_divide(self, a: Any, b: Any) -> Any: ...
+    def native_divide(self, a: Native, b: Native) -> Native: ...
 
     @abstractmethod
-    def native_less(self, a: Any, b: Any) -> Any:
+    def native_less(self, a: Native, b: Native) -> Native:
         """A native boolean expression a < b."""
 
     @abstractmethod
-    def native_select(self, cond: Any, a: Any, b: Any) -> Any:
+    def native_select(self, cond: Native, a: Native, b: Native) -> Native:
         """cond ? a : b, without letting a NaN or Inf of the branch not taken leak through."""
 
     # -- entering the scalar layer ------------------------------------------------------------------
-    def lift(self, value: Any) -> SymbolicScalar:
+    def lift(self, value: Scalar) -> SymbolicScalar:
         """Exact constant or Poly for a number, a native expression, or a scalar of this layer."""
         if isinstance(value, Poly):
             return value
@@ -193,7 +197,7 @@ class ScalarBackend(ABC):
             return to_exact(const) if const is not None else self.atom(value)
         raise TypeError(f"{self.name} backend: cannot use {type(value).__name__} as a scalar")
 
-    def atom(self, native: Any) -> Poly:
+    def atom(self, native: Native) -> Poly:
         """A native expression as a one-term Poly."""
         return Poly(self, {(self.key(native),): (ONE, (native,))})
 
@@ -211,7 +215,7 @@ class ScalarBackend(ABC):
         raise NotImplementedError
 
     @staticmethod
-    def is_exact(value: Any) -> bool:
+    def is_exact(value: object) -> bool:
         return isinstance(value, sympy.Basic)
 
     @staticmethod
@@ -219,7 +223,7 @@ class ScalarBackend(ABC):
         return isinstance(value, sympy.Basic) and value == 0
 
     # -- arithmetic -----------------------------------------------------------------------------------
-    def add(self, *values: Any) -> SymbolicScalar:
+    def add(self, *values: Scalar) -> SymbolicScalar:
         const = ZERO
         terms: dict[Key, list[Any]] = {}
         for v in values:
@@ -240,7 +244,7 @@ class ScalarBackend(ABC):
         """Merge terms c₁·f·A + c₂·f·B + … that share a cofactor f, where A, B, … are nodes of sums,
         into f·(c₁A + c₂B + …) when those sums cancel down to at most one term: e.g. x·‖V‖² + x·(1 − ‖V‖²)
         is x. At most one term replaces several, so the sum never costs more."""
-        groups: dict[Key, list[tuple[Key, Hashable]]] = {}
+        groups: dict[Key, list[tuple[Key, AtomKey]]] = {}
         for k in terms:
             for i, a in enumerate(k):
                 if a in self._node_polys and (i == 0 or k[i - 1] != a):
@@ -264,9 +268,10 @@ class ScalarBackend(ABC):
             if any(kp for kp, _ in kept) or len(kept) >= parts:
                 continue
             k0, a0 = members[0]
-            atoms = list(terms[k0][1])
+            cofactor_atoms = list(terms[k0][1])
             node = self._node_polys[a0][0]
-            atoms.pop(next(j for j, x in enumerate(atoms) if x is node or self.key(x) == a0))
+            cofactor_atoms.pop(next(j for j, x in enumerate(cofactor_atoms)
+                                    if x is node or self.key(x) == a0))
             for k, _ in members:
                 del terms[k]
             self.removed["cancelled terms"] += len(members) + parts - len(kept)
@@ -275,21 +280,21 @@ class ScalarBackend(ABC):
                 if key in terms:
                     terms[key][0] += cp
                 else:
-                    terms[key] = [cp, tuple(atoms) + tuple(atoms_p)]
+                    terms[key] = [cp, tuple(cofactor_atoms) + tuple(atoms_p)]
 
-    def neg(self, a: Any) -> SymbolicScalar:
+    def neg(self, a: Scalar) -> SymbolicScalar:
         return self._scale(-ONE, self.lift(a))
 
-    def sub(self, a: Any, b: Any) -> SymbolicScalar:
+    def sub(self, a: Scalar, b: Scalar) -> SymbolicScalar:
         return self.add(a, self.neg(b))
 
-    def mul(self, *values: Any) -> SymbolicScalar:
+    def mul(self, *values: Scalar) -> SymbolicScalar:
         result: SymbolicScalar = ONE
         for v in values:
             result = self._mul2(result, self.lift(v))
         return result
 
-    def div(self, a: Any, b: Any) -> SymbolicScalar:
+    def div(self, a: Scalar, b: Scalar) -> SymbolicScalar:
         a, b = self.lift(a), self.lift(b)
         if self.is_exact(b):
             if b == 0:
@@ -299,7 +304,7 @@ class ScalarBackend(ABC):
             return ZERO
         return self.lift(self.native_divide(self.native(a), self.native(b)))
 
-    def call(self, fn: str, *args: Any) -> SymbolicScalar:
+    def call(self, fn: str, *args: Scalar) -> SymbolicScalar:
         """Math function; evaluated exactly when every argument is exact."""
         lifted = [self.lift(a) for a in args]
         if all(self.is_exact(a) for a in lifted):
@@ -307,14 +312,14 @@ class ScalarBackend(ABC):
             return exact_call(fn, *lifted)
         return self.lift(self.native_call(fn, *(self.native(a) for a in lifted)))
 
-    def less(self, a: Any, b: Any) -> Any:
+    def less(self, a: Scalar, b: Scalar) -> bool | Native:
         """a < b: a Python bool when both are exact, else a native boolean expression."""
         a, b = self.lift(a), self.lift(b)
         if self.is_exact(a) and self.is_exact(b):
             return bool(a < b)
         return self.native_less(self.native(a), self.native(b))
 
-    def select(self, cond: Any, a: Any, b: Any) -> SymbolicScalar:
+    def select(self, cond: bool | Native, a: Scalar, b: Scalar) -> SymbolicScalar:
         """cond ? a : b; folded when the condition is known at build time."""
         if isinstance(cond, bool):
             self.removed["constant folding"] += 1
@@ -341,7 +346,7 @@ class ScalarBackend(ABC):
                     terms[k] = [ca * cb, xa + xb]
         return self._poly(terms, ZERO)
 
-    def _scale(self, c: sympy.Expr, p: SymbolicScalar) -> SymbolicScalar:
+    def _scale(self, c: Exact, p: SymbolicScalar) -> SymbolicScalar:
         if c == 0:
             self.removed["exact zeros"] += 1
             return ZERO
@@ -360,7 +365,7 @@ class ScalarBackend(ABC):
         factor, node = self._node(p)
         return Poly(self, {(self.key(node),): (factor, (node,))})
 
-    def _node(self, p: Poly) -> tuple[sympy.Expr, Any]:
+    def _node(self, p: Poly) -> tuple[Exact, Native]:
         """(c, node) with p = c · node, where every sum that differs from p only by an exact factor
         (½t and −½t of a translator and its reverse, x and −x) shares the node: products of them then
         merge exactly, and each sum is emitted once."""
@@ -380,7 +385,7 @@ class ScalarBackend(ABC):
         self._materialised[normal] = (1 / scale, node, [atoms for _, atoms in p.terms.values()])
         return ONE, node
 
-    def _poly(self, terms: dict[Key, list[Any]], const: sympy.Expr) -> SymbolicScalar:
+    def _poly(self, terms: dict[Key, list[Any]], const: Exact) -> SymbolicScalar:
         if () in terms:  # a Poly's own constant term joins the loose constants
             const = const + terms.pop(())[0]
         kept = {k: (c, atoms) for k, (c, atoms) in terms.items() if c != 0}
@@ -394,7 +399,7 @@ class ScalarBackend(ABC):
         return Poly(self, kept)
 
     # -- leaving the scalar layer ---------------------------------------------------------------------
-    def native(self, value: SymbolicScalar) -> Any:
+    def native(self, value: SymbolicScalar) -> Native:
         """One native expression for a scalar (materialised once per Poly)."""
         if self.is_exact(value):
             return self.constant(value)
@@ -404,17 +409,17 @@ class ScalarBackend(ABC):
             value._native = node if factor == 1 else self._emit(scaled)
         return value._native
 
-    def _emit(self, p: Poly) -> Any:
+    def _emit(self, p: Poly) -> Native:
         """Σ ±terms, with terms sharing a coefficient magnitude c ≠ 1 summed first and scaled once."""
-        groups: dict[sympy.Expr, tuple[list[Any], list[Any]]] = {}
+        groups: dict[Exact, tuple[list[Native], list[Native]]] = {}
         for coef, atoms in p.terms.values():
-            negative = bool(coef.is_extended_negative)
-            magnitude = -coef if negative else coef
+            is_negative = bool(coef.is_extended_negative)
+            magnitude = -coef if is_negative else coef
             if atoms:
                 value = self.native_product(atoms)
             else:  # the constant term
                 value, magnitude = self.constant(magnitude), ONE
-            groups.setdefault(magnitude, ([], []))[negative].append(value)
+            groups.setdefault(magnitude, ([], []))[is_negative].append(value)
         positive, negative = groups.pop(ONE, ([], []))
         for magnitude, (pos, neg) in groups.items():
             if pos:
@@ -424,7 +429,7 @@ class ScalarBackend(ABC):
         return self.native_sum(positive, negative)
 
 
-def exact_call(fn: str, *args: sympy.Expr) -> sympy.Expr:
+def exact_call(fn: str, *args: Exact) -> Exact:
     """A math function of exact arguments: exact when the value is rational or a short algebraic
     number (cos(π/4) = √2/2), otherwise the exact value of its nearest double — carrying cos(1/7)
     symbolically through a kinematic chain costs much and gains nothing."""
@@ -444,19 +449,19 @@ class BackendMath:
     def __init__(self, backend: ScalarBackend) -> None:
         self._backend = backend
 
-    def lt(self, a: Any, b: Any) -> Any:
+    def lt(self, a: Scalar, b: Scalar) -> bool | Native:
         return self._backend.less(a, b)
 
-    def if_else(self, cond: Any, a: Any, b: Any) -> SymbolicScalar:
+    def if_else(self, cond: bool | Native, a: Scalar, b: Scalar) -> SymbolicScalar:
         return self._backend.select(cond, a, b)
 
-    def shared(self, a: Any) -> SymbolicScalar:
+    def shared(self, a: Scalar) -> SymbolicScalar:
         """``a`` as one node, computed once: products with it stay binary instead of expanding it
         into its terms (e.g. cos q = c² − s² of a joint, reused by every frame vector)."""
         value = self._backend.lift(a)
         return value if self._backend.is_exact(value) else self._backend.lift(self._backend.native(value))
 
-    def __getattr__(self, fn: str) -> Any:
+    def __getattr__(self, fn: str) -> Callable[..., SymbolicScalar]:
         if fn not in EXACT_FUNCTIONS:
             raise AttributeError(f"no math function {fn!r}; known: {', '.join(MATH_FUNCTIONS)}")
         return lambda *args: self._backend.call(fn, *args)

@@ -14,14 +14,15 @@ import re
 from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeAlias
 
 import casadi as ca
 import numpy as np
 import sympy
 
 from gagen.algebra.multivector import SparseMultivector
-from gagen.symbolic.backend import ScalarBackend
+from gagen.algebra.scalars import Scalar
+from gagen.symbolic.backend import ScalarBackend, SymbolicScalar
 
 
 @dataclass(frozen=True)
@@ -86,10 +87,11 @@ class FlatKernel:
         return self.evaluate(*arrays)
 
 
-Value = SparseMultivector | Sequence[Any] | Any
+Value: TypeAlias = SparseMultivector | Sequence[Scalar] | Scalar  # a port's value: a multivector or scalars
 
 
-def _port(name: str, value: Value, backend: ScalarBackend, is_input: bool) -> tuple[Port, list[Any]]:
+def _port(name: str, value: Value, backend: ScalarBackend,
+          is_input: bool) -> tuple[Port, list[SymbolicScalar]]:
     """Layout and scalar entries of a port (exact constants kept as-is for outputs)."""
     if isinstance(value, SparseMultivector):
         labels = tuple(value.algebra.blade_name(b) for b in value.support)
@@ -145,7 +147,9 @@ def casadi_op_count(f: ca.Function) -> OpCount:
     return OpCount(kinds["mul"], kinds["add"], kinds["neg"], kinds["div"], dict(sorted(calls.items())))
 
 
-def _flatten_casadi(name, in_ports, in_entries, out_ports, out_entries, backend) -> FlatKernel:
+def _flatten_casadi(name: str, in_ports: Sequence[Port], in_entries: Sequence[list[SymbolicScalar]],
+                    out_ports: Sequence[Port], out_entries: Sequence[list[SymbolicScalar]],
+                    backend: ScalarBackend) -> FlatKernel:
     sym_in = [ca.vertcat(*(backend.native(x) for x in e)) for e in in_entries]
     flat = [backend.native(e) for es in out_entries for e in es]
     joined = ca.cse(ca.vertcat(*flat)) if flat else ca.SX(0, 1)
@@ -206,7 +210,9 @@ def sympy_op_count(exprs: Sequence[sympy.Expr]) -> OpCount:
     return OpCount(kinds["mul"], kinds["add"], kinds["neg"], kinds["div"], dict(sorted(calls.items())))
 
 
-def _flatten_sympy(name, in_ports, in_entries, out_ports, out_entries, backend) -> FlatKernel:
+def _flatten_sympy(name: str, in_ports: Sequence[Port], in_entries: Sequence[list[SymbolicScalar]],
+                   out_ports: Sequence[Port], out_entries: Sequence[list[SymbolicScalar]],
+                   backend: ScalarBackend) -> FlatKernel:
     symbols = [backend.native(s) for es in in_entries for s in es]
     exprs = [sympy.sympify(backend.native(e)) for es in out_entries for e in es]
     fn = sympy.lambdify(symbols, exprs, modules="numpy", cse=True)

@@ -6,13 +6,13 @@ with symbolic x). Use it for derivations and checks, CasADi SX for robot-scale k
 
 from __future__ import annotations
 
-from collections.abc import Hashable, Sequence
-from typing import Any
+from collections.abc import Sequence
 
 import sympy
 from sympy.core.sorting import default_sort_key
 
-from gagen.symbolic.backend import EXACT_FUNCTIONS, ScalarBackend
+from gagen.algebra.scalars import Exact, Native
+from gagen.symbolic.backend import EXACT_FUNCTIONS, AtomKey, ScalarBackend
 
 
 class SympyBackend(ScalarBackend):
@@ -20,38 +20,38 @@ class SympyBackend(ScalarBackend):
 
     expand_all = True
 
-    def symbols(self, name: str, labels: Sequence[str]) -> list[Any]:
+    def symbols(self, name: str, labels: Sequence[str]) -> list[Native]:
         return [sympy.Symbol(f"{name}_{label}", real=True) for label in labels]
 
-    def is_native(self, value: Any) -> bool:
+    def is_native(self, value: object) -> bool:
         return isinstance(value, sympy.Expr) and not value.is_number
 
-    def constant(self, value: sympy.Expr) -> Any:
+    def constant(self, value: Exact) -> Native:
         return value  # sympy keeps constants exact all the way
 
-    def key(self, value: Any) -> Hashable:
+    def key(self, value: Native) -> AtomKey:
         return default_sort_key(value)
 
-    def native_product(self, factors: Sequence[Any]) -> Any:
+    def native_product(self, factors: Sequence[Native]) -> Native:
         return sympy.Mul(*factors)
 
-    def native_sum(self, positive: Sequence[Any], negative: Sequence[Any]) -> Any:
+    def native_sum(self, positive: Sequence[Native], negative: Sequence[Native]) -> Native:
         return sympy.Add(*positive) - sympy.Add(*negative)
 
-    def native_scale(self, value: sympy.Expr, x: Any) -> Any:
+    def native_scale(self, value: Exact, x: Native) -> Native:
         return value * x
 
-    def native_constant_value(self, x: Any) -> float | None:
+    def native_constant_value(self, x: Native) -> float | None:
         return None  # numbers never get here: lift() takes them as exact constants
 
-    def native_call(self, fn: str, *args: Any) -> Any:
+    def native_call(self, fn: str, *args: Native) -> Native:
         return EXACT_FUNCTIONS[fn](*args)
 
-    def native_divide(self, a: Any, b: Any) -> Any:
+    def native_divide(self, a: Native, b: Native) -> Native:
         return a / b
 
-    def native_less(self, a: Any, b: Any) -> Any:
+    def native_less(self, a: Native, b: Native) -> Native:
         return sympy.Lt(a, b)
 
-    def native_select(self, cond: Any, a: Any, b: Any) -> Any:
+    def native_select(self, cond: Native, a: Native, b: Native) -> Native:
         return sympy.Piecewise((a, cond), (b, True))

@@ -52,7 +52,7 @@ def _system(name: str):
     from gagen.registry import resolve_spec
     from gagen.robots.spec import load_system
 
-    return load_system(resolve_spec(name, "cooperative"))
+    return load_system(resolve_spec(name, "cooperative", "system"))
 
 
 def configuration(args: argparse.Namespace, system, named: dict[str, list[float]]) -> Any:

@@ -22,8 +22,9 @@ import pytest
 from conftest import BUNDLED, FAST_MODULES, bundled_module, committed_modules, tiered
 
 from gagen.apps.cooperative.bundled import bundled_specs, bundled_systems, ready_configuration
+from gagen.apps.cooperative.check import check_module
 from gagen.build import build, build_source, load_source, render
-from gagen.check import check_kernels, check_module, failures
+from gagen.check import check_kernels, failures
 from gagen.errors import SpecError
 from gagen.runtime import load
 

@@ -75,6 +75,7 @@ def test_a_non_editable_install_builds_a_python_file_of_kernels_and_loads_it(tmp
     ours = sorted(p.relative_to(REPO / "gagen").as_posix() for p in (REPO / "gagen").rglob("*.j2"))
     assert shipped == ours and "codegen/backends/cpython/templates/binding.c.j2" in ours
     assert (installed / "control" / "smc" / "smc_loop.c").is_file()
+    assert (installed / "py.typed").is_file()  # the annotations are part of the package (PEP 561)
     bundled = sorted(p.name for p in (installed / "apps" / "cooperative" / "robots").glob("*.yaml"))
     assert bundled == sorted(p.name for p in (REPO / "robots").glob("*.yaml")) and len(bundled) == 13
     traces = sorted(p.name for p in (installed / "apps" / "cooperative" / "traces").glob("*.csv"))

@@ -19,8 +19,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gagen.algebra.signature import cga3d
-from gagen.control import goals
-from gagen.control import solve_ik
+from gagen.control import goals, solve_ik
 from gagen.conventions import from_pinocchio_world, motor_to_homogeneous, to_pinocchio_world
 from gagen.interp import MultiVector
 from gagen.model.conformal import SIMILARITY

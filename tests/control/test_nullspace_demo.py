@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from gagen.apps.cooperative import nullspace_demo as nd
+from gagen.cli import main as gagen_main
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -101,7 +102,7 @@ def test_plot_shows_the_recorded_numbers(runs, tmp_path):
 
 
 def test_main_prints_the_final_numbers(tmp_path, capsys):
-    assert nd.main(["--out", str(tmp_path), "--steps", "100", "--dt", "0.04"]) == 0
+    assert gagen_main(["nullspace", "--out", str(tmp_path), "--steps", "100", "--dt", "0.04"]) == 0
     out = capsys.readouterr().out
     assert "projected" in out and "not projected" in out and "similarity distance max" in out
     assert _png_size(tmp_path / nd.PLOT_NAME) == (1200, 800)

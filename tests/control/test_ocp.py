@@ -17,6 +17,7 @@ import pytest
 
 from gagen.algebra.signature import cga3d
 from gagen.apps.cooperative import scenarios
+from gagen.cli import main as gagen_main
 from gagen.control.ocp import (
     BLADES,
     ReachingOCP,
@@ -319,7 +320,7 @@ def test_joint_limits_from_urdf():
 
 @pytest.mark.compiling
 def test_command_line(tmp_path: Path, capsys):
-    assert scenarios.main(["plane", "--out", str(tmp_path), "--N", "10"]) == 0
+    assert gagen_main(["reach", "plane", "--out", str(tmp_path), "--N", "10"]) == 0
     out = capsys.readouterr().out
     assert "plane (leap_three_fingers_plane, 12 DOF, N = 10)" in out and "iterations" in out and "‖e‖" in out
     assert (tmp_path / "plane_command.png").read_bytes()[:8] == PNG

@@ -18,6 +18,7 @@ import pytest
 from test_ocp import check_dynamics_and_bounds, check_reached, circle_problem
 
 from gagen.apps.cooperative import scenarios
+from gagen.cli import main as gagen_main
 from gagen.control.ocp import BLADES, ReachingOCP, reach, target_from
 
 N = 15
@@ -161,9 +162,10 @@ def test_gauss_newton_reaches_a_solution_of_the_same_nlp():
 
 @pytest.mark.compiling
 def test_command_line_solver_options(tmp_path: Path, capsys):
-    assert scenarios.main(["plane", "--out", str(tmp_path), "--N", "10", "--solver", "fatrop"]) == 0
+    assert gagen_main(["reach", "plane", "--out", str(tmp_path), "--N", "10", "--solver", "fatrop"]) == 0
     out = capsys.readouterr().out
     assert "plane (leap_three_fingers_plane, 12 DOF, N = 10): fatrop, exact Hessian:" in out
     assert "reached" in out
-    assert scenarios.main(["line", "--out", str(tmp_path), "--N", "10", "--hessian", "gauss-newton"]) == 0
+    assert gagen_main(["reach", "line", "--out", str(tmp_path), "--N", "10",
+                       "--hessian", "gauss-newton"]) == 0
     assert "N = 10): ipopt, gauss-newton Hessian:" in capsys.readouterr().out

@@ -12,6 +12,7 @@ from conftest import bundled_module, tiered
 
 import gagen.check as check
 from gagen.apps.cooperative.catalogue import kernel_functions
+from gagen.apps.cooperative.check import check_module
 from gagen.model.kinematics import Joint
 from gagen.robots.spec import load_system
 from gagen.robots.system import Chain, System
@@ -70,7 +71,7 @@ def test_a_planted_error_is_caught_and_named(panda, kernel, output, factor, path
     system, configurations, module = panda
     index = [p["name"] for p in next(k for k in module.manifest["kernels"] if k["name"] == kernel)["outputs"]]
     planted = _Planted(module, kernel, index.index(output), factor, path)
-    report = check.check_module(planted, system, configurations, count=2)
+    report = check_module(planted, system, configurations, count=2)
     failed = check.failures(report)
     assert [(d.kernel, d.output) for d in failed] == [(kernel, output)]
     d = failed[0]
@@ -122,7 +123,7 @@ def test_correct_leap_jacobians_pass_with_relative_step_adapted_differences():
     kernel_jb = np.asarray(module.c.similarity_jacobians(q)[2]).reshape(plain.shape)
     assert np.max(np.abs(plain - kernel_jb)) > 1e-6
     # the new one: every output within its relative tolerance, the differences well inside theirs
-    report = check.check_module(module, system, {"wide": WIDE_LEAP}, count=0)
+    report = check_module(module, system, {"wide": WIDE_LEAP}, count=0)
     assert check.failures(report) == []
     assert max(d.worst for d in report if d.reference == check.DIFFERENCES) < 1e-8
 
@@ -174,7 +175,7 @@ def test_every_named_configuration_is_checked(panda):
              "stretched": [0.3, 0.2, -0.1, -1.0, 0.2, 1.2, 0.0],
              "folded": [-0.5, -1.2, 0.4, -2.8, -0.3, 2.5, 1.0]}
     recorder = _Planted(module, "none", 0, 1.0, "single")
-    report = check.check_module(recorder, system, named, count=1)
+    report = check_module(recorder, system, named, count=1)
     assert check.failures(report) == []
     for q in named.values():
         assert sum(np.array_equal(seen, q) for seen in recorder.seen) == len(module.manifest["kernels"])

@@ -132,7 +132,7 @@ def _ad_jacobian(kernel, x: np.ndarray) -> np.ndarray:
 
 
 def _fd_jacobian(formula: Formula, kernel, x: np.ndarray, h: float = 1e-6) -> np.ndarray:
-    blades = [ALG.blade(label) for label in kernel.outputs[0].labels]
+    blades = [ALG.blade(label) for label in kernel.outputs[0].rows]
     cols = []
     for i in range(len(x)):
         step = np.zeros_like(x)

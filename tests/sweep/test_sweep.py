@@ -45,9 +45,9 @@ def test_manipulability_numbers_against_single_calls(tmp_path):
     the viewer's circumcircle of the arms' end points."""
     from gagen.apps.cooperative.bundled import bundled_systems
     from gagen.apps.cooperative.mpc_demo import circle_of
-    from gagen.robots.points import end_points
     from gagen.check import joint_limits
     from gagen.control.differential import manipulability_index
+    from gagen.robots.points import end_points
     from gagen.sweep.problems import _module
 
     sweep = Manipulability(samples=300, chunk=150, seed=5)
@@ -70,9 +70,9 @@ def test_manipulability_numbers_against_single_calls(tmp_path):
 
 
 def test_reach_on_two_workers_equals_the_serial_loop_and_single_solves(client, tmp_path):
-    from gagen.control import goals
     from gagen.apps.cooperative.bundled import bundled_systems, ready_configuration, system_module
     from gagen.check import joint_limits
+    from gagen.control import goals
     from gagen.control.ilqr import ILQR
 
     outcome = run(SMALL_REACH, tmp_path / "dask", client=client, progress=False)

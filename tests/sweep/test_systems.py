@@ -78,9 +78,9 @@ def test_another_systems_numbers_equal_single_kernel_calls(tmp_path, name, grid)
 def test_a_sphere_systems_reach_target_equals_a_direct_solve(tmp_path):
     """One target sphere, the ready sphere's (rounded) centre and radius, solved by the sweep and by the
     iLQR called here on the spec's own pieces."""
-    from gagen.control import goals
     from gagen.apps.cooperative.bundled import system_module
     from gagen.check import joint_limits
+    from gagen.control import goals
     from gagen.control.ilqr import ILQR
 
     sweep = Reach(grid=1, N=20, chunk=1, system="four_pandas_sphere")

@@ -84,7 +84,7 @@ def test_versor_times_its_inverse_is_one(vectors):
     v = versor_from_vectors(cga3d(), vectors)
     kernel = _compiled(_VERSOR)
     (out,) = kernel([v.coeffs[m] for m in _VERSOR.inputs[0][1]])
-    dense = dict(zip(kernel.outputs[0].labels, out, strict=True))
+    dense = dict(zip(kernel.outputs[0].rows, out, strict=True))
     assert abs(dense.pop("1") - 1) < 1e-12
     assert all(abs(c) < 1e-12 for c in dense.values())
 
@@ -113,8 +113,8 @@ def test_meet_of_two_planes_is_their_common_line(a, b, c, d):
     meet_k, line_k = _compiled(_MEET), _compiled(_LINE)
     (meet,) = meet_k(a, b, c, d)
     (line,) = line_k(a, b)
-    m = dict(zip(meet_k.outputs[0].labels, meet, strict=True))
-    l_ = dict(zip(line_k.outputs[0].labels, line, strict=True))
+    m = dict(zip(meet_k.outputs[0].rows, meet, strict=True))
+    l_ = dict(zip(line_k.outputs[0].rows, line, strict=True))
     keys = sorted(set(m) | set(l_))
     mv, lv = np.array([m.get(k, 0.0) for k in keys]), np.array([l_.get(k, 0.0) for k in keys])
     scale = mv @ lv / (lv @ lv)

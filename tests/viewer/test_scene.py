@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from gagen.apps.cooperative.bundled import bundled_systems, ready_configuration
+from gagen.cli import main as gagen_main
 from gagen.viewer.geometry import system_pose
 from gagen.viewer.scene import Scene, serve
 
@@ -143,7 +144,7 @@ def test_the_demos_view_flags_play_their_trajectories(monkeypatch, tmp_path):
     """``gagen nullspace --view`` and ``gagen reach … --view`` hand their joint trajectories to serve()."""
     from types import SimpleNamespace
 
-    from gagen.apps.cooperative import nullspace_demo, scenarios
+    from gagen.apps.cooperative import scenarios
     from gagen.viewer import scene as scene_module
 
     served = []
@@ -153,7 +154,7 @@ def test_the_demos_view_flags_play_their_trajectories(monkeypatch, tmp_path):
         scene.close()
 
     monkeypatch.setattr(scene_module, "serve", fake_serve)
-    assert nullspace_demo.main(["--out", str(tmp_path), "--steps", "4", "--view", "--port", "0"]) == 0
+    assert gagen_main(["nullspace", "--out", str(tmp_path), "--steps", "4", "--view", "--port", "0"]) == 0
     assert served.pop() == ("three_pandas_circle", "127.0.0.1", [("projected: q̇ = N(q) q̇_sec", (5, 21)),
                                                                  ("not projected: q̇ = q̇_sec", (5, 21))])
     q = np.zeros((11, 17))

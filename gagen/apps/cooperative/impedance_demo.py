@@ -23,7 +23,6 @@ The same controller runs on a plane (``three_iiwas_plane``) with the tuned gains
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -152,13 +151,3 @@ def run_command(args: argparse.Namespace) -> int:
         serve(Scene(bundled_systems()[SYSTEMS["circle"]], cases[0][2][0], port=args.port), cases)
     tuned = [r for r in results if r.gains == "tuned"]
     return 0 if all(max(r.final_errors) < CONVERGED for r in tuned) else 1
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    from gagen.apps.cooperative.commands import verb
-
-    return verb("impedance").main(argv, prog="python -m gagen.apps.cooperative.impedance_demo")
-
-
-if __name__ == "__main__":
-    sys.exit(main())

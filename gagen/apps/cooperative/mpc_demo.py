@@ -18,8 +18,6 @@ against the target's; the animation shows the end points and both circles.
 from __future__ import annotations
 
 import argparse
-import sys
-from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -176,13 +174,3 @@ def run_command(args: argparse.Namespace) -> int:
 
         serve(Scene(bundled_systems()[SYSTEM], result.q[0], port=args.port), [("MPC", result.t, result.q)])
     return 0
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    from gagen.apps.cooperative.commands import verb
-
-    return verb("mpc").main(argv, prog="python -m gagen.apps.cooperative.mpc_demo")
-
-
-if __name__ == "__main__":
-    sys.exit(main())

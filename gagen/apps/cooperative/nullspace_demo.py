@@ -34,7 +34,6 @@ tangent, (v dt)² / 2r off the circle).
 from __future__ import annotations
 
 import argparse
-import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cache
@@ -284,13 +283,3 @@ def run_command(args: argparse.Namespace) -> int:
         serve(Scene(bundled_systems()[SYSTEM], results[0].q[0], port=args.port),
               [(r.label, r.t, r.q) for r in results])
     return 0
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    from gagen.apps.cooperative.commands import verb
-
-    return verb("nullspace").main(argv, prog="python -m gagen.apps.cooperative.nullspace_demo")
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -12,9 +12,9 @@ and writes two plots into an output folder:
   (red) and, for rounds, the centre's path; circles and spheres are drawn from centre, radius (and
   normal), lines and planes as a segment or patch around the end points.
 
-    python -m gagen.apps.cooperative.scenarios circle --out plots/ [--N 100] [--horizon 2.5]
-    python -m gagen.apps.cooperative.scenarios all --out plots/
-    python -m gagen.apps.cooperative.scenarios circle --solver fatrop      # or --hessian gauss-newton
+    gagen reach circle --out plots/ [--N 100] [--horizon 2.5]
+    gagen reach all --out plots/
+    gagen reach circle --solver fatrop      # or --hessian gauss-newton
 """
 
 from __future__ import annotations
@@ -323,13 +323,3 @@ def view(results: Sequence[ScenarioResult], port: int) -> None:
         t = r.result.dt * np.arange(r.result.q.shape[0])
         print(f"{r.scenario.name}: {r.scenario.title}")
         serve(Scene(system, r.result.q[0], port=port), [(r.scenario.name, t, r.result.q)])
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    from gagen.apps.cooperative.commands import verb
-
-    return verb("reach").main(argv, prog="python -m gagen.apps.cooperative.scenarios")
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -49,7 +49,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -249,7 +248,7 @@ def kernels(module: GeneratedModule, backend: str = "c") -> Kernels:
 
 @cache
 def bundled_kernels(system: str, backend: str = "c") -> Kernels:
-    """``Kernels`` of a bundled system's committed module (generated/<system>)."""
+    """``Kernels`` of a bundled system's module (built on first use: ``system_module``)."""
     if system not in bundled_systems():
         raise ValueError(f"unknown system {system!r}; bundled: {', '.join(sorted(bundled_systems()))}")
     return kernels(system_module(system), backend)
@@ -564,13 +563,3 @@ def run_command(args: argparse.Namespace) -> int:
         serve(Scene(bundled_systems()[args.system], result.q[0], port=args.port),
               [(f"{args.system} teleoperation", result.t, result.q)])
     return 0 if bool(np.all(result.converged)) else 1
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    from gagen.apps.cooperative.commands import verb
-
-    return verb("teleop").main(argv, prog="python -m gagen.apps.cooperative.teleop")
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -6,7 +6,8 @@ Modules: ``spec`` (the YAML schema and its loader), ``legs`` (the formulas, over
 ``gagen build``), ``urdf`` (the URDF written from a spec), ``gait`` (the walking demo).
 """
 
-from gagen.apps.hexapod.commands import BUNDLED, VERBS
+from gagen.apps.hexapod.bundled import BUNDLED
+from gagen.apps.hexapod.commands import VERBS
 from gagen.registry import App, SpecKind
 
 APP = App("hexapod", "hexapod legs in PGA and CGA [HEX]",

@@ -7,11 +7,9 @@ import math
 import sys
 from pathlib import Path
 
+from gagen.apps.hexapod.bundled import SPEC
 from gagen.arguments import positive_float, positive_int
 from gagen.registry import Verb
-
-BUNDLED = Path(__file__).resolve().parent / "robots"  # the bundled specs
-SPEC = BUNDLED / "hexapod.yaml"  # the bundled hexapod
 
 
 def _walk_arguments(parser: argparse.ArgumentParser) -> None:

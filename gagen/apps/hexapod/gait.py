@@ -47,7 +47,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from gagen.apps.hexapod.commands import SPEC
+from gagen.apps.hexapod.bundled import SPEC
 from gagen.apps.hexapod.kernels import toe_position
 from gagen.apps.hexapod.spec import Hexapod, Leg, load_hexapod
 
@@ -63,7 +63,7 @@ def hexapod_module(spec: str | Path = SPEC, folder: str | Path | None = None,
     ``folder``: build into it (``gagen.build.build``, a no-op when up to date) and load it. Without
     it, where ``gagen.modules.module_folder`` puts it: the checkout's committed ``generated/<name>``
     for the bundled spec (rebuilt on first use in a fresh clone, which has no CasADi files), else
-    the gagen cache (``gagen.frontend.cache_root()/<name>-<key>``), built once per spec file.
+    the gagen cache (``gagen.build.cache_root()/<name>-<key>``), built once per spec file.
     """
     from gagen.modules import module_folder
     from gagen.runtime import load

@@ -31,8 +31,17 @@ from pathlib import Path
 from typing import Any
 
 from gagen.errors import SpecError
-from gagen.robots.urdf import MAX_ANGLE, MIN_AXIS
-from gagen.yaml_document import Document, identifier, known_keys, number, require, show, vector
+from gagen.yaml_document import (
+    MAX_ANGLE,
+    MIN_AXIS,
+    Document,
+    identifier,
+    known_keys,
+    number,
+    require,
+    show,
+    vector,
+)
 
 TOP_KEYS = ("app", "name", "leg", "legs", "knee", "neutral")
 LEG_KEYS = ("lengths", "axes", "limits")

@@ -9,8 +9,6 @@ from pathlib import Path
 from gagen.arguments import positive_int
 from gagen.registry import Verb
 
-BUNDLED = Path(__file__).resolve().parent / "robots"  # the bundled mechanisms
-
 
 def _linkage_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("spec", nargs="*", help="linkage spec(s) (default: every bundled one in "

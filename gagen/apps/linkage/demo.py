@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from gagen.apps.linkage import plots
-from gagen.apps.linkage.commands import BUNDLED as ROBOTS
+from gagen.apps.linkage.bundled import BUNDLED as ROBOTS
 from gagen.apps.linkage.solver import Trajectory, kernels, simulate
 from gagen.apps.linkage.spec import Linkage
 

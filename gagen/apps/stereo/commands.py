@@ -7,11 +7,9 @@ import argparse
 import sys
 from pathlib import Path
 
+from gagen.apps.stereo.bundled import RIG
 from gagen.arguments import non_negative_float, non_negative_int, positive_float
 from gagen.registry import Verb
-
-BUNDLED = Path(__file__).resolve().parent / "robots"  # the bundled rigs
-RIG = BUNDLED / "stereo_rig.yaml"  # the bundled rig
 
 
 def _stereo_arguments(parser: argparse.ArgumentParser) -> None:

@@ -18,13 +18,15 @@ this registry. Adding a backend: a package ``backends/<name>/`` whose ``BACKEND`
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from gagen.codegen.backends import c, casadi, cpython, jax
 from gagen.codegen.backends.base import Backend, Context, Output, TemplateNotFound, module_name, module_tag
 
 BACKENDS: dict[str, Backend] = {b.name: b for b in (casadi.BACKEND, c.BACKEND, cpython.BACKEND, jax.BACKEND)}
 
 
-def select(names: list[str] | tuple[str, ...] | None = None) -> list[Backend]:
+def select(names: Sequence[str] | None = None) -> list[Backend]:
     """The backends of these names (default: all), in registry order; ValueError for an unknown name
     or a missing requirement."""
     if names is None:

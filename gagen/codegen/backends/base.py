@@ -141,7 +141,7 @@ def environment(folder: Path) -> jinja2.Environment:
 
 def module_name(manifest: Mapping[str, Any]) -> str:
     """The module's name."""
-    return manifest["module"]
+    return str(manifest["module"])
 
 
 def module_tag(manifest: Mapping[str, Any]) -> str:

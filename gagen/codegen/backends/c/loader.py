@@ -12,17 +12,15 @@ from __future__ import annotations
 import ctypes
 import functools
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from functools import cached_property
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from gagen.codegen.backends.base import LoadedModule
 from gagen.symbolic.flatten import Port
-
-if TYPE_CHECKING:
-    from gagen.codegen.backends.base import LoadedModule
 
 Array = NDArray[np.float64]
 
@@ -32,7 +30,7 @@ def port(entry: dict[str, Any]) -> Port:
     return Port(entry["name"], tuple(entry["rows"]), int(entry["cols"]))
 
 
-def _real(value: Any, what: str) -> np.ndarray:
+def _real(value: Any, what: str) -> NDArray[Any]:
     """``value`` as an array of real numbers (float up to 64 bits, or integers), else TypeError."""
     try:
         a = np.asarray(value)  # ndarray subclasses (np.matrix) become plain arrays
@@ -46,8 +44,9 @@ def _real(value: Any, what: str) -> np.ndarray:
                     f"got dtype {a.dtype}")
 
 
-def _address(a: np.ndarray) -> int:
-    return a.__array_interface__["data"][0]
+def _address(a: NDArray[Any]) -> int:
+    address: int = a.__array_interface__["data"][0]
+    return address
 
 
 class Signature:
@@ -56,11 +55,11 @@ class Signature:
     the binding too (so both paths give the same results and the same errors)."""
 
     def __init__(self, entry: dict[str, Any]) -> None:
-        self.name = entry["name"]
+        self.name: str = entry["name"]
         self.inputs = [port(p) for p in entry["inputs"]]
         self.outputs = [port(p) for p in entry["outputs"]]
 
-    def arity(self, args: tuple, what: str = "") -> None:
+    def arity(self, args: tuple[Any, ...], what: str = "") -> None:
         if len(args) != len(self.inputs):
             raise TypeError(f"{self.name}{what} takes {len(self.inputs)} inputs "
                             f"({', '.join(p.name for p in self.inputs)}), got {len(args)}")
@@ -85,14 +84,14 @@ class Signature:
                              f"({port.size},) in column-major order); got shape {a.shape}")
         return np.ascontiguousarray(flat, dtype=np.float64)
 
-    def single_inputs(self, args: tuple) -> list[np.ndarray]:
+    def single_inputs(self, args: tuple[Any, ...]) -> list[Array]:
         self.arity(args)
         return [self.single_input(p, a) for p, a in zip(self.inputs, args, strict=True)]
 
-    def empty(self) -> tuple[np.ndarray, ...]:
+    def empty(self) -> tuple[Array, ...]:
         return tuple(np.empty(p.array_shape, order="F") for p in self.outputs)
 
-    def out_arrays(self, out: Any) -> tuple[np.ndarray, ...]:
+    def out_arrays(self, out: Any) -> tuple[Array, ...]:
         """Check caller-owned outputs: one writeable, aligned, native float64 Fortran-ordered array of
         the returned shape per output."""
         if isinstance(out, np.ndarray):
@@ -124,20 +123,21 @@ class Signature:
                                      f"{self.outputs[j].name} overlap")
         return arrays
 
-    def no_overlap(self, outs: tuple[np.ndarray, ...], ins: list[np.ndarray]) -> None:
+    def no_overlap(self, outs: tuple[Array, ...], ins: list[Array]) -> None:
         for a, port in zip(outs, self.outputs, strict=True):
             for b, inport in zip(ins, self.inputs, strict=True):
                 if np.may_share_memory(a, b):
                     raise ValueError(f"{self.name}: out array for {port.name} overlaps input {inport.name}")
 
-    def result(self, outs: tuple[np.ndarray, ...]) -> Any:
+    def result(self, outs: tuple[Array, ...]) -> Any:
         return outs[0] if len(outs) == 1 else outs
 
-    def samples(self, args: tuple, columns: bool) -> tuple[int, list[np.ndarray]]:
+    def samples(self, args: tuple[Any, ...], columns: bool) -> tuple[int, list[Array]]:
         """Batch inputs as C-contiguous float64 (n, size) arrays (or (size, n) for ``columns``)."""
         what = ".batch_columns" if columns else ".batch"
         self.arity(args, what)
-        n, arrays = None, []
+        n: int | None = None
+        arrays: list[Array] = []
         for port, value in zip(self.inputs, args, strict=True):
             a = _real(value, f"{self.name}{what}: input {port.name}")
             size, matrix = port.size, port.shape
@@ -172,10 +172,10 @@ class Signature:
                 raise ValueError(f"{self.name}{what}: input {port.name} has {count} samples, "
                                  f"{self.inputs[0].name} has {n}")
             arrays.append(np.ascontiguousarray(flat, dtype=np.float64))
-        return n, arrays
+        return (0 if n is None else n), arrays
 
 
-def _pointers(arrays: list[np.ndarray] | tuple[np.ndarray, ...]) -> ctypes.Array:
+def _pointers(arrays: Sequence[NDArray[Any]]) -> ctypes.Array[ctypes.c_void_p]:
     """A fresh array of the data pointers (per call: nothing shared between calls or threads)."""
     return (ctypes.c_void_p * len(arrays))(*[_address(a) for a in arrays])
 
@@ -279,7 +279,7 @@ class CKernel:
         """The C source of the module this kernel was compiled from (every kernel of the module)."""
         if self.module is None:
             raise AttributeError(f"{self.name}: loaded without its module")
-        return (self.module.folder / self.module.manifest["c_source"]).read_text()
+        return (self.module.folder / str(self.module.manifest["c_source"])).read_text()
 
     def entry_point(self) -> Any:
         """What ``module.c.<kernel>`` hands out: the binding's kernel object, whose attributes are this
@@ -306,7 +306,8 @@ class CKernel:
         outs = self._sig.empty() if out is None else self._sig.out_arrays(out)
         result = self._sig.result(outs)
         if self._make is not None:
-            return self._make(result, None)
+            bound: Callable[..., Any] = self._make(result, None)
+            return bound
         return functools.partial(self._slow, out=result)
 
     @cached_property

@@ -29,7 +29,12 @@ class CasadiBackend(Backend):
     def load(self, module: LoadedModule, kernel: str) -> Any:
         import casadi as ca
 
-        data = gzip.decompress(module.path(module.entry(kernel)["casadi"]).read_bytes())
+        path = module.path(module.entry(kernel)["casadi"])
+        if not path.is_file():  # not committed (binary): a fresh clone's committed modules have none
+            raise FileNotFoundError(f"{path}: no CasADi serialisation (they are not committed); build the "
+                                    f"module again (gagen build {module.manifest.get('source', 'SOURCE')}), "
+                                    "or load it through gagen.modules.bundled_module, which builds it")
+        data = gzip.decompress(path.read_bytes())
         return ca.Function.deserialize(data.decode())
 
 

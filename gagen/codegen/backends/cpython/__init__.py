@@ -63,6 +63,8 @@ class CPythonBackend(Backend):
             return sys.modules[name]
         try:
             spec = importlib.util.spec_from_file_location(name, path)
+            if spec is None or spec.loader is None:
+                raise ImportError(f"{path} cannot be loaded as an extension module")
             binding = importlib.util.module_from_spec(spec)
             spec.loader.exec_module(binding)
         except ImportError as e:  # e.g. built against another numpy: still usable through ctypes

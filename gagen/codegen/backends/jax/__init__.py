@@ -62,7 +62,7 @@ def _kernel(kernel: Kernel) -> dict[str, Any]:
 
 def source_path(manifest: dict[str, Any]) -> str:
     """The file's path in the module folder, as the manifest lists it."""
-    return manifest["jax_source"]
+    return str(manifest["jax_source"])
 
 
 def import_jax() -> Any:

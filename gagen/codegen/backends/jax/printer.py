@@ -118,10 +118,12 @@ def jax_function(function: ca.Function, name: str = "kernel") -> Callable[..., t
     import jax
     import jax.numpy as jnp
 
-    jax.config.update("jax_enable_x64", True)
+    config: Any = jax.config  # (its update is not annotated)
+    config.update("jax_enable_x64", True)
     namespace: dict[str, Any] = {"jnp": jnp}
     exec(compile(jax_source(function, name), f"<gagen jax {name}>", "exec"), namespace)
-    return namespace[name]
+    emitted: Callable[..., tuple[Any, ...]] = namespace[name]
+    return emitted
 
 
 def jax_kernel(module: Any, name: str) -> Callable[..., tuple[Any, ...]]:

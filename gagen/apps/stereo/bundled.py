@@ -1,0 +1,6 @@
+"""Where the stereo application's bundled specs are (``robots/``, shipped with the package)."""
+
+from pathlib import Path
+
+BUNDLED = Path(__file__).resolve().parent / "robots"  # the bundled rigs
+RIG = BUNDLED / "stereo_rig.yaml"  # the bundled rig
