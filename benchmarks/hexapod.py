@@ -51,8 +51,9 @@ import gagen  # noqa: E402
 from gagen.apps.hexapod.kernels import XYZ, hexapod_kernels  # noqa: E402
 from gagen.apps.hexapod.legs import leg_kinematics  # noqa: E402
 from gagen.apps.hexapod.spec import Hexapod, Leg, load_hexapod  # noqa: E402
+from gagen.build import cache_root, compile_kernels  # noqa: E402
 from gagen.codegen.compiler import vector_math_libraries  # noqa: E402
-from gagen.frontend import KernelFunction, cache_root, compile_kernels, source_of  # noqa: E402
+from gagen.frontend import KernelFunction, source_of  # noqa: E402
 from gagen.model.euclidean import GEOMETRIES, cross  # noqa: E402
 from gagen.symbolic.backend import to_exact  # noqa: E402
 

@@ -63,8 +63,9 @@ from gagen.apps.linkage.demo import driver_path  # noqa: E402
 from gagen.apps.linkage.kernels import identity_motors, linkage_kernels  # noqa: E402
 from gagen.apps.linkage.solver import MAX_ITERATIONS, TOLERANCE, Trajectory, kernels, newton, simulate  # noqa: E402
 from gagen.apps.linkage.spec import GROUND, Linkage, Prismatic, Revolute, Slider, load_linkage  # noqa: E402
+from gagen.build import cache_root, compile_kernels  # noqa: E402
 from gagen.codegen.compiler import vector_math_libraries  # noqa: E402
-from gagen.frontend import cache_root, compile_kernels, source_of  # noqa: E402
+from gagen.frontend import source_of  # noqa: E402
 
 ROBOTS = programs.ROOT / "gagen" / "apps" / "linkage" / "robots"
 STEPS = 360  # driver steps per cycle: a crank's 1° steps, a slider's stroke in 1° of its phase

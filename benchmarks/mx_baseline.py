@@ -38,11 +38,11 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from gagen.algebra.signature import Algebra, cga3d  # noqa: E402
-from gagen.robots.system import System, task_error  # noqa: E402
 from gagen.interp.frame import tables  # noqa: E402
 from gagen.interp.multivector import _mask  # noqa: E402
 from gagen.interp.scalar_math import INTERP_MATH  # noqa: E402
 from gagen.model.conformal import SIMILARITY  # noqa: E402
+from gagen.robots.system import System, task_error  # noqa: E402
 
 BladeKey = int | str
 

@@ -114,7 +114,7 @@ class BuildResult:
     cached: bool
     compiled: bool
     seconds: float
-    source: ModuleSource | None = None
+    source: ModuleSource
 
 
 # -- the key and the files ------------------------------------------------------------------------------

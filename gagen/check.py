@@ -29,8 +29,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from gagen.algebra.signature import cga3d
+from gagen.algebra.protocol import Multivector
+from gagen.algebra.signature import Algebra, cga3d
 from gagen.frontend import KernelFunction, split_derivative
 from gagen.interp import MultiVector
 from gagen.model import kinematics as K
@@ -83,11 +85,11 @@ class Discrepancy:
 class Sample:
     label: str  # a configuration's name, or "<name>~<i>" for a random sample near it
     q: np.ndarray
-    desired: MultiVector  # a random V_Sd for the task kernel
+    desired: Multivector  # a random V_Sd for the task kernel
     velocity: np.ndarray  # a random q̇ (rad/s or m/s, each in [−1, 1]) for the rate kernel
 
 
-def relative_error(value, reference: np.ndarray) -> float:
+def relative_error(value: ArrayLike, reference: np.ndarray) -> float:
     """max |value − reference| / max(max |reference|, FLOOR); NaN anywhere gives NaN."""
     value = np.reshape(np.asarray(value, dtype=float), reference.shape)
     scale = max(float(np.max(np.abs(reference))) if reference.size else 0.0, FLOOR)
@@ -99,11 +101,11 @@ def relative_error(value, reference: np.ndarray) -> float:
 class _Entry:
     """A port as the manifest lists it (name, rows, cols)."""
 
-    def __init__(self, entry: Mapping) -> None:
+    def __init__(self, entry: Mapping[str, Any]) -> None:
         self.name, self.rows, self.cols = entry["name"], tuple(entry["rows"]), int(entry["cols"])
 
 
-def _dense_value(value: Any, algebra) -> np.ndarray:
+def _dense_value(value: Any, algebra: Algebra) -> np.ndarray:
     """The interpreter's value of an output as one dense array (multivectors: every coefficient)."""
     if isinstance(value, MultiVector):
         return np.array(value.coeffs, dtype=float)
@@ -114,7 +116,7 @@ def _dense_value(value: Any, algebra) -> np.ndarray:
     return np.array([float(value)])
 
 
-def _rows(dense: np.ndarray, rows: Sequence[str], algebra, is_multivector: bool) -> np.ndarray:
+def _rows(dense: np.ndarray, rows: Sequence[str], algebra: Algebra, is_multivector: bool) -> np.ndarray:
     if is_multivector:
         return np.array([dense[algebra.blade(b)] for b in rows])
     return dense[:len(rows)] if len(dense) >= len(rows) else dense
@@ -150,12 +152,15 @@ class _Differences:
         minus = [np.array(a, dtype=float) for a in arrays]
         plus[port] = plus[port] + h * step.reshape(plus[port].shape)
         minus[port] = minus[port] - h * step.reshape(minus[port].shape)
-        return (self._value(of, plus) - self._value(of, minus)) * (0.5 / h)
+        difference: np.ndarray = (self._value(of, plus) - self._value(of, minus)) * (0.5 / h)
+        return difference
 
-    def _richardson(self, of: str, arrays, port: int, step: np.ndarray, h: float) -> np.ndarray:
+    def _richardson(self, of: str, arrays: Sequence[np.ndarray], port: int, step: np.ndarray,
+                    h: float) -> np.ndarray:
         # the h² error terms of the two central differences cancel
         half, full = (self._central(of, arrays, port, step, s) for s in (h / 2, h))
-        return (4 * half - full) / 3
+        estimate: np.ndarray = (4 * half - full) / 3
+        return estimate
 
     def _adaptive(self, of: str, arrays: Sequence[np.ndarray], port: int, step: np.ndarray,
                   larger: bool = False) -> tuple[np.ndarray, float]:
@@ -188,7 +193,7 @@ class _Differences:
         source, _, post, _ = split_derivative(self.function.jacobians[of])
         return post is not None or self._is_multivector(source, arrays)
 
-    def _columns(self, derivative: tuple, arrays: Sequence[np.ndarray], fixed: float | None = None,
+    def _columns(self, derivative: tuple[Any, ...], arrays: Sequence[np.ndarray], fixed: float | None = None,
                  larger: bool = False) -> tuple[list[np.ndarray], bool, float]:
         """The dense columns of a declared Jacobian by differences, whether they are multivectors, and
         the largest step used: one column per entry of the input, or one along the direction input of a
@@ -215,7 +220,8 @@ class _Differences:
             columns.append(np.asarray(column, dtype=float))
         return columns, is_multivector, used
 
-    def jacobian(self, derivative: tuple, arrays: Sequence[np.ndarray], rows: Sequence[str]) -> np.ndarray:
+    def jacobian(self, derivative: tuple[Any, ...], arrays: Sequence[np.ndarray],
+                 rows: Sequence[str]) -> np.ndarray:
         """The Jacobian output (rows × entries of the input, or rows × 1 along a direction) from
         differences: ∂of/∂wrt, each column passed through ``post(value, column)`` when the Jacobian is a
         transformed one."""
@@ -269,7 +275,8 @@ def check_kernels(module: GeneratedModule, functions: Mapping[str, KernelFunctio
         c_kernel, ca_function = getattr(module.c, name), getattr(module.casadi, name)
         worst: dict[str, list[tuple[float, str]]] = {p.name: [(0.0, "")] * 3 for p in out_ports}
 
-        def note(port: str, path: int, error: float, label: str, worst=worst) -> None:
+        def note(port: str, path: int, error: float, label: str,
+                 worst: dict[str, list[tuple[float, str]]] = worst) -> None:
             current = worst[port][path][0]
             if not np.isnan(current) and (np.isnan(error) or error > current):  # NaN counts as the worst
                 worst[port][path] = (error, label)
@@ -306,9 +313,9 @@ def check_kernels(module: GeneratedModule, functions: Mapping[str, KernelFunctio
             batched = batched if isinstance(batched, tuple) else (batched,)
             for k, port in enumerate(out_ports):
                 shape = (len(points), len(port.rows), port.cols)
-                values = np.reshape(np.asarray(batched[k], dtype=float), shape)
+                batch_values = np.reshape(np.asarray(batched[k], dtype=float), shape)
                 for s, (label, _) in enumerate(points):
-                    note(port.name, 1, relative_error(values[s], references[s][k]), label)
+                    note(port.name, 1, relative_error(batch_values[s], references[s][k]), label)
         found = []
         for port in out_ports:
             by_differences = port.name in derivatives and port.name not in function.returned(
@@ -316,7 +323,8 @@ def check_kernels(module: GeneratedModule, functions: Mapping[str, KernelFunctio
             errors = worst[port.name]
             path = max(range(3), key=lambda p: (np.isnan(errors[p][0]), errors[p][0]))
             found.append(Discrepancy(name, port.name, DIFFERENCES if by_differences else INTERPRETER,
-                                     *(e for e, _ in errors), fd_rtol if by_differences else rtol,
+                                     errors[0][0], errors[1][0], errors[2][0],
+                                     fd_rtol if by_differences else rtol,
                                      errors[path][1], ("C single", "C batched", "CasADi")[path]))
             if port.name in authored:  # (C batched equals C single to the interpreter's tolerance)
                 errors = authored[port.name]
@@ -339,11 +347,11 @@ def joint_limits(system: System) -> tuple[np.ndarray, np.ndarray, list[str]]:
                 found.setdefault((chain.robot or chain.name, joint.name), joint)
     lower, upper, kinds = [], [], []
     for key in system.joint_keys:
-        joint = found.get(key)
-        limits = joint.limits if joint is not None and joint.limits is not None else (-np.inf, np.inf)
+        known = found.get(key)
+        limits = known.limits if known is not None and known.limits is not None else (-np.inf, np.inf)
         lower.append(limits[0])
         upper.append(limits[1])
-        kinds.append(joint.kind if joint is not None else "revolute")
+        kinds.append(known.kind if known is not None else "revolute")
     return np.array(lower, dtype=float), np.array(upper, dtype=float), kinds
 
 
@@ -361,7 +369,7 @@ def samples(system: System, configurations: Mapping[str, Sequence[float]] | Sequ
     centres = list(named.items()) or [("centre", middle)]
     zero = MultiVector.zero(cga3d())
 
-    def desired() -> MultiVector:
+    def desired() -> Multivector:
         generator = zero.make(dict(zip(SIMILARITY_GENERATOR, rng.uniform(-0.5, 0.5, 7), strict=True)))
         return exp_similarity(generator)
 
@@ -379,7 +387,7 @@ def samples(system: System, configurations: Mapping[str, Sequence[float]] | Sequ
     return out
 
 
-def _named(configurations) -> dict[str, np.ndarray]:
+def _named(configurations: Mapping[str, Sequence[float]] | Sequence[float] | None) -> dict[str, np.ndarray]:
     if configurations is None:
         return {}
     if isinstance(configurations, Mapping):

@@ -8,9 +8,13 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from gagen.arguments import non_negative_float, positive_int
 from gagen.registry import Verb
+
+if TYPE_CHECKING:
+    from gagen.build import BuildResult
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
@@ -99,7 +103,7 @@ def _cmd_build(args: argparse.Namespace) -> int:
     return status
 
 
-def _check_kernels(result, samples: int, tolerance: float) -> int:
+def _check_kernels(result: BuildResult, samples: int, tolerance: float) -> int:
     """The kernels of a Python file against their functions run on the interpreter (``gagen.check``)."""
     from gagen.check import check_kernels, failures, format_report
     from gagen.runtime import load

@@ -67,7 +67,8 @@ def _random_motor(rng: np.random.Generator) -> np.ndarray:
 
 
 def _inputs(formula: Formula, rng: np.random.Generator) -> list[np.ndarray]:
-    return [_random_motor(rng) if blades == MOTOR else rng.uniform(-1, 1, len(blades))
+    return [_random_motor(rng) if blades == MOTOR
+            else rng.uniform(-1, 1, blades if isinstance(blades, int) else len(blades))
             for _, blades in formula.inputs]
 
 

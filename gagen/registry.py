@@ -139,4 +139,5 @@ def resolve_spec(name_or_path: str | Path, app: str | None = None, what: str = "
     path = Path(name_or_path)
     if path.is_file():
         return path
-    raise ValueError(f"{what} {str(name_or_path)!r}: not a bundled {what} ({', '.join(specs)}) nor a spec file")
+    raise ValueError(f"{what} {str(name_or_path)!r}: not a bundled {what} ({', '.join(specs)}) nor a spec "
+                     "file")

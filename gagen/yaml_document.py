@@ -11,7 +11,7 @@ from __future__ import annotations
 import difflib
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import yaml
 
@@ -44,7 +44,7 @@ class Document:
                 if node is not None:
                     _check_size(path, node)
                     self.lines = _lines(path, node)
-                self.data = None if node is None else loader.construct_document(node)
+                data = None if node is None else loader.construct_document(node)
             finally:
                 loader.dispose()
         except SpecError:
@@ -57,8 +57,9 @@ class Document:
             raise SpecError(path, "spec", "not a spec: nested too deeply") from e
         except (ValueError, TypeError, OverflowError) as e:  # PyYAML's constructors (e.g. a bad date)
             raise SpecError(path, "spec", f"not valid YAML: {type(e).__name__}: {e}") from e
-        if not isinstance(self.data, dict):
+        if not isinstance(data, dict):
             raise SpecError(path, "spec", expected)
+        self.data: dict[Any, Any] = data
 
     def error(self, field: str, expected: str) -> SpecError:
         line = self.lines.get(field)
@@ -135,7 +136,7 @@ def show(value: Any, limit: int = 60) -> str:
     return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
-def known_keys(spec: Document, mapping: dict, field: str, allowed: tuple[str, ...]) -> None:
+def known_keys(spec: Document, mapping: dict[Any, Any], field: str, allowed: tuple[str, ...]) -> None:
     """Refuse keys outside ``allowed``, suggesting the nearest valid one."""
     for key in mapping:
         if key in allowed:
@@ -146,7 +147,8 @@ def known_keys(spec: Document, mapping: dict, field: str, allowed: tuple[str, ..
         raise spec.error(where, f"unknown key {show(key)}; {hint}")
 
 
-def require(spec: Document, mapping: dict, key: str, field: str, kind: type | tuple, expected: str) -> Any:
+def require(spec: Document, mapping: dict[Any, Any], key: str, field: str, kind: type | tuple[type, ...],
+            expected: str) -> Any:
     if key not in mapping:
         raise spec.error(field, f"missing; expected {expected}")
     value = mapping[key]
@@ -161,7 +163,7 @@ def identifier(spec: Document, value: Any, field: str, what: str) -> str:
         raise spec.error(field, f"got {show(value)} ({problem}); {what} names files, C symbols and Python "
                                 f"attributes: expected {IDENTIFIER_RULE}, e.g. "
                                 f"{suggest_identifier(value)!r}")
-    return value
+    return cast(str, value)  # identifier_problem refuses anything but a str
 
 
 def label(spec: Document, value: Any, field: str, what: str) -> str:
@@ -181,13 +183,14 @@ def number(value: Any, bound: float) -> bool:
     return (not isinstance(value, float) or math.isfinite(value)) and abs(value) <= bound
 
 
-def vector(spec: Document, value: Any, field: str, default: tuple[float, ...],
-            bound: float = MAX_COORDINATE) -> tuple[float, ...]:
+def vector(spec: Document, value: Any, field: str, default: tuple[float, float, float],
+            bound: float = MAX_COORDINATE) -> tuple[float, float, float]:
     if value is None:
         return default
     if not isinstance(value, list) or len(value) != 3 or not all(number(v, bound) for v in value):
         raise spec.error(field, f"got {show(value)}; expected a list of three finite numbers "
                                 f"within ±{bound:g}")
-    return tuple(float(v) for v in value)
+    x, y, z = (float(v) for v in value)
+    return x, y, z
 
 

@@ -9,9 +9,9 @@ import pytest
 
 pytest.importorskip("importlinter")
 
-from importlinter import configuration  # noqa: E402
-from importlinter.application import use_cases  # noqa: E402
-from importlinter.application.app_config import settings  # noqa: E402
+from importlinter import configuration
+from importlinter.application import use_cases
+from importlinter.application.app_config import settings
 
 PYPROJECT = Path(__file__).resolve().parents[1] / "pyproject.toml"
 

@@ -163,5 +163,5 @@ def test_the_registry_reads_a_spec_name_or_path(tmp_path):
     own = tmp_path / "mine.yaml"
     own.write_text(textwrap.dedent("name: mine\n"))
     assert registry.resolve_spec(str(own)) == own
-    with pytest.raises(ValueError, match="spec 'nothing_here': not a bundled spec .* nor a spec file"):
+    with pytest.raises(ValueError, match=r"spec 'nothing_here': not a bundled spec .* nor a spec file"):
         registry.resolve_spec("nothing_here")

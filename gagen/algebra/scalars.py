@@ -5,8 +5,8 @@ A formula written against the multivector protocol (``gagen.algebra.protocol``) 
 two paths: Python floats on the reference interpreter (``gagen.interp``); on the compiler, exact
 constants (sympy numbers) and sums of products of a scalar backend's native expressions (``Poly``,
 ``gagen.symbolic.backend``), which become CasADi SX or sympy expressions. The aliases below name those
-roles. ``Scalar`` and ``Native`` are aliases of ``Any``: neither CasADi nor sympy ships type stubs, and
-a formula is written once for every path.
+roles. ``Scalar`` and ``Native`` are aliases of ``Any``: sympy ships no type information, a native
+expression is a CasADi SX or a sympy expression, and a formula is written once for every path.
 
 :class:`ScalarField` is what :class:`gagen.algebra.multivector.SparseMultivector` needs from its scalar
 backend; ``gagen.symbolic.backend.ScalarBackend`` implements it, so the algebra stays below the scalar

@@ -11,7 +11,11 @@ controllable bivectors (Table 1). ``solve_ik`` therefore takes the Levenberg-Mar
 
 the minimum-norm Gauss-Newton step as λ → 0, with a backtracking (Armijo) line search on ‖e‖²
 for α and λ adapted from the ratio of actual to predicted decrease. Joint limits are enforced by
-clipping every iterate into the box.
+clipping every iterate into the box, and the step is taken on the joints that are free to move: a
+joint at a limit whose step would leave the box is held there and the step recomputed without it
+(``_bounded_step``). Clipping the unconstrained step instead throws away its component along the
+held joint and leaves only linear convergence (‖e‖ × 0.72 per iteration for the LEAP hand at a
+thumb limit in Fig. 17, 50 iterations short of 1e-10).
 """
 
 from __future__ import annotations
@@ -88,6 +92,27 @@ def _step(J: NDArray[np.float64], e: NDArray[np.float64], damping: float) -> NDA
     return -(vt.T * filtered) @ (u.T @ e)
 
 
+def _bounded_step(J: NDArray[np.float64], e: NDArray[np.float64], damping: float, q: NDArray[np.float64],
+                  bounds: tuple[NDArray, NDArray] | None) -> NDArray[np.float64]:
+    """``_step`` on the free joints: a joint at a limit (q is clipped, so exactly on it) whose step
+    points out of the box is held (its column of J left out) and the step recomputed, until no
+    held joint would leave; at most m rounds, the held set only grows. The Gauss-Newton step then
+    solves the problem the box leaves, so convergence stays quadratic at an active limit."""
+    delta = _step(J, e, damping)
+    if bounds is None:
+        return delta
+    lower, upper = bounds
+    free = np.ones(q.size, dtype=bool)
+    while True:
+        leaving = free & (((q <= lower) & (delta < 0)) | ((q >= upper) & (delta > 0)))
+        if not leaving.any():
+            return delta
+        free &= ~leaving
+        delta = np.zeros_like(q)
+        if free.any():
+            delta[free] = _step(J[:, free], e, damping)
+
+
 def solve_ik(task: Task, q0: ArrayLike, V_Sd: ArrayLike, *, tol: float = 1e-12, max_iterations: int = 100,
              damping: float = 1e-6, limits: tuple[ArrayLike, ArrayLike] | None = None,
              conditioning: Callable[[NDArray[np.float64]], float] | None = None) -> IKResult:
@@ -105,8 +130,9 @@ def solve_ik(task: Task, q0: ArrayLike, V_Sd: ArrayLike, *, tol: float = 1e-12, 
     with ‖e‖ > 0, e.g. an unreachable V_Sd, or the floating-point floor above a very small ``tol``).
 
     ``limits`` = (lower, upper) joint bounds (arrays of m, or scalars); q0 and every iterate are
-    clipped into them. ``conditioning(q)``: optional, e.g. ``lambda q: module.c.similarity(q)[1]``, to
-    tell a degenerate primitive from another stationary point where J_Be is not exactly zero.
+    clipped into them, and a joint at a bound is held there while the step would leave the box.
+    ``conditioning(q)``: optional, e.g. ``lambda q: module.c.similarity(q)[1]``, to tell a degenerate
+    primitive from another stationary point where J_Be is not exactly zero.
     Returns an ``IKResult``; ``converged`` means ‖e‖ <= ``tol``, and ``status`` /
     ``message`` say why the solve stopped (``STATUSES``): e.g. ``degenerate_primitive`` when J_Be
     is zero at a stop because the spanning points are degenerate there. Non-finite q0, V_Sd, tol or
@@ -144,8 +170,11 @@ def solve_ik(task: Task, q0: ArrayLike, V_Sd: ArrayLike, *, tol: float = 1e-12, 
     stalled = "stationary"  # why λ last had to grow
     finite = bool(np.all(np.isfinite(e)) and np.all(np.isfinite(J)))
     while finite and iterations < max_iterations and np.sqrt(f) > tol and lam <= DAMPING_MAX:
-        delta = _step(J, e, lam)
+        delta = _bounded_step(J, e, lam, q, bounds)
         slope = 2.0 * float(e @ (J @ delta))  # d‖e(q + αΔ)‖²/dα at α = 0 (<= 0)
+        if not slope < 0 and bounds is not None:  # nothing left on the free joints: the clipped full step
+            delta = _step(J, e, lam)
+            slope = 2.0 * float(e @ (J @ delta))
         if not slope < 0:  # Jᵀ e = 0 numerically: stationary
             lam *= 100.0
             stalled = "stationary"

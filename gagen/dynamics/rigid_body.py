@@ -15,6 +15,7 @@ naming its URDF, rather than given Pinocchio's massless defaults.
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -52,6 +53,12 @@ class RobotSource:
     rpy: tuple[float, float, float]
 
 
+def _triple(values: Sequence[Any]) -> tuple[float, float, float]:
+    """Three numbers as floats (``load_system`` has checked that there are three)."""
+    x, y, z = (float(v) for v in values)
+    return x, y, z
+
+
 def robot_sources(spec_path: str | Path) -> tuple[System, list[RobotSource]]:
     """The system of a spec and its robots, in order of first appearance. The spec is validated by
     ``load_system`` first; here only what the dynamics need beyond it is checked: chains given by URDF,
@@ -66,8 +73,7 @@ def robot_sources(spec_path: str | Path) -> tuple[System, list[RobotSource]]:
                                 f"this chain lists its joints")
         base = entry.get("base", {})
         source = RobotSource(chain.robot or chain.name, spec_path.parent / entry["urdf"], entry["base_link"],
-                             tuple(float(v) for v in base.get("xyz", (0, 0, 0))),  # type: ignore[arg-type]
-                             tuple(float(v) for v in base.get("rpy", (0, 0, 0))))  # type: ignore[arg-type]
+                             _triple(base.get("xyz", (0, 0, 0))), _triple(base.get("rpy", (0, 0, 0))))
         known = robots.setdefault(source.label, source)
         if known != source:
             raise DynamicsError(f"{spec_path}: chains[{i}]: robot {source.label!r} is placed or described "
@@ -144,7 +150,7 @@ class SystemDynamics:
             raise DynamicsError(f"{spec_path}: joints {', '.join(missing) or '?'} of the system are not "
                                 f"moving joints of its URDFs' Pinocchio models")
         # system index i ↔ Pinocchio index order[i]; most systems need no permutation (then none is made)
-        self.order = np.array([position[f"{r}/{j}"] for r, j in self.system.joint_keys])
+        self.order: NDArray[np.intp] = np.array([position[f"{r}/{j}"] for r, j in self.system.joint_keys])
         self._same_order = bool(np.all(self.order == np.arange(self.dof)))
         self._lower = np.tril_indices(self.dof, -1)
 

@@ -44,8 +44,8 @@ class TaskSpace:
 
     def nullspace_torque(self, J_G: ArrayLike, tau: ArrayLike) -> NDArray[np.float64]:
         """Nᵀ τ = τ − J_Gᵀ J̄ᵀ τ: the part of τ that does not accelerate the similarity."""
-        tau = np.asarray(tau, dtype=float)
-        return tau - np.asarray(J_G).T @ (self.consistent_inverse.T @ tau)
+        torque = np.asarray(tau, dtype=np.float64)
+        return torque - np.asarray(J_G, dtype=np.float64).T @ (self.consistent_inverse.T @ torque)
 
 
 def task_space(J_G: ArrayLike, Jdot_qdot: ArrayLike, M: ArrayLike, bias: ArrayLike, gravity: ArrayLike,

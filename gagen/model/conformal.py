@@ -43,7 +43,8 @@ def vector(like: Multivector, xyz: Sequence[Scalar]) -> Multivector:
 
 def point(x: Multivector) -> Multivector:
     """P(x) = e0 + x + ½|x|² e∞ for a Euclidean vector x (a multivector on e1, e2, e3)."""
-    return e0(x) + x + einf(x) * (0.5 * x.sp(x))
+    p: Multivector = e0(x) + x + einf(x) * (0.5 * x.sp(x))  # typed: a product with a Scalar (Any) is Any
+    return p
 
 
 def point_weight(p: Multivector) -> Scalar:
@@ -54,18 +55,21 @@ def point_weight(p: Multivector) -> Scalar:
 def location(p: Multivector) -> Multivector:
     """Euclidean vector of a (possibly scaled) point: its e1, e2, e3 part divided by −P·e∞
     (guarded: a zero weight, from a degenerate construction, gives a finite result)."""
-    return part(p, EUCLID) * safe_reciprocal(p.math, point_weight(p))
+    v: Multivector = part(p, EUCLID) * safe_reciprocal(p.math, point_weight(p))
+    return v
 
 
 def normalized_point(p: Multivector) -> Multivector:
     """The point scaled so that −P·e∞ = 1 (guarded like ``location``)."""
-    return p * safe_reciprocal(p.math, point_weight(p))
+    normalized: Multivector = p * safe_reciprocal(p.math, point_weight(p))
+    return normalized
 
 
 def unit(v: Multivector) -> Multivector:
     """v / |v| for a Euclidean vector; a zero vector (degenerate input) stays zero, finite."""
     m = v.math
-    return v * safe_reciprocal(m, m.sqrt(v.sp(v)))
+    u: Multivector = v * safe_reciprocal(m, m.sqrt(v.sp(v)))
+    return u
 
 
 def norm2(x: Multivector) -> Scalar:

@@ -91,7 +91,8 @@ class Geometry:
     def screw(self, line: Multivector, angle: Scalar) -> Multivector:
         """e^{−θL/2} = cos(θ/2) − sin(θ/2) L: the turn by θ about a unit line L (L² = −1)."""
         m = line.math
-        return m.cos(angle * 0.5) - line * m.sin(angle * 0.5)
+        screw: Multivector = m.cos(angle * 0.5) - line * m.sin(angle * 0.5)  # a Scalar (Any) minus it is Any
+        return screw
 
     def rotate(self, line: Multivector, cos: Scalar, sin: Scalar, x: Multivector) -> Multivector:
         """e^{−θL/2} X e^{θL/2} for a unit line L, from cos θ and sin θ: X + sin θ D(X) + (1 − cos θ) D²(X)
@@ -100,7 +101,8 @@ class Geometry:
         and a component that L leaves fixed (a parallel axis's direction) stays exactly fixed, where
         the sandwich would carry cos²(θ/2) + sin²(θ/2) for the compiler to evaluate."""
         once = x.commutator(line)
-        return x + once * sin + once.commutator(line) * (1 - cos)
+        turned: Multivector = x + once * sin + once.commutator(line) * (1 - cos)
+        return turned
 
     def twist(self, line: Multivector) -> tuple[Vec3, Vec3]:
         """(v, ω) of the unit-rate screw motion about L: v the velocity of the point at the origin."""
@@ -153,7 +155,8 @@ class Projective(Geometry):
         # (Π⌋P) is the line through P perpendicular to Π; its product with Π is the foot point
         foot = (plane | p) * plane
         foot = foot.grade(3)
-        return foot * safe_reciprocal(p.math, foot["e123"])
+        projected: Multivector = foot * safe_reciprocal(p.math, foot["e123"])
+        return projected
 
 
 class Conformal(Geometry):

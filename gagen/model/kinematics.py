@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 import numbers
-from collections.abc import Sequence
+from collections.abc import Hashable, Sequence
 from dataclasses import dataclass, field, fields
 from typing import Any
 
@@ -99,7 +99,7 @@ def _axis_rotor(like: Multivector, axis: int, angle: Scalar) -> Multivector:
     return like.make({"1": c, plane: sign * s})
 
 
-_FIXED_MOTORS: dict[tuple, Any] = {}
+_FIXED_MOTORS: dict[tuple[Hashable, ...], Multivector] = {}
 
 
 def fixed_motor(like: Multivector, joint: Joint) -> Multivector:
@@ -119,7 +119,7 @@ def _fixed_motor(like: Multivector, joint: Joint) -> Multivector:
     return translator(vector(like, [to_exact(v) for v in joint.xyz])) * fixed_rotation(like, joint)
 
 
-_FIXED_ROTATIONS: dict[tuple, Any] = {}
+_FIXED_ROTATIONS: dict[tuple[Hashable, ...], Multivector] = {}
 
 
 def fixed_rotation(like: Multivector, joint: Joint) -> Multivector:
@@ -229,7 +229,8 @@ def variable_columns(joints: Sequence[Joint], columns: Sequence[Any]) -> list[An
     return out
 
 
-def chain_kinematics(like: Multivector, joints: Sequence[Joint], q: Sequence[Scalar]) -> tuple[Any, list[Any]]:
+def chain_kinematics(like: Multivector, joints: Sequence[Joint],
+                     q: Sequence[Scalar]) -> tuple[Any, list[Any]]:
     """(V_M(q), [L'_1 … L'_n]): the FK motor and each moving joint's generator carried to the base
     frame by everything before the joint's motion, L'_i = A_i B_i A_i~ [SMC Eq. 17-20].
 
@@ -316,7 +317,7 @@ def _rotated_basis(like: Multivector, axis: Sequence[float], q: Scalar) -> list[
     R e_k = cos q e_k + sin q (n × e_k) + (1 − cos q) n_k n."""
     m = like.math
     c, s = m.cos(q), m.sin(q)
-    n = [to_exact(a) for a in axis]
+    n: list[Scalar] = [to_exact(a) for a in axis]  # exact: to_exact is None only for a non-number
     images = []
     for k in range(3):
         e = [1 if j == k else 0 for j in range(3)]
@@ -327,7 +328,8 @@ def _rotated_basis(like: Multivector, axis: Sequence[float], q: Scalar) -> list[
 
 def forward_kinematics(like: Multivector, joints: Sequence[Joint], q: Sequence[Scalar]) -> Multivector:
     """V_M(q) = Π_j F_j J_j(q_j) for a chain; q has one entry per moving joint."""
-    return chain_kinematics(like, joints, q)[0]
+    motor: Multivector = chain_kinematics(like, joints, q)[0]
+    return motor
 
 
 def spatial_jacobian(lines: Sequence[Multivector]) -> list[Multivector]:
@@ -349,9 +351,12 @@ def analytic_jacobian(motor: Multivector, lines: Sequence[Multivector]) -> list[
 def point_jacobian(motor: Multivector | None, lines: Sequence[Multivector],
                    point: Multivector | None = None) -> list[Multivector]:
     """∂P/∂q_i for P = V_M e0 V_M~: ½(P L'_i − L'_i P), the commutator [COOP Eq. 17]. ``point`` may
-    pass P when it is at hand (e.g. P(t) from :func:`chain_pose`)."""
-    p = end_point(motor) if point is None else point
-    return [p.commutator(line) for line in lines]
+    pass P when it is at hand (e.g. P(t) from :func:`chain_pose`); then ``motor`` may be None."""
+    if point is None:
+        if motor is None:
+            raise ValueError("point_jacobian needs the motor V_M or the point P")
+        point = end_point(motor)
+    return [point.commutator(line) for line in lines]
 
 
 def line_jacobian(motor: Multivector, lines: Sequence[Multivector],

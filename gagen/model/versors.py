@@ -46,14 +46,16 @@ def exp_rotor(b: Multivector) -> Multivector:
     m = b.math
     br = part(b, ROTATION)
     s = br.sp(~br)  # = b12² + b13² + b23² = θ²
-    return cos_half_sqrt(m, s) - br * sin_half_sqrt_over_sqrt(m, s)
+    rotor: Multivector = cos_half_sqrt(m, s) - br * sin_half_sqrt_over_sqrt(m, s)  # Scalar (Any) − … is Any
+    return rotor
 
 
 def log_rotor(r: Multivector) -> Multivector:
     """Rotation generator of a rotor (any positive scale): −2 atan2(|⟨R⟩₂|, ⟨R⟩₀) ⟨R⟩₂/|⟨R⟩₂| [Eq. 63]."""
     br = part(r, ROTATION)
     s = br.sp(~br)
-    return br * (-2 * atan2_sqrt_over_sqrt(r.math, s, r.scalar()))
+    generator: Multivector = br * (-2 * atan2_sqrt_over_sqrt(r.math, s, r.scalar()))
+    return generator
 
 
 def rotor(axis: Multivector, angle: Scalar) -> Multivector:
@@ -70,7 +72,8 @@ def exp_translator(b: Multivector) -> Multivector:
 
 def log_translator(t: Multivector) -> Multivector:
     """B_T = −2 ⟨T⟩₂ / ⟨T⟩₀ [Eq. 65] (the scalar part divides out any scale)."""
-    return part(t, TRANSLATION) * (-2 / t.scalar())
+    generator: Multivector = part(t, TRANSLATION) * (-2 / t.scalar())
+    return generator
 
 
 def translator(t: Multivector) -> Multivector:
@@ -226,4 +229,5 @@ def versor_between(x1: Multivector, x2: Multivector, sigma: int) -> Versor:
 
 def project_point_of_origin(x: Multivector) -> Multivector:
     """(e0·X) X⁻¹: the origin projected onto a flat (a scaled point)."""
-    return (e0(x) | x) * ~x * safe_reciprocal(x.math, x.norm_squared())
+    projected: Multivector = (e0(x) | x) * ~x * safe_reciprocal(x.math, x.norm_squared())
+    return projected

@@ -103,7 +103,7 @@ def _explicit_joint(spec: Document, value: Any, field: str) -> Joint:
                                           f"direction")
     return Joint(name, kind, vector(spec, value.get("xyz"), f"{field}.xyz", (0.0, 0.0, 0.0)),
                  vector(spec, value.get("rpy"), f"{field}.rpy", (0.0, 0.0, 0.0), MAX_ANGLE),
-                 tuple(a / norm for a in axis) if norm else axis)
+                 (axis[0] / norm, axis[1] / norm, axis[2] / norm) if norm else axis)
 
 
 def _chain(spec: Document, value: Any, field: str) -> Chain:

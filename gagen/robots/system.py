@@ -77,11 +77,11 @@ class System:
                 if seen.setdefault(key, joint) != joint:
                     raise ValueError(f"system {self.name!r}: joint {key[1]!r} of robot {key[0]!r} is "
                                      f"shared by chains but differs between them")
-        followers = {key for key, joint in seen.items() if joint.mimic is not None}
+        followers = {key: joint.mimic for key, joint in seen.items() if joint.mimic is not None}
         for key in self.joint_keys:
             if key in followers:
                 raise ValueError(f"system {self.name!r}: joint {key[1]!r} of robot {key[0]!r} is mimicked "
-                                 f"in one chain but mimics {seen[key].mimic[0]!r} in another: chained "
+                                 f"in one chain but mimics {followers[key][0]!r} in another: chained "
                                  f"mimics must be resolved to the first leader")
 
     @property

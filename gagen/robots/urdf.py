@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from lxml import etree
@@ -28,6 +28,9 @@ from gagen.errors import SpecError, read_input
 from gagen.model.kinematics import Joint
 from gagen.names import LABEL_RULE, label_problem
 from gagen.yaml_document import MAX_ANGLE, MAX_COORDINATE, MIN_AXIS
+
+if TYPE_CHECKING:
+    import yourdfpy
 
 _KINDS = {"revolute": "revolute", "continuous": "continuous", "prismatic": "prismatic", "fixed": "fixed"}
 
@@ -110,7 +113,7 @@ def _check_label(path: Path, name: Any, line: int | None) -> None:
                         f"generated code; expected {LABEL_RULE}")
 
 
-def _load(path: Path) -> tuple[Any, dict[str, int]]:
+def _load(path: Path) -> tuple[yourdfpy.URDF, dict[str, int]]:
     """The yourdfpy model of a checked file, and each joint's line."""
     import yourdfpy
 
@@ -133,7 +136,7 @@ def load_chain(path: str | Path, base_link: str, tip_link: str) -> list[Joint]:
     for field, link in (("base_link", base_link), ("tip_link", tip_link)):
         if link not in links:
             raise SpecError(path, field, f"no link named {link!r}; links are: {', '.join(sorted(links))}")
-    parent_joint: dict[str, Any] = {}
+    parent_joint: dict[str, yourdfpy.Joint] = {}
     for j in robot.joints:
         if j.child in parent_joint:
             other = parent_joint[j.child]
@@ -142,7 +145,7 @@ def load_chain(path: str | Path, base_link: str, tip_link: str) -> list[Joint]:
                             f"{other.name!r} (line {lines.get(other.name)}); a URDF is a tree, each link "
                             f"has at most one parent")
         parent_joint[j.child] = j
-    chain = []
+    chain: list[yourdfpy.Joint] = []
     link = tip_link
     while link != base_link:
         if link not in parent_joint:
@@ -177,9 +180,10 @@ def load_chain(path: str | Path, base_link: str, tip_link: str) -> list[Joint]:
             if norm < MIN_AXIS:
                 raise SpecError(path, f"{field}: axis", f"line {lines.get(j.name)}: a non-zero axis vector "
                                                         f"(length at least {MIN_AXIS:g})")
-            axis = tuple(a / norm for a in axis)
+            axis = (axis[0] / norm, axis[1] / norm, axis[2] / norm)
         try:  # Joint's own checks (e.g. on a mimic), as an error naming the file and the joint
-            joints.append(Joint(j.name, _KINDS[j.type], tuple(float(v) for v in origin[:3, 3]),
+            xyz = (float(origin[0, 3]), float(origin[1, 3]), float(origin[2, 3]))
+            joints.append(Joint(j.name, _KINDS[j.type], xyz,
                                 rpy_from_matrix(origin[:3, :3]), axis, mimic=_mimic(path, robot, j),
                                 limits=_limits(j)))
         except ValueError as e:
@@ -189,7 +193,7 @@ def load_chain(path: str | Path, base_link: str, tip_link: str) -> list[Joint]:
     return joints
 
 
-def _limits(joint) -> tuple[float, float] | None:
+def _limits(joint: yourdfpy.Joint) -> tuple[float, float] | None:
     """(lower, upper) of a revolute or prismatic joint's <limit>, when both are finite and ordered."""
     limit = getattr(joint, "limit", None)
     if joint.type not in ("revolute", "prismatic") or limit is None:
@@ -202,7 +206,7 @@ def _limits(joint) -> tuple[float, float] | None:
     return float(lower), float(upper)
 
 
-def _mimic(path: Path, robot, joint) -> tuple[str, float, float] | None:
+def _mimic(path: Path, robot: yourdfpy.Robot, joint: yourdfpy.Joint) -> tuple[str, float, float] | None:
     """A joint's ``<mimic>`` as (leader, multiplier, offset), a chain of mimics resolved to its first
     leader (q = m1 (m2 q_leader + o2) + o1); a missing, fixed or cyclic leader is a SpecError."""
     by_name = {j.name: j for j in robot.joints}

@@ -10,8 +10,10 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+Array = NDArray[np.float64]
 
-def circumcircles(a: NDArray, b: NDArray, c: NDArray) -> tuple[NDArray, NDArray]:
+
+def circumcircles(a: Array, b: Array, c: Array) -> tuple[Array, Array]:
     """Centres (n, 3) and radii (n,) of the circles through the rows of a, b, c (NaN when collinear)."""
     u, v = b - a, c - a
     n = np.cross(u, v)
@@ -22,7 +24,7 @@ def circumcircles(a: NDArray, b: NDArray, c: NDArray) -> tuple[NDArray, NDArray]
     return a + offset, np.linalg.norm(offset, axis=1)
 
 
-def circumspheres(a: NDArray, b: NDArray, c: NDArray, d: NDArray) -> tuple[NDArray, NDArray]:
+def circumspheres(a: Array, b: Array, c: Array, d: Array) -> tuple[Array, Array]:
     """Centres (n, 3) and radii (n,) of the spheres through the rows of a, b, c, d (inf/NaN when
     coplanar): the closed form of 2 (p_i − a)·x = |p_i − a|², by Cramer's rule with cross products."""
     u, v, w = b - a, c - a, d - a
@@ -34,7 +36,7 @@ def circumspheres(a: NDArray, b: NDArray, c: NDArray, d: NDArray) -> tuple[NDArr
     return a + offset, np.linalg.norm(offset, axis=1)
 
 
-def locate(kind: str, points: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+def locate(kind: str, points: Array) -> tuple[Array, Array]:
     """Where the primitive of ``kind`` through ``points`` (n, chains, 3) is, and its size: the centre and
     radius of a circle or sphere, the midpoint and half length of a point pair; else (a point, line or
     plane: no centre of its own) the end points' centroid and NaN."""
@@ -50,4 +52,5 @@ def locate(kind: str, points: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
 
 def unit_ball_volume(rank: int) -> float:
     """V_r = π^(r/2) / Γ(r/2 + 1): the volume of the unit ball in r dimensions (π³/6 for r = 6)."""
-    return math.pi ** (rank / 2) / math.gamma(rank / 2 + 1)
+    volume: float = math.pi ** (rank / 2) / math.gamma(rank / 2 + 1)  # (float ** float is Any to typeshed)
+    return volume

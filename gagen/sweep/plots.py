@@ -23,8 +23,9 @@ def _figure(size: tuple[float, float]) -> Any:
     return fig
 
 
-def _column(table: pa.Table, name: str) -> NDArray:
-    return table.column(name).to_numpy()
+def _column(table: pa.Table, name: str) -> NDArray[Any]:
+    column: NDArray[Any] = table.column(name).to_numpy()  # (pyarrow has no type annotations)
+    return column
 
 
 def reach_map(table: pa.Table, path: str | Path, system: str = "three_pandas_circle",
@@ -55,8 +56,9 @@ def reach_map(table: pa.Table, path: str | Path, system: str = "three_pandas_cir
     return _save(fig, path)
 
 
-def binned_median(a: NDArray, b: NDArray, value: NDArray, bins: int, ranges: list[tuple[float, float]]
-                  ) -> tuple[NDArray, NDArray, NDArray]:
+def binned_median(a: NDArray[np.float64], b: NDArray[np.float64], value: NDArray[np.float64], bins: int,
+                  ranges: list[tuple[float, float]]
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """(median (bins_b, bins_a), a edges, b edges) of ``value`` over a bins × bins grid of (a, b); NaN in
     empty bins, points outside ``ranges`` left out. The median, not the mean: the volume spans decades
     (near-collinear end points give huge circles), and a mean follows a bin's few largest values."""
@@ -75,7 +77,7 @@ def binned_median(a: NDArray, b: NDArray, value: NDArray, bins: int, ranges: lis
     return medians.reshape(bins, bins), a_edges, b_edges
 
 
-def _range(values: NDArray) -> tuple[float, float]:
+def _range(values: NDArray[np.float64]) -> tuple[float, float]:
     """The 1-99 % quantiles, widened to 1 mm where they meet (a grid over joints that leave a coordinate
     fixed)."""
     lo, hi = (float(v) for v in np.quantile(values, [0.01, 0.99]))

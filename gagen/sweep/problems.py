@@ -23,7 +23,7 @@
   0.6 m and +z (horizontal circles).
 
 A sweep is a frozen, picklable description (shipped to the workers with its ``Cell``: the joint limits,
-the ready configuration and the chains, read from the spec where the sweep is made); ``compute(i)`` is
+the ready configuration, read from the spec where the sweep is made); ``compute(i)`` is
 chunk i's rows as a pyarrow table. The generated module and the iLQR solver are loaded once per worker
 process and system.
 """
@@ -53,7 +53,8 @@ TARGETS = ("circle", "sphere")  # the primitives the reach sweep has targets for
 class Cell:
     """What the chunks need to know of the system beyond its kernels: its name and primitive ``kind``,
     the joint labels and limits, the ``ready`` configuration, the primitive's controllable dimension
-    (the manipulability index's rank) and per chain its FK kernel and its joints' indices in q."""
+    (the manipulability index's rank); the chains' end points come from the module's FK kernels
+    (``gagen.robots.points``)."""
 
     system: str
     kind: str
@@ -62,7 +63,6 @@ class Cell:
     upper: tuple[float, ...]
     ready: tuple[float, ...]
     rank: int
-    chains: tuple[tuple[str, tuple[int, ...]], ...]
 
 
 def _system_name(system: Any) -> str:
@@ -87,7 +87,6 @@ def cell(system: str = DEFAULT_SYSTEM) -> Cell:
     from gagen.modules import module_folder
     from gagen.registry import bundled_specs
     from gagen.robots.spec import load_system
-    from gagen.symbolic.flatten import identifier
 
     spec = bundled_specs("cooperative")[_system_name(system)]
     loaded, configurations = load_system(spec)
@@ -104,10 +103,8 @@ def cell(system: str = DEFAULT_SYSTEM) -> Cell:
         module_folder(spec)
     except (CompileError, OutputError) as e:
         raise SweepError(f"system: cannot build the generated module of {system}: {e}") from e
-    chains = tuple((identifier(f"{chain.name}_fk"), tuple(indices))
-                   for chain, indices in zip(loaded.chains, loaded.chain_indices(), strict=True))
     return Cell(system, loaded.kind, labels, tuple(lower.tolist()), tuple(upper.tolist()),
-                tuple(map(float, configurations["ready"])), CONTROLLABLE_DIMENSION[loaded.kind], chains)
+                tuple(map(float, configurations["ready"])), CONTROLLABLE_DIMENSION[loaded.kind])
 
 
 @cache

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from gagen.robots.system import System
 from gagen.viewer.camera import Camera, framing
@@ -66,7 +66,7 @@ def chromium_command(executable: str, url: str, profile: Path, width: int, heigh
 
 @dataclass(frozen=True)
 class Browser:
-    process: subprocess.Popen
+    process: subprocess.Popen[bytes]
     log: Path
 
     def state(self, lines: int = 5) -> str:
@@ -168,7 +168,7 @@ def write_png(image: NDArray[np.uint8], path: str | Path) -> Path:
     return path
 
 
-def export_png(system: System, q: Sequence[float], path: str | Path, *, width: int = 1024, height: int = 768,
+def export_png(system: System, q: ArrayLike, path: str | Path, *, width: int = 1024, height: int = 768,
                camera: Camera | None = None, primitive: bool = True, frames: Frames = "ends",
                timeout: float = DEFAULT_TIMEOUT) -> tuple[Path, Camera]:
     """Render ``system`` at configuration q headless and write it to ``path`` (PNG, on white); returns the
@@ -182,7 +182,7 @@ def export_png(system: System, q: Sequence[float], path: str | Path, *, width: i
     return write_png(image, path), camera
 
 
-def export_frames(system: System, qs: Sequence[Sequence[float]], folder: str | Path, *, width: int = 1024,
+def export_frames(system: System, qs: ArrayLike, folder: str | Path, *, width: int = 1024,
                   height: int = 768, camera: Camera | None = None, stem: str = "frame",
                   timeout: float = DEFAULT_TIMEOUT) -> list[Path]:
     """Render each configuration of a trajectory with one headless browser, from one camera (default:

@@ -65,7 +65,8 @@ def framing(points: Array, *, azimuth: float = math.radians(-60.0), elevation: f
 
     def camera(distance: float) -> Camera:
         eye = centre + distance * direction
-        return Camera(tuple(float(v) for v in eye), tuple(float(v) for v in centre), fov)
+        return Camera((float(eye[0]), float(eye[1]), float(eye[2])),
+                      (float(centre[0]), float(centre[1]), float(centre[2])), fov)
 
     def extent(distance: float) -> float:  # the points' largest offset from the image centre, in half-sizes
         uv = camera(distance).project(p, 2000, round(2000 / aspect)) / [1000.0, 1000.0 / aspect] - 1.0

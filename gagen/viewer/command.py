@@ -17,11 +17,17 @@ import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from gagen.arguments import port
 from gagen.registry import Verb
 from gagen.viewer import DEFAULT_PORT
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
+
+    from gagen.robots.system import System
 
 DEFAULT_SIZE = (1024, 768)
 
@@ -47,7 +53,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"server port on 127.0.0.1 (default {DEFAULT_PORT}; 0: any free one)")
 
 
-def _system(name: str):
+def _system(name: str) -> tuple[System, dict[str, list[float]]]:
     """(System, configurations) of a bundled system's name or a spec file."""
     from gagen.registry import resolve_spec
     from gagen.robots.spec import load_system
@@ -55,7 +61,8 @@ def _system(name: str):
     return load_system(resolve_spec(name, "cooperative", "system"))
 
 
-def configuration(args: argparse.Namespace, system, named: dict[str, list[float]]) -> Any:
+def configuration(args: argparse.Namespace, system: System,
+                  named: dict[str, list[float]]) -> NDArray[np.float64]:
     """The joint vector (numpy) from ``--q`` or ``--configuration``."""
     import numpy as np
 

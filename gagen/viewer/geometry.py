@@ -20,7 +20,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from gagen.model.kinematics import Joint
 from gagen.robots.system import System
@@ -33,7 +33,7 @@ Array = NDArray[np.float64]
 def rotation(axis: Sequence[float], angle: float) -> Array:
     """Rotation matrix by ``angle`` about the unit ``axis`` (Rodrigues)."""
     x, y, z = axis
-    k = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+    k: Array = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
     return np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * (k @ k)
 
 
@@ -43,7 +43,7 @@ def rpy_matrix(rpy: Sequence[float]) -> Array:
     return rotation((0, 0, 1), yaw) @ rotation((0, 1, 0), pitch) @ rotation((1, 0, 0), roll)
 
 
-def _transform(r: Array, t: Sequence[float]) -> Array:
+def _transform(r: Array, t: ArrayLike) -> Array:
     m = np.eye(4)
     m[:3, :3], m[:3, 3] = r, t
     return m
@@ -91,13 +91,14 @@ def chain_frames(joints: Sequence[Joint], values: Sequence[float]) -> Array:
     return np.array(frames)
 
 
-def system_pose(system: System, q: Sequence[float]) -> list[ChainPose]:
+def system_pose(system: System, q: ArrayLike) -> list[ChainPose]:
     """Every chain of ``system`` at q (the system's joint vector, ``System.split`` order)."""
     return [ChainPose(chain.name, chain_frames(chain.joints, values), tuple(j.moves for j in chain.joints))
-            for chain, values in zip(system.chains, system.joint_values(list(q)), strict=True)]
+            for chain, values in zip(system.chains, system.joint_values(list(np.asarray(q, dtype=float))),
+                                     strict=True)]
 
 
-def end_points(system: System, q: Sequence[float]) -> Array:
+def end_points(system: System, q: ArrayLike) -> Array:
     """(chains, 3): the spanning end points P_i(q_i)."""
     return np.array([pose.end_point for pose in system_pose(system, q)])
 
@@ -174,10 +175,10 @@ def shape(kind: str, points: Array | Sequence[Sequence[float]]) -> Shape:
         centre, radius, normal = fit
         return (Shape(kind, p, centre, radius, normal) if kind == "circle"
                 else Shape(kind, p, centroid, normal=normal))
-    fit = circumsphere(p)
-    if fit is None:
+    sphere = circumsphere(p)
+    if sphere is None:
         return Shape(kind, p, centroid, degenerate=True)
-    return Shape(kind, p, fit[0], fit[1])
+    return Shape(kind, p, sphere[0], sphere[1])
 
 
 def basis(normal: Array) -> tuple[Array, Array]:
@@ -192,7 +193,8 @@ def ring(centre: Array, radius: float, normal: Array, samples: int = 129) -> Arr
     """(samples, 3): the closed polyline of a circle (first point repeated last)."""
     a, b = basis(normal)
     t = np.linspace(0.0, 2.0 * np.pi, samples)
-    return centre + radius * (np.outer(np.cos(t), a) + np.outer(np.sin(t), b))
+    polyline: Array = centre + radius * (np.outer(np.cos(t), a) + np.outer(np.sin(t), b))  # ufuncs: Any dtype
+    return polyline
 
 
 def polylines(s: Shape, extent: float | None = None) -> list[Array]:
@@ -204,13 +206,16 @@ def polylines(s: Shape, extent: float | None = None) -> list[Array]:
     if s.degenerate:
         return [s.points]
     if s.kind == "circle":
+        assert s.normal is not None  # set for every circle that is not degenerate
         return [ring(s.centre, s.radius, s.normal)]
     if s.kind == "sphere":
         return [ring(s.centre, s.radius, np.eye(3)[i]) for i in range(3)]
     if s.kind == "line":
+        assert s.direction is not None  # set for every line that is not degenerate
         e = max(0.1, s.radius) if extent is None else extent
         return [np.array([s.points[0] - e * s.direction, s.points[1] + e * s.direction])]
     if s.kind == "plane":
+        assert s.normal is not None  # set for every plane that is not degenerate
         h = 1.5 * s.size if extent is None else extent
         a, b = basis(s.normal)
         corners = [s.centre + h * (i * a + j * b) for i, j in ((1, 1), (-1, 1), (-1, -1), (1, -1), (1, 1))]
@@ -242,7 +247,7 @@ def quaternion(r: Array) -> Array:
         q[1 + i] = 0.25 * s
         q[1 + j] = (r[j, i] + r[i, j]) / s
         q[1 + k] = (r[k, i] + r[i, k]) / s
-    v = np.array(q)
+    v: Array = np.array(q)
     return v / np.linalg.norm(v)
 
 

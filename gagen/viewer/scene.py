@@ -21,10 +21,10 @@ import math
 import threading
 import time
 from collections.abc import Sequence
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from gagen.robots.system import System
 from gagen.viewer import DEFAULT_PORT
@@ -39,6 +39,9 @@ from gagen.viewer.geometry import (
     shape,
     system_pose,
 )
+
+if TYPE_CHECKING:
+    from viser import SceneNodeHandle  # the optional dependency: imported where it is needed
 
 PRIMITIVE_COLOUR = (255, 0, 255)  # magenta: no robot part uses it (frames are red, green, blue)
 LINK_COLOUR = (205, 210, 220)
@@ -75,7 +78,7 @@ class Scene:
     """The viewer of one system; see the module docstring. ``port`` 0 picks a free one (``url`` says
     which); ``frames``: draw axes at each chain's base and end ("ends"), at every joint ("all") or none."""
 
-    def __init__(self, system: System, q: Sequence[float] | None = None, *, host: str = "127.0.0.1",
+    def __init__(self, system: System, q: ArrayLike | None = None, *, host: str = "127.0.0.1",
                  port: int = DEFAULT_PORT, frames: Frames = "ends", label: str | None = None) -> None:
         import viser  # the optional dependency, imported where it is needed
 
@@ -128,7 +131,7 @@ class Scene:
         raise TimeoutError(f"no browser connected to {self.url} within {timeout:g} s")
 
     # -- drawing -------------------------------------------------------------------------------------
-    def _check(self, q: Sequence[float]) -> NDArray[np.float64]:
+    def _check(self, q: ArrayLike) -> NDArray[np.float64]:
         v = np.asarray(q, dtype=float).reshape(-1)
         if v.shape != (self.system.dof,) or not np.all(np.isfinite(v)):
             raise ValueError(f"system {self.system.name!r}: expected {self.system.dof} finite joint values, "
@@ -168,7 +171,7 @@ class Scene:
                     self._axes.append((c, i, scene.add_frame(f"{root}/frame{i}", axes_length=axes,
                                                              axes_radius=0.08 * axes, origin_radius=0.0)))
         self._point_radius = 1.8 * r
-        self._primitive: list[Any] = []
+        self._primitive: list[SceneNodeHandle] = []
         self._draw(poses)
 
     def _draw(self, poses: Sequence[ChainPose]) -> None:
@@ -196,8 +199,9 @@ class Scene:
         s = shape(self.system.kind, points)
         visible = self._primitive_visible
         width = 0.35 * self.link_radius  # in proportion to the robots: a hand is centimetres across
-        handles = [scene.add_line_segments("/primitive/lines", segments(polylines(s)), PRIMITIVE_COLOUR,
-                                           thickness=width, visible=visible)]
+        handles: list[SceneNodeHandle] = [
+            scene.add_line_segments("/primitive/lines", segments(polylines(s)), PRIMITIVE_COLOUR,
+                                    thickness=width, visible=visible)]
         for k, p in enumerate(points):
             handles.append(scene.add_icosphere(f"/primitive/point{k}", radius=self._point_radius,
                                                color=PRIMITIVE_COLOUR, position=p, visible=visible))
@@ -206,6 +210,7 @@ class Scene:
                                                position=s.centre, opacity=0.15, subdivisions=4,
                                                cast_shadow=False, receive_shadow=False, visible=visible))
         elif not s.degenerate and s.kind == "plane":
+            assert s.normal is not None  # set for every plane that is not degenerate
             a, b = basis(s.normal)
             h = 1.5 * s.size
             corners = np.array([s.centre + h * (i * a + j * b)
@@ -217,7 +222,7 @@ class Scene:
         self._primitive = handles
         self.shape = s
 
-    def update(self, q: Sequence[float]) -> None:
+    def update(self, q: ArrayLike) -> None:
         """Redraw robots and primitive at the configuration q (the system's joint vector)."""
         v = self._check(q)
         with self._lock, self.server.atomic():
@@ -227,7 +232,7 @@ class Scene:
     def show_primitive(self, visible: bool = True) -> None:
         """Show or hide the primitive (lines, spanning points, surface), as the panel's checkbox does."""
         if self._toggle.value != visible:
-            self._toggle.value = visible
+            self._toggle.value = visible  # type: ignore[misc]  # viser: mypy takes the generic property as read-only
         self._set_primitive_visible(visible)
 
     def _set_primitive_visible(self, visible: bool) -> None:
@@ -263,7 +268,7 @@ class Scene:
             client.camera.fov = camera.fov
 
     # -- playing -------------------------------------------------------------------------------------
-    def play(self, times: Sequence[float], qs: Sequence[Sequence[float]], *, speed: float = 1.0,
+    def play(self, times: ArrayLike, qs: ArrayLike, *, speed: float = 1.0,
              loop: bool = False, stop: threading.Event | None = None, label: str = "") -> None:
         """Play a joint trajectory (qs[k] at times[k], seconds, increasing) in real time × ``speed``,
         showing at most ``FPS`` configurations a second (each the latest sample due). Blocks until the
@@ -294,7 +299,7 @@ class Scene:
             stop.wait(0.5)  # a pause on the final configuration before it starts again
 
 
-def serve(scene: Scene, runs: Sequence[tuple[str, Sequence[float], Sequence[Sequence[float]]]], *,
+def serve(scene: Scene, runs: Sequence[tuple[str, ArrayLike, ArrayLike]], *,
           speed: float = 1.0, stop: threading.Event | None = None) -> None:
     """Play (label, times, qs) runs one after another in a loop until Ctrl-C (or ``stop`` is set), then
     close the scene: the ``--view`` of the command-line demos."""

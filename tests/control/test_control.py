@@ -333,3 +333,17 @@ def test_manipulability(kind):
     assert manipulability_index(jg, rank) == pytest.approx(np.sqrt(np.prod(top)), rel=1e-8)
     assert manipulability_index(jg) == pytest.approx(np.sqrt(np.prod(top)), rel=1e-8)
     assert manipulability_index(jg, 7) < 1e-10 * manipulability_index(jg, rank)
+
+
+def test_ik_steps_on_the_free_joints_when_one_sits_at_its_limit():
+    """e = q0 + q1 − 1 from (0, 0) with q1 <= 0: the minimum-norm step (½, ½) pushes q1 out of its box.
+    Clipping that step only halves ‖e‖ per iteration (the stall the LEAP hand's dilation hit at 50
+    iterations); holding q1 at its bound and stepping on q0 reaches (1, 0) at once."""
+
+    def task(q, V_Sd):
+        return np.array([q[0] + q[1] - 1.0]), np.array([[1.0, 1.0]])
+
+    result = solve_ik(task, [0.0, 0.0], np.zeros(12), tol=1e-10, max_iterations=5, damping=0.0,
+                      limits=([-2.0, -2.0], [2.0, 0.0]))
+    assert result.converged and result.iterations <= 2
+    np.testing.assert_allclose(result.q, [1.0, 0.0], atol=1e-10)

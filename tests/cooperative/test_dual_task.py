@@ -398,7 +398,7 @@ def test_generated_kernels_pass_the_check(built):
 def test_the_other_systems_kernels_pass_the_check(tmp_path, name):
     """The dual task kernels alone (``compile_kernels``), checked like ``gagen build --check`` does."""
     from gagen import check
-    from gagen.frontend import compile_kernels
+    from gagen.build import compile_kernels
     from gagen.runtime import load
 
     functions = dual_task_kernel_functions(bundled_systems()[name])

@@ -396,7 +396,7 @@ def test_random_scenes_are_well_conditioned_and_consistent():
 def compiled(tmp_path_factory):
     """Both rigs' modules: the bundled one built from its file as ``gagen build`` does (the committed
     generated/stereo_rig, built on first use), the rotated one through ``compile_kernels``."""
-    from gagen.frontend import compile_kernels
+    from gagen.build import compile_kernels
     from gagen.modules import bundled_module
 
     folder = tmp_path_factory.mktemp("stereo")

@@ -134,7 +134,7 @@ def dual_task(ga: Any, system: System, q: Sequence[Any], names: Sequence[str] = 
     mr = _shared(relative_motor(m1, m2), MOTOR)
     half = half_motor(mr)
     ma = _shared(m2 * half.versor, MOTOR)
-    memo: dict[str, Any] = {}
+    memo: dict[str, list[Any]] = {}
 
     def jr() -> list[Any]:  # M_1~ Λ_j M_1, Λ_j = L'_1,j − L'_2,j
         if "J_r" not in memo:

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import argparse
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -78,7 +78,8 @@ def controller(system: str, gains: Gains) -> tuple[ImpedanceController, np.ndarr
 
 
 def run_all(system: str, gains_name: str, count: int = COUNT, spread: float = SPREAD,
-            duration: float = DURATION, dt: float = DT, seed: int = 0, log=print) -> Result:
+            duration: float = DURATION, dt: float = DT, seed: int = 0,
+            log: Callable[[str], None] = print) -> Result:
     """``count`` closed-loop runs of ``system`` from random starts around q0 (the same starts for every
     gain set: the seed is the system's)."""
     control, q0 = controller(system, GAINS[gains_name])
@@ -147,7 +148,7 @@ def run_command(args: argparse.Namespace) -> int:
 
         circle = [r for r in results if r.system == SYSTEMS["circle"]]
         every = 20  # 50 frames per second of the 1 kHz runs
-        cases = [(f"{r.gains} gains", r.runs[0].times[::every], r.runs[0].q[::every]) for r in circle]
-        serve(Scene(bundled_systems()[SYSTEMS["circle"]], cases[0][2][0], port=args.port), cases)
+        played = [(f"{r.gains} gains", r.runs[0].times[::every], r.runs[0].q[::every]) for r in circle]
+        serve(Scene(bundled_systems()[SYSTEMS["circle"]], played[0][2][0], port=args.port), played)
     tuned = [r for r in results if r.gains == "tuned"]
     return 0 if all(max(r.final_errors) < CONVERGED for r in tuned) else 1

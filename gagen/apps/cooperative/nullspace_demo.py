@@ -92,7 +92,8 @@ class Circle:
         d = d - (d @ self.normal) * self.normal
         u = d / np.linalg.norm(d)
         w = np.cross(self.normal, u)
-        return self.centre + self.radius * (np.cos(angle) * u + np.sin(angle) * w)
+        point: NDArray[np.float64] = self.centre + self.radius * (np.cos(angle) * u + np.sin(angle) * w)
+        return point
 
     def polyline(self, samples: int = 145) -> NDArray[np.float64]:
         """(samples, 3) points around the circle, closed."""
@@ -100,7 +101,9 @@ class Circle:
         a /= np.linalg.norm(a)
         b = np.cross(self.normal, a)
         angles = np.linspace(0.0, 2 * np.pi, samples)
-        return self.centre + self.radius * (np.outer(np.cos(angles), a) + np.outer(np.sin(angles), b))
+        points: NDArray[np.float64] = self.centre + self.radius * (np.outer(np.cos(angles), a)
+                                                                   + np.outer(np.sin(angles), b))
+        return points
 
 
 
@@ -191,7 +194,7 @@ def run(projected: bool, *, steps: int = DEFAULT_STEPS, dt: float = DEFAULT_DT, 
     points = np.array([end_points(m, x) for x in Q])
     similarity = np.array([np.linalg.norm(np.array(m.c.task(x, V_Sd)[0])) for x in Q])
     return DemoResult(
-        projected=projected, t=dt * np.arange(steps + 1), q=Q, points=points,
+        projected=projected, t=dt * np.arange(steps + 1, dtype=np.float64), q=Q, points=points,
         similarity_distance=similarity,
         target_distance=np.linalg.norm(points[:, 0] - target, axis=1),
         circle_distance=np.array([circle.distance(p) for p in points[:, 0]]),

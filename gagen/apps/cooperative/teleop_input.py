@@ -62,7 +62,8 @@ class Trace:
         row = int(np.searchsorted(self.times, t + TIME_TOLERANCE, side="right")) - 1
         if row < 0 or row >= len(self.times) - 1:
             return np.zeros(len(AXES))
-        return self.axes[row].copy()
+        held: NDArray[np.float64] = self.axes[row].copy()
+        return held
 
     def steps(self, dt: float) -> int:
         """How many steps of dt cover the trace (the last one may end past it)."""
@@ -149,7 +150,9 @@ class Scales:
 
     def apply(self, deflection: Sequence[float]) -> NDArray[np.float64]:
         d = np.asarray(deflection, dtype=float)
-        return d * np.array([self.translation] * 3 + [self.rotation] * 2 + [self.dilation])
+        per_unit = np.array([self.translation] * 3 + [self.rotation] * 2 + [self.dilation])
+        rates: NDArray[np.float64] = d * per_unit
+        return rates
 
 
 # -- keyboard ----------------------------------------------------------------------------------------
@@ -257,4 +260,6 @@ class SpaceMouseReader:
         state = self.device.read()
         if any(getattr(state, "buttons", ()) or ()):
             self.quit = True
-        return np.clip([state.x, state.y, state.z, state.roll, state.pitch, state.yaw], -1.0, 1.0)
+        axes: NDArray[np.float64] = np.clip([state.x, state.y, state.z, state.roll, state.pitch, state.yaw],
+                                            -1.0, 1.0)
+        return axes

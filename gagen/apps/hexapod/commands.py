@@ -45,12 +45,13 @@ def _walk(args: argparse.Namespace) -> int:
     import time
 
     from gagen.apps.hexapod import gait
+    from gagen.apps.hexapod.spec import load_hexapod
     from gagen.codegen.compiler import CompileError
     from gagen.errors import SpecError
 
     start = time.perf_counter()
     try:
-        hexapod = gait.load_hexapod(args.spec)
+        hexapod = load_hexapod(args.spec)
         params = gait.GaitParameters(straight=args.straight, turn=math.radians(args.turn), radius=args.radius,
                                      height=args.height, stride=args.stride, step_time=args.step_time,
                                      step_height=args.step_height, rate=args.rate)

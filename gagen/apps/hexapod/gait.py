@@ -45,7 +45,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from gagen.apps.hexapod.bundled import SPEC
 from gagen.apps.hexapod.kernels import toe_position
@@ -89,7 +89,8 @@ def rotation(axis: Array, angle: float | Array) -> Array:
     u = np.asarray(axis, dtype=float)
     k = np.array([[0, -u[2], u[1]], [u[2], 0, -u[0]], [-u[1], u[0], 0]])
     a = np.asarray(angle, dtype=float)[..., None, None]
-    return np.eye(3) + np.sin(a) * k + (1 - np.cos(a)) * (k @ k)
+    matrices: Array = np.eye(3) + np.sin(a) * k + (1 - np.cos(a)) * (k @ k)
+    return matrices
 
 
 @dataclass(frozen=True)
@@ -227,7 +228,8 @@ class BodyTrajectory:
 
     def to_world(self, p: Array) -> Array:
         """Body-frame points (n×k×3, one set per time) in the world."""
-        return np.einsum("nij,nkj->nki", self.rotation, p) + self.position[:, None, :]
+        world: Array = np.einsum("nij,nkj->nki", self.rotation, p) + self.position[:, None, :]
+        return world
 
 
 def quaternion(r: Array) -> Array:
@@ -267,7 +269,7 @@ def motor(r: Array, c: Array) -> Array:
     return np.column_stack([w, -v1 / 2, -v2 / 2, a, -v3 / 2, b, g, -tri / 2])
 
 
-def body_trajectory(params: GaitParameters, ground: Ground, t: Array | None = None) -> BodyTrajectory:
+def body_trajectory(params: GaitParameters, ground: Ground, t: ArrayLike | None = None) -> BodyTrajectory:
     """The body's poses at ``t`` (default: the walk's samples), see the module docstring."""
     t = params.times() if t is None else np.asarray(t, dtype=float)
     xy, heading = path(params, arclength(params, t))
@@ -442,7 +444,8 @@ def footholds(hexapod: Hexapod, params: GaitParameters, ground: Ground,
 
 
 def toe_targets(hexapod: Hexapod, params: GaitParameters, ground: Ground, t: Array,
-                sets: tuple[tuple[int, ...], tuple[int, ...]]) -> tuple[Array, NDArray[np.int64], NDArray]:
+                sets: tuple[tuple[int, ...], tuple[int, ...]]
+                ) -> tuple[Array, NDArray[np.int64], NDArray[np.bool_]]:
     """The commanded toes (n×6×3, world), each sample's step and the swing mask (n×6)."""
     k = params.phases
     holds = footholds(hexapod, params, ground, sets)

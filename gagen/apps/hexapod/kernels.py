@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from gagen.algebra.kinds import kind_blades
+from gagen.algebra.protocol import Multivector
 from gagen.apps.hexapod.legs import AnalyticIKError, analytic_ik, dls_step, leg_kinematics, planar_signs
 from gagen.apps.hexapod.spec import Hexapod, Leg
 from gagen.frontend import KernelFunction, matrix, scalars
@@ -39,10 +40,6 @@ TWIST = ("vx", "vy", "vz", "wx", "wy", "wz")
 ALGEBRAS = {"pga": "pga3d", "cga": "cga3d"}
 BODY_KERNELS = ("body_fk_pga", "body_fk_cga", "body_ik", "body_contact_pga", "body_contact_cga",
                 "ground_pga", "ground_cga")
-
-
-def leg_kernel_names(leg: str) -> tuple[str, ...]:
-    return f"{leg}_fk_pga", f"{leg}_fk_cga", f"{leg}_ik", f"{leg}_dls"
 
 
 def analytic(leg: Leg) -> bool:
@@ -87,7 +84,7 @@ def random_pose(rng: np.random.Generator, algebra: str = "pga3d") -> np.ndarray:
     return _coefficients(pose, "motor")
 
 
-def _coefficients(x: MultiVector, kind: str) -> np.ndarray:
+def _coefficients(x: Multivector, kind: str) -> np.ndarray:
     return np.array([x[b] for b in kind_blades(x.algebra, kind)])
 
 
@@ -113,8 +110,8 @@ def _point_sample(algebra: str, rng: np.random.Generator) -> np.ndarray:
 
 # -- the kernels ---------------------------------------------------------------------------------------
 
-def _kernel(fn: Callable, name: str, algebra: str, inputs: dict, outputs: dict, doc: str,
-            sample: Callable[[np.random.Generator], list]) -> KernelFunction:
+def _kernel(fn: Callable[..., Any], name: str, algebra: str, inputs: dict[str, Any], outputs: dict[str, Any],
+            doc: str, sample: Callable[[np.random.Generator], list[np.ndarray]]) -> KernelFunction:
     # J = ∂p/∂q where a kernel returns both: its own formula, held against differences by --check
     jacobians = {"J": ("p", "q")} if {"J", "p"} <= set(outputs) and "q" in inputs else None
     return KernelFunction(fn, algebra=algebra, inputs=inputs, outputs=outputs, name=name, doc=doc,
@@ -197,7 +194,7 @@ def _body_fk_kernel(hexapod: Hexapod, suffix: str) -> KernelFunction:
 def _world_targets(hexapod: Hexapod, rng: np.random.Generator) -> list[np.ndarray]:
     geo = GEOMETRIES["pga3d"]
     pose = random_pose(rng)
-    motor = _motor("pga3d", pose)
+    motor: Multivector = _motor("pga3d", pose)
     toes = [geo.location(motor.sandwich(geo.point(motor, list(_target(leg, rng))))) for leg in hexapod.legs]
     return [pose, np.concatenate(toes)]
 

@@ -221,8 +221,3 @@ def dls_step(geo: Geometry, like: Multivector, leg: Leg, q: Sequence[Any], targe
     w = [sum(adj[i][j] * e[j] for j in range(3)) / det for i in range(3)]
     step = [dot(cols[j], w) for j in range(3)]
     return {"q_next": [qj + sj for qj, sj in zip(q, step, strict=True)], "error": m.sqrt(dot(e, e))}
-
-
-def limit_margin(leg: Leg, q: Sequence[float]) -> float:
-    """The smallest distance (rad) of q to a joint limit; negative when a limit is passed."""
-    return min(min(qj - lo, hi - qj) for qj, (lo, hi) in zip(q, leg.limits, strict=True))

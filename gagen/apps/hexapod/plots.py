@@ -7,15 +7,19 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from gagen.apps.hexapod.gait import GaitResult, joint_points
 
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
 TRIPOD_COLOURS = ("tab:blue", "tab:orange")
 
 
-def _figure(size: tuple[float, float]):  # -> matplotlib's Figure (imported lazily)
+def _figure(size: tuple[float, float]) -> Figure:  # (matplotlib imported lazily)
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 

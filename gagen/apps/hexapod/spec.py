@@ -145,7 +145,8 @@ def _leg_defaults(spec: Document, value: Any, field: str) -> dict[str, Any]:
     return _leg_fields(spec, value, field, {})
 
 
-def _leg_fields(spec: Document, value: dict, field: str, defaults: dict[str, Any]) -> dict[str, Any]:
+def _leg_fields(spec: Document, value: dict[str, Any], field: str, defaults: dict[str, Any]
+                ) -> dict[str, Any]:
     out = dict(defaults)
     if "lengths" in value:
         out["lengths"] = _lengths(spec, value["lengths"], f"{field}.lengths")

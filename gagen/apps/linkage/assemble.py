@@ -71,7 +71,8 @@ def intersect(p: np.ndarray, rp: float, q: np.ndarray, rq: float, side: int) -> 
     along = (rp * rp - rq * rq + dist2) / (2 * dist2)
     h = np.sqrt(rp * rp / dist2 - along * along)
     normal = np.stack([-d[..., 1], d[..., 0]], axis=-1)  # d turned by +90°: the left
-    return p + along * d + side * h * normal
+    point: np.ndarray = p + along * d + side * h * normal
+    return point
 
 
 def positions(mechanism: Mechanism, theta: np.ndarray | float) -> dict[str, np.ndarray]:

@@ -17,7 +17,7 @@ import numpy as np
 
 from gagen.apps.linkage.kernels import identity_motors, linkage_kernels
 from gagen.apps.linkage.solver import MAX_ITERATIONS, TOLERANCE
-from gagen.apps.linkage.spec import Linkage, Revolute
+from gagen.apps.linkage.spec import Linkage
 
 
 @dataclass
@@ -31,7 +31,7 @@ class Sweep:
 
 def family(linkage: Linkage) -> Any:
     """The compiled parametric kernels of the linkage's topology (the gagen.compile cache)."""
-    from gagen.frontend import compile_kernels
+    from gagen.build import compile_kernels
 
     return compile_kernels(linkage_kernels(linkage, parametric=True), name=f"{linkage.name}_family")
 
@@ -92,7 +92,7 @@ def grashof_class(ground: float, crank: float, coupler: float, rocker: float) ->
     shortest_length, longest = min(lengths.values()), max(lengths.values())
     if shortest_length + longest > sum(lengths.values()) - shortest_length - longest:
         return "triple-rocker"
-    shortest = min(lengths, key=lengths.get)
+    shortest = min(lengths, key=lambda link: lengths[link])
     return {"crank": "crank-rocker", "ground": "double-crank"}.get(shortest, "double-rocker")
 
 
@@ -116,7 +116,3 @@ def classify(linkage: Linkage, result: Sweep, rocker: str = "rocker") -> list[st
         else:
             out.append("crank-rocker")
     return out
-
-
-def is_four_bar(linkage: Linkage) -> bool:
-    return len(linkage.bodies) == 3 and all(isinstance(j, Revolute) for j in linkage.joints)

@@ -67,6 +67,8 @@ def driver_motor(like: Multivector, driver: Driver, pivot: Sequence[Any] | None,
     slider's translation by s along its slot (the world direction: the ground carries every driver's
     slot or its point)."""
     if driver.slide is None:
+        if pivot is None:
+            raise ValueError(f"the crank {driver.body} has no pivot")
         return crank_motor(like, pivot, value)
     d = _exact(driver.slide.direction)
     sign = 1 if driver.slide.on == GROUND else -1  # a ground point in the block's slot: the block moves −s

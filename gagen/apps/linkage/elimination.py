@@ -113,7 +113,8 @@ def structured_solve(linkage: Linkage, F: ca.SX, J: ca.SX) -> ca.SX | None:
 
 def _tree_order(tree: dict[str, tuple[int, str]], linkage: Linkage) -> list[tuple[str, tuple[int, str]]]:
     """The tree's bodies, each after the body it hangs on."""
-    placed, order = {GROUND, linkage.crank}, []
+    placed = {GROUND, linkage.crank}
+    order: list[tuple[str, tuple[int, str]]] = []
     while len(order) < len(tree):
         for body, (row, parent) in tree.items():
             if body not in placed and parent in placed:

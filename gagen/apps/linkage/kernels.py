@@ -102,7 +102,7 @@ def _coordinates(linkage: Linkage, X0: Any) -> dict[tuple[str, str], list[Any]] 
     return {ref: [X0[2 * i], X0[2 * i + 1]] for i, ref in enumerate(refs)}
 
 
-def _with_arguments(fn: Callable, names: list[str]) -> Callable:
+def _with_arguments(fn: Callable[..., Any], names: list[str]) -> Callable[..., Any]:
     """``fn`` called with the values in order, under the plain signature ``names``: the front end reads
     the inputs' names from it (the driver's is ``theta`` or ``s``)."""
     def call(*values: Any) -> Any:
@@ -163,8 +163,10 @@ def linkage_kernels(linkage: Linkage, parametric: bool = False) -> list[KernelFu
         # the reference, on the interpreter: the same step with numpy's least squares
         extra = [np.array(X0, dtype=float)] if parametric else []
         F, J = constraint.reference(np.array(R, dtype=float), np.array([theta], dtype=float), *extra)
+        assert F is not None and J is not None  # (None only for a Jacobian left to AD: these are outputs)
         step = -np.linalg.lstsq(J, F.reshape(-1), rcond=None)[0]
         (R_next,) = retraction.reference(np.array(R, dtype=float), step)
+        assert R_next is not None
         return {"R_next": [float(v) for v in R_next.reshape(-1)], "residual": float(np.max(np.abs(F)))}
 
     def newton_rule(symbols: dict[str, Any]) -> dict[str, Any]:

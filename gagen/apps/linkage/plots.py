@@ -139,10 +139,10 @@ def paths(linkage: Linkage, trajectory: Trajectory) -> dict[tuple[str, str], np.
 
 
 def _extent(linkage: Linkage, trajectory: Trajectory, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    xy = [trajectory.points.reshape(len(trajectory.points), -1, 2).reshape(-1, 2),
-          np.array(list(linkage.ground.values()), dtype=float).reshape(-1, 2)]
-    xy += [segment for r in rows for _, segment in slot_segments(linkage, trajectory.points[r])]
-    xy = np.vstack(xy)
+    parts = [trajectory.points.reshape(len(trajectory.points), -1, 2).reshape(-1, 2),
+             np.array(list(linkage.ground.values()), dtype=float).reshape(-1, 2)]
+    parts += [segment for r in rows for _, segment in slot_segments(linkage, trajectory.points[r])]
+    xy = np.vstack(parts)
     lo, hi = xy.min(axis=0), xy.max(axis=0)
     margin = 0.08 * max(float((hi - lo).max()), 1e-6)
     return lo - margin, hi + margin
@@ -239,7 +239,7 @@ def coupler_curve(linkage: Linkage, trajectory: Trajectory, path: str | Path, po
 
 
 def animate(linkage: Linkage, trajectory: Trajectory, path: str | Path, frames: int = 72, size: float = 5.0,
-            dpi: int = 80, fps: float = 24.0, progress: Callable[[str], None] = lambda _: None) -> Path:
+            dpi: int = 80, fps: int = 24, progress: Callable[[str], None] = lambda _: None) -> Path:
     """A GIF of the mechanism over the run: ``frames`` steps spread evenly over it, the traced curve
     drawn up to the current step."""
     from matplotlib.animation import PillowWriter

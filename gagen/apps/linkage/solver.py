@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from gagen.apps.linkage.kernels import identity_motors, linkage_kernels, point_labels
 from gagen.apps.linkage.spec import GROUND, Linkage, Prismatic, slot_coordinate
@@ -69,8 +70,8 @@ class Kernels:
     where the module has it, ``(R, θ) -> (R_next, max |F|)`` (the whole Newton step in one kernel):
     the compiled module's (``kernels(linkage)``) or any equivalent."""
 
-    def __init__(self, constraints: Callable, retract: Callable, positions: Callable,
-                 newton_step: Callable | None = None) -> None:
+    def __init__(self, constraints: Callable[..., Any], retract: Callable[..., Any],
+                 positions: Callable[..., Any], newton_step: Callable[..., Any] | None = None) -> None:
         self.constraints, self.retract, self.positions = constraints, retract, positions
         self.newton_step = newton_step
 
@@ -79,7 +80,7 @@ def kernels(linkage: Linkage, module: Any | None = None) -> Kernels:
     """The linkage's kernels compiled (``gagen.compile``'s cache, once per content) or from a loaded
     generated module's C namespace."""
     if module is None:
-        from gagen.frontend import compile_kernels
+        from gagen.build import compile_kernels
 
         module = compile_kernels(linkage_kernels(linkage), name=linkage.name)
     return Kernels(module.constraints, module.retract, module.positions, getattr(module, "newton_step", None))
@@ -136,6 +137,7 @@ def driven_pose(linkage: Linkage, value: float) -> tuple[np.ndarray, np.ndarray]
     if slide is not None:
         sign = 1.0 if slide.on == GROUND else -1.0
         return np.eye(2), sign * value * np.array(slide.direction)
+    assert linkage.pivot is not None  # a driver without a slide is a crank, turning about its pivot
     pivot = np.array(linkage.ground[linkage.pivot])
     c, s = np.cos(value), np.sin(value)
     rotation = np.array([[c, -s], [s, c]])
@@ -143,7 +145,7 @@ def driven_pose(linkage: Linkage, value: float) -> tuple[np.ndarray, np.ndarray]
 
 
 def _advance(k: Kernels, linkage: Linkage, R: np.ndarray, points: np.ndarray, start: float, target: float,
-             halvings: int) -> tuple[Solve, np.ndarray]:
+             halvings: int) -> tuple[Solve, float]:
     """Solve at ``target`` from ``start`` in 2^halvings equal crank steps; the last solve and the
     largest point displacement of a sub-step over the crank's own motion in it."""
     parts, ratio = 2 ** halvings, 0.0
@@ -158,9 +160,9 @@ def _advance(k: Kernels, linkage: Linkage, R: np.ndarray, points: np.ndarray, st
     return solve, ratio
 
 
-def simulate(k: Kernels, linkage: Linkage, angles: Sequence[float], *, max_halvings: int = 8,
+def simulate(k: Kernels, linkage: Linkage, angles: ArrayLike, *, max_halvings: int = 8,
              jump: float = 20.0, progress: Callable[[str], None] = lambda _: None,
-             phases: Sequence[float] | None = None) -> Trajectory:
+             phases: ArrayLike | None = None) -> Trajectory:
     """Follow the driver through ``angles`` (crank angles in rad, or slider displacements, from the
     initial configuration; ``phases`` their cycle phase, for the plots), continuing each solve from
     the previous one; the first solve assembles the initial guess (identity motors).
@@ -170,9 +172,9 @@ def simulate(k: Kernels, linkage: Linkage, angles: Sequence[float], *, max_halvi
     singular configuration the output races ahead of the input, and a large step there could land
     on the other assembly branch. A step that still fails is reported in ``failures``, and the
     configuration stays at the last solved one."""
-    angles = np.asarray(angles, dtype=float)
-    first = newton(k, identity_motors(linkage), float(angles[0]))
-    R, previous = first.motors, float(angles[0])
+    values = np.asarray(angles, dtype=float)
+    first = newton(k, identity_motors(linkage), float(values[0]))
+    R, previous = first.motors, float(values[0])
     points = np.asarray(k.positions(R, np.array([previous]))).reshape(-1)
     rows: dict[str, list[Any]] = {key: [] for key in ("motors", "points", "iterations", "residuals",
                                                       "sigma_min", "condition", "halvings")}
@@ -188,7 +190,7 @@ def simulate(k: Kernels, linkage: Linkage, angles: Sequence[float], *, max_halvi
         failures.append(f"the constraint Jacobian has rank {rank} for {linkage.constraint_rows} constraint "
                         f"rows: {linkage.constraint_rows - rank} redundant (over-constrained) at the initial "
                         f"configuration")
-    for index, target in enumerate(angles):
+    for index, target in enumerate(values):
         for halvings in range(max_halvings + 1):
             solve, ratio = _advance(k, linkage, R, points, previous, float(target), halvings)
             if solve.converged and ratio <= jump:
@@ -208,9 +210,9 @@ def simulate(k: Kernels, linkage: Linkage, angles: Sequence[float], *, max_halvi
         rows["condition"].append(solve.condition)
         rows["halvings"].append(halvings)
         if index % 100 == 0:
-            progress(f"  step {index}/{len(angles)}: {linkage.at(target)}, {solve.iterations} "
+            progress(f"  step {index}/{len(values)}: {linkage.at(target)}, {solve.iterations} "
                      f"iterations, max |F| {solve.residual:.1e}")
-    trajectory = Trajectory(angles, np.array(rows["motors"]), np.array(rows["points"]),
+    trajectory = Trajectory(values, np.array(rows["motors"]), np.array(rows["points"]),
                             np.array(rows["iterations"]), np.array(rows["residuals"]),
                             np.array(rows["sigma_min"]), np.array(rows["condition"]),
                             np.array(rows["halvings"]), failures, rank, unknowns,

@@ -48,9 +48,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from gagen.yaml_document import Document, identifier, known_keys, number, require, show
+
+if TYPE_CHECKING:
+    import numpy as np
 
 TOP_KEYS = ("app", "name", "ground", "bodies", "joints", "driver", "trace")
 PRISMATIC_KEYS = ("point", "slot", "through", "direction", "travel")
@@ -176,7 +179,7 @@ class Linkage:
         return (lo - start, hi - start) if slide.on == GROUND else (start - hi, start - lo)
 
 
-def slot_coordinate(joint: Prismatic, x: Point) -> float:
+def slot_coordinate(joint: Prismatic, x: Point | np.ndarray) -> float:
     """A point's coordinate along a slot, (x − through)·direction, in the frame of the slot's body."""
     return (x[0] - joint.through[0]) * joint.direction[0] + (x[1] - joint.through[1]) * joint.direction[1]
 
@@ -202,7 +205,8 @@ def _points(spec: Document, value: Any, field: str, what: str) -> dict[str, Poin
     return out
 
 
-def _ref(spec: Document, value: Any, field: str, ground: dict, bodies: dict) -> tuple[str, str]:
+def _ref(spec: Document, value: Any, field: str, ground: dict[str, Point],
+         bodies: dict[str, dict[str, Point]]) -> tuple[str, str]:
     if not isinstance(value, str) or value.count(".") != 1:
         raise spec.error(field, f"got {show(value)}; expected body.point (or ground.point)")
     body, name = value.split(".")
@@ -214,7 +218,8 @@ def _ref(spec: Document, value: Any, field: str, ground: dict, bodies: dict) -> 
     return body, name
 
 
-def _joint(spec: Document, value: Any, field: str, ground: dict, bodies: dict) -> Joint:
+def _joint(spec: Document, value: Any, field: str, ground: dict[str, Point],
+           bodies: dict[str, dict[str, Point]]) -> Joint:
     if not isinstance(value, dict) or len(value) != 1 or next(iter(value)) not in JOINT_KINDS:
         raise spec.error(field, f"got {show(value)}; expected {{revolute: [body.point, body.point]}}, "
                                 f"{{prismatic: {{point, slot, through, direction, travel}}}} (a pin in a "
@@ -259,7 +264,8 @@ def _joint(spec: Document, value: Any, field: str, ground: dict, bodies: dict) -
     return kind_of(point, on, through, (dx / norm, dy / norm), travel)
 
 
-def _driver(spec: Document, driver: dict, ground: dict, bodies: dict, joints: tuple[Joint, ...]) -> Driver:
+def _driver(spec: Document, driver: dict[str, Any], ground: dict[str, Point],
+            bodies: dict[str, dict[str, Point]], joints: tuple[Joint, ...]) -> Driver:
     """A crank (pinned to a ground point by a revolute joint) or a slider (on a ground slider joint)."""
     known_keys(spec, driver, "driver", DRIVER_KEYS)
     body = require(spec, driver, "body", "driver.body", str, "the crank or slider body")

@@ -59,7 +59,7 @@ def triangulate_axis(rig: Rig, left: tuple[float, float], right: tuple[float, fl
     n1 = viewing_plane(*left)
     n2 = R @ viewing_plane(*right)  # X_r = Rᵀ(X − t): n_r · X_r = 0 ⇔ (R n_r) · X = (R n_r) · t
     d2 = float(n2 @ t)
-    n1, n2, d2 = n1 / np.linalg.norm(n1), n2 / np.linalg.norm(n2), d2 / np.linalg.norm(n2)
+    n1, n2, d2 = n1 / np.linalg.norm(n1), n2 / np.linalg.norm(n2), d2 / float(np.linalg.norm(n2))
     u = np.cross(n1, n2)
     s = float(np.linalg.norm(u))
     if s < 1e-12:
@@ -76,7 +76,8 @@ def triangulate_point(rig: Rig, left_xy: np.ndarray, right_xy: np.ndarray) -> np
     # minimise |s a − (t + u b)|²
     m = np.array([[a @ a, -a @ b], [a @ b, -b @ b]])
     s, u = np.linalg.lstsq(m, np.array([a @ t, b @ t]), rcond=None)[0]
-    return (s * a + t + u * b) / 2
+    midpoint: np.ndarray = (s * a + t + u * b) / 2
+    return midpoint
 
 
 def ray_to_axis(origin: np.ndarray, ray: np.ndarray, point: np.ndarray, direction: np.ndarray) -> np.ndarray:
@@ -84,7 +85,8 @@ def ray_to_axis(origin: np.ndarray, ray: np.ndarray, point: np.ndarray, directio
     w = point - origin
     m = np.array([[direction @ direction, -direction @ ray], [direction @ ray, -ray @ ray]])
     s, _ = np.linalg.lstsq(m, np.array([-w @ direction, -w @ ray]), rcond=None)[0]
-    return point + s * direction
+    closest: np.ndarray = point + s * direction
+    return closest
 
 
 def axis_point(rig: Rig, left_xy: np.ndarray, right_xy: np.ndarray, point: np.ndarray,
@@ -96,11 +98,13 @@ def axis_point(rig: Rig, left_xy: np.ndarray, right_xy: np.ndarray, point: np.nd
         raise ValueError(f"construction {construction!r}: expected 'triangulate' or 'rays'")
     if construction == "triangulate":
         x = triangulate_point(rig, left_xy, right_xy)
-        return point + ((x - point) @ direction) * direction
+        projected: np.ndarray = point + ((x - point) @ direction) * direction
+        return projected
     R, t = rig.right_in_left.R, rig.right_in_left.t
     a = ray_to_axis(np.zeros(3), np.array([left_xy[0], left_xy[1], 1.0]), point, direction)
     b = ray_to_axis(t, R @ np.array([right_xy[0], right_xy[1], 1.0]), point, direction)
-    return (a + b) / 2
+    average: np.ndarray = (a + b) / 2
+    return average
 
 
 def numpy_estimator(rig: Rig, left: vision.Detection, right: vision.Detection,
@@ -210,9 +214,9 @@ def evaluate(rig: Rig, poses: int | Sequence[scene.ObjectPose] = 200, levels: Se
             frame = scene.render(rig, pose, level.options, np.random.default_rng([seed, level_key, k]))
             row.frames += 1
             left, right = vision.detect_pair(frame.left, frame.right, rig, settings)
-            bad = [f"{side}: {d}" for side, d in (("left", left), ("right", right))
-                   if isinstance(d, vision.NoSymmetry)]
-            if bad:
+            if isinstance(left, vision.NoSymmetry) or isinstance(right, vision.NoSymmetry):
+                bad = [f"{side}: {d}" for side, d in (("left", left), ("right", right))
+                       if isinstance(d, vision.NoSymmetry)]
                 row.failures.append((k, "; ".join(bad)))
                 continue
             est = estimator(rig, left, right)

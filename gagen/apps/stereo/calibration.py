@@ -79,7 +79,8 @@ class Pose:
         return out
 
     def apply(self, points: np.ndarray) -> np.ndarray:
-        return np.asarray(points, dtype=float) @ self.R.T + self.t
+        moved: np.ndarray = np.asarray(points, dtype=float) @ self.R.T + self.t
+        return moved
 
     def inverse(self) -> Pose:
         return Pose(self.R.T, -self.R.T @ self.t)

@@ -51,17 +51,18 @@ def _stereo(args: argparse.Namespace) -> int:
     except (RuntimeError, CompileError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 1
-    e = track.tracking_errors(run, transient=min(0.5, args.duration / 2))
+    err = track.tracking_errors(run, transient=min(0.5, args.duration / 2))
     frames = len(run.frame_times)
     render, estimate = (1e3 * run.seconds[k] / frames for k in ("render", "estimate"))
     print(f"  frames: {frames}, failed {len(run.failures)}; render {render:.1f} ms, estimate "
           f"{estimate:.1f} ms per frame pair")
-    print(f"  estimate vs the rendered pose: position median {1e3 * e['estimate_position_median']:.2f} mm "
-          f"(max {1e3 * e['estimate_position_max']:.2f}), axis median {e['estimate_axis_median_deg']:.3f}° "
-          f"(max {e['estimate_axis_max_deg']:.3f}°)")
-    print(f"  tracking: end point within {1e3 * e['position_vs_estimate']:.2f} mm of the estimate and "
-          f"{1e3 * e['position_vs_truth']:.2f} mm of the true path; direction within "
-          f"{e['direction_vs_truth']:.3f} of the true axis")
+    print(f"  estimate vs the rendered pose: position median {1e3 * err['estimate_position_median']:.2f} mm "
+          f"(max {1e3 * err['estimate_position_max']:.2f}), "
+          f"axis median {err['estimate_axis_median_deg']:.3f}° "
+          f"(max {err['estimate_axis_max_deg']:.3f}°)")
+    print(f"  tracking: end point within {1e3 * err['position_vs_estimate']:.2f} mm of the estimate and "
+          f"{1e3 * err['position_vs_truth']:.2f} mm of the true path; direction within "
+          f"{err['direction_vs_truth']:.3f} of the true axis")
     for failure in run.failures[:5]:
         print(f"  failed: {failure}")
     for path in track.plots(run, rig, out):

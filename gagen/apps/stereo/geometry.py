@@ -55,7 +55,8 @@ Vec3 = list[Any]
 def stereo_motor(ga: Multivector, right_in_left: Pose) -> Multivector:
     """M = T(t) R with X_left = R X_right + t, an exact constant (rpy within 1e-9 of multiples of π/4
     snap to them, as for URDF link transforms)."""
-    joint = Joint("right_in_left", "fixed", tuple(float(v) for v in right_in_left.t),
+    t = right_in_left.t
+    joint = Joint("right_in_left", "fixed", (float(t[0]), float(t[1]), float(t[2])),
                   rpy_from_matrix(right_in_left.R))
     return fixed_motor(ga, joint)
 

@@ -99,8 +99,8 @@ def axis_line(point: np.ndarray, direction: np.ndarray) -> np.ndarray:
 
 # -- the kernels -----------------------------------------------------------------------------------------
 
-def _kernel(fn: Callable, name: str, inputs: dict, outputs: dict, doc: str,
-            sample: Callable[[np.random.Generator], list]) -> KernelFunction:
+def _kernel(fn: Callable[..., Any], name: str, inputs: dict[str, Any], outputs: dict[str, Any], doc: str,
+            sample: Callable[[np.random.Generator], list[np.ndarray]]) -> KernelFunction:
     return KernelFunction(fn, algebra="cga3d", inputs={**inputs, "ga": "algebra"}, outputs=outputs, name=name,
                           doc=doc, sample=sample)
 

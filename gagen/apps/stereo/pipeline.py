@@ -60,7 +60,7 @@ class Estimator:
 
     def __init__(self, rig: Rig, module: Any | None = None, settings: vision.Settings | None = None) -> None:
         if module is None:
-            from gagen.frontend import compile_kernels
+            from gagen.build import compile_kernels
 
             module = compile_kernels(stereo_kernels(rig), name=rig.name)
         self.rig, self.kernel = rig, module.estimate
@@ -90,8 +90,9 @@ class Estimator:
         return estimate
 
     def __call__(self, left_image: np.ndarray, right_image: np.ndarray) -> FrameEstimate | Failure:
-        found = vision.detect_pair(left_image, right_image, self.rig, self.settings)
-        for which, detection in zip(("left", "right"), found, strict=True):
-            if isinstance(detection, vision.NoSymmetry):
-                return Failure(f"{which} image: {detection}")
-        return self.observe(*found)
+        left, right = vision.detect_pair(left_image, right_image, self.rig, self.settings)
+        if isinstance(left, vision.NoSymmetry):
+            return Failure(f"left image: {left}")
+        if isinstance(right, vision.NoSymmetry):
+            return Failure(f"right image: {right}")
+        return self.observe(left, right)

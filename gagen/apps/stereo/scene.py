@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass, field
+from typing import Any
 
 import cv2
 import numpy as np
@@ -171,7 +172,7 @@ class StereoFrame:
     right: np.ndarray
     truth: Truth  # of the pose rendered (also when the object is absent or the images blank)
     present: bool = True  # whether the object is visible at all
-    info: dict = field(default_factory=dict)
+    info: dict[str, Any] = field(default_factory=dict)
 
 
 # ----------------------------------------------------------------------------------------- geometry
@@ -222,7 +223,8 @@ def _band_bgr(h: np.ndarray) -> np.ndarray:
     tops = np.array([top for top, _ in BANDS])
     hsv = np.array([[c for _, c in BANDS]], dtype=np.uint8)
     bgr = cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR)[0].astype(float)
-    return bgr[np.searchsorted(tops, h, side="right").clip(0, len(BANDS) - 1)]
+    colours: np.ndarray = bgr[np.searchsorted(tops, h, side="right").clip(0, len(BANDS) - 1)]
+    return colours
 
 
 def _mesh(bottle: Bottle) -> _Mesh:
@@ -247,7 +249,7 @@ def _mesh(bottle: Bottle) -> _Mesh:
     return _Mesh(verts, quads, faces, normals, colour)
 
 
-_MESHES: dict[tuple, _Mesh] = {}
+_MESHES: dict[tuple[bytes, bytes, int], _Mesh] = {}
 
 
 def _cached_mesh(bottle: Bottle) -> _Mesh:

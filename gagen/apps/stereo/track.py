@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from gagen.apps.stereo import scene
-from gagen.apps.stereo.calibration import Rig
+from gagen.apps.stereo.calibration import Camera, Rig
 from gagen.apps.stereo.pipeline import Estimator, Failure, FrameEstimate
 from gagen.control import smc
 
@@ -30,7 +30,8 @@ RATE = 1000.0
 
 def true_reference(t: float) -> np.ndarray:
     """The object's pose at t in the base frame as [centre; axis]: [SMC Eq. 43]."""
-    return smc.reference(t)
+    x: np.ndarray = smc.reference(t)
+    return x
 
 
 def object_pose(rig: Rig, t: float) -> scene.ObjectPose:
@@ -55,13 +56,15 @@ class TrackRun:
     @property
     def position_errors(self) -> np.ndarray:
         """Per frame: |estimated − true centre| (m)."""
-        return np.linalg.norm(self.estimates[:, :3] - self.truth[:, :3], axis=1)
+        distances: np.ndarray = np.linalg.norm(self.estimates[:, :3] - self.truth[:, :3], axis=1)
+        return distances
 
     @property
     def axis_errors(self) -> np.ndarray:
         """Per frame: the angle (rad) between the estimated and the true axis."""
         cos = np.abs(np.sum(self.estimates[:, 3:] * self.truth[:, 3:], axis=1))
-        return np.arccos(np.clip(cos, -1.0, 1.0))
+        angles: np.ndarray = np.arccos(np.clip(cos, -1.0, 1.0))
+        return angles
 
 
 def estimate_path(rig: Rig, duration: float, *, fps: float = FPS, options: scene.SceneOptions | None = None,
@@ -122,7 +125,8 @@ def close_loop(rig: Rig, duration: float = 5.0, *, fps: float = FPS, rate: float
 
     def reference(t: float) -> np.ndarray:
         k = math.floor((t - latency) * fps + 1e-9)
-        return run.estimates[min(max(k, 0), len(run.estimates) - 1)]
+        held: np.ndarray = run.estimates[min(max(k, 0), len(run.estimates) - 1)]
+        return held
 
     run.simulation = smc.simulate(built.step(), built.q0, duration, 1.0 / rate, reference=reference)
     run.seconds["control"] = time.perf_counter() - start
@@ -161,7 +165,7 @@ def plots(run: TrackRun, rig: Rig, out: str | Path, transient: float = 0.5) -> l
     folder.mkdir(parents=True, exist_ok=True)
     assert run.simulation is not None
     csv = run.simulation.write_csv(folder / "stereo_smc_log.csv")
-    written = smc.plot_run(csv, folder, transient=transient)
+    written: list[Path] = smc.plot_run(csv, folder, transient=transient)
 
     fig = Figure(figsize=(9, 5))
     FigureCanvasAgg(fig)
@@ -202,8 +206,8 @@ def _frame_picture(run: TrackRun, rig: Rig, path: Path) -> Path:
     panels = []
     for which, image, camera in (("left", frame.left, rig.left), ("right", frame.right, rig.right)):
         img = image.copy()
-        truth = getattr(frame.truth, which).line
-        _draw_line(img, camera, *truth, (0, 200, 0))
+        theta, r = getattr(frame.truth, which).line
+        _draw_line(img, camera, theta, r, (0, 200, 0))
         if isinstance(estimate, FrameEstimate):
             detection = getattr(estimate, which)
             _draw_line(img, camera, detection.theta, detection.r, (255, 0, 255))
@@ -214,7 +218,7 @@ def _frame_picture(run: TrackRun, rig: Rig, path: Path) -> Path:
     return path
 
 
-def _draw_line(img: np.ndarray, camera, theta: float, r: float, bgr: tuple[int, int, int]) -> None:
+def _draw_line(img: np.ndarray, camera: Camera, theta: float, r: float, bgr: tuple[int, int, int]) -> None:
     """x cos θ + y sin θ = r (normalised) across the image."""
     import cv2
 

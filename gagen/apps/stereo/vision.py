@@ -37,6 +37,7 @@ reflectional-symmetry line (θ, r) in normalised image coordinates, and its mass
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import cv2
 import numpy as np
@@ -101,7 +102,8 @@ def homology(theta: float, r: float) -> np.ndarray:
     """The image of the reflection in the plane through the camera centre and the image line (θ, r):
     H = I − 2 n nᵀ / nᵀn with n = (cos θ, sin θ, −r), on homogeneous normalised coordinates."""
     n = np.array([np.cos(theta), np.sin(theta), -r])
-    return np.eye(3) - 2 * np.outer(n, n) / (n @ n)
+    h: np.ndarray = np.eye(3) - 2 * np.outer(n, n) / (n @ n)
+    return h
 
 
 # ------------------------------------------------------------------------------------ segmentation
@@ -145,7 +147,8 @@ def edge(mask: np.ndarray) -> Edge | None:
         return None
     pts = c.astype(float)
     k = 2  # a 5-point circular moving average takes out the pixel staircase
-    smooth = sum(np.roll(pts, s, axis=0) for s in range(-k, k + 1)) / (2 * k + 1)
+    # (sum's start 0 types it ndarray | int; five rolled arrays make an array)
+    smooth = cast(np.ndarray, sum(np.roll(pts, s, axis=0) for s in range(-k, k + 1))) / (2 * k + 1)
     tangent = np.roll(smooth, -k, axis=0) - np.roll(smooth, k, axis=0)
     normal = np.stack([tangent[:, 1], -tangent[:, 0]], axis=1)
     normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-12)
@@ -191,7 +194,7 @@ def vote(e: Edge, camera: Camera, settings: Settings = Settings(), peaks: int = 
     padded = np.vstack([hist[-pad:, ::-1], hist, hist[:pad, ::-1]]).astype(np.float32)
     smooth = cv2.GaussianBlur(padded, (0, 0), 1.0)[pad:-pad]
     total = max(float(smooth.sum()), 1e-12)
-    out = []
+    out: list[tuple[float, float, float]] = []
     for _ in range(peaks):
         t, r = np.unravel_index(int(np.argmax(smooth)), smooth.shape)
         if smooth[t, r] <= 0:
@@ -244,7 +247,8 @@ def _mirror(camera: Camera, params: np.ndarray, xy: np.ndarray, model: str
             phi, rho = normalised_to_pixel(camera, t, rr)
             u = np.array([np.cos(phi), np.sin(phi)])
             p = camera.pixels(xy)
-            return p - 2 * ((p @ u) - rho)[:, None] * u
+            mirrored: np.ndarray = p - 2 * ((p @ u) - rho)[:, None] * u
+            return mirrored
         eps = 1e-6
         jac = np.stack([(reflect(theta + eps, r) - reflect(theta - eps, r)) / (2 * eps),
                         (reflect(theta, r + eps) - reflect(theta, r - eps)) / (2 * eps)], axis=-1)
@@ -339,7 +343,8 @@ def detect(image: np.ndarray, camera: Camera, hsv_low: tuple[int, int, int], hsv
     major = 0.5 * np.arctan2(2 * moments["mu11"], moments["mu20"] - moments["mu02"])
     starts = [(phi, rho) for phi, rho, _ in vote(e, camera, settings)]
     starts += [(phi, float(centre_px @ [np.cos(phi), np.sin(phi)])) for phi in (major + np.pi / 2, major)]
-    best, tried = None, []
+    best = None
+    tried: list[tuple[float, float]] = []
     for phi, rho in starts:
         if any(abs(np.sin(phi - p)) < 0.05 and abs(rho - np.cos(phi - p) * q) < 5 for p, q in tried):
             continue  # the same line as one already fitted (within ~3° and 5 px)
