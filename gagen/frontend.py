@@ -231,7 +231,7 @@ class KernelFunction:
     def __init__(self, fn: Callable[..., Any], *, algebra: str | Algebra = "cga3d",
                  inputs: Mapping[str, Any] | None = None,
                  outputs: Sequence[str] | Mapping[str, Any] | None = None,
-                 jacobians: Mapping[str, tuple[str, str]] | Iterable[tuple[str, str]] | None = None,
+                 jacobians: Mapping[str, tuple[Any, ...]] | Iterable[tuple[str, str]] | None = None,
                  name: str | None = None, doc: str | None = None,
                  sample: Callable[[np.random.Generator], list[np.ndarray]] | None = None,
                  rule: Callable[[dict[str, ca.SX]], Mapping[str, ca.SX]] | None = None) -> None:

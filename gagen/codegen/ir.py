@@ -79,7 +79,7 @@ class ModuleSource:
 
     name: str
     title: str
-    kernels: dict[str, Kernel]
+    kernels: Mapping[str, Kernel]  # a dict, or a catalogue built on first use
     source_name: str
     source_hash: str
     meta: dict[str, Any] = field(default_factory=dict)

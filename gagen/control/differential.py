@@ -68,7 +68,7 @@ def joint_velocity(J_G: ArrayLike, B: ArrayLike, damping: float = 1e-6,
     (B = J_G v) it reproduces B up to a relative O(λ² / s_min²), and the part of B along bivectors the
     primitive cannot control (Table 1) is ignored.
     """
-    return damped_pseudo_inverse(J_G, damping, rcond) @ np.asarray(B, dtype=float)
+    return damped_pseudo_inverse(J_G, damping, rcond) @ np.asarray(B, dtype=np.float64)
 
 
 def nullspace_projector(J: ArrayLike, damping: float = 0.0, rcond: float = RCOND) -> NDArray[np.float64]:
@@ -98,7 +98,7 @@ def manipulability(J_G: ArrayLike) -> NDArray[np.float64]:
     velocities, the square roots of its eigenvalues their lengths. The e0∞ direction is the dilation:
     how fast the primitive can grow or shrink (the radius of a circle or sphere).
     """
-    matrix = np.asarray(J_G, dtype=float)
+    matrix = np.asarray(J_G, dtype=np.float64)
     return matrix @ matrix.T
 
 

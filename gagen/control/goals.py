@@ -28,6 +28,7 @@ never returned as a NaN.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -86,7 +87,9 @@ def through(kind: str, points: Sequence[ArrayLike]) -> NDArray[np.float64]:
     if _shape(xyz) <= MIN_SHAPE:
         raise ValueError(f"degenerate {kind} goal: {_why(kind)}; points {[p.tolist() for p in xyz]}")
     zero = MultiVector.zero(cga3d())
-    x_d = primitive_through(kind, [conformal_point(conformal_vector(zero, list(p))) for p in xyz])
+    # the model's functions keep the kind of multivector they are given (an interpreter one here)
+    x_d = cast(MultiVector, primitive_through(kind, [conformal_point(conformal_vector(zero, list(p)))
+                                                     for p in xyz]))
     versor, _ = similarity(kind, unit_primitive(kind, zero), x_d)
     coefficients = np.array([versor[b] for b in SIMILARITY])
     # the versor must move X_u onto X_d with a positive scale; Eq. 21 cannot for a flat exactly
@@ -116,7 +119,7 @@ def _shape(xyz: list[NDArray[np.float64]]) -> float:
     if len(edges) == 1:
         return spread / max(1.0, float(np.linalg.norm(xyz[0])))
     if len(edges) == 2:
-        return float(np.linalg.norm(np.cross(*edges)))
+        return float(np.linalg.norm(np.cross(edges[0], edges[1])))
     return abs(float(np.linalg.det(np.array(edges))))
 
 
@@ -181,4 +184,4 @@ def primitive(kind: str, V_Sd: ArrayLike) -> MultiVector:
     if values.shape != (len(SIMILARITY),):
         raise ValueError(f"V_Sd: expected {len(SIMILARITY)} coefficients, got shape {values.shape}")
     v = MultiVector.from_blades(cga3d(), dict(zip(SIMILARITY, values, strict=True)))
-    return v.sandwich(unit_primitive(kind, v))
+    return v.sandwich(cast(MultiVector, unit_primitive(kind, v)))  # (an interpreter one, as v)

@@ -73,7 +73,8 @@ STATUSES = {
 """``IKResult.status`` values and what each means."""
 
 
-def _limits(limits: tuple[ArrayLike, ArrayLike] | None, m: int) -> tuple[NDArray, NDArray] | None:
+def _limits(limits: tuple[ArrayLike, ArrayLike] | None,
+            m: int) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
     if limits is None:
         return None
     lower, upper = (np.broadcast_to(np.asarray(b, dtype=float), (m,)).copy() for b in limits)
@@ -89,11 +90,12 @@ def _step(J: NDArray[np.float64], e: NDArray[np.float64], damping: float) -> NDA
     keep = s > RCOND * s[0] if s.size and s[0] > 0 else np.zeros(s.shape, dtype=bool)
     filtered = np.zeros_like(s)
     filtered[keep] = s[keep] / (s[keep] ** 2 + damping)
-    return -(vt.T * filtered) @ (u.T @ e)
+    step: NDArray[np.float64] = -(vt.T * filtered) @ (u.T @ e)  # (numpy types svd's factors as Any arrays)
+    return step
 
 
 def _bounded_step(J: NDArray[np.float64], e: NDArray[np.float64], damping: float, q: NDArray[np.float64],
-                  bounds: tuple[NDArray, NDArray] | None) -> NDArray[np.float64]:
+                  bounds: tuple[NDArray[np.float64], NDArray[np.float64]] | None) -> NDArray[np.float64]:
     """``_step`` on the free joints: a joint at a limit (q is clipped, so exactly on it) whose step
     points out of the box is held (its column of J left out) and the step recomputed, until no
     held joint would leave; at most m rounds, the held set only grows. The Gauss-Newton step then

@@ -52,6 +52,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -71,7 +72,8 @@ from gagen.control.reaching import (
     weight,
 )
 
-Task = Callable[[NDArray[np.float64], NDArray[np.float64]], tuple[NDArray[np.float64], NDArray[np.float64]]]
+Array = NDArray[np.float64]
+Task = Callable[[Array, Array], tuple[Array, Array]]
 STATUSES = ("converged", "max_iterations", "line_search_failed", "limits_violated", "non_finite")
 C_STATUSES = {0: "converged", 1: "max_iterations", 2: "line_search_failed", 4: "non_finite"}
 LOOP_SOURCE = Path(__file__).with_name("ilqr_loop.c")
@@ -130,7 +132,7 @@ def loop_library() -> ctypes.CDLL:
         return _LOOP
 
 
-def _pointer(array: NDArray[np.float64]) -> ctypes._Pointer:
+def _pointer(array: Array) -> ctypes._Pointer[ctypes.c_double]:
     return array.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
 
 
@@ -165,7 +167,7 @@ class ILQR:
         self.A, self.B = double_integrator(m, self.dt)
 
     # -- the problem in q_N ------------------------------------------------------------------------------
-    def _terminal_quadratic(self, q0: NDArray, qdot0: NDArray) -> tuple[NDArray, NDArray]:
+    def _terminal_quadratic(self, q0: Array, qdot0: Array) -> tuple[Array, Array]:
         """(a, c): the least effort to end at q_N is Σ a_j (q_N,j − c_j)² plus a constant."""
         w = self.gramian.inverse  # (m, 2, 2)
         free = q0 + self.N * self.dt * qdot0  # where each joint coasts to without control
@@ -173,11 +175,11 @@ class ILQR:
             a = w[:, 0, 0]
             c = free + w[:, 0, 1] / a * qdot0
         else:  # q̇_N free: minimised out, leaving the Schur complement 1 / W_11
-            a = 1.0 / np.linalg.inv(w)[:, 0, 0]
+            a = cast(Array, 1.0 / np.linalg.inv(w)[:, 0, 0])  # (numpy types inv's result as any float)
             c = free
         return a, c
 
-    def trajectory(self, q0: NDArray, qdot0: NDArray, qN: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+    def trajectory(self, q0: Array, qdot0: Array, qN: Array) -> tuple[Array, Array, Array]:
         """(q (N+1, m), q̇ (N+1, m), u (N, m)): the least-effort motion from (q0, q̇0) to q_N (at rest
         with ``rest``, else at the optimal q̇_N)."""
         N, dt, g = self.N, self.dt, self.gramian
@@ -195,8 +197,8 @@ class ILQR:
         q = np.vstack([q0, q0 + np.cumsum(dt * v[:-1] + 0.5 * dt * dt * u, axis=0)])
         return q, v, u
 
-    def cost(self, qN: NDArray, a: NDArray, c: NDArray, V_Sd: NDArray, shift: NDArray
-             ) -> tuple[float, NDArray, NDArray]:
+    def cost(self, qN: Array, a: Array, c: Array, V_Sd: Array, shift: Array
+             ) -> tuple[float, Array, Array]:
         """(cost, e, J_Be) at q_N (the effort part without its constant)."""
         e, J = self.task(qN, V_Sd)
         e = np.asarray(e, dtype=float).ravel()
@@ -204,8 +206,8 @@ class ILQR:
         J = np.asarray(J, dtype=float).reshape(len(BLADES), -1)
         return float(a @ (qN - c) ** 2 + r @ self.Q @ r), e, J
 
-    def gauss_newton_step(self, qN: NDArray, a: NDArray, c: NDArray, e: NDArray, J: NDArray,
-                          shift: NDArray, fixed: NDArray) -> NDArray:
+    def gauss_newton_step(self, qN: Array, a: Array, c: Array, e: Array, J: Array,
+                          shift: Array, fixed: NDArray[np.bool_]) -> Array:
         """The Gauss-Newton step of the terminal problem on the free joints: (D + JᵀQJ) δ = −g with
         D = diag(a), g = D (q_N − c) + Jᵀ Q (e − s) (halved gradient and Hessian), by Woodbury:
         (D + JᵀQJ)⁻¹ = D⁻¹ − D⁻¹Jᵀ (Q⁻¹ + J D⁻¹ Jᵀ)⁻¹ J D⁻¹, with Q⁻¹ taken on Q's range (a 7 × 7 solve)."""
@@ -219,9 +221,9 @@ class ILQR:
         out[free] = step
         return out
 
-    def _solve_c(self, qN: NDArray, shift: NDArray, a: NDArray, c: NDArray, V_Sd: NDArray, lower: NDArray,
-                 upper: NDArray, tol: float, inner_tol: float, max_iterations: int,
-                 max_updates: int) -> tuple[NDArray, NDArray, NDArray, int, int, str]:
+    def _solve_c(self, qN: Array, shift: Array, a: Array, c: Array, V_Sd: Array, lower: Array,
+                 upper: Array, tol: float, inner_tol: float, max_iterations: int,
+                 max_updates: int) -> tuple[Array, Array, Array, int, int, str]:
         """The loop in C (ilqr_loop.c): (q_N, shift, e, iterations, updates, status)."""
         arrays = [np.ascontiguousarray(x, dtype=float) for x in (a, c, self.Q.T, self._Q_inverse.T, V_Sd,
                                                                   lower, upper)]
@@ -295,8 +297,8 @@ class ILQR:
         return self._result(q0, qdot0, V_Sd, lower, upper, tol, started, qN, shift, e, iterations, updates,
                             status)
 
-    def _result(self, q0: NDArray, qdot0: NDArray, V_Sd: NDArray, lower: NDArray, upper: NDArray, tol: float,
-                started: float, qN: NDArray, shift: NDArray, e: NDArray, iterations: int, updates: int,
+    def _result(self, q0: Array, qdot0: Array, V_Sd: Array, lower: Array, upper: Array, tol: float,
+                started: float, qN: Array, shift: Array, e: Array, iterations: int, updates: int,
                 status: str) -> OCPResult:
         q, qdot, u = self.trajectory(q0, qdot0, qN)
         if status == "converged" and (np.any(q < lower - 1e-9) or np.any(q > upper + 1e-9)):
@@ -325,8 +327,8 @@ def _compiler_found() -> bool:
     return True
 
 
-def dense_ilqr_step(A: NDArray, B: NDArray, R: NDArray, x0: NDArray, u: NDArray, terminal_gradient: NDArray,
-                    terminal_hessian: NDArray) -> NDArray:
+def dense_ilqr_step(A: Array, B: Array, R: Array, x0: Array, u: Array, terminal_gradient: Array,
+                    terminal_hessian: Array) -> Array:
     """The textbook iLQR step (a full Riccati backward pass over 2m × 2m matrices, no structure) for linear
     dynamics, running cost Σ uᵀRu and a quadratic model of the terminal cost about the rollout of ``u``
     (its gradient and Hessian in x_N): the new controls u + δu of the exact LQ minimiser. The reference the

@@ -34,7 +34,7 @@ the first millisecond from rest, where V_S = 0 and D dissipates nothing yet.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -145,12 +145,13 @@ def simulate(controller: ImpedanceController, q0: ArrayLike, qd0: ArrayLike | No
     q = np.array(q0, dtype=float)
     qd = np.zeros_like(q) if qd0 is None else np.array(qd0, dtype=float)
     steps = round(duration / dt)
-    times = np.arange(steps + 1) * dt
+    times = np.arange(steps + 1, dtype=np.float64) * dt
     qs, qds = np.empty((steps + 1, q.size)), np.empty((steps + 1, q.size))
     errors, energies, torques = np.empty(steps + 1), np.empty(steps + 1), np.empty(steps + 1)
     K = controller.K
 
-    def rate(x: NDArray[np.float64], v: NDArray[np.float64], tau: NDArray[np.float64]):
+    def rate(x: NDArray[np.float64], v: NDArray[np.float64],
+             tau: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         return v, dynamics.forward(x, v, tau if hold else controller(x, v).tau)
 
     for k in range(steps + 1):
@@ -176,8 +177,7 @@ def simulate(controller: ImpedanceController, q0: ArrayLike, qd0: ArrayLike | No
 
 
 def random_starts(q0: ArrayLike, count: int, spread: float, seed: int,
-                  lower: Sequence[float] | None = None, upper: Sequence[float] | None = None
-                  ) -> NDArray[np.float64]:
+                  lower: ArrayLike | None = None, upper: ArrayLike | None = None) -> NDArray[np.float64]:
     """``count`` configurations drawn uniformly in q0 ± spread (per joint), clipped to the limits."""
     rng = np.random.default_rng(seed)
     q0 = np.asarray(q0, dtype=float)

@@ -26,8 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from gagen.control.ilqr import ILQR
-from gagen.control.ocp import DEFAULT_R, OCPResult
+from gagen.control.ilqr import ILQR, Task
+from gagen.control.reaching import DEFAULT_R, OCPResult
 
 Target = Callable[[float], NDArray[np.float64]]
 
@@ -51,7 +51,7 @@ class MPCRun:
         return int(np.sum(self.solve_time > self.period))
 
 
-def run(task: Callable, target: Target, q0: ArrayLike, *, rate: float = 100.0, N: int = 50,
+def run(task: Task, target: Target, q0: ArrayLike, *, rate: float = 100.0, N: int = 50,
         horizon: float = 0.2, duration: float = 4.0, limits: tuple[ArrayLike, ArrayLike] | None = None,
         R: ArrayLike = DEFAULT_R, tol: float = 1e-8,
         progress: Callable[[float], None] | None = None) -> MPCRun:
@@ -65,7 +65,7 @@ def run(task: Callable, target: Target, q0: ArrayLike, *, rate: float = 100.0, N
     m = q.size
     solver = ILQR(task, m, N=N, horizon=horizon, R=R, rest=False)
     ticks = round(duration * rate)
-    ts = np.arange(ticks + 1) * period
+    ts = np.arange(ticks + 1, dtype=np.float64) * period
     qs, qds, us = np.empty((ticks + 1, m)), np.empty((ticks + 1, m)), np.empty((ticks, m))
     errors, times = np.empty(ticks + 1), np.empty(ticks)
     iterations, solved = np.empty(ticks, dtype=np.int64), np.empty(ticks, dtype=bool)

@@ -73,9 +73,9 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Hashable, Sequence
 from dataclasses import replace
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import casadi as ca
 import numpy as np
@@ -95,6 +95,11 @@ from gagen.control.reaching import (
     start_and_target,
     weight,
 )
+
+if TYPE_CHECKING:
+    from gagen.algebra.protocol import Multivector
+    from gagen.algebra.signature import Algebra
+    from gagen.interp import MultiVector
 
 IPOPT_OPTIONS: dict[str, Any] = {
     "ipopt.print_level": 0,
@@ -130,6 +135,9 @@ WARM_OPTIONS: dict[str, Any] = {
     "ipopt.warm_start_mult_bound_push": 1e-9,
     "ipopt.mu_init": 1e-8,
 }
+
+
+Symbolic = TypeVar("Symbolic", ca.SX, ca.MX)
 
 
 class ReachingOCP:
@@ -190,13 +198,14 @@ class ReachingOCP:
         w_sx, p_sx = ca.SX.sym("w", n_w), ca.SX.sym("p", n_p)
         A, B, R = ca.DM(self.A), ca.DM(self.B), ca.DM(self.R)
         x = p_sx[: 2 * m]
-        g, running = [], 0
+        gaps: list[ca.SX] = []
+        effort: ca.SX | int = 0
         for k in range(N):  # w = u_0, x_1, u_1, x_2, …, u_{N-1}, x_N
             u, x_next = w_sx[3 * m * k: 3 * m * k + m], w_sx[3 * m * k + m: 3 * m * (k + 1)]
-            g.append(x_next - (A @ x + B @ u))
-            running += ca.bilin(R, u, u)
+            gaps.append(x_next - (A @ x + B @ u))
+            effort += ca.bilin(R, u, u)
             x = x_next
-        stage = ca.Function("stage", [w_sx, p_sx], [ca.vertcat(*g), running])
+        stage = ca.Function("stage", [w_sx, p_sx], [ca.vertcat(*gaps), effort])
         w, p = ca.MX.sym("w", n_w), ca.MX.sym("p", n_p)  # p = q0, q̇0, V_Sd, shift s of the terminal error
         g, running = stage(w, p)
         e = self.task(w[n_w - 2 * m: n_w - m], p[2 * m: 2 * m + 12])
@@ -215,8 +224,13 @@ class ReachingOCP:
         """IPOPT's ``hess_lag``: lam_f × the Gauss-Newton Hessian of the cost (upper triangle), block
         diagonal over w = u_0, x_1, …, u_{N-1}, x_N: 2R on each u_k, 2 J_Beᵀ Q J_Be on q_N, nothing on
         the constraints (linear)."""
+        if self.task.is_a("SXFunction"):
+            return self._gauss_newton_hessian_in(ca.SX)
+        return self._gauss_newton_hessian_in(ca.MX)
+
+    def _gauss_newton_hessian_in(self, sym: type[Symbolic]) -> ca.Function:
+        """``_gauss_newton_hessian`` in the task's own symbolic type (SX, else MX)."""
         m, N = self.m, self.N
-        sym = ca.SX if self.task.is_a("SXFunction") else ca.MX
         n_w, n_p = N * 3 * m, 2 * m + 12 + len(BLADES)
         w, p = sym.sym("w", n_w), sym.sym("p", n_p)
         lam_f, lam_g = sym.sym("lam_f"), sym.sym("lam_g", 2 * m * N)
@@ -240,12 +254,12 @@ class ReachingOCP:
             self._built += time.perf_counter() - started
         return self._solvers[warm]
 
-    def _layout(self, w: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+    def _layout(self, w: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """(u (N, m), x (N, 2m)) from the stacked decision vector."""
         blocks = w.reshape(self.N, 3 * self.m)
         return blocks[:, : self.m], blocks[:, self.m:]
 
-    def _stack(self, u: NDArray, x: NDArray) -> NDArray[np.float64]:
+    def _stack(self, u: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.hstack([u, x]).ravel()
 
     # -- solving ------------------------------------------------------------------------------------------
@@ -289,7 +303,8 @@ class ReachingOCP:
         if warm_start is not None:
             if warm_start.w.size != N * 3 * m:
                 raise ValueError("warm_start comes from an OCP of another size")
-            start = (warm_start.w, warm_start.lam_x, warm_start.lam_g)
+            start: tuple[NDArray[np.float64], NDArray[np.float64] | None, NDArray[np.float64] | None] = (
+                warm_start.w, warm_start.lam_x, warm_start.lam_g)
             shift = warm_start.shift.copy() if exact else np.zeros(len(BLADES))
         else:
             shift = np.zeros(len(BLADES))
@@ -311,7 +326,8 @@ class ReachingOCP:
             iterations += int(stats["iter_count"])
             functions += sum(v for k, v in stats.items() if k.startswith("t_wall_nlp_"))
             w = np.array(solution["x"]).ravel()
-            start = (w, np.array(solution["lam_x"]).ravel(), np.array(solution["lam_g"]).ravel())
+            lam_x, lam_g = np.array(solution["lam_x"]).ravel(), np.array(solution["lam_g"]).ravel()
+            start = (w, lam_x, lam_g)
             e = self._error(w[-2 * m: -m], V_Sd)  # q_N
             if (not exact or status not in IPOPT_SUCCESS or np.linalg.norm(e) <= tol
                     or updates >= max_updates):
@@ -325,7 +341,7 @@ class ReachingOCP:
                          V_Sd=V_Sd, error=e, error_norm=float(np.linalg.norm(e)), shift=shift,
                          updates=updates, objective=float(solution["f"]), iterations=iterations,
                          wall_time=wall, function_time=functions, build_time=self._built, success=success,
-                         status=status, w=w, lam_x=start[1], lam_g=start[2], message=message,
+                         status=status, w=w, lam_x=lam_x, lam_g=lam_g, message=message,
                          solver=self.solver)
 
     def _error(self, q: NDArray[np.float64], V_Sd: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -361,11 +377,11 @@ def _verdict(status: str, error: float, exact: bool, tol: float, updates: int,
     return True, f"{name} {status}; ‖e(q_N)‖ = {error:.3g} <= tol {tol:g} after {updates} multiplier updates"
 
 
-_CACHE: dict[tuple, ReachingOCP] = {}
+_CACHE: dict[tuple[Hashable, ...], ReachingOCP] = {}
 _CACHE_SIZE = 8
 
 
-def _key(value: ArrayLike) -> tuple:
+def _key(value: ArrayLike) -> tuple[tuple[int, ...], bytes]:
     a = np.asarray(value, dtype=float)
     return (a.shape, a.tobytes())
 
@@ -395,12 +411,14 @@ def reach(module: Any, q0: ArrayLike, V_Sd: ArrayLike, *, N: int = DEFAULT_N,
     check_horizon(N, horizon)
     m = int(module.manifest["dof"])
     if solver == "ilqr":
-        from gagen.control.ilqr import ILQR
+        from gagen.control.ilqr import ILQR, Task
 
         if velocity_limits is not None or hessian != "exact" or not exact:
             raise ValueError("solver='ilqr' takes no velocity limits, always uses the Gauss-Newton model "
                              "(hessian='exact' is its default) and always reaches the target exactly")
-        return ILQR(module.c.task if task is None else task, m, N=N, horizon=horizon, R=R, Q=Q,
+        # a Function called on arrays returns its outputs as a tuple; CasADi's stubs say one DM
+        kernel: Task = module.c.task if task is None else task  # type: ignore[assignment]
+        return ILQR(kernel, m, N=N, horizon=horizon, R=R, Q=Q,
                     rest=rest).solve(q0, V_Sd, qdot0=qdot0, limits=limits, warm_start=warm_start, tol=tol)
     task = module.casadi.task if task is None else task
     key = (id(task), m, N, float(horizon), _key(R), _key(Q), rest, expand, solver, hessian,
@@ -434,13 +452,13 @@ def task_errors(module: Any, result: OCPResult) -> NDArray[np.float64]:
 
 
 # -- targets ---------------------------------------------------------------------------------------------
-def _algebra():
+def _algebra() -> Algebra:
     from gagen.algebra.signature import cga3d
 
     return cga3d()
 
 
-def multivector(rows: Sequence[str], values: ArrayLike):
+def multivector(rows: Sequence[str], values: ArrayLike) -> MultiVector:
     """An interpreter MultiVector from a kernel port's row labels and values."""
     from gagen.interp import MultiVector
 
@@ -473,7 +491,7 @@ def target_from(V_Sc0: ArrayLike, translation: ArrayLike = (0.0, 0.0, 0.0),
     from gagen.model.similarity import similarity
     from gagen.model.versors import dilator, rotor, translator
 
-    v0 = multivector(SIMILARITY, V_Sc0)
+    v0: Multivector = multivector(SIMILARITY, V_Sc0)
     c = location(v0.sandwich(e0(v0)))
     s = dilator(v0, float(dilation))
     if rotation_axis_angle is not None:
@@ -494,7 +512,7 @@ def target_primitive(module: Any, V_Sd: ArrayLike) -> NDArray[np.float64]:
     from gagen.model.conformal import SIMILARITY
     from gagen.model.primitives import unit_primitive
 
-    v = multivector(SIMILARITY, V_Sd)
+    v: Multivector = multivector(SIMILARITY, V_Sd)
     x_d = v.sandwich(unit_primitive(module.manifest["primitive"], v))
     return coefficients(x_d, _rows(module, "primitive", "X_c"))
 

@@ -86,12 +86,12 @@ class OCPResult:
 
     @property
     def N(self) -> int:
-        return self.u.shape[0]
+        return len(self.u)  # (N, m)
 
     @property
     def t(self) -> NDArray[np.float64]:
         """Times of the N + 1 states."""
-        return np.arange(self.N + 1) * self.dt
+        return np.arange(self.N + 1, dtype=np.float64) * self.dt
 
     def dynamics_residual(self) -> float:
         """max |x_{k+1} − A x_k − B u_k| over the trajectory (IPOPT's primal infeasibility)."""
@@ -125,7 +125,8 @@ def start_and_target(q0: ArrayLike, qdot0: ArrayLike | None, V_Sd: ArrayLike,
     return q0, qdot0, V_Sd
 
 
-def box(bounds: tuple[ArrayLike, ArrayLike], m: int, name: str) -> tuple[NDArray, NDArray]:
+def box(bounds: tuple[ArrayLike, ArrayLike], m: int,
+        name: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     lower, upper = (np.broadcast_to(np.asarray(b, dtype=float), (m,)).copy() for b in bounds)
     if np.any(lower > upper):
         raise ValueError(f"{name} need lower <= upper")

@@ -94,7 +94,7 @@ def log_dilator(d: Multivector) -> Multivector:
     return d.make({"e0inf": 2 * d.math.atanh(-d["e0inf"] / d.scalar())})
 
 
-def dilator(like: Multivector, d: Multivector) -> Multivector:
+def dilator(like: Multivector, d: Scalar) -> Multivector:
     """Dilator scaling about the origin by d > 0."""
     return exp_dilator(like.make({"e0inf": -like.math.log(d)}))
 

@@ -94,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
     """Exit status 0 when every chunk is written, 1 when some failed (re-run to retry), 2 for bad input (or
     a missing ``sweep`` extra)."""
     try:
-        from gagen.sweep import plots, problems  # noqa: F401  (problems: pyarrow, before any work)
+        from gagen.sweep import plots, problems  # problems: pyarrow, before any work
         from gagen.sweep.engine import run as run_sweep
         from gagen.sweep.store import ChunkStore, SweepError
     except ImportError as e:  # dask or pyarrow missing: say which extra brings them
@@ -126,11 +126,14 @@ def run(args: argparse.Namespace) -> int:
         return 1
     table = ChunkStore(args.out).read(sweep.chunks)
     kind = sweep.cell.kind
-    if sweep.kind == "reach":
+    if isinstance(sweep, problems.Reach):
         reached = int(table.column("success").to_numpy(zero_copy_only=False).sum())
-        targets = "target spheres" if kind == "sphere" else (
-            "horizontal target circles" if sweep.normal == (0.0, 0.0, 1.0) else
-            f"target circles normal to ({', '.join(f'{n:g}' for n in sweep.normal)})")
+        if kind == "sphere":
+            targets = "target spheres"
+        else:
+            assert sweep.normal is not None  # circle targets have one (Reach.__post_init__)
+            targets = ("horizontal target circles" if sweep.normal == (0.0, 0.0, 1.0) else
+                       f"target circles normal to ({', '.join(f'{n:g}' for n in sweep.normal)})")
         print(f"  reached {reached} of {table.num_rows} {targets}")
         path = plots.reach_map(table, Path(args.out) / "reachability.png", system=sweep.system,
                                targets=targets)

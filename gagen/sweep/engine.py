@@ -27,9 +27,13 @@ import uuid
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from gagen.sweep.problems import Sweep, compute_chunk, prepare
 from gagen.sweep.store import ChunkStore, SweepError
+
+if TYPE_CHECKING:
+    from distributed import Client
 
 
 @dataclass
@@ -49,7 +53,7 @@ class Outcome:
 
 
 @contextlib.contextmanager
-def connect(scheduler: str | None = None, workers: int = 2) -> Iterator[object]:
+def connect(scheduler: str | None = None, workers: int = 2) -> Iterator[Client]:
     """A ``distributed.Client``: to the scheduler at ``scheduler``, else to a new LocalCluster of
     ``workers`` single-threaded processes (closed on exit)."""
     from distributed import Client, LocalCluster
@@ -76,7 +80,7 @@ def _warm_up(sweep: Sweep) -> None:
         loop_library()
 
 
-def run(sweep: Sweep, out: str | Path, *, client: object | None = None, scheduler: str | None = None,
+def run(sweep: Sweep, out: str | Path, *, client: Client | None = None, scheduler: str | None = None,
         workers: int = 2, progress: bool = True,
         on_written: Callable[[int], None] | None = None) -> Outcome:
     """Compute every chunk of ``sweep`` not yet in ``out`` and write each as it arrives; ``client``: an
@@ -101,7 +105,7 @@ def run(sweep: Sweep, out: str | Path, *, client: object | None = None, schedule
     return outcome
 
 
-def _compute(client: object, sweep: Sweep, todo: list[int], store: ChunkStore, outcome: Outcome,
+def _compute(client: Client, sweep: Sweep, todo: list[int], store: ChunkStore, outcome: Outcome,
              progress: bool, on_written: Callable[[int], None] | None) -> None:
     from distributed import as_completed
     from tqdm import tqdm

@@ -90,14 +90,15 @@ def _axis(item: str, labels: Sequence[str], lower: Sequence[float], upper: Seque
     return Axis(joint, labels[joint], count, float(low), float(high))
 
 
-def parse(spec: str | Sequence[str], labels: Sequence[str], lower: Sequence[float], upper: Sequence[float],
+def parse(spec: str | Sequence[object], labels: Sequence[str], lower: Sequence[float], upper: Sequence[float],
           cap: int = MAX_POINTS) -> tuple[Axis, ...]:
     """The axes of ``spec`` (a string of comma-separated items, or a sequence of them) for a system with
     joints ``labels`` and limits ``lower``/``upper``; a SweepError starting ``grid:`` names what is wrong."""
     items = [spec] if isinstance(spec, str) else list(spec)
-    if not all(isinstance(item, str) for item in items):
+    texts = [item for item in items if isinstance(item, str)]
+    if len(texts) != len(items):
         raise _fail(f"expected strings JOINT=COUNT[:LOW:HIGH], got {spec!r}")
-    pieces = [piece.strip() for item in items for piece in item.split(",")]
+    pieces = [piece.strip() for item in texts for piece in item.split(",")]
     if not any(pieces):
         raise _fail(f"expected at least one JOINT=COUNT, got {spec!r}")
     axes = tuple(_axis(piece, labels, lower, upper) for piece in pieces)

@@ -34,7 +34,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cache
-from typing import Any
+from typing import Any, TypeVar, cast
 
 import numpy as np
 import pyarrow as pa
@@ -47,6 +47,7 @@ from gagen.sweep.store import SweepError
 
 DEFAULT_SYSTEM = "three_pandas_circle"
 TARGETS = ("circle", "sphere")  # the primitives the reach sweep has targets for
+T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -139,6 +140,12 @@ def _finite(value: Any, name: str) -> float:
     return float(value)
 
 
+def _filled(value: T | None) -> T:
+    """A field that ``__post_init__`` has checked or filled in (``Reach``: from the ready primitive)."""
+    assert value is not None, "set by __post_init__"
+    return value
+
+
 def _make_cell(sweep: Any) -> Cell:
     found = cell(_system_name(sweep.system))
     object.__setattr__(sweep, "cell", found)
@@ -174,14 +181,22 @@ class Manipulability:
         if self.seed != 0:
             raise SweepError(f"seed: a grid has no random seed, got {self.seed!r}")
         spec = self.grid
-        if isinstance(spec, tuple | list) and spec and all(isinstance(a, grids.Axis) for a in spec):
-            # re-checked against this system as text (repr round-trips every float)
-            spec = [f"{a.joint}={a.count}:{float(a.lower)!r}:{float(a.upper)!r}" for a in spec]
+        if isinstance(spec, tuple | list):
+            axes = [a for a in spec if isinstance(a, grids.Axis)]
+            if axes and len(axes) == len(spec):
+                # re-checked against this system as text (repr round-trips every float)
+                spec = [f"{a.joint}={a.count}:{float(a.lower)!r}:{float(a.upper)!r}" for a in axes]
         object.__setattr__(self, "grid", grids.parse(spec, found.joints, found.lower, found.upper))
 
     @property
+    def axes(self) -> tuple[grids.Axis, ...] | None:
+        """The grid's axes (``__post_init__`` parses the grid into them), or None: random samples."""
+        return cast("tuple[grids.Axis, ...] | None", self.grid)
+
+    @property
     def rows(self) -> int:
-        return grids.size(self.grid) if self.grid is not None else self.samples
+        axes = self.axes
+        return grids.size(axes) if axes is not None else _filled(self.samples)
 
     @property
     def chunks(self) -> int:
@@ -189,17 +204,19 @@ class Manipulability:
 
     def description(self) -> dict[str, Any]:
         """The parameters as ``sweep.json`` records them (the cell follows from the system)."""
-        drawn = ({"samples": self.samples, "seed": self.seed} if self.grid is None else
+        axes = self.axes
+        drawn = ({"samples": self.samples, "seed": self.seed} if axes is None else
                  {"grid": [{"joint": a.name, "index": a.joint, "count": a.count, "lower": a.lower,
-                            "upper": a.upper} for a in self.grid], "fixed": list(self.cell.ready)})
+                            "upper": a.upper} for a in axes], "fixed": list(self.cell.ready)})
         return {"system": self.system, "kind": self.kind, "chunk": self.chunk, **drawn}
 
     def configurations(self, index: int) -> NDArray[np.float64]:
         """Chunk ``index``'s configurations (rows): uniform within the joint limits, or the grid's."""
         first = index * self.chunk
         count = min(self.chunk, self.rows - first)
-        if self.grid is not None:
-            return grids.configurations(self.grid, self.cell.ready, first, count)
+        axes = self.axes
+        if axes is not None:
+            return grids.configurations(axes, self.cell.ready, first, count)
         lower, upper = _limits(self.cell)
         return lower + (upper - lower) * np.random.default_rng([self.seed, index]).random((count, lower.size))
 
@@ -263,9 +280,10 @@ class Reach:
         if None in (self.x, self.y, self.height, self.radii, self.span) or \
                 (self.normal is None and found.kind == "circle"):
             self._defaults(found)
-        for name in ("span", "height", "x", "y"):
+        span = _finite(self.span, "span")
+        for name in ("height", "x", "y"):
             _finite(getattr(self, name), name)
-        if self.span < 0:
+        if span < 0:
             raise SweepError(f"span: expected a half-width ≥ 0 m, got {self.span!r}")
         if not isinstance(self.radii, tuple) or not self.radii:
             raise SweepError(f"radii: expected a non-empty tuple of radii in m, got {self.radii!r}")
@@ -300,14 +318,15 @@ class Reach:
 
     def targets(self) -> NDArray[np.float64]:
         """(T, 4): centre x, y, z and radius of every target, radius-major, then x, then y."""
-        offsets = np.linspace(-self.span, self.span, self.grid) if self.grid > 1 else np.zeros(1)  # 1: (x, y)
-        xs, ys = self.x + offsets, self.y + offsets
+        span = _filled(self.span)
+        offsets = np.linspace(-span, span, self.grid) if self.grid > 1 else np.zeros(1)  # 1: (x, y)
+        xs, ys = _filled(self.x) + offsets, _filled(self.y) + offsets
         r, x, y = np.meshgrid(np.array(self.radii, dtype=float), xs, ys, indexing="ij")
         return np.column_stack([x.ravel(), y.ravel(), np.full(x.size, self.height), r.ravel()])
 
     @property
     def rows(self) -> int:
-        return len(self.radii) * self.grid**2
+        return len(_filled(self.radii)) * self.grid**2
 
     @property
     def chunks(self) -> int:
@@ -322,7 +341,7 @@ class Reach:
 
         if self.cell.kind == "sphere":
             return goals.sphere(centre, radius)
-        return goals.circle(centre, radius, self.normal)
+        return goals.circle(centre, radius, _filled(self.normal))
 
     def compute(self, index: int) -> pa.Table:
         solver = _solver(self.system, len(self.cell.lower), self.N)

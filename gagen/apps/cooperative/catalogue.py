@@ -36,15 +36,16 @@ Matrices are (rows = blades, columns = joints), stored column-major as CasADi do
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, TypeAlias, TypeVar, cast
 
 import casadi as ca
 
 from gagen.algebra.multivector import SparseMultivector
+from gagen.algebra.protocol import Multivector
 from gagen.algebra.signature import cga3d
 from gagen.apps.cooperative.dual_task import dual_task_kernel_functions
 from gagen.codegen.ir import Kernel
-from gagen.frontend import KernelFunction, along, scalars, split_derivative
+from gagen.frontend import Along, KernelFunction, along, scalars, split_derivative
 from gagen.model import kinematics as K
 from gagen.model.conformal import (
     EUCLID,
@@ -64,6 +65,8 @@ from gagen.robots.system import Chain, System
 from gagen.symbolic.casadi_backend import CasadiBackend
 from gagen.symbolic.flatten import identifier
 
+_T = TypeVar("_T")
+
 
 class _Graph:
     """The system's model on CasADi symbols, built once; kernels select from it."""
@@ -76,10 +79,11 @@ class _Graph:
         self.zero = SparseMultivector(algebra, self.backend, {})
         self.joint_labels = tuple(f"{robot}/{joint}" for robot, joint in system.joint_keys)
 
-    def column(self, x: SparseMultivector, blades: Sequence[str]) -> ca.SX:
-        return ca.vertcat(*[self.backend.native(x[b]) for b in blades])
+    def column(self, x: Multivector, blades: Sequence[str]) -> ca.SX:
+        column: ca.SX = ca.vertcat(*[self.backend.native(x[b]) for b in blades])
+        return column
 
-    def matrix(self, columns: Sequence[SparseMultivector], blades: Sequence[str]) -> ca.SX:
+    def matrix(self, columns: Sequence[Multivector], blades: Sequence[str]) -> ca.SX:
         return ca.horzcat(*[self.column(c, blades) for c in columns])
 
     def multivector(self, values: ca.SX, blades: Sequence[str]) -> SparseMultivector:
@@ -103,12 +107,13 @@ def _chain_function(chain: Chain, names: Sequence[str]) -> Callable[..., dict[st
         motor, lines, position = K.chain_pose(ga, chain.joints, q)
         end = point(position)  # = V_M e0 V_M~, from the position the chain carries
         tool = ga.make({K.TOOL_LINE: 1})
-        values = {"M": lambda: motor, "P": lambda: end, "J_S": lambda: K.spatial_jacobian(lines),
-                  "J_b": lambda: K.body_jacobian(motor, lines),
-                  "J_A": lambda: K.analytic_jacobian(motor, lines),
-                  "J_P": lambda: K.point_jacobian(motor, lines, end),
-                  "L": lambda: part(motor.sandwich(tool), MOTOR_GENERATOR),
-                  "J_L": lambda: K.line_jacobian(motor, lines, tool)}
+        values: dict[str, Callable[[], Any]] = {
+            "M": lambda: motor, "P": lambda: end, "J_S": lambda: K.spatial_jacobian(lines),
+            "J_b": lambda: K.body_jacobian(motor, lines),
+            "J_A": lambda: K.analytic_jacobian(motor, lines),
+            "J_P": lambda: K.point_jacobian(motor, lines, end),
+            "L": lambda: part(motor.sandwich(tool), MOTOR_GENERATOR),
+            "J_L": lambda: K.line_jacobian(motor, lines, tool)}
         return {name: values[name]() for name in names}
 
     return kinematics
@@ -148,7 +153,8 @@ def _task_space(graph: _Graph, positions: ca.SX, vsd: ca.SX) -> dict[str, ca.SX]
     system, algebra = graph.system, graph.algebra
     points = [point(vector(graph.zero, [graph.backend.lift(positions[3 * i + k]) for k in range(3)]))
               for i in range(len(system.chains))]
-    xc = through(system.kind, points)
+    # (the model's formulas return the multivector type they are given: symbolic points, a symbolic X_c)
+    xc = cast(SparseMultivector, through(system.kind, points))
     xc_blades = tuple(algebra.blade_name(b) for b in xc.support)
     factored = similarity_factors(system.kind, unit_primitive(system.kind, xc), xc)
     factors, conditioning, degenerate = factored
@@ -173,7 +179,7 @@ def _task_space(graph: _Graph, positions: ca.SX, vsd: ca.SX) -> dict[str, ca.SX]
             "de": _log_derivative(graph, graph.column(w, SIMILARITY), dw)}
 
 
-def _masked(derivative: ca.SX, degenerate: object) -> ca.SX:
+def _masked(derivative: ca.SX, degenerate: bool | ca.SX) -> ca.SX:
     """Zero where the spanning points are degenerate, like the identity that replaces V_Sc there,
     whatever the guarded factors' derivatives give."""
     if isinstance(degenerate, bool):
@@ -231,8 +237,9 @@ def _chain_rule(system: System, by_position: ca.SX, position_jacobians: Sequence
     for i, (indices, jp) in enumerate(zip(system.chain_indices(), position_jacobians, strict=True)):
         block = ca.mtimes(by_position[:, 3 * i:3 * i + 3], jp)
         for c, j in enumerate(indices):
-            columns[j] = block[:, c] if columns[j] is None else columns[j] + block[:, c]
-    return ca.horzcat(*columns)
+            current = columns[j]
+            columns[j] = block[:, c] if current is None else current + block[:, c]
+    return ca.horzcat(*cast(list[ca.SX], columns))  # (every joint is in a chain: no column is left None)
 
 
 class _SystemGraph:
@@ -303,7 +310,7 @@ def primitive_blades(kind: str) -> tuple[str, ...]:
     zero = SparseMultivector(cga3d(), CasadiBackend(), {})
     points = [point(vector(zero, [zero.backend.lift(s) for s in ca.SX.sym(f"p{i}", 3).nz]))
               for i in range(points_needed(kind))]
-    x = through(kind, points)
+    x = cast(SparseMultivector, through(kind, points))  # (symbolic points: a symbolic X_c)
     return tuple(x.algebra.blade_name(b) for b in x.support)
 
 
@@ -318,10 +325,11 @@ class _SystemValues:
 
     def __init__(self, system: System) -> None:
         self.system = system
-        self._ends: dict[tuple, Any] = {}
-        self._task: dict[tuple, dict[str, Any]] = {}
+        self._ends: dict[tuple[Any, ...], Any] = {}
+        self._task: dict[tuple[Any, ...], dict[str, Any]] = {}
 
-    def _remember(self, memo: dict, key: tuple | None, compute: Callable[[], Any]) -> Any:
+    def _remember(self, memo: dict[tuple[Any, ...], _T], key: tuple[Any, ...] | None,
+                  compute: Callable[[], _T]) -> _T:
         if key is None:
             return compute()
         if key not in memo:
@@ -349,11 +357,12 @@ class _SystemValues:
     def function(self, names: Sequence[str], extra: Sequence[str] = ()) -> Callable[..., dict[str, Any]]:
         def values(ga: Any, q: Sequence[Any], V_Sd: Any = None) -> dict[str, Any]:
             at = self._at(ga, q)
-            found = {"X_c": lambda: at["X_c"], "V_Sc": lambda: at["V_Sc"],
-                     "conditioning": lambda: at["conditioning"],
-                     "log_V": lambda: at["log_V"] if "log_V" in at else
-                     at.setdefault("log_V", log_similarity(at["V_Sc"])),
-                     "e": lambda: log_similarity(~at["V_Sc"] * V_Sd)}
+            found: dict[str, Callable[[], Any]] = {
+                "X_c": lambda: at["X_c"], "V_Sc": lambda: at["V_Sc"],
+                "conditioning": lambda: at["conditioning"],
+                "log_V": lambda: at["log_V"] if "log_V" in at else
+                at.setdefault("log_V", log_similarity(at["V_Sc"])),
+                "e": lambda: log_similarity(~at["V_Sc"] * V_Sd)}
             return {name: found[name]() for name in names}
 
         extra = list(extra)
@@ -369,7 +378,12 @@ def _generator_column(v: Any, derivative: Any) -> Any:
     return ~v * derivative * -2
 
 
-SYSTEM_KERNELS = (
+# a Jacobian declaration (gagen.frontend): (output, input), optionally with a post-map and/or along(input)
+_Post = Callable[[Any, Any], Any]
+Jacobian: TypeAlias = (tuple[str, str] | tuple[str, str, _Post] | tuple[str, str, _Post, Along]
+                       | tuple[str, str, Along])
+
+SYSTEM_KERNELS: tuple[tuple[str, str, dict[str, str], dict[str, Jacobian]], ...] = (
     ("primitive", "the cooperative {kind} X_c(q) and J_c", {"X_c": "X_c", "J_c": "X_c"},
      {"J_c": ("X_c", "q")}),
     ("similarity", "V_Sc(q), its conditioning and J_G,Sc",
@@ -396,7 +410,8 @@ def system_kernel_functions(system: System) -> dict[str, KernelFunction]:
     labels = tuple(f"{robot}/{joint}" for robot, joint in system.joint_keys)
     functions = {}
     for name, doc, outputs, jacobians in SYSTEM_KERNELS:
-        declared = {k: (primitive_blades(system.kind) if d == "X_c" else d) for k, d in outputs.items()}
+        declared: dict[str, Any] = {k: (primitive_blades(system.kind) if d == "X_c" else d)
+                                    for k, d in outputs.items()}
         declared = {k: (d, system.dof) if k in jacobians and split_derivative(jacobians[k])[3] is None
                     else d for k, d in declared.items()}
         inputs = {"ga": "algebra", "q": scalars(system.dof, labels)}

@@ -167,8 +167,9 @@ KERNELS = (  # (names as gagen.names.DUAL_TASK_KERNELS, which the spec checks ch
     ("dual_task_jacobians", "cooperative dual task space: M_r, M_a and their analytic Jacobians "
                             "J_Ar = dM_r/dq, J_Aa = dM_a/dq", ("M_r", "M_a", "J_Ar", "J_Aa")),
 )
-JACOBIANS = {"J_r": ("M_r", "q", _generator_column), "J_a": ("M_a", "q", _generator_column),
-             "J_Ar": ("M_r", "q"), "J_Aa": ("M_a", "q")}
+JACOBIANS: dict[str, tuple[str, str] | tuple[str, str, Callable[[Any, Any], Any]]] = {
+    "J_r": ("M_r", "q", _generator_column), "J_a": ("M_a", "q", _generator_column),
+    "J_Ar": ("M_r", "q"), "J_Aa": ("M_a", "q")}
 
 
 def _values(system: System, names: Sequence[str]) -> Callable[..., dict[str, Any]]:

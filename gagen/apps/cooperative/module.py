@@ -63,7 +63,7 @@ def cooperative_source(spec: str | Path) -> ModuleSource:
         name=system.name,
         title=f"kernels of the cooperative system {system.name} ({system.kind}, {chains}, "
               f"{system.dof} joints)",
-        kernels=SystemKernels(system),  # type: ignore[arg-type]  # a Mapping (built on first use), not a dict
+        kernels=SystemKernels(system),  # built on first use
         source_name=spec_path.name,
         source_hash=hashlib.sha256(read_input(spec_path, "spec")).hexdigest(),
         meta=meta,

@@ -55,7 +55,7 @@ def setup() -> tuple[GeneratedModule, NDArray[np.float64], Any]:
     return module, q0, target
 
 
-def circle_of(points: NDArray[np.float64]) -> tuple[NDArray, float, NDArray]:
+def circle_of(points: NDArray[np.float64]) -> tuple[NDArray[np.float64], float, NDArray[np.float64]]:
     """Centre, radius and unit normal of the circle through three points (the viewer's closed form)."""
     found = circumcircle(*np.asarray(points, dtype=float))
     if found is None:
@@ -109,7 +109,8 @@ def figure(module: GeneratedModule, result: MPCRun, target: Any) -> Any:
     return fig
 
 
-def _target_circle(module: GeneratedModule, V_Sd: NDArray[np.float64]) -> tuple[NDArray, float, NDArray]:
+def _target_circle(module: GeneratedModule, V_Sd: NDArray[np.float64]
+                   ) -> tuple[NDArray[np.float64], float, NDArray[np.float64]]:
     """Centre, radius, normal of the target circle X_d = V_Sd X_u V_Sd~ (from three of its points)."""
     from gagen.control.ocp import multivector
     from gagen.model.primitives import centre as centre_of
@@ -135,11 +136,12 @@ def animate(module: GeneratedModule, result: MPCRun, target: Any, path: Path, fp
     frames = list(range(0, len(result.t), every))
     s = np.linspace(0, 2 * np.pi, 90)
 
-    def ring(centre: NDArray, radius: float, normal: NDArray) -> NDArray:
+    def ring(centre: NDArray[np.float64], radius: float, normal: NDArray[np.float64]) -> NDArray[np.float64]:
         a = np.cross(normal, [1.0, 0, 0] if abs(normal[0]) < 0.9 else [0, 1.0, 0])
         a /= np.linalg.norm(a)
         b = np.cross(normal, a)
-        return centre + radius * (np.outer(np.cos(s), a) + np.outer(np.sin(s), b))
+        points: NDArray[np.float64] = centre + radius * (np.outer(np.cos(s), a) + np.outer(np.sin(s), b))
+        return points
 
     def draw(k: int) -> None:
         ax.clear()

@@ -39,19 +39,17 @@ from gagen.apps.cooperative.bundled import (
 )
 from gagen.apps.cooperative.scenario_table import SCENARIOS, Scenario
 from gagen.control.ocp import (
-    BLADES,
-    DEFAULT_HORIZON,
-    DEFAULT_N,
-    OCPResult,
     bivector_command,
     multivector,
     reach,
     target_from,
     task_errors,
 )
+from gagen.control.reaching import BLADES, DEFAULT_HORIZON, DEFAULT_N, OCPResult
 from gagen.robots.points import end_points
 from gagen.runtime import GeneratedModule
 
+Array = NDArray[np.float64]
 LABELS = {"e12": "e12", "e13": "e13", "e23": "e23", "e0inf": "e0∞", "e1inf": "e1∞", "e2inf": "e2∞",
           "e3inf": "e3∞"}
 
@@ -175,7 +173,7 @@ def _figure(**kwargs: Any) -> Any:
     return figure
 
 
-def plot_command(s: Scenario, result: OCPResult, command: NDArray, errors: NDArray, path: Path) -> Path:
+def plot_command(s: Scenario, result: OCPResult, command: Array, errors: Array, path: Path) -> Path:
     figure = _figure(figsize=(8, 6.5), layout="constrained")
     top, bottom = figure.subplots(2, 1, sharex=True)
     t = result.t
@@ -195,7 +193,7 @@ def plot_command(s: Scenario, result: OCPResult, command: NDArray, errors: NDArr
     return path
 
 
-def _geometry(kind: str, rows: Sequence[str], x: NDArray, anchor: NDArray, size: float) -> list[NDArray]:
+def _geometry(kind: str, rows: Sequence[str], x: Array, anchor: Array, size: float) -> list[Array]:
     """Polylines (each (k, 3)) drawing the primitive with coefficients x: a circle, a sphere's three
     great circles, a segment of a line or the outline and diagonals of a square patch of a plane, the
     flats placed around ``anchor`` (projected onto them) with half-size ``size``."""
@@ -205,14 +203,15 @@ def _geometry(kind: str, rows: Sequence[str], x: NDArray, anchor: NDArray, size:
     X = multivector(rows, x)
     angles = np.linspace(0.0, 2 * np.pi, 73)
 
-    def ring(c: NDArray, r: float, normal: NDArray) -> NDArray:
+    def ring(c: Array, r: float, normal: Array) -> Array:
         normal = normal / np.linalg.norm(normal)
         a = np.cross(normal, [1.0, 0.0, 0.0] if abs(normal[0]) < 0.9 else [0.0, 1.0, 0.0])
         a /= np.linalg.norm(a)
         b = np.cross(normal, a)
-        return c + r * (np.outer(np.cos(angles), a) + np.outer(np.sin(angles), b))
+        polyline: Array = c + r * (np.outer(np.cos(angles), a) + np.outer(np.sin(angles), b))
+        return polyline
 
-    def xyz(v: Any) -> NDArray:
+    def xyz(v: Any) -> Array:
         return np.array([v[k] for k in EUCLID])
 
     if kind in ("circle", "sphere"):
@@ -246,7 +245,7 @@ def plot_trajectory(s: Scenario, m: GeneratedModule, result: OCPResult, path: Pa
         ax.scatter(*points[-1, i], color="darkturquoise", s=18)
     spread = float(np.ptp(points.reshape(-1, 3), axis=0).max())
 
-    def draw(x: NDArray, anchor_points: NDArray, first_only: bool = False, **style: Any) -> None:
+    def draw(x: Array, anchor_points: Array, first_only: bool = False, **style: Any) -> None:
         anchor = anchor_points.mean(axis=0)
         reach_ = float(np.linalg.norm(anchor_points - anchor, axis=1).max())
         size = (1.25 if kind == "line" else 0.8) * max(reach_, 0.1 * spread)

@@ -59,6 +59,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from gagen.algebra.protocol import Multivector
 from gagen.algebra.signature import cga3d
 from gagen.apps.cooperative.bundled import bundled_systems, ready_configuration, system_module
 from gagen.apps.cooperative.teleop_input import AXES, Scales, Trace, format_trace, read_trace
@@ -163,7 +164,7 @@ def _versor(coefficients: ArrayLike) -> MultiVector:
     return MultiVector.from_blades(_ALG, dict(zip(SIMILARITY, values, strict=True)))
 
 
-def _coefficients(v: MultiVector, blades: Sequence[str] = SIMILARITY) -> NDArray[np.float64]:
+def _coefficients(v: Multivector, blades: Sequence[str] = SIMILARITY) -> NDArray[np.float64]:
     return np.array([v[b] for b in blades])
 
 
@@ -175,7 +176,7 @@ def _generator(b: ArrayLike) -> MultiVector:
 def geometry(V: ArrayLike) -> tuple[NDArray[np.float64], float]:
     """(centre (3,), scale) of a similarity versor: the image of the origin and the dilation factor,
     i.e. the centre and radius of X_c = V X_u V~ for a round (X_u has radius 1)."""
-    v = _versor(V)
+    v: Multivector = _versor(V)
     centre = _coefficients(location(v.sandwich(e0(v))), ("e1", "e2", "e3"))
     scale = math.exp(-log_dilator(decompose_similarity(v).dilator)["e0inf"])
     return centre, scale
@@ -183,7 +184,7 @@ def geometry(V: ArrayLike) -> tuple[NDArray[np.float64], float]:
 
 def target(V: ArrayLike, cmd: Command, dt: float, frame: str = "world") -> NDArray[np.float64]:
     """The similarity (12,) commanded dt after V (see the module docstring for the two frames)."""
-    v = _versor(V)
+    v: Multivector = _versor(V)
     if frame == "body":
         return _coefficients(v * exp_similarity(_generator(dt * cmd.bivector)))
     if frame != "world":
@@ -319,7 +320,9 @@ class Teleoperation:
         self.k = kernels
         self.rows = np.array([SIMILARITY_GENERATOR.index(b) for b in CONTROLLABLE[kernels.kind]])
         self.stabiliser = np.array([SIMILARITY_GENERATOR.index(b) for b in UNCONTROLLABLE[kernels.kind]])
-        if limits == "urdf":
+        if isinstance(limits, str):
+            if limits != "urdf":
+                raise ValueError(f"limits must be (lower, upper), 'urdf' or None, got {limits!r}")
             from gagen.apps.cooperative.scenarios import joint_limits
 
             limits = joint_limits(kernels.system) if kernels.system in bundled_systems() else None
@@ -339,7 +342,8 @@ class Teleoperation:
         self._states = [(0.0, self.q.copy(), self._V.copy())]
         self.messages: list[str] = []
 
-    def _reduced_task(self, q: NDArray[np.float64], V_Sd: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+    def _reduced_task(self, q: NDArray[np.float64], V_Sd: NDArray[np.float64]
+                      ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         e, J = self.k.task(q, V_Sd)
         return e[self.rows], J[self.rows]
 

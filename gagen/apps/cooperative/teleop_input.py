@@ -131,7 +131,8 @@ def read_trace(path: str | Path) -> Trace:
     return parse_trace(text, path)
 
 
-def format_trace(times: Sequence[float], axes: Sequence[Sequence[float]], comment: str = "") -> str:
+def format_trace(times: Sequence[float], axes: Sequence[Sequence[float] | NDArray[np.float64]],
+                 comment: str = "") -> str:
     """Trace text for the given rows; a final all-zero row at ``times[-1]`` must be included by the caller."""
     lines = [f"# {line}" for line in comment.splitlines()]
     lines.append(",".join(HEADER))

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, cast
 
 import casadi as ca
 import numpy as np
@@ -118,7 +118,8 @@ def damped_solve(J: Sequence[Sequence[Any]], r: Sequence[Any], damping: float) -
 
 
 def _gains(K: float | Sequence[float], k: int) -> list[float]:
-    gains = [float(K)] * k if np.isscalar(K) else [float(g) for g in K]  # type: ignore[arg-type]
+    # (np.isscalar narrows only its True branch, to numbers and strings; a float is a scalar)
+    gains = [float(cast(float, K))] * k if np.isscalar(K) else [float(g) for g in cast("Sequence[float]", K)]
     if len(gains) != k or not all(g > 0 for g in gains):
         raise ValueError(f"K must be a positive scalar or {k} positive task-space gains, got {K}")
     return gains

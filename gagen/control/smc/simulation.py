@@ -16,6 +16,9 @@ from gagen.control.smc.kernel import KERNEL
 from gagen.control.smc.law import check_finite, reference
 from gagen.control.smc.log import csv_header
 
+Step = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+"""What a step callable returns: the pose x, the Jacobian J and the control u."""
+
 
 # -- the step from Python --------------------------------------------------------------------------
 class CompiledStep:
@@ -31,7 +34,7 @@ class CompiledStep:
         self.n = len(entry["inputs"][0]["rows"])
         self.k = len(entry["inputs"][1]["rows"])
 
-    def __call__(self, q: ArrayLike, x_ref: ArrayLike) -> tuple[NDArray, NDArray, NDArray]:
+    def __call__(self, q: ArrayLike, x_ref: ArrayLike) -> Step:
         q = np.asarray(q, dtype=np.float64)
         x_ref = np.asarray(x_ref, dtype=np.float64)
         if q.shape != (self.n,) or x_ref.shape != (self.k,):
@@ -40,10 +43,10 @@ class CompiledStep:
         return x, J, u
 
 
-def casadi_step(function: ca.Function) -> Callable[[ArrayLike, ArrayLike], tuple[NDArray, NDArray, NDArray]]:
+def casadi_step(function: ca.Function) -> Callable[[ArrayLike, ArrayLike], Step]:
     """``smc_step_function``'s Function as a step callable for ``simulate`` (CasADi's VM)."""
 
-    def step(q: ArrayLike, x_ref: ArrayLike) -> tuple[NDArray, NDArray, NDArray]:
+    def step(q: ArrayLike, x_ref: ArrayLike) -> Step:
         x, J, u = function(np.asarray(q, dtype=float), np.asarray(x_ref, dtype=float))
         return np.asarray(x).ravel(), np.asarray(J), np.asarray(u).ravel()
 
@@ -82,7 +85,7 @@ class Simulation:
 
 
 def simulate(step: Callable[[ArrayLike, ArrayLike], tuple[Any, Any, Any]], q0: ArrayLike, duration: float,
-             dt: float, *, reference: Callable[[float], NDArray] = reference,
+             dt: float, *, reference: Callable[[float], NDArray[np.float64]] = reference,
              disturbance: Callable[[float], ArrayLike] | None = None) -> Simulation:
     """The C runner's loop in Python: round(duration / dt) ticks of x_ref(t_k), (x, J, u) = step(q, x_ref),
     q += u dt, with t_k = k dt. With the compiled step (``CompiledStep``) and dt = 1/rate it gives the
@@ -96,7 +99,7 @@ def simulate(step: Callable[[ArrayLike, ArrayLike], tuple[Any, Any, Any]], q0: A
     ticks = round(duration / dt)
     if ticks < 1:
         raise ValueError(f"a duration of {duration:g} s is less than one tick of {dt:g} s")
-    rows: dict[str, list] = {"t": [], "q": [], "x": [], "x_ref": [], "u": []}
+    rows: dict[str, list[Any]] = {"t": [], "q": [], "x": [], "x_ref": [], "u": []}
     for k in range(ticks):
         t = k * dt
         xr = reference(t)
