@@ -140,13 +140,16 @@ def _kernels_digest(kernels: Iterable[Kernel]) -> str:
 
 def build_key(source: ModuleSource, backends: Sequence[str] | None = None) -> str:
     """The cache key of a build: the source (everything it says about itself, and its ``key``, or,
-    without one, the kernels' content), the backends, gagen's version and the bytes of every file of
-    ``key_files``. It is kept in the module folder's ``.build-key``, never in the module's files."""
+    without one, the kernels' content), the sources of the gagen modules that made its kernels and of
+    everything they import (``source.code``, ``gagen.code_digest``), the backends, gagen's version and
+    the bytes of every file of ``key_files``. It is kept in the module folder's ``.build-key``, never in
+    the module's files."""
     chosen = select(backends)
     digest = hashlib.sha256()
     digest.update(json.dumps([source.name, source.title, source.source_name, source.source_hash, source.meta,
                               source.rebuild, source.key or _kernels_digest(source.kernels.values()),
-                              __version__, [b.name for b in chosen]], default=repr).encode())
+                              code_digest(source.code), __version__, [b.name for b in chosen]],
+                             default=repr).encode())
     for path in key_files(chosen):
         name = path.relative_to(PACKAGE).as_posix() if path.is_relative_to(PACKAGE) else path.name
         digest.update(name.encode() + b"\0" + path.read_bytes())
@@ -558,8 +561,7 @@ def load_source(path: str | Path, name: str | None = None) -> ModuleSource:
         raise SpecError(path, "name", "a spec names its system itself (a module name is for .py files)")
     app, kind = registry.spec_kinds()[spec_kind(path).name]
     source: ModuleSource = registry.function(kind.source)(path)
-    if source.key:  # what the source read, and the code making its kernels: the app's modules, their imports
-        source.key = hashlib.sha256(f"{source.key}\0{code_digest(app.kernel_modules)}".encode()).hexdigest()
+    source.code = source.code or app.kernel_modules  # the code that made its kernels, for the cache key
     return source
 
 

@@ -78,7 +78,8 @@ class App:
     spec_kinds: tuple[SpecKind, ...] = ()
     verbs: tuple[Verb, ...] = ()
     bundled: Path | None = None  # the folder of its bundled specs (``*.yaml``), shipped in the package
-    kernel_modules: tuple[str, ...] = field(default=())  # the modules that make its kernels (cache key)
+    kernel_modules: tuple[str, ...] = field(default=())  # the modules that make its kernels: the sources of
+    # these and of every gagen module they import are in its builds' cache key (ModuleSource.code)
 
 
 @cache

@@ -75,7 +75,10 @@ class ModuleSource:
 
     ``title`` is one line for the headers ("kernels of the cooperative system …"); ``source_name`` and
     ``source_hash`` name the spec or Python file built; ``meta`` goes into the manifest as is
-    (JSON-able); ``key`` is everything else that decides the output (for the build cache)."""
+    (JSON-able); ``key`` is everything else the source read that decides the output (for the build cache;
+    empty: the kernels' own content is the key), and ``code`` the gagen modules that made the kernels:
+    the build's key covers their sources and those of every gagen module they import
+    (``gagen.code_digest``)."""
 
     name: str
     title: str
@@ -86,3 +89,4 @@ class ModuleSource:
     key: str = ""
     rebuild: str = ""  # the command that regenerates the module, for the "do not edit" lines
     functions: dict[str, Any] = field(default_factory=dict)  # the front-end kernels, for --check
+    code: tuple[str, ...] = ()

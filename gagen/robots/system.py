@@ -110,7 +110,7 @@ class System:
         return [chain.joint_values(qc) for chain, qc in zip(self.chains, self.split(q), strict=True)]
 
 
-def end_points(zero: Any, system: System, q: Sequence[Any]) -> list[tuple[Any, list[Any]]]:
+def points_and_jacobians(zero: Any, system: System, q: Sequence[Any]) -> list[tuple[Any, list[Any]]]:
     """Per chain: (end point P_i, its point Jacobian columns ∂P_i/∂q_i)."""
     result = []
     for chain, qi in zip(system.chains, system.split(q), strict=True):
@@ -121,12 +121,12 @@ def end_points(zero: Any, system: System, q: Sequence[Any]) -> list[tuple[Any, l
 
 def cooperative_primitive(zero: Any, system: System, q: Sequence[Any]) -> Any:
     """X_c(q) = P_1 ∧ … ∧ P_n (∧ e∞ for lines and planes) [COOP Eq. 14]."""
-    return through(system.kind, [p for p, _ in end_points(zero, system, q)])
+    return through(system.kind, [p for p, _ in points_and_jacobians(zero, system, q)])
 
 
 def cooperative_jacobian(zero: Any, system: System, q: Sequence[Any]) -> list[Any]:
     """J_c = ∂X_c/∂q [COOP Eq. 15-17]; see :func:`primitive_jacobian`."""
-    return primitive_jacobian(system, end_points(zero, system, q))
+    return primitive_jacobian(system, points_and_jacobians(zero, system, q))
 
 
 def primitive_jacobian(system: System, points: Sequence[tuple[Any, Sequence[Any]]]) -> list[Any]:

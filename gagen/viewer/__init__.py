@@ -19,7 +19,7 @@ from gagen.arguments import DEFAULT_VIEWER_PORT as DEFAULT_PORT  # one default, 
 
 _EXPORTS = {"Scene": "scene", "serve": "scene", "render": "browser", "export_png": "browser",
             "export_frames": "browser", "find_chromium": "browser", "Camera": "camera", "framing": "camera",
-            "Shape": "geometry", "shape": "geometry", "system_pose": "geometry", "end_points": "geometry"}
+            "Shape": "geometry", "shape": "geometry", "system_pose": "geometry"}
 __all__ = ["DEFAULT_PORT", *sorted(_EXPORTS)]
 
 

@@ -98,11 +98,6 @@ def system_pose(system: System, q: ArrayLike) -> list[ChainPose]:
                                      strict=True)]
 
 
-def end_points(system: System, q: ArrayLike) -> Array:
-    """(chains, 3): the spanning end points P_i(q_i)."""
-    return np.array([pose.end_point for pose in system_pose(system, q)])
-
-
 # -- primitives ----------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Shape:

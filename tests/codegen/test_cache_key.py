@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from gagen import code_digest, registry
-from gagen.build import load_source
+from gagen.build import build_key, load_source
 
 SPEC = registry.bundled_specs("cooperative")["panda_point"]
 
@@ -34,7 +34,13 @@ def _edit(path: Path) -> None:
 
 def _cooperative_key() -> str:
     code_digest._imports.cache_clear()
-    return load_source(SPEC).key
+    return build_key(load_source(SPEC))
+
+
+def test_every_application_names_the_code_of_its_kernels():
+    for app in registry.apps():
+        assert app.kernel_modules and all(code_digest.module_file(m) for m in app.kernel_modules), app.name
+    assert load_source(SPEC).code == ("gagen.apps.cooperative.module",)
 
 
 def test_the_closure_is_what_the_kernels_are_made_from():

@@ -85,12 +85,12 @@ def test_a_planted_error_is_caught_and_named(panda, kernel, output, factor, path
 
 @pytest.mark.slow
 def test_the_cli_check_names_the_failing_kernel_and_reports_progress(panda, monkeypatch, capsys):
-    from gagen import cli
+    from gagen.apps.cooperative.check import check_spec
 
     module = panda[2]
     planted = _Planted(module, "arm0_fk", 1, 1 + 1e-6, "single")
-    monkeypatch.setattr("gagen.runtime.load", lambda folder: planted)
-    assert cli._check(str(ROOT / "robots/panda_point.yaml"), "unused", 1, 1e-10) == 1
+    monkeypatch.setattr("gagen.apps.cooperative.check.load", lambda folder: planted)
+    assert check_spec(str(ROOT / "robots/panda_point.yaml"), "unused", 1, 1e-10) == 1
     out, err = capsys.readouterr()
     kernels = [k["name"] for k in module.manifest["kernels"]]
     progress = [line for line in out.splitlines() if "worst relative error" in line]

@@ -17,5 +17,5 @@ from gagen.registry import App, SpecKind
 APP = App("cooperative", "cooperative multi-chain systems [COOP]",
           spec_kinds=(SpecKind("cooperative", "gagen.apps.cooperative.module:cooperative_source",
                                check="gagen.apps.cooperative.check:check_spec"),),
-          verbs=VERBS, bundled=Path(__file__).resolve().parent / "robots",
+          verbs=VERBS, bundled=Path(__file__).resolve().parent / "robots",  # = bundled.ROBOTS
           kernel_modules=("gagen.apps.cooperative.module",))

@@ -6,6 +6,7 @@ from functools import cache
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from gagen import registry
 from gagen.robots.spec import load_system
 from gagen.robots.system import System
 
@@ -17,8 +18,8 @@ ROBOTS = Path(__file__).resolve().parent / "robots"  # shipped with the package;
 
 @cache
 def bundled_specs() -> dict[str, Path]:
-    """System name -> spec file, for every ``robots/*.yaml``."""
-    return {path.stem: path for path in sorted(ROBOTS.glob("*.yaml"))}
+    """System name -> spec file, for every ``robots/*.yaml`` (the application's registered bundle)."""
+    return registry.bundled_specs("cooperative")
 
 
 @cache

@@ -13,6 +13,7 @@ from collections.abc import Iterator, Mapping
 from pathlib import Path
 
 from gagen import __version__
+from gagen.apps.cooperative import APP
 from gagen.apps.cooperative.catalogue import build_kernels
 from gagen.build import check_identifier
 from gagen.codegen.ir import Kernel, ModuleSource
@@ -68,5 +69,6 @@ def cooperative_source(spec: str | Path) -> ModuleSource:
         source_hash=hashlib.sha256(read_input(spec_path, "spec")).hexdigest(),
         meta=meta,
         key=system_key(system),
+        code=APP.kernel_modules,
         rebuild=f"gagen build {spec_path.name}",
     )
