@@ -173,12 +173,17 @@ def deadline(seconds: float) -> Iterator[None]:
 
 
 @pytest.fixture(autouse=True, scope="session")
-def _private_compile_cache(tmp_path_factory):
-    """gagen.compile and the bundled modules cache into $GAGEN_CACHE (else ~/.cache/gagen): the tests
-    use a fresh folder, one for all pytest-xdist workers of a run (each module built once; builds of
-    one folder wait for each other on its lock)."""
+def _private_compile_cache(request, tmp_path_factory):
+    """gagen.compile and the bundled modules cache into $GAGEN_CACHE (else ~/.cache/gagen): the tests use
+    their own folder, pytest's cache (``.pytest_cache/d/gagen``, shared by the pytest-xdist workers and
+    kept between runs, so the edit-test loop builds a module again only when its build key changes;
+    ``--cache-clear`` empties it), or a fresh temporary one without the cache plugin. Builds of one
+    folder wait for each other on its lock."""
     if "GAGEN_CACHE" not in os.environ:
-        if os.environ.get("PYTEST_XDIST_WORKER"):  # the workers' temporary folders share a parent
+        cache = getattr(request.config, "cache", None)
+        if cache is not None:
+            folder = cache.mkdir("gagen")
+        elif os.environ.get("PYTEST_XDIST_WORKER"):  # the workers' temporary folders share a parent
             folder = tmp_path_factory.getbasetemp().parent / "gagen-cache"
             folder.mkdir(exist_ok=True)
         else:

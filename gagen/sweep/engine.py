@@ -72,8 +72,12 @@ def connect(scheduler: str | None = None, workers: int = 2) -> Iterator[Client]:
 
 
 def _warm_up(sweep: Sweep) -> None:
-    """Compile what the workers would otherwise compile at once on first use (the iLQR loop library): the
-    compile is safe to race, but two workers compiling it at once cost two cores the sweep wants."""
+    """Build and compile what the workers would otherwise build at once on first use (the system's
+    generated module, the iLQR loop library): safe to race, but two workers doing it at once cost two
+    cores the sweep wants."""
+    from gagen.sweep.problems import build_module
+
+    build_module(sweep.system)
     if sweep.kind == "reach":
         from gagen.control.ilqr import loop_library
 

@@ -78,14 +78,11 @@ def _system_name(system: Any) -> str:
 
 @cache
 def cell(system: str = DEFAULT_SYSTEM) -> Cell:
-    """The cell of bundled ``system``, from its spec (≈ 1 s the first time: the URDFs are parsed; and
-    its generated module built on first use, ``gagen.modules``). Loaded once where a sweep is described
-    and shipped with it, so that a worker needs only the generated module. A SweepError starting
-    ``system:`` says why a system cannot be swept."""
-    from gagen.build import CompileError, OutputError
+    """The cell of bundled ``system``, from its spec (≈ 1 s the first time: the URDFs are parsed). Loaded
+    once where a sweep is described and shipped with it, so that a worker needs only the generated module
+    (``build_module``). A SweepError starting ``system:`` says why a system cannot be swept."""
     from gagen.check import joint_limits
     from gagen.control.differential import CONTROLLABLE_DIMENSION
-    from gagen.modules import module_folder
     from gagen.registry import bundled_specs
     from gagen.robots.spec import load_system
 
@@ -100,12 +97,22 @@ def cell(system: str = DEFAULT_SYSTEM) -> Cell:
                          "sample and grid within the joint limits")
     if "ready" not in configurations:
         raise SweepError(f"system: {spec} names no 'ready' configuration, which the sweeps start from")
-    try:  # built here on first use (the committed module, else the gagen cache), not in every worker
-        module_folder(spec)
-    except (CompileError, OutputError) as e:
-        raise SweepError(f"system: cannot build the generated module of {system}: {e}") from e
     return Cell(system, loaded.kind, labels, tuple(lower.tolist()), tuple(upper.tolist()),
                 tuple(map(float, configurations["ready"])), CONTROLLABLE_DIMENSION[loaded.kind])
+
+
+def build_module(system: str) -> None:
+    """Build the generated module of bundled ``system`` where the sweep is started, on first use (the
+    committed module, else the gagen cache: ``gagen.modules``), so that no two workers build it at once
+    and a system the sweep refuses is never built. A SweepError starting ``system:`` when it cannot be."""
+    from gagen.build import CompileError, OutputError
+    from gagen.modules import module_folder
+    from gagen.registry import bundled_specs
+
+    try:
+        module_folder(bundled_specs("cooperative")[_system_name(system)])
+    except (CompileError, OutputError) as e:
+        raise SweepError(f"system: cannot build the generated module of {system}: {e}") from e
 
 
 @cache

@@ -13,7 +13,7 @@ pytest.importorskip("distributed")  # the sweep extra
 pytest.importorskip("pyarrow")
 
 from gagen.sweep.engine import run_serial
-from gagen.sweep.problems import Manipulability, Reach, cell
+from gagen.sweep.problems import Manipulability, Reach, build_module, cell
 from gagen.sweep.store import ChunkStore, SweepError
 
 UNIT_BALL = {3: 4 * math.pi / 3, 4: math.pi**2 / 2, 6: math.pi**3 / 6}  # volume of the unit r-ball
@@ -137,7 +137,7 @@ def test_systems_the_sweeps_cannot_handle_are_named(monkeypatch, tmp_path):
     monkeypatch.setattr(gagen.modules, "module_folder", unwritable)  # (the module is built on first use)
     with pytest.raises(SweepError, match=r"^system: cannot build the generated module of panda_point: "
                        r"cannot write .*panda_point: Read-only file system"):
-        cell.__wrapped__("panda_point")
+        build_module("panda_point")
 
 
 def test_the_command_line_names_the_system_option(tmp_path, capsys):
