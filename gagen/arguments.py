@@ -6,6 +6,10 @@ from __future__ import annotations
 
 import argparse
 import math
+from collections.abc import Sequence
+from typing import Any
+
+from gagen.extras import MissingExtra, installed
 
 DEFAULT_VIEWER_PORT = 8080  # the viewer's port on 127.0.0.1 (= gagen.viewer.DEFAULT_PORT)
 
@@ -72,9 +76,27 @@ def port(text: str) -> int:
     return value
 
 
+class FlagNeeding(argparse.Action):
+    """A flag (``store_true``) that needs an optional module: given without it, the parser's one-line error
+    names the extra that brings it, before anything runs (``add_argument("--view", action=FlagNeeding,
+    module="viser")``)."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str, module: str, default: bool = False,
+                 required: bool = False, help: str | None = None) -> None:
+        super().__init__(option_strings, dest, nargs=0, const=True, default=default, required=required,
+                         help=help)
+        self.module = module
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any,
+                 option_string: str | None = None) -> None:
+        if not installed(self.module):
+            parser.error(str(MissingExtra(self.module, option_string or self.dest)))
+        setattr(namespace, self.dest, True)
+
+
 def view_arguments(parser: argparse.ArgumentParser, what: str) -> None:
     """``--view`` and ``--port``: play a demo's joint trajectory in the browser (gagen.viewer)."""
-    parser.add_argument("--view", action="store_true",
+    parser.add_argument("--view", action=FlagNeeding, module="viser",
                         help=f"then play {what} in the browser viewer (http://127.0.0.1:PORT) until Ctrl-C")
     parser.add_argument("--port", type=port, default=DEFAULT_VIEWER_PORT,
                         help=f"the viewer's port on 127.0.0.1 (default {DEFAULT_VIEWER_PORT})")

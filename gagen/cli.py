@@ -4,12 +4,14 @@ and exit status 2."""
 
 from __future__ import annotations
 
+import argparse
 import os
 import sys
 from collections.abc import Sequence
 
 from gagen import __version__
-from gagen.registry import OneLineParser, verbs
+from gagen.extras import MissingExtra, check, optional_missing
+from gagen.registry import OneLineParser, Verb, verbs
 
 
 def parser() -> OneLineParser:
@@ -21,15 +23,29 @@ def parser() -> OneLineParser:
     for verb in verbs():
         each = sub.add_parser(verb.name, help=verb.help, description=verb.help)
         verb.add_arguments(each)
-        each.set_defaults(run=verb.run)
+        each.set_defaults(verb=verb)
     return top
+
+
+def run(verb: Verb, args: argparse.Namespace) -> int:
+    """Run ``verb`` on its parsed arguments. An optional dependency it needs (``verb.needs``), or meets
+    on the way, that is not installed is one line naming the extra, and exit status 2."""
+    try:
+        check(verb.needs, f"gagen {verb.name}")
+        status: int = verb.run(args)
+        return status
+    except ModuleNotFoundError as e:
+        if not optional_missing(e):
+            raise
+        missing = e if isinstance(e, MissingExtra) else MissingExtra(e.name or "", f"gagen {verb.name}")
+        print(f"error: {missing}", file=sys.stderr)
+        return 2
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = parser().parse_args(argv)
     try:
-        status: int = args.run(args)
-        return status
+        return run(args.verb, args)
     except BrokenPipeError:  # the output went into `head` or a closed pager: stop quietly, as cat does
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141  # 128 + SIGPIPE

@@ -17,7 +17,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import pkgutil
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
@@ -38,16 +38,13 @@ class Verb:
     help: str
     add_arguments: Callable[[argparse.ArgumentParser], None]
     run: Callable[[argparse.Namespace], int]
+    needs: tuple[str, ...] = ()  # optional modules it cannot run without (gagen.extras: one line if missing)
 
     def parser(self, prog: str | None = None) -> argparse.ArgumentParser:
-        """A parser of this verb's arguments alone (``python -m`` entry points of the demos)."""
+        """A parser of this verb's arguments alone."""
         parser = OneLineParser(prog=prog or f"gagen {self.name}", description=self.help)
         self.add_arguments(parser)
         return parser
-
-    def main(self, argv: Sequence[str] | None = None, prog: str | None = None) -> int:
-        """Parse ``argv`` (default: the command line) and run."""
-        return self.run(self.parser(prog).parse_args(argv))
 
 
 class OneLineParser(argparse.ArgumentParser):

@@ -4,7 +4,8 @@ A system's chains are read again from its spec (their URDFs, base links and plac
 robot (a chain, or the chains sharing a ``robot`` label) becomes one subtree of a single Pinocchio
 model, placed at its chain's ``base``, with the robot's joints that no chain uses locked at 0. The
 model's configuration order is Pinocchio's; ``SystemDynamics`` maps it to and from the system's q
-(``System.joint_keys``), so every quantity here is in the order of the generated kernels.
+(``System.joint_keys``), so every quantity here is in the order of the generated kernels. A continuous
+joint is Pinocchio's (cos q, sin q) pair; here, as in the kinematics, it is its angle q.
 
 M(q) comes from CRBA, C(q, q̇)q̇ + g(q) from RNEA with zero acceleration, g(q) from RNEA at rest, the
 forward dynamics q̈ = M⁻¹(τ − C q̇ − g) from ABA; gravity is −9.81 m/s² along the system frame's z.
@@ -109,8 +110,8 @@ def _robot_model(pin: Any, source: RobotSource, used: set[str]) -> Any:
     locked = [j for j in range(1, model.njoints) if model.names[j] not in used]
     if locked:
         model = pin.buildReducedModel(model, locked, pin.neutral(model))
-    if any(model.joints[j].nq != 1 for j in range(1, model.njoints)):
-        raise DynamicsError(f"{source.urdf}: only revolute and prismatic joints are supported")
+    if any(model.joints[j].nv != 1 or model.joints[j].nq not in (1, 2) for j in range(1, model.njoints)):
+        raise DynamicsError(f"{source.urdf}: only revolute, continuous and prismatic joints are supported")
     _check_inertias(source.urdf, model)
     return model
 
@@ -144,14 +145,21 @@ class SystemDynamics:
             _append(pin, world, _robot_model(pin, source, used), _placement(pin, source), source.label)
         self.model = world
         self.data = world.createData()
-        position = {world.names[j]: world.idx_qs[j] for j in range(1, world.njoints)}
-        missing = [f"{r}/{j}" for r, j in self.system.joint_keys if f"{r}/{j}" not in position]
-        if missing or world.nq != self.system.dof:
+        joint = {world.names[j]: j for j in range(1, world.njoints)}
+        missing = [f"{r}/{j}" for r, j in self.system.joint_keys if f"{r}/{j}" not in joint]
+        if missing or world.nv != self.system.dof:
             raise DynamicsError(f"{spec_path}: joints {', '.join(missing) or '?'} of the system are not "
                                 f"moving joints of its URDFs' Pinocchio models")
-        # system index i ↔ Pinocchio index order[i]; most systems need no permutation (then none is made)
-        self.order: NDArray[np.intp] = np.array([position[f"{r}/{j}"] for r, j in self.system.joint_keys])
+        ids = [joint[f"{r}/{j}"] for r, j in self.system.joint_keys]
+        # system index i ↔ Pinocchio velocity index order[i]; most systems need no permutation (then
+        # none is made). A continuous joint's configuration is (cos q, sin q) in Pinocchio (nq = 2,
+        # nv = 1): its angle is the system's q and its velocity and torque are the system's.
+        self.order: NDArray[np.intp] = np.array([world.idx_vs[i] for i in ids], dtype=np.intp)
         self._same_order = bool(np.all(self.order == np.arange(self.dof)))
+        self._angle = np.array([world.idx_qs[i] for i in ids if world.nqs[i] == 1], dtype=np.intp)
+        self._linear = np.array([i for i, j in enumerate(ids) if world.nqs[j] == 1], dtype=np.intp)
+        self._cos = np.array([world.idx_qs[i] for i in ids if world.nqs[i] == 2], dtype=np.intp)
+        self._unbounded = np.array([i for i, j in enumerate(ids) if world.nqs[j] == 2], dtype=np.intp)
         self._lower = np.tril_indices(self.dof, -1)
 
     @property
@@ -166,6 +174,17 @@ class SystemDynamics:
         out[self.order] = x
         return out
 
+    def _config(self, q: ArrayLike) -> NDArray[np.float64]:
+        """Pinocchio's configuration vector of the system's q (continuous joints as cos, sin)."""
+        q = np.asarray(q, dtype=float)
+        if not self._unbounded.size:
+            return self._to_pin(q)
+        out = np.empty(self.model.nq)
+        out[self._angle] = q[self._linear]
+        out[self._cos] = np.cos(q[self._unbounded])
+        out[self._cos + 1] = np.sin(q[self._unbounded])
+        return out
+
     def _from_pin(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         x = np.array(x)  # a copy: Pinocchio's results live in its data, which the next call overwrites
         if self._same_order:
@@ -174,30 +193,30 @@ class SystemDynamics:
 
     def mass_matrix(self, q: ArrayLike) -> NDArray[np.float64]:
         """M(q), symmetric positive definite (CRBA fills the upper triangle; mirrored here)."""
-        m = np.array(self._pin.crba(self.model, self.data, self._to_pin(q)))
+        m = np.array(self._pin.crba(self.model, self.data, self._config(q)))
         m[self._lower] = m.T[self._lower]
         return self._from_pin(m) if not self._same_order else m
 
     def bias(self, q: ArrayLike, qd: ArrayLike) -> NDArray[np.float64]:
         """C(q, q̇)q̇ + g(q) (RNEA with q̈ = 0)."""
-        return self._from_pin(self._pin.nonLinearEffects(self.model, self.data, self._to_pin(q),
+        return self._from_pin(self._pin.nonLinearEffects(self.model, self.data, self._config(q),
                                                          self._to_pin(qd)))
 
     def gravity(self, q: ArrayLike) -> NDArray[np.float64]:
         """g(q), the joint torques that hold the system at rest."""
-        return self._from_pin(self._pin.computeGeneralizedGravity(self.model, self.data, self._to_pin(q)))
+        return self._from_pin(self._pin.computeGeneralizedGravity(self.model, self.data, self._config(q)))
 
     def forward(self, q: ArrayLike, qd: ArrayLike, tau: ArrayLike) -> NDArray[np.float64]:
         """q̈ from the applied joint torques τ (ABA)."""
-        return self._from_pin(self._pin.aba(self.model, self.data, self._to_pin(q), self._to_pin(qd),
+        return self._from_pin(self._pin.aba(self.model, self.data, self._config(q), self._to_pin(qd),
                                             self._to_pin(tau)))
 
     def kinetic_energy(self, q: ArrayLike, qd: ArrayLike) -> float:
-        return float(self._pin.computeKineticEnergy(self.model, self.data, self._to_pin(q), self._to_pin(qd)))
+        return float(self._pin.computeKineticEnergy(self.model, self.data, self._config(q), self._to_pin(qd)))
 
     def potential_energy(self, q: ArrayLike) -> float:
         """The gravitational potential energy (zero at z = 0 of the system frame)."""
-        return float(self._pin.computePotentialEnergy(self.model, self.data, self._to_pin(q)))
+        return float(self._pin.computePotentialEnergy(self.model, self.data, self._config(q)))
 
     def link_position(self, q: ArrayLike, robot: str, link: str) -> NDArray[np.float64]:
         """The origin of ``link`` of ``robot`` in the system frame at q."""
@@ -205,7 +224,7 @@ class SystemDynamics:
         if not self.model.existFrame(name):
             raise DynamicsError(f"no link {link!r} on robot {robot!r}")
         frame = self.model.getFrameId(name)
-        self._pin.framesForwardKinematics(self.model, self.data, self._to_pin(q))
+        self._pin.framesForwardKinematics(self.model, self.data, self._config(q))
         return np.array(self.data.oMf[frame].translation)
 
     def total_mass(self) -> float:

@@ -6,7 +6,9 @@ folding then snaps them to multiples of π/4 where they are within 1e-9 of one, 
 90° turns are. Translations keep the exact doubles of the file.
 
 Before yourdfpy sees a file it is checked here: UTF-8 (or declared) XML without entity declarations
-(no entity bombs), not a xacro source (expand it first), a ``<robot>`` root, joint and link names
+(no entity bombs), not a xacro source (no element in the xacro namespace and no ``${...}``
+substitution: expand it first; xacro's output, which keeps the ``xmlns:xacro`` declaration, is a
+plain URDF and accepted), a ``<robot>`` root, joint and link names
 each defined once, and every joint's origin ``xyz``/``rpy`` and ``axis`` three finite numbers with
 coordinates within ±``MAX_COORDINATE`` m and angles within ±``MAX_ANGLE`` rad. The walk from the tip
 link to the base link refuses links with two parents and kinematic loops (it is bounded by the
@@ -60,19 +62,38 @@ def _numbers(path: Path, element: Any, attribute: str, default: str, field: str,
                                      f"finite numbers within ±{bound:g}")
 
 
+def _xacro(path: Path, found: str) -> SpecError:
+    stem = path.name.removesuffix(".xacro").removesuffix(".urdf")
+    target = f"{stem}.urdf" if f"{stem}.urdf" != path.name else f"{stem}_expanded.urdf"
+    return SpecError(path, "urdf", f"a xacro file, not a URDF ({found}): expand it first, e.g. "
+                                   f"`xacro {path.name} > {target}`, and name the result in the spec")
+
+
+def _refuse_xacro(path: Path, root: Any) -> None:
+    """Refuse an unexpanded xacro source: an element in the xacro namespace, or a ``${...}`` left in an
+    attribute. xacro's *output* keeps the ``xmlns:xacro`` declaration (and may keep comments naming
+    xacro elements); it is a plain URDF and passes."""
+    for element in root.iter():
+        if not isinstance(element.tag, str):  # comments and processing instructions
+            continue
+        namespace = etree.QName(element).namespace or ""
+        if "xacro" in namespace or element.prefix == "xacro":
+            raise _xacro(path, f"line {element.sourceline}: <xacro:{etree.QName(element).localname}>")
+        for attribute, value in element.attrib.items():
+            if "${" in value or "$(" in value:
+                raise _xacro(path, f"line {element.sourceline}: {attribute}={value!r}, a xacro substitution")
+
+
 def _check_xml(path: Path, data: bytes) -> dict[str, int]:
     """Check the raw file (see the module docstring); the line of each joint by name."""
-    if path.name.endswith(".xacro") or b"xmlns:xacro" in data or b"<xacro:" in data:
-        stem = path.name.removesuffix(".xacro").removesuffix(".urdf")
-        target = f"{stem}.urdf" if f"{stem}.urdf" != path.name else f"{stem}_expanded.urdf"
-        raise SpecError(path, "urdf", f"a xacro file, not a URDF: expand it first, e.g. "
-                                      f"`xacro {path.name} > {target}`, and name the result in the spec")
     if b"<!ENTITY" in data:
         raise SpecError(path, "urdf", "XML entity declarations (<!ENTITY) are not supported in URDF files")
     parser = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False, huge_tree=False)
     try:
         root = etree.fromstring(data, parser)
     except etree.XMLSyntaxError as e:
+        if b"<xacro:" in data:  # an element of the undeclared xacro prefix
+            raise _xacro(path, "a <xacro:...> element") from e
         line, column = e.position
         raise SpecError(path, "urdf", f"not a readable URDF: malformed XML at line {line}, column {column} "
                                       f"({e.msg})") from e
@@ -80,6 +101,7 @@ def _check_xml(path: Path, data: bytes) -> dict[str, int]:
         raise SpecError(path, "urdf", f"not a readable URDF ({type(e).__name__}: {e})") from e
     if root.tag != "robot":
         raise SpecError(path, "urdf", f"the root element is <{root.tag}>; expected <robot>")
+    _refuse_xacro(path, root)
     lines: dict[str, int] = {}
     for kind in ("link", "joint"):
         seen: dict[str, int] = {}

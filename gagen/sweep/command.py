@@ -91,15 +91,11 @@ def _sweep(args: argparse.Namespace) -> Sweep:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Exit status 0 when every chunk is written, 1 when some failed (re-run to retry), 2 for bad input (or
-    a missing ``sweep`` extra)."""
-    try:
-        from gagen.sweep import plots, problems  # problems: pyarrow, before any work
-        from gagen.sweep.engine import run as run_sweep
-        from gagen.sweep.store import ChunkStore, SweepError
-    except ImportError as e:  # dask or pyarrow missing: say which extra brings them
-        print(f"error: gagen sweep needs the sweep extra (pip install 'gagen[sweep]'): {e}", file=sys.stderr)
-        return 2
+    """Exit status 0 when every chunk is written, 1 when some failed (re-run to retry), 2 for bad input (a
+    missing ``sweep`` extra included: the verb ``needs`` its modules)."""
+    from gagen.sweep import plots, problems
+    from gagen.sweep.engine import run as run_sweep
+    from gagen.sweep.store import ChunkStore, SweepError
 
     try:
         sweep = _sweep(args)
@@ -152,4 +148,4 @@ def run(args: argparse.Namespace) -> int:
 
 VERBS = (Verb("sweep", "distributed sweeps on Dask, chunked and resumable: a bundled system's manipulability "
               "over random configurations or a grid, or iLQR reaching over target circles or spheres",
-              add_arguments, run),)
+              add_arguments, run, needs=("dask", "distributed", "pyarrow", "tqdm")),)

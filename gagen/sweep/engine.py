@@ -29,8 +29,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from gagen.extras import check
 from gagen.sweep.problems import Sweep, compute_chunk, prepare
 from gagen.sweep.store import ChunkStore, SweepError
+
+check(("dask", "distributed", "tqdm"), "gagen.sweep")  # the sweep extra, named before any work
 
 if TYPE_CHECKING:
     from distributed import Client

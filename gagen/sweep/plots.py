@@ -8,8 +8,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pyarrow as pa
 from numpy.typing import NDArray
+
+from gagen.extras import MissingExtra
+
+try:
+    import pyarrow as pa
+except ModuleNotFoundError as e:  # the sweep extra
+    raise MissingExtra("pyarrow", "gagen.sweep") from e
 
 FLOOR = 1e-12  # errors below this are drawn at it (a log colour scale has no 0)
 

@@ -37,13 +37,18 @@ from functools import cache
 from typing import Any, TypeVar, cast
 
 import numpy as np
-import pyarrow as pa
 from numpy.typing import NDArray
 
+from gagen.extras import MissingExtra
 from gagen.robots.points import end_points
 from gagen.sweep import grid as grids
 from gagen.sweep.places import locate, unit_ball_volume
 from gagen.sweep.store import SweepError
+
+try:
+    import pyarrow as pa
+except ModuleNotFoundError as e:  # the sweep extra
+    raise MissingExtra("pyarrow", "gagen.sweep") from e
 
 DEFAULT_SYSTEM = "three_pandas_circle"
 TARGETS = ("circle", "sphere")  # the primitives the reach sweep has targets for

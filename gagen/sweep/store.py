@@ -22,8 +22,14 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-import pyarrow as pa
-import pyarrow.parquet as pq
+from gagen.extras import MissingExtra
+
+try:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+except ModuleNotFoundError as e:  # the sweep extra
+    raise MissingExtra("pyarrow", "gagen.sweep") from e
+
 
 MANIFEST = "sweep.json"
 CHUNK = re.compile(r"chunk-(\d{6})\.parquet")

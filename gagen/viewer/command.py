@@ -128,4 +128,4 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 VERBS = (Verb("view", "a system's robots and primitive in the browser, or as a PNG rendered by headless "
                       "Chromium "
-              "(--png)", add_arguments, run),)
+              "(--png)", add_arguments, run, needs=("viser",)),)

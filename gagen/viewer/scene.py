@@ -9,6 +9,10 @@ trajectory in real time (the one mechanism the demos share: the reach OCP's opti
 nullspace runs, teleoperation and impedance simulations alike). Open ``scene.url`` in a browser, or
 take a headless render with ``gagen.viewer.browser``.
 
+Given ``visuals`` (``gagen.viewer.visuals.load_visuals``: the URDFs' ``<visual>`` meshes and shapes), a
+link with visuals is drawn from them, placed at the link's pose along its chain, and its stick and joint
+ball are left out; links without visuals (or whose mesh files could not be read) stay sticks.
+
     with Scene(system, port=8080) as scene:
         scene.play(result.t, result.q, loop=True)
 """
@@ -26,6 +30,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from gagen.extras import MissingExtra
 from gagen.robots.system import System
 from gagen.viewer import DEFAULT_PORT
 from gagen.viewer.camera import Camera, framing
@@ -39,6 +44,7 @@ from gagen.viewer.geometry import (
     shape,
     system_pose,
 )
+from gagen.viewer.visuals import ChainVisuals, Visual, chain_joint_values
 
 if TYPE_CHECKING:
     from viser import SceneNodeHandle  # the optional dependency: imported where it is needed
@@ -79,8 +85,12 @@ class Scene:
     which); ``frames``: draw axes at each chain's base and end ("ends"), at every joint ("all") or none."""
 
     def __init__(self, system: System, q: ArrayLike | None = None, *, host: str = "127.0.0.1",
-                 port: int = DEFAULT_PORT, frames: Frames = "ends", label: str | None = None) -> None:
-        import viser  # the optional dependency, imported where it is needed
+                 port: int = DEFAULT_PORT, frames: Frames = "ends", label: str | None = None,
+                 visuals: Sequence[ChainVisuals | None] | None = None) -> None:
+        try:  # the optional dependency, imported where it is needed
+            import viser
+        except ModuleNotFoundError as e:
+            raise MissingExtra("viser", "gagen.viewer") from e
 
         if frames not in ("none", "ends", "all"):
             raise ValueError(f"frames {frames!r}: expected 'none', 'ends' or 'all'")
@@ -90,6 +100,11 @@ class Scene:
         self.host = loopback(host)
         self.frames = frames
         self.q = np.zeros(system.dof) if q is None else self._check(q)
+        if visuals is not None and len(visuals) != len(system.chains):
+            raise ValueError(f"visuals: one entry (or None) per chain of {system.name}, "
+                             f"{len(system.chains)}; got {len(visuals)}")
+        self.visuals: list[ChainVisuals | None] = list(visuals) if visuals is not None else \
+            [None] * len(system.chains)
         self.server = viser.ViserServer(host=self.host, port=port, label=label or system.name, verbose=False)
         self.server.scene.set_up_direction("+z")
         self._lock = threading.Lock()  # update() from a play thread and a GUI callback
@@ -153,11 +168,26 @@ class Scene:
         self._links: list[tuple[int, int, Any]] = []  # (chain, frame index) -> cylinder from there
         self._joints: list[tuple[int, int, Any]] = []
         self._axes: list[tuple[int, int, Any]] = []
+        self._bodies: list[tuple[int, str, Any]] = []  # (chain, link name) -> the link's frame node
         for c, pose in enumerate(poses):
             root = f"/robots/{pose.name}"
-            scene.add_icosphere(f"{root}/base", radius=1.6 * r, color=BASE_COLOUR,
-                                position=pose.origins[0])
+            looks = self.visuals[c]
+
+            def stick(i: int, looks: ChainVisuals | None = looks) -> bool:  # the link after joint i: a stick?
+                return looks is None or not looks.covered(looks.sticks[i] if i < len(looks.sticks) else None)
+
+            if looks is not None:
+                for k, (link, drawn) in enumerate(looks.links.items()):
+                    body = scene.add_frame(f"{root}/body{k}", show_axes=False)
+                    self._bodies.append((c, link, body))
+                    for m, visual in enumerate(drawn):
+                        self._add_visual(f"{root}/body{k}/visual{m}", visual)
+            if stick(0):
+                scene.add_icosphere(f"{root}/base", radius=1.6 * r, color=BASE_COLOUR,
+                                    position=pose.origins[0])
             for i in range(len(pose.frames) - 1):
+                if not stick(i):
+                    continue
                 length = float(np.linalg.norm(pose.origins[i + 1] - pose.origins[i]))
                 if length > 1e-6 or pose.moving[i]:  # rigid: a zero-length link stays so (prismatic aside)
                     self._links.append((c, i, scene.add_cylinder(f"{root}/link{i}", radius=r, height=1.0,
@@ -174,7 +204,37 @@ class Scene:
         self._primitive: list[SceneNodeHandle] = []
         self._draw(poses)
 
+    def _add_visual(self, name: str, visual: Visual) -> None:
+        """One URDF visual as a child node of its link's frame node (placed by its origin)."""
+        scene = self.server.scene
+        wxyz, position, opacity = quaternion(visual.origin[:3, :3]), visual.origin[:3, 3], visual.opacity
+        if visual.kind == "box":
+            scene.add_box(name, color=visual.colour, dimensions=(visual.size[0], visual.size[1], visual.size[2]),
+                          flat_shading=False, opacity=opacity, wxyz=wxyz, position=position)
+        elif visual.kind == "cylinder":
+            scene.add_cylinder(name, radius=visual.size[0], height=visual.size[1], color=visual.colour,
+                               radial_segments=32, opacity=opacity, wxyz=wxyz, position=position)
+        elif visual.kind == "sphere":
+            scene.add_icosphere(name, radius=visual.size[0], color=visual.colour, subdivisions=3,
+                                opacity=opacity, wxyz=wxyz, position=position)
+        else:
+            assert visual.vertices is not None and visual.faces is not None
+            scene.add_mesh_simple(name, visual.vertices.astype(np.float32), visual.faces.astype(np.uint32),
+                                  color=visual.colour, opacity=opacity, wxyz=wxyz, position=position)
+
+    def _body_frames(self) -> list[tuple[int, str, NDArray[np.float64]]]:
+        """(chain, link, pose) of every link drawn from its visuals, at the configuration ``self.q``."""
+        if not self._bodies:
+            return []
+        values = chain_joint_values(self.system, list(self.q))
+        frames = [looks.link_frames(values[c]) if looks is not None else {} for c, looks in
+                  enumerate(self.visuals)]
+        return [(c, link, frames[c][link]) for c, link, _ in self._bodies]
+
     def _draw(self, poses: Sequence[ChainPose]) -> None:
+        for (_, _, frame), (_, _, handle) in zip(self._body_frames(), self._bodies, strict=True):
+            handle.position = frame[:3, 3]
+            handle.wxyz = quaternion(frame[:3, :3])
         for c, i, handle in self._links:
             a, b = poses[c].origins[i], poses[c].origins[i + 1]
             d = b - a
@@ -247,9 +307,16 @@ class Scene:
 
     # -- camera --------------------------------------------------------------------------------------
     def points(self) -> NDArray[np.float64]:
-        """Every drawn joint origin and the primitive's points, for framing a camera."""
+        """Every drawn joint origin, the corners of the links' visuals and the primitive's points, for
+        framing a camera."""
         poses = system_pose(self.system, self.q)
-        return np.vstack([pose.origins for pose in poses] + polylines(self.shape))
+        corners = []
+        for c, link, frame in self._body_frames():
+            looks = self.visuals[c]
+            assert looks is not None
+            for visual in looks.links[link]:
+                corners.append(visual.corners() @ frame[:3, :3].T + frame[:3, 3])
+        return np.vstack([pose.origins for pose in poses] + corners + polylines(self.shape))
 
     def default_camera(self, aspect: float = 4.0 / 3.0) -> Camera:
         return framing(self.points(), aspect=aspect)

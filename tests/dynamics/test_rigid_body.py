@@ -119,3 +119,52 @@ def test_chains_without_urdf_are_refused(tmp_path):
                     "      - {name: j1, type: revolute, axis: [0, 0, 1], xyz: [0, 0, 0.1], rpy: [0, 0, 0]}\n")
     with pytest.raises(DynamicsError, match=r"explicit\.yaml: chains\[0\]: dynamics need a URDF"):
         SystemDynamics(spec)
+
+
+def _iiwa_with_continuous_joints(tmp_path, joints=(1, 3, 5, 7)) -> tuple[Path, Path]:
+    """A one-arm spec on a copy of the iiwa14 whose joints ``joints`` are continuous (no limits), and
+    the copy's URDF."""
+    urdf = (ROBOTS / "iiwa14" / "iiwa14.urdf").read_text()
+    for k in joints:
+        urdf = urdf.replace(f'<joint name="iiwa_joint_{k}" type="revolute">',
+                            f'<joint name="iiwa_joint_{k}" type="continuous">')
+    path = tmp_path / "iiwa14_continuous.urdf"
+    path.write_text(urdf)
+    spec = tmp_path / "arm.yaml"
+    spec.write_text("name: continuous_arm\nprimitive: point\nchains:\n  - name: arm\n"
+                    f"    urdf: {path.name}\n    base_link: iiwa_link_0\n    tip_link: iiwa_link_ee\n"
+                    "    base: {xyz: [0.1, -0.2, 0.3], rpy: [0.0, 0.0, 0.5]}\n")
+    return spec, path
+
+
+def test_continuous_joints_agree_with_pinocchio(tmp_path):
+    """Continuous joints (Pinocchio's nq = 2: cos, sin) take the system's angle: M, C q̇ + g and g agree
+    with Pinocchio on the URDF itself (its configuration built from the angles here), and with the
+    same arm whose joints are revolute, to 1e-12; forward dynamics invert the equation of motion."""
+    spec, urdf = _iiwa_with_continuous_joints(tmp_path)
+    dynamics = SystemDynamics(spec)
+    assert dynamics.dof == 7 and dynamics.model.nq == 11 and dynamics.model.nv == 7
+    (tmp_path / "revolute").mkdir()
+    revolute = SystemDynamics(_iiwa_with_continuous_joints(tmp_path / "revolute", joints=())[0])
+    model = pin.buildModelFromUrdf(str(urdf))
+    model.gravity = pin.Motion(np.array([0.0, 0.0, -GRAVITY]), np.zeros(3))
+    data = model.createData()
+    rng = np.random.default_rng(5)
+    for _ in range(10):
+        q, qd = rng.uniform(-3, 3, 7), rng.uniform(-2, 2, 7)
+        config = np.concatenate([[np.cos(a), np.sin(a)] if k % 2 == 0 else [a] for k, a in enumerate(q)])
+        M = pin.crba(model, data, config)
+        M = np.triu(M) + np.triu(M, 1).T
+        bias, gravity = pin.nonLinearEffects(model, data, config, qd), pin.computeGeneralizedGravity(
+            model, data, config)
+        # the base placement is a turn about the gravity axis: M, C q̇ and g do not depend on it
+        assert np.abs(dynamics.mass_matrix(q) - M).max() <= 1e-12
+        assert np.abs(dynamics.bias(q, qd) - bias).max() <= 1e-12
+        assert np.abs(dynamics.gravity(q) - gravity).max() <= 1e-12
+        assert np.abs(dynamics.mass_matrix(q) - revolute.mass_matrix(q)).max() <= 1e-12
+        assert np.abs(dynamics.bias(q, qd) - revolute.bias(q, qd)).max() <= 1e-12
+        assert np.abs(dynamics.link_position(q, "arm", "iiwa_link_ee")
+                      - revolute.link_position(q, "arm", "iiwa_link_ee")).max() <= 1e-12
+        tau = rng.uniform(-5, 5, 7)
+        assert np.abs(dynamics.mass_matrix(q) @ dynamics.forward(q, qd, tau) + dynamics.bias(q, qd)
+                      - tau).max() <= 1e-10

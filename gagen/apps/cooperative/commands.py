@@ -11,7 +11,14 @@ import sys
 from pathlib import Path
 
 from gagen.apps.cooperative.scenario_table import SCENARIOS
-from gagen.arguments import finite_float, non_negative_float, positive_float, positive_int, view_arguments
+from gagen.arguments import (
+    FlagNeeding,
+    finite_float,
+    non_negative_float,
+    positive_float,
+    positive_int,
+    view_arguments,
+)
 from gagen.registry import Verb
 
 
@@ -96,7 +103,7 @@ def _teleop_arguments(parser: argparse.ArgumentParser) -> None:
     source = parser.add_mutually_exclusive_group(required=True)
     source.add_argument("--trace", type=Path, help="replay a trace file (CSV: t,tx,ty,tz,rx,ry,rz)")
     source.add_argument("--keyboard", action="store_true", help="drive from the terminal's keys")
-    source.add_argument("--spacemouse", action="store_true",
+    source.add_argument("--spacemouse", action=FlagNeeding, module="pyspacemouse",
                         help="drive with a 3Dconnexion SpaceMouse (pip install 'gagen[teleop]')")
     parser.add_argument("--dt", type=positive_float, default=0.01, help="time step, s (default 0.01)")
     parser.add_argument("--frame", choices=("world", "body"), default="world",
@@ -128,14 +135,9 @@ VERBS = (
     Verb("nullspace", "one of three Pandas moves along the circle through N(q), with and without the "
          "projection (plots)", _nullspace_arguments, _nullspace),
     Verb("impedance", "similarity impedance control of three iiwa 14 on a circle and a plane: runs of "
-         "Pinocchio forward dynamics [COOP Fig. 6]", _impedance_arguments, _impedance),
+         "Pinocchio forward dynamics [COOP Fig. 6]", _impedance_arguments, _impedance, needs=("pinocchio",)),
     Verb("mpc", "cooperative MPC: three Pandas tracking a moving circle with warm-started iLQR in closed "
          "loop (report, plots, GIF)", _mpc_arguments, _mpc),
     Verb("teleop", "teleoperate a cooperative primitive with six axes (a trace, the keyboard or a "
          "SpaceMouse) by differential kinematics; report and plot", _teleop_arguments, _teleop),
 )
-
-
-def verb(name: str) -> Verb:
-    """One of this application's verbs, by name (the modules' ``python -m`` entry points)."""
-    return next(v for v in VERBS if v.name == name)
