@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import argparse
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from gagen.extras import MissingExtra, installed
@@ -66,6 +66,20 @@ def positive_int(text: str) -> int:
     if value < 1:
         raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}")
     return value
+
+
+def numbers(count: int) -> Callable[[str], tuple[float, ...]]:
+    """An argparse type: ``count`` finite numbers, comma-separated (``0,0,0.1``)."""
+
+    def parse(text: str) -> tuple[float, ...]:
+        parts = text.split(",")
+        values = [finite_float(part.strip()) for part in parts] if len(parts) == count else []
+        if len(values) != count:
+            raise argparse.ArgumentTypeError(f"expected {count} comma-separated numbers, got {text!r}")
+        return tuple(values)
+
+    parse.__name__ = f"{count} numbers"  # argparse names the type in its messages
+    return parse
 
 
 def port(text: str) -> int:

@@ -27,7 +27,7 @@ never returned as a NaN.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import cast
 
 import numpy as np
@@ -41,6 +41,7 @@ from gagen.model.conformal import vector as conformal_vector
 from gagen.model.primitives import points_needed, unit_primitive
 from gagen.model.primitives import through as primitive_through
 from gagen.model.similarity import similarity
+from gagen.robots.goals import PRIMITIVE_PARAMETERS, Goal
 
 __all__ = ["circle", "line", "plane", "point", "point_pair", "primitive", "sphere", "through"]
 
@@ -185,3 +186,20 @@ def primitive(kind: str, V_Sd: ArrayLike) -> MultiVector:
         raise ValueError(f"V_Sd: expected {len(SIMILARITY)} coefficients, got shape {values.shape}")
     v = MultiVector.from_blades(cga3d(), dict(zip(SIMILARITY, values, strict=True)))
     return v.sandwich(cast(MultiVector, unit_primitive(kind, v)))  # (an interpreter one, as v)
+
+
+def desired(goal: Goal, V_Sc0: ArrayLike, kind: str) -> NDArray[np.float64]:
+    """V_Sd of a spec's goal (``gagen.robots.goals``) for a system spanning a ``kind``: a ``move`` of the
+    primitive of V_Sc0 (its similarity at the start, e.g. the ``ready`` configuration; see
+    ``gagen.control.ocp.target_from``), or the stated primitive through this module's constructors. A
+    ValueError when the goal's primitive is not the system's kind, or degenerate."""
+    if goal.is_move:
+        from gagen.control.ocp import target_from
+
+        return target_from(V_Sc0, goal.translation, goal.rotation, goal.dilation, kind=kind)
+    if goal.kind != kind:
+        raise ValueError(f"goal {goal.name!r} is a {goal.kind}; the system spans a {kind}")
+    makers: dict[str, Callable[..., NDArray[np.float64]]] = {
+        "point": point, "point_pair": point_pair, "line": line, "circle": circle, "plane": plane,
+        "sphere": sphere}
+    return makers[kind](*(goal.parameters[name] for name in PRIMITIVE_PARAMETERS[kind]))

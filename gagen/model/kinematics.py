@@ -4,7 +4,9 @@ A chain is a list of :class:`Joint`: URDF-style, each with the fixed transform f
 frame (``xyz``, ``rpy``) followed by its motion about or along ``axis``. Fixed transforms become
 *exact* constant motors: translations are the exact values of the given doubles, and rpy angles
 within ``SNAP`` of a multiple of π/4 are taken as that multiple, so a URDF's 90° turns give exact
-0, ±1 and ±√½ and the sparsity analysis removes what they zero out.
+0, ±1 and ±√½ and the sparsity analysis removes what they zero out. That snapping moves a URDF's
+``1.57079632679`` by 5e-12 rad to π/2; a joint with ``snap=False`` (a spec's ``snap: false``) keeps its
+angles as written, exact doubles like the translations.
 
 FK: V_M(q) = Π_j F_j J_j(q_j) with F_j the fixed motor and J_j the joint rotor
 cos(q/2) − sin(q/2) (n3 e12 − n2 e13 + n1 e23) (revolute) or translator 1 − ½ q n∧e∞ (prismatic);
@@ -52,6 +54,9 @@ class Joint:
     # (lower, upper) of the URDF <limit> (rad, or m for prismatic joints), or None: used to sample
     # `--check` configurations only, so it is left out of the repr (the build key) and of equality
     limits: tuple[float, float] | None = field(default=None, repr=False, compare=False)
+    # snap the rpy angles to exact multiples of π/4 (:func:`exact_angle`); False keeps them as written.
+    # In the repr (the build key) only when False, so the reprs of snapped systems do not change
+    snap: bool = field(default=True, repr=False)
 
     def __post_init__(self) -> None:
         if self.kind not in JOINT_KINDS:
@@ -75,6 +80,8 @@ class Joint:
         shown = [f"{f.name}={getattr(self, f.name)!r}" for f in fields(self) if f.repr]
         if self.mimic is not None:
             shown.append(f"mimic={self.mimic!r}")
+        if not self.snap:
+            shown.append("snap=False")
         return f"Joint({', '.join(shown)})"
 
     @property
@@ -82,10 +89,12 @@ class Joint:
         return self.kind != "fixed"
 
 
-def exact_angle(angle: float) -> sympy.Expr:
-    """An rpy angle as an exact value: a multiple of π/4 when within SNAP of one."""
+def exact_angle(angle: float, snap: bool = True) -> sympy.Expr:
+    """An rpy angle as an exact value: a multiple of π/4 when within SNAP of one (a URDF's
+    ``1.57079632679`` becomes exactly π/2, so cos gives an exact 0), else, or with ``snap=False``, the
+    exact value of the double as written."""
     k = round(angle / (math.pi / 4))
-    if abs(angle - k * math.pi / 4) <= SNAP:
+    if snap and abs(angle - k * math.pi / 4) <= SNAP:
         return k * sympy.pi / 4
     return to_exact(angle)
 
@@ -124,11 +133,11 @@ _FIXED_ROTATIONS: dict[tuple[Hashable, ...], Multivector] = {}
 
 def fixed_rotation(like: Multivector, joint: Joint) -> Multivector:
     """The rotor of the joint's fixed rpy, Rz(yaw) Ry(pitch) Rx(roll), with exact constants (memoised)."""
-    key = (type(like), like.algebra, getattr(like, "backend", None), joint.rpy)
+    key = (type(like), like.algebra, getattr(like, "backend", None), joint.rpy, joint.snap)
     if key not in _FIXED_ROTATIONS:
         if len(_FIXED_ROTATIONS) > 4096:
             _FIXED_ROTATIONS.clear()
-        roll, pitch, yaw = (exact_angle(a) for a in joint.rpy)
+        roll, pitch, yaw = (exact_angle(a, joint.snap) for a in joint.rpy)
         _FIXED_ROTATIONS[key] = (_axis_rotor(like, 2, yaw) * _axis_rotor(like, 1, pitch)
                                  * _axis_rotor(like, 0, roll))
     return _FIXED_ROTATIONS[key]

@@ -3,7 +3,9 @@
 Parsing is yourdfpy's (a maintained URDF library; meshes are not loaded). yourdfpy keeps each
 joint origin as a 4×4 matrix, so the rpy angles are read back from it; ``Joint``'s exact-constant
 folding then snaps them to multiples of π/4 where they are within 1e-9 of one, as URDF files'
-90° turns are. Translations keep the exact doubles of the file.
+90° turns are (``1.57079632679`` becomes exactly π/2). Translations keep the exact doubles of the
+file. ``load_chain(..., snap=False)`` (a spec's ``snap: false``) keeps the file's xyz and rpy as
+written, unsnapped.
 
 Before yourdfpy sees a file it is checked here: UTF-8 (or declared) XML without entity declarations
 (no entity bombs), not a xacro source (no element in the xacro namespace and no ``${...}``
@@ -20,6 +22,7 @@ problem is a ``SpecError`` naming the file, the joint and its line.
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -34,7 +37,45 @@ from gagen.yaml_document import MAX_ANGLE, MAX_COORDINATE, MIN_AXIS
 if TYPE_CHECKING:
     import yourdfpy
 
+Origin = tuple[tuple[float, float, float], tuple[float, float, float]]  # (xyz, rpy) of a joint
 _KINDS = {"revolute": "revolute", "continuous": "continuous", "prismatic": "prismatic", "fixed": "fixed"}
+
+
+def resolve_package_uri(uri: str, urdf_path: str | Path) -> Path | None:
+    """The file a URDF's mesh ``filename`` names, or None where it cannot be found.
+
+    ``package://PKG/REL`` (also ``package:///PKG/REL``, as some files write it) is looked for, first,
+    beside the URDF: in each folder above it, as ``<folder>/REL`` where the folder is named ``PKG`` (a ROS
+    package's own tree: ``ur_description/urdf/ur5.urdf`` names ``package://ur_description/meshes/…``)
+    and as ``<folder>/PKG/REL`` (a share folder holding the package: example-robot-data's
+    ``package://example-robot-data/robots/…``); then under each root of ``ROS_PACKAGE_PATH`` (as
+    ``<root>/PKG/REL``) and each prefix of ``AMENT_PREFIX_PATH`` and ``CMAKE_PREFIX_PATH`` (as
+    ``<prefix>/share/PKG/REL``). ``file://PATH`` is that absolute path; a plain filename is relative to
+    the URDF's folder. A path with a ``..`` part is not followed (None)."""
+    urdf_path = Path(urdf_path)
+    if uri.startswith("file://"):
+        found = Path(uri[len("file://"):])
+        return found if found.is_absolute() and ".." not in found.parts and found.is_file() else None
+    if not uri.startswith("package://"):
+        if "://" in uri or ".." in Path(uri).parts:
+            return None
+        found = urdf_path.parent / uri
+        return found if found.is_file() else None
+    package, _, rest = uri[len("package://"):].lstrip("/").partition("/")
+    relative = Path(rest)
+    if not package or not rest or relative.is_absolute() or ".." in relative.parts:
+        return None
+    candidates = []
+    here = urdf_path.resolve().parent
+    for folder in (here, *here.parents):
+        if folder.name == package:
+            candidates.append(folder / relative)
+        candidates.append(folder / package / relative)
+    for variable, share in (("ROS_PACKAGE_PATH", ""), ("AMENT_PREFIX_PATH", "share"),
+                            ("CMAKE_PREFIX_PATH", "share")):
+        for root in filter(None, os.environ.get(variable, "").split(os.pathsep)):
+            candidates.append(Path(root) / share / package / relative)
+    return next((c for c in candidates if c.is_file()), None)
 
 
 def rpy_from_matrix(r: np.ndarray) -> tuple[float, float, float]:
@@ -50,8 +91,9 @@ def _joint_field(name: str) -> str:
     return f"joint {name}" if label_problem(name) is None else f"joint {name!r}"
 
 
-def _numbers(path: Path, element: Any, attribute: str, default: str, field: str, bound: float) -> None:
-    """Refuse an ``xyz``/``rpy`` attribute that is not three finite numbers within ±bound."""
+def _numbers(path: Path, element: Any, attribute: str, default: str, field: str,
+             bound: float) -> tuple[float, float, float]:
+    """An ``xyz``/``rpy`` attribute's three numbers; refused unless finite and within ±bound."""
     text = element.get(attribute, default)
     try:
         values = [float(v) for v in text.split()]
@@ -60,6 +102,7 @@ def _numbers(path: Path, element: Any, attribute: str, default: str, field: str,
     if len(values) != 3 or not all(math.isfinite(v) and abs(v) <= bound for v in values):
         raise SpecError(path, field, f"line {element.sourceline}: {attribute}={text!r}; expected three "
                                      f"finite numbers within ±{bound:g}")
+    return values[0], values[1], values[2]
 
 
 def _xacro(path: Path, found: str) -> SpecError:
@@ -84,8 +127,9 @@ def _refuse_xacro(path: Path, root: Any) -> None:
                 raise _xacro(path, f"line {element.sourceline}: {attribute}={value!r}, a xacro substitution")
 
 
-def _check_xml(path: Path, data: bytes) -> dict[str, int]:
-    """Check the raw file (see the module docstring); the line of each joint by name."""
+def _check_xml(path: Path, data: bytes) -> tuple[dict[str, int], dict[str, Origin]]:
+    """Check the raw file (see the module docstring); the line and the origin (xyz, rpy as written) of
+    each joint by name."""
     if b"<!ENTITY" in data:
         raise SpecError(path, "urdf", "XML entity declarations (<!ENTITY) are not supported in URDF files")
     parser = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False, huge_tree=False)
@@ -116,16 +160,18 @@ def _check_xml(path: Path, data: bytes) -> dict[str, int]:
             seen[name] = element.sourceline
         if kind == "joint":
             lines = seen
+    origins: dict[str, Origin] = {}
     for element in root.findall("joint"):
         field = _joint_field(element.get("name"))
         origin = element.find("origin")
         if origin is not None:
-            _numbers(path, origin, "xyz", "0 0 0", f"{field}: origin", MAX_COORDINATE)
-            _numbers(path, origin, "rpy", "0 0 0", f"{field}: origin", MAX_ANGLE)
+            origins[element.get("name")] = (
+                _numbers(path, origin, "xyz", "0 0 0", f"{field}: origin", MAX_COORDINATE),
+                _numbers(path, origin, "rpy", "0 0 0", f"{field}: origin", MAX_ANGLE))
         axis = element.find("axis")
         if axis is not None:
             _numbers(path, axis, "xyz", "1 0 0", f"{field}: axis", MAX_COORDINATE)
-    return lines
+    return lines, origins
 
 
 def _check_label(path: Path, name: Any, line: int | None) -> None:
@@ -135,24 +181,28 @@ def _check_label(path: Path, name: Any, line: int | None) -> None:
                         f"generated code; expected {LABEL_RULE}")
 
 
-def _load(path: Path) -> tuple[yourdfpy.URDF, dict[str, int]]:
-    """The yourdfpy model of a checked file, and each joint's line."""
+def _load(path: Path) -> tuple[yourdfpy.URDF, dict[str, int], dict[str, Origin]]:
+    """The yourdfpy model of a checked file, and each joint's line and origin as written."""
     import yourdfpy
 
     data = read_input(path, "urdf")
-    lines = _check_xml(path, data)  # yourdfpy's parser recovers from broken XML silently
+    lines, origins = _check_xml(path, data)  # yourdfpy's parser recovers from broken XML silently
     try:
         urdf = yourdfpy.URDF.load(str(path), build_scene_graph=False, load_meshes=False,
                                   build_collision_scene_graph=False, load_collision_meshes=False)
     except Exception as e:  # yourdfpy/lxml raise many types for malformed XML
         raise SpecError(path, "urdf", f"not a readable URDF ({type(e).__name__}: {e})") from e
-    return urdf, lines
+    return urdf, lines, origins
 
 
-def load_chain(path: str | Path, base_link: str, tip_link: str) -> list[Joint]:
-    """The joints from ``base_link`` to ``tip_link`` (fixed joints included), in order."""
+def load_chain(path: str | Path, base_link: str, tip_link: str, snap: bool = True) -> list[Joint]:
+    """The joints from ``base_link`` to ``tip_link`` (fixed joints included), in order.
+
+    ``snap`` (the default) lets the kinematics snap rpy angles within 1e-9 of a multiple of π/4 to
+    it (``gagen.model.kinematics.exact_angle``); ``snap=False`` keeps every origin number as the file
+    writes it (the rpy angles are then the file's, not read back from yourdfpy's matrix)."""
     path = Path(path)
-    urdf, lines = _load(path)
+    urdf, lines, origins = _load(path)
     robot = urdf.robot
     links = {link.name for link in robot.links}
     for field, link in (("base_link", base_link), ("tip_link", tip_link)):
@@ -205,9 +255,14 @@ def load_chain(path: str | Path, base_link: str, tip_link: str) -> list[Joint]:
             axis = (axis[0] / norm, axis[1] / norm, axis[2] / norm)
         try:  # Joint's own checks (e.g. on a mimic), as an error naming the file and the joint
             xyz = (float(origin[0, 3]), float(origin[1, 3]), float(origin[2, 3]))
-            joints.append(Joint(j.name, _KINDS[j.type], xyz,
-                                rpy_from_matrix(origin[:3, :3]), axis, mimic=_mimic(path, robot, j),
-                                limits=_limits(j)))
+            rpy = rpy_from_matrix(origin[:3, :3])
+            if not snap:  # the numbers as written (the same transform: R = Rz(yaw) Ry(pitch) Rx(roll))
+                xyz, rpy = origins.get(j.name, ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)))
+            # a fixed joint has no value to follow: its <mimic> (left by tools that weld joints, as in
+            # example-robot-data's talos_reduced.urdf) is ignored, as Pinocchio and urdfdom do
+            mimic = _mimic(path, robot, j) if j.type != "fixed" else None
+            joints.append(Joint(j.name, _KINDS[j.type], xyz, rpy, axis, mimic=mimic, limits=_limits(j),
+                                snap=snap))
         except ValueError as e:
             raise SpecError(path, field, f"line {lines.get(j.name)}: {e}") from e
         if joints[-1].mimic is not None:  # the leader's name labels the chain's joint variable

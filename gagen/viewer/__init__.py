@@ -7,6 +7,8 @@
   headless Chromium, as pixels or PNGs.
 - ``geometry``: the drawn shapes in numpy (joint frames along each chain, the primitive through points);
   ``camera``: the pinhole camera that says where things land in a render.
+- ``visuals``: ``load_visuals(spec, system)``, the URDFs' ``<visual>`` meshes and shapes of each chain's
+  links, placed per link (``Scene(..., visuals=...)`` draws them instead of sticks).
 - ``command``: ``gagen view`` / ``python -m gagen.viewer``.
 
 viser is an optional dependency (the ``viewer`` extra), imported when a Scene starts. The names above
@@ -19,7 +21,7 @@ from gagen.arguments import DEFAULT_VIEWER_PORT as DEFAULT_PORT  # one default, 
 
 _EXPORTS = {"Scene": "scene", "serve": "scene", "render": "browser", "export_png": "browser",
             "export_frames": "browser", "find_chromium": "browser", "Camera": "camera", "framing": "camera",
-            "Shape": "geometry", "shape": "geometry", "system_pose": "geometry"}
+            "Shape": "geometry", "shape": "geometry", "system_pose": "geometry", "load_visuals": "visuals"}
 __all__ = ["DEFAULT_PORT", *sorted(_EXPORTS)]
 
 

@@ -29,7 +29,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from gagen.robots.system import System
 from gagen.viewer.camera import Camera, framing
+from gagen.viewer.geometry import Shape
 from gagen.viewer.scene import Frames, Scene
+from gagen.viewer.visuals import ChainVisuals
 
 CHROMIUM_NAMES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
 STOP_TIMEOUT = 10.0  # seconds for the browser to exit after SIGTERM, before SIGKILL
@@ -170,11 +172,14 @@ def write_png(image: NDArray[np.uint8], path: str | Path) -> Path:
 
 def export_png(system: System, q: ArrayLike, path: str | Path, *, width: int = 1024, height: int = 768,
                camera: Camera | None = None, primitive: bool = True, frames: Frames = "ends",
-               timeout: float = DEFAULT_TIMEOUT) -> tuple[Path, Camera]:
+               timeout: float = DEFAULT_TIMEOUT,
+               visuals: Sequence[ChainVisuals | None] | None = None,
+               goal: Shape | None = None) -> tuple[Path, Camera]:
     """Render ``system`` at configuration q headless and write it to ``path`` (PNG, on white); returns the
-    path and the camera used (to project points into the image)."""
+    path and the camera used (to project points into the image). ``visuals``: the links' URDF visuals
+    (``gagen.viewer.visuals.load_visuals``; None: sticks); ``goal``: a target primitive to draw too."""
     start = time.monotonic()
-    with Scene(system, q, port=0, frames=frames) as scene:
+    with Scene(system, q, port=0, frames=frames, visuals=visuals, goal=goal) as scene:
         scene.show_primitive(primitive)
         camera = camera or scene.default_camera(width / height)
         image = render(scene, width=width, height=height, camera=camera,
@@ -184,7 +189,8 @@ def export_png(system: System, q: ArrayLike, path: str | Path, *, width: int = 1
 
 def export_frames(system: System, qs: ArrayLike, folder: str | Path, *, width: int = 1024,
                   height: int = 768, camera: Camera | None = None, stem: str = "frame",
-                  timeout: float = DEFAULT_TIMEOUT) -> list[Path]:
+                  timeout: float = DEFAULT_TIMEOUT,
+                  visuals: Sequence[ChainVisuals | None] | None = None) -> list[Path]:
     """Render each configuration of a trajectory with one headless browser, from one camera (default:
     framing every configuration), to ``folder/<stem>_0000.png``, …; returns the paths."""
     Q = np.asarray(qs, dtype=float)
@@ -192,7 +198,7 @@ def export_frames(system: System, qs: ArrayLike, folder: str | Path, *, width: i
         raise ValueError(f"export_frames: expected an (n, {system.dof}) array of configurations, "
                          f"got shape {Q.shape}")
     paths = []
-    with Scene(system, Q[0], port=0) as scene:
+    with Scene(system, Q[0], port=0, visuals=visuals) as scene:
         if camera is None:
             points = []
             for q in Q[:: max(1, len(Q) // 50)]:  # a sample of the trajectory bounds the view

@@ -5,7 +5,10 @@
     gagen view robots/two_iiwas_line.yaml --q 0,0.5,... --size 1280x960 --no-primitive --png f.png
 
 SYSTEM is a bundled system's name or a spec file; the configuration is the spec's ``ready`` one unless
-``--configuration NAME`` or ``--q`` (the system's joint vector, comma-separated) says otherwise.
+``--configuration NAME`` or ``--q`` (the system's joint vector, comma-separated) says otherwise. Links
+are drawn from their URDF ``<visual>`` meshes and shapes where the URDF has them (``--no-meshes``:
+sticks throughout); a mesh file that cannot be read is a warning, and its link a stick. ``--goal NAME``
+also draws a goal of the spec's ``goals:`` section (its target primitive, in cyan-blue).
 Exit status: 0, 1 when the browser fails, 2 for malformed arguments.
 """
 
@@ -28,6 +31,7 @@ if TYPE_CHECKING:
     from numpy.typing import NDArray
 
     from gagen.robots.system import System
+    from gagen.viewer.geometry import Shape
 
 DEFAULT_SIZE = (1024, 768)
 
@@ -47,18 +51,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--png", type=Path, help="render headless to this PNG and exit (needs Chromium)")
     parser.add_argument("--size", type=size, default=DEFAULT_SIZE, help="PNG size, WIDTHxHEIGHT (1024x768)")
     parser.add_argument("--no-primitive", action="store_true", help="draw the robots only")
+    parser.add_argument("--goal", metavar="NAME",
+                        help="also draw the target primitive of a goal in the spec's goals: section")
+    parser.add_argument("--no-meshes", action="store_true",
+                        help="draw the links as sticks even where the URDF has visual meshes or shapes")
     parser.add_argument("--frames", choices=("none", "ends", "all"), default="ends",
                         help="joint frames drawn: each chain's base and end (default), all, none")
     parser.add_argument("--port", type=port, default=DEFAULT_PORT,
                         help=f"server port on 127.0.0.1 (default {DEFAULT_PORT}; 0: any free one)")
 
 
-def _system(name: str) -> tuple[System, dict[str, list[float]]]:
-    """(System, configurations) of a bundled system's name or a spec file."""
+def _system(name: str) -> tuple[System, dict[str, list[float]], Path]:
+    """(System, configurations, spec path) of a bundled system's name or a spec file."""
     from gagen.registry import resolve_spec
     from gagen.robots.spec import load_system
 
-    return load_system(resolve_spec(name, "cooperative", "system"))
+    path = resolve_spec(name, "cooperative", "system")
+    return (*load_system(path), path)
 
 
 def configuration(args: argparse.Namespace, system: System,
@@ -81,30 +90,55 @@ def configuration(args: argparse.Namespace, system: System,
     return np.array(named[args.configuration], dtype=float)
 
 
+def goal_shape(name: str, spec: Path, system: System, named: dict[str, list[float]]) -> Shape:
+    """The target primitive of the spec's goal ``name``: stated outright, or the ``ready`` primitive moved."""
+    import numpy as np
+
+    from gagen.robots.goals import load_goals
+    from gagen.viewer import geometry
+
+    goals = load_goals(spec)
+    if name not in goals:
+        raise ValueError(f"--goal: {system.name} names {', '.join(goals) or 'no goals'}; got {name!r}")
+    goal = goals[name]
+    if not goal.is_move:
+        return geometry.goal_shape(goal.kind, goal.parameters)
+    if "ready" not in named:
+        raise ValueError(f"--goal {name}: a move of the ready primitive, but {system.name} has no ready "
+                         f"configuration")
+    ready = geometry.system_pose(system, np.array(named["ready"], dtype=float))
+    start = geometry.shape(system.kind, np.array([pose.end_point for pose in ready]))
+    return geometry.moved(start, goal.translation, goal.rotation, goal.dilation)
+
+
 def run(args: argparse.Namespace) -> int:
     from gagen.errors import SpecError
     from gagen.viewer.browser import BrowserError, export_png
     from gagen.viewer.scene import Scene
+    from gagen.viewer.visuals import load_visuals
 
     try:
-        system, named = _system(args.system)
+        system, named, spec = _system(args.system)
         q = configuration(args, system, named)
+        goal = None if args.goal is None else goal_shape(args.goal, spec, system, named)
     except (ValueError, SpecError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
+    visuals = None if args.no_meshes else load_visuals(spec, system)
     if args.png is not None:
         start = time.monotonic()
         width, height = args.size
         try:
             path, _ = export_png(system, q, args.png, width=width, height=height,
-                                 primitive=not args.no_primitive, frames=args.frames)
+                                 primitive=not args.no_primitive, frames=args.frames, visuals=visuals,
+                                 goal=goal)
         except BrowserError as e:
             print(f"error: {e}", file=sys.stderr)
             return 1
         print(f"{system.name}: wrote {path} ({width}x{height}) in {time.monotonic() - start:.1f} s")
         return 0
     try:
-        scene = Scene(system, q, port=args.port, frames=args.frames)
+        scene = Scene(system, q, port=args.port, frames=args.frames, visuals=visuals, goal=goal)
     except ValueError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

@@ -1,7 +1,8 @@
 """What the viewer draws, in plain numpy: the chains' joint frames and the primitive through their end points.
 
-No meshes are bundled with the robots, so a robot is drawn from its kinematic chain: the origin of every
-joint frame along it (the base placement first, the chain's end point last). Each frame is the URDF
+A robot's stick figure (and, where its URDF has no visuals, the robot) is drawn from its kinematic
+chain (``gagen.viewer.visuals`` places the URDF's meshes and shapes): the origin of every joint frame
+along it (the base placement first, the chain's end point last). Each frame is the URDF
 composition T ← T · T(xyz) Rz(yaw) Ry(pitch) Rx(roll), then the joint's motion (a rotation about its
 axis or a translation along it) — the same convention as ``gagen.model.kinematics``, computed here with
 4 × 4 matrices so that drawing needs no algebra (the tests hold the end points to the generated FK).
@@ -16,8 +17,9 @@ plane through three; the sphere through four (circumsphere). Points that do not 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -174,6 +176,67 @@ def shape(kind: str, points: Array | Sequence[Sequence[float]]) -> Shape:
     if sphere is None:
         return Shape(kind, p, centroid, degenerate=True)
     return Shape(kind, p, sphere[0], sphere[1])
+
+
+def goal_shape(kind: str, parameters: Mapping[str, Any]) -> Shape:
+    """The primitive of a goal stated by its parameters (a spec's ``goals:`` entry, as
+    ``gagen.robots.goals.PRIMITIVE_PARAMETERS`` names them): point ``position``; point_pair ``first``,
+    ``second``; line ``point``, ``direction``; circle ``centre``, ``radius``, ``normal``; plane ``point``,
+    ``normal``; sphere ``centre``, ``radius``. The Shape is made through points that span it."""
+    def v(name: str) -> Array:
+        return np.asarray(parameters[name], dtype=float).reshape(3)
+
+    if kind == "point":
+        return shape(kind, np.array([v("position")]))
+    if kind == "point_pair":
+        return shape(kind, np.array([v("first"), v("second")]))
+    if kind == "line":
+        d = v("direction") / np.linalg.norm(v("direction"))
+        return shape(kind, np.array([v("point") - 0.1 * d, v("point") + 0.1 * d]))
+    if kind in ("circle", "plane"):
+        a, b = basis(v("normal"))  # (a, b, normal) right-handed: the points turn about +normal
+        if kind == "plane":
+            return shape(kind, np.array([v("point"), v("point") + 0.1 * a, v("point") + 0.1 * b]))
+        r, c = float(parameters["radius"]), v("centre")
+        return shape(kind, np.array([c + r * a, c + r * b, c - r * a]))
+    if kind == "sphere":
+        r, c = float(parameters["radius"]), v("centre")
+        return shape(kind, np.array([c + r * e for e in (*np.eye(3), -np.eye(3)[0])]))
+    raise ValueError(f"unknown primitive kind {kind!r}")
+
+
+def reference_point(kind: str, points: Array) -> Array:
+    """The primitive's reference point that a goal's ``move`` turns and dilates about: the image of the
+    origin under the similarity V_Sc from the unit primitive to the one through ``points`` [COOP Eq. 28]
+    (the centre of a round, a point of a flat; ``gagen.control.ocp.target_from``), computed with the
+    interpreter."""
+    from gagen.algebra.signature import cga3d
+    from gagen.interp import MultiVector
+    from gagen.model.conformal import e0, location, point, vector
+    from gagen.model.primitives import through
+    from gagen.model.similarity import cooperative_similarity
+
+    like = MultiVector.from_blades(cga3d(), {})
+    x = through(kind, [point(vector(like, [float(c) for c in p])) for p in np.asarray(points, dtype=float)])
+    v = cooperative_similarity(kind, x).versor
+    c = location(v.sandwich(e0(v)))
+    return np.array([float(c[b]) for b in ("e1", "e2", "e3")])
+
+
+def moved(s: Shape, translation: Sequence[float] = (0.0, 0.0, 0.0),
+          rotation_axis_angle: tuple[Sequence[float], float] | None = None, dilation: float = 1.0) -> Shape:
+    """The primitive ``s`` moved as a spec goal's ``move`` says: dilated by ``dilation`` about its
+    reference point c (:func:`reference_point`), turned by ``rotation_axis_angle`` = (world axis, angle)
+    about the axis through c, then translated: each spanning point p goes to c + t + R·(k (p − c)) (a
+    flat keeps its own points' spread: dilation does not change it)."""
+    c = reference_point(s.kind, s.points)
+    r = np.eye(3)
+    if rotation_axis_angle is not None:
+        axis = np.asarray(rotation_axis_angle[0], dtype=float)
+        r = rotation(tuple(axis / np.linalg.norm(axis)), float(rotation_axis_angle[1]))
+    k = float(dilation) if s.kind not in ("line", "plane") else 1.0
+    points = c + np.asarray(translation, dtype=float) + (k * (s.points - c)) @ r.T
+    return shape(s.kind, points)
 
 
 def basis(normal: Array) -> tuple[Array, Array]:

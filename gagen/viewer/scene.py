@@ -36,6 +36,7 @@ from gagen.viewer import DEFAULT_PORT
 from gagen.viewer.camera import Camera, framing
 from gagen.viewer.geometry import (
     ChainPose,
+    Shape,
     aligning,
     basis,
     polylines,
@@ -50,6 +51,7 @@ if TYPE_CHECKING:
     from viser import SceneNodeHandle  # the optional dependency: imported where it is needed
 
 PRIMITIVE_COLOUR = (255, 0, 255)  # magenta: no robot part uses it (frames are red, green, blue)
+GOAL_COLOUR = (0, 170, 200)  # cyan-blue: the target primitive, apart from the current one
 LINK_COLOUR = (205, 210, 220)
 JOINT_COLOUR = (245, 140, 40)
 BASE_COLOUR = (70, 70, 80)
@@ -86,7 +88,7 @@ class Scene:
 
     def __init__(self, system: System, q: ArrayLike | None = None, *, host: str = "127.0.0.1",
                  port: int = DEFAULT_PORT, frames: Frames = "ends", label: str | None = None,
-                 visuals: Sequence[ChainVisuals | None] | None = None) -> None:
+                 visuals: Sequence[ChainVisuals | None] | None = None, goal: Shape | None = None) -> None:
         try:  # the optional dependency, imported where it is needed
             import viser
         except ModuleNotFoundError as e:
@@ -109,7 +111,10 @@ class Scene:
         self.server.scene.set_up_direction("+z")
         self._lock = threading.Lock()  # update() from a play thread and a GUI callback
         self._primitive_visible = True
+        self._goal: list[SceneNodeHandle] = []
+        self.goal: Shape | None = None
         self._build()
+        self.show_goal(goal)
         self.camera = self.default_camera()
         self.set_camera(self.camera)
         self._status = self.server.gui.add_markdown(f"**{system.name}**: {system.kind}, {system.dof} DOF")
@@ -209,8 +214,9 @@ class Scene:
         scene = self.server.scene
         wxyz, position, opacity = quaternion(visual.origin[:3, :3]), visual.origin[:3, 3], visual.opacity
         if visual.kind == "box":
-            scene.add_box(name, color=visual.colour, dimensions=(visual.size[0], visual.size[1], visual.size[2]),
-                          flat_shading=False, opacity=opacity, wxyz=wxyz, position=position)
+            x, y, z = visual.size
+            scene.add_box(name, color=visual.colour, dimensions=(x, y, z), flat_shading=False,
+                          opacity=opacity, wxyz=wxyz, position=position)
         elif visual.kind == "cylinder":
             scene.add_cylinder(name, radius=visual.size[0], height=visual.size[1], color=visual.colour,
                                radial_segments=32, opacity=opacity, wxyz=wxyz, position=position)
@@ -253,20 +259,27 @@ class Scene:
 
     def _draw_primitive(self, points: NDArray[np.float64]) -> None:
         """The primitive's nodes are replaced as a whole: their number and kind change with degeneracy."""
-        scene = self.server.scene
         for handle in self._primitive:
             handle.remove()
         s = shape(self.system.kind, points)
-        visible = self._primitive_visible
+        self._primitive = self._shape_nodes("/primitive", s, PRIMITIVE_COLOUR, self._primitive_visible,
+                                            spanning=True)
+        self.shape = s
+
+    def _shape_nodes(self, root: str, s: Shape, colour: tuple[int, int, int], visible: bool,
+                     spanning: bool) -> list[SceneNodeHandle]:
+        """The nodes drawing a primitive: its polylines, a translucent surface for a sphere or a plane,
+        and (``spanning``) a ball at each of its points."""
+        scene = self.server.scene
         width = 0.35 * self.link_radius  # in proportion to the robots: a hand is centimetres across
         handles: list[SceneNodeHandle] = [
-            scene.add_line_segments("/primitive/lines", segments(polylines(s)), PRIMITIVE_COLOUR,
+            scene.add_line_segments(f"{root}/lines", segments(polylines(s)), colour,
                                     thickness=width, visible=visible)]
-        for k, p in enumerate(points):
-            handles.append(scene.add_icosphere(f"/primitive/point{k}", radius=self._point_radius,
-                                               color=PRIMITIVE_COLOUR, position=p, visible=visible))
+        for k, p in enumerate(s.points if spanning else ()):
+            handles.append(scene.add_icosphere(f"{root}/point{k}", radius=self._point_radius,
+                                               color=colour, position=p, visible=visible))
         if not s.degenerate and s.kind == "sphere":
-            handles.append(scene.add_icosphere("/primitive/surface", radius=s.radius, color=PRIMITIVE_COLOUR,
+            handles.append(scene.add_icosphere(f"{root}/surface", radius=s.radius, color=colour,
                                                position=s.centre, opacity=0.15, subdivisions=4,
                                                cast_shadow=False, receive_shadow=False, visible=visible))
         elif not s.degenerate and s.kind == "plane":
@@ -276,11 +289,20 @@ class Scene:
             corners = np.array([s.centre + h * (i * a + j * b)
                                 for i, j in ((1, 1), (-1, 1), (-1, -1), (1, -1))])
             faces = np.array([[0, 1, 2], [0, 2, 3]])
-            handles.append(scene.add_mesh_simple("/primitive/surface", corners, faces,
-                                                 color=PRIMITIVE_COLOUR, opacity=0.15, side="double",
+            handles.append(scene.add_mesh_simple(f"{root}/surface", corners, faces,
+                                                 color=colour, opacity=0.15, side="double",
                                                  cast_shadow=False, receive_shadow=False, visible=visible))
-        self._primitive = handles
-        self.shape = s
+        return handles
+
+    def show_goal(self, goal: Shape | None) -> None:
+        """Draw the goal (target) primitive in ``GOAL_COLOUR`` (``geometry.goal_shape`` makes one from a
+        spec's goal parameters), replacing any drawn before; None removes it."""
+        with self._lock, self.server.atomic():
+            for handle in self._goal:
+                handle.remove()
+            self.goal = goal
+            self._goal = [] if goal is None else self._shape_nodes("/goal", goal, GOAL_COLOUR, True,
+                                                                   spanning=False)
 
     def update(self, q: ArrayLike) -> None:
         """Redraw robots and primitive at the configuration q (the system's joint vector)."""
@@ -316,7 +338,8 @@ class Scene:
             assert looks is not None
             for visual in looks.links[link]:
                 corners.append(visual.corners() @ frame[:3, :3].T + frame[:3, 3])
-        return np.vstack([pose.origins for pose in poses] + corners + polylines(self.shape))
+        goal = polylines(self.goal) if self.goal is not None else []
+        return np.vstack([pose.origins for pose in poses] + corners + polylines(self.shape) + goal)
 
     def default_camera(self, aspect: float = 4.0 / 3.0) -> Camera:
         return framing(self.points(), aspect=aspect)

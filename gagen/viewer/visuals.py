@@ -122,7 +122,7 @@ class ChainVisuals:
             for step in path:
                 motion = np.eye(4)
                 if step.kind in ("revolute", "continuous"):
-                    motion[:3, :3] = rotation(step.axis, value(step.joint))
+                    motion[:3, :3] = rotation(tuple(step.axis), value(step.joint))
                 elif step.kind == "prismatic":
                     motion[:3, 3] = value(step.joint) * step.axis
                 m = step.origin @ motion
@@ -147,7 +147,7 @@ def resolve_mesh_path(uri: str, urdf_path: Path) -> Path | None:
         except Exception:  # its own refusal: fall back to the search below
             found = None
         if found is not None and Path(found).is_file():
-            return Path(found)
+            return Path(found).resolve()
     here = urdf_path.resolve().parent
     if uri.startswith("file://"):
         candidates = [Path(uri[len("file://"):])]
@@ -158,31 +158,45 @@ def resolve_mesh_path(uri: str, urdf_path: Path) -> Path | None:
         candidates += [a / package / rest for a in [*ancestors, *_package_roots()]]
     else:
         candidates = [here / uri]
-    return next((c for c in candidates if c.is_file()), None)
+    return next((c.resolve() for c in candidates if c.is_file()), None)
 
 
-def _mesh(path: Path, scale: Any) -> tuple[Array, NDArray[np.int64]]:
+def _file_colour(mesh: Any) -> tuple[int, int, int] | None:
+    """The main colour a mesh file gives its triangles (a DAE's material, an OBJ's), if any but trimesh's
+    default grey."""
+    try:
+        visual = mesh.visual
+        colour = visual.material.main_color if visual.kind == "texture" else visual.main_color
+        rgb = tuple(int(v) for v in np.asarray(colour).reshape(-1)[:3])
+    except Exception:  # no visual, or a material without a colour
+        return None
+    return None if len(rgb) != 3 or rgb == (102, 102, 102) else (rgb[0], rgb[1], rgb[2])
+
+
+def _mesh(path: Path, scale: Any) -> tuple[Array, NDArray[np.int64], tuple[int, int, int] | None]:
+    """(vertices scaled, faces, the file's own colour or None) of a mesh file."""
     import trimesh
 
-    mesh = trimesh.load(str(path), force="mesh")
-    vertices = np.asarray(mesh.vertices, dtype=float)
+    mesh: Any = trimesh.load(str(path), force="mesh")
+    vertices: Array = np.asarray(mesh.vertices, dtype=np.float64)
     faces = np.asarray(mesh.faces, dtype=np.int64)
     if vertices.ndim != 2 or len(vertices) == 0 or len(faces) == 0:
         raise ValueError("no triangles")
     if scale is not None:
-        vertices = vertices * np.broadcast_to(np.asarray(scale, dtype=float).reshape(-1), (3,))
-    return vertices, faces
+        vertices = vertices * np.broadcast_to(np.asarray(scale, dtype=np.float64).reshape(-1), (3,))
+    return vertices, faces, _file_colour(mesh)
 
 
 # -- URDF ------------------------------------------------------------------------------------------
-def _colour(visual: Any, materials: Mapping[str, Any]) -> tuple[tuple[int, int, int], float | None]:
+def _colour(visual: Any, materials: Mapping[str, Any]) -> tuple[tuple[int, int, int] | None, float | None]:
+    """The visual's URDF material colour (RGB 0-255; None: none given) and opacity (None: opaque)."""
     material = getattr(visual, "material", None)
     color = getattr(material, "color", None)
     if color is None and material is not None and getattr(material, "name", None) in materials:
         color = getattr(materials[material.name], "color", None)
     rgba = getattr(color, "rgba", None)
     if rgba is None:
-        return DEFAULT_COLOUR, None
+        return None, None
     r, g, b, a = (float(v) for v in np.asarray(rgba, dtype=float).reshape(-1)[:4])
     colour = tuple(round(255 * min(1.0, max(0.0, v))) for v in (r, g, b))
     return (colour[0], colour[1], colour[2]), (None if a >= 0.999 else max(0.05, a))
@@ -197,7 +211,7 @@ def _visuals(link: Any, urdf_path: Path, materials: Mapping[str, Any], meshes: d
         geometry = visual.geometry
         origin = np.eye(4) if visual.origin is None else np.asarray(visual.origin, dtype=float)
         colour, opacity = _colour(visual, materials)
-        common = {"origin": origin, "colour": colour, "opacity": opacity}
+        common: dict[str, Any] = {"origin": origin, "colour": colour or DEFAULT_COLOUR, "opacity": opacity}
         if geometry is None:
             continue
         if geometry.box is not None:
@@ -225,7 +239,9 @@ def _visuals(link: Any, urdf_path: Path, materials: Mapping[str, Any], meshes: d
             if meshes[key] is None:
                 complete = False
                 continue
-            vertices, faces = meshes[key]
+            vertices, faces, own = meshes[key]
+            if colour is None and own is not None:  # no URDF material: the file's own colour
+                common["colour"] = own
             drawn.append(Visual("mesh", vertices=vertices, faces=faces, **common))
     return drawn, complete
 

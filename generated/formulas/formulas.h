@@ -12,6 +12,10 @@
  * aligned to 64 bytes and ld a multiple of 8). The *_argv forms take arrays of pointers (for
  * bindings); *_columns_from is the scalar loop the column forms share.
  *
+ * formulas.c (plain C99, libm only) links on its own and defines every function declared here,
+ * except the batched forms (*_batch, *_batch_columns and their *_argv) of the kernels marked
+ * "batched forms in formulas_simd.c" below: compile that file too to use them.
+ *
  * Operation counts (flops = mul + add + neg + div; calls listed apart):
  *   formulas_circle_through      mul=50 add=30 neg=0 div=0 (flops=80)
  *   formulas_circle_distance     mul=40 add=47 neg=1 div=22 fabs=3 if_else_zero=10 lt=7 not=3 sqrt=4 (flops=110)
@@ -33,6 +37,7 @@ extern "C" {
  *   in  B            [5] e0, e1, e2, e3, einf
  *   in  C            [5] e0, e1, e2, e3, einf
  *   out circle       [10] e012, e013, e023, e123, e01inf, e02inf, e12inf, e03inf, e13inf, e23inf
+ *   batched forms in formulas_simd.c
  */
 #define FORMULAS_CIRCLE_THROUGH_A_SIZE 5
 #define FORMULAS_CIRCLE_THROUGH_B_SIZE 5
@@ -51,6 +56,7 @@ void formulas_circle_through_columns_from(long gagen_s0, long gagen_n, long gage
  *   in  C            [10] e012, e013, e023, e123, e01inf, e02inf, e12inf, e03inf, e13inf, e23inf
  *   out d            [1] d
  *   out J_d          [1x5] d
+ *   batched forms in formulas_simd.c
  */
 #define FORMULAS_CIRCLE_DISTANCE_X_SIZE 5
 #define FORMULAS_CIRCLE_DISTANCE_C_SIZE 10
@@ -68,6 +74,7 @@ void formulas_circle_distance_columns_from(long gagen_s0, long gagen_n, long gag
  *   in  A            [4] e012inf, e013inf, e023inf, e123inf
  *   in  B            [4] e012inf, e013inf, e023inf, e123inf
  *   out line         [6] e01inf, e02inf, e12inf, e03inf, e13inf, e23inf
+ *   batched forms in formulas_simd.c
  */
 #define FORMULAS_PLANE_MEET_A_SIZE 4
 #define FORMULAS_PLANE_MEET_B_SIZE 4
@@ -84,6 +91,7 @@ void formulas_plane_meet_columns_from(long gagen_s0, long gagen_n, long gagen_ld
  *   in  M            [8] 1, e01, e02, e12, e03, e13, e23, e0123
  *   in  X            [4] e012, e013, e023, e123
  *   out moved        [4] e012, e013, e023, e123
+ *   batched forms in formulas_simd.c
  */
 #define FORMULAS_MOVE_POINT_M_SIZE 8
 #define FORMULAS_MOVE_POINT_X_SIZE 4

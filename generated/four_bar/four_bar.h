@@ -12,6 +12,10 @@
  * aligned to 64 bytes and ld a multiple of 8). The *_argv forms take arrays of pointers (for
  * bindings); *_columns_from is the scalar loop the column forms share.
  *
+ * four_bar.c (plain C99, libm only) links on its own and defines every function declared here,
+ * except the batched forms (*_batch, *_batch_columns and their *_argv) of the kernels marked
+ * "batched forms in four_bar_simd.c" below: compile that file too to use them.
+ *
  * Operation counts (flops = mul + add + neg + div; calls listed apart):
  *   four_bar_constraints         mul=40 add=62 neg=3 div=0 cos=1 sin=1 (flops=105)
  *   four_bar_positions           mul=40 add=49 neg=0 div=0 cos=1 sin=1 (flops=89)
@@ -33,6 +37,7 @@ extern "C" {
  *   in  theta        [1] theta
  *   out F            [6] j1_x, j1_y, j2_x, j2_y, j3_x, j3_y
  *   out J            [6x6] j1_x, j1_y, j2_x, j2_y, j3_x, j3_y
+ *   batched forms in four_bar_simd.c
  */
 #define FOUR_BAR_CONSTRAINTS_R_SIZE 8
 #define FOUR_BAR_CONSTRAINTS_THETA_SIZE 1
@@ -50,6 +55,7 @@ void four_bar_constraints_columns_from(long gagen_s0, long gagen_n, long gagen_l
  *   in  R            [8] coupler_1, coupler_e12, coupler_e1inf, coupler_e2inf, rocker_1, rocker_e12,...
  *   in  theta        [1] theta
  *   out P            [14] crank_A_x, crank_A_y, crank_B_x, crank_B_y, coupler_B_x, coupler_B_y,...
+ *   batched forms in four_bar_simd.c
  */
 #define FOUR_BAR_POSITIONS_R_SIZE 8
 #define FOUR_BAR_POSITIONS_THETA_SIZE 1
@@ -66,6 +72,7 @@ void four_bar_positions_columns_from(long gagen_s0, long gagen_n, long gagen_ld,
  *   in  R            [8] coupler_1, coupler_e12, coupler_e1inf, coupler_e2inf, rocker_1, rocker_e12,...
  *   in  dB           [6] coupler_w, coupler_x, coupler_y, rocker_w, rocker_x, rocker_y
  *   out R_next       [8] coupler_1, coupler_e12, coupler_e1inf, coupler_e2inf, rocker_1, rocker_e12,...
+ *   batched forms in four_bar_simd.c
  */
 #define FOUR_BAR_RETRACT_R_SIZE 8
 #define FOUR_BAR_RETRACT_DB_SIZE 6
@@ -83,6 +90,7 @@ void four_bar_retract_columns_from(long gagen_s0, long gagen_n, long gagen_ld, c
  *   in  theta        [1] theta
  *   out R_next       [8] coupler_1, coupler_e12, coupler_e1inf, coupler_e2inf, rocker_1, rocker_e12,...
  *   out residual     [1] residual
+ *   batched forms in four_bar_simd.c
  */
 #define FOUR_BAR_NEWTON_STEP_R_SIZE 8
 #define FOUR_BAR_NEWTON_STEP_THETA_SIZE 1

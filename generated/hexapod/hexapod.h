@@ -12,6 +12,10 @@
  * aligned to 64 bytes and ld a multiple of 8). The *_argv forms take arrays of pointers (for
  * bindings); *_columns_from is the scalar loop the column forms share.
  *
+ * hexapod.c (plain C99, libm only) links on its own and defines every function declared here,
+ * except the batched forms (*_batch, *_batch_columns and their *_argv) of the kernels marked
+ * "batched forms in hexapod_simd.c" below: compile that file too to use them.
+ *
  * Operation counts (flops = mul + add + neg + div; calls listed apart):
  *   hexapod_front_left_fk_pga    mul=57 add=48 neg=5 div=0 cos=3 sin=3 (flops=110)
  *   hexapod_front_left_fk_cga    mul=69 add=63 neg=3 div=0 cos=3 sin=3 (flops=135)
@@ -62,6 +66,7 @@ extern "C" {
  *   out p            [3] x, y, z
  *   out J            [3x3] x, y, z
  *   out S            [6x3] vx, vy, vz, wx, wy, wz
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_FRONT_LEFT_FK_PGA_Q_SIZE 3
 #define HEXAPOD_FRONT_LEFT_FK_PGA_M_SIZE 8
@@ -84,6 +89,7 @@ void hexapod_front_left_fk_pga_columns_from(long gagen_s0, long gagen_n, long ga
  *   out p            [3] x, y, z
  *   out J            [3x3] x, y, z
  *   out S            [6x3] vx, vy, vz, wx, wy, wz
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_FRONT_LEFT_FK_CGA_Q_SIZE 3
 #define HEXAPOD_FRONT_LEFT_FK_CGA_M_SIZE 8
@@ -105,6 +111,7 @@ void hexapod_front_left_fk_cga_columns_from(long gagen_s0, long gagen_n, long ga
  *   out q_down       [3] front_left_yaw, front_left_thigh, front_left_knee
  *   out reach        [1] reach
  *   out excess       [1] excess
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_FRONT_LEFT_IK_TARGET_SIZE 3
 #define HEXAPOD_FRONT_LEFT_IK_Q_UP_SIZE 3
@@ -125,6 +132,7 @@ void hexapod_front_left_ik_columns_from(long gagen_s0, long gagen_n, long gagen_
  *   in  damping      [1] damping
  *   out q_next       [3] front_left_yaw, front_left_thigh, front_left_knee
  *   out error        [1] error
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_FRONT_LEFT_DLS_Q_SIZE 3
 #define HEXAPOD_FRONT_LEFT_DLS_TARGET_SIZE 3
@@ -146,6 +154,7 @@ void hexapod_front_left_dls_columns_from(long gagen_s0, long gagen_n, long gagen
  *   out p            [3] x, y, z
  *   out J            [3x3] x, y, z
  *   out S            [6x3] vx, vy, vz, wx, wy, wz
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_MIDDLE_LEFT_FK_PGA_Q_SIZE 3
 #define HEXAPOD_MIDDLE_LEFT_FK_PGA_M_SIZE 8
@@ -168,6 +177,7 @@ void hexapod_middle_left_fk_pga_columns_from(long gagen_s0, long gagen_n, long g
  *   out p            [3] x, y, z
  *   out J            [3x3] x, y, z
  *   out S            [6x3] vx, vy, vz, wx, wy, wz
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_MIDDLE_LEFT_FK_CGA_Q_SIZE 3
 #define HEXAPOD_MIDDLE_LEFT_FK_CGA_M_SIZE 8
@@ -189,6 +199,7 @@ void hexapod_middle_left_fk_cga_columns_from(long gagen_s0, long gagen_n, long g
  *   out q_down       [3] middle_left_yaw, middle_left_thigh, middle_left_knee
  *   out reach        [1] reach
  *   out excess       [1] excess
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_MIDDLE_LEFT_IK_TARGET_SIZE 3
 #define HEXAPOD_MIDDLE_LEFT_IK_Q_UP_SIZE 3
@@ -209,6 +220,7 @@ void hexapod_middle_left_ik_columns_from(long gagen_s0, long gagen_n, long gagen
  *   in  damping      [1] damping
  *   out q_next       [3] middle_left_yaw, middle_left_thigh, middle_left_knee
  *   out error        [1] error
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_MIDDLE_LEFT_DLS_Q_SIZE 3
 #define HEXAPOD_MIDDLE_LEFT_DLS_TARGET_SIZE 3
@@ -230,6 +242,7 @@ void hexapod_middle_left_dls_columns_from(long gagen_s0, long gagen_n, long gage
  *   out p            [3] x, y, z
  *   out J            [3x3] x, y, z
  *   out S            [6x3] vx, vy, vz, wx, wy, wz
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_REAR_LEFT_FK_PGA_Q_SIZE 3
 #define HEXAPOD_REAR_LEFT_FK_PGA_M_SIZE 8
@@ -252,6 +265,7 @@ void hexapod_rear_left_fk_pga_columns_from(long gagen_s0, long gagen_n, long gag
  *   out p            [3] x, y, z
  *   out J            [3x3] x, y, z
  *   out S            [6x3] vx, vy, vz, wx, wy, wz
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_REAR_LEFT_FK_CGA_Q_SIZE 3
 #define HEXAPOD_REAR_LEFT_FK_CGA_M_SIZE 8
@@ -273,6 +287,7 @@ void hexapod_rear_left_fk_cga_columns_from(long gagen_s0, long gagen_n, long gag
  *   out q_down       [3] rear_left_yaw, rear_left_thigh, rear_left_knee
  *   out reach        [1] reach
  *   out excess       [1] excess
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_REAR_LEFT_IK_TARGET_SIZE 3
 #define HEXAPOD_REAR_LEFT_IK_Q_UP_SIZE 3
@@ -293,6 +308,7 @@ void hexapod_rear_left_ik_columns_from(long gagen_s0, long gagen_n, long gagen_l
  *   in  damping      [1] damping
  *   out q_next       [3] rear_left_yaw, rear_left_thigh, rear_left_knee
  *   out error        [1] error
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_REAR_LEFT_DLS_Q_SIZE 3
 #define HEXAPOD_REAR_LEFT_DLS_TARGET_SIZE 3
@@ -314,6 +330,7 @@ void hexapod_rear_left_dls_columns_from(long gagen_s0, long gagen_n, long gagen_
  *   out p            [3] x, y, z
  *   out J            [3x3] x, y, z
  *   out S            [6x3] vx, vy, vz, wx, wy, wz
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_REAR_RIGHT_FK_PGA_Q_SIZE 3
 #define HEXAPOD_REAR_RIGHT_FK_PGA_M_SIZE 8
@@ -336,6 +353,7 @@ void hexapod_rear_right_fk_pga_columns_from(long gagen_s0, long gagen_n, long ga
  *   out p            [3] x, y, z
  *   out J            [3x3] x, y, z
  *   out S            [6x3] vx, vy, vz, wx, wy, wz
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_REAR_RIGHT_FK_CGA_Q_SIZE 3
 #define HEXAPOD_REAR_RIGHT_FK_CGA_M_SIZE 8
@@ -357,6 +375,7 @@ void hexapod_rear_right_fk_cga_columns_from(long gagen_s0, long gagen_n, long ga
  *   out q_down       [3] rear_right_yaw, rear_right_thigh, rear_right_knee
  *   out reach        [1] reach
  *   out excess       [1] excess
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_REAR_RIGHT_IK_TARGET_SIZE 3
 #define HEXAPOD_REAR_RIGHT_IK_Q_UP_SIZE 3
@@ -377,6 +396,7 @@ void hexapod_rear_right_ik_columns_from(long gagen_s0, long gagen_n, long gagen_
  *   in  damping      [1] damping
  *   out q_next       [3] rear_right_yaw, rear_right_thigh, rear_right_knee
  *   out error        [1] error
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_REAR_RIGHT_DLS_Q_SIZE 3
 #define HEXAPOD_REAR_RIGHT_DLS_TARGET_SIZE 3
@@ -398,6 +418,7 @@ void hexapod_rear_right_dls_columns_from(long gagen_s0, long gagen_n, long gagen
  *   out p            [3] x, y, z
  *   out J            [3x3] x, y, z
  *   out S            [6x3] vx, vy, vz, wx, wy, wz
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_MIDDLE_RIGHT_FK_PGA_Q_SIZE 3
 #define HEXAPOD_MIDDLE_RIGHT_FK_PGA_M_SIZE 8
@@ -420,6 +441,7 @@ void hexapod_middle_right_fk_pga_columns_from(long gagen_s0, long gagen_n, long 
  *   out p            [3] x, y, z
  *   out J            [3x3] x, y, z
  *   out S            [6x3] vx, vy, vz, wx, wy, wz
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_MIDDLE_RIGHT_FK_CGA_Q_SIZE 3
 #define HEXAPOD_MIDDLE_RIGHT_FK_CGA_M_SIZE 8
@@ -441,6 +463,7 @@ void hexapod_middle_right_fk_cga_columns_from(long gagen_s0, long gagen_n, long 
  *   out q_down       [3] middle_right_yaw, middle_right_thigh, middle_right_knee
  *   out reach        [1] reach
  *   out excess       [1] excess
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_MIDDLE_RIGHT_IK_TARGET_SIZE 3
 #define HEXAPOD_MIDDLE_RIGHT_IK_Q_UP_SIZE 3
@@ -461,6 +484,7 @@ void hexapod_middle_right_ik_columns_from(long gagen_s0, long gagen_n, long gage
  *   in  damping      [1] damping
  *   out q_next       [3] middle_right_yaw, middle_right_thigh, middle_right_knee
  *   out error        [1] error
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_MIDDLE_RIGHT_DLS_Q_SIZE 3
 #define HEXAPOD_MIDDLE_RIGHT_DLS_TARGET_SIZE 3
@@ -482,6 +506,7 @@ void hexapod_middle_right_dls_columns_from(long gagen_s0, long gagen_n, long gag
  *   out p            [3] x, y, z
  *   out J            [3x3] x, y, z
  *   out S            [6x3] vx, vy, vz, wx, wy, wz
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_FRONT_RIGHT_FK_PGA_Q_SIZE 3
 #define HEXAPOD_FRONT_RIGHT_FK_PGA_M_SIZE 8
@@ -504,6 +529,7 @@ void hexapod_front_right_fk_pga_columns_from(long gagen_s0, long gagen_n, long g
  *   out p            [3] x, y, z
  *   out J            [3x3] x, y, z
  *   out S            [6x3] vx, vy, vz, wx, wy, wz
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_FRONT_RIGHT_FK_CGA_Q_SIZE 3
 #define HEXAPOD_FRONT_RIGHT_FK_CGA_M_SIZE 8
@@ -525,6 +551,7 @@ void hexapod_front_right_fk_cga_columns_from(long gagen_s0, long gagen_n, long g
  *   out q_down       [3] front_right_yaw, front_right_thigh, front_right_knee
  *   out reach        [1] reach
  *   out excess       [1] excess
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_FRONT_RIGHT_IK_TARGET_SIZE 3
 #define HEXAPOD_FRONT_RIGHT_IK_Q_UP_SIZE 3
@@ -545,6 +572,7 @@ void hexapod_front_right_ik_columns_from(long gagen_s0, long gagen_n, long gagen
  *   in  damping      [1] damping
  *   out q_next       [3] front_right_yaw, front_right_thigh, front_right_knee
  *   out error        [1] error
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_FRONT_RIGHT_DLS_Q_SIZE 3
 #define HEXAPOD_FRONT_RIGHT_DLS_TARGET_SIZE 3
@@ -563,6 +591,7 @@ void hexapod_front_right_dls_columns_from(long gagen_s0, long gagen_n, long gage
  *   in  q            [18] front_left_yaw, front_left_thigh, front_left_knee, middle_left_yaw,...
  *   out p            [18] front_left_x, front_left_y, front_left_z, middle_left_x, middle_left_y,...
  *   out J            [18x18] front_left_x, front_left_y, front_left_z, middle_left_x, middle_left_y,...
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_BODY_FK_PGA_Q_SIZE 18
 #define HEXAPOD_BODY_FK_PGA_P_SIZE 18
@@ -579,6 +608,7 @@ void hexapod_body_fk_pga_columns_from(long gagen_s0, long gagen_n, long gagen_ld
  *   in  q            [18] front_left_yaw, front_left_thigh, front_left_knee, middle_left_yaw,...
  *   out p            [18] front_left_x, front_left_y, front_left_z, middle_left_x, middle_left_y,...
  *   out J            [18x18] front_left_x, front_left_y, front_left_z, middle_left_x, middle_left_y,...
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_BODY_FK_CGA_Q_SIZE 18
 #define HEXAPOD_BODY_FK_CGA_P_SIZE 18
@@ -597,6 +627,7 @@ void hexapod_body_fk_cga_columns_from(long gagen_s0, long gagen_n, long gagen_ld
  *   out q            [18] front_left_yaw, front_left_thigh, front_left_knee, middle_left_yaw,...
  *   out reach        [6] front_left, middle_left, rear_left, rear_right, middle_right, front_right
  *   out excess       [6] front_left, middle_left, rear_left, rear_right, middle_right, front_right
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_BODY_IK_POSE_SIZE 8
 #define HEXAPOD_BODY_IK_TOES_SIZE 18
@@ -617,6 +648,7 @@ void hexapod_body_ik_columns_from(long gagen_s0, long gagen_n, long gagen_ld, co
  *   in  ground       [4] e0, e1, e2, e3
  *   out distance     [6] front_left, middle_left, rear_left, rear_right, middle_right, front_right
  *   out feet         [18] front_left_x, front_left_y, front_left_z, middle_left_x, middle_left_y,...
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_BODY_CONTACT_PGA_POSE_SIZE 8
 #define HEXAPOD_BODY_CONTACT_PGA_Q_SIZE 18
@@ -637,6 +669,7 @@ void hexapod_body_contact_pga_columns_from(long gagen_s0, long gagen_n, long gag
  *   in  ground       [4] e012inf, e013inf, e023inf, e123inf
  *   out distance     [6] front_left, middle_left, rear_left, rear_right, middle_right, front_right
  *   out feet         [18] front_left_x, front_left_y, front_left_z, middle_left_x, middle_left_y,...
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_BODY_CONTACT_CGA_POSE_SIZE 8
 #define HEXAPOD_BODY_CONTACT_CGA_Q_SIZE 18
@@ -657,6 +690,7 @@ void hexapod_body_contact_cga_columns_from(long gagen_s0, long gagen_n, long gag
  *   out distance     [1] distance
  *   out foot         [4] e012, e013, e023, e123
  *   out incidence    [1] incidence
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_GROUND_PGA_PLANE_SIZE 4
 #define HEXAPOD_GROUND_PGA_TOE_SIZE 4
@@ -677,6 +711,7 @@ void hexapod_ground_pga_columns_from(long gagen_s0, long gagen_n, long gagen_ld,
  *   out distance     [1] distance
  *   out foot         [5] e0, e1, e2, e3, einf
  *   out incidence    [1] incidence
+ *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_GROUND_CGA_PLANE_SIZE 4
 #define HEXAPOD_GROUND_CGA_TOE_SIZE 5

@@ -12,6 +12,10 @@
  * aligned to 64 bytes and ld a multiple of 8). The *_argv forms take arrays of pointers (for
  * bindings); *_columns_from is the scalar loop the column forms share.
  *
+ * panda_point.c (plain C99, libm only) links on its own and defines every function declared here,
+ * except the batched forms (*_batch, *_batch_columns and their *_argv) of the kernels marked
+ * "batched forms in panda_point_simd.c" below: compile that file too to use them.
+ *
  * Operation counts (flops = mul + add + neg + div; calls listed apart):
  *   panda_point_arm0_fk          mul=156 add=116 neg=1 div=0 cos=7 sin=7 (flops=273)
  *   panda_point_arm0_fk_jacobian mul=203 add=147 neg=16 div=0 cos=7 sin=7 (flops=366)
@@ -36,6 +40,7 @@ extern "C" {
  *   in  q            [7] arm0/panda_joint1, arm0/panda_joint2, arm0/panda_joint3, arm0/panda_joint4,...
  *   out M            [8] 1, e12, e13, e23, e1inf, e2inf, e3inf, e123inf
  *   out P            [5] e0, e1, e2, e3, einf
+ *   batched forms in panda_point_simd.c
  */
 #define PANDA_POINT_ARM0_FK_Q_SIZE 7
 #define PANDA_POINT_ARM0_FK_M_SIZE 8
@@ -53,6 +58,7 @@ void panda_point_arm0_fk_columns_from(long gagen_s0, long gagen_n, long gagen_ld
  *   out M            [8] 1, e12, e13, e23, e1inf, e2inf, e3inf, e123inf
  *   out P            [5] e0, e1, e2, e3, einf
  *   out J_S          [6x7] e12, e13, e23, e1inf, e2inf, e3inf
+ *   batched forms in panda_point_simd.c
  */
 #define PANDA_POINT_ARM0_FK_JACOBIAN_Q_SIZE 7
 #define PANDA_POINT_ARM0_FK_JACOBIAN_M_SIZE 8
@@ -98,6 +104,7 @@ void panda_point_arm0_jacobians_columns_from(long gagen_s0, long gagen_n, long g
  *   in  q            [7] arm0/panda_joint1, arm0/panda_joint2, arm0/panda_joint3, arm0/panda_joint4,...
  *   out X_c          [5] e0, e1, e2, e3, einf
  *   out J_c          [5x7] e0, e1, e2, e3, einf
+ *   batched forms in panda_point_simd.c
  */
 #define PANDA_POINT_PRIMITIVE_Q_SIZE 7
 #define PANDA_POINT_PRIMITIVE_X_C_SIZE 5
@@ -115,6 +122,7 @@ void panda_point_primitive_columns_from(long gagen_s0, long gagen_n, long gagen_
  *   out V_Sc         [12] 1, e12, e13, e23, e0inf, e1inf, e2inf, e012inf, e3inf, e013inf, e023inf, e123inf
  *   out conditioning [1] conditioning
  *   out J_G          [7x7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
+ *   batched forms in panda_point_simd.c
  */
 #define PANDA_POINT_SIMILARITY_Q_SIZE 7
 #define PANDA_POINT_SIMILARITY_V_SC_SIZE 12
@@ -133,6 +141,7 @@ void panda_point_similarity_columns_from(long gagen_s0, long gagen_n, long gagen
  *   out J_A          [12x7] 1, e12, e13, e23, e0inf, e1inf, e2inf, e012inf, e3inf, e013inf, e023inf, e123inf
  *   out log_V        [7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
  *   out J_B          [7x7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
+ *   batched forms in panda_point_simd.c
  */
 #define PANDA_POINT_SIMILARITY_JACOBIANS_Q_SIZE 7
 #define PANDA_POINT_SIMILARITY_JACOBIANS_J_A_SIZE 84
@@ -151,6 +160,7 @@ void panda_point_similarity_jacobians_columns_from(long gagen_s0, long gagen_n, 
  *   in  V_Sd         [12] 1, e12, e13, e23, e0inf, e1inf, e2inf, e012inf, e3inf, e013inf, e023inf, e123inf
  *   out e            [7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
  *   out J_Be         [7x7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
+ *   batched forms in panda_point_simd.c
  */
 #define PANDA_POINT_TASK_Q_SIZE 7
 #define PANDA_POINT_TASK_V_SD_SIZE 12
@@ -169,6 +179,7 @@ void panda_point_task_columns_from(long gagen_s0, long gagen_n, long gagen_ld, c
  *   in  qd           [7] arm0/panda_joint1, arm0/panda_joint2, arm0/panda_joint3, arm0/panda_joint4,...
  *   out V_S          [7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
  *   out Jdot_qdot    [7] e12, e13, e23, e0inf, e1inf, e2inf, e3inf
+ *   batched forms in panda_point_simd.c
  */
 #define PANDA_POINT_SIMILARITY_RATE_Q_SIZE 7
 #define PANDA_POINT_SIMILARITY_RATE_QD_SIZE 7

@@ -12,6 +12,10 @@
  * aligned to 64 bytes and ld a multiple of 8). The *_argv forms take arrays of pointers (for
  * bindings); *_columns_from is the scalar loop the column forms share.
  *
+ * stereo_rig.c (plain C99, libm only) links on its own and defines every function declared here,
+ * except the batched forms (*_batch, *_batch_columns and their *_argv) of the kernels marked
+ * "batched forms in stereo_rig_simd.c" below: compile that file too to use them.
+ *
  * Operation counts (flops = mul + add + neg + div; calls listed apart):
  *   stereo_rig_image_line        mul=4 add=1 neg=2 div=0 cos=1 sin=1 (flops=7)
  *   stereo_rig_planes            mul=9 add=3 neg=5 div=0 cos=2 sin=2 (flops=17)
@@ -35,6 +39,7 @@ extern "C" {
  *   in  theta        [1] theta
  *   in  r            [1] r
  *   out L            [6] e01inf, e02inf, e12inf, e03inf, e13inf, e23inf
+ *   batched forms in stereo_rig_simd.c
  */
 #define STEREO_RIG_IMAGE_LINE_THETA_SIZE 1
 #define STEREO_RIG_IMAGE_LINE_R_SIZE 1
@@ -55,6 +60,7 @@ void stereo_rig_image_line_columns_from(long gagen_s0, long gagen_n, long gagen_
  *   out centre_r     [5] e0, e1, e2, e3, einf
  *   out plane_l      [4] e012inf, e013inf, e023inf, e123inf
  *   out plane_r      [4] e012inf, e013inf, e023inf, e123inf
+ *   batched forms in stereo_rig_simd.c
  */
 #define STEREO_RIG_PLANES_LINES_SIZE 4
 #define STEREO_RIG_PLANES_LINE_L_SIZE 6
@@ -77,6 +83,7 @@ void stereo_rig_planes_columns_from(long gagen_s0, long gagen_n, long gagen_ld, 
  *   out point        [3] x, y, z
  *   out direction    [3] x, y, z
  *   out conditioning [1] conditioning
+ *   batched forms in stereo_rig_simd.c
  */
 #define STEREO_RIG_AXIS_LINES_SIZE 4
 #define STEREO_RIG_AXIS_AXIS_SIZE 6
@@ -99,6 +106,7 @@ void stereo_rig_axis_columns_from(long gagen_s0, long gagen_n, long gagen_ld, co
  *   out image_r      [6] e01inf, e02inf, e12inf, e03inf, e13inf, e23inf
  *   out ortho_l      [6] e01inf, e02inf, e12inf, e03inf, e13inf, e23inf
  *   out ortho_r      [6] e01inf, e02inf, e12inf, e03inf, e13inf, e23inf
+ *   batched forms in stereo_rig_simd.c
  */
 #define STEREO_RIG_REPROJECT_LINE_SIZE 6
 #define STEREO_RIG_REPROJECT_HESSE_L_SIZE 2
@@ -119,6 +127,7 @@ void stereo_rig_reproject_columns_from(long gagen_s0, long gagen_n, long gagen_l
  *   in  centres      [4] x_l, y_l, x_r, y_r
  *   out view_l       [6] e01inf, e02inf, e12inf, e03inf, e13inf, e23inf
  *   out view_r       [6] e01inf, e02inf, e12inf, e03inf, e13inf, e23inf
+ *   batched forms in stereo_rig_simd.c
  */
 #define STEREO_RIG_VIEWING_LINES_CENTRES_SIZE 4
 #define STEREO_RIG_VIEWING_LINES_VIEW_L_SIZE 6
@@ -135,6 +144,7 @@ void stereo_rig_viewing_lines_columns_from(long gagen_s0, long gagen_n, long gag
  *   in  centres      [4] x_l, y_l, x_r, y_r
  *   out point        [3] x, y, z
  *   out gap          [1] gap
+ *   batched forms in stereo_rig_simd.c
  */
 #define STEREO_RIG_TRIANGULATE_CENTRES_SIZE 4
 #define STEREO_RIG_TRIANGULATE_POINT_SIZE 3
@@ -155,6 +165,7 @@ void stereo_rig_triangulate_columns_from(long gagen_s0, long gagen_n, long gagen
  *   out centre       [3] x, y, z
  *   out reference    [3] x, y, z
  *   out gap          [1] gap
+ *   batched forms in stereo_rig_simd.c
  */
 #define STEREO_RIG_ESTIMATE_OBS_SIZE 8
 #define STEREO_RIG_ESTIMATE_POINT_SIZE 3

@@ -5,14 +5,15 @@ not lean on names defined in an earlier one). The blocks assert what they claim 
 
 - ```python blocks are executed;
 - ```bash blocks are commands: each `gagen …` line goes through `gagen.cli.main(shlex.split(…))` with
-  its `--out` and build output folders moved into a temporary folder; a line running another program
+  the files and folders it writes (`--out`, `-o`, `--png`, a build's output) moved into a temporary
+  folder; a line running another program
   of the virtual environment (`.venv/bin/lint-imports`) runs as a subprocess;
 - ```yaml blocks must parse; ```text blocks (sample output) and ```c fragments are shown, not run.
 
-An HTML comment on the line right before a block steers it:
-`<!-- skip: REASON -->` leaves it out (the reason is required; the test of the block reports it as
-skipped with that reason), and `<!-- test-args: ARGS -->` appends ARGS to each `gagen` command of the
-block (cheaper runs: later options override the written ones)."""
+HTML comments on the lines right above a block steer it: `<!-- skip: REASON -->` leaves it out (the
+reason is required; the block's test reports it as skipped with that reason), `<!-- full: REASON -->`
+runs it in the full tier only (marked slow: a long run), and `<!-- test-args: ARGS -->` appends ARGS
+to each `gagen` command of the block (cheaper runs: later options override the written ones)."""
 
 from __future__ import annotations
 
@@ -41,6 +42,7 @@ class Block:
     language: str
     code: str
     skip: str | None  # the reason given by <!-- skip: … -->
+    full: str | None  # <!-- full: why --> : the full tier only (a long run)
     test_args: str  # <!-- test-args: … -->
 
     @property
@@ -68,11 +70,14 @@ def blocks_of(path: Path) -> list[Block]:
             i += 1
             continue
         end = next(j for j in range(i + 1, len(lines)) if lines[j].startswith("```"))
-        before = lines[i - 1].strip() if i else ""
-        skip = re.fullmatch(r"<!--\s*skip:\s*(.*?)\s*-->", before)
-        args = re.fullmatch(r"<!--\s*test-args:\s*(.*?)\s*-->", before)
+        notes, k = {}, i - 1  # the HTML comments right above the fence: <!-- key: value -->
+        while k >= 0 and (note := re.fullmatch(r"<!--\s*([a-z-]+):\s*(.*?)\s*-->", lines[k].strip())):
+            notes[note[1]] = note[2]
+            k -= 1
+        unknown = set(notes) - {"skip", "full", "test-args"}
+        assert not unknown, f"{path.name}:{i + 1}: unknown directives {unknown}"
         found.append(Block(str(path.relative_to(ROOT)), i + 1, opening[1], "\n".join(lines[i + 1:end]) + "\n",
-                           skip[1] if skip else None, args[1] if args else ""))
+                           notes.get("skip"), notes.get("full"), notes.get("test-args", "")))
         i = end + 1
     return found
 
@@ -89,6 +94,7 @@ def test_every_block_names_its_language():
 
 def test_every_skip_gives_a_reason():
     assert all(block.skip for block in BLOCKS if block.skip is not None)
+    assert all(block.full for block in BLOCKS if block.full is not None)
     assert sum(block.skip is not None for block in RUNNABLE) <= 12, "skips are for what cannot run here"
 
 
@@ -104,10 +110,11 @@ def marks(block: Block) -> list[pytest.MarkDecorator]:
         return [pytest.mark.skip(reason=block.skip)]
     if block.language == "bash":
         return [pytest.mark.compiling, pytest.mark.slow]
+    tier = [pytest.mark.slow] if block.full else []
     modules = set(re.findall(r"generated[./]([A-Za-z_][A-Za-z0-9_]*)", block.code))
     if "gagen.compile(" in block.code or modules - CHEAP_MODULES:
-        return [pytest.mark.compiling]
-    return []
+        tier.append(pytest.mark.compiling)
+    return tier
 
 
 def run_python(block: Block, monkeypatch) -> None:
@@ -130,7 +137,7 @@ def gagen_arguments(words: list[str], extra: str, tmp: Path) -> list[str]:
     """A `gagen` command's arguments, its output folders inside ``tmp``, with the block's test-args."""
     argv = words[1:] + shlex.split(extra)
     for i, word in enumerate(argv[:-1]):
-        if word in ("--out", "-o"):
+        if word in ("--out", "-o", "--png"):
             argv[i + 1] = str(tmp / argv[i + 1].strip("/"))
     if argv[0] == "build" and "-o" not in argv:
         spec = next(w for w in argv[1:] if not w.startswith("-"))

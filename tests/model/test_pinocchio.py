@@ -101,3 +101,55 @@ def test_fk_and_jacobian_agree_with_pinocchio(name):
         np.testing.assert_allclose([location(point)[k] for k in EUCLID], position, atol=1e-10)
         columns = [_twist(MultiVector(ALG, c)) for c in outputs[2:]]
         np.testing.assert_allclose(np.array(columns).T, jacobian, atol=1e-10)
+
+
+def _as_written(q, joints, model, frame, idx_q, idx_v, kernel=None) -> tuple[float, float]:
+    """The largest FK (position, rotation) and Jacobian differences to Pinocchio at q: the interpreter's,
+    and the flattened kernel's when given."""
+    position, rotation, full_jacobian = _pinocchio(model, frame, q)
+    jacobian = full_jacobian[:, idx_v]
+    like = MultiVector.zero(ALG)
+    motor, lines = K.chain_kinematics(like, joints, list(q[idx_q]))
+    fk = max(np.abs([location(K.end_point(motor))[k] for k in EUCLID] - position).max(),
+             *(np.abs([motor.sandwich(vector(like, np.eye(3)[i]))[k] for k in EUCLID] - rotation[:, i]).max()
+               for i in range(3)))
+    jac = np.abs(np.array([_twist(line) for line in lines]).T - jacobian).max()
+    if kernel is not None:
+        outputs = dense_outputs(kernel, ALG, kernel(q[idx_q]))
+        fk = max(fk, np.abs([location(MultiVector(ALG, outputs[1]))[k] for k in EUCLID] - position).max())
+        columns = [_twist(MultiVector(ALG, c)) for c in outputs[2:]]
+        jac = max(jac, np.abs(np.array(columns).T - jacobian).max())
+    return float(fk), float(jac)
+
+
+def test_unsnapped_constants_agree_with_pinocchio_to_1e_12(tmp_path):
+    """URDFs write π/2 as ``1.57079632679`` (UR, Kinova, …): snapped to an exact π/2 (the default) the
+    chain is off the file's by ≈ 5e-12 rad per turn; with ``snap=False`` it keeps the numbers as written
+    and FK and Jacobians agree with Pinocchio on the same file to 1e-12, interpreter and kernel."""
+    urdf = tmp_path / "panda_rounded.urdf"
+    text = (ROBOTS / "panda" / "panda.urdf").read_text()
+    urdf.write_text(text.replace("1.5707963267948966", "1.57079632679"))
+    model = pin.buildModelFromUrdf(str(urdf))
+    frame = model.getFrameId("panda_link8")
+    snapped, as_written = (load_chain(urdf, "panda_link0", "panda_link8", snap=s) for s in (True, False))
+    assert all(j.snap is False for j in as_written) and "snap=False" in repr(as_written[1])
+    assert "snap" not in repr(snapped[1])  # snapped reprs (build keys) are those of before the switch
+    turns = [j.rpy for j in as_written if j.rpy[0]][:2]
+    assert turns == [(-1.57079632679, 0.0, 0.0), (1.57079632679, 0.0, 0.0)]
+    ids = [model.getJointId(j.name) for j in as_written if j.moves]
+    idx_q, idx_v = [model.joints[i].idx_q for i in ids], [model.joints[i].idx_v for i in ids]
+
+    def fk_and_jacobian(zero, q):
+        motor, lines = K.chain_kinematics(zero, as_written, q)
+        return (motor, K.end_point(motor), *K.spatial_jacobian(lines))
+
+    kernel = flatten_formula(Formula("panda_rounded_fk_jacobian", ALG, (("q", 7),), fk_and_jacobian,
+                                     pass_zero=True))
+    rng = np.random.default_rng(7)
+    worst_snapped = 0.0
+    for _ in range(20):
+        q = rng.uniform(model.lowerPositionLimit, model.upperPositionLimit)
+        fk, jac = _as_written(q, as_written, model, frame, idx_q, idx_v, kernel)
+        assert fk <= 1e-12 and jac <= 1e-12
+        worst_snapped = max(worst_snapped, *_as_written(q, snapped, model, frame, idx_q, idx_v))
+    assert 1e-12 < worst_snapped < 1e-10  # the snapped chain differs, by the rounding of π/2 only

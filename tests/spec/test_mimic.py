@@ -297,3 +297,16 @@ def test_model_refuses_chained_and_fixed_leaders_and_keeps_plain_reprs():
         Joint("f", "fixed", mimic=("a", 1.0, 0.0))
     with pytest.raises(ValueError, match="finite"):
         Joint("g", "revolute", mimic=("a", float("inf"), 0.0))
+
+
+def test_a_fixed_joint_s_mimic_is_ignored(tmp_path):
+    """A welded joint that keeps its <mimic> (example-robot-data's talos_reduced.urdf) has no value to
+    follow: the chain loads, the joint fixed, as Pinocchio and urdfdom read it."""
+    path = tmp_path / "welded.urdf"
+    path.write_text('<robot name="r"><link name="a"/><link name="b"/><link name="c"/>'
+                    '<joint name="j1" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>'
+                    '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint>'
+                    '<joint name="j2" type="fixed"><parent link="b"/><child link="c"/>'
+                    '<origin xyz="0 0 0.1"/><mimic joint="j1" multiplier="-1"/></joint></robot>')
+    joints = load_chain(path, "a", "c")
+    assert [(j.name, j.kind, j.mimic) for j in joints] == [("j1", "revolute", None), ("j2", "fixed", None)]

@@ -15,18 +15,28 @@ from gagen.arguments import (
     FlagNeeding,
     finite_float,
     non_negative_float,
+    numbers,
     positive_float,
     positive_int,
     view_arguments,
 )
-from gagen.registry import Verb
+from gagen.registry import Verb, bundled_specs
 
 
 def _reach_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("scenario", choices=[*SCENARIOS, "all"], metavar="SCENARIO",
-                        help=f"one of {', '.join(SCENARIOS)}, or all")
-    parser.add_argument("--out", type=Path, default=Path("plots"), help="folder for the plots (default "
-                                                                        "plots/)")
+    systems = ", ".join(bundled_specs("cooperative"))
+    parser.add_argument("scenario", metavar="TARGET",
+                        help=f"a bundled scenario ({', '.join(SCENARIOS)}), all of them (all), or a system: "
+                             f"a spec file or a bundled one ({systems}), with its goals (goals: in the "
+                             "spec) or a goal given here")
+    parser.add_argument("--goal", help="the spec's goal to reach (default: every goal the spec states)")
+    parser.add_argument("--translation", type=numbers(3), metavar="X,Y,Z",
+                        help="a goal given here: move the ready primitive by this translation, m")
+    parser.add_argument("--rotation", type=numbers(4), metavar="AX,AY,AZ,ANGLE",
+                        help="... rotated about this world axis by ANGLE rad about its reference point")
+    parser.add_argument("--dilation", type=positive_float, help="... dilated by this factor (rounds)")
+    parser.add_argument("--out", type=Path, default=Path("plots"),
+                        help="folder for the plots (default plots/)")
     parser.add_argument("--N", type=positive_int, default=100, help="time steps (default 100)")
     parser.add_argument("--horizon", type=positive_float, default=2.5, help="seconds (default 2.5)")
     parser.add_argument("--solver", choices=("ipopt", "fatrop", "ilqr"), default="ipopt",

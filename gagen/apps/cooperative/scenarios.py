@@ -31,22 +31,21 @@ import numpy as np
 import yaml
 from numpy.typing import NDArray
 
-from gagen.apps.cooperative.bundled import (
-    bundled_specs,
-    bundled_systems,
-    ready_configuration,
-    system_module,
-)
-from gagen.apps.cooperative.scenario_table import SCENARIOS, Scenario
+from gagen.apps.cooperative.scenario_table import SCENARIOS, Scenario, of_goal, scenarios_of
+from gagen.control.goals import desired
 from gagen.control.ocp import (
     bivector_command,
     multivector,
     reach,
-    target_from,
     task_errors,
 )
 from gagen.control.reaching import BLADES, DEFAULT_HORIZON, DEFAULT_N, OCPResult
+from gagen.modules import bundled_module
+from gagen.registry import resolve_spec
+from gagen.robots.goals import Goal
 from gagen.robots.points import end_points
+from gagen.robots.spec import load_system
+from gagen.robots.system import System
 from gagen.runtime import GeneratedModule
 
 Array = NDArray[np.float64]
@@ -67,14 +66,29 @@ class ScenarioResult:
     plots: tuple[Path, ...]
 
 
-# -- systems -----------------------------------------------------------------------------------------
+# -- systems: a bundled name or a spec file -----------------------------------------------------------------
+def spec_of(system: str) -> Path:
+    return resolve_spec(system, "cooperative", "system")
+
+
+@cache
+def _loaded(system: str) -> tuple[System, dict[str, list[float]]]:
+    return load_system(spec_of(system))
+
+
 @cache
 def module(system: str) -> GeneratedModule:
-    return system_module(system)
+    """The generated module of ``system``, built on first use (``gagen.modules``)."""
+    return bundled_module(spec_of(system))
 
 
 def ready(system: str) -> NDArray[np.float64]:
-    return np.array(ready_configuration(bundled_systems()[system]), dtype=float)
+    """The spec's ``ready`` configuration (a ValueError naming the spec when it has none)."""
+    named = _loaded(system)[1]
+    if "ready" not in named:
+        raise ValueError(f"{spec_of(system)}: configurations: no 'ready' configuration, which reaching "
+                         "starts from")
+    return np.array(named["ready"], dtype=float)
 
 
 @cache
@@ -88,9 +102,9 @@ def _urdf(path: Path) -> Any:
 def joint_limits(system: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(lower, upper) of every entry of q, from the URDFs the spec's chains name (continuous joints:
     ±inf). Joints of spec-defined chains (no URDF) get ±inf."""
-    spec_path = bundled_specs()[system]
+    spec_path = spec_of(system)
     spec = yaml.safe_load(spec_path.read_text())
-    sys_ = bundled_systems()[system]
+    sys_ = _loaded(system)[0]
     limits: dict[tuple[str, str], tuple[float, float]] = {}
     for chain, entry in zip(sys_.chains, spec["chains"], strict=True):
         joints = {}
@@ -125,7 +139,8 @@ def run(scenario: Scenario | str, out: str | Path | None = None, *, N: int = DEF
     q0 = ready(s.system)
     limits = joint_limits(s.system)
     V_Sc0 = np.array(m.c.similarity(q0)[0])
-    V_Sd = target_from(V_Sc0, s.translation, s.rotation, s.dilation, kind=m.manifest["primitive"])
+    goal = s.goal or Goal(s.name, "move", s.title, s.translation, s.rotation, s.dilation)
+    V_Sd = desired(goal, V_Sc0, m.manifest["primitive"])
     result = reach(m, q0, V_Sd, N=N, horizon=horizon, limits=limits, **options)
     command, errors = bivector_command(m, result), task_errors(m, result)
     plots: tuple[Path, ...] = ()
@@ -214,6 +229,11 @@ def _geometry(kind: str, rows: Sequence[str], x: Array, anchor: Array, size: flo
     def xyz(v: Any) -> Array:
         return np.array([v[k] for k in EUCLID])
 
+    if kind == "point":  # a marker where the point is
+        return [np.array([xyz(location(X))])]
+    if kind == "point_pair":  # a marker at its centre, with a ring of its half-distance about the e3 axis
+        c, r = xyz(location(centre(X))), float(radius(X))
+        return [np.array([c]), ring(c, r, np.eye(3)[2])]
     if kind in ("circle", "sphere"):
         c, r = xyz(location(centre(X))), float(radius(X))
         if kind == "circle":
@@ -251,7 +271,8 @@ def plot_trajectory(s: Scenario, m: GeneratedModule, result: OCPResult, path: Pa
         size = (1.25 if kind == "line" else 0.8) * max(reach_, 0.1 * spread)
         polylines = _geometry(kind, rows, x, anchor, size)
         for k, polyline in enumerate(polylines[:1] if first_only else polylines):
-            ax.plot(*polyline.T, **({**style, "label": None} if k else style))
+            drawn = {**style, "label": None} if k else style
+            ax.plot(*polyline.T, **({**drawn, "marker": "o"} if len(polyline) == 1 else drawn))
 
     N = result.N
     steps = np.unique(np.linspace(0, N, 9).round().astype(int))[1:-1]
@@ -290,11 +311,24 @@ def plot_trajectory(s: Scenario, m: GeneratedModule, result: OCPResult, path: Pa
 # -- command line ------------------------------------------------------------------------------------
 def run_command(args: argparse.Namespace) -> int:
     """``gagen reach`` on its parsed arguments (``gagen.apps.cooperative.commands``)."""
-    names = list(SCENARIOS) if args.scenario == "all" else [args.scenario]
+    given = (args.translation, args.rotation, args.dilation)
+    if any(v is not None for v in given):  # a goal given on the command line: a move of the ready primitive
+        if args.goal is not None or args.scenario == "all":
+            raise ValueError("--translation, --rotation and --dilation state a goal of one system: give no "
+                             "--goal, and a system (a spec or a bundled one), not all")
+        r = args.rotation
+        goal = Goal("command_line", "move", "", args.translation or (0.0, 0.0, 0.0),
+                    None if r is None else ((r[0], r[1], r[2]), r[3]), args.dilation or 1.0)
+        target = SCENARIOS[args.scenario].system if args.scenario in SCENARIOS else args.scenario
+        spec_of(target)  # a ValueError naming the bundled ones for an unknown system
+        chosen = [of_goal(target, goal)]
+    else:
+        chosen = scenarios_of(args.scenario, args.goal)
     ok = True
     solved = []
-    for name in names:
-        r = run(name, args.out, N=args.N, horizon=args.horizon, solver=args.solver, hessian=args.hessian)
+    for scenario in chosen:
+        name = scenario.name
+        r = run(scenario, args.out, N=args.N, horizon=args.horizon, solver=args.solver, hessian=args.hessian)
         solved.append(r)
         res = r.result
         ok &= res.success
@@ -318,7 +352,7 @@ def view(results: Sequence[ScenarioResult], port: int) -> None:
     from gagen.viewer.scene import Scene, serve
 
     for r in results:
-        system = bundled_systems()[r.scenario.system]
+        system = _loaded(r.scenario.system)[0]
         t = r.result.dt * np.arange(r.result.q.shape[0])
         print(f"{r.scenario.name}: {r.scenario.title}")
         serve(Scene(system, r.result.q[0], port=port), [(r.scenario.name, t, r.result.q)])
