@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from gagen.arguments import non_negative_int, positive_float, positive_int
-from gagen.registry import Verb
+from gagen.registry import Verb, bundled_specs
 
 if TYPE_CHECKING:
     from gagen.sweep.problems import Sweep
@@ -25,8 +25,9 @@ OPTIONS = {"system": "--system", "grid": "--grid", "samples": "--samples", "seed
 
 
 def _common(parser: argparse.ArgumentParser, chunk: int) -> None:
-    parser.add_argument("--system", default=DEFAULT_SYSTEM, help="bundled cooperative system (robots/*.yaml; "
-                        f"default {DEFAULT_SYSTEM})")
+    parser.add_argument("--system", default=DEFAULT_SYSTEM,
+                        help="a spec file, or a bundled cooperative system: "
+                             f"{', '.join(bundled_specs('cooperative'))} (default {DEFAULT_SYSTEM})")
     parser.add_argument("--out", required=True, help="folder of the chunk files, sweep.json and the plot; "
                         "a re-run into it skips the finished chunks")
     parser.add_argument("--workers", type=positive_int, default=2,

@@ -34,6 +34,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cache
+from pathlib import Path
 from typing import Any, TypeVar, cast
 
 import numpy as np
@@ -71,14 +72,19 @@ class Cell:
     rank: int
 
 
-def _system_name(system: Any) -> str:
-    from gagen.registry import bundled_specs
+def _spec(system: Any) -> Path:
+    """The spec of ``system``: a bundled cooperative system's name or a spec file (a SweepError starting
+    ``system:`` naming the bundled ones otherwise)."""
+    from gagen.registry import bundled_specs, resolve_spec
 
     names = list(bundled_specs("cooperative"))
-    if not isinstance(system, str) or system not in names:
-        raise SweepError(f"system: expected a bundled cooperative system ({', '.join(names)}), "
-                         f"got {system!r}")
-    return system
+    if isinstance(system, str):
+        try:
+            return resolve_spec(system, "cooperative", "system")
+        except ValueError:
+            pass
+    raise SweepError(f"system: expected a bundled cooperative system ({', '.join(names)}) or a spec file, "
+                     f"got {system!r}")
 
 
 @cache
@@ -88,10 +94,9 @@ def cell(system: str = DEFAULT_SYSTEM) -> Cell:
     (``build_module``). A SweepError starting ``system:`` says why a system cannot be swept."""
     from gagen.check import joint_limits
     from gagen.control.differential import CONTROLLABLE_DIMENSION
-    from gagen.registry import bundled_specs
     from gagen.robots.spec import load_system
 
-    spec = bundled_specs("cooperative")[_system_name(system)]
+    spec = _spec(system)
     loaded, configurations = load_system(spec)
     lower, upper, _ = joint_limits(loaded)
     labels = tuple(f"{robot}/{joint}" for robot, joint in loaded.joint_keys)
@@ -112,10 +117,8 @@ def build_module(system: str) -> None:
     and a system the sweep refuses is never built. A SweepError starting ``system:`` when it cannot be."""
     from gagen.build import CompileError, OutputError
     from gagen.modules import module_folder
-    from gagen.registry import bundled_specs
-
     try:
-        module_folder(bundled_specs("cooperative")[_system_name(system)])
+        module_folder(_spec(system))
     except (CompileError, OutputError) as e:
         raise SweepError(f"system: cannot build the generated module of {system}: {e}") from e
 
@@ -123,9 +126,7 @@ def build_module(system: str) -> None:
 @cache
 def _module(system: str = DEFAULT_SYSTEM) -> Any:
     from gagen.modules import bundled_module
-    from gagen.registry import bundled_specs
-
-    return bundled_module(bundled_specs("cooperative")[system])
+    return bundled_module(_spec(system))
 
 
 @cache
@@ -159,7 +160,8 @@ def _filled(value: T | None) -> T:
 
 
 def _make_cell(sweep: Any) -> Cell:
-    found = cell(_system_name(sweep.system))
+    _spec(sweep.system)  # a SweepError for anything but a bundled name or a spec file, before the cache
+    found = cell(sweep.system)
     object.__setattr__(sweep, "cell", found)
     return found
 

@@ -11,7 +11,9 @@ take a headless render with ``gagen.viewer.browser``.
 
 Given ``visuals`` (``gagen.viewer.visuals.load_visuals``: the URDFs' ``<visual>`` meshes and shapes), a
 link with visuals is drawn from them, placed at the link's pose along its chain, and its stick and joint
-ball are left out; links without visuals (or whose mesh files could not be read) stay sticks.
+ball are left out; links without visuals (or whose mesh files could not be read) stay sticks. Given a
+``goal`` (a ``geometry.Shape``: ``geometry.goal_shape``, ``geometry.moved``), its target primitive is
+drawn too, in ``GOAL_COLOUR``.
 
     with Scene(system, port=8080) as scene:
         scene.play(result.t, result.q, loop=True)

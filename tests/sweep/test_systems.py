@@ -106,7 +106,7 @@ def test_the_three_pandas_reach_defaults_are_unchanged():
 
 def test_systems_the_sweeps_cannot_handle_are_named(monkeypatch, tmp_path):
     with pytest.raises(SweepError, match=r"^system: expected a bundled cooperative system "
-                       r"\(four_pandas_sphere, .*three_pandas_circle.*\), got 'nope'"):
+                       r"\(four_pandas_sphere, .*three_pandas_circle.*\) or a spec file, got 'nope'"):
         Manipulability(samples=10, system="nope")
     with pytest.raises(SweepError, match=r"^system: the reach sweep has circle and sphere targets; "
                        r"two_iiwas_line spans a line"):
@@ -164,3 +164,39 @@ def test_the_volume_map_of_a_grid_of_another_system(tmp_path):
     assert path.stat().st_size > 10_000
     with pytest.raises(ValueError, match="no configuration has a finite, positive ellipsoid volume"):
         plots.manipulability_map(table.filter(table.column("sample").to_numpy() < 0), tmp_path / "none.png")
+
+
+@pytest.mark.compiling
+def test_a_sweep_of_a_users_spec(tmp_path, capsys):
+    """``--system`` takes a spec file: two Pandas written here, their hands spanning a point pair; each
+    row's manipulability index against the module's own J_G, and the command line on the same file."""
+    from gagen.cli import main
+    from gagen.control.differential import CONTROLLABLE_DIMENSION, manipulability_index
+    from gagen.modules import bundled_module
+    from gagen.registry import bundled_specs
+    from gagen.sweep.engine import run_serial
+    from gagen.sweep.store import ChunkStore
+
+    urdf = bundled_specs("cooperative")["panda_point"].parent / "panda" / "panda.urdf"
+    chain = ("  - {{name: {name}, urdf: {urdf}, base_link: panda_link0, tip_link: panda_link8, "
+             "base: {base}}}\n")
+    spec = tmp_path / "facing_pandas.yaml"
+    spec.write_text("name: facing_pandas\nprimitive: point_pair\nchains:\n"
+                    + chain.format(name="left", urdf=urdf, base="{xyz: [0, -0.6, 0]}")
+                    + chain.format(name="right", urdf=urdf, base="{xyz: [0, 0.6, 0], rpy: [0, 0, 3.14159]}")
+                    + "configurations:\n  ready: ["
+                    + ", ".join(["0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785"] * 2) + "]\n")
+    sweep = Manipulability(samples=40, chunk=20, seed=1, system=str(spec))
+    assert sweep.cell.joints[0] == "left/panda_joint1" and len(sweep.cell.joints) == 14
+    run_serial(sweep, tmp_path / "serial")
+    table = ChunkStore(tmp_path / "serial").read(sweep.chunks)
+    module = bundled_module(spec)
+    rank = CONTROLLABLE_DIMENSION["point_pair"]
+    for row in range(0, 40, 3):
+        q = sweep.configurations(row // 20)[row % 20]
+        J_G = module.c.similarity(q)[2]
+        assert table.column("index")[row].as_py() == pytest.approx(manipulability_index(J_G, rank), rel=1e-12)
+    out = tmp_path / "cli"
+    assert main(["sweep", "manipulability", "--system", str(spec), "--samples", "20", "--chunk", "20",
+                 "--out", str(out), "--workers", "1", "--no-progress"]) == 0
+    assert "manipulability sweep of " in capsys.readouterr().out and (out / "sweep.json").is_file()

@@ -109,7 +109,8 @@ def _mpc(args: argparse.Namespace) -> int:
 
 
 def _teleop_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("system", help="a bundled system, e.g. leap_hand_sphere, three_pandas_circle")
+    parser.add_argument("system", help="a spec file, or a bundled system: "
+                        + ", ".join(bundled_specs("cooperative")))
     source = parser.add_mutually_exclusive_group(required=True)
     source.add_argument("--trace", type=Path, help="replay a trace file (CSV: t,tx,ty,tz,rx,ry,rz)")
     source.add_argument("--keyboard", action="store_true", help="drive from the terminal's keys")

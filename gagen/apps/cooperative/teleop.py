@@ -48,6 +48,7 @@ block is recorded as not converged (``converged``, ``error``), and the run goes 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -61,7 +62,6 @@ from numpy.typing import ArrayLike, NDArray
 
 from gagen.algebra.protocol import Multivector
 from gagen.algebra.signature import cga3d
-from gagen.apps.cooperative.bundled import bundled_systems, ready_configuration, system_module
 from gagen.apps.cooperative.teleop_input import AXES, Scales, Trace, format_trace, read_trace
 from gagen.control.differential import joint_velocity
 from gagen.control.ik import solve_ik
@@ -217,6 +217,7 @@ class Kernels:
     dof: int
     system: str
     module: GeneratedModule | None = None
+    spec: str = ""  # the system as given: a bundled name or a spec file ("": unknown, no URDF limits)
 
 
 def kernels(module: GeneratedModule, backend: str = "c") -> Kernels:
@@ -249,10 +250,15 @@ def kernels(module: GeneratedModule, backend: str = "c") -> Kernels:
 
 @cache
 def bundled_kernels(system: str, backend: str = "c") -> Kernels:
-    """``Kernels`` of a bundled system's module (built on first use: ``system_module``)."""
-    if system not in bundled_systems():
-        raise ValueError(f"unknown system {system!r}; bundled: {', '.join(sorted(bundled_systems()))}")
-    return kernels(system_module(system), backend)
+    """``Kernels`` of a system: a bundled name or a spec file (its module built on first use:
+    ``gagen.modules``)."""
+    from gagen.apps.cooperative.scenarios import module
+
+    try:
+        loaded = module(system)
+    except ValueError as e:  # neither a bundled name nor a spec file
+        raise ValueError(f"unknown system {system!r}: {e}") from None
+    return dataclasses.replace(kernels(loaded, backend), spec=system)
 
 
 START: dict[str, tuple[float, ...]] = {
@@ -266,8 +272,11 @@ START: dict[str, tuple[float, ...]] = {
 
 
 def ready(system: str) -> NDArray[np.float64]:
-    """The teleoperation start of a bundled system: ``START`` if listed, else the spec's ``ready``."""
-    return np.array(START.get(system) or ready_configuration(bundled_systems()[system]), dtype=float)
+    """The teleoperation start of a system (a bundled name or a spec file): ``START`` if listed, else the
+    spec's ``ready``."""
+    from gagen.apps.cooperative.scenarios import ready as spec_ready
+
+    return np.array(START[system], dtype=float) if system in START else spec_ready(system)
 
 
 # -- simulation --------------------------------------------------------------------------------------
@@ -325,7 +334,7 @@ class Teleoperation:
                 raise ValueError(f"limits must be (lower, upper), 'urdf' or None, got {limits!r}")
             from gagen.apps.cooperative.scenarios import joint_limits
 
-            limits = joint_limits(kernels.system) if kernels.system in bundled_systems() else None
+            limits = joint_limits(kernels.spec) if kernels.spec else None
         self.limits = limits
         self.dt, self.frame, self.correct = float(dt), frame, correct
         self.tol, self.max_iterations, self.damping = tol, max_iterations, damping
@@ -405,7 +414,7 @@ class Teleoperation:
 def run_trace(kernels: Kernels, trace: Trace, q0: ArrayLike | None = None, **options: Any) -> TeleopResult:
     """Replay a trace from ``q0`` (default: the bundled system's ready configuration) in steps of
     ``options['dt']`` (default 0.01 s), each holding the trace's axes at the step's start."""
-    loop = Teleoperation(kernels, ready(kernels.system) if q0 is None else q0, **options)
+    loop = Teleoperation(kernels, ready(kernels.spec or kernels.system) if q0 is None else q0, **options)
     for k in range(trace.steps(loop.dt)):
         loop.step(trace.at(k * loop.dt))
     return loop.result()
@@ -428,7 +437,7 @@ def run_live(kernels: Kernels, reader: Any, scales: Scales, q0: ArrayLike | None
              **options: Any) -> TeleopResult:
     """Step in wall-clock time at dt from a live ``reader`` (``read(now)`` -> deflections, ``quit``)
     until it quits or ``duration`` passes; deflections are scaled to rates by ``scales``."""
-    loop = Teleoperation(kernels, ready(kernels.system) if q0 is None else q0, **options)
+    loop = Teleoperation(kernels, ready(kernels.spec or kernels.system) if q0 is None else q0, **options)
     start = time.monotonic()
     while not reader.quit and loop.time < duration:
         now = time.monotonic()
@@ -561,9 +570,10 @@ def run_command(args: argparse.Namespace) -> int:
     for path in write_report(result, args.out, recorded, text):
         print(f"wrote {path}")
     if args.view:  # the run in a loop until Ctrl-C, the primitive drawn live (gagen.viewer)
-        from gagen.apps.cooperative.bundled import bundled_systems
+        from gagen.apps.cooperative.scenarios import spec_of
+        from gagen.robots.spec import load_system
         from gagen.viewer.scene import Scene, serve
 
-        serve(Scene(bundled_systems()[args.system], result.q[0], port=args.port),
+        serve(Scene(load_system(spec_of(args.system))[0], result.q[0], port=args.port),
               [(f"{args.system} teleoperation", result.t, result.q)])
     return 0 if bool(np.all(result.converged)) else 1
