@@ -111,3 +111,21 @@ def test_reach_takes_a_user_spec_with_its_goal_or_one_given_here(tmp_path, capsy
 
     result = scenarios.run(scenarios_of(str(spec))[0], N=20, solver="ilqr")
     np.testing.assert_allclose(end_points(module, result.result.q[-1])[0], target, atol=1e-8)
+
+
+@pytest.mark.compiling
+def test_teleop_takes_a_user_spec(tmp_path, capsys):
+    """``gagen teleop SPEC --trace``: a single Panda's end point driven 2 cm along x over 0.2 s (a point has
+    only translations); the report is written and the point moved as commanded."""
+    from gagen.apps.cooperative.teleop import bundled_kernels, read_trace, run_trace
+    from gagen.cli import main
+
+    spec = _user_spec(tmp_path, "")
+    trace = tmp_path / "slide.csv"
+    trace.write_text("t,tx,ty,tz,rx,ry,rz\n0.0,0.1,0,0,0,0,0\n0.2,0,0,0,0,0,0\n")
+    out = tmp_path / "teleop"
+    assert main(["teleop", str(spec), "--trace", str(trace), "--out", str(out)]) == 0
+    assert "my_panda" in capsys.readouterr().out and (out / "teleop.txt").is_file()
+    result = run_trace(bundled_kernels(str(spec)), read_trace(trace))
+    assert result.converged.all()
+    np.testing.assert_allclose(result.centre[-1] - result.centre[0], [0.02, 0.0, 0.0], atol=1e-9)
