@@ -217,57 +217,98 @@ def load_chain(path: str | Path, base_link: str, tip_link: str, snap: bool = Tru
                             f"{other.name!r} (line {lines.get(other.name)}); a URDF is a tree, each link "
                             f"has at most one parent")
         parent_joint[j.child] = j
-    chain: list[yourdfpy.Joint] = []
-    link = tip_link
-    while link != base_link:
-        if link not in parent_joint:
-            raise SpecError(path, "tip_link",
-                            f"{tip_link!r} is not below {base_link!r} in the kinematic tree")
-        joint = parent_joint[link]
-        if any(joint is seen for seen in chain):  # each joint is visited once: the walk is bounded
-            first = next(i for i, seen in enumerate(chain) if seen is joint)
-            loop = " -> ".join(j.name for j in [*chain[first:], joint])
-            raise SpecError(path, _joint_field(joint.name), f"line {lines.get(joint.name)}: a kinematic "
-                                                            f"loop ({loop}); a URDF is a tree")
-        chain.append(joint)
-        link = joint.parent
+
+    def ancestry(link: str) -> list[yourdfpy.Joint]:
+        """The joints from ``link`` up to its tree's root (each joint visited once: the walk is bounded)."""
+        chain: list[yourdfpy.Joint] = []
+        while link in parent_joint:
+            joint = parent_joint[link]
+            if any(joint is seen for seen in chain):
+                first = next(i for i, seen in enumerate(chain) if seen is joint)
+                loop = " -> ".join(j.name for j in [*chain[first:], joint])
+                raise SpecError(path, _joint_field(joint.name), f"line {lines.get(joint.name)}: a kinematic "
+                                                                f"loop ({loop}); a URDF is a tree")
+            chain.append(joint)
+            link = joint.parent
+        return chain
+
+    # the chain goes up from base_link to the nearest link above both, then down to tip_link
+    above_tip, above_base = ancestry(tip_link), ancestry(base_link)
+    tip_links = [tip_link, *(j.parent for j in above_tip)]
+    base_links = [base_link, *(j.parent for j in above_base)]
+    common = next((link for link in base_links if link in tip_links), None)
+    if common is None:
+        raise SpecError(path, "tip_link", f"{tip_link!r} and {base_link!r} are not connected in the "
+                                          f"kinematic tree (they have no common ancestor link)")
+    up, down = above_base[:base_links.index(common)], above_tip[:tip_links.index(common)]
     joints = []
-    for j in reversed(chain):
-        field = _joint_field(j.name)
-        _check_label(path, j.name, lines.get(j.name))
-        if j.type in ("floating", "planar"):
-            raise SpecError(path, field, f"line {lines.get(j.name)}: floating/planar joints are not "
-                                         f"supported; a chain is made of 1-DOF joints (revolute, continuous, "
-                                         f"prismatic) and fixed ones: choose base_link below it")
-        if j.type not in _KINDS:
-            raise SpecError(path, field, f"type {j.type!r} is not supported; expected one of "
-                                         f"{', '.join(_KINDS)}")
-        origin = np.eye(4) if j.origin is None else np.asarray(j.origin, dtype=float)
-        axis = (1.0, 0.0, 0.0) if j.axis is None else tuple(float(a) for a in j.axis)  # URDF default
-        if origin.shape != (4, 4) or not np.isfinite(origin).all() or len(axis) != 3:
-            raise SpecError(path, field, f"line {lines.get(j.name)}: origin and axis must be finite "
-                                         f"(three numbers each)")
-        if j.type != "fixed":
-            norm = math.sqrt(sum(a * a for a in axis))
-            if norm < MIN_AXIS:
-                raise SpecError(path, f"{field}: axis", f"line {lines.get(j.name)}: a non-zero axis vector "
-                                                        f"(length at least {MIN_AXIS:g})")
-            axis = (axis[0] / norm, axis[1] / norm, axis[2] / norm)
-        try:  # Joint's own checks (e.g. on a mimic), as an error naming the file and the joint
-            xyz = (float(origin[0, 3]), float(origin[1, 3]), float(origin[2, 3]))
-            rpy = rpy_from_matrix(origin[:3, :3])
-            if not snap:  # the numbers as written (the same transform: R = Rz(yaw) Ry(pitch) Rx(roll))
-                xyz, rpy = origins.get(j.name, ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)))
-            # a fixed joint has no value to follow: its <mimic> (left by tools that weld joints, as in
-            # example-robot-data's talos_reduced.urdf) is ignored, as Pinocchio and urdfdom do
-            mimic = _mimic(path, robot, j) if j.type != "fixed" else None
-            joints.append(Joint(j.name, _KINDS[j.type], xyz, rpy, axis, mimic=mimic, limits=_limits(j),
-                                snap=snap))
-        except ValueError as e:
-            raise SpecError(path, field, f"line {lines.get(j.name)}: {e}") from e
-        if joints[-1].mimic is not None:  # the leader's name labels the chain's joint variable
-            _check_label(path, joints[-1].mimic[0], lines.get(joints[-1].mimic[0]))
+    for j in up:  # traversed from child to parent: the inverse of each joint's transform
+        joints += _inverse(_joint(path, robot, j, lines, origins, snap))
+    for j in reversed(down):
+        joints.append(_joint(path, robot, j, lines, origins, snap))
     return joints
+
+
+def _joint(path: Path, robot: yourdfpy.Robot, j: yourdfpy.Joint, lines: dict[str, int],
+           origins: dict[str, Origin], snap: bool) -> Joint:
+    """One URDF joint as a checked ``Joint``."""
+    field = _joint_field(j.name)
+    _check_label(path, j.name, lines.get(j.name))
+    if j.type in ("floating", "planar"):
+        raise SpecError(path, field, f"line {lines.get(j.name)}: floating/planar joints are not "
+                                     f"supported; a chain is made of 1-DOF joints (revolute, continuous, "
+                                     f"prismatic) and fixed ones: choose base_link below it")
+    if j.type not in _KINDS:
+        raise SpecError(path, field, f"type {j.type!r} is not supported; expected one of "
+                                     f"{', '.join(_KINDS)}")
+    origin = np.eye(4) if j.origin is None else np.asarray(j.origin, dtype=float)
+    axis = (1.0, 0.0, 0.0) if j.axis is None else tuple(float(a) for a in j.axis)  # URDF default
+    if origin.shape != (4, 4) or not np.isfinite(origin).all() or len(axis) != 3:
+        raise SpecError(path, field, f"line {lines.get(j.name)}: origin and axis must be finite "
+                                     f"(three numbers each)")
+    if j.type != "fixed":
+        norm = math.sqrt(sum(a * a for a in axis))
+        if norm < MIN_AXIS:
+            raise SpecError(path, f"{field}: axis", f"line {lines.get(j.name)}: a non-zero axis vector "
+                                                    f"(length at least {MIN_AXIS:g})")
+        axis = (axis[0] / norm, axis[1] / norm, axis[2] / norm)
+    try:  # Joint's own checks (e.g. on a mimic), as an error naming the file and the joint
+        xyz = (float(origin[0, 3]), float(origin[1, 3]), float(origin[2, 3]))
+        rpy = rpy_from_matrix(origin[:3, :3])
+        if not snap:  # the numbers as written (the same transform: R = Rz(yaw) Ry(pitch) Rx(roll))
+            xyz, rpy = origins.get(j.name, ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)))
+        # a fixed joint has no value to follow: its <mimic> (left by tools that weld joints, as in
+        # example-robot-data's talos_reduced.urdf) is ignored, as Pinocchio and urdfdom do
+        mimic = _mimic(path, robot, j) if j.type != "fixed" else None
+        joint = Joint(j.name, _KINDS[j.type], xyz, rpy, axis, mimic=mimic, limits=_limits(j), snap=snap)
+    except ValueError as e:
+        raise SpecError(path, field, f"line {lines.get(j.name)}: {e}") from e
+    if joint.mimic is not None:  # the leader's name labels the chain's joint variable
+        _check_label(path, joint.mimic[0], lines.get(joint.mimic[0]))
+    return joint
+
+
+def _rotation(rpy: tuple[float, float, float]) -> np.ndarray:
+    """R = Rz(yaw) Ry(pitch) Rx(roll)."""
+    (cr, cp, cy), (sr, sp, sy) = np.cos(rpy), np.sin(rpy)
+    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                     [-sp, cp * sr, cp * cr]])
+
+
+def _inverse(joint: Joint) -> list[Joint]:
+    """A joint walked from its child link to its parent: (F M(q))⁻¹ = M(q)⁻¹ F⁻¹, the motion about (along)
+    the reversed axis by the same variable, then the fixed transform F⁻¹ (named ``<joint>_inverse`` after
+    a moving joint, whose name stays the variable's)."""
+    r = _rotation(joint.rpy)
+    p = -r.T @ np.array(joint.xyz)
+    fixed = Joint(joint.name if not joint.moves else f"{joint.name}_inverse", "fixed",
+                  (float(p[0]), float(p[1]), float(p[2])), rpy_from_matrix(r.T), snap=joint.snap)
+    if not joint.moves:
+        return [fixed]
+    reversed_axis = (-joint.axis[0], -joint.axis[1], -joint.axis[2])
+    return [Joint(joint.name, joint.kind, axis=reversed_axis, mimic=joint.mimic, limits=joint.limits,
+                  snap=joint.snap), fixed]
 
 
 def _limits(joint: yourdfpy.Joint) -> tuple[float, float] | None:

@@ -247,3 +247,27 @@ def test_c_loop_runs_at_rate(loop):
         pytest.skip(f"no SCHED_FIFO and the OS woke a tick {loop.jitter_max_us:.0f} us late: the rate "
                     f"measures the machine's load (achieved {loop.achieved_rate_hz:.2f} Hz)")
     assert loop.achieved_rate_hz == pytest.approx(1000.0, rel=0.01), loop
+
+
+@pytest.mark.compiling
+def test_the_loop_drives_the_arm_of_a_users_spec(tmp_path, capsys):
+    """``gagen smc --spec``: an iiwa 14 written here, started at its spec's ready configuration (the log's
+    first row; the step is the generic one, built for these joints); a two-arm spec is one line, exit 2."""
+    from gagen.cli import main
+    from gagen.registry import bundled_specs
+
+    urdf = bundled_specs("cooperative")["two_iiwas_line"].parent / "iiwa14" / "iiwa14.urdf"
+    ready = [0.3, 0.5, 0.0, -1.2, 0.0, 0.9, 0.0]
+    spec = tmp_path / "my_iiwa.yaml"
+    spec.write_text(f"name: my_iiwa\nprimitive: point\nchains:\n  - {{name: arm, urdf: {urdf}, base_link: "
+                    f"iiwa_link_0, tip_link: iiwa_link_ee}}\nconfigurations:\n  ready: {ready}\n")
+    out = tmp_path / "smc"
+    assert main(["smc", "--spec", str(spec), "--duration", "0.05", "--rate", "200", "--out", str(out)]) == 0
+    log = smc.read_log(out / "smc_log.csv")
+    first = np.array([log[f"q{i + 1}"][0] for i in range(7)])
+    assert np.max(np.abs(first - ready)) < 0.05  # one tick of 5 ms from the ready configuration
+    two = bundled_specs("cooperative")["two_iiwas_line"]
+    capsys.readouterr()
+    assert main(["smc", "--spec", str(two), "--duration", "0.05", "--out", str(tmp_path / "two")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "drives one arm; the spec has 2 chains" in err[0]

@@ -6,16 +6,32 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import Any
 
 from gagen.arguments import positive_float
 from gagen.registry import Verb
 
 
 def _smc_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--spec", help="the arm: a spec file of one chain, or a bundled system of one chain, "
+                        "started at its ready configuration (default: the bundled Panda, panda_point)")
     parser.add_argument("--duration", type=positive_float, default=10.0, help="seconds (default 10)")
     parser.add_argument("--rate", type=positive_float, default=1000.0, help="loop rate in Hz (default 1000)")
     parser.add_argument("--out", default="plots/smc", help="folder for the log and the plots")
     parser.add_argument("--fifo", action="store_true", help="ask for SCHED_FIFO and locked memory")
+
+
+def _arm(spec: str) -> tuple[tuple[Any, ...], list[float] | None]:
+    """(joints, start) of a one-chain system: a spec file or a bundled name."""
+    from gagen.registry import resolve_spec
+    from gagen.robots.spec import load_system
+
+    path = resolve_spec(spec, "cooperative", "system")
+    system, named = load_system(path)
+    if len(system.chains) != 1:
+        raise ValueError(f"{path}: chains: the sliding-mode loop drives one arm; the spec has "
+                         f"{len(system.chains)} chains")
+    return tuple(system.chains[0].joints), named.get("ready")
 
 
 def _smc(args: argparse.Namespace) -> int:
@@ -30,11 +46,15 @@ def _smc(args: argparse.Namespace) -> int:
     transient = min(0.5, (ticks // 2) * (1.0 / args.rate))  # a short run still has settled ticks to report
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    print(f"sliding-mode pose tracking, Panda, {args.rate:g} Hz for {args.duration:g} s "
+    print(f"sliding-mode pose tracking, {args.spec or 'the Panda'}, {args.rate:g} Hz for {args.duration:g} s "
           f"(generated C step kernel and loop; building on first use)")
     try:
+        arm = None if args.spec is None else _arm(args.spec)
         summary = smc.run_loop(args.duration, args.rate, out / "smc_log.csv", fifo=args.fifo,
-                               transient=transient)
+                               transient=transient, smc=None if arm is None else smc.build(arm[0], q0=arm[1]))
+    except ValueError as e:  # a spec that is not one arm (SpecError included)
+        print(f"error: {e}", file=sys.stderr)
+        return 2
     except (RuntimeError, CompileError, OSError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 1
