@@ -10,8 +10,9 @@ nothing). Each chain is written as a one-chain spec (``primitive: point``, ``sna
 ``<chain>_fk_jacobian`` kernel traced from the cooperative catalogue (pure CasADi, nothing compiled).
 At random configurations (every joint of the robot random, continuous ones too), its end point, the
 rotation of its motor and its spatial Jacobian are compared with Pinocchio's on the same file: the
-tip's placement relative to the chain's base link, and the chain's columns of the world Jacobian
-moved to the base frame (mimic followers folded into their leaders with their multipliers).
+tip's placement relative to the chain's base link, and the chain's columns of the tip's world Jacobian
+less the base link's (a chain may go up the tree from its base link, then down), moved to the base
+frame (mimic followers folded into their leaders with their multipliers).
 
 Prints a markdown table, one row per URDF: chains tried, built, agreeing (FK and Jacobian ≤ 1e-12),
 the largest differences, and why any chain or file was refused. ``tests/robots`` holds five of these
@@ -205,7 +206,10 @@ def compare(chain: Any, kernel: Any, urdf: Path, base: str, tip: str, samples: i
         pin.computeJointJacobians(model, data, q)
         pin.updateFramePlacements(model, data)
         placement = data.oMf[base_frame].actInv(data.oMf[tip_frame])
-        world = pin.getFrameJacobian(model, data, tip_frame, pin.ReferenceFrame.WORLD)
+        # the tip's twist relative to the base link (a chain may go up the tree, then down), at the
+        # world origin in world axes; moved to the base frame below
+        world = (pin.getFrameJacobian(model, data, tip_frame, pin.ReferenceFrame.WORLD)
+                 - pin.getFrameJacobian(model, data, base_frame, pin.ReferenceFrame.WORLD))
         jacobian = data.oMf[base_frame].inverse().action @ np.column_stack(
             [sum(m * world[:, v] for v, m in cols) for cols in columns])
         values = kernel.function(np.array([_angle(model, q, ids[n]) if n in ids else

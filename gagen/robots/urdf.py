@@ -12,11 +12,16 @@ Before yourdfpy sees a file it is checked here: UTF-8 (or declared) XML without 
 substitution: expand it first; xacro's output, which keeps the ``xmlns:xacro`` declaration, is a
 plain URDF and accepted), a ``<robot>`` root, joint and link names
 each defined once, and every joint's origin ``xyz``/``rpy`` and ``axis`` three finite numbers with
-coordinates within ±``MAX_COORDINATE`` m and angles within ±``MAX_ANGLE`` rad. The walk from the tip
-link to the base link refuses links with two parents and kinematic loops (it is bounded by the
-number of joints); the chain's joints must be revolute, continuous, prismatic or fixed, and their
-names (which become row labels ``robot/joint``) follow ``gagen.names.LABEL_RULE``. Each
-problem is a ``SpecError`` naming the file, the joint and its line.
+coordinates within ±``MAX_COORDINATE`` m and angles within ±``MAX_ANGLE`` rad. A chain goes from any
+link to any link of the tree: up from the base link to the nearest link above both, each joint
+walked against its direction (its inverse: the motion about the reversed axis by the same variable,
+then the inverse of its origin as a fixed ``<joint>_inverse``), then down to the tip link. The walks
+up from both links refuse links with two parents and kinematic loops (they are bounded by the
+number of joints); the chain's joints must be revolute, continuous, prismatic or fixed (a fixed
+joint's ``<mimic>`` is ignored), and their names (which become row labels ``robot/joint``) follow
+``gagen.names.LABEL_RULE``. Each problem is a ``SpecError`` naming the file, the joint and its line.
+
+``resolve_package_uri`` finds the file a mesh filename (``package://``, ``file://``, relative) names.
 """
 
 from __future__ import annotations
@@ -196,7 +201,8 @@ def _load(path: Path) -> tuple[yourdfpy.URDF, dict[str, int], dict[str, Origin]]
 
 
 def load_chain(path: str | Path, base_link: str, tip_link: str, snap: bool = True) -> list[Joint]:
-    """The joints from ``base_link`` to ``tip_link`` (fixed joints included), in order.
+    """The joints from ``base_link`` to ``tip_link`` (fixed joints included), in order: down the tree, or
+    up it and down again (see the module docstring).
 
     ``snap`` (the default) lets the kinematics snap rpy angles within 1e-9 of a multiple of π/4 to
     it (``gagen.model.kinematics.exact_angle``); ``snap=False`` keeps every origin number as the file

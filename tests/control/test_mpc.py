@@ -54,3 +54,22 @@ def test_bad_arguments_are_refused(problem):
         run(module.c.task, target, q0, rate=0.0)
     with pytest.raises(ValueError, match="must be > 0"):
         run(module.c.task, target, q0, horizon=-1.0)
+
+
+def test_mpc_takes_a_users_circle_spec_and_refuses_another_primitive(tmp_path, capsys):
+    """``gagen mpc SPEC``: a copy of the three-Panda circle under another name tracks the same moving circle
+    (its module is that spec's own); a point spec is one line and exit status 2."""
+    from gagen.cli import main
+    from gagen.registry import bundled_specs
+
+    bundled = bundled_specs("cooperative")
+    point = tmp_path / "one_panda.yaml"
+    point.write_text(bundled["panda_point"].read_text().replace("name: panda_point", "name: one_panda")
+                     .replace("urdf: panda/", f"urdf: {bundled['panda_point'].parent}/panda/"))
+    assert main(["mpc", str(point), "--duration", "0.1", "--no-animation", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "tracks a moving circle; this system spans a point" in err[0]
+    module, q0, target = setup(str(bundled["three_pandas_circle"]))
+    reference = setup()
+    np.testing.assert_array_equal(q0, reference[1])
+    np.testing.assert_array_equal(target(0.7), reference[2](0.7))

@@ -40,6 +40,8 @@ ROBOTS = {
     # Pinocchio model has a free-flyer root at a random placement and every other joint random
     "talos_left_arm": ("talos_reduced.urdf", "torso_2_link", "gripper_left_fingertip_1_link", True, 0),
     "solo12_front_left_leg": ("solo12.urdf", "base_link", "FL_FOOT", True, 0),
+    # from any link to any link: up the left arm and down the right one (hand to hand, through the torso)
+    "talos_hand_to_hand": ("talos_reduced.urdf", "arm_left_7_link", "arm_right_7_link", True, 0),
 }
 
 

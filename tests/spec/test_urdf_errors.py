@@ -37,10 +37,35 @@ def test_unknown_link_lists_the_known_ones(field):
     assert e.value.field == field and "'panda_hand'" in e.value.message and "panda_link3" in e.value.message
 
 
-def test_tip_not_below_base():
+def test_a_chain_up_the_tree_is_the_inverse_of_the_chain_down():
+    """From any link to any link: panda_link5 -> panda_link2 walks joints 5, 4, 3 against their direction,
+    and its motor is the reverse of link2 -> link5's at the same joint values."""
+    from gagen.algebra.signature import cga3d
+    from gagen.interp import MultiVector
+    from gagen.model import kinematics as K
+
+    down = load_chain(PANDA, "panda_link2", "panda_link5")
+    up = load_chain(PANDA, "panda_link5", "panda_link2")
+    assert K.chain_variables(up) == ["panda_joint5", "panda_joint4", "panda_joint3"]
+    assert [j.name for j in up if not j.moves] == [f"panda_joint{k}_inverse" for k in (5, 4, 3)]
+    like = MultiVector.zero(cga3d())
+    q = [0.3, -1.1, 0.7]
+    forward, _ = K.chain_kinematics(like, down, q)
+    backward, _ = K.chain_kinematics(like, up, q[::-1])
+    product = forward * backward
+    assert abs(product["1"]) == pytest.approx(1.0, abs=1e-14)
+    assert max(abs(product[b]) for b in ("e12", "e13", "e23", "e1inf", "e2inf", "e3inf")) <= 1e-14
+
+
+def test_links_of_two_trees_are_not_connected(tmp_path):
+    path = tmp_path / "two.urdf"
+    path.write_text('<robot name="r"><link name="a"/><link name="b"/><link name="c"/><link name="d"/>'
+                    '<joint name="j1" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>'
+                    '</joint><joint name="j2" type="revolute"><parent link="c"/><child link="d"/>'
+                    '<axis xyz="0 0 1"/></joint></robot>')
     with pytest.raises(SpecError) as e:
-        load_chain(PANDA, "panda_link5", "panda_link2")
-    assert e.value.field == "tip_link" and "not below" in e.value.message
+        load_chain(path, "b", "d")
+    assert e.value.field == "tip_link" and "not connected" in e.value.message
 
 
 def test_zero_axis(tmp_path):

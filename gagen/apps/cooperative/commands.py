@@ -94,6 +94,9 @@ def _impedance(args: argparse.Namespace) -> int:
 
 
 def _mpc_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("system", nargs="?", default="three_pandas_circle",
+                        help="a system spanning a circle: a spec file or a bundled one (default "
+                             "three_pandas_circle)")
     parser.add_argument("--out", type=Path, default=Path("plots/mpc"),
                         help="folder for the report, plots and GIF (default plots/mpc/)")
     parser.add_argument("--rate", type=positive_float, default=100.0, help="control rate in Hz (default 100)")
@@ -105,7 +108,11 @@ def _mpc_arguments(parser: argparse.ArgumentParser) -> None:
 def _mpc(args: argparse.Namespace) -> int:
     from gagen.apps.cooperative.mpc_demo import run_command
 
-    return run_command(args)
+    try:  # not a circle, no such system, a malformed spec: one line
+        return run_command(args)
+    except ValueError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
 
 
 def _teleop_arguments(parser: argparse.ArgumentParser) -> None:

@@ -24,7 +24,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from gagen.apps.cooperative.bundled import bundled_systems, ready_configuration, system_module
 from gagen.check import joint_limits
 from gagen.control.mpc import MPCRun, run
 from gagen.control.ocp import target_from, target_primitive
@@ -40,10 +39,17 @@ GROWTH = 0.1  # relative radius change
 PERIOD = 4.0  # s
 
 
-def setup() -> tuple[GeneratedModule, NDArray[np.float64], Any]:
-    """The module, the start configuration and the moving target t -> V_Sd(t)."""
-    module = system_module(SYSTEM)
-    q0 = np.array(ready_configuration(bundled_systems()[SYSTEM]), dtype=float)
+def setup(system: str = SYSTEM) -> tuple[GeneratedModule, NDArray[np.float64], Any]:
+    """The module, the start configuration (the spec's ``ready``) and the moving target t -> V_Sd(t) of a
+    system spanning a circle: a bundled name or a spec file (a ValueError for another primitive)."""
+    from gagen.apps.cooperative.scenarios import module as module_of
+    from gagen.apps.cooperative.scenarios import ready, system_of
+
+    kind = system_of(system).kind
+    if kind != "circle":  # before anything is built
+        raise ValueError(f"{system}: the MPC demo tracks a moving circle; this system spans a {kind}")
+    module = module_of(system)
+    q0 = ready(system)
     start = np.array(module.c.similarity(q0)[0])
 
     def target(t: float) -> NDArray[np.float64]:
@@ -63,11 +69,11 @@ def circle_of(points: NDArray[np.float64]) -> tuple[NDArray[np.float64], float, 
     return found
 
 
-def report(result: MPCRun, rate: float) -> str:
+def report(result: MPCRun, rate: float, system: str = SYSTEM) -> str:
     times = result.solve_time * 1e3
     settled = result.tracking_error[len(result.tracking_error) // 4:]
     return "\n".join([
-        "# Cooperative MPC: three Pandas tracking a moving circle", "",
+        f"# Cooperative MPC: {Path(system).stem} tracking a moving circle", "",
         f"{len(result.u)} ticks at {rate:g} Hz, warm-started iLQR over a 0.2 s horizon (N = 50)",
         "",
         "| what | value |", "|---|---:|",
@@ -159,13 +165,16 @@ def animate(module: GeneratedModule, result: MPCRun, target: Any, path: Path, fp
 
 def run_command(args: argparse.Namespace) -> int:
     """``gagen mpc`` on its parsed arguments (``gagen.apps.cooperative.commands``)."""
-    module, q0, target = setup()
-    limits = joint_limits(bundled_systems()[SYSTEM])[:2]
+    from gagen.apps.cooperative.scenarios import system_of
+
+    module, q0, target = setup(args.system)
+    loaded = system_of(args.system)
+    limits = joint_limits(loaded)[:2]
     result = run(module.c.task, target, q0, rate=args.rate, duration=args.duration, limits=limits,
                  progress=lambda t: print(f"  t = {t:.1f} s", flush=True))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    text = report(result, args.rate)
+    text = report(result, args.rate, args.system)
     (out / "mpc_report.md").write_text(text)
     figure(module, result, target).savefig(out / "mpc.png", dpi=100)
     print(text + f"wrote {out / 'mpc_report.md'}, {out / 'mpc.png'}")
@@ -174,5 +183,5 @@ def run_command(args: argparse.Namespace) -> int:
     if args.view:
         from gagen.viewer.scene import Scene, serve
 
-        serve(Scene(bundled_systems()[SYSTEM], result.q[0], port=args.port), [("MPC", result.t, result.q)])
+        serve(Scene(loaded, result.q[0], port=args.port), [("MPC", result.t, result.q)])
     return 0

@@ -76,6 +76,11 @@ def _loaded(system: str) -> tuple[System, dict[str, list[float]]]:
     return load_system(spec_of(system))
 
 
+def system_of(system: str) -> System:
+    """The loaded ``System`` of a bundled name or a spec file."""
+    return _loaded(system)[0]
+
+
 @cache
 def module(system: str) -> GeneratedModule:
     """The generated module of ``system``, built on first use (``gagen.modules``)."""
