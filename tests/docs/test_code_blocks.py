@@ -112,7 +112,7 @@ def marks(block: Block) -> list[pytest.MarkDecorator]:
         return [pytest.mark.compiling, pytest.mark.slow]
     tier = [pytest.mark.slow] if block.full else []
     modules = set(re.findall(r"generated[./]([A-Za-z_][A-Za-z0-9_]*)", block.code))
-    if "gagen.compile(" in block.code or modules - CHEAP_MODULES:
+    if any(call in block.code for call in ("gagen.compile(", "bundled_module(")) or modules - CHEAP_MODULES:
         tier.append(pytest.mark.compiling)
     return tier
 

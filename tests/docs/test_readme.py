@@ -39,3 +39,9 @@ def test_the_readme_links_into_the_docs():
     for page in re.findall(r"\]\((docs/[^)#]+)", README):
         assert (ROOT / page).exists(), page
     assert "docs/images/" in README
+
+
+def test_the_getting_started_page_has_the_same_commands():
+    """docs/index.md repeats the two commands: the same lines as the README's."""
+    page = (ROOT / "docs" / "index.md").read_text().splitlines()
+    assert all(command in page for command in readme_commands())

@@ -106,3 +106,41 @@ def test_gains_are_validated():
         Gains(damping=(-1.0,) * 7)
     with pytest.raises(ValueError, match="posture_damping must be finite and >= 0"):
         Gains(posture_damping=float("nan"))
+
+
+def _my_iiwas(folder):
+    from gagen.registry import bundled_specs
+
+    circle = bundled_specs("cooperative")["three_iiwas_circle"]
+    mine = folder / "my_iiwas.yaml"
+    mine.write_text(circle.read_text().replace("name: three_iiwas_circle", "name: my_iiwas")
+                    .replace("urdf: iiwa14/", f"urdf: {circle.parent}/iiwa14/"))
+    return mine
+
+
+def test_impedance_names_a_spec_without_inertials_before_building(tmp_path, capsys):
+    """A spec whose URDF has no inertials (the LEAP hand's) is one line and exit status 2; a user's spec
+    starts from its ready configuration (the paper's three iiwa systems from its q0)."""
+    from gagen.apps.cooperative.impedance_demo import ARM_REST, start
+    from gagen.cli import main
+    from gagen.registry import bundled_specs
+    from gagen.robots.spec import load_system
+
+    mine = _my_iiwas(tmp_path)
+    np.testing.assert_array_equal(start(str(mine)), load_system(mine)[1]["ready"])
+    np.testing.assert_array_equal(start("three_iiwas_circle"), np.tile(ARM_REST, 3))
+    assert main(["impedance", str(bundled_specs("cooperative")["leap_hand_sphere"]), "--runs", "1",
+                 "--duration", "0.01", "--out", str(tmp_path / "leap")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: ") and "leap" in err[0]
+    assert not (tmp_path / "leap").exists()
+
+
+@pytest.mark.compiling
+def test_impedance_runs_on_a_users_spec(tmp_path, capsys):
+    from gagen.cli import main
+
+    out = tmp_path / "plots"
+    main(["impedance", str(_my_iiwas(tmp_path)), "--runs", "1", "--duration", "0.05", "--out", str(out)])
+    report = (out / "impedance_report.md").read_text()
+    assert "| my_iiwas | tuned |" in report.replace(str(tmp_path) + "/", "").replace(".yaml", "")

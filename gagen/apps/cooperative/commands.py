@@ -73,6 +73,10 @@ def _nullspace(args: argparse.Namespace) -> int:
 
 
 def _impedance_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("system", nargs="*", help="systems (spec files whose URDFs carry inertials, or "
+                        "bundled ones) to run with the tuned gains from their ready configuration "
+                        "(default: the paper's three iiwa 14 on a circle, paper and tuned gains, and on a "
+                        "plane)")
     parser.add_argument("--out", type=Path, default=Path("plots/impedance"),
                         help="folder for the plot and the report (default plots/impedance/)")
     parser.add_argument("--runs", type=positive_int, default=10, help="random starts per case (default 10)")
@@ -84,11 +88,10 @@ def _impedance_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _impedance(args: argparse.Namespace) -> int:
     from gagen.apps.cooperative.impedance_demo import run_command
-    from gagen.dynamics.rigid_body import DynamicsError
 
-    try:  # a missing Pinocchio or a degenerate run as one line, not a traceback
+    try:  # a missing Pinocchio, a URDF without inertials, a degenerate run: one line, not a traceback
         return run_command(args)
-    except DynamicsError as e:
+    except ValueError as e:  # DynamicsError, SpecError, an unknown system
         print(f"error: {e}", file=sys.stderr)
         return 2
 

@@ -31,7 +31,6 @@ from typing import Any
 
 import numpy as np
 
-from gagen.apps.cooperative.bundled import ROBOTS, system_module
 from gagen.check import joint_limits
 from gagen.control.differential import CONTROLLABLE_DIMENSION
 from gagen.control.impedance import Gains, ImpedanceController, Run, random_starts, simulate
@@ -67,14 +66,24 @@ class Result:
         return max(float(np.max(np.diff(run.energy))) for run in self.runs)
 
 
+def start(system: str) -> np.ndarray:
+    """q0 of a system: the paper's for its three iiwa systems [COOP Section 4.1], else the spec's ready."""
+    from gagen.apps.cooperative.scenarios import ready
+
+    return np.tile(ARM_REST, 3) if system in SYSTEMS.values() else ready(system)
+
+
 def controller(system: str, gains: Gains) -> tuple[ImpedanceController, np.ndarray]:
-    """The controller of a three-iiwa system with V_Sd = V_Sc(q0), and q0."""
-    module = system_module(system)
-    dynamics = SystemDynamics(ROBOTS / f"{system}.yaml")
-    q0 = np.tile(ARM_REST, 3)
-    target, _, _ = module.c.similarity(q0)
-    rank = CONTROLLABLE_DIMENSION[module.manifest["primitive"]]
-    return ImpedanceController(module, dynamics, target, gains, q0, rank), q0
+    """The controller of a system (a bundled name or a spec file whose URDFs carry inertials) with
+    V_Sd = V_Sc(q0), and q0 (``start``)."""
+    from gagen.apps.cooperative.scenarios import module, spec_of
+
+    dynamics = SystemDynamics(spec_of(system))  # before building: a URDF without inertials is refused here
+    built = module(system)
+    q0 = start(system)
+    target, _, _ = built.c.similarity(q0)
+    rank = CONTROLLABLE_DIMENSION[built.manifest["primitive"]]
+    return ImpedanceController(built, dynamics, target, gains, q0, rank), q0
 
 
 def run_all(system: str, gains_name: str, count: int = COUNT, spread: float = SPREAD,
@@ -132,23 +141,24 @@ def report(results: Sequence[Result], duration: float) -> str:
 def run_command(args: argparse.Namespace) -> int:
     """``gagen impedance`` on its parsed arguments (``gagen.apps.cooperative.commands``)."""
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    cases = [("circle", "paper"), ("circle", "tuned"), ("plane", "tuned")]
+    cases = [(SYSTEMS["circle"], "paper"), (SYSTEMS["circle"], "tuned"), (SYSTEMS["plane"], "tuned")] \
+        if not args.system else [(system, "tuned") for system in args.system]
     results = []
-    for kind, gains in cases:
-        print(f"{SYSTEMS[kind]} with the {gains} gains:", flush=True)
-        results.append(run_all(SYSTEMS[kind], gains, args.runs, args.spread, args.duration))
+    for system, gains in cases:
+        print(f"{system} with the {gains} gains:", flush=True)
+        results.append(run_all(system, gains, args.runs, args.spread, args.duration))
+    out.mkdir(parents=True, exist_ok=True)  # after the runs: a system refused leaves nothing behind
     figure(results).savefig(out / "impedance.png", dpi=100)
     text = report(results, args.duration)
     (out / "impedance_report.md").write_text(text)
     print(text + f"wrote {out / 'impedance.png'} and {out / 'impedance_report.md'}")
-    if args.view:  # the circle's first run with either gains, in a loop until Ctrl-C (gagen.viewer)
-        from gagen.apps.cooperative.bundled import bundled_systems
+    if args.view:  # the first system's first run with either gains, in a loop until Ctrl-C (gagen.viewer)
+        from gagen.apps.cooperative.scenarios import system_of
         from gagen.viewer.scene import Scene, serve
 
-        circle = [r for r in results if r.system == SYSTEMS["circle"]]
+        first = [r for r in results if r.system == results[0].system]
         every = 20  # 50 frames per second of the 1 kHz runs
-        played = [(f"{r.gains} gains", r.runs[0].times[::every], r.runs[0].q[::every]) for r in circle]
-        serve(Scene(bundled_systems()[SYSTEMS["circle"]], played[0][2][0], port=args.port), played)
+        played = [(f"{r.gains} gains", r.runs[0].times[::every], r.runs[0].q[::every]) for r in first]
+        serve(Scene(system_of(results[0].system), played[0][2][0], port=args.port), played)
     tuned = [r for r in results if r.gains == "tuned"]
     return 0 if all(max(r.final_errors) < CONVERGED for r in tuned) else 1
