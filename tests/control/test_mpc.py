@@ -69,7 +69,7 @@ def test_mpc_takes_a_users_circle_spec_and_refuses_another_primitive(tmp_path, c
     assert main(["mpc", str(point), "--duration", "0.1", "--no-animation", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "tracks a moving circle; this system spans a point" in err[0]
-    module, q0, target = setup(str(bundled["three_pandas_circle"]))
+    _, q0, target = setup(str(bundled["three_pandas_circle"]))
     reference = setup()
     np.testing.assert_array_equal(q0, reference[1])
     np.testing.assert_array_equal(target(0.7), reference[2](0.7))
