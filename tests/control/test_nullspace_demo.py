@@ -106,3 +106,19 @@ def test_main_prints_the_final_numbers(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "projected" in out and "not projected" in out and "similarity distance max" in out
     assert _png_size(tmp_path / nd.PLOT_NAME) == (1200, 800)
+
+
+def test_the_demo_takes_a_users_circle_spec_and_refuses_another_primitive(tmp_path, capsys):
+    """``gagen nullspace SPEC``: a spec spanning a point is one line and exit status 2 before anything is
+    built; the bundled three-Panda circle's own spec file gives the bundled run exactly."""
+    from gagen.apps.cooperative import nullspace_demo
+    from gagen.cli import main
+    from gagen.registry import bundled_specs
+
+    bundled = bundled_specs("cooperative")
+    assert main(["nullspace", str(bundled["panda_point"]), "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "moves a point along its circle; this system spans a point" in err[0]
+    by_path = nullspace_demo.run(True, steps=3, system=str(bundled["three_pandas_circle"]))
+    by_name = nullspace_demo.run(True, steps=3)
+    np.testing.assert_array_equal(by_path.q, by_name.q)

@@ -57,6 +57,9 @@ def _reach(args: argparse.Namespace) -> int:
 
 
 def _nullspace_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("system", nargs="?", default="three_pandas_circle",
+                        help="a system spanning a circle: a spec file or a bundled one (default "
+                             "three_pandas_circle); its first chain moves")
     parser.add_argument("--out", type=Path, default=Path("plots"), help="folder for the plot (default "
                                                                         "plots/)")
     parser.add_argument("--steps", type=positive_int, default=400, help="RK4 steps (default 400)")
@@ -69,7 +72,11 @@ def _nullspace_arguments(parser: argparse.ArgumentParser) -> None:
 def _nullspace(args: argparse.Namespace) -> int:
     from gagen.apps.cooperative.nullspace_demo import run_command
 
-    return run_command(args)
+    try:  # not a circle, no such system, a malformed spec: one line
+        return run_command(args)
+    except ValueError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
 
 
 def _impedance_arguments(parser: argparse.ArgumentParser) -> None:

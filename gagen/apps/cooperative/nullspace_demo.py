@@ -43,14 +43,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from gagen.apps.cooperative.bundled import bundled_systems, ready_configuration, system_module
 from gagen.control.differential import damped_pseudo_inverse, nullspace_projector
-from gagen.robots.points import end_points
+from gagen.robots.points import chain_kernels, end_points
 from gagen.runtime import GeneratedModule
 
 SYSTEM = "three_pandas_circle"
-ARMS = 3
-ARM_DOF = 7
 TARGET_ANGLE = np.pi / 3
 """The target is the initial circle's point at this angle from arm0's point (toward arm1)."""
 DEFAULT_STEPS = 400
@@ -62,12 +59,16 @@ ArrayLike3 = Sequence[float] | NDArray[np.float64]
 
 
 @cache
-def module() -> GeneratedModule:
-    return system_module(SYSTEM)
+def module(system: str = SYSTEM) -> GeneratedModule:
+    from gagen.apps.cooperative.scenarios import module as module_of
+
+    return module_of(system)
 
 
-def ready() -> NDArray[np.float64]:
-    return np.array(ready_configuration(bundled_systems()[SYSTEM]), dtype=float)
+def ready(system: str = SYSTEM) -> NDArray[np.float64]:
+    from gagen.apps.cooperative.scenarios import ready as ready_of
+
+    return ready_of(system)
 
 
 # -- geometry ----------------------------------------------------------------------------------------
@@ -146,13 +147,16 @@ class DemoResult:
 
 def secondary_velocity(m: GeneratedModule, q: NDArray[np.float64], target: NDArray[np.float64],
                        gain: float) -> NDArray[np.float64]:
-    """q̇_sec = [J_p,0⁺ k (p_target − p_0); 0; 0] (21,): arm0's resolved-rate step toward the target."""
-    outputs = m.c.arm0_jacobians(q[:ARM_DOF])  # M, P, J_S, J_b, J_A, J_P, L, J_L
+    """q̇_sec = [J_p,0⁺ k (p_target − p_0); 0; …]: the first chain's resolved-rate step toward the target
+    (its joints' entries of q; the rest zero)."""
+    name, indices = chain_kernels(m.manifest)[0]  # the first chain's <chain>_fk and its joints in q
+    jacobians = getattr(m.c, name.removesuffix("_fk") + "_jacobians")
+    outputs = jacobians(q[indices])  # M, P, J_S, J_b, J_A, J_P, L, J_L
     P, J_P = np.array(outputs[1]), np.array(outputs[5])
     p = P[1:4] / P[0]
     J_p = J_P[1:4] / P[0]  # rows e1 e2 e3; the e0 weight is the constant 1
     velocity = np.zeros(q.shape[0])
-    velocity[:ARM_DOF] = damped_pseudo_inverse(J_p) @ (gain * (target - p))
+    velocity[indices] = damped_pseudo_inverse(J_p) @ (gain * (target - p))
     return velocity
 
 
@@ -167,13 +171,20 @@ def velocity(m: GeneratedModule, q: NDArray[np.float64], target: NDArray[np.floa
 
 
 def run(projected: bool, *, steps: int = DEFAULT_STEPS, dt: float = DEFAULT_DT, gain: float = DEFAULT_GAIN,
-        angle: float = TARGET_ANGLE, q0: ArrayLike3 | None = None) -> DemoResult:
+        angle: float = TARGET_ANGLE, q0: ArrayLike3 | None = None, system: str = SYSTEM) -> DemoResult:
     """Integrate q̇ = f(q) (see ``velocity``) from ``q0`` (default: ready) with ``steps`` RK4 steps of
-    ``dt`` seconds; the target is the initial circle's point ``angle`` from arm0's point."""
+    ``dt`` seconds; the target is the initial circle's point ``angle`` from the first chain's point.
+    ``system``: a bundled name or a spec file of a system spanning a circle (a ValueError otherwise)."""
     if steps < 1 or dt <= 0 or gain <= 0:
         raise ValueError("need steps >= 1, dt > 0 and gain > 0")
-    m = module()
-    q = ready() if q0 is None else np.array(q0, dtype=float)
+    from gagen.apps.cooperative.scenarios import system_of
+
+    kind = system_of(system).kind
+    if kind != "circle":  # before anything is built
+        raise ValueError(f"{system}: the nullspace demo moves a point along its circle; this system spans a "
+                         f"{kind}")
+    m = module(system)
+    q = ready(system) if q0 is None else np.array(q0, dtype=float)
     V_Sd = np.array(m.c.similarity(q)[0])
     start = end_points(m, q)
     circle = circumcircle(*start)
@@ -268,7 +279,8 @@ def plot(results: Sequence[DemoResult], out_folder: str | Path, name: str = PLOT
 # -- command line ------------------------------------------------------------------------------------
 def run_command(args: argparse.Namespace) -> int:
     """``gagen nullspace`` on its parsed arguments (``gagen.apps.cooperative.commands``)."""
-    results = [run(projected, steps=args.steps, dt=args.dt, gain=args.gain) for projected in (True, False)]
+    results = [run(projected, steps=args.steps, dt=args.dt, gain=args.gain, system=args.system)
+               for projected in (True, False)]
     c = results[0].circle
     print(f"initial circle: centre {np.round(c.centre, 4)}, radius {c.radius:.4f} m, "
           f"normal {np.round(c.normal, 4)}")
@@ -281,8 +293,9 @@ def run_command(args: argparse.Namespace) -> int:
               f"off circle max {r.circle_distance.max():.3e} m")
     print(f"plot: {plot(results, args.out)}")
     if args.view:  # the two runs one after the other, in a loop, until Ctrl-C (gagen.viewer)
+        from gagen.apps.cooperative.scenarios import system_of
         from gagen.viewer.scene import Scene, serve
 
-        serve(Scene(bundled_systems()[SYSTEM], results[0].q[0], port=args.port),
+        serve(Scene(system_of(args.system), results[0].q[0], port=args.port),
               [(r.label, r.t, r.q) for r in results])
     return 0
