@@ -183,6 +183,27 @@ def _check_names(source: ModuleSource) -> None:
         check_identifier(f"{source.name}_{kernel.name}", "C function name", origin, "kernels")
         for port in (*kernel.inputs, *kernel.outputs):
             check_identifier(port.name, f"port name of kernel {kernel.name}", origin, "kernels")
+    _check_clashes(source)
+
+
+def _check_clashes(source: ModuleSource) -> None:
+    """No two kernels whose names differ only in case (files of one folder on a case-insensitive disk)
+    and no global name a backend defines for one kernel equal to one it defines for another (``f`` and
+    ``f_batch``: ``<module>_f_batch`` twice): one line naming both, before anything is written."""
+    origin = source.source_name
+    seen: dict[str, str] = {}  # symbol -> the kernel that defines it
+    lowered: dict[str, str] = {}  # kernel name in lower case -> the kernel
+    for kernel in source.kernels:
+        other = lowered.setdefault(kernel.lower(), kernel)
+        if other != kernel:
+            raise SpecError(origin, "kernels", f"kernels {other!r} and {kernel!r} differ only in case: their "
+                                               "files would collide on a case-insensitive disk; rename one")
+        for backend in select():
+            for symbol in backend.symbols(source.name, kernel):
+                owner = seen.setdefault(symbol, kernel)
+                if owner != kernel:
+                    raise SpecError(origin, "kernels", f"kernels {owner!r} and {kernel!r} both define the "
+                                                       f"{backend.name} symbol {symbol}; rename one")
 
 
 def _merge(into: dict[str, Any], entries: dict[str, Any], what: str) -> None:

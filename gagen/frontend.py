@@ -43,10 +43,13 @@ kernel's reference for ``gagen build --check`` and the tests.
 from __future__ import annotations
 
 import ast
+import builtins
+import difflib
 import hashlib
 import importlib.util
 import inspect
 import sys
+import traceback
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -223,6 +226,34 @@ def _is_numeric_scalar(value: Any) -> bool:
 def _kind_of(value: Any) -> str:
     return type(value).__name__
 
+
+
+def _where(fn: Callable[..., Any], error: BaseException) -> str:
+    """``file:line: `` of the deepest frame of the error in the file that defines ``fn`` (the user's line
+    that failed, not gagen's), or nothing when the error did not pass through that file."""
+    filename = getattr(getattr(fn, "__code__", None), "co_filename", None)
+    found = ""
+    for frame, line in traceback.walk_tb(error.__traceback__):
+        if frame.f_code.co_filename == filename:
+            found = f"{filename}:{line}: "
+    return found
+
+
+def _suggestion(error: BaseException) -> str:
+    """``; did you mean 'sandwich'?`` for a misspelt attribute or name, from what the object (or the
+    function's globals and the builtins) has."""
+    name = getattr(error, "name", None)
+    if not isinstance(name, str):
+        return ""
+    if isinstance(error, AttributeError) and hasattr(error, "obj"):
+        candidates = [a for a in dir(error.obj) if not a.startswith("_")]
+    elif isinstance(error, NameError) and error.__traceback__ is not None:
+        frame = list(traceback.walk_tb(error.__traceback__))[-1][0]
+        candidates = [*frame.f_locals, *frame.f_globals, *dir(builtins)]
+    else:
+        return ""
+    close = difflib.get_close_matches(name, candidates, n=1)
+    return f"; did you mean {close[0]!r}?" if close else ""
 
 class KernelFunction:
     """A Python function declared as a kernel. Calling it calls the function; ``trace()`` gives the
@@ -444,7 +475,8 @@ class KernelFunction:
             raise
         except Exception as e:
             raise self._error(f"on the {path}",
-                              f"the function raised {type(e).__name__}: {e}") from e
+                              f"{_where(self.fn, e)}the function raised {type(e).__name__}: {e}"
+                              f"{_suggestion(e)}") from e
 
     def _named_results(self, result: Any) -> list[tuple[str, Any]]:
         if isinstance(result, Mapping):

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from gagen.arguments import port
-from gagen.registry import Verb
+from gagen.registry import Verb, bundled_specs
 from gagen.viewer import DEFAULT_PORT
 
 if TYPE_CHECKING:
@@ -45,7 +45,8 @@ def size(text: str) -> tuple[int, int]:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("system", help="a bundled system (e.g. three_pandas_circle) or a spec file")
+    parser.add_argument("system", help="a spec file, or a bundled system: "
+                        + ", ".join(bundled_specs("cooperative")))
     parser.add_argument("--q", help="the joint vector, comma-separated (default: the ready configuration)")
     parser.add_argument("--configuration", default="ready", help="a configuration named in the spec")
     parser.add_argument("--png", type=Path, help="render headless to this PNG and exit (needs Chromium)")

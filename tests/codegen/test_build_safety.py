@@ -34,6 +34,7 @@ from gagen.build import build, build_key
 from gagen.cli import main
 from gagen.codegen.backends import BACKENDS
 from gagen.codegen.backends.c import library
+from gagen.errors import SpecError
 from gagen.robots.spec import load_system
 from gagen.robots.system import Chain, System
 
@@ -520,3 +521,21 @@ def test_the_build_key_covers_every_template_and_stays_out_of_the_files(tmp_path
     for path in out.rglob("*"):
         if path.is_file() and path.name != ".build-key":
             assert result.key[:12] not in path.name and result.key[:12].encode() not in path.read_bytes()
+
+
+@pytest.mark.parametrize(("names", "message"), [
+    (("f", "f_batch"), "kernels 'f' and 'f_batch' both define the c symbol clash_f_batch; rename one"),
+    (("g_argv", "g"), "kernels 'g_argv' and 'g' both define the c symbol clash_g_argv; rename one"),
+    (("pose", "Pose"), "kernels 'pose' and 'Pose' differ only in case"),
+])
+def test_kernel_names_that_collide_in_c_are_one_line_before_anything_is_written(tmp_path, names, message):
+    """Names that pass every identifier check but collide in the generated C (a suffix the C backend adds)
+    or in a case-insensitive folder: refused naming both, nothing written (gcc never sees them)."""
+    kernels = "\n".join(f"@gagen.kernel(algebra='cga3d')\ndef {n}(X: point):\n    return {{'Y': X}}\n"
+                        for n in names)
+    user = tmp_path / "clash.py"
+    user.write_text("import gagen\nfrom gagen.kinds import point\n\n" + kernels)
+    out = tmp_path / "out"
+    with pytest.raises(SpecError, match=re.escape(message)):
+        build(user, out, compile_c=False, **QUIET)
+    assert not out.exists()

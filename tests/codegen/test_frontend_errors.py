@@ -126,6 +126,27 @@ def test_function_that_raises() -> None:
     assert isinstance(e.__cause__, ValueError)
 
 
+
+def test_a_misspelt_name_in_the_users_function_names_its_line_and_the_nearest_name() -> None:
+    """The user's file and line (not gagen's) and the nearest name: a method of the multivector, a name of
+    the function's module or a builtin."""
+    import inspect
+
+    def moved(M: "motor", X: "point"):
+        return {"Y": M.sandwhich(X)}
+
+    line = inspect.getsourcelines(moved)[1] + 1
+    e = _error(lambda: gagen.kernel(algebra="cga3d")(moved))
+    _assert_parts(e, "moved", "on the compiler", f"{__file__}:{line}: ", "AttributeError",
+                  "'sandwhich'; did you mean 'sandwich'?")
+
+    def scaled(X: "point"):
+        return {"Y": X * flaot(2)}
+
+    e = _error(lambda: gagen.kernel(algebra="cga3d")(scaled))
+    _assert_parts(e, "scaled", "on the compiler", "NameError", "did you mean 'float'?")
+    assert f"{__file__}:{inspect.getsourcelines(scaled)[1] + 1}: " in e.expected
+
 def test_function_that_reads_a_missing_blade() -> None:
     def f(X: "point"):
         return X["e7"]

@@ -83,7 +83,9 @@ class Backend:
       files (none by default) and how (raising ``CompileError`` / ``CompilerNotFound``). Compiled
       files are not listed in the manifest; their names carry the module tag;
     - ``open(module)``: a handle the module keeps (a loaded library), after compiling what is missing;
-    - ``load(module, kernel)``: the object ``module.<namespace>.<kernel>`` hands out.
+    - ``load(module, kernel)``: the object ``module.<namespace>.<kernel>`` hands out;
+    - ``symbols(module, kernel)``: the global names it defines for a kernel (C functions), which the
+      build holds unique across the module's kernels before anything is written.
     """
 
     name: str = ""
@@ -97,6 +99,9 @@ class Backend:
 
     def artefacts(self, folder: Path, manifest: Mapping[str, Any]) -> list[Path]:
         return []
+
+    def symbols(self, module: str, kernel: str) -> tuple[str, ...]:
+        return ()
 
     def compile(self, folder: Path, manifest: Mapping[str, Any]) -> None:
         return None

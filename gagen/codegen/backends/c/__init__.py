@@ -66,8 +66,16 @@ def library(manifest: Mapping[str, Any]) -> str:
     return library_name(f"{module_name(manifest)}_{module_tag(manifest)}")
 
 
+# the C functions each kernel's files define, after <module>_<kernel> (kernels.c.j2, simd.c.j2)
+KERNEL_SUFFIXES = ("", "_argv", "_batch", "_batch_argv", "_batch_columns", "_batch_columns_argv",
+                   "_columns_from", "_block", "_block_columns")
+
+
 class CBackend(Backend):
     name = "c"
+
+    def symbols(self, module: str, kernel: str) -> tuple[str, ...]:
+        return tuple(f"{module}_{kernel}{suffix}" for suffix in KERNEL_SUFFIXES)
     namespace = "c"
     templates = Path(__file__).with_name("templates")
 
