@@ -82,7 +82,8 @@ TOP_KEYS = ("app", "name", "primitive", "chains", "configurations", "goals", "sn
 CHAIN_KEYS = ("name", "robot", "base", "tool", "urdf", "base_link", "tip_link", "joints")
 URDF_KEYS = ("urdf", "base_link", "tip_link")
 PLACEMENT_KEYS = ("xyz", "rpy")
-JOINT_KEYS = ("name", "type", "axis", "xyz", "rpy")
+JOINT_KEYS = ("name", "type", "axis", "xyz", "rpy", "mimic")
+MIMIC_KEYS = ("joint", "multiplier", "offset")
 
 
 def _placement(spec: Document, value: Any, field: str, name: str) -> Joint:
@@ -111,7 +112,33 @@ def _explicit_joint(spec: Document, value: Any, field: str) -> Joint:
                                           f"direction")
     return Joint(name, kind, vector(spec, value.get("xyz"), f"{field}.xyz", (0.0, 0.0, 0.0)),
                  vector(spec, value.get("rpy"), f"{field}.rpy", (0.0, 0.0, 0.0), MAX_ANGLE),
-                 (axis[0] / norm, axis[1] / norm, axis[2] / norm) if norm else axis)
+                 (axis[0] / norm, axis[1] / norm, axis[2] / norm) if norm else axis,
+                 _mimic(spec, value, field, name, kind))
+
+
+def _mimic(spec: Document, value: dict[Any, Any], field: str, name: str,
+           kind: str) -> tuple[str, float, float] | None:
+    """``mimic: {joint: LEADER, multiplier: 1, offset: 0}`` of an explicit joint, as a URDF's <mimic>: the
+    joint turns by multiplier·q_leader + offset and has no entry of its own in q."""
+    if "mimic" not in value:
+        return None
+    where, mimic = f"{field}.mimic", value["mimic"]
+    if not isinstance(mimic, dict):
+        raise spec.error(where, f"got {show(mimic)}; expected a mapping with joint, multiplier, offset")
+    known_keys(spec, mimic, where, MIMIC_KEYS)
+    if kind == "fixed":
+        raise spec.error(where, "a fixed joint cannot mimic another; give it a type that moves")
+    leader = require(spec, mimic, "joint", f"{where}.joint", str, "the leader joint's name")
+    label(spec, leader, f"{where}.joint", "a joint name")
+    if leader == name:
+        raise spec.error(f"{where}.joint", f"got {show(leader)}; a joint cannot mimic itself")
+    numbers = []
+    for key, default in (("multiplier", 1.0), ("offset", 0.0)):
+        v = mimic.get(key, default)
+        if not number(v, MAX_COORDINATE):
+            raise spec.error(f"{where}.{key}", f"got {show(v)}; expected a finite number")
+        numbers.append(float(v))
+    return leader, numbers[0], numbers[1]
 
 
 def _chain(spec: Document, value: Any, field: str, snap: bool = True) -> Chain:

@@ -310,3 +310,33 @@ def test_a_fixed_joint_s_mimic_is_ignored(tmp_path):
                     '<origin xyz="0 0 0.1"/><mimic joint="j1" multiplier="-1"/></joint></robot>')
     joints = load_chain(path, "a", "c")
     assert [(j.name, j.kind, j.mimic) for j in joints] == [("j1", "revolute", None), ("j2", "fixed", None)]
+
+
+def test_an_explicit_spec_joint_mimics_another(tmp_path):
+    """``mimic: {joint, multiplier, offset}`` in a spec's explicit joints, as a URDF's <mimic>: one joint
+    variable drives both; the end point equals that of the two-variable chain at (q, 2 q − 0.1)."""
+    from gagen.model.kinematics import Joint, chain_kinematics, end_point
+    from gagen.robots.spec import load_system
+
+    def spec(mimic: str) -> Path:
+        path = tmp_path / "fingers.yaml"
+        path.write_text("name: fingers\nprimitive: point\nchains:\n  - name: finger\n    joints:\n"
+                        "      - {name: j1, type: revolute, axis: [0, 0, 1], xyz: [0.1, 0, 0]}\n"
+                        f"      - {{name: j2, type: revolute, axis: [0, 0, 1], xyz: [0.1, 0, 0]{mimic}}}\n"
+                        "      - {name: tip, type: fixed, xyz: [0.05, 0, 0]}\n")
+        return path
+
+    system, _ = load_system(spec(", mimic: {joint: j1, multiplier: 2, offset: -0.1}"))
+    assert system.dof == 1 and system.joint_keys == [("finger", "j1")]
+    joints = system.chains[0].joints
+    free = [joints[0], Joint("j2", "revolute", (0.1, 0.0, 0.0)), joints[2]]
+    for q in (0.0, 0.4, -1.3):
+        mimicked = end_point(chain_kinematics(LIKE, joints, [q])[0])
+        reference = end_point(chain_kinematics(LIKE, free, [q, 2 * q - 0.1])[0])
+        assert np.allclose(mimicked.coeffs, reference.coeffs, rtol=0, atol=1e-14)
+    with pytest.raises(SpecError, match=r"chains\[0\]\.joints\[1\]\.mimic\.multiplier \(line 7\): got .x."):
+        load_system(spec(", mimic: {joint: j1, multiplier: x}"))
+    with pytest.raises(SpecError, match="a joint cannot mimic itself"):
+        load_system(spec(", mimic: {joint: j2}"))
+    with pytest.raises(SpecError, match=r"mimic\.joint \(line 7\): got 5; expected the leader"):
+        load_system(spec(", mimic: {joint: 5}"))
