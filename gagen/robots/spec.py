@@ -15,6 +15,7 @@ A spec::
       - name: finger
         joints:                        # explicit joints instead of a URDF
           - {name: j1, type: revolute, axis: [0, 0, 1], xyz: [0, 0, 0.1], rpy: [0, 0, 0]}
+          - {name: j2, type: revolute, axis: [0, 1, 0], mimic: {joint: j1, multiplier: 2, offset: 0}}
     configurations:                    # named reference configurations (optional)
       ready: [0.0, ...]
     snap: true                         # optional (default true): see below
