@@ -28,12 +28,16 @@ def parser() -> OneLineParser:
 
 
 def run(verb: Verb, args: argparse.Namespace) -> int:
-    """Run ``verb`` on its parsed arguments. An optional dependency it needs (``verb.needs``), or meets
-    on the way, that is not installed is one line naming the extra, and exit status 2."""
+    """Run ``verb`` on its parsed arguments. Bad input it finds (a ValueError: a malformed spec, a goal of
+    another kind, a SpecError naming the file and field), or an optional dependency it needs
+    (``verb.needs``) or meets on the way that is not installed, is one line on stderr, exit status 2."""
     try:
         check(verb.needs, f"gagen {verb.name}")
         status: int = verb.run(args)
         return status
+    except ValueError as e:  # bad input the verb could only check by reading it (a spec, a goal): one line
+        print(f"error: {e}", file=sys.stderr)
+        return 2
     except ModuleNotFoundError as e:
         if not optional_missing(e):
             raise

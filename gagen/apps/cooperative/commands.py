@@ -7,7 +7,9 @@ same ones); the work is done by the module that runs it, imported only when the 
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 from gagen.apps.cooperative.scenario_table import SCENARIOS
@@ -21,6 +23,23 @@ from gagen.arguments import (
     view_arguments,
 )
 from gagen.registry import Verb, bundled_specs
+
+
+def _running(module: str) -> Callable[[argparse.Namespace], int]:
+    """The verb's run: ``run_command`` of ``gagen.apps.cooperative.<module>``, imported when the verb runs. A
+    ValueError it raises (a bad spec, goal or value) is the dispatcher's one line and exit status 2; a
+    RuntimeError (a device that cannot be opened) is one line here, also exit status 2."""
+
+    def run(args: argparse.Namespace) -> int:
+        loaded = importlib.import_module(f"gagen.apps.cooperative.{module}")
+        command: Callable[[argparse.Namespace], int] = loaded.run_command
+        try:
+            return command(args)
+        except RuntimeError as e:
+            print(f"error: {e}", file=sys.stderr)
+            return 2
+
+    return run
 
 
 def _reach_arguments(parser: argparse.ArgumentParser) -> None:
@@ -46,14 +65,7 @@ def _reach_arguments(parser: argparse.ArgumentParser) -> None:
     view_arguments(parser, "the optimal trajectory")
 
 
-def _reach(args: argparse.Namespace) -> int:
-    from gagen.apps.cooperative.scenarios import run_command
-
-    try:  # the library's own checks (e.g. a horizon too short for N steps) as one line, not a traceback
-        return run_command(args)
-    except ValueError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+_reach = _running("scenarios")
 
 
 def _nullspace_arguments(parser: argparse.ArgumentParser) -> None:
@@ -69,14 +81,7 @@ def _nullspace_arguments(parser: argparse.ArgumentParser) -> None:
     view_arguments(parser, "both runs")
 
 
-def _nullspace(args: argparse.Namespace) -> int:
-    from gagen.apps.cooperative.nullspace_demo import run_command
-
-    try:  # not a circle, no such system, a malformed spec: one line
-        return run_command(args)
-    except ValueError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+_nullspace = _running("nullspace_demo")
 
 
 def _impedance_arguments(parser: argparse.ArgumentParser) -> None:
@@ -93,14 +98,7 @@ def _impedance_arguments(parser: argparse.ArgumentParser) -> None:
     view_arguments(parser, "the circle's first run")
 
 
-def _impedance(args: argparse.Namespace) -> int:
-    from gagen.apps.cooperative.impedance_demo import run_command
-
-    try:  # a missing Pinocchio, a URDF without inertials, a degenerate run: one line, not a traceback
-        return run_command(args)
-    except ValueError as e:  # DynamicsError, SpecError, an unknown system
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+_impedance = _running("impedance_demo")
 
 
 def _mpc_arguments(parser: argparse.ArgumentParser) -> None:
@@ -115,14 +113,7 @@ def _mpc_arguments(parser: argparse.ArgumentParser) -> None:
     view_arguments(parser, "the run")
 
 
-def _mpc(args: argparse.Namespace) -> int:
-    from gagen.apps.cooperative.mpc_demo import run_command
-
-    try:  # not a circle, no such system, a malformed spec: one line
-        return run_command(args)
-    except ValueError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+_mpc = _running("mpc_demo")
 
 
 def _teleop_arguments(parser: argparse.ArgumentParser) -> None:
@@ -147,14 +138,7 @@ def _teleop_arguments(parser: argparse.ArgumentParser) -> None:
     view_arguments(parser, "the run")
 
 
-def _teleop(args: argparse.Namespace) -> int:
-    from gagen.apps.cooperative.teleop import run_command
-
-    try:  # a malformed trace, an unknown system, a missing SpaceMouse: one line, not a traceback
-        return run_command(args)
-    except (ValueError, RuntimeError) as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+_teleop = _running("teleop")
 
 
 VERBS = (
