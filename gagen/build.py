@@ -66,6 +66,7 @@ from gagen.codegen.escape import c_comment, c_string, py_doc, py_string
 from gagen.codegen.ir import Kernel, ModuleSource, Port
 from gagen.errors import SpecError
 from gagen.frontend import KernelFunction, as_kernel, module_from_file, source_of
+from gagen.limits import over_limit
 from gagen.names import RESERVED_WORDS, identifier_problem
 from gagen.runtime import MANIFEST, load
 
@@ -183,6 +184,9 @@ def _check_names(source: ModuleSource) -> None:
         check_identifier(f"{source.name}_{kernel.name}", "C function name", origin, "kernels")
         for port in (*kernel.inputs, *kernel.outputs):
             check_identifier(port.name, f"port name of kernel {kernel.name}", origin, "kernels")
+        problem = over_limit("kernel_nodes", kernel.function.n_instructions())
+        if problem:  # before the C compiler spends minutes on it
+            raise SpecError(origin, "kernels", f"kernel {kernel.name}: {problem}")
     _check_clashes(source)
 
 
@@ -192,18 +196,42 @@ def _check_clashes(source: ModuleSource) -> None:
     ``f_batch``: ``<module>_f_batch`` twice): one line naming both, before anything is written."""
     origin = source.source_name
     seen: dict[str, str] = {}  # symbol -> the kernel that defines it
+    # the backends whose symbols share one C namespace (the library and its binding) and its reserved names
+    linked = [backend for backend in select() if backend.symbols(source.name, "k")]
     lowered: dict[str, str] = {}  # kernel name in lower case -> the kernel
     for kernel in source.kernels:
         other = lowered.setdefault(kernel.lower(), kernel)
         if other != kernel:
             raise SpecError(origin, "kernels", f"kernels {other!r} and {kernel!r} differ only in case: their "
                                                "files would collide on a case-insensitive disk; rename one")
-        for backend in select():
+        for backend in linked:
             for symbol in backend.symbols(source.name, kernel):
                 owner = seen.setdefault(symbol, kernel)
                 if owner != kernel:
                     raise SpecError(origin, "kernels", f"kernels {owner!r} and {kernel!r} both define the "
                                                        f"{backend.name} symbol {symbol}; rename one")
+                taken = _reserved_by(linked, backend, symbol, source.name, kernel)
+                if taken is not None:
+                    raise SpecError(origin, "kernels", f"kernel {kernel!r} of module {source.name!r} defines "
+                                                       f"the {backend.name} symbol {symbol}, a name the "
+                                                       f"{taken.name} code of every module uses for itself; "
+                                                       "rename the kernel or the module (the file)")
+
+
+def _reserved_by(linked: list[Backend], backend: Backend, symbol: str, module: str,
+                 kernel: str) -> Backend | None:
+    """The backend whose generated code uses ``symbol`` for itself (an exact name, or a prefix of its
+    names: ``gagen_``, ``M_``), or None. A backend's prefix before the kernel's own name (the binding's
+    ``make_<module>_<kernel>``) is that kernel's symbol, not a clash."""
+    for other in linked:
+        names = other.reserved()
+        if symbol in names.exact:
+            return other
+        for prefix in names.prefixes:
+            own = other is backend and symbol[len(prefix):] in (f"{module}_{kernel}", kernel)
+            if symbol.startswith(prefix) and not own:
+                return other
+    return None
 
 
 def _merge(into: dict[str, Any], entries: dict[str, Any], what: str) -> None:

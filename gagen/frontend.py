@@ -66,6 +66,7 @@ from gagen.algebra.signature import PRESETS, Algebra
 from gagen.codegen.ir import Kernel, ModuleSource, Port, make_kernel
 from gagen.interp import MultiVector
 from gagen.kinds import ALGEBRA, Declaration
+from gagen.limits import over_limit
 from gagen.names import MAX_LENGTH, identifier_problem
 from gagen.symbolic.backend import Poly
 from gagen.symbolic.casadi_backend import CasadiBackend
@@ -128,7 +129,16 @@ def _algebra(value: str | Algebra, kernel: str) -> Algebra:
 
 
 def _declaration(algebra: Algebra, value: Any, kernel: str, where: str) -> Declaration:
-    """A declaration from any of its accepted forms, checked against the algebra."""
+    """A declaration from any of its accepted forms, checked against the algebra and within the limit
+    on scalars per port (``gagen.limits``: a 10⁶-scalar input would trace for minutes)."""
+    declared = _declared(algebra, value, kernel, where)
+    problem = over_limit("formula_scalars", (declared.size or len(declared.blades)) * declared.cols)
+    if problem:
+        raise KernelError(kernel, where, problem)
+    return declared
+
+
+def _declared(algebra: Algebra, value: Any, kernel: str, where: str) -> Declaration:
     if isinstance(value, tuple) and len(value) == 2 and isinstance(value[1], int) \
             and not isinstance(value[1], bool) and not isinstance(value[0], int):
         inner = _declaration(algebra, value[0], kernel, where)  # matrix(kind, cols)
@@ -479,6 +489,9 @@ class KernelFunction:
                               f"{_suggestion(e)}") from e
 
     def _named_results(self, result: Any) -> list[tuple[str, Any]]:
+        if isinstance(result, Mapping | tuple | list) and not result:
+            raise self._error("outputs", f"the function returned no output ({result!r}); return a dict "
+                                         "of named outputs, e.g. {'Y': ...}")
         if isinstance(result, Mapping):
             items = list(result.items())
             for n, _ in items:
@@ -564,7 +577,10 @@ class KernelFunction:
         columns, _ = self._columns(name, value)
 
         def native(v: Any) -> ca.SX:
-            return v if isinstance(v, ca.SX) else backend.native(backend.lift(v))
+            try:
+                return v if isinstance(v, ca.SX) else backend.native(backend.lift(v))
+            except (ValueError, OverflowError) as e:  # a non-finite constant, as NaN is refused
+                raise self._error(f"output {name}", f"{e}; outputs must be finite") from None
 
         out = []
         for c in columns:

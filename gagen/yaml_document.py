@@ -49,14 +49,22 @@ class Document:
                 loader.dispose()
         except SpecError:
             raise
+        except yaml.reader.ReaderError as e:  # PyYAML's own message is two lines without a line number
+            line = text.count("\n", 0, e.position) + 1
+            column = e.position - text.rfind("\n", 0, e.position)
+            code = e.character if isinstance(e.character, int) else ord(e.character)
+            raise SpecError(path, "spec", f"not valid YAML at line {line}, column {column}: the control "
+                                          f"character U+{code:04X} is not allowed in YAML text") from e
         except yaml.YAMLError as e:
             mark = getattr(e, "problem_mark", None)
             where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-            raise SpecError(path, "spec", f"not valid YAML{where}: {getattr(e, 'problem', e)}") from e
+            problem = " ".join(str(getattr(e, "problem", None) or e).split())  # one line
+            raise SpecError(path, "spec", f"not valid YAML{where}: {problem}") from e
         except RecursionError as e:
             raise SpecError(path, "spec", "not a spec: nested too deeply") from e
         except (ValueError, TypeError, OverflowError) as e:  # PyYAML's constructors (e.g. a bad date)
-            raise SpecError(path, "spec", f"not valid YAML: {type(e).__name__}: {e}") from e
+            detail = " ".join(str(e).split())
+            raise SpecError(path, "spec", f"not valid YAML: {type(e).__name__}: {detail}") from e
         if not isinstance(data, dict):
             raise SpecError(path, "spec", expected)
         self.data: dict[Any, Any] = data

@@ -55,6 +55,7 @@ from pathlib import Path
 from typing import Any
 
 from gagen.errors import SpecError
+from gagen.limits import over_limit
 from gagen.model.kinematics import JOINT_KINDS, Joint
 from gagen.model.primitives import KINDS, points_needed
 from gagen.names import (
@@ -172,6 +173,7 @@ def _chain(spec: Document, value: Any, field: str, snap: bool = True) -> Chain:
             if key in value:
                 raise spec.error(f"{field}.{key}", "only used with urdf; this chain lists its joints")
         listed = require(spec, value, "joints", f"{field}.joints", list, "a list of joints")
+        _within(spec, "joints_per_chain", len(listed), f"{field}.joints")
         explicit = [_explicit_joint(spec, j, f"{field}.joints[{i}]") for i, j in enumerate(listed)]
         first: dict[str, int] = {}
         for i, joint in enumerate(explicit):
@@ -193,6 +195,13 @@ def _chain(spec: Document, value: Any, field: str, snap: bool = True) -> Chain:
     if chain.dof == 0:
         raise spec.error(field, "has no moving joint")
     return chain
+
+
+def _within(spec: Document, limit_name: str, count: int, field: str) -> None:
+    """A SpecError at ``field`` when ``count`` passes the resource limit ``limit_name`` (gagen.limits)."""
+    problem = over_limit(limit_name, count)
+    if problem:
+        raise spec.error(field, problem)
 
 
 def _check_kernel_names(spec: Document, chains: tuple[Chain, ...]) -> None:
@@ -275,7 +284,9 @@ def load_system(path: str | Path) -> tuple[System, dict[str, list[float]]]:
         raise spec.error("snap", f"got {show(snap)}; expected true (snap rpy angles within 1e-9 of a "
                                  f"multiple of π/4 to it, the default) or false (keep the numbers as "
                                  f"written)")
+    _within(spec, "chains", len(chains_data), "chains")
     chains = tuple(_chain(spec, c, f"chains[{i}]", snap) for i, c in enumerate(chains_data))
+    _within(spec, "joints_per_system", sum(len(c.joints) for c in chains), "chains")
     _check_kernel_names(spec, chains)
     _check_shared_robots(spec, chains)
     try:

@@ -35,6 +35,7 @@ import numpy as np
 from lxml import etree
 
 from gagen.errors import SpecError, read_input
+from gagen.limits import check_limit
 from gagen.model.kinematics import Joint
 from gagen.names import LABEL_RULE, label_problem
 from gagen.yaml_document import MAX_ANGLE, MAX_COORDINATE, MIN_AXIS
@@ -247,6 +248,7 @@ def load_chain(path: str | Path, base_link: str, tip_link: str, snap: bool = Tru
         raise SpecError(path, "tip_link", f"{tip_link!r} and {base_link!r} are not connected in the "
                                           f"kinematic tree (they have no common ancestor link)")
     up, down = above_base[:base_links.index(common)], above_tip[:tip_links.index(common)]
+    check_limit("joints_per_chain", len(up) + len(down), path, "tip_link")
     joints = []
     for j in up:  # traversed from child to parent: the inverse of each joint's transform
         joints += _inverse(_joint(path, robot, j, lines, origins, snap))

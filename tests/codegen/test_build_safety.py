@@ -539,3 +539,48 @@ def test_kernel_names_that_collide_in_c_are_one_line_before_anything_is_written(
     with pytest.raises(SpecError, match=re.escape(message)):
         build(user, out, compile_c=False, **QUIET)
     assert not out.exists()
+
+
+@pytest.mark.parametrize(("module", "kernel", "symbol"), [
+    ("gagen", "v", "gagen_v"),  # the SIMD vector type
+    ("GAGEN", "W", "GAGEN_W"),  # the SIMD width macro
+    ("GAGEN", "HAVE_LIBMVEC", "GAGEN_HAVE_LIBMVEC"),
+    ("gagen", "anything", "gagen_anything"),  # gagen_<port> locals: the whole prefix is gagen's
+    ("M", "PI", "M_PI"),  # libm's macros
+    ("make", "f", "make_f"),  # the binding's constructors, make_<kernel>
+    ("m", "f_in_shape", "m_f_in_shape"),  # the binding's shape table of kernel f
+])
+def test_module_and_kernel_names_that_meet_gagens_own_c_names_are_one_line(tmp_path, module, kernel, symbol):
+    """A module (the file's stem) and kernel whose C symbol is a name the generated C or the C library
+    uses for itself (issue 29: a module named gagen with kernel v was a multi-line gcc error) is refused
+    in one line naming the kernel and the symbol, before anything is written."""
+    kernels = f"@gagen.kernel(algebra='cga3d')\ndef {kernel}(X: point):\n    return {{'Y': X}}\n"
+    if kernel == "f_in_shape":
+        kernels += "\n@gagen.kernel(algebra='cga3d')\ndef f(X: point):\n    return {'Y': X}\n"
+    user = tmp_path / f"{module}.py"
+    user.write_text("import gagen\nfrom gagen.kinds import point\n\n" + kernels)
+    out = tmp_path / "out"
+    with pytest.raises(SpecError) as e:
+        build(user, out, compile_c=False, **QUIET)
+    assert "\n" not in str(e.value) and symbol in str(e.value) and e.value.field == "kernels", str(e.value)
+    assert not out.exists()
+
+
+def test_a_kernel_over_the_node_limit_is_refused_before_the_compiler(tmp_path, monkeypatch):
+    """The limit on expression nodes per kernel (gagen.limits, issue 29): one line naming the kernel, the
+    count and the variable that raises it; nothing written. The largest bundled kernel (two_g1_sphere's
+    similarity_rate) has ≈ 14 000, far inside the default of 2 000 000."""
+    user = tmp_path / "wide.py"
+    user.write_text("import gagen\nfrom gagen.kinds import point\n\n@gagen.kernel(algebra='cga3d')\n"
+                    "def meet(A: point, B: point):\n    return {'Y': A ^ B}\n")
+    monkeypatch.setenv("GAGEN_LIMIT_KERNEL_NODES", "5")
+    out = tmp_path / "out"
+    with pytest.raises(SpecError) as e:
+        build(user, out, compile_c=False, **QUIET)
+    message = str(e.value)
+    assert e.value.field == "kernels" and "\n" not in message and "kernel meet:" in message
+    assert "expression nodes in one kernel, over the limit of 5" in message and "GAGEN_LIMIT_KERNEL_NODES" in message
+    assert not out.exists()
+    monkeypatch.setenv("GAGEN_LIMIT_KERNEL_NODES", "100000")
+    build(user, out, compile_c=False, **QUIET)
+    assert (out / "manifest.json").is_file()

@@ -387,3 +387,50 @@ def test_a_good_declaration_traces() -> None:
 
     k = gagen.kernel(algebra="cga3d", jacobians={"J": ("d", "X")})(distance)
     assert [p.name for p in k.trace().outputs] == ["d", "J"]
+
+
+# -- issue 29: outputs, constants and sizes ------------------------------------------------------------
+@pytest.mark.parametrize("returned", [{}, (), []])
+def test_a_kernel_returning_nothing_is_one_line(returned) -> None:
+    def nothing(X: "point"):
+        return returned
+
+    e = _error(lambda: gagen.kernel(algebra="cga3d")(nothing))
+    _assert_parts(e, "nothing", "outputs", "returned no output")
+
+
+@pytest.mark.parametrize("constant", [float("inf"), -float("inf"), float("nan"), 1e308 * 10])
+def test_a_non_finite_constant_output_is_refused_like_nan(constant) -> None:
+    def infinite(X: "point"):
+        return {"c": constant, "Y": X}
+
+    e = _error(lambda: gagen.kernel(algebra="cga3d")(infinite))
+    assert e.kernel == "infinite" and "non-finite" in str(e) and "\n" not in str(e), str(e)
+
+
+def test_a_non_finite_constant_inside_a_multivector_is_refused() -> None:
+    def scaled(X: "point"):
+        return {"Y": X * float("inf")}
+
+    e = _error(lambda: gagen.kernel(algebra="cga3d")(scaled))
+    assert "non-finite" in str(e), str(e)
+
+
+@pytest.mark.parametrize("declaration", [10 ** 6, gagen.scalars(10 ** 6), gagen.matrix(gagen.scalars(100), 100)])
+def test_an_input_of_a_million_scalars_is_refused_at_the_limit(declaration) -> None:
+    def huge(x: declaration):
+        return {"y": x[0] if not isinstance(x, list) else x[0]}
+
+    e = _error(lambda: gagen.kernel(algebra="cga3d")(huge), trace=False)
+    assert e.kernel == "huge" and e.where == "argument x", str(e)
+    assert "over the limit of 4096" in str(e) and "GAGEN_LIMIT_FORMULA_SCALARS" in str(e)
+
+
+def test_the_scalar_limit_is_raised_by_its_variable(monkeypatch) -> None:
+    monkeypatch.setenv("GAGEN_LIMIT_FORMULA_SCALARS", "5000")
+
+    def wide(x: 4500):
+        return {"y": x[0] + x[4499]}
+
+    k = gagen.kernel(algebra="cga3d")(wide)
+    assert k.trace().inputs[0].size == 4500

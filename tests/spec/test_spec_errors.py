@@ -134,3 +134,12 @@ def test_duplicate_chain_names(tmp_path):
     text = "name: t\nprimitive: point_pair\nchains:\n" + chain * 2
     e = _error(tmp_path, text)
     assert e.field.startswith("chains[1].name") and "twice" in e.message
+
+
+@pytest.mark.parametrize(("text", "line", "column"), [("name: x\x00y\nprimitive: point\n", 1, 8),
+                                                       ("name: x\nprimitive: po\x07int\n", 2, 14)])
+def test_a_control_character_is_one_line_with_its_position(tmp_path, text, line, column):
+    """PyYAML's message for a NUL or another control byte is two lines without a line number (issue 29)."""
+    e = _error(tmp_path, text)
+    assert "\n" not in str(e) and e.field == "spec", str(e)
+    assert f"at line {line}, column {column}" in e.message and "control character" in e.message, e.message

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,6 +18,35 @@ if TYPE_CHECKING:
     from gagen.codegen.ir import ModuleSource
 
 Progress = Callable[[str], None]
+
+
+@dataclass(frozen=True)
+class ReservedNames:
+    """Names a backend's generated files take for themselves: exact names and whole prefixes."""
+
+    exact: frozenset[str] = frozenset()
+    prefixes: tuple[str, ...] = ()
+
+
+_TEMPLATE_TAG = re.compile(r"\{\{.*?\}\}|\{%.*?%\}|\{#.*?#\}", re.DOTALL)
+_IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+
+
+@functools.cache
+def template_names(folder: Path | None) -> ReservedNames:
+    """The identifiers with an underscore that the templates in ``folder`` write (C keywords and plain
+    words have none, and no kernel symbol, ``<module>_<kernel>``, lacks one), and the identifier
+    fragments that end right before a template expression (``gagen_`` in ``gagen_{{ p.name }}``: the
+    expression may make any name of that prefix)."""
+    exact: set[str] = set()
+    prefixes: set[str] = set()
+    for path in sorted(folder.glob("*.j2")) if folder is not None else ():
+        text = path.read_text(encoding="utf-8")
+        for piece in _TEMPLATE_TAG.split(text):
+            exact.update(name for name in _IDENTIFIER.findall(piece) if "_" in name.strip("_"))
+        for match in re.finditer(r"([A-Za-z_][A-Za-z0-9_]*_)\{\{", text):
+            prefixes.add(match[1])
+    return ReservedNames(frozenset(exact), tuple(sorted(prefixes)))
 
 
 class LoadedModule(Protocol):
@@ -102,6 +132,12 @@ class Backend:
 
     def symbols(self, module: str, kernel: str) -> tuple[str, ...]:
         return ()
+
+    def reserved(self) -> ReservedNames:
+        """The names its files use for themselves, which no kernel symbol may meet: every identifier
+        written in its templates (``gagen_v``, ``GAGEN_W``), each fragment before a template
+        expression as a whole prefix (``gagen_`` of ``gagen_{{ p.name }}``)."""
+        return template_names(self.templates)
 
     def compile(self, folder: Path, manifest: Mapping[str, Any]) -> None:
         return None

@@ -13,7 +13,15 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from gagen.codegen.backends.base import Backend, Context, LoadedModule, Output, module_name, module_tag
+from gagen.codegen.backends.base import (
+    Backend,
+    Context,
+    LoadedModule,
+    Output,
+    ReservedNames,
+    module_name,
+    module_tag,
+)
 
 if TYPE_CHECKING:
     from gagen.codegen.ir import Kernel, ModuleSource, Port
@@ -66,6 +74,14 @@ def library(manifest: Mapping[str, Any]) -> str:
     return library_name(f"{module_name(manifest)}_{module_tag(manifest)}")
 
 
+# the macro families of the C headers the kernels include (math.h, stdint.h, float.h, stdlib.h) and the
+# compiler's own names: ``M`` + ``PI`` would define ``M_PI``
+LIBC_PREFIXES = ("M_", "FP_", "FLT_", "DBL_", "LDBL_", "MATH_", "EXIT_", "RAND_", "SIZE_", "PTRDIFF_",
+                 "SIG_ATOMIC_", "WCHAR_", "WINT_", "INTPTR_", "UINTPTR_", "INTMAX_", "UINTMAX_",
+                 *(f"{u}INT{bits}_" for u in ("", "U") for bits in (8, 16, 32, 64)),
+                 *(f"{u}INT_{kind}{bits}_" for u in ("", "U") for kind in ("LEAST", "FAST")
+                   for bits in (8, 16, 32, 64)), "__", "_mm", "_MM")
+
 # the C functions each kernel's files define, after <module>_<kernel> (kernels.c.j2, simd.c.j2)
 KERNEL_SUFFIXES = ("", "_argv", "_batch", "_batch_argv", "_batch_columns", "_batch_columns_argv",
                    "_columns_from", "_block", "_block_columns")
@@ -76,6 +92,10 @@ class CBackend(Backend):
 
     def symbols(self, module: str, kernel: str) -> tuple[str, ...]:
         return tuple(f"{module}_{kernel}{suffix}" for suffix in KERNEL_SUFFIXES)
+
+    def reserved(self) -> ReservedNames:
+        own = super().reserved()
+        return ReservedNames(own.exact, own.prefixes + LIBC_PREFIXES)
     namespace = "c"
     templates = Path(__file__).with_name("templates")
 

@@ -12,7 +12,15 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from gagen.codegen.backends.base import Backend, Context, LoadedModule, Output, module_name, module_tag
+from gagen.codegen.backends.base import (
+    Backend,
+    Context,
+    LoadedModule,
+    Output,
+    ReservedNames,
+    module_name,
+    module_tag,
+)
 from gagen.codegen.backends.c import c_name, params
 
 if TYPE_CHECKING:
@@ -31,6 +39,15 @@ class CPythonBackend(Backend):
     requires = ("c",)
     optional = "C kernels are called through ctypes"
     templates = Path(__file__).with_name("templates")
+
+    def symbols(self, module: str, kernel: str) -> tuple[str, ...]:
+        function = f"{module}_{kernel}"
+        return (f"call_{function}", f"make_{function}", f"make_{kernel}", f"run_{function}",
+                f"{function}_in_shape", f"{function}_out_shape")
+
+    def reserved(self) -> ReservedNames:
+        own = super().reserved()  # the binding includes Python.h and numpy's headers
+        return ReservedNames(own.exact, (*own.prefixes, "Py", "PY_", "_Py", "NPY_", "npy_"))
 
     def render(self, source: ModuleSource, context: Context) -> Output:
         kernels = [{"name": k.name, "c_name": c_name(source.name, k), "inputs": k.inputs,
