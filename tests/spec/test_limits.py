@@ -78,7 +78,8 @@ def test_a_bad_override_is_one_line_naming_the_variable(monkeypatch, text):
     monkeypatch.setenv("GAGEN_LIMIT_CHAINS", text)
     with pytest.raises(ValueError) as e:
         limit("chains")
-    assert "\n" not in str(e.value) and str(e.value).startswith("GAGEN_LIMIT_CHAINS=") and "positive" in str(e.value)
+    message = str(e.value)
+    assert "\n" not in message and message.startswith("GAGEN_LIMIT_CHAINS=") and "positive" in message
 
 
 def test_every_limit_is_checked_by_name():
