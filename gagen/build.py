@@ -636,6 +636,19 @@ def spec_checker(path: str | Path) -> Callable[[str | Path, Path, int, float], i
     return registry.function(kind.check)
 
 
+def _checked_source(path: str | Path, name: str | None) -> ModuleSource:
+    """``load_source`` with its names checked at once, so that an error names the path the user gave
+    (the source knows its file by name only: ``formulas.py``)."""
+    source = load_source(path, name)
+    try:
+        _check_names(source)
+    except SpecError as e:
+        if e.file != source.source_name:
+            raise
+        raise SpecError(path, e.field, e.message) from e
+    return source
+
+
 def build_many(paths: Sequence[str | Path], *, force: bool = False, compile_c: bool = True,
                progress: Callable[[str], None] = print, jobs: int | None = None,
                outputs: Sequence[str | Path | None] | None = None,
@@ -644,7 +657,7 @@ def build_many(paths: Sequence[str | Path], *, force: bool = False, compile_c: b
     compiler runs on the previous ones in up to ``jobs`` (default: CPU count) parallel processes."""
     outputs = outputs or [None] * len(paths)
     names = names or [None] * len(paths)
-    work = [(functools.partial(load_source, path, name), out)
+    work = [(functools.partial(_checked_source, path, name), out)
             for path, out, name in zip(paths, outputs, names, strict=True)]
     return _build_all(work, force, compile_c, None, progress, jobs)
 

@@ -9,6 +9,8 @@ class SpecError(ValueError):
     """A malformed robot spec or URDF: ``file: field: message``."""
 
     def __init__(self, file: str | Path, field: str, message: str) -> None:
+        # one line whatever a library's text held (lxml and PyYAML put newlines in theirs)
+        field, message = (" ".join(part.split()) for part in (field, message))
         self.file, self.field, self.message = str(file), field, message
         super().__init__(f"{file}: {field}: {message}")
 

@@ -98,8 +98,11 @@ class KernelError(ValueError):
     what was expected."""
 
     def __init__(self, kernel: str, where: str, expected: str) -> None:
+        # one line, whatever the user's names and a library's text hold (a name with a newline: quoted)
+        where, expected = (" ".join(str(part).split()) for part in (where, expected))
         self.kernel, self.where, self.expected = kernel, where, expected
-        super().__init__(f"kernel {kernel}, {where}: {expected}")
+        plain = isinstance(kernel, str) and kernel.isprintable() and not any(c.isspace() for c in kernel)
+        super().__init__(f"kernel {kernel if plain else repr(kernel)}, {where}: {expected}")
 
 
 # -- declarations --------------------------------------------------------------------------------------

@@ -26,6 +26,7 @@ from hypothesis import HealthCheck, settings
 from hypothesis import strategies as st
 
 from gagen.errors import SpecError
+from gagen.frontend import KernelError
 
 CASE_SECONDS = 20.0  # a case running longer is a hang (the slowest accepted case is far below)
 
@@ -55,7 +56,12 @@ def examples(fast: int, full: int) -> settings:
 
 def refusal_problem(error: BaseException, files: tuple[Path, ...]) -> str | None:
     """What is wrong with a refusal (None when it is right): a SpecError of one line naming one of
-    ``files`` and a field."""
+    ``files`` and a field, or a KernelError of one line naming the kernel and the field (a formula)."""
+    if isinstance(error, KernelError):
+        text = str(error)
+        if "\n" in text or not error.kernel or not error.where:
+            return f"a KernelError without a kernel or field, or of several lines: {text[:300]!r}"
+        return None
     if not isinstance(error, SpecError):
         return f"{type(error).__name__} escaped: {error}"[:400]
     text = str(error)
