@@ -10,6 +10,7 @@ import sys
 from collections.abc import Sequence
 
 from gagen import __version__
+from gagen.errors import print_error
 from gagen.extras import MissingExtra, check, optional_missing
 from gagen.registry import OneLineParser, Verb, verbs
 
@@ -36,13 +37,13 @@ def run(verb: Verb, args: argparse.Namespace) -> int:
         status: int = verb.run(args)
         return status
     except ValueError as e:  # bad input the verb could only check by reading it (a spec, a goal): one line
-        print(f"error: {e}", file=sys.stderr)
+        print_error(e)
         return 2
     except ModuleNotFoundError as e:
         if not optional_missing(e):
             raise
         missing = e if isinstance(e, MissingExtra) else MissingExtra(e.name or "", f"gagen {verb.name}")
-        print(f"error: {missing}", file=sys.stderr)
+        print_error(missing)
         return 2
 
 

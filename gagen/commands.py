@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from gagen.arguments import non_negative_float, positive_int
+from gagen.errors import print_error
 from gagen.registry import Verb
 
 if TYPE_CHECKING:
@@ -33,7 +34,7 @@ def _cmd_algebra(args: argparse.Namespace) -> int:
     try:
         algebra = preset(args.name)
     except KeyError as e:
-        print(f"error: {e.args[0]}", file=sys.stderr)
+        print_error(e.args[0])
         return 2
     p, q, r = algebra.signature
     print(f"{algebra.name}: G({p},{q},{r}), {algebra.size} blades")
@@ -60,7 +61,7 @@ def _cmd_kernels(args: argparse.Namespace) -> int:
         source = load_source(args.spec)
         kernels = [source.kernels[name] for name in source.kernels]
     except (SpecError, KernelError, FileNotFoundError) as e:
-        print(f"error: {e}", file=sys.stderr)
+        print_error(e)
         return 2
     print(f"{source.name}: {source.title}; {len(kernels)} kernels built in "
           f"{time.perf_counter() - start:.2f} s\n")
@@ -88,10 +89,10 @@ def _cmd_build(args: argparse.Namespace) -> int:
                              outputs=[args.output] if args.output else None,
                              names=[args.name] if args.name else None)
     except errors as e:
-        print(f"error: {e}", file=sys.stderr)
+        print_error(e)
         return 2
     except (CompileError, OutputError, TemplateNotFound) as e:  # OutputError: "cannot write <path>: <reason>"
-        print(f"error: {e}", file=sys.stderr)
+        print_error(e)
         return 1
     status = 0
     if args.check:
@@ -116,7 +117,7 @@ def _check_kernels(result: BuildResult, samples: int, tolerance: float) -> int:
     print(format_report(report))
     failed = failures(report)
     for d in failed:
-        print(f"error: {source.name}: {d.message()}", file=sys.stderr)
+        print_error(f"{source.name}: {d.message()}")
     return 1 if failed else 0
 
 

@@ -21,5 +21,19 @@ def read_input(path: Path, field: str) -> bytes:
         if not path.is_file():
             raise SpecError(path, field, "file not found")
         return path.read_bytes()
+    except SpecError:
+        raise
     except (OSError, ValueError) as e:  # unreadable, a name too long, a NUL in the name
         raise SpecError(path, field, f"cannot read the file ({type(e).__name__}: {e})") from e
+
+
+def one_line(text: object) -> str:
+    """``text`` on one line: a user's own newline (in a file name, an argument) written as ``\\n``."""
+    return str(text).replace("\r", "\\r").replace("\n", "\\n")
+
+
+def print_error(message: object) -> None:
+    """``error: <message>`` as one line on stderr: how every verb reports bad input."""
+    import sys
+
+    print(f"error: {one_line(message)}", file=sys.stderr)

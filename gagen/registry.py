@@ -52,6 +52,7 @@ class OneLineParser(argparse.ArgumentParser):
     expected an integer >= 1, got '-3' (gagen build --help)``) and exit status 2, subparsers included."""
 
     def error(self, message: str) -> NoReturn:
+        message = message.replace("\r", "\\r").replace("\n", "\\n")  # an argument's own newline, escaped
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 

@@ -132,6 +132,11 @@ def test_a_verb_registered_twice_is_refused(monkeypatch):
     ["teleop", "three_pandas_circle", "--trace", "x.csv", "--dt", "0"],
     ["view", "three_pandas_circle", "--port", "70000"],
     ["walk", "--frames", "0"],
+    ["walk", "--step-height", "nan"],  # (a plain float before issue 29's fuzzer)
+    ["walk", "--straight", "inf"],
+    ["sweep", "reach", "--out", "x", "--span", "nan"],
+    ["sweep", "reach", "--out", "x", "--normal", "0", "0", "inf"],
+    ["build", "a\nb"],  # a newline of the user's own, written as \n
     ["linkage", "--steps", "x"],
     ["stereo", "--clutter", "-2"],
     ["smc", "--rate", "0"],

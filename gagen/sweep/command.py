@@ -11,7 +11,8 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from gagen.arguments import non_negative_int, positive_float, positive_int
+from gagen.arguments import finite_float, non_negative_int, positive_float, positive_int
+from gagen.errors import print_error
 from gagen.registry import Verb, bundled_specs
 
 if TYPE_CHECKING:
@@ -59,14 +60,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "per target, a reachability map")
     _common(reach, 16)
     reach.add_argument("--grid", type=positive_int, default=21, help="centres per axis (default 21)")
-    reach.add_argument("--span", type=float, help="half-width of the centre grid, m (default: 1.2 × the "
+    reach.add_argument("--span", type=finite_float,
+                       help="half-width of the centre grid, m (default: 1.2 × the "
                        "default radius, 0.6 for the three Pandas)")
     reach.add_argument("--radius", type=positive_float, action="append",
                        help="target radius, m; repeat for several (default: the ready configuration's, to "
                        "5 cm: 0.5 for the three Pandas)")
-    reach.add_argument("--height", type=float, help="the centres' height, m (default: the ready "
+    reach.add_argument("--height", type=finite_float, help="the centres' height, m (default: the ready "
                        "configuration's, to 1 cm: 0.59 for the three Pandas)")
-    reach.add_argument("--normal", type=float, nargs=3, metavar=("X", "Y", "Z"), help="the target circles' "
+    reach.add_argument("--normal", type=finite_float, nargs=3, metavar=("X", "Y", "Z"),
+                       help="the target circles' "
                        "normal (default: the ready circle's, to 0.01: +z for the three Pandas); circles only")
     reach.add_argument("--N", type=positive_int, default=50, help="iLQR time steps (default 50)")
 
@@ -101,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         sweep = _sweep(args)
     except SweepError as e:
-        print(f"error: {_named(e)}", file=sys.stderr)
+        print_error(_named(e))
         return 2
     try:
         where = args.scheduler or f"a local cluster of {args.workers} worker processes"
@@ -110,7 +113,7 @@ def run(args: argparse.Namespace) -> int:
         outcome = run_sweep(sweep, args.out, scheduler=args.scheduler, workers=args.workers,
                             progress=not args.no_progress)
     except (SweepError, OSError) as e:
-        print(f"error: {e}", file=sys.stderr)
+        print_error(e)
         return 2
     rate = f", {outcome.rows / outcome.seconds:,.0f} rows/s" if outcome.rows and outcome.seconds > 0 else ""
     print(f"  computed {len(outcome.computed)} chunks in {outcome.seconds:.2f} s on {outcome.workers} workers"

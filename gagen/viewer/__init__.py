@@ -9,6 +9,8 @@
   ``camera``: the pinhole camera that says where things land in a render.
 - ``visuals``: ``load_visuals(spec, system)``, the URDFs' ``<visual>`` meshes and shapes of each chain's
   links, placed per link (``Scene(..., visuals=...)`` draws them instead of sticks).
+- ``access``: the server answers only the holder of the per-run token in ``Scene.url`` (or of the
+  cookie its page sets), through a loopback Host, from its own Origin: no other web page gets in.
 - ``command``: ``gagen view`` / ``python -m gagen.viewer``.
 
 viser is an optional dependency (the ``viewer`` extra), imported when a Scene starts. The names above

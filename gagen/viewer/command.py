@@ -1,6 +1,6 @@
 """``gagen view`` / ``python -m gagen.viewer``: one configuration of a system in the browser, or as a PNG.
 
-    gagen view three_pandas_circle                      # serve it on http://127.0.0.1:8080 until Ctrl-C
+    gagen view three_pandas_circle                      # serve it until Ctrl-C: open the URL it prints
     gagen view three_pandas_circle --png frame.png      # headless Chromium renders it to a PNG
     gagen view robots/two_iiwas_line.yaml --q 0,0.5,... --size 1280x960 --no-primitive --png f.png
 
@@ -8,7 +8,9 @@ SYSTEM is a bundled system's name or a spec file; the configuration is the spec'
 ``--configuration NAME`` or ``--q`` (the system's joint vector, comma-separated) says otherwise. Links
 are drawn from their URDF ``<visual>`` meshes and shapes where the URDF has them (``--no-meshes``:
 sticks throughout); a mesh file that cannot be read is a warning, and its link a stick. ``--goal NAME``
-also draws a goal of the spec's ``goals:`` section (its target primitive, in cyan-blue).
+also draws a goal of the spec's ``goals:`` section (its target primitive, in cyan-blue). The server
+listens on 127.0.0.1 only and answers only the URL it prints, ``http://127.0.0.1:PORT/?token=…``: the
+token is new each run, and keeps other web pages the browser opens out (``gagen.viewer.access``).
 Exit status: 0, 1 when the browser fails, 2 for malformed arguments.
 """
 
@@ -16,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import re
-import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -59,7 +60,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--frames", choices=("none", "ends", "all"), default="ends",
                         help="joint frames drawn: each chain's base and end (default), all, none")
     parser.add_argument("--port", type=port, default=DEFAULT_PORT,
-                        help=f"server port on 127.0.0.1 (default {DEFAULT_PORT}; 0: any free one)")
+                        help=f"server port on 127.0.0.1 (default {DEFAULT_PORT}; 0: any free one); the "
+                        "server answers only the URL it prints, which carries a new ?token= each run")
 
 
 def _system(name: str) -> tuple[System, dict[str, list[float]], Path]:
@@ -113,7 +115,7 @@ def goal_shape(name: str, spec: Path, system: System, named: dict[str, list[floa
 
 
 def run(args: argparse.Namespace) -> int:
-    from gagen.errors import SpecError
+    from gagen.errors import SpecError, print_error
     from gagen.viewer.browser import BrowserError, export_png
     from gagen.viewer.scene import Scene
     from gagen.viewer.visuals import load_visuals
@@ -123,7 +125,7 @@ def run(args: argparse.Namespace) -> int:
         q = configuration(args, system, named)
         goal = None if args.goal is None else goal_shape(args.goal, spec, system, named)
     except (ValueError, SpecError) as e:
-        print(f"error: {e}", file=sys.stderr)
+        print_error(e)
         return 2
     visuals = None if args.no_meshes else load_visuals(spec, system)
     if args.png is not None:
@@ -134,14 +136,14 @@ def run(args: argparse.Namespace) -> int:
                                  primitive=not args.no_primitive, frames=args.frames, visuals=visuals,
                                  goal=goal)
         except BrowserError as e:
-            print(f"error: {e}", file=sys.stderr)
+            print_error(e)
             return 1
         print(f"{system.name}: wrote {path} ({width}x{height}) in {time.monotonic() - start:.1f} s")
         return 0
     try:
         scene = Scene(system, q, port=args.port, frames=args.frames, visuals=visuals, goal=goal)
     except ValueError as e:
-        print(f"error: {e}", file=sys.stderr)
+        print_error(e)
         return 2
     scene.show_primitive(not args.no_primitive)
     print(f"viewer: open {scene.url} in a browser (Ctrl-C to stop)", flush=True)

@@ -1,13 +1,13 @@
 """A cooperative system in the browser: its robots and its primitive, live, through a viser server.
 
-``Scene(system)`` starts a viser server (on the loopback interface only: it serves anyone who can reach
-the port) and draws every chain of the system — a link as a grey cylinder between consecutive joint
-origins, a moving joint as an orange ball, the base and end frames as small axes — and the primitive
-through the chains' end points (``gagen.viewer.geometry``) in ``PRIMITIVE_COLOUR``, a colour nothing
-else in the scene uses. ``update(q)`` redraws for a configuration; ``play(times, qs)`` plays a joint
-trajectory in real time (the one mechanism the demos share: the reach OCP's optimal trajectory, the
-nullspace runs, teleoperation and impedance simulations alike). Open ``scene.url`` in a browser, or
-take a headless render with ``gagen.viewer.browser``.
+``Scene(system)`` starts a viser server (on the loopback interface only, and only to the holder of the
+per-run token in ``scene.url``: ``gagen.viewer.access``) and draws every chain of the system — a link
+as a grey cylinder between consecutive joint origins, a moving joint as an orange ball, the base and
+end frames as small axes — and the primitive through the chains' end points (``gagen.viewer.geometry``)
+in ``PRIMITIVE_COLOUR``, a colour nothing else in the scene uses. ``update(q)`` redraws for a
+configuration; ``play(times, qs)`` plays a joint trajectory in real time (the one mechanism the demos
+share: the reach OCP's optimal trajectory, the nullspace runs, teleoperation and impedance simulations
+alike). Open ``scene.url`` in a browser, or take a headless render with ``gagen.viewer.browser``.
 
 Given ``visuals`` (``gagen.viewer.visuals.load_visuals``: the URDFs' ``<visual>`` meshes and shapes), a
 link with visuals is drawn from them, placed at the link's pose along its chain, and its stick and joint
@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from gagen.extras import MissingExtra
 from gagen.robots.system import System
-from gagen.viewer import DEFAULT_PORT
+from gagen.viewer import DEFAULT_PORT, access
 from gagen.viewer.camera import Camera, framing
 from gagen.viewer.geometry import (
     ChainPose,
@@ -63,7 +63,8 @@ Frames = Literal["none", "ends", "all"]
 
 def loopback(host: str) -> str:
     """``host`` if it is a loopback address (or ``localhost``); ValueError otherwise: the viewer's
-    server has no authentication, so it must not listen where other machines can reach it."""
+    server has no authentication beyond its URL's token, so it must not listen where other machines
+    can reach it."""
     if host == "localhost":
         return host
     try:
@@ -109,7 +110,15 @@ class Scene:
                              f"{len(system.chains)}; got {len(visuals)}")
         self.visuals: list[ChainVisuals | None] = list(visuals) if visuals is not None else \
             [None] * len(system.chains)
-        self.server = viser.ViserServer(host=self.host, port=port, label=label or system.name, verbose=False)
+        # a token-guarded server (gagen.viewer.access): loopback alone leaves it open to any web page
+        self.token = access.new_token()
+        with access.guarded(access.Guard(self.token)) as wrapped:
+            self.server = viser.ViserServer(host=self.host, port=port, label=label or system.name,
+                                            verbose=False)
+        if not wrapped:  # this viser starts its server some other way: refuse to serve unguarded
+            self.server.stop()
+            raise RuntimeError(f"viser {viser.__version__}: cannot put the viewer's access check in front "
+                               f"of its server (gagen.viewer.access)")
         self.server.scene.set_up_direction("+z")
         self._lock = threading.Lock()  # update() from a play thread and a GUI callback
         self._primitive_visible = True
@@ -130,8 +139,9 @@ class Scene:
 
     @property
     def url(self) -> str:
+        """The page's address, with the token that lets a browser in (``gagen.viewer.access``)."""
         host = f"[{self.host}]" if ":" in self.host else self.host
-        return f"http://{host}:{self.port}"
+        return f"http://{host}:{self.port}/?token={self.token}"
 
     def close(self) -> None:
         self.server.stop()

@@ -130,6 +130,7 @@ def test_formula_files_drawn_from_the_schema(data):
     _case(data, text, file_name, refuse, False, f"{file_name}.py:\n{text}")
 
 
+@pytest.mark.filterwarnings("ignore::DeprecationWarning", "ignore::SyntaxWarning")  # a mutated "\\w"
 @examples(fast=20, full=200)
 @given(st.data())
 def test_mutated_example_formulas(data):

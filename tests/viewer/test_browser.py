@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from gagen.apps.cooperative.bundled import bundled_systems, ready_configuration
-from gagen.viewer.browser import capturing, find_chromium
+from gagen.viewer.browser import capturing, find_chromium, headless_browser
 from gagen.viewer.geometry import ring, system_pose
 
 viser = pytest.importorskip("viser")  # the viewer extra
@@ -107,6 +107,27 @@ def test_the_primitive_is_drawn_where_the_camera_puts_it(tmp_path):
     origins = np.vstack([pose.origins[:-1][list(pose.moving)] for pose in system_pose(system, q)])
     seen = _near(joint_pixels(hidden), camera.project(origins, WIDTH, HEIGHT), 4.0)
     assert seen.mean() > 0.75, f"only {seen.sum()} of {len(seen)} joints are drawn where they project"
+
+
+def test_a_browser_needs_the_printed_url():
+    """The page without its ?token= gets no scene (gagen.viewer.access): the browser opened on the bare
+    address first, and one opened later on the printed URL, are given as long; only the second connects."""
+    import time
+
+    from gagen.viewer.scene import Scene
+
+    system = bundled_systems()["two_pandas_point_pair"]
+    with Scene(system, port=0) as scene:
+        bare = scene.url.split("?")[0]
+        assert bare != scene.url
+        with headless_browser(bare, width=320, height=240), \
+                headless_browser(scene.url, width=320, height=240) as browser:
+            try:
+                scene.wait_for_client(90)
+            except TimeoutError as e:
+                pytest.fail(f"{e}; {browser.state()}")
+            time.sleep(2.0)
+            assert len(scene.server.get_clients()) == 1
 
 
 def test_frames_of_a_trajectory(tmp_path):

@@ -32,3 +32,10 @@ def test_a_missing_browser_is_reported(monkeypatch, tmp_path, capsys):
     assert "no Chromium found: install it (Debian: apt-get install chromium) or set GAGEN_CHROMIUM" in (
         capsys.readouterr().err)
     assert not (tmp_path / "f.png").exists()
+
+
+def test_help_says_the_url_carries_a_token(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["--help"])
+    assert exit_.value.code == 0
+    assert "?token=" in capsys.readouterr().out

@@ -36,7 +36,7 @@ def _outside_address() -> str | None:
 
 
 def test_the_server_listens_on_loopback_only(scene):
-    assert scene.url == f"http://127.0.0.1:{scene.port}"
+    assert scene.url == f"http://127.0.0.1:{scene.port}/?token={scene.token}"
     logger = logging.getLogger("websockets.server")  # a bare TCP connection makes it log a traceback
     level = logger.level
     logger.setLevel(logging.CRITICAL)

@@ -547,11 +547,11 @@ def session_trace(r: TeleopResult) -> str:
 # -- command line ------------------------------------------------------------------------------------
 def run_command(args: argparse.Namespace) -> int:
     """``gagen teleop`` on its parsed arguments (``gagen.apps.cooperative.commands``)."""
+    trace = read_trace(args.trace) if args.trace is not None else None  # before the module is built
     k = bundled_kernels(args.system)
     options = {"dt": args.dt, "frame": args.frame, "correct": not args.first_order}
     recorded, rows = None, ""
-    if args.trace is not None:
-        trace = read_trace(args.trace)
+    if trace is not None:
         result = run_trace(k, trace, **options)
         rows = intervals(result, trace)
     else:

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from gagen.apps.hexapod.bundled import SPEC
-from gagen.arguments import positive_float, positive_int
+from gagen.arguments import finite_float, positive_float, positive_int
 from gagen.registry import Verb
 
 
@@ -17,9 +17,10 @@ def _walk_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", default="walk", help="folder for the plots and the GIF (default walk/)")
     parser.add_argument("--module", help="build the module into this folder (default: the committed "
                         "generated/ for the bundled spec, else the gagen cache)")
-    parser.add_argument("--straight", type=float, default=0.3, help="straight part of the path, m "
+    parser.add_argument("--straight", type=finite_float, default=0.3, help="straight part of the path, m "
                         "(default 0.3)")
-    parser.add_argument("--turn", type=float, default=60.0, help="then an arc turning this far, degrees, "
+    parser.add_argument("--turn", type=finite_float, default=60.0,
+                        help="then an arc turning this far, degrees, "
                         "+ left (default 60)")
     parser.add_argument("--radius", type=positive_float, default=0.3, help="the arc's radius, m "
                                                                            "(default 0.3)")
@@ -29,9 +30,12 @@ def _walk_arguments(parser: argparse.ArgumentParser) -> None:
                         "(two steps), m (default 0.10)")
     parser.add_argument("--step-time", type=positive_float, default=0.5, help="seconds per step "
                                                                               "(default 0.5)")
-    parser.add_argument("--step-height", type=float, default=0.05, help="swing toe lift, m (default 0.05)")
-    parser.add_argument("--slope", type=float, default=0.0, help="ground slope, degrees (default 0: flat)")
-    parser.add_argument("--uphill", type=float, default=0.0, help="heading the ground rises towards, degrees "
+    parser.add_argument("--step-height", type=finite_float, default=0.05,
+                        help="swing toe lift, m (default 0.05)")
+    parser.add_argument("--slope", type=finite_float, default=0.0,
+                        help="ground slope, degrees (default 0: flat)")
+    parser.add_argument("--uphill", type=finite_float, default=0.0,
+                        help="heading the ground rises towards, degrees "
                         "from +x (default 0)")
     parser.add_argument("--rate", type=positive_float, default=100.0, help="samples per second (default 100)")
     parser.add_argument("--frames", type=positive_int, default=90, help="GIF frames (default 90)")
