@@ -8,6 +8,7 @@ import pytest
 
 from gagen.algebra.signature import cga3d
 from gagen.apps.cooperative.bundled import bundled_systems
+from gagen.apps.cooperative.scenarios import joint_limits
 from gagen.codegen.compiler import CompilerNotFound, find_compiler
 from gagen.control import smc
 from gagen.interp import MultiVector
@@ -24,6 +25,17 @@ needs_cc = pytest.mark.skipif(not HAVE_CC, reason="no C compiler")
 
 JOINTS = tuple(bundled_systems()["panda_point"].chains[0].joints)
 N = 7
+# the joint limits from the Panda's URDF, read by yourdfpy (not gagen's URDF loader, which the step uses)
+LOWER, UPPER = joint_limits("panda_point")
+# the bundled run (`gagen smc`) before the joint-limit handling: max |s_i| after 0.5 s was 5.3427e-4
+# (C loop and simulation alike) while joint 4 went to −3.2422 rad against its −3.0718 limit (0.170 rad
+# past it) on 33.9 % of the 10 000 ticks; the run may not track worse now
+BEFORE_ERROR = 5.3427e-4
+
+
+def past_limits(q):
+    """How far each row of q lies past the URDF limits (≤ 0 inside them), per joint: the largest."""
+    return np.maximum(LOWER - q, q - UPPER).max(axis=0)
 
 
 @pytest.fixture(scope="module")
@@ -49,9 +61,18 @@ def interp_pose(q):
     return np.array([position["e1"], position["e2"], position["e3"], line["e23"], -line["e13"], line["e12"]])
 
 
-def numpy_u(J, x, x_ref, K=smc.GAIN, epsilon=smc.EPSILON, damping=smc.DAMPING):
-    r = K * np.tanh(epsilon * (x - x_ref))
-    return -J.T @ np.linalg.solve(J @ J.T + damping**2 * np.eye(J.shape[0]), r)
+def numpy_u(J, x, x_ref, q, K=smc.GAIN, epsilon=smc.EPSILON, damping=smc.DAMPING):
+    """The law in numpy, written from its description: the nullspace limit avoidance u0 = −k_n (depth into
+    the zone ρ inside each URDF limit), the once-refined damped solve (iterated Tikhonov), the velocity
+    bound γ (limit − q)."""
+    rho, k_n, gamma = smc.LIMIT_ZONE, smc.LIMIT_GAIN, smc.LIMIT_RATE
+    depth = np.where(q < LOWER + rho, q - (LOWER + rho), np.where(q > UPPER - rho, q - (UPPER - rho), 0.0))
+    u0 = -k_n * depth
+    r = K * np.tanh(epsilon * (x - x_ref)) + J @ u0
+    A = J @ J.T + damping**2 * np.eye(J.shape[0])
+    w = np.linalg.solve(A, r)
+    w = w + damping**2 * np.linalg.solve(A, w)
+    return np.clip(u0 - J.T @ w, gamma * (LOWER - q), gamma * (UPPER - q))
 
 
 def configurations(count=6, seed=3):
@@ -62,12 +83,15 @@ def configurations(count=6, seed=3):
 def test_pose_is_a_point_and_a_unit_direction():
     x = interp_pose(smc.PANDA_Q0)
     assert np.linalg.norm(x[3:]) == pytest.approx(1.0, abs=1e-14)
-    # Panda ready pose: flange 0.307 m in front, tool z axis pointing down; the start turns it by 2.5 rad
+    # Panda ready pose: flange 0.307 m in front, tool z axis pointing down; turned by 2.5 rad about z
     ready = interp_pose([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
     assert ready[:3] == pytest.approx([0.3070, 0.0, 0.5903], abs=1e-3)
     assert ready[3:] == pytest.approx([0.0, 0.0, -1.0], abs=1e-6)
     c, s = math.cos(2.5), math.sin(2.5)
-    assert x[:2] == pytest.approx([c * ready[0], s * ready[0]], abs=1e-12)
+    turned = interp_pose([2.5, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
+    assert turned[:2] == pytest.approx([c * ready[0], s * ready[0]], abs=1e-12)
+    # the start is that pose with the wrist turned (joints 5, 6), inside every limit
+    assert np.all((LOWER < smc.PANDA_Q0) & (np.array(smc.PANDA_Q0) < UPPER))
 
 
 @pytest.mark.parametrize("q", configurations())
@@ -81,8 +105,11 @@ def test_step_kernel_matches_interpreter_finite_differences_and_numpy(function, 
     assert np.abs(J - fd).max() < 1e-6
     assert np.linalg.matrix_rank(J, tol=1e-9) == 5  # ḋ ⊥ d: the direction rows lose one rank
     assert np.abs(J[3:].T @ x[3:]).max() < 1e-12
-    reference = numpy_u(J, x, x_ref)  # |u| reaches ~500 rad/s when saturated: compare relatively
-    assert np.abs(u - reference).max() < 1e-12 * max(1.0, np.abs(reference).max())
+    reference = numpy_u(J, x, x_ref, q)  # |u| reaches ~500 rad/s when saturated: compare relatively
+    # to the solve's condition number κ times ε, as in test_compiled_step_equals_the_interpreter_reference
+    kappa = np.linalg.cond(J @ J.T + smc.DAMPING**2 * np.eye(6))
+    assert np.abs(u - reference).max() <= max(1e-12, kappa * np.finfo(float).eps) \
+        * max(1.0, np.abs(reference).max())
 
 
 @pytest.mark.compiling
@@ -119,6 +146,61 @@ def test_damped_solve_on_floats_is_the_damped_least_squares_solution():
     assert np.abs(np.array(w) - expected).max() < 1e-9 * np.abs(expected).max()
 
 
+def test_refined_damped_solve_is_iterated_tikhonov():
+    """One refinement: w₂ = w₁ + λ² A⁻¹ w₁ (A = J Jᵀ + λ² I). On J's range J Jᵀ w₂ matches r to
+    (λ²/σ²)² instead of λ²/σ², and Jᵀ w₂ stays bounded on the rank-deficient direction."""
+    rng = np.random.default_rng(7)
+    J = rng.normal(size=(6, 7))
+    J[5] = J[4]
+    r = rng.normal(size=6)
+    A = J @ J.T + 1e-4 * np.eye(6)
+    w1 = np.linalg.solve(A, r)
+    expected = w1 + 1e-4 * np.linalg.solve(A, w1)
+    w = np.array(smc.damped_solve(J.tolist(), r.tolist(), 1e-2, refinements=1))
+    assert np.abs(w - expected).max() < 1e-9 * np.abs(expected).max()
+    on_range = np.linalg.svd(J)[0][:, :5]  # the directions J reaches
+    residual = lambda v: np.abs(on_range.T @ (J @ J.T @ v - r)).max()  # noqa: E731
+    assert residual(w) < 1e-3 * residual(w1)
+    assert np.abs(J.T @ w).max() < 2 * np.abs(J.T @ w1).max() + 1.0
+
+
+def test_joint_bounds_are_the_urdf_limits():
+    lower, upper = smc.joint_bounds(JOINTS)
+    assert np.array_equal(lower, LOWER) and np.array_equal(upper, UPPER)
+    assert LOWER[3] == -3.0718 and UPPER[5] == 3.7525  # the elbow and wrist limits the run comes near
+    free = tuple(kin.Joint(j.name, j.kind, j.xyz, j.rpy, j.axis) for j in JOINTS)  # no <limit>
+    assert smc.joint_bounds(free) == ((None,) * N, (None,) * N)
+
+
+def test_a_step_never_crosses_a_limit(function):
+    """At configurations on, near and beyond the limits, with references far away (saturated tanh): one
+    Euler step of dt < 1/γ (here the loop's 1 ms and 0.9/γ) keeps a joint inside its limits, or moves it
+    toward them when outside."""
+    rng = np.random.default_rng(5)
+    for dt in [1e-3, 0.9 / smc.LIMIT_RATE] * 20:
+        q = rng.uniform(LOWER, UPPER)
+        near = rng.random(N) < 0.5
+        q[near] = np.where(rng.random(N) < 0.5, LOWER, UPPER)[near] + rng.uniform(-0.05, 0.05, N)[near]
+        x_ref = np.concatenate([rng.uniform(-0.6, 0.6, 3), [0.0, 1.0, 0.0]])
+        u = np.asarray(function(q, x_ref)[2]).ravel()
+        after = q + u * dt
+        inside = np.maximum(LOWER - q, q - UPPER) <= 0
+        assert np.all((LOWER[inside] <= after[inside]) & (after[inside] <= UPPER[inside]))
+        assert np.all(np.abs(np.clip(after, LOWER, UPPER) - after)[~inside]
+                      <= np.abs(np.clip(q, LOWER, UPPER) - q)[~inside])
+
+
+def test_the_bundled_run_stays_within_the_joint_limits(function):
+    """`gagen smc`'s run (10 s at 1 kHz from PANDA_Q0, the paper's reference), here on the step's CasADi
+    Function and without the loop's hard stops: every tick's joints within the URDF limits, the tracking
+    no worse than before the limit handling. (Before: joint 4 reached −3.2422 rad, 0.170 rad past its
+    limit, on 33.9 % of the ticks; the compiled run is checked in ``test_gagen_smc_stays_within_...``.)"""
+    run = smc.simulate(smc.casadi_step(function), smc.PANDA_Q0, 10.0, 1e-3)
+    assert run.q.shape == (10_000, N)
+    assert np.all(past_limits(run.q) <= 0), past_limits(run.q)
+    assert run.error_after(0.5) <= BEFORE_ERROR
+
+
 def test_step_is_a_front_end_kernel(kernel):
     traced = kernel.trace()
     assert [(p.name, p.shape) for p in traced.inputs] == [("q", (N, 1)), ("x_ref", (6, 1))]
@@ -130,8 +212,9 @@ def test_step_costs_no_more_than_the_previous_sx_construction(function):
     """The kernel (the plain function, traced) against the step as gagen built it before, directly in
     CasADi SX (``sx_step_function``): the same values, no more flops, the same calls."""
     ours, previous = casadi_op_count(function), casadi_op_count(smc.sx_step_function(JOINTS))
-    # the previous build reported mul=522 add=417 neg=21 div=21 cos=7 sin=7 tanh=6 (flops=981) for the Panda
-    assert previous.flops == 981
+    # the SX build reports mul=626 add=549 neg=14 div=27 cos=7 if_else_zero=49 lt=28 not=21 sin=7 tanh=6
+    # (flops=1216) for the Panda: 981 for the law alone, 78 for the refinement, 157 for the limits
+    assert previous.flops == 1216
     assert ours.flops <= previous.flops and ours.calls == previous.calls
     q, x_ref = np.array(smc.PANDA_Q0), smc.reference(0.7)
     for a, b in zip(function(q, x_ref), smc.sx_step_function(JOINTS)(q, x_ref), strict=True):
@@ -191,7 +274,7 @@ TRANSIENT = 0.5
 @pytest.mark.compiling
 @needs_cc
 def test_closed_loop_tracks_within_the_boundary_layer(built, tmp_path):
-    run = smc.simulate(built.step(), smc.PANDA_Q0, 2.0, 1e-3)
+    run = smc.simulate(built.step(), smc.PANDA_Q0, 2.0, 1e-3, limits=built.limits)
     s = run.s
     assert np.abs(s[0]).max() > 0.5  # starts far away (tool down, reference horizontal)
     settled = run.t >= TRANSIENT
@@ -201,9 +284,10 @@ def test_closed_loop_tracks_within_the_boundary_layer(built, tmp_path):
     assert np.abs(s[settled, 3:]).max() < 1e-5  # the direction reference is constant: no lag
     assert np.abs(run.u[settled]).max() < 2.0  # after the transient the arm moves smoothly
     # with a bounded joint-velocity disturbance d (λ = J d in Eq. 32) the error stays bounded
-    disturbed = smc.simulate(built.step(), smc.PANDA_Q0, 2.0, 1e-3,
+    disturbed = smc.simulate(built.step(), smc.PANDA_Q0, 2.0, 1e-3, limits=built.limits,
                              disturbance=lambda t: 0.05 * np.sin(3 * t + np.arange(N)))
     assert disturbed.error_after(TRANSIENT) < 3 * BOUND
+    assert np.all(past_limits(disturbed.q) <= 0)
     paths = smc.plot_run(run.write_csv(tmp_path / "sim.csv"), tmp_path / "plots")
     assert all(p.stat().st_size > 10_000 for p in paths) and len(paths) == 4
 
@@ -224,7 +308,7 @@ def test_c_loop_matches_simulation(built, loop):
     # as the Python loop on the same compiled step
     assert loop.ticks == 500
     log = smc.read_log(loop.csv)
-    run = smc.simulate(built.step(), smc.PANDA_Q0, 0.5, 1.0 / 1000.0)
+    run = smc.simulate(built.step(), smc.PANDA_Q0, 0.5, 1.0 / 1000.0, limits=built.limits)
     q = np.column_stack([log[f"q{i + 1}"] for i in range(N)])
     x = np.column_stack([log[p] for p in smc.POSE])
     u = np.column_stack([log[f"u{i + 1}"] for i in range(N)])
@@ -235,6 +319,25 @@ def test_c_loop_matches_simulation(built, loop):
     assert loop.final_q == pytest.approx(run.q[-1] + run.u[-1] * 1e-3, abs=1e-9)
     assert loop.error_max == pytest.approx(run.error_after(0.3), rel=1e-6)
     assert loop.error_max < BOUND
+
+
+@pytest.mark.slow
+@pytest.mark.compiling
+@needs_cc
+def test_gagen_smc_stays_within_the_joint_limits(tmp_path, capsys):
+    """The acceptance run: ``gagen smc`` as bundled (10 s at 1 kHz, the generated C step in the C loop):
+    every logged tick's joints within the URDF limits and the tracking no worse than before (the log
+    is deterministic: the loop integrates on nominal tick times)."""
+    from gagen.cli import main
+
+    assert main(["smc", "--out", str(tmp_path)]) == 0
+    log = smc.read_log(tmp_path / "smc_log.csv")
+    q = np.column_stack([log[f"q{i + 1}"] for i in range(N)])
+    assert q.shape == (10_000, N) and np.array_equal(q[0], smc.PANDA_Q0)
+    assert np.all(past_limits(q) <= 0), past_limits(q)
+    settled = log["t"] >= 0.5
+    assert log["error_max"][settled].max() <= BEFORE_ERROR
+    assert "max |s_i| 5.33e-04" in capsys.readouterr().out
 
 
 @pytest.mark.realtime

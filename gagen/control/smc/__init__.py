@@ -22,6 +22,16 @@ K = diag{7.5, …} multiplies tanh(ε s); with equal gains K J⁺ = J⁺ K). Ins
 (0.2 / (7.5 · 50) = 5.3e-4 for the paper's reference at the default ε = 50), after a transient in which
 tanh saturates and each coordinate closes at up to k per second (Eq. 38: k > |ẋ_ref| + |λ|).
 At the loop's rate the Euler-discretised boundary layer is stable for k ε dt < 2 (0.375 at 1 kHz).
+The damped solve is refined once on its factors (iterated Tikhonov, ``damped_solve``), so the damping
+biases J J⁺ by (λ_d²/(σ² + λ_d²))² instead of λ_d²/(σ² + λ_d²) and the error stays at the bound above.
+
+Joint limits (the joints' URDF limits): u = −J⁺ K tanh(ε s) + (I − J⁺ J) u0 with u0 = −k_n ∇H, H = ½ Σ
+(depth of q_m in the zone within ρ of a limit)² [Liégeois 1977] (zero away from the limits: no
+self-motion, nothing taken from the tracking), computed as u0 − Jᵀ(J Jᵀ + λ_d² I)⁻¹(r + J u0) with the
+same solve; then each u_m is bounded to [γ (lower_m − q_m), γ (upper_m − q_m)] (a velocity damper: an
+Euler step of dt ≤ 1/γ cannot cross a limit), and the loops clamp q to the limits as hard stops. The
+paper's reference passes close to the Panda's base, reachable within the limits only on some branches:
+``PANDA_Q0`` starts the arm where the loop settles on one of them.
 
 Modules, one concern each (their names are re-exported here: ``from gagen.control import smc``):
 
@@ -44,8 +54,9 @@ from typing import Any
 
 _MODULES = {
     "kernel": ("KERNEL", "MODULE", "smc_step_function", "step_kernel", "step_source", "sx_step_function"),
-    "law": ("DAMPING", "EPSILON", "GAIN", "POSE", "damped_solve", "pose_and_jacobian", "pose_and_jacobian_of",
-            "reference", "reference_rate", "step_law"),
+    "law": ("DAMPING", "EPSILON", "GAIN", "LIMIT_GAIN", "LIMIT_RATE", "LIMIT_ZONE", "POSE", "REFINEMENTS",
+            "damped_solve", "joint_bounds", "limit_avoidance", "limited_law", "pose_and_jacobian",
+            "pose_and_jacobian_of", "reference", "reference_rate", "step_law"),
     "log": ("plot_run", "read_log"),
     "runner": ("PANDA_Q0", "LoopSummary", "SmcBuild", "bench_step", "build", "loop_ticks", "op_count",
                "run_loop"),

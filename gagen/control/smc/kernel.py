@@ -16,10 +16,15 @@ from gagen.control.smc.law import (
     DAMPING,
     EPSILON,
     GAIN,
+    LIMIT_GAIN,
+    LIMIT_RATE,
+    LIMIT_ZONE,
     POSE,
+    REFINEMENTS,
     _checked,
     _gains,
-    damped_solve,
+    joint_bounds,
+    limited_law,
     pose_and_jacobian,
     reference,
     step_law,
@@ -36,9 +41,11 @@ def step_kernel(joints: Sequence[Joint] | None = None, *, K: float | Sequence[fl
                 epsilon: float = EPSILON, damping: float = DAMPING) -> KernelFunction:
     """The sliding-mode step as a front-end kernel ``step`` over cga3d: (q[n], x_ref[6]) -> (x[6],
     J[6×n], u[n]) with x the pose, J its Jacobian [SMC Eq. 17-20] and u = −J⁺ K tanh(ε (x − x_ref))
-    [Eq. 35, 40], J⁺ = Jᵀ(J Jᵀ + λ_d² I)⁻¹ (λ_d = ``damping``). ``K``: a scalar or 6 task-space gains.
-    Its function (``step_law``) is also its reference on the interpreter. ``joints``: default the
-    bundled Panda (``panda_point``'s arm)."""
+    [Eq. 35, 40], J⁺ = Jᵀ(J Jᵀ + λ_d² I)⁻¹ (λ_d = ``damping``, refined), plus the joint-limit
+    avoidance in the nullspace and the velocity bound toward each limit (``law.limited_law``; the
+    limits are the joints' URDF limits). ``K``: a scalar or 6 task-space gains. Its function
+    (``step_law``) is also its reference on the interpreter. ``joints``: default the bundled Panda
+    (``panda_point``'s arm)."""
     joints = tuple(joints) if joints is not None else _panda_joints()
     gains = _checked(K, epsilon, damping)
     variables = tuple(kin.chain_variables(joints))  # mimic joints follow their leader: no entry of their own
@@ -67,18 +74,19 @@ def smc_step_function(joints: Sequence[Joint] | None = None, *, K: float | Seque
 def sx_step_function(joints: Sequence[Joint] | None = None, *, K: float | Sequence[float] = GAIN,
                      epsilon: float = EPSILON, damping: float = DAMPING) -> ca.Function:
     """The step built directly in CasADi SX, as gagen did before the front-end kernel: the pose and
-    Jacobian as SX, then the law in SX operations. Kept as a cross-check and as the op-count baseline
-    the kernel must not exceed."""
+    Jacobian as SX, then the same law (``limited_law``) in SX operations. Kept as a cross-check and as
+    the op-count baseline the kernel must not exceed."""
     joints = tuple(joints) if joints is not None else _panda_joints()
     gains = _checked(K, epsilon, damping)
     q = ca.SX.sym("q", len(kin.chain_variables(joints)))
     x_ref = ca.SX.sym("x_ref", len(POSE))
     x, J = pose_and_jacobian(joints, q)
-    r = ca.vertcat(*[gains[i] * ca.tanh(epsilon * (x[i] - x_ref[i])) for i in range(len(POSE))])
-    rows = [[J[i, m] for m in range(J.shape[1])] for i in range(len(POSE))]
-    w = damped_solve(rows, [r[i] for i in range(len(POSE))], damping)
-    u = -ca.mtimes(J.T, ca.vertcat(*w))
-    return ca.Function("smc_step_sx", [q, x_ref], ca.cse([x, J, u]), ["q", "x_ref"], ["x", "J", "u"])
+    n, k = J.shape[1], len(POSE)
+    u = limited_law([x[i] for i in range(k)], [[J[i, m] for i in range(k)] for m in range(n)],
+                    [q[m] for m in range(n)], [x_ref[i] for i in range(k)], gains, epsilon, damping,
+                    joint_bounds(joints), ca.tanh, lambda a, b: a < b, ca.if_else)
+    return ca.Function("smc_step_sx", [q, x_ref], ca.cse([x, J, ca.vertcat(*u)]), ["q", "x_ref"],
+                       ["x", "J", "u"])
 
 
 def _panda_joints() -> tuple[Joint, ...]:
@@ -95,8 +103,11 @@ def step_source(joints: Sequence[Joint] | None = None, *, K: float | Sequence[fl
     ``gagen.build.build_source``; its manifest records the parameters under ``"smc"``."""
     joints = tuple(joints) if joints is not None else _panda_joints()
     kernel = step_kernel(joints, K=K, epsilon=epsilon, damping=damping)
+    lower, upper = joint_bounds(joints)  # the limits are out of the joints' repr: the key needs them
     params = {"joints": [j.name for j in joints], "K": _gains(K, len(POSE)), "epsilon": float(epsilon),
-              "damping": float(damping)}
+              "damping": float(damping), "refinements": REFINEMENTS, "lower": list(lower),
+              "upper": list(upper), "limit_zone": LIMIT_ZONE, "limit_gain": LIMIT_GAIN,
+              "limit_rate": LIMIT_RATE}
     source = source_of([kernel], MODULE, "gagen.control.smc",
                        json.dumps([repr(joints), params]).encode(), "gagen smc")
     source.title = "sliding-mode pose tracking step [SMC Eq. 17-20, 35, 40]"

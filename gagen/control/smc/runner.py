@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 
 from gagen.build import cache_root
 from gagen.codegen.backends.c import library as c_library
+from gagen.codegen.backends.c.printer import c_literal
 from gagen.codegen.compiler import (
     FLAGS,
     CompileError,
@@ -30,9 +31,13 @@ from gagen.control.smc.law import DAMPING, EPSILON, GAIN, check_finite
 from gagen.control.smc.simulation import CompiledStep
 from gagen.model.kinematics import Joint
 
-PANDA_Q0 = (2.5, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785)
-"""Default start for the 7-DOF Panda: its ``ready`` pose with joint 1 turned to 2.5 rad (within its
-±2.8973 limit), facing the paper's reference, which lies behind the base at azimuth 143°."""
+PANDA_Q0 = (2.5, -0.785, 0.0, -2.356, 1.5, 3.0, 0.785)
+"""Default start for the 7-DOF Panda: its ``ready`` pose with joint 1 turned to 2.5 rad, facing the
+paper's reference (behind the base at azimuth 143°), and the wrist turned (joints 5 and 6 to 1.5 and
+3.0 rad). The reference lies near the base, where few configurations reach it within the joint limits;
+from this start the loop settles on a branch that does, all along it (≥ 0.03 rad from every limit). From
+the plain ``ready`` wrist (0, 1.571) it settles on one that needs the elbow, joint 4, at −3.19 rad,
+past its −3.0718 limit: within the limits that branch cannot reach x = −0.2 m (its best is −3.14)."""
 LOOP_SOURCE = Path(__file__).with_name("smc_loop.c")
 
 
@@ -41,7 +46,7 @@ LOOP_SOURCE = Path(__file__).with_name("smc_loop.c")
 class SmcBuild:
     """A built step: the folder, the generated module (``module``: ``smc.h``/``smc.c`` with
     ``smc_step``, its library and CPython binding, built by ``gagen.build.build_source``), the loop
-    runner, and the parameters (``meta``: n, k, K, epsilon, damping, q0, op count)."""
+    runner, and the parameters (``meta``: n, k, K, epsilon, damping, the joint limits, q0, op count)."""
 
     folder: Path
     source: Path
@@ -55,8 +60,19 @@ class SmcBuild:
     def q0(self) -> NDArray[np.float64]:
         return np.array(self.meta["q0"], dtype=float)
 
+    @property
+    def limits(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(lower, upper) per joint, the step's and the runner's (±inf where a joint has none)."""
+        return _limits(self.meta["lower"], self.meta["upper"])
+
     def step(self) -> CompiledStep:
         return CompiledStep(self.module or self.source.parent)
+
+
+def _limits(lower: Sequence[float | None],
+            upper: Sequence[float | None]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    return (np.array([-math.inf if v is None else v for v in lower], dtype=float),
+            np.array([math.inf if v is None else v for v in upper], dtype=float))
 
 
 def _start(q0: Sequence[float] | None, n: int) -> list[float]:
@@ -70,10 +86,12 @@ def _start(q0: Sequence[float] | None, n: int) -> list[float]:
     return values
 
 
-def _compile_runner(module: Path, manifest: dict[str, Any], q0: Sequence[float], runner: Path) -> None:
+def _compile_runner(module: Path, manifest: dict[str, Any], q0: Sequence[float], params: dict[str, Any],
+                    runner: Path) -> None:
     """``smc_loop.c`` with the module's C (``smc.c`` and its SIMD companion) into the executable
     ``runner`` (gagen's compiler flags, so the step gives the library's doubles); the start q0 comes
-    as ``-DSMC_LOOP_Q0=a,b,…`` (finite doubles, Python's repr: numbers only)."""
+    as ``-DSMC_LOOP_Q0=a,b,…`` (finite doubles, Python's repr: numbers only) and the joint limits
+    (the manifest's ``smc`` parameters) as ``-DSMC_LOOP_LOWER`` / ``-DSMC_LOOP_UPPER``."""
     c_source = module / manifest["c_source"]
     units = [LOOP_SOURCE, c_source]
     simd = c_source.with_name(f"{c_source.stem}_simd.c")
@@ -83,6 +101,9 @@ def _compile_runner(module: Path, manifest: dict[str, Any], q0: Sequence[float],
     partial = runner.with_name(runner.name + f".{os.getpid()}.partial")
     command = [*find_compiler(), *flags, *vector_math_defines(), f"-I{module}",
                f"-DSMC_LOOP_Q0={','.join(map(repr, q0))}",
+               *(f"-DSMC_LOOP_{name}={','.join(map(c_literal, values))}"
+                 for name, values in zip(("LOWER", "UPPER"), _limits(params["lower"], params["upper"]),
+                                         strict=True)),
                "-o", str(partial), *map(str, units), *vector_math_libraries(), "-lm"]
     result = subprocess.run(command, capture_output=True, text=True)
     if result.returncode != 0:
@@ -119,7 +140,7 @@ def build(joints: Sequence[Joint] | None = None, *, K: float | Sequence[float] =
     if not result.compiled:
         raise CompileError(f"the step module in {result.folder} was written but not compiled")
     if force or folder is not None or not result.cached or not runner.is_file():
-        _compile_runner(result.folder, manifest, start, runner)
+        _compile_runner(result.folder, manifest, start, source.meta["smc"], runner)
     ops = kernel.op_count
     meta = {**source.meta["smc"], "n": n, "k": k, "q0": start, "op_count": str(ops), "flops": ops.flops,
             "calls": ops.calls, "key": key.hexdigest()[:16]}

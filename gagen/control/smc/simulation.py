@@ -86,17 +86,21 @@ class Simulation:
 
 def simulate(step: Callable[[ArrayLike, ArrayLike], tuple[Any, Any, Any]], q0: ArrayLike, duration: float,
              dt: float, *, reference: Callable[[float], NDArray[np.float64]] = reference,
-             disturbance: Callable[[float], ArrayLike] | None = None) -> Simulation:
+             disturbance: Callable[[float], ArrayLike] | None = None,
+             limits: tuple[ArrayLike, ArrayLike] | None = None) -> Simulation:
     """The C runner's loop in Python: round(duration / dt) ticks of x_ref(t_k), (x, J, u) = step(q, x_ref),
-    q += u dt, with t_k = k dt. With the compiled step (``CompiledStep``) and dt = 1/rate it gives the
-    runner's log bit for bit. ``disturbance(t)``: an optional joint-velocity disturbance d added to u
-    in the integration (q += (u + d) dt), i.e. λ = J d in ẋ = J u + λ [SMC Eq. 32]."""
+    q += u dt, with t_k = k dt. With the compiled step (``CompiledStep``), dt = 1/rate and the build's
+    ``limits`` it gives the runner's log bit for bit. ``disturbance(t)``: an optional joint-velocity
+    disturbance d added to u in the integration (q += (u + d) dt), i.e. λ = J d in ẋ = J u + λ [SMC
+    Eq. 32]. ``limits``: (lower, upper), the joints' hard stops (``SmcBuild.limits``): q is clamped to
+    them after each step, as the runner does."""
     q = np.array(q0, dtype=float)
     if not np.all(np.isfinite(q)):
         raise ValueError(f"q0 must be finite, got {q}")
     check_finite("duration", duration, "s", positive=True)
     check_finite("dt", dt, "s", positive=True)
     ticks = round(duration / dt)
+    bounds = None if limits is None else tuple(np.asarray(v, dtype=float) for v in limits)
     if ticks < 1:
         raise ValueError(f"a duration of {duration:g} s is less than one tick of {dt:g} s")
     rows: dict[str, list[Any]] = {"t": [], "q": [], "x": [], "x_ref": [], "u": []}
@@ -107,4 +111,6 @@ def simulate(step: Callable[[ArrayLike, ArrayLike], tuple[Any, Any, Any]], q0: A
         for name, value in (("t", t), ("q", q.copy()), ("x", x), ("x_ref", xr), ("u", u)):
             rows[name].append(value)
         q = q + (u if disturbance is None else u + np.asarray(disturbance(t), dtype=float)) * dt
+        if bounds is not None:  # the runner's hard stops (integrate() in smc_loop.c)
+            q = np.minimum(np.maximum(q, bounds[0]), bounds[1])
     return Simulation(*(np.array(rows[name], dtype=float) for name in ("t", "q", "x", "x_ref", "u")))

@@ -1,12 +1,15 @@
 /* smc_loop.c: the fixed-rate loop of the sliding-mode pose tracker [SMC V-VI], around the generated
  * step kernel smc_step() of the module smc (smc.h / smc.c, built by gagen.control.smc.build through
- * gagen's build pipeline). Compiled with the module's C and -DSMC_LOOP_Q0=a,b,... (the default start,
- * one number per joint).
+ * gagen's build pipeline). Compiled with the module's C, -DSMC_LOOP_Q0=a,b,... (the default start,
+ * one number per joint) and -DSMC_LOOP_LOWER=... / -DSMC_LOOP_UPPER=... (the joint limits, INFINITY
+ * where a joint has none).
  *
  * Every tick k (nominal time t_k = k dt, dt = 1 / rate):
  *   x_ref(t_k)                       the paper's reference [SMC Eq. 43]
  *   smc_step(q, x_ref) -> x, J, u    pose, its Jacobian, u = -K J+ tanh(eps (x - x_ref)) [Eq. 35, 40]
- *   q += u dt                        kinematic (explicit Euler) integration of q' = u
+ *                                    with the joint-limit avoidance and velocity bound
+ *   q = clamp(q + u dt, lower, upper)  kinematic (explicit Euler) integration of q' = u against the
+ *                                    joints' hard stops
  * The reference and the integration use the nominal t_k, never the clock, so the logged trajectory
  * is deterministic: it does not depend on how late a tick ran (the Python `simulate` reproduces it).
  *
@@ -47,12 +50,28 @@
 #ifndef SMC_LOOP_Q0
 #error "compile with -DSMC_LOOP_Q0=a,b,... (the start, one value per joint)"
 #endif
+#if !defined(SMC_LOOP_LOWER) || !defined(SMC_LOOP_UPPER)
+#error "compile with -DSMC_LOOP_LOWER=a,b,... and -DSMC_LOOP_UPPER=a,b,... (the joint limits)"
+#endif
 
 /* per-tick log row: t, q[N], x[K], x_ref[K], u[N], position error, direction error, max |s|,
  * lateness, work */
 #define COLS (1 + N + K + K + N + 5)
 
 static const double Q0[N] = {SMC_LOOP_Q0};
+static const double LOWER[N] = {SMC_LOOP_LOWER}, UPPER[N] = {SMC_LOOP_UPPER};
+
+/* q += u dt against the hard stops: q never leaves [LOWER, UPPER], whatever u. At rates of at least the
+ * step's LIMIT_RATE its velocity bound already keeps q inside and this changes nothing; the Python
+ * `simulate` does the same (np.minimum(np.maximum(...)), which also passes a NaN through). Comparisons,
+ * not fmin/fmax: those are libm calls here, and after the step's AVX code their SSE encoding doubled
+ * the cost of a tick. */
+static void integrate(double *q, const double *u, double dt) {
+  for (int i = 0; i < N; i++) {
+    double v = q[i] + u[i] * dt;
+    q[i] = v < LOWER[i] ? LOWER[i] : (v > UPPER[i] ? UPPER[i] : v);
+  }
+}
 
 /* [SMC Eq. 43]: x_ref = [-0.3 + 0.1 cos 2t, 0.15, 0.25, 0, 1, 0] (point, then line direction) */
 static void reference(double t, double *xr) {
@@ -115,7 +134,7 @@ static int bench(long steps, int repeats) {
     for (long k = 0; k < steps; k++) {
       reference((double)(k % 1000) * dt, xr);
       smc_step(q, xr, x, J, u);
-      for (int i = 0; i < N; i++) q[i] += u[i] * dt;
+      integrate(q, u, dt);
     }
     clock_gettime(CLOCK_MONOTONIC, &b);
     rates[r] = (double)steps / since(&a, &b);
@@ -217,7 +236,7 @@ int main(int argc, char **argv) {
       else ed += s * s;
       if (fabs(s) > es) es = fabs(s);
     }
-    for (int i = 0; i < N; i++) q[i] += u[i] * dt;
+    integrate(q, u, dt);
     row[1 + 2 * N + 2 * K] = sqrt(ep);
     row[2 + 2 * N + 2 * K] = sqrt(ed);
     row[3 + 2 * N + 2 * K] = es;
