@@ -484,7 +484,7 @@ class KernelFunction:
     def _run(self, args: list[Any], path: str) -> Any:
         try:
             return self.fn(*args)
-        except KernelError:
+        except (KernelError, TimeoutError):  # (a caller's deadline is not the function's error)
             raise
         except Exception as e:
             raise self._error(f"on the {path}",

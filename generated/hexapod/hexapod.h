@@ -19,31 +19,31 @@
  * Operation counts (flops = mul + add + neg + div; calls listed apart):
  *   hexapod_front_left_fk_pga    mul=57 add=48 neg=5 div=0 cos=3 sin=3 (flops=110)
  *   hexapod_front_left_fk_cga    mul=69 add=63 neg=3 div=0 cos=3 sin=3 (flops=135)
- *   hexapod_front_left_ik        mul=13 add=14 neg=3 div=0 atan2=4 if_else_zero=5 lt=4 not=4 sqrt=3 (flops=30)
+ *   hexapod_front_left_ik        mul=19 add=90 neg=14 div=0 atan2=7 fabs=3 if_else_zero=72 lt=40 not=38 sqrt=5 (flops=123)
  *   hexapod_front_left_dls       mul=95 add=82 neg=0 div=3 cos=3 sin=3 sqrt=1 (flops=180)
  *   hexapod_middle_left_fk_pga   mul=54 add=39 neg=5 div=0 cos=3 sin=3 (flops=98)
  *   hexapod_middle_left_fk_cga   mul=62 add=50 neg=3 div=0 cos=3 sin=3 (flops=115)
- *   hexapod_middle_left_ik       mul=9 add=11 neg=4 div=0 atan2=4 if_else_zero=5 lt=4 not=4 sqrt=3 (flops=24)
+ *   hexapod_middle_left_ik       mul=15 add=87 neg=15 div=0 atan2=7 fabs=3 if_else_zero=73 lt=40 not=38 sqrt=5 (flops=117)
  *   hexapod_middle_left_dls      mul=94 add=77 neg=0 div=3 cos=3 sin=3 sqrt=1 (flops=174)
  *   hexapod_rear_left_fk_pga     mul=57 add=47 neg=7 div=0 cos=3 sin=3 (flops=111)
  *   hexapod_rear_left_fk_cga     mul=69 add=62 neg=5 div=0 cos=3 sin=3 (flops=136)
- *   hexapod_rear_left_ik         mul=13 add=14 neg=3 div=0 atan2=4 if_else_zero=5 lt=4 not=4 sqrt=3 (flops=30)
+ *   hexapod_rear_left_ik         mul=19 add=90 neg=14 div=0 atan2=7 fabs=3 if_else_zero=73 lt=40 not=38 sqrt=5 (flops=123)
  *   hexapod_rear_left_dls        mul=95 add=82 neg=0 div=3 cos=3 sin=3 sqrt=1 (flops=180)
  *   hexapod_rear_right_fk_pga    mul=57 add=49 neg=5 div=0 cos=3 sin=3 (flops=111)
  *   hexapod_rear_right_fk_cga    mul=69 add=64 neg=3 div=0 cos=3 sin=3 (flops=136)
- *   hexapod_rear_right_ik        mul=13 add=14 neg=4 div=0 atan2=4 if_else_zero=5 lt=4 not=4 sqrt=3 (flops=31)
+ *   hexapod_rear_right_ik        mul=19 add=90 neg=15 div=0 atan2=7 fabs=3 if_else_zero=73 lt=40 not=38 sqrt=5 (flops=124)
  *   hexapod_rear_right_dls       mul=95 add=82 neg=0 div=3 cos=3 sin=3 sqrt=1 (flops=180)
  *   hexapod_middle_right_fk_pga  mul=54 add=41 neg=6 div=0 cos=3 sin=3 (flops=101)
  *   hexapod_middle_right_fk_cga  mul=62 add=52 neg=4 div=0 cos=3 sin=3 (flops=118)
- *   hexapod_middle_right_ik      mul=9 add=11 neg=4 div=0 atan2=4 if_else_zero=5 lt=4 not=4 sqrt=3 (flops=24)
+ *   hexapod_middle_right_ik      mul=15 add=87 neg=15 div=0 atan2=7 fabs=3 if_else_zero=73 lt=40 not=38 sqrt=5 (flops=117)
  *   hexapod_middle_right_dls     mul=94 add=77 neg=0 div=3 cos=3 sin=3 sqrt=1 (flops=174)
  *   hexapod_front_right_fk_pga   mul=57 add=50 neg=6 div=0 cos=3 sin=3 (flops=113)
  *   hexapod_front_right_fk_cga   mul=69 add=65 neg=4 div=0 cos=3 sin=3 (flops=138)
- *   hexapod_front_right_ik       mul=13 add=14 neg=3 div=0 atan2=4 if_else_zero=5 lt=4 not=4 sqrt=3 (flops=30)
+ *   hexapod_front_right_ik       mul=19 add=90 neg=14 div=0 atan2=7 fabs=3 if_else_zero=73 lt=40 not=38 sqrt=5 (flops=123)
  *   hexapod_front_right_dls      mul=95 add=82 neg=0 div=3 cos=3 sin=3 sqrt=1 (flops=180)
  *   hexapod_body_fk_pga          mul=208 add=188 neg=6 div=0 cos=18 sin=18 (flops=402)
  *   hexapod_body_fk_cga          mul=208 add=200 neg=6 div=0 cos=18 sin=18 (flops=414)
- *   hexapod_body_ik              mul=230 add=265 neg=15 div=26 atan2=24 fabs=1 if_else_zero=33 lt=26 not=25 sqrt=18 (flops=536)
+ *   hexapod_body_ik              mul=266 add=571 neg=63 div=18 atan2=42 fabs=19 if_else_zero=314 lt=182 not=175 sqrt=30 (flops=918)
  *   hexapod_body_contact_pga     mul=390 add=365 neg=12 div=43 cos=18 fabs=3 if_else_zero=9 lt=6 not=3 sin=18 sqrt=1 (flops=810)
  *   hexapod_body_contact_cga     mul=327 add=389 neg=0 div=30 cos=18 fabs=3 if_else_zero=9 lt=6 not=3 sin=18 sqrt=1 (flops=746)
  *   hexapod_ground_pga           mul=29 add=20 neg=0 div=5 fabs=2 if_else_zero=6 lt=4 not=2 sqrt=1 (flops=54)
@@ -627,7 +627,6 @@ void hexapod_body_fk_cga_columns_from(long gagen_s0, long gagen_n, long gagen_ld
  *   out q            [18] front_left_yaw, front_left_thigh, front_left_knee, middle_left_yaw,...
  *   out reach        [6] front_left, middle_left, rear_left, rear_right, middle_right, front_right
  *   out excess       [6] front_left, middle_left, rear_left, rear_right, middle_right, front_right
- *   batched forms in hexapod_simd.c
  */
 #define HEXAPOD_BODY_IK_POSE_SIZE 8
 #define HEXAPOD_BODY_IK_TOES_SIZE 18

@@ -520,79 +520,326 @@ def front_left_ik(in_target):
     """
     jnp = _Jnp  # a local: no kernel of this module (one may be named jnp) can shadow it
     in0 = _Flat(in_target, 3, 1, 'front_left_ik: input target')
-    w0 = 0.8660254037844387
-    w1 = in0[1]
-    w2 = w0 * w1
-    w3 = 6.632658891371746e-14
-    w2 = w2 - w3
-    w3 = 0.49999999999999994
-    w4 = in0[0]
-    w5 = w3 * w4
-    w2 = w2 - w5
-    w3 = w3 * w1
-    w0 = w0 * w4
-    w3 = w3 + w0
-    w0 = 0.11999999999988513
-    w3 = w3 - w0
-    w0 = jnp.arctan2(w2, w3)
-    o0_0 = w0
+    w0 = 0.5
+    w1 = in0[0]
+    w2 = jnp.abs(w1)
+    w3 = in0[1]
+    w4 = jnp.abs(w3)
+    w2 = w2 + w4
     w4 = in0[2]
-    w1 = -w4
-    w3 = w3 * w3
-    w2 = w2 * w2
-    w3 = w3 + w2
-    w3 = jnp.sqrt(w3)
-    w2 = 0.05
-    w3 = w3 - w2
-    w1 = jnp.arctan2(w1, w3)
-    w2 = 2.5
-    w5 = 0.16000000000000003
-    w3 = w3 * w3
-    w5 = w5 - w3
-    w4 = w4 * w4
-    w5 = w5 - w4
-    w3 = w3 + w4
-    w5 = w5 * w3
-    w4 = 0.0
-    w6 = jnp.where(w5 < w4, 1.0, 0.0)
+    w5 = jnp.abs(w4)
+    w2 = w2 + w5
+    w5 = 1000000000.0
+    w2 = jnp.where(w2 < w5, 1.0, 0.0)
+    w6 = 0.49999999999999994
+    w7 = w6 * w3
+    w8 = 0.8660254037844387
+    w9 = w8 * w1
+    w7 = w7 + w9
+    w7 = jnp.where(w2 != 0, w7, 0.0)
+    w9 = 0.11999999999988513
+    w7 = w7 - w9
+    w9 = w7 * w7
+    w8 = w8 * w3
+    w8 = jnp.where(w2 != 0, w8, 0.0)
+    w3 = 6.632658891371746e-14
+    w8 = w8 - w3
+    w6 = w6 * w1
+    w6 = jnp.where(w2 != 0, w6, 0.0)
+    w8 = w8 - w6
+    w6 = w8 * w8
+    w9 = w9 + w6
+    w9 = jnp.sqrt(w9)
+    w6 = 0.05
+    w1 = w9 + w6
+    w3 = w1 * w1
+    w10 = w4 * w4
+    w10 = jnp.where(w2 != 0, w10, 0.0)
+    w10 = jnp.where(w2 != 0, w10, 0.0)
+    w11 = w3 + w10
+    w12 = 0.0
+    w13 = jnp.where(w11 < w12, 1.0, 0.0)
+    w14 = jnp.sqrt(w11)
+    w15 = -w14
+    w15 = jnp.where(w13 != 0, w15, 0.0)
+    w13 = jnp.where(w13 == 0, 1.0, 0.0)
+    w16 = 0.4
+    w14 = w14 - w16
+    w13 = jnp.where(w13 != 0, w14, 0.0)
+    w15 = w15 + w13
+    w13 = jnp.where(w15 < w12, 1.0, 0.0)
+    w13 = jnp.where(w13 == 0, 1.0, 0.0)
+    w13 = jnp.where(w13 != 0, w15, 0.0)
+    w15 = 1e-12
+    w14 = w13 + w15
+    w9 = w9 - w6
+    w6 = w9 * w9
+    w17 = w6 + w10
+    w18 = jnp.where(w17 < w12, 1.0, 0.0)
+    w19 = jnp.sqrt(w17)
+    w20 = -w19
+    w20 = jnp.where(w18 != 0, w20, 0.0)
+    w18 = jnp.where(w18 == 0, 1.0, 0.0)
+    w19 = w19 - w16
+    w18 = jnp.where(w18 != 0, w19, 0.0)
+    w20 = w20 + w18
+    w18 = jnp.where(w20 < w12, 1.0, 0.0)
+    w18 = jnp.where(w18 == 0, 1.0, 0.0)
+    w18 = jnp.where(w18 != 0, w20, 0.0)
+    w14 = jnp.where(w14 < w18, 1.0, 0.0)
+    w20 = 1.0
+    w19 = jnp.where(w14 != 0, w20, 0.0)
+    w14 = jnp.where(w14 == 0, 1.0, 0.0)
+    w15 = w18 + w15
+    w15 = jnp.where(w15 < w13, 1.0, 0.0)
+    w15 = jnp.where(w15 == 0, 1.0, 0.0)
+    w8 = jnp.arctan2(w8, w7)
+    w7 = jnp.where(w12 < w8, 1.0, 0.0)
+    w16 = 3.141592653589793
+    w21 = w8 - w16
+    w21 = jnp.where(w7 != 0, w21, 0.0)
+    w7 = jnp.where(w7 == 0, 1.0, 0.0)
+    w22 = w8 + w16
+    w7 = jnp.where(w7 != 0, w22, 0.0)
+    w21 = w21 + w7
+    w7 = 0.785
+    w22 = w21 + w7
+    w22 = -w22
+    w23 = jnp.where(w22 < w12, 1.0, 0.0)
+    w23 = jnp.where(w23 == 0, 1.0, 0.0)
+    w23 = jnp.where(w23 != 0, w22, 0.0)
+    w22 = w21 - w7
+    w24 = jnp.where(w22 < w12, 1.0, 0.0)
+    w24 = jnp.where(w24 == 0, 1.0, 0.0)
+    w24 = jnp.where(w24 != 0, w22, 0.0)
+    w23 = w23 + w24
+    w4 = jnp.where(w2 != 0, w4, 0.0)
+    w4 = -w4
+    w1 = -w1
+    w1 = jnp.arctan2(w4, w1)
+    w24 = 2.5
+    w22 = 0.16000000000000003
+    w3 = w22 - w3
+    w3 = w3 - w10
+    w3 = w3 * w11
+    w25 = jnp.where(w3 < w12, 1.0, 0.0)
+    w25 = jnp.where(w25 == 0, 1.0, 0.0)
+    w25 = jnp.where(w25 != 0, w3, 0.0)
+    w25 = jnp.sqrt(w25)
+    w3 = w24 * w25
+    w26 = w24 * w11
+    w3 = jnp.arctan2(w3, w26)
+    w26 = w1 - w3
+    w27 = jnp.where(w16 < w26, 1.0, 0.0)
+    w28 = 6.283185307179586
+    w29 = w26 - w28
+    w29 = jnp.where(w27 != 0, w29, 0.0)
+    w27 = jnp.where(w27 == 0, 1.0, 0.0)
+    w27 = jnp.where(w27 != 0, w26, 0.0)
+    w29 = w29 + w27
+    w27 = (-3.141592653589793)
+    w26 = jnp.where(w29 < w27, 1.0, 0.0)
+    w30 = w29 + w28
+    w30 = jnp.where(w26 != 0, w30, 0.0)
+    w26 = jnp.where(w26 == 0, 1.0, 0.0)
+    w26 = jnp.where(w26 != 0, w29, 0.0)
+    w30 = w30 + w26
+    w26 = 1.571
+    w29 = w30 + w26
+    w29 = -w29
+    w31 = jnp.where(w29 < w12, 1.0, 0.0)
+    w31 = jnp.where(w31 == 0, 1.0, 0.0)
+    w31 = jnp.where(w31 != 0, w29, 0.0)
+    w31 = w23 + w31
+    w29 = w30 - w26
+    w32 = jnp.where(w29 < w12, 1.0, 0.0)
+    w32 = jnp.where(w32 == 0, 1.0, 0.0)
+    w32 = jnp.where(w32 != 0, w29, 0.0)
+    w31 = w31 + w32
+    w32 = 12.499999999999998
+    w25 = w32 * w25
+    w11 = w32 * w11
+    w11 = w11 - w20
+    w25 = jnp.arctan2(w25, w11)
+    w11 = 2.618
+    w29 = w25 + w11
+    w29 = -w29
+    w33 = jnp.where(w29 < w12, 1.0, 0.0)
+    w33 = jnp.where(w33 == 0, 1.0, 0.0)
+    w33 = jnp.where(w33 != 0, w29, 0.0)
+    w31 = w31 + w33
+    w29 = w25 - w11
+    w34 = jnp.where(w29 < w12, 1.0, 0.0)
+    w34 = jnp.where(w34 == 0, 1.0, 0.0)
+    w34 = jnp.where(w34 != 0, w29, 0.0)
+    w31 = w31 + w34
+    w29 = w8 + w7
+    w29 = -w29
+    w35 = jnp.where(w29 < w12, 1.0, 0.0)
+    w35 = jnp.where(w35 == 0, 1.0, 0.0)
+    w35 = jnp.where(w35 != 0, w29, 0.0)
+    w7 = w8 - w7
+    w29 = jnp.where(w7 < w12, 1.0, 0.0)
+    w29 = jnp.where(w29 == 0, 1.0, 0.0)
+    w29 = jnp.where(w29 != 0, w7, 0.0)
+    w35 = w35 + w29
+    w4 = jnp.arctan2(w4, w9)
+    w22 = w22 - w6
+    w22 = w22 - w10
+    w22 = w22 * w17
+    w10 = jnp.where(w22 < w12, 1.0, 0.0)
+    w10 = jnp.where(w10 == 0, 1.0, 0.0)
+    w10 = jnp.where(w10 != 0, w22, 0.0)
+    w10 = jnp.sqrt(w10)
+    w22 = w24 * w10
+    w24 = w24 * w17
+    w22 = jnp.arctan2(w22, w24)
+    w24 = w4 - w22
+    w6 = jnp.where(w16 < w24, 1.0, 0.0)
+    w9 = w24 - w28
+    w9 = jnp.where(w6 != 0, w9, 0.0)
     w6 = jnp.where(w6 == 0, 1.0, 0.0)
-    w6 = jnp.where(w6 != 0, w5, 0.0)
-    w6 = jnp.sqrt(w6)
-    w5 = w2 * w6
-    w2 = w2 * w3
-    w5 = jnp.arctan2(w5, w2)
-    w2 = w1 - w5
-    o0_1 = w2
-    w2 = 12.499999999999998
-    w6 = w2 * w6
-    w2 = w2 * w3
-    w7 = 1.0
-    w2 = w2 - w7
-    w6 = jnp.arctan2(w6, w2)
-    o0_2 = w6
-    o1_0 = w0
-    w1 = w1 + w5
-    o1_1 = w1
+    w6 = jnp.where(w6 != 0, w24, 0.0)
+    w9 = w9 + w6
+    w6 = jnp.where(w9 < w27, 1.0, 0.0)
+    w24 = w9 + w28
+    w24 = jnp.where(w6 != 0, w24, 0.0)
+    w6 = jnp.where(w6 == 0, 1.0, 0.0)
+    w6 = jnp.where(w6 != 0, w9, 0.0)
+    w24 = w24 + w6
+    w6 = w24 + w26
     w6 = -w6
-    o1_2 = w6
-    w6 = 1e-09
-    w1 = jnp.where(w3 < w4, 1.0, 0.0)
-    w3 = jnp.sqrt(w3)
-    w5 = -w3
-    w5 = jnp.where(w1 != 0, w5, 0.0)
-    w1 = jnp.where(w1 == 0, 1.0, 0.0)
-    w0 = 0.4
-    w3 = w3 - w0
-    w1 = jnp.where(w1 != 0, w3, 0.0)
-    w5 = w5 + w1
-    w4 = jnp.where(w5 < w4, 1.0, 0.0)
-    w4 = jnp.where(w4 == 0, 1.0, 0.0)
-    w4 = jnp.where(w4 != 0, w5, 0.0)
-    w6 = jnp.where(w6 < w4, 1.0, 0.0)
-    w6 = jnp.where(w6 == 0, 1.0, 0.0)
-    w6 = jnp.where(w6 != 0, w7, 0.0)
-    o2_0 = w6
-    o3_0 = w4
+    w9 = jnp.where(w6 < w12, 1.0, 0.0)
+    w9 = jnp.where(w9 == 0, 1.0, 0.0)
+    w9 = jnp.where(w9 != 0, w6, 0.0)
+    w9 = w35 + w9
+    w6 = w24 - w26
+    w29 = jnp.where(w6 < w12, 1.0, 0.0)
+    w29 = jnp.where(w29 == 0, 1.0, 0.0)
+    w29 = jnp.where(w29 != 0, w6, 0.0)
+    w9 = w9 + w29
+    w10 = w32 * w10
+    w32 = w32 * w17
+    w32 = w32 - w20
+    w10 = jnp.arctan2(w10, w32)
+    w32 = w10 + w11
+    w32 = -w32
+    w17 = jnp.where(w32 < w12, 1.0, 0.0)
+    w17 = jnp.where(w17 == 0, 1.0, 0.0)
+    w17 = jnp.where(w17 != 0, w32, 0.0)
+    w9 = w9 + w17
+    w11 = w10 - w11
+    w32 = jnp.where(w11 < w12, 1.0, 0.0)
+    w32 = jnp.where(w32 == 0, 1.0, 0.0)
+    w32 = jnp.where(w32 != 0, w11, 0.0)
+    w9 = w9 + w32
+    w31 = jnp.where(w31 < w9, 1.0, 0.0)
+    w31 = jnp.where(w31 != 0, w20, 0.0)
+    w31 = jnp.where(w15 != 0, w31, 0.0)
+    w31 = jnp.where(w14 != 0, w31, 0.0)
+    w31 = w19 + w31
+    w31 = jnp.where(w0 < w31, 1.0, 0.0)
+    w9 = jnp.where(w31 != 0, w21, 0.0)
+    w11 = jnp.where(w31 == 0, 1.0, 0.0)
+    w29 = jnp.where(w11 != 0, w8, 0.0)
+    w9 = w9 + w29
+    o0_0 = w9
+    w30 = jnp.where(w31 != 0, w30, 0.0)
+    w24 = jnp.where(w11 != 0, w24, 0.0)
+    w30 = w30 + w24
+    o0_1 = w30
+    w31 = jnp.where(w31 != 0, w25, 0.0)
+    w11 = jnp.where(w11 != 0, w10, 0.0)
+    w31 = w31 + w11
+    o0_2 = w31
+    w1 = w1 + w3
+    w3 = jnp.where(w16 < w1, 1.0, 0.0)
+    w31 = w1 - w28
+    w31 = jnp.where(w3 != 0, w31, 0.0)
+    w3 = jnp.where(w3 == 0, 1.0, 0.0)
+    w3 = jnp.where(w3 != 0, w1, 0.0)
+    w31 = w31 + w3
+    w3 = jnp.where(w31 < w27, 1.0, 0.0)
+    w1 = w31 + w28
+    w1 = jnp.where(w3 != 0, w1, 0.0)
+    w3 = jnp.where(w3 == 0, 1.0, 0.0)
+    w3 = jnp.where(w3 != 0, w31, 0.0)
+    w1 = w1 + w3
+    w3 = w1 + w26
+    w3 = -w3
+    w31 = jnp.where(w3 < w12, 1.0, 0.0)
+    w31 = jnp.where(w31 == 0, 1.0, 0.0)
+    w31 = jnp.where(w31 != 0, w3, 0.0)
+    w23 = w23 + w31
+    w31 = w1 - w26
+    w3 = jnp.where(w31 < w12, 1.0, 0.0)
+    w3 = jnp.where(w3 == 0, 1.0, 0.0)
+    w3 = jnp.where(w3 != 0, w31, 0.0)
+    w23 = w23 + w3
+    w23 = w23 + w34
+    w23 = w23 + w33
+    w4 = w4 + w22
+    w16 = jnp.where(w16 < w4, 1.0, 0.0)
+    w22 = w4 - w28
+    w22 = jnp.where(w16 != 0, w22, 0.0)
+    w16 = jnp.where(w16 == 0, 1.0, 0.0)
+    w16 = jnp.where(w16 != 0, w4, 0.0)
+    w22 = w22 + w16
+    w27 = jnp.where(w22 < w27, 1.0, 0.0)
+    w28 = w22 + w28
+    w28 = jnp.where(w27 != 0, w28, 0.0)
+    w27 = jnp.where(w27 == 0, 1.0, 0.0)
+    w27 = jnp.where(w27 != 0, w22, 0.0)
+    w28 = w28 + w27
+    w27 = w28 + w26
+    w27 = -w27
+    w22 = jnp.where(w27 < w12, 1.0, 0.0)
+    w22 = jnp.where(w22 == 0, 1.0, 0.0)
+    w22 = jnp.where(w22 != 0, w27, 0.0)
+    w35 = w35 + w22
+    w26 = w28 - w26
+    w12 = jnp.where(w26 < w12, 1.0, 0.0)
+    w12 = jnp.where(w12 == 0, 1.0, 0.0)
+    w12 = jnp.where(w12 != 0, w26, 0.0)
+    w35 = w35 + w12
+    w35 = w35 + w32
+    w35 = w35 + w17
+    w23 = jnp.where(w23 < w35, 1.0, 0.0)
+    w23 = jnp.where(w23 != 0, w20, 0.0)
+    w15 = jnp.where(w15 != 0, w23, 0.0)
+    w14 = jnp.where(w14 != 0, w15, 0.0)
+    w19 = w19 + w14
+    w0 = jnp.where(w0 < w19, 1.0, 0.0)
+    w21 = jnp.where(w0 != 0, w21, 0.0)
+    w19 = jnp.where(w0 == 0, 1.0, 0.0)
+    w8 = jnp.where(w19 != 0, w8, 0.0)
+    w21 = w21 + w8
+    o1_0 = w21
+    w1 = jnp.where(w0 != 0, w1, 0.0)
+    w28 = jnp.where(w19 != 0, w28, 0.0)
+    w1 = w1 + w28
+    o1_1 = w1
+    w25 = -w25
+    w0 = jnp.where(w0 != 0, w25, 0.0)
+    w10 = -w10
+    w19 = jnp.where(w19 != 0, w10, 0.0)
+    w0 = w0 + w19
+    o1_2 = w0
+    w0 = 1e-09
+    w19 = jnp.where(w18 < w13, 1.0, 0.0)
+    w18 = jnp.where(w19 != 0, w18, 0.0)
+    w19 = jnp.where(w19 == 0, 1.0, 0.0)
+    w19 = jnp.where(w19 != 0, w13, 0.0)
+    w18 = w18 + w19
+    w18 = jnp.where(w2 != 0, w18, 0.0)
+    w2 = jnp.where(w2 == 0, 1.0, 0.0)
+    w2 = jnp.where(w2 != 0, w5, 0.0)
+    w18 = w18 + w2
+    w0 = jnp.where(w0 < w18, 1.0, 0.0)
+    w0 = jnp.where(w0 == 0, 1.0, 0.0)
+    w0 = jnp.where(w0 != 0, w20, 0.0)
+    o2_0 = w0
+    o3_0 = w18
     return (
         jnp.stack([jnp.asarray(o0_0, dtype=jnp.float64), jnp.asarray(o0_1, dtype=jnp.float64), jnp.asarray(o0_2, dtype=jnp.float64)]),
         jnp.stack([jnp.asarray(o1_0, dtype=jnp.float64), jnp.asarray(o1_1, dtype=jnp.float64), jnp.asarray(o1_2, dtype=jnp.float64)]),
@@ -1240,70 +1487,318 @@ def middle_left_ik(in_target):
     """
     jnp = _Jnp  # a local: no kernel of this module (one may be named jnp) can shadow it
     in0 = _Flat(in_target, 3, 1, 'middle_left_ik: input target')
-    w0 = in0[0]
-    w1 = -w0
-    w2 = in0[1]
-    w3 = 0.12
-    w2 = w2 - w3
-    w1 = jnp.arctan2(w1, w2)
-    o0_0 = w1
-    w3 = in0[2]
-    w4 = -w3
-    w2 = w2 * w2
-    w0 = w0 * w0
-    w2 = w2 + w0
-    w2 = jnp.sqrt(w2)
-    w0 = 0.05
-    w2 = w2 - w0
-    w4 = jnp.arctan2(w4, w2)
-    w0 = 2.5
-    w5 = 0.16000000000000003
-    w2 = w2 * w2
-    w5 = w5 - w2
-    w3 = w3 * w3
-    w5 = w5 - w3
-    w2 = w2 + w3
-    w5 = w5 * w2
-    w3 = 0.0
-    w6 = jnp.where(w5 < w3, 1.0, 0.0)
-    w6 = jnp.where(w6 == 0, 1.0, 0.0)
-    w6 = jnp.where(w6 != 0, w5, 0.0)
+    w0 = 0.5
+    w1 = in0[0]
+    w2 = jnp.abs(w1)
+    w3 = in0[1]
+    w4 = jnp.abs(w3)
+    w2 = w2 + w4
+    w4 = in0[2]
+    w5 = jnp.abs(w4)
+    w2 = w2 + w5
+    w5 = 1000000000.0
+    w2 = jnp.where(w2 < w5, 1.0, 0.0)
+    w3 = jnp.where(w2 != 0, w3, 0.0)
+    w6 = 0.12
+    w3 = w3 - w6
+    w6 = w3 * w3
+    w7 = w1 * w1
+    w7 = jnp.where(w2 != 0, w7, 0.0)
+    w7 = jnp.where(w2 != 0, w7, 0.0)
+    w6 = w6 + w7
     w6 = jnp.sqrt(w6)
-    w5 = w0 * w6
-    w0 = w0 * w2
-    w5 = jnp.arctan2(w5, w0)
-    w0 = w4 - w5
-    o0_1 = w0
-    w0 = 12.499999999999998
-    w6 = w0 * w6
-    w0 = w0 * w2
-    w7 = 1.0
-    w0 = w0 - w7
-    w6 = jnp.arctan2(w6, w0)
-    o0_2 = w6
-    o1_0 = w1
-    w4 = w4 + w5
-    o1_1 = w4
-    w6 = -w6
-    o1_2 = w6
-    w6 = 1e-09
-    w4 = jnp.where(w2 < w3, 1.0, 0.0)
-    w2 = jnp.sqrt(w2)
-    w5 = -w2
-    w5 = jnp.where(w4 != 0, w5, 0.0)
-    w4 = jnp.where(w4 == 0, 1.0, 0.0)
-    w1 = 0.4
-    w2 = w2 - w1
-    w4 = jnp.where(w4 != 0, w2, 0.0)
-    w5 = w5 + w4
-    w3 = jnp.where(w5 < w3, 1.0, 0.0)
+    w7 = 0.05
+    w8 = w6 + w7
+    w9 = w8 * w8
+    w10 = w4 * w4
+    w10 = jnp.where(w2 != 0, w10, 0.0)
+    w10 = jnp.where(w2 != 0, w10, 0.0)
+    w11 = w9 + w10
+    w12 = 0.0
+    w13 = jnp.where(w11 < w12, 1.0, 0.0)
+    w14 = jnp.sqrt(w11)
+    w15 = -w14
+    w15 = jnp.where(w13 != 0, w15, 0.0)
+    w13 = jnp.where(w13 == 0, 1.0, 0.0)
+    w16 = 0.4
+    w14 = w14 - w16
+    w13 = jnp.where(w13 != 0, w14, 0.0)
+    w15 = w15 + w13
+    w13 = jnp.where(w15 < w12, 1.0, 0.0)
+    w13 = jnp.where(w13 == 0, 1.0, 0.0)
+    w13 = jnp.where(w13 != 0, w15, 0.0)
+    w15 = 1e-12
+    w14 = w13 + w15
+    w6 = w6 - w7
+    w7 = w6 * w6
+    w17 = w7 + w10
+    w18 = jnp.where(w17 < w12, 1.0, 0.0)
+    w19 = jnp.sqrt(w17)
+    w20 = -w19
+    w20 = jnp.where(w18 != 0, w20, 0.0)
+    w18 = jnp.where(w18 == 0, 1.0, 0.0)
+    w19 = w19 - w16
+    w18 = jnp.where(w18 != 0, w19, 0.0)
+    w20 = w20 + w18
+    w18 = jnp.where(w20 < w12, 1.0, 0.0)
+    w18 = jnp.where(w18 == 0, 1.0, 0.0)
+    w18 = jnp.where(w18 != 0, w20, 0.0)
+    w14 = jnp.where(w14 < w18, 1.0, 0.0)
+    w20 = 1.0
+    w19 = jnp.where(w14 != 0, w20, 0.0)
+    w14 = jnp.where(w14 == 0, 1.0, 0.0)
+    w15 = w18 + w15
+    w15 = jnp.where(w15 < w13, 1.0, 0.0)
+    w15 = jnp.where(w15 == 0, 1.0, 0.0)
+    w1 = jnp.where(w2 != 0, w1, 0.0)
+    w1 = -w1
+    w1 = jnp.arctan2(w1, w3)
+    w3 = jnp.where(w12 < w1, 1.0, 0.0)
+    w16 = 3.141592653589793
+    w21 = w1 - w16
+    w21 = jnp.where(w3 != 0, w21, 0.0)
     w3 = jnp.where(w3 == 0, 1.0, 0.0)
-    w3 = jnp.where(w3 != 0, w5, 0.0)
-    w6 = jnp.where(w6 < w3, 1.0, 0.0)
+    w22 = w1 + w16
+    w3 = jnp.where(w3 != 0, w22, 0.0)
+    w21 = w21 + w3
+    w3 = 0.785
+    w22 = w21 + w3
+    w22 = -w22
+    w23 = jnp.where(w22 < w12, 1.0, 0.0)
+    w23 = jnp.where(w23 == 0, 1.0, 0.0)
+    w23 = jnp.where(w23 != 0, w22, 0.0)
+    w22 = w21 - w3
+    w24 = jnp.where(w22 < w12, 1.0, 0.0)
+    w24 = jnp.where(w24 == 0, 1.0, 0.0)
+    w24 = jnp.where(w24 != 0, w22, 0.0)
+    w23 = w23 + w24
+    w4 = jnp.where(w2 != 0, w4, 0.0)
+    w4 = -w4
+    w8 = -w8
+    w8 = jnp.arctan2(w4, w8)
+    w24 = 2.5
+    w22 = 0.16000000000000003
+    w9 = w22 - w9
+    w9 = w9 - w10
+    w9 = w9 * w11
+    w25 = jnp.where(w9 < w12, 1.0, 0.0)
+    w25 = jnp.where(w25 == 0, 1.0, 0.0)
+    w25 = jnp.where(w25 != 0, w9, 0.0)
+    w25 = jnp.sqrt(w25)
+    w9 = w24 * w25
+    w26 = w24 * w11
+    w9 = jnp.arctan2(w9, w26)
+    w26 = w8 - w9
+    w27 = jnp.where(w16 < w26, 1.0, 0.0)
+    w28 = 6.283185307179586
+    w29 = w26 - w28
+    w29 = jnp.where(w27 != 0, w29, 0.0)
+    w27 = jnp.where(w27 == 0, 1.0, 0.0)
+    w27 = jnp.where(w27 != 0, w26, 0.0)
+    w29 = w29 + w27
+    w27 = (-3.141592653589793)
+    w26 = jnp.where(w29 < w27, 1.0, 0.0)
+    w30 = w29 + w28
+    w30 = jnp.where(w26 != 0, w30, 0.0)
+    w26 = jnp.where(w26 == 0, 1.0, 0.0)
+    w26 = jnp.where(w26 != 0, w29, 0.0)
+    w30 = w30 + w26
+    w26 = 1.571
+    w29 = w30 + w26
+    w29 = -w29
+    w31 = jnp.where(w29 < w12, 1.0, 0.0)
+    w31 = jnp.where(w31 == 0, 1.0, 0.0)
+    w31 = jnp.where(w31 != 0, w29, 0.0)
+    w31 = w23 + w31
+    w29 = w30 - w26
+    w32 = jnp.where(w29 < w12, 1.0, 0.0)
+    w32 = jnp.where(w32 == 0, 1.0, 0.0)
+    w32 = jnp.where(w32 != 0, w29, 0.0)
+    w31 = w31 + w32
+    w32 = 12.499999999999998
+    w25 = w32 * w25
+    w11 = w32 * w11
+    w11 = w11 - w20
+    w25 = jnp.arctan2(w25, w11)
+    w11 = 2.618
+    w29 = w25 + w11
+    w29 = -w29
+    w33 = jnp.where(w29 < w12, 1.0, 0.0)
+    w33 = jnp.where(w33 == 0, 1.0, 0.0)
+    w33 = jnp.where(w33 != 0, w29, 0.0)
+    w31 = w31 + w33
+    w29 = w25 - w11
+    w34 = jnp.where(w29 < w12, 1.0, 0.0)
+    w34 = jnp.where(w34 == 0, 1.0, 0.0)
+    w34 = jnp.where(w34 != 0, w29, 0.0)
+    w31 = w31 + w34
+    w29 = w1 + w3
+    w29 = -w29
+    w35 = jnp.where(w29 < w12, 1.0, 0.0)
+    w35 = jnp.where(w35 == 0, 1.0, 0.0)
+    w35 = jnp.where(w35 != 0, w29, 0.0)
+    w3 = w1 - w3
+    w29 = jnp.where(w3 < w12, 1.0, 0.0)
+    w29 = jnp.where(w29 == 0, 1.0, 0.0)
+    w29 = jnp.where(w29 != 0, w3, 0.0)
+    w35 = w35 + w29
+    w4 = jnp.arctan2(w4, w6)
+    w22 = w22 - w7
+    w22 = w22 - w10
+    w22 = w22 * w17
+    w10 = jnp.where(w22 < w12, 1.0, 0.0)
+    w10 = jnp.where(w10 == 0, 1.0, 0.0)
+    w10 = jnp.where(w10 != 0, w22, 0.0)
+    w10 = jnp.sqrt(w10)
+    w22 = w24 * w10
+    w24 = w24 * w17
+    w22 = jnp.arctan2(w22, w24)
+    w24 = w4 - w22
+    w7 = jnp.where(w16 < w24, 1.0, 0.0)
+    w6 = w24 - w28
+    w6 = jnp.where(w7 != 0, w6, 0.0)
+    w7 = jnp.where(w7 == 0, 1.0, 0.0)
+    w7 = jnp.where(w7 != 0, w24, 0.0)
+    w6 = w6 + w7
+    w7 = jnp.where(w6 < w27, 1.0, 0.0)
+    w24 = w6 + w28
+    w24 = jnp.where(w7 != 0, w24, 0.0)
+    w7 = jnp.where(w7 == 0, 1.0, 0.0)
+    w7 = jnp.where(w7 != 0, w6, 0.0)
+    w24 = w24 + w7
+    w7 = w24 + w26
+    w7 = -w7
+    w6 = jnp.where(w7 < w12, 1.0, 0.0)
     w6 = jnp.where(w6 == 0, 1.0, 0.0)
     w6 = jnp.where(w6 != 0, w7, 0.0)
-    o2_0 = w6
-    o3_0 = w3
+    w6 = w35 + w6
+    w7 = w24 - w26
+    w29 = jnp.where(w7 < w12, 1.0, 0.0)
+    w29 = jnp.where(w29 == 0, 1.0, 0.0)
+    w29 = jnp.where(w29 != 0, w7, 0.0)
+    w6 = w6 + w29
+    w10 = w32 * w10
+    w32 = w32 * w17
+    w32 = w32 - w20
+    w10 = jnp.arctan2(w10, w32)
+    w32 = w10 + w11
+    w32 = -w32
+    w17 = jnp.where(w32 < w12, 1.0, 0.0)
+    w17 = jnp.where(w17 == 0, 1.0, 0.0)
+    w17 = jnp.where(w17 != 0, w32, 0.0)
+    w6 = w6 + w17
+    w11 = w10 - w11
+    w32 = jnp.where(w11 < w12, 1.0, 0.0)
+    w32 = jnp.where(w32 == 0, 1.0, 0.0)
+    w32 = jnp.where(w32 != 0, w11, 0.0)
+    w6 = w6 + w32
+    w31 = jnp.where(w31 < w6, 1.0, 0.0)
+    w31 = jnp.where(w31 != 0, w20, 0.0)
+    w31 = jnp.where(w15 != 0, w31, 0.0)
+    w31 = jnp.where(w14 != 0, w31, 0.0)
+    w31 = w19 + w31
+    w31 = jnp.where(w0 < w31, 1.0, 0.0)
+    w6 = jnp.where(w31 != 0, w21, 0.0)
+    w11 = jnp.where(w31 == 0, 1.0, 0.0)
+    w29 = jnp.where(w11 != 0, w1, 0.0)
+    w6 = w6 + w29
+    o0_0 = w6
+    w30 = jnp.where(w31 != 0, w30, 0.0)
+    w24 = jnp.where(w11 != 0, w24, 0.0)
+    w30 = w30 + w24
+    o0_1 = w30
+    w31 = jnp.where(w31 != 0, w25, 0.0)
+    w11 = jnp.where(w11 != 0, w10, 0.0)
+    w31 = w31 + w11
+    o0_2 = w31
+    w8 = w8 + w9
+    w9 = jnp.where(w16 < w8, 1.0, 0.0)
+    w31 = w8 - w28
+    w31 = jnp.where(w9 != 0, w31, 0.0)
+    w9 = jnp.where(w9 == 0, 1.0, 0.0)
+    w9 = jnp.where(w9 != 0, w8, 0.0)
+    w31 = w31 + w9
+    w9 = jnp.where(w31 < w27, 1.0, 0.0)
+    w8 = w31 + w28
+    w8 = jnp.where(w9 != 0, w8, 0.0)
+    w9 = jnp.where(w9 == 0, 1.0, 0.0)
+    w9 = jnp.where(w9 != 0, w31, 0.0)
+    w8 = w8 + w9
+    w9 = w8 + w26
+    w9 = -w9
+    w31 = jnp.where(w9 < w12, 1.0, 0.0)
+    w31 = jnp.where(w31 == 0, 1.0, 0.0)
+    w31 = jnp.where(w31 != 0, w9, 0.0)
+    w23 = w23 + w31
+    w31 = w8 - w26
+    w9 = jnp.where(w31 < w12, 1.0, 0.0)
+    w9 = jnp.where(w9 == 0, 1.0, 0.0)
+    w9 = jnp.where(w9 != 0, w31, 0.0)
+    w23 = w23 + w9
+    w23 = w23 + w34
+    w23 = w23 + w33
+    w4 = w4 + w22
+    w16 = jnp.where(w16 < w4, 1.0, 0.0)
+    w22 = w4 - w28
+    w22 = jnp.where(w16 != 0, w22, 0.0)
+    w16 = jnp.where(w16 == 0, 1.0, 0.0)
+    w16 = jnp.where(w16 != 0, w4, 0.0)
+    w22 = w22 + w16
+    w27 = jnp.where(w22 < w27, 1.0, 0.0)
+    w28 = w22 + w28
+    w28 = jnp.where(w27 != 0, w28, 0.0)
+    w27 = jnp.where(w27 == 0, 1.0, 0.0)
+    w27 = jnp.where(w27 != 0, w22, 0.0)
+    w28 = w28 + w27
+    w27 = w28 + w26
+    w27 = -w27
+    w22 = jnp.where(w27 < w12, 1.0, 0.0)
+    w22 = jnp.where(w22 == 0, 1.0, 0.0)
+    w22 = jnp.where(w22 != 0, w27, 0.0)
+    w35 = w35 + w22
+    w26 = w28 - w26
+    w12 = jnp.where(w26 < w12, 1.0, 0.0)
+    w12 = jnp.where(w12 == 0, 1.0, 0.0)
+    w12 = jnp.where(w12 != 0, w26, 0.0)
+    w35 = w35 + w12
+    w35 = w35 + w32
+    w35 = w35 + w17
+    w23 = jnp.where(w23 < w35, 1.0, 0.0)
+    w23 = jnp.where(w23 != 0, w20, 0.0)
+    w15 = jnp.where(w15 != 0, w23, 0.0)
+    w14 = jnp.where(w14 != 0, w15, 0.0)
+    w19 = w19 + w14
+    w0 = jnp.where(w0 < w19, 1.0, 0.0)
+    w21 = jnp.where(w0 != 0, w21, 0.0)
+    w19 = jnp.where(w0 == 0, 1.0, 0.0)
+    w1 = jnp.where(w19 != 0, w1, 0.0)
+    w21 = w21 + w1
+    o1_0 = w21
+    w8 = jnp.where(w0 != 0, w8, 0.0)
+    w28 = jnp.where(w19 != 0, w28, 0.0)
+    w8 = w8 + w28
+    o1_1 = w8
+    w25 = -w25
+    w0 = jnp.where(w0 != 0, w25, 0.0)
+    w10 = -w10
+    w19 = jnp.where(w19 != 0, w10, 0.0)
+    w0 = w0 + w19
+    o1_2 = w0
+    w0 = 1e-09
+    w19 = jnp.where(w18 < w13, 1.0, 0.0)
+    w18 = jnp.where(w19 != 0, w18, 0.0)
+    w19 = jnp.where(w19 == 0, 1.0, 0.0)
+    w19 = jnp.where(w19 != 0, w13, 0.0)
+    w18 = w18 + w19
+    w18 = jnp.where(w2 != 0, w18, 0.0)
+    w2 = jnp.where(w2 == 0, 1.0, 0.0)
+    w2 = jnp.where(w2 != 0, w5, 0.0)
+    w18 = w18 + w2
+    w0 = jnp.where(w0 < w18, 1.0, 0.0)
+    w0 = jnp.where(w0 == 0, 1.0, 0.0)
+    w0 = jnp.where(w0 != 0, w20, 0.0)
+    o2_0 = w0
+    o3_0 = w18
     return (
         jnp.stack([jnp.asarray(o0_0, dtype=jnp.float64), jnp.asarray(o0_1, dtype=jnp.float64), jnp.asarray(o0_2, dtype=jnp.float64)]),
         jnp.stack([jnp.asarray(o1_0, dtype=jnp.float64), jnp.asarray(o1_1, dtype=jnp.float64), jnp.asarray(o1_2, dtype=jnp.float64)]),
@@ -1985,79 +2480,327 @@ def rear_left_ik(in_target):
     """
     jnp = _Jnp  # a local: no kernel of this module (one may be named jnp) can shadow it
     in0 = _Flat(in_target, 3, 1, 'rear_left_ik: input target')
-    w0 = 6.632658891371746e-14
-    w1 = 0.8660254037844387
-    w2 = in0[1]
-    w3 = w1 * w2
-    w0 = w0 - w3
-    w3 = 0.49999999999999994
-    w4 = in0[0]
-    w5 = w3 * w4
-    w0 = w0 - w5
-    w3 = w3 * w2
-    w2 = 0.11999999999988513
-    w3 = w3 - w2
-    w1 = w1 * w4
-    w3 = w3 - w1
-    w1 = jnp.arctan2(w0, w3)
-    o0_0 = w1
+    w0 = 0.5
+    w1 = in0[0]
+    w2 = jnp.abs(w1)
+    w3 = in0[1]
+    w4 = jnp.abs(w3)
+    w2 = w2 + w4
     w4 = in0[2]
-    w2 = -w4
-    w3 = w3 * w3
-    w0 = w0 * w0
-    w3 = w3 + w0
-    w3 = jnp.sqrt(w3)
-    w0 = 0.05
-    w3 = w3 - w0
-    w2 = jnp.arctan2(w2, w3)
-    w0 = 2.5
-    w5 = 0.16000000000000003
-    w3 = w3 * w3
-    w5 = w5 - w3
-    w4 = w4 * w4
-    w5 = w5 - w4
-    w3 = w3 + w4
-    w5 = w5 * w3
-    w4 = 0.0
-    w6 = jnp.where(w5 < w4, 1.0, 0.0)
-    w6 = jnp.where(w6 == 0, 1.0, 0.0)
-    w6 = jnp.where(w6 != 0, w5, 0.0)
-    w6 = jnp.sqrt(w6)
-    w5 = w0 * w6
-    w0 = w0 * w3
-    w5 = jnp.arctan2(w5, w0)
-    w0 = w2 - w5
-    o0_1 = w0
-    w0 = 12.499999999999998
-    w6 = w0 * w6
-    w0 = w0 * w3
-    w7 = 1.0
-    w0 = w0 - w7
-    w6 = jnp.arctan2(w6, w0)
-    o0_2 = w6
-    o1_0 = w1
+    w5 = jnp.abs(w4)
     w2 = w2 + w5
-    o1_1 = w2
-    w6 = -w6
-    o1_2 = w6
-    w6 = 1e-09
-    w2 = jnp.where(w3 < w4, 1.0, 0.0)
+    w5 = 1000000000.0
+    w2 = jnp.where(w2 < w5, 1.0, 0.0)
+    w6 = 0.49999999999999994
+    w7 = w6 * w3
+    w7 = jnp.where(w2 != 0, w7, 0.0)
+    w8 = 0.11999999999988513
+    w7 = w7 - w8
+    w8 = 0.8660254037844387
+    w9 = w8 * w1
+    w9 = jnp.where(w2 != 0, w9, 0.0)
+    w7 = w7 - w9
+    w9 = w7 * w7
+    w10 = 6.632658891371746e-14
+    w8 = w8 * w3
+    w8 = jnp.where(w2 != 0, w8, 0.0)
+    w10 = w10 - w8
+    w6 = w6 * w1
+    w6 = jnp.where(w2 != 0, w6, 0.0)
+    w10 = w10 - w6
+    w6 = w10 * w10
+    w9 = w9 + w6
+    w9 = jnp.sqrt(w9)
+    w6 = 0.05
+    w1 = w9 + w6
+    w8 = w1 * w1
+    w3 = w4 * w4
+    w3 = jnp.where(w2 != 0, w3, 0.0)
+    w3 = jnp.where(w2 != 0, w3, 0.0)
+    w11 = w8 + w3
+    w12 = 0.0
+    w13 = jnp.where(w11 < w12, 1.0, 0.0)
+    w14 = jnp.sqrt(w11)
+    w15 = -w14
+    w15 = jnp.where(w13 != 0, w15, 0.0)
+    w13 = jnp.where(w13 == 0, 1.0, 0.0)
+    w16 = 0.4
+    w14 = w14 - w16
+    w13 = jnp.where(w13 != 0, w14, 0.0)
+    w15 = w15 + w13
+    w13 = jnp.where(w15 < w12, 1.0, 0.0)
+    w13 = jnp.where(w13 == 0, 1.0, 0.0)
+    w13 = jnp.where(w13 != 0, w15, 0.0)
+    w15 = 1e-12
+    w14 = w13 + w15
+    w9 = w9 - w6
+    w6 = w9 * w9
+    w17 = w6 + w3
+    w18 = jnp.where(w17 < w12, 1.0, 0.0)
+    w19 = jnp.sqrt(w17)
+    w20 = -w19
+    w20 = jnp.where(w18 != 0, w20, 0.0)
+    w18 = jnp.where(w18 == 0, 1.0, 0.0)
+    w19 = w19 - w16
+    w18 = jnp.where(w18 != 0, w19, 0.0)
+    w20 = w20 + w18
+    w18 = jnp.where(w20 < w12, 1.0, 0.0)
+    w18 = jnp.where(w18 == 0, 1.0, 0.0)
+    w18 = jnp.where(w18 != 0, w20, 0.0)
+    w14 = jnp.where(w14 < w18, 1.0, 0.0)
+    w20 = 1.0
+    w19 = jnp.where(w14 != 0, w20, 0.0)
+    w14 = jnp.where(w14 == 0, 1.0, 0.0)
+    w15 = w18 + w15
+    w15 = jnp.where(w15 < w13, 1.0, 0.0)
+    w15 = jnp.where(w15 == 0, 1.0, 0.0)
+    w10 = jnp.arctan2(w10, w7)
+    w7 = jnp.where(w12 < w10, 1.0, 0.0)
+    w16 = 3.141592653589793
+    w21 = w10 - w16
+    w21 = jnp.where(w7 != 0, w21, 0.0)
+    w7 = jnp.where(w7 == 0, 1.0, 0.0)
+    w22 = w10 + w16
+    w7 = jnp.where(w7 != 0, w22, 0.0)
+    w21 = w21 + w7
+    w7 = 0.785
+    w22 = w21 + w7
+    w22 = -w22
+    w23 = jnp.where(w22 < w12, 1.0, 0.0)
+    w23 = jnp.where(w23 == 0, 1.0, 0.0)
+    w23 = jnp.where(w23 != 0, w22, 0.0)
+    w22 = w21 - w7
+    w24 = jnp.where(w22 < w12, 1.0, 0.0)
+    w24 = jnp.where(w24 == 0, 1.0, 0.0)
+    w24 = jnp.where(w24 != 0, w22, 0.0)
+    w23 = w23 + w24
+    w4 = jnp.where(w2 != 0, w4, 0.0)
+    w4 = -w4
+    w1 = -w1
+    w1 = jnp.arctan2(w4, w1)
+    w24 = 2.5
+    w22 = 0.16000000000000003
+    w8 = w22 - w8
+    w8 = w8 - w3
+    w8 = w8 * w11
+    w25 = jnp.where(w8 < w12, 1.0, 0.0)
+    w25 = jnp.where(w25 == 0, 1.0, 0.0)
+    w25 = jnp.where(w25 != 0, w8, 0.0)
+    w25 = jnp.sqrt(w25)
+    w8 = w24 * w25
+    w26 = w24 * w11
+    w8 = jnp.arctan2(w8, w26)
+    w26 = w1 - w8
+    w27 = jnp.where(w16 < w26, 1.0, 0.0)
+    w28 = 6.283185307179586
+    w29 = w26 - w28
+    w29 = jnp.where(w27 != 0, w29, 0.0)
+    w27 = jnp.where(w27 == 0, 1.0, 0.0)
+    w27 = jnp.where(w27 != 0, w26, 0.0)
+    w29 = w29 + w27
+    w27 = (-3.141592653589793)
+    w26 = jnp.where(w29 < w27, 1.0, 0.0)
+    w30 = w29 + w28
+    w30 = jnp.where(w26 != 0, w30, 0.0)
+    w26 = jnp.where(w26 == 0, 1.0, 0.0)
+    w26 = jnp.where(w26 != 0, w29, 0.0)
+    w30 = w30 + w26
+    w26 = 1.571
+    w29 = w30 + w26
+    w29 = -w29
+    w31 = jnp.where(w29 < w12, 1.0, 0.0)
+    w31 = jnp.where(w31 == 0, 1.0, 0.0)
+    w31 = jnp.where(w31 != 0, w29, 0.0)
+    w31 = w23 + w31
+    w29 = w30 - w26
+    w32 = jnp.where(w29 < w12, 1.0, 0.0)
+    w32 = jnp.where(w32 == 0, 1.0, 0.0)
+    w32 = jnp.where(w32 != 0, w29, 0.0)
+    w31 = w31 + w32
+    w32 = 12.499999999999998
+    w25 = w32 * w25
+    w11 = w32 * w11
+    w11 = w11 - w20
+    w25 = jnp.arctan2(w25, w11)
+    w11 = 2.618
+    w29 = w25 + w11
+    w29 = -w29
+    w33 = jnp.where(w29 < w12, 1.0, 0.0)
+    w33 = jnp.where(w33 == 0, 1.0, 0.0)
+    w33 = jnp.where(w33 != 0, w29, 0.0)
+    w31 = w31 + w33
+    w29 = w25 - w11
+    w34 = jnp.where(w29 < w12, 1.0, 0.0)
+    w34 = jnp.where(w34 == 0, 1.0, 0.0)
+    w34 = jnp.where(w34 != 0, w29, 0.0)
+    w31 = w31 + w34
+    w29 = w10 + w7
+    w29 = -w29
+    w35 = jnp.where(w29 < w12, 1.0, 0.0)
+    w35 = jnp.where(w35 == 0, 1.0, 0.0)
+    w35 = jnp.where(w35 != 0, w29, 0.0)
+    w7 = w10 - w7
+    w29 = jnp.where(w7 < w12, 1.0, 0.0)
+    w29 = jnp.where(w29 == 0, 1.0, 0.0)
+    w29 = jnp.where(w29 != 0, w7, 0.0)
+    w35 = w35 + w29
+    w4 = jnp.arctan2(w4, w9)
+    w22 = w22 - w6
+    w22 = w22 - w3
+    w22 = w22 * w17
+    w3 = jnp.where(w22 < w12, 1.0, 0.0)
+    w3 = jnp.where(w3 == 0, 1.0, 0.0)
+    w3 = jnp.where(w3 != 0, w22, 0.0)
     w3 = jnp.sqrt(w3)
-    w5 = -w3
-    w5 = jnp.where(w2 != 0, w5, 0.0)
-    w2 = jnp.where(w2 == 0, 1.0, 0.0)
-    w1 = 0.4
-    w3 = w3 - w1
-    w2 = jnp.where(w2 != 0, w3, 0.0)
-    w5 = w5 + w2
-    w4 = jnp.where(w5 < w4, 1.0, 0.0)
-    w4 = jnp.where(w4 == 0, 1.0, 0.0)
-    w4 = jnp.where(w4 != 0, w5, 0.0)
-    w6 = jnp.where(w6 < w4, 1.0, 0.0)
+    w22 = w24 * w3
+    w24 = w24 * w17
+    w22 = jnp.arctan2(w22, w24)
+    w24 = w4 - w22
+    w6 = jnp.where(w16 < w24, 1.0, 0.0)
+    w9 = w24 - w28
+    w9 = jnp.where(w6 != 0, w9, 0.0)
     w6 = jnp.where(w6 == 0, 1.0, 0.0)
-    w6 = jnp.where(w6 != 0, w7, 0.0)
-    o2_0 = w6
-    o3_0 = w4
+    w6 = jnp.where(w6 != 0, w24, 0.0)
+    w9 = w9 + w6
+    w6 = jnp.where(w9 < w27, 1.0, 0.0)
+    w24 = w9 + w28
+    w24 = jnp.where(w6 != 0, w24, 0.0)
+    w6 = jnp.where(w6 == 0, 1.0, 0.0)
+    w6 = jnp.where(w6 != 0, w9, 0.0)
+    w24 = w24 + w6
+    w6 = w24 + w26
+    w6 = -w6
+    w9 = jnp.where(w6 < w12, 1.0, 0.0)
+    w9 = jnp.where(w9 == 0, 1.0, 0.0)
+    w9 = jnp.where(w9 != 0, w6, 0.0)
+    w9 = w35 + w9
+    w6 = w24 - w26
+    w29 = jnp.where(w6 < w12, 1.0, 0.0)
+    w29 = jnp.where(w29 == 0, 1.0, 0.0)
+    w29 = jnp.where(w29 != 0, w6, 0.0)
+    w9 = w9 + w29
+    w3 = w32 * w3
+    w32 = w32 * w17
+    w32 = w32 - w20
+    w3 = jnp.arctan2(w3, w32)
+    w32 = w3 + w11
+    w32 = -w32
+    w17 = jnp.where(w32 < w12, 1.0, 0.0)
+    w17 = jnp.where(w17 == 0, 1.0, 0.0)
+    w17 = jnp.where(w17 != 0, w32, 0.0)
+    w9 = w9 + w17
+    w11 = w3 - w11
+    w32 = jnp.where(w11 < w12, 1.0, 0.0)
+    w32 = jnp.where(w32 == 0, 1.0, 0.0)
+    w32 = jnp.where(w32 != 0, w11, 0.0)
+    w9 = w9 + w32
+    w31 = jnp.where(w31 < w9, 1.0, 0.0)
+    w31 = jnp.where(w31 != 0, w20, 0.0)
+    w31 = jnp.where(w15 != 0, w31, 0.0)
+    w31 = jnp.where(w14 != 0, w31, 0.0)
+    w31 = w19 + w31
+    w31 = jnp.where(w0 < w31, 1.0, 0.0)
+    w9 = jnp.where(w31 != 0, w21, 0.0)
+    w11 = jnp.where(w31 == 0, 1.0, 0.0)
+    w29 = jnp.where(w11 != 0, w10, 0.0)
+    w9 = w9 + w29
+    o0_0 = w9
+    w30 = jnp.where(w31 != 0, w30, 0.0)
+    w24 = jnp.where(w11 != 0, w24, 0.0)
+    w30 = w30 + w24
+    o0_1 = w30
+    w31 = jnp.where(w31 != 0, w25, 0.0)
+    w11 = jnp.where(w11 != 0, w3, 0.0)
+    w31 = w31 + w11
+    o0_2 = w31
+    w1 = w1 + w8
+    w8 = jnp.where(w16 < w1, 1.0, 0.0)
+    w31 = w1 - w28
+    w31 = jnp.where(w8 != 0, w31, 0.0)
+    w8 = jnp.where(w8 == 0, 1.0, 0.0)
+    w8 = jnp.where(w8 != 0, w1, 0.0)
+    w31 = w31 + w8
+    w8 = jnp.where(w31 < w27, 1.0, 0.0)
+    w1 = w31 + w28
+    w1 = jnp.where(w8 != 0, w1, 0.0)
+    w8 = jnp.where(w8 == 0, 1.0, 0.0)
+    w8 = jnp.where(w8 != 0, w31, 0.0)
+    w1 = w1 + w8
+    w8 = w1 + w26
+    w8 = -w8
+    w31 = jnp.where(w8 < w12, 1.0, 0.0)
+    w31 = jnp.where(w31 == 0, 1.0, 0.0)
+    w31 = jnp.where(w31 != 0, w8, 0.0)
+    w23 = w23 + w31
+    w31 = w1 - w26
+    w8 = jnp.where(w31 < w12, 1.0, 0.0)
+    w8 = jnp.where(w8 == 0, 1.0, 0.0)
+    w8 = jnp.where(w8 != 0, w31, 0.0)
+    w23 = w23 + w8
+    w23 = w23 + w34
+    w23 = w23 + w33
+    w4 = w4 + w22
+    w16 = jnp.where(w16 < w4, 1.0, 0.0)
+    w22 = w4 - w28
+    w22 = jnp.where(w16 != 0, w22, 0.0)
+    w16 = jnp.where(w16 == 0, 1.0, 0.0)
+    w16 = jnp.where(w16 != 0, w4, 0.0)
+    w22 = w22 + w16
+    w27 = jnp.where(w22 < w27, 1.0, 0.0)
+    w28 = w22 + w28
+    w28 = jnp.where(w27 != 0, w28, 0.0)
+    w27 = jnp.where(w27 == 0, 1.0, 0.0)
+    w27 = jnp.where(w27 != 0, w22, 0.0)
+    w28 = w28 + w27
+    w27 = w28 + w26
+    w27 = -w27
+    w22 = jnp.where(w27 < w12, 1.0, 0.0)
+    w22 = jnp.where(w22 == 0, 1.0, 0.0)
+    w22 = jnp.where(w22 != 0, w27, 0.0)
+    w35 = w35 + w22
+    w26 = w28 - w26
+    w12 = jnp.where(w26 < w12, 1.0, 0.0)
+    w12 = jnp.where(w12 == 0, 1.0, 0.0)
+    w12 = jnp.where(w12 != 0, w26, 0.0)
+    w35 = w35 + w12
+    w35 = w35 + w32
+    w35 = w35 + w17
+    w23 = jnp.where(w23 < w35, 1.0, 0.0)
+    w23 = jnp.where(w23 != 0, w20, 0.0)
+    w15 = jnp.where(w15 != 0, w23, 0.0)
+    w14 = jnp.where(w14 != 0, w15, 0.0)
+    w19 = w19 + w14
+    w0 = jnp.where(w0 < w19, 1.0, 0.0)
+    w21 = jnp.where(w0 != 0, w21, 0.0)
+    w19 = jnp.where(w0 == 0, 1.0, 0.0)
+    w10 = jnp.where(w19 != 0, w10, 0.0)
+    w21 = w21 + w10
+    o1_0 = w21
+    w1 = jnp.where(w0 != 0, w1, 0.0)
+    w28 = jnp.where(w19 != 0, w28, 0.0)
+    w1 = w1 + w28
+    o1_1 = w1
+    w25 = -w25
+    w0 = jnp.where(w0 != 0, w25, 0.0)
+    w3 = -w3
+    w19 = jnp.where(w19 != 0, w3, 0.0)
+    w0 = w0 + w19
+    o1_2 = w0
+    w0 = 1e-09
+    w19 = jnp.where(w18 < w13, 1.0, 0.0)
+    w18 = jnp.where(w19 != 0, w18, 0.0)
+    w19 = jnp.where(w19 == 0, 1.0, 0.0)
+    w19 = jnp.where(w19 != 0, w13, 0.0)
+    w18 = w18 + w19
+    w18 = jnp.where(w2 != 0, w18, 0.0)
+    w2 = jnp.where(w2 == 0, 1.0, 0.0)
+    w2 = jnp.where(w2 != 0, w5, 0.0)
+    w18 = w18 + w2
+    w0 = jnp.where(w0 < w18, 1.0, 0.0)
+    w0 = jnp.where(w0 == 0, 1.0, 0.0)
+    w0 = jnp.where(w0 != 0, w20, 0.0)
+    o2_0 = w0
+    o3_0 = w18
     return (
         jnp.stack([jnp.asarray(o0_0, dtype=jnp.float64), jnp.asarray(o0_1, dtype=jnp.float64), jnp.asarray(o0_2, dtype=jnp.float64)]),
         jnp.stack([jnp.asarray(o1_0, dtype=jnp.float64), jnp.asarray(o1_1, dtype=jnp.float64), jnp.asarray(o1_2, dtype=jnp.float64)]),
@@ -2749,80 +3492,328 @@ def rear_right_ik(in_target):
     """
     jnp = _Jnp  # a local: no kernel of this module (one may be named jnp) can shadow it
     in0 = _Flat(in_target, 3, 1, 'rear_right_ik: input target')
-    w0 = 0.49999999999999994
-    w1 = in0[0]
-    w2 = w0 * w1
-    w3 = 6.632658891371746e-14
-    w2 = w2 - w3
-    w3 = 0.8660254037844387
+    w0 = 0.5
+    w1 = 0.11999999999988513
+    w2 = in0[0]
+    w3 = jnp.abs(w2)
     w4 = in0[1]
-    w5 = w3 * w4
-    w2 = w2 - w5
-    w5 = 0.11999999999988513
-    w0 = w0 * w4
-    w5 = w5 + w0
-    w3 = w3 * w1
-    w5 = w5 + w3
-    w3 = -w5
-    w3 = jnp.arctan2(w2, w3)
-    o0_0 = w3
-    w1 = in0[2]
-    w0 = -w1
-    w5 = w5 * w5
-    w2 = w2 * w2
-    w5 = w5 + w2
-    w5 = jnp.sqrt(w5)
-    w2 = 0.05
-    w5 = w5 - w2
-    w0 = jnp.arctan2(w0, w5)
-    w2 = 2.5
-    w4 = 0.16000000000000003
-    w5 = w5 * w5
-    w4 = w4 - w5
-    w1 = w1 * w1
-    w4 = w4 - w1
-    w5 = w5 + w1
-    w4 = w4 * w5
-    w1 = 0.0
-    w6 = jnp.where(w4 < w1, 1.0, 0.0)
-    w6 = jnp.where(w6 == 0, 1.0, 0.0)
-    w6 = jnp.where(w6 != 0, w4, 0.0)
-    w6 = jnp.sqrt(w6)
-    w4 = w2 * w6
-    w2 = w2 * w5
-    w4 = jnp.arctan2(w4, w2)
-    w2 = w0 - w4
-    o0_1 = w2
-    w2 = 12.499999999999998
-    w6 = w2 * w6
-    w2 = w2 * w5
-    w7 = 1.0
-    w2 = w2 - w7
-    w6 = jnp.arctan2(w6, w2)
-    o0_2 = w6
-    o1_0 = w3
-    w0 = w0 + w4
-    o1_1 = w0
-    w6 = -w6
-    o1_2 = w6
-    w6 = 1e-09
-    w0 = jnp.where(w5 < w1, 1.0, 0.0)
-    w5 = jnp.sqrt(w5)
-    w4 = -w5
-    w4 = jnp.where(w0 != 0, w4, 0.0)
-    w0 = jnp.where(w0 == 0, 1.0, 0.0)
-    w3 = 0.4
-    w5 = w5 - w3
-    w0 = jnp.where(w0 != 0, w5, 0.0)
-    w4 = w4 + w0
-    w1 = jnp.where(w4 < w1, 1.0, 0.0)
+    w5 = jnp.abs(w4)
+    w3 = w3 + w5
+    w5 = in0[2]
+    w6 = jnp.abs(w5)
+    w3 = w3 + w6
+    w6 = 1000000000.0
+    w3 = jnp.where(w3 < w6, 1.0, 0.0)
+    w7 = 0.49999999999999994
+    w8 = w7 * w4
+    w8 = jnp.where(w3 != 0, w8, 0.0)
+    w1 = w1 + w8
+    w8 = 0.8660254037844387
+    w9 = w8 * w2
+    w9 = jnp.where(w3 != 0, w9, 0.0)
+    w1 = w1 + w9
+    w9 = w1 * w1
+    w7 = w7 * w2
+    w7 = jnp.where(w3 != 0, w7, 0.0)
+    w2 = 6.632658891371746e-14
+    w7 = w7 - w2
+    w8 = w8 * w4
+    w8 = jnp.where(w3 != 0, w8, 0.0)
+    w7 = w7 - w8
+    w8 = w7 * w7
+    w9 = w9 + w8
+    w9 = jnp.sqrt(w9)
+    w8 = 0.05
+    w4 = w9 + w8
+    w2 = w4 * w4
+    w10 = w5 * w5
+    w10 = jnp.where(w3 != 0, w10, 0.0)
+    w10 = jnp.where(w3 != 0, w10, 0.0)
+    w11 = w2 + w10
+    w12 = 0.0
+    w13 = jnp.where(w11 < w12, 1.0, 0.0)
+    w14 = jnp.sqrt(w11)
+    w15 = -w14
+    w15 = jnp.where(w13 != 0, w15, 0.0)
+    w13 = jnp.where(w13 == 0, 1.0, 0.0)
+    w16 = 0.4
+    w14 = w14 - w16
+    w13 = jnp.where(w13 != 0, w14, 0.0)
+    w15 = w15 + w13
+    w13 = jnp.where(w15 < w12, 1.0, 0.0)
+    w13 = jnp.where(w13 == 0, 1.0, 0.0)
+    w13 = jnp.where(w13 != 0, w15, 0.0)
+    w15 = 1e-12
+    w14 = w13 + w15
+    w9 = w9 - w8
+    w8 = w9 * w9
+    w17 = w8 + w10
+    w18 = jnp.where(w17 < w12, 1.0, 0.0)
+    w19 = jnp.sqrt(w17)
+    w20 = -w19
+    w20 = jnp.where(w18 != 0, w20, 0.0)
+    w18 = jnp.where(w18 == 0, 1.0, 0.0)
+    w19 = w19 - w16
+    w18 = jnp.where(w18 != 0, w19, 0.0)
+    w20 = w20 + w18
+    w18 = jnp.where(w20 < w12, 1.0, 0.0)
+    w18 = jnp.where(w18 == 0, 1.0, 0.0)
+    w18 = jnp.where(w18 != 0, w20, 0.0)
+    w14 = jnp.where(w14 < w18, 1.0, 0.0)
+    w20 = 1.0
+    w19 = jnp.where(w14 != 0, w20, 0.0)
+    w14 = jnp.where(w14 == 0, 1.0, 0.0)
+    w15 = w18 + w15
+    w15 = jnp.where(w15 < w13, 1.0, 0.0)
+    w15 = jnp.where(w15 == 0, 1.0, 0.0)
+    w1 = -w1
+    w7 = jnp.arctan2(w7, w1)
+    w1 = jnp.where(w12 < w7, 1.0, 0.0)
+    w16 = 3.141592653589793
+    w21 = w7 - w16
+    w21 = jnp.where(w1 != 0, w21, 0.0)
     w1 = jnp.where(w1 == 0, 1.0, 0.0)
-    w1 = jnp.where(w1 != 0, w4, 0.0)
-    w6 = jnp.where(w6 < w1, 1.0, 0.0)
-    w6 = jnp.where(w6 == 0, 1.0, 0.0)
-    w6 = jnp.where(w6 != 0, w7, 0.0)
-    o2_0 = w6
-    o3_0 = w1
+    w22 = w7 + w16
+    w1 = jnp.where(w1 != 0, w22, 0.0)
+    w21 = w21 + w1
+    w1 = 0.785
+    w22 = w21 + w1
+    w22 = -w22
+    w23 = jnp.where(w22 < w12, 1.0, 0.0)
+    w23 = jnp.where(w23 == 0, 1.0, 0.0)
+    w23 = jnp.where(w23 != 0, w22, 0.0)
+    w22 = w21 - w1
+    w24 = jnp.where(w22 < w12, 1.0, 0.0)
+    w24 = jnp.where(w24 == 0, 1.0, 0.0)
+    w24 = jnp.where(w24 != 0, w22, 0.0)
+    w23 = w23 + w24
+    w5 = jnp.where(w3 != 0, w5, 0.0)
+    w5 = -w5
+    w4 = -w4
+    w4 = jnp.arctan2(w5, w4)
+    w24 = 2.5
+    w22 = 0.16000000000000003
+    w2 = w22 - w2
+    w2 = w2 - w10
+    w2 = w2 * w11
+    w25 = jnp.where(w2 < w12, 1.0, 0.0)
+    w25 = jnp.where(w25 == 0, 1.0, 0.0)
+    w25 = jnp.where(w25 != 0, w2, 0.0)
+    w25 = jnp.sqrt(w25)
+    w2 = w24 * w25
+    w26 = w24 * w11
+    w2 = jnp.arctan2(w2, w26)
+    w26 = w4 - w2
+    w27 = jnp.where(w16 < w26, 1.0, 0.0)
+    w28 = 6.283185307179586
+    w29 = w26 - w28
+    w29 = jnp.where(w27 != 0, w29, 0.0)
+    w27 = jnp.where(w27 == 0, 1.0, 0.0)
+    w27 = jnp.where(w27 != 0, w26, 0.0)
+    w29 = w29 + w27
+    w27 = (-3.141592653589793)
+    w26 = jnp.where(w29 < w27, 1.0, 0.0)
+    w30 = w29 + w28
+    w30 = jnp.where(w26 != 0, w30, 0.0)
+    w26 = jnp.where(w26 == 0, 1.0, 0.0)
+    w26 = jnp.where(w26 != 0, w29, 0.0)
+    w30 = w30 + w26
+    w26 = 1.571
+    w29 = w30 + w26
+    w29 = -w29
+    w31 = jnp.where(w29 < w12, 1.0, 0.0)
+    w31 = jnp.where(w31 == 0, 1.0, 0.0)
+    w31 = jnp.where(w31 != 0, w29, 0.0)
+    w31 = w23 + w31
+    w29 = w30 - w26
+    w32 = jnp.where(w29 < w12, 1.0, 0.0)
+    w32 = jnp.where(w32 == 0, 1.0, 0.0)
+    w32 = jnp.where(w32 != 0, w29, 0.0)
+    w31 = w31 + w32
+    w32 = 12.499999999999998
+    w25 = w32 * w25
+    w11 = w32 * w11
+    w11 = w11 - w20
+    w25 = jnp.arctan2(w25, w11)
+    w11 = 2.618
+    w29 = w25 + w11
+    w29 = -w29
+    w33 = jnp.where(w29 < w12, 1.0, 0.0)
+    w33 = jnp.where(w33 == 0, 1.0, 0.0)
+    w33 = jnp.where(w33 != 0, w29, 0.0)
+    w31 = w31 + w33
+    w29 = w25 - w11
+    w34 = jnp.where(w29 < w12, 1.0, 0.0)
+    w34 = jnp.where(w34 == 0, 1.0, 0.0)
+    w34 = jnp.where(w34 != 0, w29, 0.0)
+    w31 = w31 + w34
+    w29 = w7 + w1
+    w29 = -w29
+    w35 = jnp.where(w29 < w12, 1.0, 0.0)
+    w35 = jnp.where(w35 == 0, 1.0, 0.0)
+    w35 = jnp.where(w35 != 0, w29, 0.0)
+    w1 = w7 - w1
+    w29 = jnp.where(w1 < w12, 1.0, 0.0)
+    w29 = jnp.where(w29 == 0, 1.0, 0.0)
+    w29 = jnp.where(w29 != 0, w1, 0.0)
+    w35 = w35 + w29
+    w5 = jnp.arctan2(w5, w9)
+    w22 = w22 - w8
+    w22 = w22 - w10
+    w22 = w22 * w17
+    w10 = jnp.where(w22 < w12, 1.0, 0.0)
+    w10 = jnp.where(w10 == 0, 1.0, 0.0)
+    w10 = jnp.where(w10 != 0, w22, 0.0)
+    w10 = jnp.sqrt(w10)
+    w22 = w24 * w10
+    w24 = w24 * w17
+    w22 = jnp.arctan2(w22, w24)
+    w24 = w5 - w22
+    w8 = jnp.where(w16 < w24, 1.0, 0.0)
+    w9 = w24 - w28
+    w9 = jnp.where(w8 != 0, w9, 0.0)
+    w8 = jnp.where(w8 == 0, 1.0, 0.0)
+    w8 = jnp.where(w8 != 0, w24, 0.0)
+    w9 = w9 + w8
+    w8 = jnp.where(w9 < w27, 1.0, 0.0)
+    w24 = w9 + w28
+    w24 = jnp.where(w8 != 0, w24, 0.0)
+    w8 = jnp.where(w8 == 0, 1.0, 0.0)
+    w8 = jnp.where(w8 != 0, w9, 0.0)
+    w24 = w24 + w8
+    w8 = w24 + w26
+    w8 = -w8
+    w9 = jnp.where(w8 < w12, 1.0, 0.0)
+    w9 = jnp.where(w9 == 0, 1.0, 0.0)
+    w9 = jnp.where(w9 != 0, w8, 0.0)
+    w9 = w35 + w9
+    w8 = w24 - w26
+    w29 = jnp.where(w8 < w12, 1.0, 0.0)
+    w29 = jnp.where(w29 == 0, 1.0, 0.0)
+    w29 = jnp.where(w29 != 0, w8, 0.0)
+    w9 = w9 + w29
+    w10 = w32 * w10
+    w32 = w32 * w17
+    w32 = w32 - w20
+    w10 = jnp.arctan2(w10, w32)
+    w32 = w10 + w11
+    w32 = -w32
+    w17 = jnp.where(w32 < w12, 1.0, 0.0)
+    w17 = jnp.where(w17 == 0, 1.0, 0.0)
+    w17 = jnp.where(w17 != 0, w32, 0.0)
+    w9 = w9 + w17
+    w11 = w10 - w11
+    w32 = jnp.where(w11 < w12, 1.0, 0.0)
+    w32 = jnp.where(w32 == 0, 1.0, 0.0)
+    w32 = jnp.where(w32 != 0, w11, 0.0)
+    w9 = w9 + w32
+    w31 = jnp.where(w31 < w9, 1.0, 0.0)
+    w31 = jnp.where(w31 != 0, w20, 0.0)
+    w31 = jnp.where(w15 != 0, w31, 0.0)
+    w31 = jnp.where(w14 != 0, w31, 0.0)
+    w31 = w19 + w31
+    w31 = jnp.where(w0 < w31, 1.0, 0.0)
+    w9 = jnp.where(w31 != 0, w21, 0.0)
+    w11 = jnp.where(w31 == 0, 1.0, 0.0)
+    w29 = jnp.where(w11 != 0, w7, 0.0)
+    w9 = w9 + w29
+    o0_0 = w9
+    w30 = jnp.where(w31 != 0, w30, 0.0)
+    w24 = jnp.where(w11 != 0, w24, 0.0)
+    w30 = w30 + w24
+    o0_1 = w30
+    w31 = jnp.where(w31 != 0, w25, 0.0)
+    w11 = jnp.where(w11 != 0, w10, 0.0)
+    w31 = w31 + w11
+    o0_2 = w31
+    w4 = w4 + w2
+    w2 = jnp.where(w16 < w4, 1.0, 0.0)
+    w31 = w4 - w28
+    w31 = jnp.where(w2 != 0, w31, 0.0)
+    w2 = jnp.where(w2 == 0, 1.0, 0.0)
+    w2 = jnp.where(w2 != 0, w4, 0.0)
+    w31 = w31 + w2
+    w2 = jnp.where(w31 < w27, 1.0, 0.0)
+    w4 = w31 + w28
+    w4 = jnp.where(w2 != 0, w4, 0.0)
+    w2 = jnp.where(w2 == 0, 1.0, 0.0)
+    w2 = jnp.where(w2 != 0, w31, 0.0)
+    w4 = w4 + w2
+    w2 = w4 + w26
+    w2 = -w2
+    w31 = jnp.where(w2 < w12, 1.0, 0.0)
+    w31 = jnp.where(w31 == 0, 1.0, 0.0)
+    w31 = jnp.where(w31 != 0, w2, 0.0)
+    w23 = w23 + w31
+    w31 = w4 - w26
+    w2 = jnp.where(w31 < w12, 1.0, 0.0)
+    w2 = jnp.where(w2 == 0, 1.0, 0.0)
+    w2 = jnp.where(w2 != 0, w31, 0.0)
+    w23 = w23 + w2
+    w23 = w23 + w34
+    w23 = w23 + w33
+    w5 = w5 + w22
+    w16 = jnp.where(w16 < w5, 1.0, 0.0)
+    w22 = w5 - w28
+    w22 = jnp.where(w16 != 0, w22, 0.0)
+    w16 = jnp.where(w16 == 0, 1.0, 0.0)
+    w16 = jnp.where(w16 != 0, w5, 0.0)
+    w22 = w22 + w16
+    w27 = jnp.where(w22 < w27, 1.0, 0.0)
+    w28 = w22 + w28
+    w28 = jnp.where(w27 != 0, w28, 0.0)
+    w27 = jnp.where(w27 == 0, 1.0, 0.0)
+    w27 = jnp.where(w27 != 0, w22, 0.0)
+    w28 = w28 + w27
+    w27 = w28 + w26
+    w27 = -w27
+    w22 = jnp.where(w27 < w12, 1.0, 0.0)
+    w22 = jnp.where(w22 == 0, 1.0, 0.0)
+    w22 = jnp.where(w22 != 0, w27, 0.0)
+    w35 = w35 + w22
+    w26 = w28 - w26
+    w12 = jnp.where(w26 < w12, 1.0, 0.0)
+    w12 = jnp.where(w12 == 0, 1.0, 0.0)
+    w12 = jnp.where(w12 != 0, w26, 0.0)
+    w35 = w35 + w12
+    w35 = w35 + w32
+    w35 = w35 + w17
+    w23 = jnp.where(w23 < w35, 1.0, 0.0)
+    w23 = jnp.where(w23 != 0, w20, 0.0)
+    w15 = jnp.where(w15 != 0, w23, 0.0)
+    w14 = jnp.where(w14 != 0, w15, 0.0)
+    w19 = w19 + w14
+    w0 = jnp.where(w0 < w19, 1.0, 0.0)
+    w21 = jnp.where(w0 != 0, w21, 0.0)
+    w19 = jnp.where(w0 == 0, 1.0, 0.0)
+    w7 = jnp.where(w19 != 0, w7, 0.0)
+    w21 = w21 + w7
+    o1_0 = w21
+    w4 = jnp.where(w0 != 0, w4, 0.0)
+    w28 = jnp.where(w19 != 0, w28, 0.0)
+    w4 = w4 + w28
+    o1_1 = w4
+    w25 = -w25
+    w0 = jnp.where(w0 != 0, w25, 0.0)
+    w10 = -w10
+    w19 = jnp.where(w19 != 0, w10, 0.0)
+    w0 = w0 + w19
+    o1_2 = w0
+    w0 = 1e-09
+    w19 = jnp.where(w18 < w13, 1.0, 0.0)
+    w18 = jnp.where(w19 != 0, w18, 0.0)
+    w19 = jnp.where(w19 == 0, 1.0, 0.0)
+    w19 = jnp.where(w19 != 0, w13, 0.0)
+    w18 = w18 + w19
+    w18 = jnp.where(w3 != 0, w18, 0.0)
+    w3 = jnp.where(w3 == 0, 1.0, 0.0)
+    w3 = jnp.where(w3 != 0, w6, 0.0)
+    w18 = w18 + w3
+    w0 = jnp.where(w0 < w18, 1.0, 0.0)
+    w0 = jnp.where(w0 == 0, 1.0, 0.0)
+    w0 = jnp.where(w0 != 0, w20, 0.0)
+    o2_0 = w0
+    o3_0 = w18
     return (
         jnp.stack([jnp.asarray(o0_0, dtype=jnp.float64), jnp.asarray(o0_1, dtype=jnp.float64), jnp.asarray(o0_2, dtype=jnp.float64)]),
         jnp.stack([jnp.asarray(o1_0, dtype=jnp.float64), jnp.asarray(o1_1, dtype=jnp.float64), jnp.asarray(o1_2, dtype=jnp.float64)]),
@@ -3478,70 +4469,318 @@ def middle_right_ik(in_target):
     """
     jnp = _Jnp  # a local: no kernel of this module (one may be named jnp) can shadow it
     in0 = _Flat(in_target, 3, 1, 'middle_right_ik: input target')
-    w0 = in0[0]
-    w1 = in0[1]
-    w2 = 0.12
-    w1 = w1 + w2
-    w2 = -w1
-    w2 = jnp.arctan2(w0, w2)
-    o0_0 = w2
-    w3 = in0[2]
-    w4 = -w3
-    w1 = w1 * w1
-    w0 = w0 * w0
-    w1 = w1 + w0
-    w1 = jnp.sqrt(w1)
-    w0 = 0.05
-    w1 = w1 - w0
-    w4 = jnp.arctan2(w4, w1)
-    w0 = 2.5
-    w5 = 0.16000000000000003
-    w1 = w1 * w1
-    w5 = w5 - w1
-    w3 = w3 * w3
-    w5 = w5 - w3
-    w1 = w1 + w3
-    w5 = w5 * w1
-    w3 = 0.0
-    w6 = jnp.where(w5 < w3, 1.0, 0.0)
-    w6 = jnp.where(w6 == 0, 1.0, 0.0)
-    w6 = jnp.where(w6 != 0, w5, 0.0)
+    w0 = 0.5
+    w1 = in0[0]
+    w2 = jnp.abs(w1)
+    w3 = in0[1]
+    w4 = jnp.abs(w3)
+    w2 = w2 + w4
+    w4 = in0[2]
+    w5 = jnp.abs(w4)
+    w2 = w2 + w5
+    w5 = 1000000000.0
+    w2 = jnp.where(w2 < w5, 1.0, 0.0)
+    w3 = jnp.where(w2 != 0, w3, 0.0)
+    w6 = 0.12
+    w3 = w3 + w6
+    w6 = w3 * w3
+    w7 = w1 * w1
+    w7 = jnp.where(w2 != 0, w7, 0.0)
+    w7 = jnp.where(w2 != 0, w7, 0.0)
+    w6 = w6 + w7
     w6 = jnp.sqrt(w6)
-    w5 = w0 * w6
-    w0 = w0 * w1
-    w5 = jnp.arctan2(w5, w0)
-    w0 = w4 - w5
-    o0_1 = w0
-    w0 = 12.499999999999998
-    w6 = w0 * w6
-    w0 = w0 * w1
-    w7 = 1.0
-    w0 = w0 - w7
-    w6 = jnp.arctan2(w6, w0)
-    o0_2 = w6
-    o1_0 = w2
-    w4 = w4 + w5
-    o1_1 = w4
-    w6 = -w6
-    o1_2 = w6
-    w6 = 1e-09
-    w4 = jnp.where(w1 < w3, 1.0, 0.0)
-    w1 = jnp.sqrt(w1)
-    w5 = -w1
-    w5 = jnp.where(w4 != 0, w5, 0.0)
-    w4 = jnp.where(w4 == 0, 1.0, 0.0)
-    w2 = 0.4
-    w1 = w1 - w2
-    w4 = jnp.where(w4 != 0, w1, 0.0)
-    w5 = w5 + w4
-    w3 = jnp.where(w5 < w3, 1.0, 0.0)
+    w7 = 0.05
+    w8 = w6 + w7
+    w9 = w8 * w8
+    w10 = w4 * w4
+    w10 = jnp.where(w2 != 0, w10, 0.0)
+    w10 = jnp.where(w2 != 0, w10, 0.0)
+    w11 = w9 + w10
+    w12 = 0.0
+    w13 = jnp.where(w11 < w12, 1.0, 0.0)
+    w14 = jnp.sqrt(w11)
+    w15 = -w14
+    w15 = jnp.where(w13 != 0, w15, 0.0)
+    w13 = jnp.where(w13 == 0, 1.0, 0.0)
+    w16 = 0.4
+    w14 = w14 - w16
+    w13 = jnp.where(w13 != 0, w14, 0.0)
+    w15 = w15 + w13
+    w13 = jnp.where(w15 < w12, 1.0, 0.0)
+    w13 = jnp.where(w13 == 0, 1.0, 0.0)
+    w13 = jnp.where(w13 != 0, w15, 0.0)
+    w15 = 1e-12
+    w14 = w13 + w15
+    w6 = w6 - w7
+    w7 = w6 * w6
+    w17 = w7 + w10
+    w18 = jnp.where(w17 < w12, 1.0, 0.0)
+    w19 = jnp.sqrt(w17)
+    w20 = -w19
+    w20 = jnp.where(w18 != 0, w20, 0.0)
+    w18 = jnp.where(w18 == 0, 1.0, 0.0)
+    w19 = w19 - w16
+    w18 = jnp.where(w18 != 0, w19, 0.0)
+    w20 = w20 + w18
+    w18 = jnp.where(w20 < w12, 1.0, 0.0)
+    w18 = jnp.where(w18 == 0, 1.0, 0.0)
+    w18 = jnp.where(w18 != 0, w20, 0.0)
+    w14 = jnp.where(w14 < w18, 1.0, 0.0)
+    w20 = 1.0
+    w19 = jnp.where(w14 != 0, w20, 0.0)
+    w14 = jnp.where(w14 == 0, 1.0, 0.0)
+    w15 = w18 + w15
+    w15 = jnp.where(w15 < w13, 1.0, 0.0)
+    w15 = jnp.where(w15 == 0, 1.0, 0.0)
+    w1 = jnp.where(w2 != 0, w1, 0.0)
+    w3 = -w3
+    w1 = jnp.arctan2(w1, w3)
+    w3 = jnp.where(w12 < w1, 1.0, 0.0)
+    w16 = 3.141592653589793
+    w21 = w1 - w16
+    w21 = jnp.where(w3 != 0, w21, 0.0)
     w3 = jnp.where(w3 == 0, 1.0, 0.0)
-    w3 = jnp.where(w3 != 0, w5, 0.0)
-    w6 = jnp.where(w6 < w3, 1.0, 0.0)
+    w22 = w1 + w16
+    w3 = jnp.where(w3 != 0, w22, 0.0)
+    w21 = w21 + w3
+    w3 = 0.785
+    w22 = w21 + w3
+    w22 = -w22
+    w23 = jnp.where(w22 < w12, 1.0, 0.0)
+    w23 = jnp.where(w23 == 0, 1.0, 0.0)
+    w23 = jnp.where(w23 != 0, w22, 0.0)
+    w22 = w21 - w3
+    w24 = jnp.where(w22 < w12, 1.0, 0.0)
+    w24 = jnp.where(w24 == 0, 1.0, 0.0)
+    w24 = jnp.where(w24 != 0, w22, 0.0)
+    w23 = w23 + w24
+    w4 = jnp.where(w2 != 0, w4, 0.0)
+    w4 = -w4
+    w8 = -w8
+    w8 = jnp.arctan2(w4, w8)
+    w24 = 2.5
+    w22 = 0.16000000000000003
+    w9 = w22 - w9
+    w9 = w9 - w10
+    w9 = w9 * w11
+    w25 = jnp.where(w9 < w12, 1.0, 0.0)
+    w25 = jnp.where(w25 == 0, 1.0, 0.0)
+    w25 = jnp.where(w25 != 0, w9, 0.0)
+    w25 = jnp.sqrt(w25)
+    w9 = w24 * w25
+    w26 = w24 * w11
+    w9 = jnp.arctan2(w9, w26)
+    w26 = w8 - w9
+    w27 = jnp.where(w16 < w26, 1.0, 0.0)
+    w28 = 6.283185307179586
+    w29 = w26 - w28
+    w29 = jnp.where(w27 != 0, w29, 0.0)
+    w27 = jnp.where(w27 == 0, 1.0, 0.0)
+    w27 = jnp.where(w27 != 0, w26, 0.0)
+    w29 = w29 + w27
+    w27 = (-3.141592653589793)
+    w26 = jnp.where(w29 < w27, 1.0, 0.0)
+    w30 = w29 + w28
+    w30 = jnp.where(w26 != 0, w30, 0.0)
+    w26 = jnp.where(w26 == 0, 1.0, 0.0)
+    w26 = jnp.where(w26 != 0, w29, 0.0)
+    w30 = w30 + w26
+    w26 = 1.571
+    w29 = w30 + w26
+    w29 = -w29
+    w31 = jnp.where(w29 < w12, 1.0, 0.0)
+    w31 = jnp.where(w31 == 0, 1.0, 0.0)
+    w31 = jnp.where(w31 != 0, w29, 0.0)
+    w31 = w23 + w31
+    w29 = w30 - w26
+    w32 = jnp.where(w29 < w12, 1.0, 0.0)
+    w32 = jnp.where(w32 == 0, 1.0, 0.0)
+    w32 = jnp.where(w32 != 0, w29, 0.0)
+    w31 = w31 + w32
+    w32 = 12.499999999999998
+    w25 = w32 * w25
+    w11 = w32 * w11
+    w11 = w11 - w20
+    w25 = jnp.arctan2(w25, w11)
+    w11 = 2.618
+    w29 = w25 + w11
+    w29 = -w29
+    w33 = jnp.where(w29 < w12, 1.0, 0.0)
+    w33 = jnp.where(w33 == 0, 1.0, 0.0)
+    w33 = jnp.where(w33 != 0, w29, 0.0)
+    w31 = w31 + w33
+    w29 = w25 - w11
+    w34 = jnp.where(w29 < w12, 1.0, 0.0)
+    w34 = jnp.where(w34 == 0, 1.0, 0.0)
+    w34 = jnp.where(w34 != 0, w29, 0.0)
+    w31 = w31 + w34
+    w29 = w1 + w3
+    w29 = -w29
+    w35 = jnp.where(w29 < w12, 1.0, 0.0)
+    w35 = jnp.where(w35 == 0, 1.0, 0.0)
+    w35 = jnp.where(w35 != 0, w29, 0.0)
+    w3 = w1 - w3
+    w29 = jnp.where(w3 < w12, 1.0, 0.0)
+    w29 = jnp.where(w29 == 0, 1.0, 0.0)
+    w29 = jnp.where(w29 != 0, w3, 0.0)
+    w35 = w35 + w29
+    w4 = jnp.arctan2(w4, w6)
+    w22 = w22 - w7
+    w22 = w22 - w10
+    w22 = w22 * w17
+    w10 = jnp.where(w22 < w12, 1.0, 0.0)
+    w10 = jnp.where(w10 == 0, 1.0, 0.0)
+    w10 = jnp.where(w10 != 0, w22, 0.0)
+    w10 = jnp.sqrt(w10)
+    w22 = w24 * w10
+    w24 = w24 * w17
+    w22 = jnp.arctan2(w22, w24)
+    w24 = w4 - w22
+    w7 = jnp.where(w16 < w24, 1.0, 0.0)
+    w6 = w24 - w28
+    w6 = jnp.where(w7 != 0, w6, 0.0)
+    w7 = jnp.where(w7 == 0, 1.0, 0.0)
+    w7 = jnp.where(w7 != 0, w24, 0.0)
+    w6 = w6 + w7
+    w7 = jnp.where(w6 < w27, 1.0, 0.0)
+    w24 = w6 + w28
+    w24 = jnp.where(w7 != 0, w24, 0.0)
+    w7 = jnp.where(w7 == 0, 1.0, 0.0)
+    w7 = jnp.where(w7 != 0, w6, 0.0)
+    w24 = w24 + w7
+    w7 = w24 + w26
+    w7 = -w7
+    w6 = jnp.where(w7 < w12, 1.0, 0.0)
     w6 = jnp.where(w6 == 0, 1.0, 0.0)
     w6 = jnp.where(w6 != 0, w7, 0.0)
-    o2_0 = w6
-    o3_0 = w3
+    w6 = w35 + w6
+    w7 = w24 - w26
+    w29 = jnp.where(w7 < w12, 1.0, 0.0)
+    w29 = jnp.where(w29 == 0, 1.0, 0.0)
+    w29 = jnp.where(w29 != 0, w7, 0.0)
+    w6 = w6 + w29
+    w10 = w32 * w10
+    w32 = w32 * w17
+    w32 = w32 - w20
+    w10 = jnp.arctan2(w10, w32)
+    w32 = w10 + w11
+    w32 = -w32
+    w17 = jnp.where(w32 < w12, 1.0, 0.0)
+    w17 = jnp.where(w17 == 0, 1.0, 0.0)
+    w17 = jnp.where(w17 != 0, w32, 0.0)
+    w6 = w6 + w17
+    w11 = w10 - w11
+    w32 = jnp.where(w11 < w12, 1.0, 0.0)
+    w32 = jnp.where(w32 == 0, 1.0, 0.0)
+    w32 = jnp.where(w32 != 0, w11, 0.0)
+    w6 = w6 + w32
+    w31 = jnp.where(w31 < w6, 1.0, 0.0)
+    w31 = jnp.where(w31 != 0, w20, 0.0)
+    w31 = jnp.where(w15 != 0, w31, 0.0)
+    w31 = jnp.where(w14 != 0, w31, 0.0)
+    w31 = w19 + w31
+    w31 = jnp.where(w0 < w31, 1.0, 0.0)
+    w6 = jnp.where(w31 != 0, w21, 0.0)
+    w11 = jnp.where(w31 == 0, 1.0, 0.0)
+    w29 = jnp.where(w11 != 0, w1, 0.0)
+    w6 = w6 + w29
+    o0_0 = w6
+    w30 = jnp.where(w31 != 0, w30, 0.0)
+    w24 = jnp.where(w11 != 0, w24, 0.0)
+    w30 = w30 + w24
+    o0_1 = w30
+    w31 = jnp.where(w31 != 0, w25, 0.0)
+    w11 = jnp.where(w11 != 0, w10, 0.0)
+    w31 = w31 + w11
+    o0_2 = w31
+    w8 = w8 + w9
+    w9 = jnp.where(w16 < w8, 1.0, 0.0)
+    w31 = w8 - w28
+    w31 = jnp.where(w9 != 0, w31, 0.0)
+    w9 = jnp.where(w9 == 0, 1.0, 0.0)
+    w9 = jnp.where(w9 != 0, w8, 0.0)
+    w31 = w31 + w9
+    w9 = jnp.where(w31 < w27, 1.0, 0.0)
+    w8 = w31 + w28
+    w8 = jnp.where(w9 != 0, w8, 0.0)
+    w9 = jnp.where(w9 == 0, 1.0, 0.0)
+    w9 = jnp.where(w9 != 0, w31, 0.0)
+    w8 = w8 + w9
+    w9 = w8 + w26
+    w9 = -w9
+    w31 = jnp.where(w9 < w12, 1.0, 0.0)
+    w31 = jnp.where(w31 == 0, 1.0, 0.0)
+    w31 = jnp.where(w31 != 0, w9, 0.0)
+    w23 = w23 + w31
+    w31 = w8 - w26
+    w9 = jnp.where(w31 < w12, 1.0, 0.0)
+    w9 = jnp.where(w9 == 0, 1.0, 0.0)
+    w9 = jnp.where(w9 != 0, w31, 0.0)
+    w23 = w23 + w9
+    w23 = w23 + w34
+    w23 = w23 + w33
+    w4 = w4 + w22
+    w16 = jnp.where(w16 < w4, 1.0, 0.0)
+    w22 = w4 - w28
+    w22 = jnp.where(w16 != 0, w22, 0.0)
+    w16 = jnp.where(w16 == 0, 1.0, 0.0)
+    w16 = jnp.where(w16 != 0, w4, 0.0)
+    w22 = w22 + w16
+    w27 = jnp.where(w22 < w27, 1.0, 0.0)
+    w28 = w22 + w28
+    w28 = jnp.where(w27 != 0, w28, 0.0)
+    w27 = jnp.where(w27 == 0, 1.0, 0.0)
+    w27 = jnp.where(w27 != 0, w22, 0.0)
+    w28 = w28 + w27
+    w27 = w28 + w26
+    w27 = -w27
+    w22 = jnp.where(w27 < w12, 1.0, 0.0)
+    w22 = jnp.where(w22 == 0, 1.0, 0.0)
+    w22 = jnp.where(w22 != 0, w27, 0.0)
+    w35 = w35 + w22
+    w26 = w28 - w26
+    w12 = jnp.where(w26 < w12, 1.0, 0.0)
+    w12 = jnp.where(w12 == 0, 1.0, 0.0)
+    w12 = jnp.where(w12 != 0, w26, 0.0)
+    w35 = w35 + w12
+    w35 = w35 + w32
+    w35 = w35 + w17
+    w23 = jnp.where(w23 < w35, 1.0, 0.0)
+    w23 = jnp.where(w23 != 0, w20, 0.0)
+    w15 = jnp.where(w15 != 0, w23, 0.0)
+    w14 = jnp.where(w14 != 0, w15, 0.0)
+    w19 = w19 + w14
+    w0 = jnp.where(w0 < w19, 1.0, 0.0)
+    w21 = jnp.where(w0 != 0, w21, 0.0)
+    w19 = jnp.where(w0 == 0, 1.0, 0.0)
+    w1 = jnp.where(w19 != 0, w1, 0.0)
+    w21 = w21 + w1
+    o1_0 = w21
+    w8 = jnp.where(w0 != 0, w8, 0.0)
+    w28 = jnp.where(w19 != 0, w28, 0.0)
+    w8 = w8 + w28
+    o1_1 = w8
+    w25 = -w25
+    w0 = jnp.where(w0 != 0, w25, 0.0)
+    w10 = -w10
+    w19 = jnp.where(w19 != 0, w10, 0.0)
+    w0 = w0 + w19
+    o1_2 = w0
+    w0 = 1e-09
+    w19 = jnp.where(w18 < w13, 1.0, 0.0)
+    w18 = jnp.where(w19 != 0, w18, 0.0)
+    w19 = jnp.where(w19 == 0, 1.0, 0.0)
+    w19 = jnp.where(w19 != 0, w13, 0.0)
+    w18 = w18 + w19
+    w18 = jnp.where(w2 != 0, w18, 0.0)
+    w2 = jnp.where(w2 == 0, 1.0, 0.0)
+    w2 = jnp.where(w2 != 0, w5, 0.0)
+    w18 = w18 + w2
+    w0 = jnp.where(w0 < w18, 1.0, 0.0)
+    w0 = jnp.where(w0 == 0, 1.0, 0.0)
+    w0 = jnp.where(w0 != 0, w20, 0.0)
+    o2_0 = w0
+    o3_0 = w18
     return (
         jnp.stack([jnp.asarray(o0_0, dtype=jnp.float64), jnp.asarray(o0_1, dtype=jnp.float64), jnp.asarray(o0_2, dtype=jnp.float64)]),
         jnp.stack([jnp.asarray(o1_0, dtype=jnp.float64), jnp.asarray(o1_1, dtype=jnp.float64), jnp.asarray(o1_2, dtype=jnp.float64)]),
@@ -4231,79 +5470,327 @@ def front_right_ik(in_target):
     """
     jnp = _Jnp  # a local: no kernel of this module (one may be named jnp) can shadow it
     in0 = _Flat(in_target, 3, 1, 'front_right_ik: input target')
-    w0 = 6.632658891371746e-14
-    w1 = 0.8660254037844387
-    w2 = in0[1]
-    w3 = w1 * w2
-    w0 = w0 + w3
-    w3 = 0.49999999999999994
-    w4 = in0[0]
-    w5 = w3 * w4
-    w0 = w0 + w5
-    w1 = w1 * w4
-    w4 = 0.11999999999988513
-    w1 = w1 - w4
-    w3 = w3 * w2
-    w1 = w1 - w3
-    w3 = jnp.arctan2(w0, w1)
-    o0_0 = w3
-    w2 = in0[2]
-    w4 = -w2
-    w1 = w1 * w1
-    w0 = w0 * w0
-    w1 = w1 + w0
-    w1 = jnp.sqrt(w1)
-    w0 = 0.05
-    w1 = w1 - w0
-    w4 = jnp.arctan2(w4, w1)
-    w0 = 2.5
-    w5 = 0.16000000000000003
-    w1 = w1 * w1
-    w5 = w5 - w1
-    w2 = w2 * w2
-    w5 = w5 - w2
-    w1 = w1 + w2
-    w5 = w5 * w1
-    w2 = 0.0
-    w6 = jnp.where(w5 < w2, 1.0, 0.0)
+    w0 = 0.5
+    w1 = in0[0]
+    w2 = jnp.abs(w1)
+    w3 = in0[1]
+    w4 = jnp.abs(w3)
+    w2 = w2 + w4
+    w4 = in0[2]
+    w5 = jnp.abs(w4)
+    w2 = w2 + w5
+    w5 = 1000000000.0
+    w2 = jnp.where(w2 < w5, 1.0, 0.0)
+    w6 = 0.8660254037844387
+    w7 = w6 * w1
+    w7 = jnp.where(w2 != 0, w7, 0.0)
+    w8 = 0.11999999999988513
+    w7 = w7 - w8
+    w8 = 0.49999999999999994
+    w9 = w8 * w3
+    w9 = jnp.where(w2 != 0, w9, 0.0)
+    w7 = w7 - w9
+    w9 = w7 * w7
+    w10 = 6.632658891371746e-14
+    w6 = w6 * w3
+    w6 = jnp.where(w2 != 0, w6, 0.0)
+    w10 = w10 + w6
+    w8 = w8 * w1
+    w8 = jnp.where(w2 != 0, w8, 0.0)
+    w10 = w10 + w8
+    w8 = w10 * w10
+    w9 = w9 + w8
+    w9 = jnp.sqrt(w9)
+    w8 = 0.05
+    w1 = w9 + w8
+    w6 = w1 * w1
+    w3 = w4 * w4
+    w3 = jnp.where(w2 != 0, w3, 0.0)
+    w3 = jnp.where(w2 != 0, w3, 0.0)
+    w11 = w6 + w3
+    w12 = 0.0
+    w13 = jnp.where(w11 < w12, 1.0, 0.0)
+    w14 = jnp.sqrt(w11)
+    w15 = -w14
+    w15 = jnp.where(w13 != 0, w15, 0.0)
+    w13 = jnp.where(w13 == 0, 1.0, 0.0)
+    w16 = 0.4
+    w14 = w14 - w16
+    w13 = jnp.where(w13 != 0, w14, 0.0)
+    w15 = w15 + w13
+    w13 = jnp.where(w15 < w12, 1.0, 0.0)
+    w13 = jnp.where(w13 == 0, 1.0, 0.0)
+    w13 = jnp.where(w13 != 0, w15, 0.0)
+    w15 = 1e-12
+    w14 = w13 + w15
+    w9 = w9 - w8
+    w8 = w9 * w9
+    w17 = w8 + w3
+    w18 = jnp.where(w17 < w12, 1.0, 0.0)
+    w19 = jnp.sqrt(w17)
+    w20 = -w19
+    w20 = jnp.where(w18 != 0, w20, 0.0)
+    w18 = jnp.where(w18 == 0, 1.0, 0.0)
+    w19 = w19 - w16
+    w18 = jnp.where(w18 != 0, w19, 0.0)
+    w20 = w20 + w18
+    w18 = jnp.where(w20 < w12, 1.0, 0.0)
+    w18 = jnp.where(w18 == 0, 1.0, 0.0)
+    w18 = jnp.where(w18 != 0, w20, 0.0)
+    w14 = jnp.where(w14 < w18, 1.0, 0.0)
+    w20 = 1.0
+    w19 = jnp.where(w14 != 0, w20, 0.0)
+    w14 = jnp.where(w14 == 0, 1.0, 0.0)
+    w15 = w18 + w15
+    w15 = jnp.where(w15 < w13, 1.0, 0.0)
+    w15 = jnp.where(w15 == 0, 1.0, 0.0)
+    w10 = jnp.arctan2(w10, w7)
+    w7 = jnp.where(w12 < w10, 1.0, 0.0)
+    w16 = 3.141592653589793
+    w21 = w10 - w16
+    w21 = jnp.where(w7 != 0, w21, 0.0)
+    w7 = jnp.where(w7 == 0, 1.0, 0.0)
+    w22 = w10 + w16
+    w7 = jnp.where(w7 != 0, w22, 0.0)
+    w21 = w21 + w7
+    w7 = 0.785
+    w22 = w21 + w7
+    w22 = -w22
+    w23 = jnp.where(w22 < w12, 1.0, 0.0)
+    w23 = jnp.where(w23 == 0, 1.0, 0.0)
+    w23 = jnp.where(w23 != 0, w22, 0.0)
+    w22 = w21 - w7
+    w24 = jnp.where(w22 < w12, 1.0, 0.0)
+    w24 = jnp.where(w24 == 0, 1.0, 0.0)
+    w24 = jnp.where(w24 != 0, w22, 0.0)
+    w23 = w23 + w24
+    w4 = jnp.where(w2 != 0, w4, 0.0)
+    w4 = -w4
+    w1 = -w1
+    w1 = jnp.arctan2(w4, w1)
+    w24 = 2.5
+    w22 = 0.16000000000000003
+    w6 = w22 - w6
+    w6 = w6 - w3
+    w6 = w6 * w11
+    w25 = jnp.where(w6 < w12, 1.0, 0.0)
+    w25 = jnp.where(w25 == 0, 1.0, 0.0)
+    w25 = jnp.where(w25 != 0, w6, 0.0)
+    w25 = jnp.sqrt(w25)
+    w6 = w24 * w25
+    w26 = w24 * w11
+    w6 = jnp.arctan2(w6, w26)
+    w26 = w1 - w6
+    w27 = jnp.where(w16 < w26, 1.0, 0.0)
+    w28 = 6.283185307179586
+    w29 = w26 - w28
+    w29 = jnp.where(w27 != 0, w29, 0.0)
+    w27 = jnp.where(w27 == 0, 1.0, 0.0)
+    w27 = jnp.where(w27 != 0, w26, 0.0)
+    w29 = w29 + w27
+    w27 = (-3.141592653589793)
+    w26 = jnp.where(w29 < w27, 1.0, 0.0)
+    w30 = w29 + w28
+    w30 = jnp.where(w26 != 0, w30, 0.0)
+    w26 = jnp.where(w26 == 0, 1.0, 0.0)
+    w26 = jnp.where(w26 != 0, w29, 0.0)
+    w30 = w30 + w26
+    w26 = 1.571
+    w29 = w30 + w26
+    w29 = -w29
+    w31 = jnp.where(w29 < w12, 1.0, 0.0)
+    w31 = jnp.where(w31 == 0, 1.0, 0.0)
+    w31 = jnp.where(w31 != 0, w29, 0.0)
+    w31 = w23 + w31
+    w29 = w30 - w26
+    w32 = jnp.where(w29 < w12, 1.0, 0.0)
+    w32 = jnp.where(w32 == 0, 1.0, 0.0)
+    w32 = jnp.where(w32 != 0, w29, 0.0)
+    w31 = w31 + w32
+    w32 = 12.499999999999998
+    w25 = w32 * w25
+    w11 = w32 * w11
+    w11 = w11 - w20
+    w25 = jnp.arctan2(w25, w11)
+    w11 = 2.618
+    w29 = w25 + w11
+    w29 = -w29
+    w33 = jnp.where(w29 < w12, 1.0, 0.0)
+    w33 = jnp.where(w33 == 0, 1.0, 0.0)
+    w33 = jnp.where(w33 != 0, w29, 0.0)
+    w31 = w31 + w33
+    w29 = w25 - w11
+    w34 = jnp.where(w29 < w12, 1.0, 0.0)
+    w34 = jnp.where(w34 == 0, 1.0, 0.0)
+    w34 = jnp.where(w34 != 0, w29, 0.0)
+    w31 = w31 + w34
+    w29 = w10 + w7
+    w29 = -w29
+    w35 = jnp.where(w29 < w12, 1.0, 0.0)
+    w35 = jnp.where(w35 == 0, 1.0, 0.0)
+    w35 = jnp.where(w35 != 0, w29, 0.0)
+    w7 = w10 - w7
+    w29 = jnp.where(w7 < w12, 1.0, 0.0)
+    w29 = jnp.where(w29 == 0, 1.0, 0.0)
+    w29 = jnp.where(w29 != 0, w7, 0.0)
+    w35 = w35 + w29
+    w4 = jnp.arctan2(w4, w9)
+    w22 = w22 - w8
+    w22 = w22 - w3
+    w22 = w22 * w17
+    w3 = jnp.where(w22 < w12, 1.0, 0.0)
+    w3 = jnp.where(w3 == 0, 1.0, 0.0)
+    w3 = jnp.where(w3 != 0, w22, 0.0)
+    w3 = jnp.sqrt(w3)
+    w22 = w24 * w3
+    w24 = w24 * w17
+    w22 = jnp.arctan2(w22, w24)
+    w24 = w4 - w22
+    w8 = jnp.where(w16 < w24, 1.0, 0.0)
+    w9 = w24 - w28
+    w9 = jnp.where(w8 != 0, w9, 0.0)
+    w8 = jnp.where(w8 == 0, 1.0, 0.0)
+    w8 = jnp.where(w8 != 0, w24, 0.0)
+    w9 = w9 + w8
+    w8 = jnp.where(w9 < w27, 1.0, 0.0)
+    w24 = w9 + w28
+    w24 = jnp.where(w8 != 0, w24, 0.0)
+    w8 = jnp.where(w8 == 0, 1.0, 0.0)
+    w8 = jnp.where(w8 != 0, w9, 0.0)
+    w24 = w24 + w8
+    w8 = w24 + w26
+    w8 = -w8
+    w9 = jnp.where(w8 < w12, 1.0, 0.0)
+    w9 = jnp.where(w9 == 0, 1.0, 0.0)
+    w9 = jnp.where(w9 != 0, w8, 0.0)
+    w9 = w35 + w9
+    w8 = w24 - w26
+    w29 = jnp.where(w8 < w12, 1.0, 0.0)
+    w29 = jnp.where(w29 == 0, 1.0, 0.0)
+    w29 = jnp.where(w29 != 0, w8, 0.0)
+    w9 = w9 + w29
+    w3 = w32 * w3
+    w32 = w32 * w17
+    w32 = w32 - w20
+    w3 = jnp.arctan2(w3, w32)
+    w32 = w3 + w11
+    w32 = -w32
+    w17 = jnp.where(w32 < w12, 1.0, 0.0)
+    w17 = jnp.where(w17 == 0, 1.0, 0.0)
+    w17 = jnp.where(w17 != 0, w32, 0.0)
+    w9 = w9 + w17
+    w11 = w3 - w11
+    w32 = jnp.where(w11 < w12, 1.0, 0.0)
+    w32 = jnp.where(w32 == 0, 1.0, 0.0)
+    w32 = jnp.where(w32 != 0, w11, 0.0)
+    w9 = w9 + w32
+    w31 = jnp.where(w31 < w9, 1.0, 0.0)
+    w31 = jnp.where(w31 != 0, w20, 0.0)
+    w31 = jnp.where(w15 != 0, w31, 0.0)
+    w31 = jnp.where(w14 != 0, w31, 0.0)
+    w31 = w19 + w31
+    w31 = jnp.where(w0 < w31, 1.0, 0.0)
+    w9 = jnp.where(w31 != 0, w21, 0.0)
+    w11 = jnp.where(w31 == 0, 1.0, 0.0)
+    w29 = jnp.where(w11 != 0, w10, 0.0)
+    w9 = w9 + w29
+    o0_0 = w9
+    w30 = jnp.where(w31 != 0, w30, 0.0)
+    w24 = jnp.where(w11 != 0, w24, 0.0)
+    w30 = w30 + w24
+    o0_1 = w30
+    w31 = jnp.where(w31 != 0, w25, 0.0)
+    w11 = jnp.where(w11 != 0, w3, 0.0)
+    w31 = w31 + w11
+    o0_2 = w31
+    w1 = w1 + w6
+    w6 = jnp.where(w16 < w1, 1.0, 0.0)
+    w31 = w1 - w28
+    w31 = jnp.where(w6 != 0, w31, 0.0)
     w6 = jnp.where(w6 == 0, 1.0, 0.0)
-    w6 = jnp.where(w6 != 0, w5, 0.0)
-    w6 = jnp.sqrt(w6)
-    w5 = w0 * w6
-    w0 = w0 * w1
-    w5 = jnp.arctan2(w5, w0)
-    w0 = w4 - w5
-    o0_1 = w0
-    w0 = 12.499999999999998
-    w6 = w0 * w6
-    w0 = w0 * w1
-    w7 = 1.0
-    w0 = w0 - w7
-    w6 = jnp.arctan2(w6, w0)
-    o0_2 = w6
-    o1_0 = w3
-    w4 = w4 + w5
-    o1_1 = w4
+    w6 = jnp.where(w6 != 0, w1, 0.0)
+    w31 = w31 + w6
+    w6 = jnp.where(w31 < w27, 1.0, 0.0)
+    w1 = w31 + w28
+    w1 = jnp.where(w6 != 0, w1, 0.0)
+    w6 = jnp.where(w6 == 0, 1.0, 0.0)
+    w6 = jnp.where(w6 != 0, w31, 0.0)
+    w1 = w1 + w6
+    w6 = w1 + w26
     w6 = -w6
-    o1_2 = w6
-    w6 = 1e-09
-    w4 = jnp.where(w1 < w2, 1.0, 0.0)
-    w1 = jnp.sqrt(w1)
-    w5 = -w1
-    w5 = jnp.where(w4 != 0, w5, 0.0)
-    w4 = jnp.where(w4 == 0, 1.0, 0.0)
-    w3 = 0.4
-    w1 = w1 - w3
-    w4 = jnp.where(w4 != 0, w1, 0.0)
-    w5 = w5 + w4
-    w2 = jnp.where(w5 < w2, 1.0, 0.0)
+    w31 = jnp.where(w6 < w12, 1.0, 0.0)
+    w31 = jnp.where(w31 == 0, 1.0, 0.0)
+    w31 = jnp.where(w31 != 0, w6, 0.0)
+    w23 = w23 + w31
+    w31 = w1 - w26
+    w6 = jnp.where(w31 < w12, 1.0, 0.0)
+    w6 = jnp.where(w6 == 0, 1.0, 0.0)
+    w6 = jnp.where(w6 != 0, w31, 0.0)
+    w23 = w23 + w6
+    w23 = w23 + w34
+    w23 = w23 + w33
+    w4 = w4 + w22
+    w16 = jnp.where(w16 < w4, 1.0, 0.0)
+    w22 = w4 - w28
+    w22 = jnp.where(w16 != 0, w22, 0.0)
+    w16 = jnp.where(w16 == 0, 1.0, 0.0)
+    w16 = jnp.where(w16 != 0, w4, 0.0)
+    w22 = w22 + w16
+    w27 = jnp.where(w22 < w27, 1.0, 0.0)
+    w28 = w22 + w28
+    w28 = jnp.where(w27 != 0, w28, 0.0)
+    w27 = jnp.where(w27 == 0, 1.0, 0.0)
+    w27 = jnp.where(w27 != 0, w22, 0.0)
+    w28 = w28 + w27
+    w27 = w28 + w26
+    w27 = -w27
+    w22 = jnp.where(w27 < w12, 1.0, 0.0)
+    w22 = jnp.where(w22 == 0, 1.0, 0.0)
+    w22 = jnp.where(w22 != 0, w27, 0.0)
+    w35 = w35 + w22
+    w26 = w28 - w26
+    w12 = jnp.where(w26 < w12, 1.0, 0.0)
+    w12 = jnp.where(w12 == 0, 1.0, 0.0)
+    w12 = jnp.where(w12 != 0, w26, 0.0)
+    w35 = w35 + w12
+    w35 = w35 + w32
+    w35 = w35 + w17
+    w23 = jnp.where(w23 < w35, 1.0, 0.0)
+    w23 = jnp.where(w23 != 0, w20, 0.0)
+    w15 = jnp.where(w15 != 0, w23, 0.0)
+    w14 = jnp.where(w14 != 0, w15, 0.0)
+    w19 = w19 + w14
+    w0 = jnp.where(w0 < w19, 1.0, 0.0)
+    w21 = jnp.where(w0 != 0, w21, 0.0)
+    w19 = jnp.where(w0 == 0, 1.0, 0.0)
+    w10 = jnp.where(w19 != 0, w10, 0.0)
+    w21 = w21 + w10
+    o1_0 = w21
+    w1 = jnp.where(w0 != 0, w1, 0.0)
+    w28 = jnp.where(w19 != 0, w28, 0.0)
+    w1 = w1 + w28
+    o1_1 = w1
+    w25 = -w25
+    w0 = jnp.where(w0 != 0, w25, 0.0)
+    w3 = -w3
+    w19 = jnp.where(w19 != 0, w3, 0.0)
+    w0 = w0 + w19
+    o1_2 = w0
+    w0 = 1e-09
+    w19 = jnp.where(w18 < w13, 1.0, 0.0)
+    w18 = jnp.where(w19 != 0, w18, 0.0)
+    w19 = jnp.where(w19 == 0, 1.0, 0.0)
+    w19 = jnp.where(w19 != 0, w13, 0.0)
+    w18 = w18 + w19
+    w18 = jnp.where(w2 != 0, w18, 0.0)
     w2 = jnp.where(w2 == 0, 1.0, 0.0)
     w2 = jnp.where(w2 != 0, w5, 0.0)
-    w6 = jnp.where(w6 < w2, 1.0, 0.0)
-    w6 = jnp.where(w6 == 0, 1.0, 0.0)
-    w6 = jnp.where(w6 != 0, w7, 0.0)
-    o2_0 = w6
-    o3_0 = w2
+    w18 = w18 + w2
+    w0 = jnp.where(w0 < w18, 1.0, 0.0)
+    w0 = jnp.where(w0 == 0, 1.0, 0.0)
+    w0 = jnp.where(w0 != 0, w20, 0.0)
+    o2_0 = w0
+    o3_0 = w18
     return (
         jnp.stack([jnp.asarray(o0_0, dtype=jnp.float64), jnp.asarray(o0_1, dtype=jnp.float64), jnp.asarray(o0_2, dtype=jnp.float64)]),
         jnp.stack([jnp.asarray(o1_0, dtype=jnp.float64), jnp.asarray(o1_1, dtype=jnp.float64), jnp.asarray(o1_2, dtype=jnp.float64)]),
@@ -6234,740 +7721,1766 @@ def body_ik(in_pose, in_toes):
     jnp = _Jnp  # a local: no kernel of this module (one may be named jnp) can shadow it
     in0 = _Flat(in_pose, 8, 1, 'body_ik: input pose')
     in1 = _Flat(in_toes, 18, 1, 'body_ik: input toes')
-    w0 = 0.8660254037844387
-    w1 = in0[5]
-    w2 = in1[1]
+    w0 = 0.5
+    w1 = in0[6]
+    w2 = in0[7]
     w3 = w1 * w2
-    w4 = in0[3]
+    w4 = in0[0]
     w5 = in1[2]
     w6 = w4 * w5
-    w3 = w3 - w6
-    w6 = in0[6]
-    w7 = in1[0]
-    w8 = w6 * w7
-    w3 = w3 - w8
-    w8 = in0[7]
-    w3 = w3 - w8
-    w9 = w3 * w1
-    w10 = in0[0]
-    w11 = w10 * w5
-    w12 = in0[4]
-    w11 = w11 + w12
-    w13 = w1 * w7
+    w7 = in0[4]
+    w6 = w6 + w7
+    w8 = in0[5]
+    w9 = in1[0]
+    w10 = w8 * w9
+    w6 = w6 + w10
+    w10 = in1[1]
+    w11 = w1 * w10
+    w6 = w6 + w11
+    w11 = w6 * w8
+    w11 = w3 - w11
+    w12 = in0[1]
+    w13 = w4 * w12
     w11 = w11 + w13
-    w13 = w6 * w2
-    w11 = w11 + w13
-    w13 = w11 * w6
-    w9 = w9 - w13
-    w13 = in0[1]
-    w14 = w4 * w13
-    w9 = w9 + w14
-    w15 = w10 * w2
-    w16 = in0[2]
-    w15 = w15 + w16
-    w17 = w4 * w7
-    w15 = w15 + w17
-    w17 = w6 * w5
-    w15 = w15 - w17
-    w17 = w15 * w10
-    w9 = w9 + w17
-    w17 = w10 * w16
-    w9 = w9 + w17
-    w18 = w6 * w12
-    w9 = w9 - w18
-    w19 = w1 * w8
-    w9 = w9 - w19
-    w2 = w4 * w2
-    w5 = w1 * w5
-    w2 = w2 + w5
-    w7 = w10 * w7
-    w2 = w2 - w7
-    w2 = w2 - w13
-    w7 = w2 * w4
-    w9 = w9 - w7
-    w7 = w6 * w6
-    w5 = w1 * w1
-    w7 = w7 + w5
+    w14 = w8 * w10
+    w15 = in0[3]
+    w16 = w15 * w5
+    w14 = w14 - w16
+    w16 = w1 * w9
+    w14 = w14 - w16
+    w14 = w14 - w2
+    w16 = w14 * w1
+    w11 = w11 - w16
+    w16 = w8 * w7
+    w11 = w11 - w16
+    w17 = in0[2]
+    w18 = w15 * w17
+    w11 = w11 - w18
+    w19 = w4 * w10
+    w19 = w19 + w17
+    w20 = w15 * w9
+    w19 = w19 + w20
+    w20 = w1 * w5
+    w19 = w19 - w20
+    w20 = w19 * w15
+    w11 = w11 - w20
+    w10 = w15 * w10
+    w5 = w8 * w5
+    w10 = w10 + w5
+    w9 = w4 * w9
+    w10 = w10 - w9
+    w10 = w10 - w12
+    w9 = w10 * w4
+    w11 = w11 - w9
+    w9 = w1 * w1
+    w5 = w8 * w8
+    w9 = w9 + w5
+    w5 = w15 * w15
+    w9 = w9 + w5
     w5 = w4 * w4
-    w7 = w7 + w5
-    w5 = w10 * w10
-    w7 = w7 + w5
-    w5 = jnp.abs(w7)
+    w9 = w9 + w5
+    w5 = jnp.abs(w9)
     w20 = 1e-300
     w5 = jnp.where(w5 < w20, 1.0, 0.0)
     w21 = 0.0
-    w22 = jnp.where(w7 < w21, 1.0, 0.0)
+    w22 = jnp.where(w9 < w21, 1.0, 0.0)
     w23 = (-1e-300)
     w23 = jnp.where(w22 != 0, w23, 0.0)
     w22 = jnp.where(w22 == 0, 1.0, 0.0)
     w22 = jnp.where(w22 != 0, w20, 0.0)
     w23 = w23 + w22
     w5 = jnp.where(w5 != 0, w23, 0.0)
-    w7 = w7 + w5
-    w9 = w9 / w7
-    w5 = w0 * w9
-    w23 = 6.632658891371746e-14
-    w5 = w5 - w23
-    w22 = 0.49999999999999994
-    w20 = w6 * w8
-    w24 = w11 * w1
-    w24 = w20 - w24
-    w25 = w10 * w13
-    w24 = w24 + w25
-    w26 = w3 * w6
-    w24 = w24 - w26
-    w26 = w1 * w12
-    w24 = w24 - w26
-    w27 = w4 * w16
-    w24 = w24 - w27
-    w28 = w15 * w4
-    w24 = w24 - w28
-    w28 = w2 * w10
-    w24 = w24 - w28
-    w24 = w24 / w7
-    w28 = w22 * w24
-    w5 = w5 - w28
-    w9 = w22 * w9
-    w24 = w0 * w24
-    w9 = w9 + w24
-    w24 = 0.11999999999988513
-    w9 = w9 - w24
-    w28 = jnp.arctan2(w5, w9)
-    o0_0 = w28
-    w28 = w6 * w16
-    w29 = w1 * w13
-    w28 = w28 + w29
-    w29 = w4 * w8
-    w28 = w28 + w29
-    w15 = w15 * w6
-    w15 = w28 + w15
-    w29 = w10 * w12
-    w15 = w15 + w29
-    w3 = w3 * w4
-    w15 = w15 - w3
-    w11 = w11 * w10
-    w15 = w15 + w11
-    w2 = w2 * w1
-    w15 = w15 - w2
-    w2 = w15 / w7
-    w11 = -w2
-    w9 = w9 * w9
-    w5 = w5 * w5
     w9 = w9 + w5
-    w9 = jnp.sqrt(w9)
-    w5 = 0.05
-    w9 = w9 - w5
-    w11 = jnp.arctan2(w11, w9)
-    w3 = 2.5
-    w30 = 0.16000000000000003
-    w9 = w9 * w9
-    w31 = w30 - w9
-    w2 = w2 * w15
-    w2 = w2 / w7
-    w31 = w31 - w2
-    w9 = w9 + w2
-    w31 = w31 * w9
-    w2 = jnp.where(w31 < w21, 1.0, 0.0)
-    w2 = jnp.where(w2 == 0, 1.0, 0.0)
-    w2 = jnp.where(w2 != 0, w31, 0.0)
-    w2 = jnp.sqrt(w2)
-    w31 = w3 * w2
-    w15 = w3 * w9
-    w31 = jnp.arctan2(w31, w15)
-    w11 = w11 - w31
-    o0_1 = w11
-    w11 = 12.499999999999998
-    w2 = w11 * w2
-    w31 = w11 * w9
-    w15 = 1.0
-    w31 = w31 - w15
-    w2 = jnp.arctan2(w2, w31)
-    o0_2 = w2
-    w2 = in1[5]
-    w31 = w10 * w2
-    w31 = w31 + w12
-    w32 = in1[3]
-    w33 = w1 * w32
-    w31 = w31 + w33
-    w33 = in1[4]
-    w34 = w6 * w33
-    w31 = w31 + w34
-    w34 = w31 * w1
-    w34 = w20 - w34
-    w34 = w34 + w25
-    w35 = w1 * w33
-    w36 = w4 * w2
-    w35 = w35 - w36
-    w36 = w6 * w32
-    w35 = w35 - w36
-    w35 = w35 - w8
-    w36 = w35 * w6
-    w34 = w34 - w36
-    w34 = w34 - w26
-    w34 = w34 - w27
-    w36 = w10 * w33
-    w36 = w36 + w16
-    w37 = w4 * w32
-    w36 = w36 + w37
-    w37 = w6 * w2
-    w36 = w36 - w37
-    w37 = w36 * w4
-    w34 = w34 - w37
-    w33 = w4 * w33
-    w2 = w1 * w2
-    w33 = w33 + w2
-    w32 = w10 * w32
-    w33 = w33 - w32
-    w33 = w33 - w13
-    w32 = w33 * w10
-    w34 = w34 - w32
-    w32 = w34 / w7
-    w2 = -w32
-    w37 = w35 * w1
-    w38 = w31 * w6
-    w37 = w37 - w38
-    w37 = w37 + w14
-    w38 = w36 * w10
-    w37 = w37 + w38
-    w37 = w37 + w17
-    w37 = w37 - w18
-    w37 = w37 - w19
-    w38 = w33 * w4
-    w37 = w37 - w38
-    w37 = w37 / w7
-    w38 = 0.12
-    w37 = w37 - w38
-    w2 = jnp.arctan2(w2, w37)
-    o0_3 = w2
-    w36 = w36 * w6
-    w36 = w28 + w36
-    w36 = w36 + w29
-    w35 = w35 * w4
-    w36 = w36 - w35
-    w31 = w31 * w10
-    w36 = w36 + w31
-    w33 = w33 * w1
-    w36 = w36 - w33
-    w33 = w36 / w7
-    w31 = -w33
-    w37 = w37 * w37
-    w32 = w32 * w34
-    w32 = w32 / w7
-    w37 = w37 + w32
-    w37 = jnp.sqrt(w37)
-    w37 = w37 - w5
-    w31 = jnp.arctan2(w31, w37)
-    w37 = w37 * w37
-    w32 = w30 - w37
-    w33 = w33 * w36
-    w33 = w33 / w7
+    w11 = w11 / w9
+    w5 = jnp.abs(w11)
+    w23 = w14 * w8
+    w22 = w6 * w1
+    w23 = w23 - w22
+    w22 = w15 * w12
+    w23 = w23 + w22
+    w20 = w19 * w4
+    w23 = w23 + w20
+    w20 = w4 * w17
+    w23 = w23 + w20
+    w24 = w1 * w7
+    w23 = w23 - w24
+    w25 = w8 * w2
+    w23 = w23 - w25
+    w26 = w10 * w15
+    w23 = w23 - w26
+    w23 = w23 / w9
+    w26 = jnp.abs(w23)
+    w5 = w5 + w26
+    w26 = w1 * w17
+    w27 = w8 * w12
+    w26 = w26 + w27
+    w27 = w15 * w2
+    w26 = w26 + w27
+    w19 = w19 * w1
+    w19 = w26 + w19
+    w27 = w4 * w7
+    w19 = w19 + w27
+    w14 = w14 * w15
+    w19 = w19 - w14
+    w6 = w6 * w4
+    w19 = w19 + w6
+    w10 = w10 * w8
+    w19 = w19 - w10
+    w19 = w19 / w9
+    w10 = jnp.abs(w19)
+    w5 = w5 + w10
+    w10 = 1000000000.0
+    w5 = jnp.where(w5 < w10, 1.0, 0.0)
+    w6 = 0.49999999999999994
+    w14 = w6 * w23
+    w28 = 0.8660254037844387
+    w29 = w28 * w11
+    w14 = w14 + w29
+    w14 = jnp.where(w5 != 0, w14, 0.0)
+    w29 = 0.11999999999988513
+    w14 = w14 - w29
+    w30 = w14 * w14
+    w23 = w28 * w23
+    w23 = jnp.where(w5 != 0, w23, 0.0)
+    w31 = 6.632658891371746e-14
+    w23 = w23 - w31
+    w11 = w6 * w11
+    w11 = jnp.where(w5 != 0, w11, 0.0)
+    w23 = w23 - w11
+    w11 = w23 * w23
+    w30 = w30 + w11
+    w30 = jnp.sqrt(w30)
+    w11 = 0.05
+    w32 = w30 + w11
+    w33 = w32 * w32
+    w34 = w19 * w19
+    w34 = jnp.where(w5 != 0, w34, 0.0)
+    w34 = jnp.where(w5 != 0, w34, 0.0)
+    w35 = w33 + w34
+    w36 = jnp.where(w35 < w21, 1.0, 0.0)
+    w37 = jnp.sqrt(w35)
+    w38 = -w37
+    w38 = jnp.where(w36 != 0, w38, 0.0)
+    w36 = jnp.where(w36 == 0, 1.0, 0.0)
+    w39 = 0.4
+    w37 = w37 - w39
+    w36 = jnp.where(w36 != 0, w37, 0.0)
+    w38 = w38 + w36
+    w36 = jnp.where(w38 < w21, 1.0, 0.0)
+    w36 = jnp.where(w36 == 0, 1.0, 0.0)
+    w36 = jnp.where(w36 != 0, w38, 0.0)
+    w38 = 1e-12
+    w37 = w36 + w38
+    w30 = w30 - w11
+    w40 = w30 * w30
+    w41 = w40 + w34
+    w42 = jnp.where(w41 < w21, 1.0, 0.0)
+    w43 = jnp.sqrt(w41)
+    w44 = -w43
+    w44 = jnp.where(w42 != 0, w44, 0.0)
+    w42 = jnp.where(w42 == 0, 1.0, 0.0)
+    w43 = w43 - w39
+    w42 = jnp.where(w42 != 0, w43, 0.0)
+    w44 = w44 + w42
+    w42 = jnp.where(w44 < w21, 1.0, 0.0)
+    w42 = jnp.where(w42 == 0, 1.0, 0.0)
+    w42 = jnp.where(w42 != 0, w44, 0.0)
+    w37 = jnp.where(w37 < w42, 1.0, 0.0)
+    w44 = 1.0
+    w43 = jnp.where(w37 != 0, w44, 0.0)
+    w37 = jnp.where(w37 == 0, 1.0, 0.0)
+    w45 = w42 + w38
+    w45 = jnp.where(w45 < w36, 1.0, 0.0)
+    w45 = jnp.where(w45 == 0, 1.0, 0.0)
+    w23 = jnp.arctan2(w23, w14)
+    w14 = jnp.where(w21 < w23, 1.0, 0.0)
+    w46 = 3.141592653589793
+    w47 = w23 - w46
+    w47 = jnp.where(w14 != 0, w47, 0.0)
+    w14 = jnp.where(w14 == 0, 1.0, 0.0)
+    w48 = w23 + w46
+    w14 = jnp.where(w14 != 0, w48, 0.0)
+    w47 = w47 + w14
+    w14 = 0.785
+    w48 = w47 + w14
+    w48 = -w48
+    w49 = jnp.where(w48 < w21, 1.0, 0.0)
+    w49 = jnp.where(w49 == 0, 1.0, 0.0)
+    w49 = jnp.where(w49 != 0, w48, 0.0)
+    w48 = w47 - w14
+    w50 = jnp.where(w48 < w21, 1.0, 0.0)
+    w50 = jnp.where(w50 == 0, 1.0, 0.0)
+    w50 = jnp.where(w50 != 0, w48, 0.0)
+    w49 = w49 + w50
+    w19 = jnp.where(w5 != 0, w19, 0.0)
+    w19 = -w19
+    w32 = -w32
+    w32 = jnp.arctan2(w19, w32)
+    w50 = 2.5
+    w48 = 0.16000000000000003
+    w33 = w48 - w33
+    w33 = w33 - w34
+    w33 = w33 * w35
+    w51 = jnp.where(w33 < w21, 1.0, 0.0)
+    w51 = jnp.where(w51 == 0, 1.0, 0.0)
+    w51 = jnp.where(w51 != 0, w33, 0.0)
+    w51 = jnp.sqrt(w51)
+    w33 = w50 * w51
+    w52 = w50 * w35
+    w33 = jnp.arctan2(w33, w52)
     w32 = w32 - w33
-    w37 = w37 + w33
-    w32 = w32 * w37
-    w33 = jnp.where(w32 < w21, 1.0, 0.0)
+    w33 = jnp.where(w46 < w32, 1.0, 0.0)
+    w52 = 6.283185307179586
+    w53 = w32 - w52
+    w53 = jnp.where(w33 != 0, w53, 0.0)
     w33 = jnp.where(w33 == 0, 1.0, 0.0)
     w33 = jnp.where(w33 != 0, w32, 0.0)
-    w33 = jnp.sqrt(w33)
-    w32 = w3 * w33
-    w36 = w3 * w37
-    w32 = jnp.arctan2(w32, w36)
-    w31 = w31 - w32
-    o0_4 = w31
-    w33 = w11 * w33
-    w31 = w11 * w37
-    w31 = w31 - w15
-    w33 = jnp.arctan2(w33, w31)
-    o0_5 = w33
-    w33 = in1[7]
-    w31 = w1 * w33
-    w32 = in1[8]
-    w36 = w4 * w32
-    w31 = w31 - w36
-    w36 = in1[6]
-    w34 = w6 * w36
-    w31 = w31 - w34
-    w31 = w31 - w8
-    w34 = w31 * w1
-    w35 = w10 * w32
-    w35 = w35 + w12
-    w2 = w1 * w36
-    w35 = w35 + w2
-    w2 = w6 * w33
-    w35 = w35 + w2
-    w2 = w35 * w6
-    w34 = w34 - w2
-    w34 = w34 + w14
-    w2 = w10 * w33
-    w2 = w2 + w16
-    w39 = w4 * w36
-    w2 = w2 + w39
-    w39 = w6 * w32
-    w2 = w2 - w39
-    w39 = w2 * w10
-    w34 = w34 + w39
-    w34 = w34 + w17
-    w34 = w34 - w18
-    w34 = w34 - w19
-    w33 = w4 * w33
-    w32 = w1 * w32
-    w33 = w33 + w32
-    w36 = w10 * w36
-    w33 = w33 - w36
-    w33 = w33 - w13
-    w36 = w33 * w4
-    w34 = w34 - w36
-    w34 = w34 / w7
-    w36 = w0 * w34
-    w36 = w23 - w36
-    w32 = w35 * w1
-    w32 = w20 - w32
-    w32 = w32 + w25
-    w39 = w31 * w6
-    w32 = w32 - w39
-    w32 = w32 - w26
-    w32 = w32 - w27
-    w39 = w2 * w4
-    w32 = w32 - w39
-    w39 = w33 * w10
-    w32 = w32 - w39
-    w32 = w32 / w7
-    w39 = w22 * w32
-    w36 = w36 - w39
-    w34 = w22 * w34
-    w34 = w34 - w24
-    w32 = w0 * w32
-    w34 = w34 - w32
-    w32 = jnp.arctan2(w36, w34)
-    o0_6 = w32
-    w2 = w2 * w6
-    w2 = w28 + w2
-    w2 = w2 + w29
-    w31 = w31 * w4
-    w2 = w2 - w31
-    w35 = w35 * w10
-    w2 = w2 + w35
-    w33 = w33 * w1
-    w2 = w2 - w33
-    w33 = w2 / w7
-    w35 = -w33
-    w34 = w34 * w34
-    w36 = w36 * w36
-    w34 = w34 + w36
+    w53 = w53 + w33
+    w33 = (-3.141592653589793)
+    w32 = jnp.where(w53 < w33, 1.0, 0.0)
+    w54 = w53 + w52
+    w54 = jnp.where(w32 != 0, w54, 0.0)
+    w32 = jnp.where(w32 == 0, 1.0, 0.0)
+    w32 = jnp.where(w32 != 0, w53, 0.0)
+    w54 = w54 + w32
+    w32 = 1.571
+    w53 = w54 + w32
+    w53 = -w53
+    w55 = jnp.where(w53 < w21, 1.0, 0.0)
+    w55 = jnp.where(w55 == 0, 1.0, 0.0)
+    w55 = jnp.where(w55 != 0, w53, 0.0)
+    w49 = w49 + w55
+    w55 = w54 - w32
+    w53 = jnp.where(w55 < w21, 1.0, 0.0)
+    w53 = jnp.where(w53 == 0, 1.0, 0.0)
+    w53 = jnp.where(w53 != 0, w55, 0.0)
+    w49 = w49 + w53
+    w53 = 12.499999999999998
+    w51 = w53 * w51
+    w35 = w53 * w35
+    w35 = w35 - w44
+    w51 = jnp.arctan2(w51, w35)
+    w35 = 2.618
+    w55 = w51 + w35
+    w55 = -w55
+    w56 = jnp.where(w55 < w21, 1.0, 0.0)
+    w56 = jnp.where(w56 == 0, 1.0, 0.0)
+    w56 = jnp.where(w56 != 0, w55, 0.0)
+    w49 = w49 + w56
+    w56 = w51 - w35
+    w55 = jnp.where(w56 < w21, 1.0, 0.0)
+    w55 = jnp.where(w55 == 0, 1.0, 0.0)
+    w55 = jnp.where(w55 != 0, w56, 0.0)
+    w49 = w49 + w55
+    w55 = w23 + w14
+    w55 = -w55
+    w56 = jnp.where(w55 < w21, 1.0, 0.0)
+    w56 = jnp.where(w56 == 0, 1.0, 0.0)
+    w56 = jnp.where(w56 != 0, w55, 0.0)
+    w55 = w23 - w14
+    w57 = jnp.where(w55 < w21, 1.0, 0.0)
+    w57 = jnp.where(w57 == 0, 1.0, 0.0)
+    w57 = jnp.where(w57 != 0, w55, 0.0)
+    w56 = w56 + w57
+    w19 = jnp.arctan2(w19, w30)
+    w40 = w48 - w40
+    w40 = w40 - w34
+    w40 = w40 * w41
+    w34 = jnp.where(w40 < w21, 1.0, 0.0)
+    w34 = jnp.where(w34 == 0, 1.0, 0.0)
+    w34 = jnp.where(w34 != 0, w40, 0.0)
     w34 = jnp.sqrt(w34)
-    w34 = w34 - w5
-    w35 = jnp.arctan2(w35, w34)
-    w34 = w34 * w34
-    w36 = w30 - w34
-    w33 = w33 * w2
-    w33 = w33 / w7
-    w36 = w36 - w33
-    w34 = w34 + w33
-    w36 = w36 * w34
-    w33 = jnp.where(w36 < w21, 1.0, 0.0)
-    w33 = jnp.where(w33 == 0, 1.0, 0.0)
-    w33 = jnp.where(w33 != 0, w36, 0.0)
-    w33 = jnp.sqrt(w33)
-    w36 = w3 * w33
-    w2 = w3 * w34
-    w36 = jnp.arctan2(w36, w2)
-    w35 = w35 - w36
-    o0_7 = w35
-    w33 = w11 * w33
-    w35 = w11 * w34
-    w35 = w35 - w15
-    w33 = jnp.arctan2(w33, w35)
-    o0_8 = w33
-    w33 = in1[11]
-    w35 = w10 * w33
-    w35 = w35 + w12
-    w36 = in1[9]
-    w2 = w1 * w36
-    w35 = w35 + w2
-    w2 = in1[10]
-    w31 = w6 * w2
-    w35 = w35 + w31
-    w31 = w35 * w1
-    w31 = w20 - w31
-    w31 = w31 + w25
-    w32 = w1 * w2
-    w39 = w4 * w33
-    w32 = w32 - w39
-    w39 = w6 * w36
-    w32 = w32 - w39
-    w32 = w32 - w8
-    w39 = w32 * w6
-    w31 = w31 - w39
-    w31 = w31 - w26
-    w31 = w31 - w27
-    w39 = w10 * w2
-    w39 = w39 + w16
-    w40 = w4 * w36
-    w39 = w39 + w40
-    w40 = w6 * w33
-    w39 = w39 - w40
-    w40 = w39 * w4
-    w31 = w31 - w40
-    w2 = w4 * w2
-    w33 = w1 * w33
-    w2 = w2 + w33
-    w36 = w10 * w36
-    w2 = w2 - w36
-    w2 = w2 - w13
-    w36 = w2 * w10
-    w31 = w31 - w36
-    w31 = w31 / w7
-    w36 = w22 * w31
-    w36 = w36 - w23
-    w33 = w32 * w1
-    w40 = w35 * w6
-    w33 = w33 - w40
-    w33 = w33 + w14
-    w40 = w39 * w10
-    w33 = w33 + w40
-    w33 = w33 + w17
-    w33 = w33 - w18
-    w33 = w33 - w19
-    w40 = w2 * w4
-    w33 = w33 - w40
-    w33 = w33 / w7
-    w40 = w0 * w33
-    w36 = w36 - w40
-    w33 = w22 * w33
-    w33 = w24 + w33
-    w31 = w0 * w31
-    w33 = w33 + w31
-    w31 = -w33
-    w31 = jnp.arctan2(w36, w31)
-    o0_9 = w31
-    w39 = w39 * w6
-    w39 = w28 + w39
-    w39 = w39 + w29
-    w32 = w32 * w4
-    w39 = w39 - w32
-    w35 = w35 * w10
-    w39 = w39 + w35
-    w2 = w2 * w1
-    w39 = w39 - w2
-    w2 = w39 / w7
-    w35 = -w2
-    w33 = w33 * w33
-    w36 = w36 * w36
-    w33 = w33 + w36
-    w33 = jnp.sqrt(w33)
-    w33 = w33 - w5
-    w35 = jnp.arctan2(w35, w33)
-    w33 = w33 * w33
-    w36 = w30 - w33
-    w2 = w2 * w39
-    w2 = w2 / w7
-    w36 = w36 - w2
-    w33 = w33 + w2
-    w36 = w36 * w33
-    w2 = jnp.where(w36 < w21, 1.0, 0.0)
-    w2 = jnp.where(w2 == 0, 1.0, 0.0)
-    w2 = jnp.where(w2 != 0, w36, 0.0)
-    w2 = jnp.sqrt(w2)
-    w36 = w3 * w2
-    w39 = w3 * w33
-    w36 = jnp.arctan2(w36, w39)
-    w35 = w35 - w36
-    o0_10 = w35
-    w2 = w11 * w2
-    w35 = w11 * w33
-    w35 = w35 - w15
-    w2 = jnp.arctan2(w2, w35)
-    o0_11 = w2
-    w2 = in1[14]
-    w35 = w10 * w2
-    w35 = w35 + w12
-    w36 = in1[12]
-    w39 = w1 * w36
-    w35 = w35 + w39
-    w39 = in1[13]
-    w32 = w6 * w39
-    w35 = w35 + w32
-    w32 = w35 * w1
-    w32 = w20 - w32
-    w32 = w32 + w25
-    w31 = w1 * w39
-    w40 = w4 * w2
-    w31 = w31 - w40
-    w40 = w6 * w36
-    w31 = w31 - w40
-    w31 = w31 - w8
-    w40 = w31 * w6
-    w32 = w32 - w40
-    w32 = w32 - w26
-    w32 = w32 - w27
-    w40 = w10 * w39
-    w40 = w40 + w16
-    w41 = w4 * w36
-    w40 = w40 + w41
-    w41 = w6 * w2
-    w40 = w40 - w41
-    w41 = w40 * w4
-    w32 = w32 - w41
-    w39 = w4 * w39
-    w2 = w1 * w2
-    w39 = w39 + w2
-    w36 = w10 * w36
-    w39 = w39 - w36
-    w39 = w39 - w13
-    w36 = w39 * w10
-    w32 = w32 - w36
-    w36 = w32 / w7
-    w2 = w31 * w1
-    w41 = w35 * w6
-    w2 = w2 - w41
-    w2 = w2 + w14
-    w41 = w40 * w10
-    w2 = w2 + w41
-    w2 = w2 + w17
-    w2 = w2 - w18
-    w2 = w2 - w19
-    w41 = w39 * w4
-    w2 = w2 - w41
-    w2 = w2 / w7
-    w2 = w2 + w38
-    w38 = -w2
-    w38 = jnp.arctan2(w36, w38)
-    o0_12 = w38
-    w40 = w40 * w6
-    w40 = w28 + w40
-    w40 = w40 + w29
-    w31 = w31 * w4
-    w40 = w40 - w31
-    w35 = w35 * w10
-    w40 = w40 + w35
-    w39 = w39 * w1
-    w40 = w40 - w39
-    w39 = w40 / w7
-    w35 = -w39
-    w2 = w2 * w2
-    w36 = w36 * w32
-    w36 = w36 / w7
-    w2 = w2 + w36
-    w2 = jnp.sqrt(w2)
-    w2 = w2 - w5
-    w35 = jnp.arctan2(w35, w2)
-    w2 = w2 * w2
-    w36 = w30 - w2
-    w39 = w39 * w40
-    w39 = w39 / w7
-    w36 = w36 - w39
-    w2 = w2 + w39
-    w36 = w36 * w2
-    w39 = jnp.where(w36 < w21, 1.0, 0.0)
-    w39 = jnp.where(w39 == 0, 1.0, 0.0)
-    w39 = jnp.where(w39 != 0, w36, 0.0)
-    w39 = jnp.sqrt(w39)
-    w36 = w3 * w39
-    w40 = w3 * w2
-    w36 = jnp.arctan2(w36, w40)
-    w35 = w35 - w36
-    o0_13 = w35
-    w39 = w11 * w39
-    w35 = w11 * w2
-    w35 = w35 - w15
-    w39 = jnp.arctan2(w39, w35)
-    o0_14 = w39
-    w39 = in1[16]
-    w35 = w1 * w39
-    w36 = in1[17]
-    w40 = w4 * w36
-    w35 = w35 - w40
-    w40 = in1[15]
-    w32 = w6 * w40
-    w35 = w35 - w32
-    w35 = w35 - w8
-    w8 = w35 * w1
-    w32 = w10 * w36
-    w32 = w32 + w12
-    w12 = w1 * w40
-    w32 = w32 + w12
-    w12 = w6 * w39
-    w32 = w32 + w12
-    w12 = w32 * w6
-    w8 = w8 - w12
-    w8 = w8 + w14
-    w14 = w10 * w39
-    w14 = w14 + w16
-    w16 = w4 * w40
-    w14 = w14 + w16
-    w16 = w6 * w36
-    w14 = w14 - w16
-    w16 = w14 * w10
-    w8 = w8 + w16
-    w8 = w8 + w17
-    w8 = w8 - w18
-    w8 = w8 - w19
-    w39 = w4 * w39
-    w36 = w1 * w36
-    w39 = w39 + w36
-    w40 = w10 * w40
-    w39 = w39 - w40
-    w39 = w39 - w13
-    w13 = w39 * w4
-    w8 = w8 - w13
-    w8 = w8 / w7
-    w13 = w0 * w8
-    w23 = w23 + w13
-    w13 = w32 * w1
-    w20 = w20 - w13
-    w20 = w20 + w25
-    w25 = w35 * w6
-    w20 = w20 - w25
-    w20 = w20 - w26
-    w20 = w20 - w27
-    w27 = w14 * w4
-    w20 = w20 - w27
-    w27 = w39 * w10
-    w20 = w20 - w27
-    w20 = w20 / w7
-    w27 = w22 * w20
-    w23 = w23 + w27
-    w0 = w0 * w20
-    w0 = w0 - w24
-    w22 = w22 * w8
-    w0 = w0 - w22
-    w22 = jnp.arctan2(w23, w0)
-    o0_15 = w22
-    w14 = w14 * w6
-    w28 = w28 + w14
-    w28 = w28 + w29
-    w35 = w35 * w4
-    w28 = w28 - w35
-    w32 = w32 * w10
-    w28 = w28 + w32
-    w39 = w39 * w1
-    w28 = w28 - w39
-    w39 = w28 / w7
-    w1 = -w39
-    w0 = w0 * w0
-    w23 = w23 * w23
-    w0 = w0 + w23
-    w0 = jnp.sqrt(w0)
-    w0 = w0 - w5
-    w1 = jnp.arctan2(w1, w0)
-    w0 = w0 * w0
-    w30 = w30 - w0
-    w39 = w39 * w28
-    w39 = w39 / w7
-    w30 = w30 - w39
-    w0 = w0 + w39
-    w30 = w30 * w0
-    w39 = jnp.where(w30 < w21, 1.0, 0.0)
-    w39 = jnp.where(w39 == 0, 1.0, 0.0)
-    w39 = jnp.where(w39 != 0, w30, 0.0)
-    w39 = jnp.sqrt(w39)
-    w30 = w3 * w39
-    w3 = w3 * w0
-    w30 = jnp.arctan2(w30, w3)
-    w1 = w1 - w30
-    o0_16 = w1
-    w39 = w11 * w39
-    w11 = w11 * w0
-    w11 = w11 - w15
-    w39 = jnp.arctan2(w39, w11)
-    o0_17 = w39
-    w39 = 1e-09
-    w11 = jnp.where(w9 < w21, 1.0, 0.0)
-    w9 = jnp.sqrt(w9)
-    w1 = -w9
-    w1 = jnp.where(w11 != 0, w1, 0.0)
-    w11 = jnp.where(w11 == 0, 1.0, 0.0)
-    w30 = 0.4
-    w9 = w9 - w30
-    w11 = jnp.where(w11 != 0, w9, 0.0)
-    w1 = w1 + w11
-    w11 = jnp.where(w1 < w21, 1.0, 0.0)
-    w11 = jnp.where(w11 == 0, 1.0, 0.0)
-    w11 = jnp.where(w11 != 0, w1, 0.0)
-    w1 = jnp.where(w39 < w11, 1.0, 0.0)
-    w1 = jnp.where(w1 == 0, 1.0, 0.0)
-    w1 = jnp.where(w1 != 0, w15, 0.0)
-    o1_0 = w1
-    w1 = jnp.where(w37 < w21, 1.0, 0.0)
-    w37 = jnp.sqrt(w37)
-    w9 = -w37
-    w9 = jnp.where(w1 != 0, w9, 0.0)
-    w1 = jnp.where(w1 == 0, 1.0, 0.0)
-    w37 = w37 - w30
-    w1 = jnp.where(w1 != 0, w37, 0.0)
-    w9 = w9 + w1
-    w1 = jnp.where(w9 < w21, 1.0, 0.0)
-    w1 = jnp.where(w1 == 0, 1.0, 0.0)
-    w1 = jnp.where(w1 != 0, w9, 0.0)
-    w9 = jnp.where(w39 < w1, 1.0, 0.0)
-    w9 = jnp.where(w9 == 0, 1.0, 0.0)
-    w9 = jnp.where(w9 != 0, w15, 0.0)
-    o1_1 = w9
-    w9 = jnp.where(w34 < w21, 1.0, 0.0)
-    w34 = jnp.sqrt(w34)
-    w37 = -w34
-    w37 = jnp.where(w9 != 0, w37, 0.0)
-    w9 = jnp.where(w9 == 0, 1.0, 0.0)
-    w34 = w34 - w30
-    w9 = jnp.where(w9 != 0, w34, 0.0)
-    w37 = w37 + w9
-    w9 = jnp.where(w37 < w21, 1.0, 0.0)
-    w9 = jnp.where(w9 == 0, 1.0, 0.0)
-    w9 = jnp.where(w9 != 0, w37, 0.0)
-    w37 = jnp.where(w39 < w9, 1.0, 0.0)
-    w37 = jnp.where(w37 == 0, 1.0, 0.0)
-    w37 = jnp.where(w37 != 0, w15, 0.0)
-    o1_2 = w37
-    w37 = jnp.where(w33 < w21, 1.0, 0.0)
-    w33 = jnp.sqrt(w33)
-    w34 = -w33
-    w34 = jnp.where(w37 != 0, w34, 0.0)
-    w37 = jnp.where(w37 == 0, 1.0, 0.0)
-    w33 = w33 - w30
-    w37 = jnp.where(w37 != 0, w33, 0.0)
-    w34 = w34 + w37
-    w37 = jnp.where(w34 < w21, 1.0, 0.0)
-    w37 = jnp.where(w37 == 0, 1.0, 0.0)
+    w40 = w50 * w34
+    w30 = w50 * w41
+    w40 = jnp.arctan2(w40, w30)
+    w19 = w19 - w40
+    w40 = jnp.where(w46 < w19, 1.0, 0.0)
+    w30 = w19 - w52
+    w30 = jnp.where(w40 != 0, w30, 0.0)
+    w40 = jnp.where(w40 == 0, 1.0, 0.0)
+    w40 = jnp.where(w40 != 0, w19, 0.0)
+    w30 = w30 + w40
+    w40 = jnp.where(w30 < w33, 1.0, 0.0)
+    w19 = w30 + w52
+    w19 = jnp.where(w40 != 0, w19, 0.0)
+    w40 = jnp.where(w40 == 0, 1.0, 0.0)
+    w40 = jnp.where(w40 != 0, w30, 0.0)
+    w19 = w19 + w40
+    w40 = w19 + w32
+    w40 = -w40
+    w30 = jnp.where(w40 < w21, 1.0, 0.0)
+    w30 = jnp.where(w30 == 0, 1.0, 0.0)
+    w30 = jnp.where(w30 != 0, w40, 0.0)
+    w56 = w56 + w30
+    w30 = w19 - w32
+    w40 = jnp.where(w30 < w21, 1.0, 0.0)
+    w40 = jnp.where(w40 == 0, 1.0, 0.0)
+    w40 = jnp.where(w40 != 0, w30, 0.0)
+    w56 = w56 + w40
+    w34 = w53 * w34
+    w41 = w53 * w41
+    w41 = w41 - w44
+    w34 = jnp.arctan2(w34, w41)
+    w41 = w34 + w35
+    w41 = -w41
+    w40 = jnp.where(w41 < w21, 1.0, 0.0)
+    w40 = jnp.where(w40 == 0, 1.0, 0.0)
+    w40 = jnp.where(w40 != 0, w41, 0.0)
+    w56 = w56 + w40
+    w40 = w34 - w35
+    w41 = jnp.where(w40 < w21, 1.0, 0.0)
+    w41 = jnp.where(w41 == 0, 1.0, 0.0)
+    w41 = jnp.where(w41 != 0, w40, 0.0)
+    w56 = w56 + w41
+    w49 = jnp.where(w49 < w56, 1.0, 0.0)
+    w49 = jnp.where(w49 != 0, w44, 0.0)
+    w45 = jnp.where(w45 != 0, w49, 0.0)
+    w37 = jnp.where(w37 != 0, w45, 0.0)
+    w43 = w43 + w37
+    w43 = jnp.where(w0 < w43, 1.0, 0.0)
+    w47 = jnp.where(w43 != 0, w47, 0.0)
+    w37 = jnp.where(w43 == 0, 1.0, 0.0)
+    w23 = jnp.where(w37 != 0, w23, 0.0)
+    w47 = w47 + w23
+    o0_0 = w47
+    w54 = jnp.where(w43 != 0, w54, 0.0)
+    w19 = jnp.where(w37 != 0, w19, 0.0)
+    w54 = w54 + w19
+    o0_1 = w54
+    w43 = jnp.where(w43 != 0, w51, 0.0)
     w37 = jnp.where(w37 != 0, w34, 0.0)
-    w34 = jnp.where(w39 < w37, 1.0, 0.0)
-    w34 = jnp.where(w34 == 0, 1.0, 0.0)
-    w34 = jnp.where(w34 != 0, w15, 0.0)
-    o1_3 = w34
-    w34 = jnp.where(w2 < w21, 1.0, 0.0)
-    w2 = jnp.sqrt(w2)
-    w33 = -w2
-    w33 = jnp.where(w34 != 0, w33, 0.0)
-    w34 = jnp.where(w34 == 0, 1.0, 0.0)
-    w2 = w2 - w30
-    w34 = jnp.where(w34 != 0, w2, 0.0)
-    w33 = w33 + w34
-    w34 = jnp.where(w33 < w21, 1.0, 0.0)
-    w34 = jnp.where(w34 == 0, 1.0, 0.0)
-    w34 = jnp.where(w34 != 0, w33, 0.0)
-    w33 = jnp.where(w39 < w34, 1.0, 0.0)
-    w33 = jnp.where(w33 == 0, 1.0, 0.0)
-    w33 = jnp.where(w33 != 0, w15, 0.0)
-    o1_4 = w33
-    w33 = jnp.where(w0 < w21, 1.0, 0.0)
-    w0 = jnp.sqrt(w0)
-    w2 = -w0
-    w2 = jnp.where(w33 != 0, w2, 0.0)
-    w33 = jnp.where(w33 == 0, 1.0, 0.0)
-    w0 = w0 - w30
-    w33 = jnp.where(w33 != 0, w0, 0.0)
-    w2 = w2 + w33
-    w21 = jnp.where(w2 < w21, 1.0, 0.0)
-    w21 = jnp.where(w21 == 0, 1.0, 0.0)
-    w21 = jnp.where(w21 != 0, w2, 0.0)
-    w39 = jnp.where(w39 < w21, 1.0, 0.0)
+    w43 = w43 + w37
+    o0_2 = w43
+    w43 = in1[5]
+    w37 = w4 * w43
+    w37 = w37 + w7
+    w34 = in1[3]
+    w51 = w8 * w34
+    w37 = w37 + w51
+    w51 = in1[4]
+    w54 = w1 * w51
+    w37 = w37 + w54
+    w54 = w37 * w8
+    w54 = w3 - w54
+    w54 = w54 + w13
+    w19 = w8 * w51
+    w47 = w15 * w43
+    w19 = w19 - w47
+    w47 = w1 * w34
+    w19 = w19 - w47
+    w19 = w19 - w2
+    w47 = w19 * w1
+    w54 = w54 - w47
+    w54 = w54 - w16
+    w54 = w54 - w18
+    w47 = w4 * w51
+    w47 = w47 + w17
+    w23 = w15 * w34
+    w47 = w47 + w23
+    w23 = w1 * w43
+    w47 = w47 - w23
+    w23 = w47 * w15
+    w54 = w54 - w23
+    w51 = w15 * w51
+    w43 = w8 * w43
+    w51 = w51 + w43
+    w34 = w4 * w34
+    w51 = w51 - w34
+    w51 = w51 - w12
+    w34 = w51 * w4
+    w54 = w54 - w34
+    w54 = w54 / w9
+    w34 = jnp.abs(w54)
+    w43 = w19 * w8
+    w23 = w37 * w1
+    w43 = w43 - w23
+    w43 = w43 + w22
+    w23 = w47 * w4
+    w43 = w43 + w23
+    w43 = w43 + w20
+    w43 = w43 - w24
+    w43 = w43 - w25
+    w23 = w51 * w15
+    w43 = w43 - w23
+    w43 = w43 / w9
+    w23 = jnp.abs(w43)
+    w34 = w34 + w23
+    w47 = w47 * w1
+    w47 = w26 + w47
+    w47 = w47 + w27
+    w19 = w19 * w15
+    w47 = w47 - w19
+    w37 = w37 * w4
+    w47 = w47 + w37
+    w51 = w51 * w8
+    w47 = w47 - w51
+    w47 = w47 / w9
+    w51 = jnp.abs(w47)
+    w34 = w34 + w51
+    w34 = jnp.where(w34 < w10, 1.0, 0.0)
+    w43 = jnp.where(w34 != 0, w43, 0.0)
+    w51 = 0.12
+    w43 = w43 - w51
+    w37 = w43 * w43
+    w19 = w54 * w54
+    w19 = jnp.where(w34 != 0, w19, 0.0)
+    w19 = jnp.where(w34 != 0, w19, 0.0)
+    w37 = w37 + w19
+    w37 = jnp.sqrt(w37)
+    w19 = w37 + w11
+    w23 = w19 * w19
+    w45 = w47 * w47
+    w45 = jnp.where(w34 != 0, w45, 0.0)
+    w45 = jnp.where(w34 != 0, w45, 0.0)
+    w49 = w23 + w45
+    w56 = jnp.where(w49 < w21, 1.0, 0.0)
+    w41 = jnp.sqrt(w49)
+    w40 = -w41
+    w40 = jnp.where(w56 != 0, w40, 0.0)
+    w56 = jnp.where(w56 == 0, 1.0, 0.0)
+    w41 = w41 - w39
+    w56 = jnp.where(w56 != 0, w41, 0.0)
+    w40 = w40 + w56
+    w56 = jnp.where(w40 < w21, 1.0, 0.0)
+    w56 = jnp.where(w56 == 0, 1.0, 0.0)
+    w56 = jnp.where(w56 != 0, w40, 0.0)
+    w40 = w56 + w38
+    w37 = w37 - w11
+    w41 = w37 * w37
+    w30 = w41 + w45
+    w57 = jnp.where(w30 < w21, 1.0, 0.0)
+    w55 = jnp.sqrt(w30)
+    w58 = -w55
+    w58 = jnp.where(w57 != 0, w58, 0.0)
+    w57 = jnp.where(w57 == 0, 1.0, 0.0)
+    w55 = w55 - w39
+    w57 = jnp.where(w57 != 0, w55, 0.0)
+    w58 = w58 + w57
+    w57 = jnp.where(w58 < w21, 1.0, 0.0)
+    w57 = jnp.where(w57 == 0, 1.0, 0.0)
+    w57 = jnp.where(w57 != 0, w58, 0.0)
+    w40 = jnp.where(w40 < w57, 1.0, 0.0)
+    w58 = jnp.where(w40 != 0, w44, 0.0)
+    w40 = jnp.where(w40 == 0, 1.0, 0.0)
+    w55 = w57 + w38
+    w55 = jnp.where(w55 < w56, 1.0, 0.0)
+    w55 = jnp.where(w55 == 0, 1.0, 0.0)
+    w54 = jnp.where(w34 != 0, w54, 0.0)
+    w54 = -w54
+    w54 = jnp.arctan2(w54, w43)
+    w43 = jnp.where(w21 < w54, 1.0, 0.0)
+    w59 = w54 - w46
+    w59 = jnp.where(w43 != 0, w59, 0.0)
+    w43 = jnp.where(w43 == 0, 1.0, 0.0)
+    w60 = w54 + w46
+    w43 = jnp.where(w43 != 0, w60, 0.0)
+    w59 = w59 + w43
+    w43 = w59 + w14
+    w43 = -w43
+    w60 = jnp.where(w43 < w21, 1.0, 0.0)
+    w60 = jnp.where(w60 == 0, 1.0, 0.0)
+    w60 = jnp.where(w60 != 0, w43, 0.0)
+    w43 = w59 - w14
+    w61 = jnp.where(w43 < w21, 1.0, 0.0)
+    w61 = jnp.where(w61 == 0, 1.0, 0.0)
+    w61 = jnp.where(w61 != 0, w43, 0.0)
+    w60 = w60 + w61
+    w47 = jnp.where(w34 != 0, w47, 0.0)
+    w47 = -w47
+    w19 = -w19
+    w19 = jnp.arctan2(w47, w19)
+    w23 = w48 - w23
+    w23 = w23 - w45
+    w23 = w23 * w49
+    w61 = jnp.where(w23 < w21, 1.0, 0.0)
+    w61 = jnp.where(w61 == 0, 1.0, 0.0)
+    w61 = jnp.where(w61 != 0, w23, 0.0)
+    w61 = jnp.sqrt(w61)
+    w23 = w50 * w61
+    w43 = w50 * w49
+    w23 = jnp.arctan2(w23, w43)
+    w19 = w19 - w23
+    w23 = jnp.where(w46 < w19, 1.0, 0.0)
+    w43 = w19 - w52
+    w43 = jnp.where(w23 != 0, w43, 0.0)
+    w23 = jnp.where(w23 == 0, 1.0, 0.0)
+    w23 = jnp.where(w23 != 0, w19, 0.0)
+    w43 = w43 + w23
+    w23 = jnp.where(w43 < w33, 1.0, 0.0)
+    w19 = w43 + w52
+    w19 = jnp.where(w23 != 0, w19, 0.0)
+    w23 = jnp.where(w23 == 0, 1.0, 0.0)
+    w23 = jnp.where(w23 != 0, w43, 0.0)
+    w19 = w19 + w23
+    w23 = w19 + w32
+    w23 = -w23
+    w43 = jnp.where(w23 < w21, 1.0, 0.0)
+    w43 = jnp.where(w43 == 0, 1.0, 0.0)
+    w43 = jnp.where(w43 != 0, w23, 0.0)
+    w60 = w60 + w43
+    w43 = w19 - w32
+    w23 = jnp.where(w43 < w21, 1.0, 0.0)
+    w23 = jnp.where(w23 == 0, 1.0, 0.0)
+    w23 = jnp.where(w23 != 0, w43, 0.0)
+    w60 = w60 + w23
+    w61 = w53 * w61
+    w49 = w53 * w49
+    w49 = w49 - w44
+    w61 = jnp.arctan2(w61, w49)
+    w49 = w61 + w35
+    w49 = -w49
+    w23 = jnp.where(w49 < w21, 1.0, 0.0)
+    w23 = jnp.where(w23 == 0, 1.0, 0.0)
+    w23 = jnp.where(w23 != 0, w49, 0.0)
+    w60 = w60 + w23
+    w23 = w61 - w35
+    w49 = jnp.where(w23 < w21, 1.0, 0.0)
+    w49 = jnp.where(w49 == 0, 1.0, 0.0)
+    w49 = jnp.where(w49 != 0, w23, 0.0)
+    w60 = w60 + w49
+    w49 = w54 + w14
+    w49 = -w49
+    w23 = jnp.where(w49 < w21, 1.0, 0.0)
+    w23 = jnp.where(w23 == 0, 1.0, 0.0)
+    w23 = jnp.where(w23 != 0, w49, 0.0)
+    w49 = w54 - w14
+    w43 = jnp.where(w49 < w21, 1.0, 0.0)
+    w43 = jnp.where(w43 == 0, 1.0, 0.0)
+    w43 = jnp.where(w43 != 0, w49, 0.0)
+    w23 = w23 + w43
+    w47 = jnp.arctan2(w47, w37)
+    w41 = w48 - w41
+    w41 = w41 - w45
+    w41 = w41 * w30
+    w45 = jnp.where(w41 < w21, 1.0, 0.0)
+    w45 = jnp.where(w45 == 0, 1.0, 0.0)
+    w45 = jnp.where(w45 != 0, w41, 0.0)
+    w45 = jnp.sqrt(w45)
+    w41 = w50 * w45
+    w37 = w50 * w30
+    w41 = jnp.arctan2(w41, w37)
+    w47 = w47 - w41
+    w41 = jnp.where(w46 < w47, 1.0, 0.0)
+    w37 = w47 - w52
+    w37 = jnp.where(w41 != 0, w37, 0.0)
+    w41 = jnp.where(w41 == 0, 1.0, 0.0)
+    w41 = jnp.where(w41 != 0, w47, 0.0)
+    w37 = w37 + w41
+    w41 = jnp.where(w37 < w33, 1.0, 0.0)
+    w47 = w37 + w52
+    w47 = jnp.where(w41 != 0, w47, 0.0)
+    w41 = jnp.where(w41 == 0, 1.0, 0.0)
+    w41 = jnp.where(w41 != 0, w37, 0.0)
+    w47 = w47 + w41
+    w41 = w47 + w32
+    w41 = -w41
+    w37 = jnp.where(w41 < w21, 1.0, 0.0)
+    w37 = jnp.where(w37 == 0, 1.0, 0.0)
+    w37 = jnp.where(w37 != 0, w41, 0.0)
+    w23 = w23 + w37
+    w37 = w47 - w32
+    w41 = jnp.where(w37 < w21, 1.0, 0.0)
+    w41 = jnp.where(w41 == 0, 1.0, 0.0)
+    w41 = jnp.where(w41 != 0, w37, 0.0)
+    w23 = w23 + w41
+    w45 = w53 * w45
+    w30 = w53 * w30
+    w30 = w30 - w44
+    w45 = jnp.arctan2(w45, w30)
+    w30 = w45 + w35
+    w30 = -w30
+    w41 = jnp.where(w30 < w21, 1.0, 0.0)
+    w41 = jnp.where(w41 == 0, 1.0, 0.0)
+    w41 = jnp.where(w41 != 0, w30, 0.0)
+    w23 = w23 + w41
+    w41 = w45 - w35
+    w30 = jnp.where(w41 < w21, 1.0, 0.0)
+    w30 = jnp.where(w30 == 0, 1.0, 0.0)
+    w30 = jnp.where(w30 != 0, w41, 0.0)
+    w23 = w23 + w30
+    w60 = jnp.where(w60 < w23, 1.0, 0.0)
+    w60 = jnp.where(w60 != 0, w44, 0.0)
+    w55 = jnp.where(w55 != 0, w60, 0.0)
+    w40 = jnp.where(w40 != 0, w55, 0.0)
+    w58 = w58 + w40
+    w58 = jnp.where(w0 < w58, 1.0, 0.0)
+    w59 = jnp.where(w58 != 0, w59, 0.0)
+    w40 = jnp.where(w58 == 0, 1.0, 0.0)
+    w54 = jnp.where(w40 != 0, w54, 0.0)
+    w59 = w59 + w54
+    o0_3 = w59
+    w19 = jnp.where(w58 != 0, w19, 0.0)
+    w47 = jnp.where(w40 != 0, w47, 0.0)
+    w19 = w19 + w47
+    o0_4 = w19
+    w58 = jnp.where(w58 != 0, w61, 0.0)
+    w40 = jnp.where(w40 != 0, w45, 0.0)
+    w58 = w58 + w40
+    o0_5 = w58
+    w58 = in1[8]
+    w40 = w4 * w58
+    w40 = w40 + w7
+    w45 = in1[6]
+    w61 = w8 * w45
+    w40 = w40 + w61
+    w61 = in1[7]
+    w19 = w1 * w61
+    w40 = w40 + w19
+    w19 = w40 * w8
+    w19 = w3 - w19
+    w19 = w19 + w13
+    w47 = w8 * w61
+    w59 = w15 * w58
+    w47 = w47 - w59
+    w59 = w1 * w45
+    w47 = w47 - w59
+    w47 = w47 - w2
+    w59 = w47 * w1
+    w19 = w19 - w59
+    w19 = w19 - w16
+    w19 = w19 - w18
+    w59 = w4 * w61
+    w59 = w59 + w17
+    w54 = w15 * w45
+    w59 = w59 + w54
+    w54 = w1 * w58
+    w59 = w59 - w54
+    w54 = w59 * w15
+    w19 = w19 - w54
+    w61 = w15 * w61
+    w58 = w8 * w58
+    w61 = w61 + w58
+    w45 = w4 * w45
+    w61 = w61 - w45
+    w61 = w61 - w12
+    w45 = w61 * w4
+    w19 = w19 - w45
+    w19 = w19 / w9
+    w45 = jnp.abs(w19)
+    w58 = w47 * w8
+    w54 = w40 * w1
+    w58 = w58 - w54
+    w58 = w58 + w22
+    w54 = w59 * w4
+    w58 = w58 + w54
+    w58 = w58 + w20
+    w58 = w58 - w24
+    w58 = w58 - w25
+    w54 = w61 * w15
+    w58 = w58 - w54
+    w58 = w58 / w9
+    w54 = jnp.abs(w58)
+    w45 = w45 + w54
+    w59 = w59 * w1
+    w59 = w26 + w59
+    w59 = w59 + w27
+    w47 = w47 * w15
+    w59 = w59 - w47
+    w40 = w40 * w4
+    w59 = w59 + w40
+    w61 = w61 * w8
+    w59 = w59 - w61
+    w59 = w59 / w9
+    w61 = jnp.abs(w59)
+    w45 = w45 + w61
+    w45 = jnp.where(w45 < w10, 1.0, 0.0)
+    w61 = w6 * w58
+    w61 = jnp.where(w45 != 0, w61, 0.0)
+    w61 = w61 - w29
+    w40 = w28 * w19
+    w40 = jnp.where(w45 != 0, w40, 0.0)
+    w61 = w61 - w40
+    w40 = w61 * w61
+    w58 = w28 * w58
+    w58 = jnp.where(w45 != 0, w58, 0.0)
+    w58 = w31 - w58
+    w19 = w6 * w19
+    w19 = jnp.where(w45 != 0, w19, 0.0)
+    w58 = w58 - w19
+    w19 = w58 * w58
+    w40 = w40 + w19
+    w40 = jnp.sqrt(w40)
+    w19 = w40 + w11
+    w47 = w19 * w19
+    w54 = w59 * w59
+    w54 = jnp.where(w45 != 0, w54, 0.0)
+    w54 = jnp.where(w45 != 0, w54, 0.0)
+    w55 = w47 + w54
+    w60 = jnp.where(w55 < w21, 1.0, 0.0)
+    w23 = jnp.sqrt(w55)
+    w30 = -w23
+    w30 = jnp.where(w60 != 0, w30, 0.0)
+    w60 = jnp.where(w60 == 0, 1.0, 0.0)
+    w23 = w23 - w39
+    w60 = jnp.where(w60 != 0, w23, 0.0)
+    w30 = w30 + w60
+    w60 = jnp.where(w30 < w21, 1.0, 0.0)
+    w60 = jnp.where(w60 == 0, 1.0, 0.0)
+    w60 = jnp.where(w60 != 0, w30, 0.0)
+    w30 = w60 + w38
+    w40 = w40 - w11
+    w23 = w40 * w40
+    w41 = w23 + w54
+    w37 = jnp.where(w41 < w21, 1.0, 0.0)
+    w43 = jnp.sqrt(w41)
+    w49 = -w43
+    w49 = jnp.where(w37 != 0, w49, 0.0)
+    w37 = jnp.where(w37 == 0, 1.0, 0.0)
+    w43 = w43 - w39
+    w37 = jnp.where(w37 != 0, w43, 0.0)
+    w49 = w49 + w37
+    w37 = jnp.where(w49 < w21, 1.0, 0.0)
+    w37 = jnp.where(w37 == 0, 1.0, 0.0)
+    w37 = jnp.where(w37 != 0, w49, 0.0)
+    w30 = jnp.where(w30 < w37, 1.0, 0.0)
+    w49 = jnp.where(w30 != 0, w44, 0.0)
+    w30 = jnp.where(w30 == 0, 1.0, 0.0)
+    w43 = w37 + w38
+    w43 = jnp.where(w43 < w60, 1.0, 0.0)
+    w43 = jnp.where(w43 == 0, 1.0, 0.0)
+    w58 = jnp.arctan2(w58, w61)
+    w61 = jnp.where(w21 < w58, 1.0, 0.0)
+    w62 = w58 - w46
+    w62 = jnp.where(w61 != 0, w62, 0.0)
+    w61 = jnp.where(w61 == 0, 1.0, 0.0)
+    w63 = w58 + w46
+    w61 = jnp.where(w61 != 0, w63, 0.0)
+    w62 = w62 + w61
+    w61 = w62 + w14
+    w61 = -w61
+    w63 = jnp.where(w61 < w21, 1.0, 0.0)
+    w63 = jnp.where(w63 == 0, 1.0, 0.0)
+    w63 = jnp.where(w63 != 0, w61, 0.0)
+    w61 = w62 - w14
+    w64 = jnp.where(w61 < w21, 1.0, 0.0)
+    w64 = jnp.where(w64 == 0, 1.0, 0.0)
+    w64 = jnp.where(w64 != 0, w61, 0.0)
+    w63 = w63 + w64
+    w59 = jnp.where(w45 != 0, w59, 0.0)
+    w59 = -w59
+    w19 = -w19
+    w19 = jnp.arctan2(w59, w19)
+    w47 = w48 - w47
+    w47 = w47 - w54
+    w47 = w47 * w55
+    w64 = jnp.where(w47 < w21, 1.0, 0.0)
+    w64 = jnp.where(w64 == 0, 1.0, 0.0)
+    w64 = jnp.where(w64 != 0, w47, 0.0)
+    w64 = jnp.sqrt(w64)
+    w47 = w50 * w64
+    w61 = w50 * w55
+    w47 = jnp.arctan2(w47, w61)
+    w19 = w19 - w47
+    w47 = jnp.where(w46 < w19, 1.0, 0.0)
+    w61 = w19 - w52
+    w61 = jnp.where(w47 != 0, w61, 0.0)
+    w47 = jnp.where(w47 == 0, 1.0, 0.0)
+    w47 = jnp.where(w47 != 0, w19, 0.0)
+    w61 = w61 + w47
+    w47 = jnp.where(w61 < w33, 1.0, 0.0)
+    w19 = w61 + w52
+    w19 = jnp.where(w47 != 0, w19, 0.0)
+    w47 = jnp.where(w47 == 0, 1.0, 0.0)
+    w47 = jnp.where(w47 != 0, w61, 0.0)
+    w19 = w19 + w47
+    w47 = w19 + w32
+    w47 = -w47
+    w61 = jnp.where(w47 < w21, 1.0, 0.0)
+    w61 = jnp.where(w61 == 0, 1.0, 0.0)
+    w61 = jnp.where(w61 != 0, w47, 0.0)
+    w63 = w63 + w61
+    w61 = w19 - w32
+    w47 = jnp.where(w61 < w21, 1.0, 0.0)
+    w47 = jnp.where(w47 == 0, 1.0, 0.0)
+    w47 = jnp.where(w47 != 0, w61, 0.0)
+    w63 = w63 + w47
+    w64 = w53 * w64
+    w55 = w53 * w55
+    w55 = w55 - w44
+    w64 = jnp.arctan2(w64, w55)
+    w55 = w64 + w35
+    w55 = -w55
+    w47 = jnp.where(w55 < w21, 1.0, 0.0)
+    w47 = jnp.where(w47 == 0, 1.0, 0.0)
+    w47 = jnp.where(w47 != 0, w55, 0.0)
+    w63 = w63 + w47
+    w47 = w64 - w35
+    w55 = jnp.where(w47 < w21, 1.0, 0.0)
+    w55 = jnp.where(w55 == 0, 1.0, 0.0)
+    w55 = jnp.where(w55 != 0, w47, 0.0)
+    w63 = w63 + w55
+    w55 = w58 + w14
+    w55 = -w55
+    w47 = jnp.where(w55 < w21, 1.0, 0.0)
+    w47 = jnp.where(w47 == 0, 1.0, 0.0)
+    w47 = jnp.where(w47 != 0, w55, 0.0)
+    w55 = w58 - w14
+    w61 = jnp.where(w55 < w21, 1.0, 0.0)
+    w61 = jnp.where(w61 == 0, 1.0, 0.0)
+    w61 = jnp.where(w61 != 0, w55, 0.0)
+    w47 = w47 + w61
+    w59 = jnp.arctan2(w59, w40)
+    w23 = w48 - w23
+    w23 = w23 - w54
+    w23 = w23 * w41
+    w54 = jnp.where(w23 < w21, 1.0, 0.0)
+    w54 = jnp.where(w54 == 0, 1.0, 0.0)
+    w54 = jnp.where(w54 != 0, w23, 0.0)
+    w54 = jnp.sqrt(w54)
+    w23 = w50 * w54
+    w40 = w50 * w41
+    w23 = jnp.arctan2(w23, w40)
+    w59 = w59 - w23
+    w23 = jnp.where(w46 < w59, 1.0, 0.0)
+    w40 = w59 - w52
+    w40 = jnp.where(w23 != 0, w40, 0.0)
+    w23 = jnp.where(w23 == 0, 1.0, 0.0)
+    w23 = jnp.where(w23 != 0, w59, 0.0)
+    w40 = w40 + w23
+    w23 = jnp.where(w40 < w33, 1.0, 0.0)
+    w59 = w40 + w52
+    w59 = jnp.where(w23 != 0, w59, 0.0)
+    w23 = jnp.where(w23 == 0, 1.0, 0.0)
+    w23 = jnp.where(w23 != 0, w40, 0.0)
+    w59 = w59 + w23
+    w23 = w59 + w32
+    w23 = -w23
+    w40 = jnp.where(w23 < w21, 1.0, 0.0)
+    w40 = jnp.where(w40 == 0, 1.0, 0.0)
+    w40 = jnp.where(w40 != 0, w23, 0.0)
+    w47 = w47 + w40
+    w40 = w59 - w32
+    w23 = jnp.where(w40 < w21, 1.0, 0.0)
+    w23 = jnp.where(w23 == 0, 1.0, 0.0)
+    w23 = jnp.where(w23 != 0, w40, 0.0)
+    w47 = w47 + w23
+    w54 = w53 * w54
+    w41 = w53 * w41
+    w41 = w41 - w44
+    w54 = jnp.arctan2(w54, w41)
+    w41 = w54 + w35
+    w41 = -w41
+    w23 = jnp.where(w41 < w21, 1.0, 0.0)
+    w23 = jnp.where(w23 == 0, 1.0, 0.0)
+    w23 = jnp.where(w23 != 0, w41, 0.0)
+    w47 = w47 + w23
+    w23 = w54 - w35
+    w41 = jnp.where(w23 < w21, 1.0, 0.0)
+    w41 = jnp.where(w41 == 0, 1.0, 0.0)
+    w41 = jnp.where(w41 != 0, w23, 0.0)
+    w47 = w47 + w41
+    w63 = jnp.where(w63 < w47, 1.0, 0.0)
+    w63 = jnp.where(w63 != 0, w44, 0.0)
+    w43 = jnp.where(w43 != 0, w63, 0.0)
+    w30 = jnp.where(w30 != 0, w43, 0.0)
+    w49 = w49 + w30
+    w49 = jnp.where(w0 < w49, 1.0, 0.0)
+    w62 = jnp.where(w49 != 0, w62, 0.0)
+    w30 = jnp.where(w49 == 0, 1.0, 0.0)
+    w58 = jnp.where(w30 != 0, w58, 0.0)
+    w62 = w62 + w58
+    o0_6 = w62
+    w19 = jnp.where(w49 != 0, w19, 0.0)
+    w59 = jnp.where(w30 != 0, w59, 0.0)
+    w19 = w19 + w59
+    o0_7 = w19
+    w49 = jnp.where(w49 != 0, w64, 0.0)
+    w30 = jnp.where(w30 != 0, w54, 0.0)
+    w49 = w49 + w30
+    o0_8 = w49
+    w49 = in1[11]
+    w30 = w4 * w49
+    w30 = w30 + w7
+    w54 = in1[9]
+    w64 = w8 * w54
+    w30 = w30 + w64
+    w64 = in1[10]
+    w19 = w1 * w64
+    w30 = w30 + w19
+    w19 = w30 * w8
+    w19 = w3 - w19
+    w19 = w19 + w13
+    w59 = w8 * w64
+    w62 = w15 * w49
+    w59 = w59 - w62
+    w62 = w1 * w54
+    w59 = w59 - w62
+    w59 = w59 - w2
+    w62 = w59 * w1
+    w19 = w19 - w62
+    w19 = w19 - w16
+    w19 = w19 - w18
+    w62 = w4 * w64
+    w62 = w62 + w17
+    w58 = w15 * w54
+    w62 = w62 + w58
+    w58 = w1 * w49
+    w62 = w62 - w58
+    w58 = w62 * w15
+    w19 = w19 - w58
+    w64 = w15 * w64
+    w49 = w8 * w49
+    w64 = w64 + w49
+    w54 = w4 * w54
+    w64 = w64 - w54
+    w64 = w64 - w12
+    w54 = w64 * w4
+    w19 = w19 - w54
+    w19 = w19 / w9
+    w54 = jnp.abs(w19)
+    w49 = w59 * w8
+    w58 = w30 * w1
+    w49 = w49 - w58
+    w49 = w49 + w22
+    w58 = w62 * w4
+    w49 = w49 + w58
+    w49 = w49 + w20
+    w49 = w49 - w24
+    w49 = w49 - w25
+    w58 = w64 * w15
+    w49 = w49 - w58
+    w49 = w49 / w9
+    w58 = jnp.abs(w49)
+    w54 = w54 + w58
+    w62 = w62 * w1
+    w62 = w26 + w62
+    w62 = w62 + w27
+    w59 = w59 * w15
+    w62 = w62 - w59
+    w30 = w30 * w4
+    w62 = w62 + w30
+    w64 = w64 * w8
+    w62 = w62 - w64
+    w62 = w62 / w9
+    w64 = jnp.abs(w62)
+    w54 = w54 + w64
+    w54 = jnp.where(w54 < w10, 1.0, 0.0)
+    w64 = w6 * w49
+    w64 = jnp.where(w54 != 0, w64, 0.0)
+    w64 = w29 + w64
+    w30 = w28 * w19
+    w30 = jnp.where(w54 != 0, w30, 0.0)
+    w64 = w64 + w30
+    w30 = w64 * w64
+    w19 = w6 * w19
+    w19 = jnp.where(w54 != 0, w19, 0.0)
+    w19 = w19 - w31
+    w49 = w28 * w49
+    w49 = jnp.where(w54 != 0, w49, 0.0)
+    w19 = w19 - w49
+    w49 = w19 * w19
+    w30 = w30 + w49
+    w30 = jnp.sqrt(w30)
+    w49 = w30 + w11
+    w59 = w49 * w49
+    w58 = w62 * w62
+    w58 = jnp.where(w54 != 0, w58, 0.0)
+    w58 = jnp.where(w54 != 0, w58, 0.0)
+    w43 = w59 + w58
+    w63 = jnp.where(w43 < w21, 1.0, 0.0)
+    w47 = jnp.sqrt(w43)
+    w41 = -w47
+    w41 = jnp.where(w63 != 0, w41, 0.0)
+    w63 = jnp.where(w63 == 0, 1.0, 0.0)
+    w47 = w47 - w39
+    w63 = jnp.where(w63 != 0, w47, 0.0)
+    w41 = w41 + w63
+    w63 = jnp.where(w41 < w21, 1.0, 0.0)
+    w63 = jnp.where(w63 == 0, 1.0, 0.0)
+    w63 = jnp.where(w63 != 0, w41, 0.0)
+    w41 = w63 + w38
+    w30 = w30 - w11
+    w47 = w30 * w30
+    w23 = w47 + w58
+    w40 = jnp.where(w23 < w21, 1.0, 0.0)
+    w61 = jnp.sqrt(w23)
+    w55 = -w61
+    w55 = jnp.where(w40 != 0, w55, 0.0)
+    w40 = jnp.where(w40 == 0, 1.0, 0.0)
+    w61 = w61 - w39
+    w40 = jnp.where(w40 != 0, w61, 0.0)
+    w55 = w55 + w40
+    w40 = jnp.where(w55 < w21, 1.0, 0.0)
+    w40 = jnp.where(w40 == 0, 1.0, 0.0)
+    w40 = jnp.where(w40 != 0, w55, 0.0)
+    w41 = jnp.where(w41 < w40, 1.0, 0.0)
+    w55 = jnp.where(w41 != 0, w44, 0.0)
+    w41 = jnp.where(w41 == 0, 1.0, 0.0)
+    w61 = w40 + w38
+    w61 = jnp.where(w61 < w63, 1.0, 0.0)
+    w61 = jnp.where(w61 == 0, 1.0, 0.0)
+    w64 = -w64
+    w19 = jnp.arctan2(w19, w64)
+    w64 = jnp.where(w21 < w19, 1.0, 0.0)
+    w65 = w19 - w46
+    w65 = jnp.where(w64 != 0, w65, 0.0)
+    w64 = jnp.where(w64 == 0, 1.0, 0.0)
+    w66 = w19 + w46
+    w64 = jnp.where(w64 != 0, w66, 0.0)
+    w65 = w65 + w64
+    w64 = w65 + w14
+    w64 = -w64
+    w66 = jnp.where(w64 < w21, 1.0, 0.0)
+    w66 = jnp.where(w66 == 0, 1.0, 0.0)
+    w66 = jnp.where(w66 != 0, w64, 0.0)
+    w64 = w65 - w14
+    w67 = jnp.where(w64 < w21, 1.0, 0.0)
+    w67 = jnp.where(w67 == 0, 1.0, 0.0)
+    w67 = jnp.where(w67 != 0, w64, 0.0)
+    w66 = w66 + w67
+    w62 = jnp.where(w54 != 0, w62, 0.0)
+    w62 = -w62
+    w49 = -w49
+    w49 = jnp.arctan2(w62, w49)
+    w59 = w48 - w59
+    w59 = w59 - w58
+    w59 = w59 * w43
+    w67 = jnp.where(w59 < w21, 1.0, 0.0)
+    w67 = jnp.where(w67 == 0, 1.0, 0.0)
+    w67 = jnp.where(w67 != 0, w59, 0.0)
+    w67 = jnp.sqrt(w67)
+    w59 = w50 * w67
+    w64 = w50 * w43
+    w59 = jnp.arctan2(w59, w64)
+    w49 = w49 - w59
+    w59 = jnp.where(w46 < w49, 1.0, 0.0)
+    w64 = w49 - w52
+    w64 = jnp.where(w59 != 0, w64, 0.0)
+    w59 = jnp.where(w59 == 0, 1.0, 0.0)
+    w59 = jnp.where(w59 != 0, w49, 0.0)
+    w64 = w64 + w59
+    w59 = jnp.where(w64 < w33, 1.0, 0.0)
+    w49 = w64 + w52
+    w49 = jnp.where(w59 != 0, w49, 0.0)
+    w59 = jnp.where(w59 == 0, 1.0, 0.0)
+    w59 = jnp.where(w59 != 0, w64, 0.0)
+    w49 = w49 + w59
+    w59 = w49 + w32
+    w59 = -w59
+    w64 = jnp.where(w59 < w21, 1.0, 0.0)
+    w64 = jnp.where(w64 == 0, 1.0, 0.0)
+    w64 = jnp.where(w64 != 0, w59, 0.0)
+    w66 = w66 + w64
+    w64 = w49 - w32
+    w59 = jnp.where(w64 < w21, 1.0, 0.0)
+    w59 = jnp.where(w59 == 0, 1.0, 0.0)
+    w59 = jnp.where(w59 != 0, w64, 0.0)
+    w66 = w66 + w59
+    w67 = w53 * w67
+    w43 = w53 * w43
+    w43 = w43 - w44
+    w67 = jnp.arctan2(w67, w43)
+    w43 = w67 + w35
+    w43 = -w43
+    w59 = jnp.where(w43 < w21, 1.0, 0.0)
+    w59 = jnp.where(w59 == 0, 1.0, 0.0)
+    w59 = jnp.where(w59 != 0, w43, 0.0)
+    w66 = w66 + w59
+    w59 = w67 - w35
+    w43 = jnp.where(w59 < w21, 1.0, 0.0)
+    w43 = jnp.where(w43 == 0, 1.0, 0.0)
+    w43 = jnp.where(w43 != 0, w59, 0.0)
+    w66 = w66 + w43
+    w43 = w19 + w14
+    w43 = -w43
+    w59 = jnp.where(w43 < w21, 1.0, 0.0)
+    w59 = jnp.where(w59 == 0, 1.0, 0.0)
+    w59 = jnp.where(w59 != 0, w43, 0.0)
+    w43 = w19 - w14
+    w64 = jnp.where(w43 < w21, 1.0, 0.0)
+    w64 = jnp.where(w64 == 0, 1.0, 0.0)
+    w64 = jnp.where(w64 != 0, w43, 0.0)
+    w59 = w59 + w64
+    w62 = jnp.arctan2(w62, w30)
+    w47 = w48 - w47
+    w47 = w47 - w58
+    w47 = w47 * w23
+    w58 = jnp.where(w47 < w21, 1.0, 0.0)
+    w58 = jnp.where(w58 == 0, 1.0, 0.0)
+    w58 = jnp.where(w58 != 0, w47, 0.0)
+    w58 = jnp.sqrt(w58)
+    w47 = w50 * w58
+    w30 = w50 * w23
+    w47 = jnp.arctan2(w47, w30)
+    w62 = w62 - w47
+    w47 = jnp.where(w46 < w62, 1.0, 0.0)
+    w30 = w62 - w52
+    w30 = jnp.where(w47 != 0, w30, 0.0)
+    w47 = jnp.where(w47 == 0, 1.0, 0.0)
+    w47 = jnp.where(w47 != 0, w62, 0.0)
+    w30 = w30 + w47
+    w47 = jnp.where(w30 < w33, 1.0, 0.0)
+    w62 = w30 + w52
+    w62 = jnp.where(w47 != 0, w62, 0.0)
+    w47 = jnp.where(w47 == 0, 1.0, 0.0)
+    w47 = jnp.where(w47 != 0, w30, 0.0)
+    w62 = w62 + w47
+    w47 = w62 + w32
+    w47 = -w47
+    w30 = jnp.where(w47 < w21, 1.0, 0.0)
+    w30 = jnp.where(w30 == 0, 1.0, 0.0)
+    w30 = jnp.where(w30 != 0, w47, 0.0)
+    w59 = w59 + w30
+    w30 = w62 - w32
+    w47 = jnp.where(w30 < w21, 1.0, 0.0)
+    w47 = jnp.where(w47 == 0, 1.0, 0.0)
+    w47 = jnp.where(w47 != 0, w30, 0.0)
+    w59 = w59 + w47
+    w58 = w53 * w58
+    w23 = w53 * w23
+    w23 = w23 - w44
+    w58 = jnp.arctan2(w58, w23)
+    w23 = w58 + w35
+    w23 = -w23
+    w47 = jnp.where(w23 < w21, 1.0, 0.0)
+    w47 = jnp.where(w47 == 0, 1.0, 0.0)
+    w47 = jnp.where(w47 != 0, w23, 0.0)
+    w59 = w59 + w47
+    w47 = w58 - w35
+    w23 = jnp.where(w47 < w21, 1.0, 0.0)
+    w23 = jnp.where(w23 == 0, 1.0, 0.0)
+    w23 = jnp.where(w23 != 0, w47, 0.0)
+    w59 = w59 + w23
+    w66 = jnp.where(w66 < w59, 1.0, 0.0)
+    w66 = jnp.where(w66 != 0, w44, 0.0)
+    w61 = jnp.where(w61 != 0, w66, 0.0)
+    w41 = jnp.where(w41 != 0, w61, 0.0)
+    w55 = w55 + w41
+    w55 = jnp.where(w0 < w55, 1.0, 0.0)
+    w65 = jnp.where(w55 != 0, w65, 0.0)
+    w41 = jnp.where(w55 == 0, 1.0, 0.0)
+    w19 = jnp.where(w41 != 0, w19, 0.0)
+    w65 = w65 + w19
+    o0_9 = w65
+    w49 = jnp.where(w55 != 0, w49, 0.0)
+    w62 = jnp.where(w41 != 0, w62, 0.0)
+    w49 = w49 + w62
+    o0_10 = w49
+    w55 = jnp.where(w55 != 0, w67, 0.0)
+    w41 = jnp.where(w41 != 0, w58, 0.0)
+    w55 = w55 + w41
+    o0_11 = w55
+    w55 = in1[14]
+    w41 = w4 * w55
+    w41 = w41 + w7
+    w58 = in1[12]
+    w67 = w8 * w58
+    w41 = w41 + w67
+    w67 = in1[13]
+    w49 = w1 * w67
+    w41 = w41 + w49
+    w49 = w41 * w8
+    w49 = w3 - w49
+    w49 = w49 + w13
+    w62 = w8 * w67
+    w65 = w15 * w55
+    w62 = w62 - w65
+    w65 = w1 * w58
+    w62 = w62 - w65
+    w62 = w62 - w2
+    w65 = w62 * w1
+    w49 = w49 - w65
+    w49 = w49 - w16
+    w49 = w49 - w18
+    w65 = w4 * w67
+    w65 = w65 + w17
+    w19 = w15 * w58
+    w65 = w65 + w19
+    w19 = w1 * w55
+    w65 = w65 - w19
+    w19 = w65 * w15
+    w49 = w49 - w19
+    w67 = w15 * w67
+    w55 = w8 * w55
+    w67 = w67 + w55
+    w58 = w4 * w58
+    w67 = w67 - w58
+    w67 = w67 - w12
+    w58 = w67 * w4
+    w49 = w49 - w58
+    w49 = w49 / w9
+    w58 = jnp.abs(w49)
+    w55 = w62 * w8
+    w19 = w41 * w1
+    w55 = w55 - w19
+    w55 = w55 + w22
+    w19 = w65 * w4
+    w55 = w55 + w19
+    w55 = w55 + w20
+    w55 = w55 - w24
+    w55 = w55 - w25
+    w19 = w67 * w15
+    w55 = w55 - w19
+    w55 = w55 / w9
+    w19 = jnp.abs(w55)
+    w58 = w58 + w19
+    w65 = w65 * w1
+    w65 = w26 + w65
+    w65 = w65 + w27
+    w62 = w62 * w15
+    w65 = w65 - w62
+    w41 = w41 * w4
+    w65 = w65 + w41
+    w67 = w67 * w8
+    w65 = w65 - w67
+    w65 = w65 / w9
+    w67 = jnp.abs(w65)
+    w58 = w58 + w67
+    w58 = jnp.where(w58 < w10, 1.0, 0.0)
+    w55 = jnp.where(w58 != 0, w55, 0.0)
+    w55 = w55 + w51
+    w51 = w55 * w55
+    w67 = w49 * w49
+    w67 = jnp.where(w58 != 0, w67, 0.0)
+    w67 = jnp.where(w58 != 0, w67, 0.0)
+    w51 = w51 + w67
+    w51 = jnp.sqrt(w51)
+    w67 = w51 + w11
+    w41 = w67 * w67
+    w62 = w65 * w65
+    w62 = jnp.where(w58 != 0, w62, 0.0)
+    w62 = jnp.where(w58 != 0, w62, 0.0)
+    w19 = w41 + w62
+    w61 = jnp.where(w19 < w21, 1.0, 0.0)
+    w66 = jnp.sqrt(w19)
+    w59 = -w66
+    w59 = jnp.where(w61 != 0, w59, 0.0)
+    w61 = jnp.where(w61 == 0, 1.0, 0.0)
+    w66 = w66 - w39
+    w61 = jnp.where(w61 != 0, w66, 0.0)
+    w59 = w59 + w61
+    w61 = jnp.where(w59 < w21, 1.0, 0.0)
+    w61 = jnp.where(w61 == 0, 1.0, 0.0)
+    w61 = jnp.where(w61 != 0, w59, 0.0)
+    w59 = w61 + w38
+    w51 = w51 - w11
+    w66 = w51 * w51
+    w23 = w66 + w62
+    w47 = jnp.where(w23 < w21, 1.0, 0.0)
+    w30 = jnp.sqrt(w23)
+    w64 = -w30
+    w64 = jnp.where(w47 != 0, w64, 0.0)
+    w47 = jnp.where(w47 == 0, 1.0, 0.0)
+    w30 = w30 - w39
+    w47 = jnp.where(w47 != 0, w30, 0.0)
+    w64 = w64 + w47
+    w47 = jnp.where(w64 < w21, 1.0, 0.0)
+    w47 = jnp.where(w47 == 0, 1.0, 0.0)
+    w47 = jnp.where(w47 != 0, w64, 0.0)
+    w59 = jnp.where(w59 < w47, 1.0, 0.0)
+    w64 = jnp.where(w59 != 0, w44, 0.0)
+    w59 = jnp.where(w59 == 0, 1.0, 0.0)
+    w30 = w47 + w38
+    w30 = jnp.where(w30 < w61, 1.0, 0.0)
+    w30 = jnp.where(w30 == 0, 1.0, 0.0)
+    w49 = jnp.where(w58 != 0, w49, 0.0)
+    w55 = -w55
+    w49 = jnp.arctan2(w49, w55)
+    w55 = jnp.where(w21 < w49, 1.0, 0.0)
+    w43 = w49 - w46
+    w43 = jnp.where(w55 != 0, w43, 0.0)
+    w55 = jnp.where(w55 == 0, 1.0, 0.0)
+    w68 = w49 + w46
+    w55 = jnp.where(w55 != 0, w68, 0.0)
+    w43 = w43 + w55
+    w55 = w43 + w14
+    w55 = -w55
+    w68 = jnp.where(w55 < w21, 1.0, 0.0)
+    w68 = jnp.where(w68 == 0, 1.0, 0.0)
+    w68 = jnp.where(w68 != 0, w55, 0.0)
+    w55 = w43 - w14
+    w69 = jnp.where(w55 < w21, 1.0, 0.0)
+    w69 = jnp.where(w69 == 0, 1.0, 0.0)
+    w69 = jnp.where(w69 != 0, w55, 0.0)
+    w68 = w68 + w69
+    w65 = jnp.where(w58 != 0, w65, 0.0)
+    w65 = -w65
+    w67 = -w67
+    w67 = jnp.arctan2(w65, w67)
+    w41 = w48 - w41
+    w41 = w41 - w62
+    w41 = w41 * w19
+    w69 = jnp.where(w41 < w21, 1.0, 0.0)
+    w69 = jnp.where(w69 == 0, 1.0, 0.0)
+    w69 = jnp.where(w69 != 0, w41, 0.0)
+    w69 = jnp.sqrt(w69)
+    w41 = w50 * w69
+    w55 = w50 * w19
+    w41 = jnp.arctan2(w41, w55)
+    w67 = w67 - w41
+    w41 = jnp.where(w46 < w67, 1.0, 0.0)
+    w55 = w67 - w52
+    w55 = jnp.where(w41 != 0, w55, 0.0)
+    w41 = jnp.where(w41 == 0, 1.0, 0.0)
+    w41 = jnp.where(w41 != 0, w67, 0.0)
+    w55 = w55 + w41
+    w41 = jnp.where(w55 < w33, 1.0, 0.0)
+    w67 = w55 + w52
+    w67 = jnp.where(w41 != 0, w67, 0.0)
+    w41 = jnp.where(w41 == 0, 1.0, 0.0)
+    w41 = jnp.where(w41 != 0, w55, 0.0)
+    w67 = w67 + w41
+    w41 = w67 + w32
+    w41 = -w41
+    w55 = jnp.where(w41 < w21, 1.0, 0.0)
+    w55 = jnp.where(w55 == 0, 1.0, 0.0)
+    w55 = jnp.where(w55 != 0, w41, 0.0)
+    w68 = w68 + w55
+    w55 = w67 - w32
+    w41 = jnp.where(w55 < w21, 1.0, 0.0)
+    w41 = jnp.where(w41 == 0, 1.0, 0.0)
+    w41 = jnp.where(w41 != 0, w55, 0.0)
+    w68 = w68 + w41
+    w69 = w53 * w69
+    w19 = w53 * w19
+    w19 = w19 - w44
+    w69 = jnp.arctan2(w69, w19)
+    w19 = w69 + w35
+    w19 = -w19
+    w41 = jnp.where(w19 < w21, 1.0, 0.0)
+    w41 = jnp.where(w41 == 0, 1.0, 0.0)
+    w41 = jnp.where(w41 != 0, w19, 0.0)
+    w68 = w68 + w41
+    w41 = w69 - w35
+    w19 = jnp.where(w41 < w21, 1.0, 0.0)
+    w19 = jnp.where(w19 == 0, 1.0, 0.0)
+    w19 = jnp.where(w19 != 0, w41, 0.0)
+    w68 = w68 + w19
+    w19 = w49 + w14
+    w19 = -w19
+    w41 = jnp.where(w19 < w21, 1.0, 0.0)
+    w41 = jnp.where(w41 == 0, 1.0, 0.0)
+    w41 = jnp.where(w41 != 0, w19, 0.0)
+    w19 = w49 - w14
+    w55 = jnp.where(w19 < w21, 1.0, 0.0)
+    w55 = jnp.where(w55 == 0, 1.0, 0.0)
+    w55 = jnp.where(w55 != 0, w19, 0.0)
+    w41 = w41 + w55
+    w65 = jnp.arctan2(w65, w51)
+    w66 = w48 - w66
+    w66 = w66 - w62
+    w66 = w66 * w23
+    w62 = jnp.where(w66 < w21, 1.0, 0.0)
+    w62 = jnp.where(w62 == 0, 1.0, 0.0)
+    w62 = jnp.where(w62 != 0, w66, 0.0)
+    w62 = jnp.sqrt(w62)
+    w66 = w50 * w62
+    w51 = w50 * w23
+    w66 = jnp.arctan2(w66, w51)
+    w65 = w65 - w66
+    w66 = jnp.where(w46 < w65, 1.0, 0.0)
+    w51 = w65 - w52
+    w51 = jnp.where(w66 != 0, w51, 0.0)
+    w66 = jnp.where(w66 == 0, 1.0, 0.0)
+    w66 = jnp.where(w66 != 0, w65, 0.0)
+    w51 = w51 + w66
+    w66 = jnp.where(w51 < w33, 1.0, 0.0)
+    w65 = w51 + w52
+    w65 = jnp.where(w66 != 0, w65, 0.0)
+    w66 = jnp.where(w66 == 0, 1.0, 0.0)
+    w66 = jnp.where(w66 != 0, w51, 0.0)
+    w65 = w65 + w66
+    w66 = w65 + w32
+    w66 = -w66
+    w51 = jnp.where(w66 < w21, 1.0, 0.0)
+    w51 = jnp.where(w51 == 0, 1.0, 0.0)
+    w51 = jnp.where(w51 != 0, w66, 0.0)
+    w41 = w41 + w51
+    w51 = w65 - w32
+    w66 = jnp.where(w51 < w21, 1.0, 0.0)
+    w66 = jnp.where(w66 == 0, 1.0, 0.0)
+    w66 = jnp.where(w66 != 0, w51, 0.0)
+    w41 = w41 + w66
+    w62 = w53 * w62
+    w23 = w53 * w23
+    w23 = w23 - w44
+    w62 = jnp.arctan2(w62, w23)
+    w23 = w62 + w35
+    w23 = -w23
+    w66 = jnp.where(w23 < w21, 1.0, 0.0)
+    w66 = jnp.where(w66 == 0, 1.0, 0.0)
+    w66 = jnp.where(w66 != 0, w23, 0.0)
+    w41 = w41 + w66
+    w66 = w62 - w35
+    w23 = jnp.where(w66 < w21, 1.0, 0.0)
+    w23 = jnp.where(w23 == 0, 1.0, 0.0)
+    w23 = jnp.where(w23 != 0, w66, 0.0)
+    w41 = w41 + w23
+    w68 = jnp.where(w68 < w41, 1.0, 0.0)
+    w68 = jnp.where(w68 != 0, w44, 0.0)
+    w30 = jnp.where(w30 != 0, w68, 0.0)
+    w59 = jnp.where(w59 != 0, w30, 0.0)
+    w64 = w64 + w59
+    w64 = jnp.where(w0 < w64, 1.0, 0.0)
+    w43 = jnp.where(w64 != 0, w43, 0.0)
+    w59 = jnp.where(w64 == 0, 1.0, 0.0)
+    w49 = jnp.where(w59 != 0, w49, 0.0)
+    w43 = w43 + w49
+    o0_12 = w43
+    w67 = jnp.where(w64 != 0, w67, 0.0)
+    w65 = jnp.where(w59 != 0, w65, 0.0)
+    w67 = w67 + w65
+    o0_13 = w67
+    w64 = jnp.where(w64 != 0, w69, 0.0)
+    w59 = jnp.where(w59 != 0, w62, 0.0)
+    w64 = w64 + w59
+    o0_14 = w64
+    w64 = in1[17]
+    w59 = w4 * w64
+    w59 = w59 + w7
+    w7 = in1[15]
+    w62 = w8 * w7
+    w59 = w59 + w62
+    w62 = in1[16]
+    w69 = w1 * w62
+    w59 = w59 + w69
+    w69 = w59 * w8
+    w3 = w3 - w69
+    w3 = w3 + w13
+    w13 = w8 * w62
+    w69 = w15 * w64
+    w13 = w13 - w69
+    w69 = w1 * w7
+    w13 = w13 - w69
+    w13 = w13 - w2
+    w2 = w13 * w1
+    w3 = w3 - w2
+    w3 = w3 - w16
+    w3 = w3 - w18
+    w18 = w4 * w62
+    w18 = w18 + w17
+    w17 = w15 * w7
+    w18 = w18 + w17
+    w17 = w1 * w64
+    w18 = w18 - w17
+    w17 = w18 * w15
+    w3 = w3 - w17
+    w62 = w15 * w62
+    w64 = w8 * w64
+    w62 = w62 + w64
+    w7 = w4 * w7
+    w62 = w62 - w7
+    w62 = w62 - w12
+    w12 = w62 * w4
+    w3 = w3 - w12
+    w3 = w3 / w9
+    w12 = jnp.abs(w3)
+    w7 = w13 * w8
+    w64 = w59 * w1
+    w7 = w7 - w64
+    w7 = w7 + w22
+    w22 = w18 * w4
+    w7 = w7 + w22
+    w7 = w7 + w20
+    w7 = w7 - w24
+    w7 = w7 - w25
+    w25 = w62 * w15
+    w7 = w7 - w25
+    w7 = w7 / w9
+    w25 = jnp.abs(w7)
+    w12 = w12 + w25
+    w18 = w18 * w1
+    w26 = w26 + w18
+    w26 = w26 + w27
+    w13 = w13 * w15
+    w26 = w26 - w13
+    w59 = w59 * w4
+    w26 = w26 + w59
+    w62 = w62 * w8
+    w26 = w26 - w62
+    w26 = w26 / w9
+    w9 = jnp.abs(w26)
+    w12 = w12 + w9
+    w12 = jnp.where(w12 < w10, 1.0, 0.0)
+    w9 = w28 * w3
+    w9 = jnp.where(w12 != 0, w9, 0.0)
+    w9 = w9 - w29
+    w29 = w6 * w7
+    w29 = jnp.where(w12 != 0, w29, 0.0)
+    w9 = w9 - w29
+    w29 = w9 * w9
+    w28 = w28 * w7
+    w28 = jnp.where(w12 != 0, w28, 0.0)
+    w31 = w31 + w28
+    w6 = w6 * w3
+    w6 = jnp.where(w12 != 0, w6, 0.0)
+    w31 = w31 + w6
+    w6 = w31 * w31
+    w29 = w29 + w6
+    w29 = jnp.sqrt(w29)
+    w6 = w29 + w11
+    w3 = w6 * w6
+    w28 = w26 * w26
+    w28 = jnp.where(w12 != 0, w28, 0.0)
+    w28 = jnp.where(w12 != 0, w28, 0.0)
+    w7 = w3 + w28
+    w62 = jnp.where(w7 < w21, 1.0, 0.0)
+    w8 = jnp.sqrt(w7)
+    w59 = -w8
+    w59 = jnp.where(w62 != 0, w59, 0.0)
+    w62 = jnp.where(w62 == 0, 1.0, 0.0)
+    w8 = w8 - w39
+    w62 = jnp.where(w62 != 0, w8, 0.0)
+    w59 = w59 + w62
+    w62 = jnp.where(w59 < w21, 1.0, 0.0)
+    w62 = jnp.where(w62 == 0, 1.0, 0.0)
+    w62 = jnp.where(w62 != 0, w59, 0.0)
+    w59 = w62 + w38
+    w29 = w29 - w11
+    w11 = w29 * w29
+    w8 = w11 + w28
+    w4 = jnp.where(w8 < w21, 1.0, 0.0)
+    w13 = jnp.sqrt(w8)
+    w15 = -w13
+    w15 = jnp.where(w4 != 0, w15, 0.0)
+    w4 = jnp.where(w4 == 0, 1.0, 0.0)
+    w13 = w13 - w39
+    w4 = jnp.where(w4 != 0, w13, 0.0)
+    w15 = w15 + w4
+    w4 = jnp.where(w15 < w21, 1.0, 0.0)
+    w4 = jnp.where(w4 == 0, 1.0, 0.0)
+    w4 = jnp.where(w4 != 0, w15, 0.0)
+    w59 = jnp.where(w59 < w4, 1.0, 0.0)
+    w15 = jnp.where(w59 != 0, w44, 0.0)
+    w59 = jnp.where(w59 == 0, 1.0, 0.0)
+    w38 = w4 + w38
+    w38 = jnp.where(w38 < w62, 1.0, 0.0)
+    w38 = jnp.where(w38 == 0, 1.0, 0.0)
+    w31 = jnp.arctan2(w31, w9)
+    w9 = jnp.where(w21 < w31, 1.0, 0.0)
+    w13 = w31 - w46
+    w13 = jnp.where(w9 != 0, w13, 0.0)
+    w9 = jnp.where(w9 == 0, 1.0, 0.0)
+    w39 = w31 + w46
+    w9 = jnp.where(w9 != 0, w39, 0.0)
+    w13 = w13 + w9
+    w9 = w13 + w14
+    w9 = -w9
+    w39 = jnp.where(w9 < w21, 1.0, 0.0)
     w39 = jnp.where(w39 == 0, 1.0, 0.0)
-    w39 = jnp.where(w39 != 0, w15, 0.0)
-    o1_5 = w39
-    o2_0 = w11
-    o2_1 = w1
-    o2_2 = w9
-    o2_3 = w37
-    o2_4 = w34
-    o2_5 = w21
+    w39 = jnp.where(w39 != 0, w9, 0.0)
+    w9 = w13 - w14
+    w27 = jnp.where(w9 < w21, 1.0, 0.0)
+    w27 = jnp.where(w27 == 0, 1.0, 0.0)
+    w27 = jnp.where(w27 != 0, w9, 0.0)
+    w39 = w39 + w27
+    w26 = jnp.where(w12 != 0, w26, 0.0)
+    w26 = -w26
+    w6 = -w6
+    w6 = jnp.arctan2(w26, w6)
+    w3 = w48 - w3
+    w3 = w3 - w28
+    w3 = w3 * w7
+    w27 = jnp.where(w3 < w21, 1.0, 0.0)
+    w27 = jnp.where(w27 == 0, 1.0, 0.0)
+    w27 = jnp.where(w27 != 0, w3, 0.0)
+    w27 = jnp.sqrt(w27)
+    w3 = w50 * w27
+    w9 = w50 * w7
+    w3 = jnp.arctan2(w3, w9)
+    w6 = w6 - w3
+    w3 = jnp.where(w46 < w6, 1.0, 0.0)
+    w9 = w6 - w52
+    w9 = jnp.where(w3 != 0, w9, 0.0)
+    w3 = jnp.where(w3 == 0, 1.0, 0.0)
+    w3 = jnp.where(w3 != 0, w6, 0.0)
+    w9 = w9 + w3
+    w3 = jnp.where(w9 < w33, 1.0, 0.0)
+    w6 = w9 + w52
+    w6 = jnp.where(w3 != 0, w6, 0.0)
+    w3 = jnp.where(w3 == 0, 1.0, 0.0)
+    w3 = jnp.where(w3 != 0, w9, 0.0)
+    w6 = w6 + w3
+    w3 = w6 + w32
+    w3 = -w3
+    w9 = jnp.where(w3 < w21, 1.0, 0.0)
+    w9 = jnp.where(w9 == 0, 1.0, 0.0)
+    w9 = jnp.where(w9 != 0, w3, 0.0)
+    w39 = w39 + w9
+    w9 = w6 - w32
+    w3 = jnp.where(w9 < w21, 1.0, 0.0)
+    w3 = jnp.where(w3 == 0, 1.0, 0.0)
+    w3 = jnp.where(w3 != 0, w9, 0.0)
+    w39 = w39 + w3
+    w27 = w53 * w27
+    w7 = w53 * w7
+    w7 = w7 - w44
+    w27 = jnp.arctan2(w27, w7)
+    w7 = w27 + w35
+    w7 = -w7
+    w3 = jnp.where(w7 < w21, 1.0, 0.0)
+    w3 = jnp.where(w3 == 0, 1.0, 0.0)
+    w3 = jnp.where(w3 != 0, w7, 0.0)
+    w39 = w39 + w3
+    w3 = w27 - w35
+    w7 = jnp.where(w3 < w21, 1.0, 0.0)
+    w7 = jnp.where(w7 == 0, 1.0, 0.0)
+    w7 = jnp.where(w7 != 0, w3, 0.0)
+    w39 = w39 + w7
+    w7 = w31 + w14
+    w7 = -w7
+    w3 = jnp.where(w7 < w21, 1.0, 0.0)
+    w3 = jnp.where(w3 == 0, 1.0, 0.0)
+    w3 = jnp.where(w3 != 0, w7, 0.0)
+    w14 = w31 - w14
+    w7 = jnp.where(w14 < w21, 1.0, 0.0)
+    w7 = jnp.where(w7 == 0, 1.0, 0.0)
+    w7 = jnp.where(w7 != 0, w14, 0.0)
+    w3 = w3 + w7
+    w26 = jnp.arctan2(w26, w29)
+    w48 = w48 - w11
+    w48 = w48 - w28
+    w48 = w48 * w8
+    w28 = jnp.where(w48 < w21, 1.0, 0.0)
+    w28 = jnp.where(w28 == 0, 1.0, 0.0)
+    w28 = jnp.where(w28 != 0, w48, 0.0)
+    w28 = jnp.sqrt(w28)
+    w48 = w50 * w28
+    w50 = w50 * w8
+    w48 = jnp.arctan2(w48, w50)
+    w26 = w26 - w48
+    w46 = jnp.where(w46 < w26, 1.0, 0.0)
+    w48 = w26 - w52
+    w48 = jnp.where(w46 != 0, w48, 0.0)
+    w46 = jnp.where(w46 == 0, 1.0, 0.0)
+    w46 = jnp.where(w46 != 0, w26, 0.0)
+    w48 = w48 + w46
+    w33 = jnp.where(w48 < w33, 1.0, 0.0)
+    w52 = w48 + w52
+    w52 = jnp.where(w33 != 0, w52, 0.0)
+    w33 = jnp.where(w33 == 0, 1.0, 0.0)
+    w33 = jnp.where(w33 != 0, w48, 0.0)
+    w52 = w52 + w33
+    w33 = w52 + w32
+    w33 = -w33
+    w48 = jnp.where(w33 < w21, 1.0, 0.0)
+    w48 = jnp.where(w48 == 0, 1.0, 0.0)
+    w48 = jnp.where(w48 != 0, w33, 0.0)
+    w3 = w3 + w48
+    w32 = w52 - w32
+    w48 = jnp.where(w32 < w21, 1.0, 0.0)
+    w48 = jnp.where(w48 == 0, 1.0, 0.0)
+    w48 = jnp.where(w48 != 0, w32, 0.0)
+    w3 = w3 + w48
+    w28 = w53 * w28
+    w53 = w53 * w8
+    w53 = w53 - w44
+    w28 = jnp.arctan2(w28, w53)
+    w53 = w28 + w35
+    w53 = -w53
+    w8 = jnp.where(w53 < w21, 1.0, 0.0)
+    w8 = jnp.where(w8 == 0, 1.0, 0.0)
+    w8 = jnp.where(w8 != 0, w53, 0.0)
+    w3 = w3 + w8
+    w35 = w28 - w35
+    w21 = jnp.where(w35 < w21, 1.0, 0.0)
+    w21 = jnp.where(w21 == 0, 1.0, 0.0)
+    w21 = jnp.where(w21 != 0, w35, 0.0)
+    w3 = w3 + w21
+    w39 = jnp.where(w39 < w3, 1.0, 0.0)
+    w39 = jnp.where(w39 != 0, w44, 0.0)
+    w38 = jnp.where(w38 != 0, w39, 0.0)
+    w59 = jnp.where(w59 != 0, w38, 0.0)
+    w15 = w15 + w59
+    w0 = jnp.where(w0 < w15, 1.0, 0.0)
+    w13 = jnp.where(w0 != 0, w13, 0.0)
+    w15 = jnp.where(w0 == 0, 1.0, 0.0)
+    w31 = jnp.where(w15 != 0, w31, 0.0)
+    w13 = w13 + w31
+    o0_15 = w13
+    w6 = jnp.where(w0 != 0, w6, 0.0)
+    w52 = jnp.where(w15 != 0, w52, 0.0)
+    w6 = w6 + w52
+    o0_16 = w6
+    w0 = jnp.where(w0 != 0, w27, 0.0)
+    w15 = jnp.where(w15 != 0, w28, 0.0)
+    w0 = w0 + w15
+    o0_17 = w0
+    w0 = 1e-09
+    w15 = jnp.where(w42 < w36, 1.0, 0.0)
+    w42 = jnp.where(w15 != 0, w42, 0.0)
+    w15 = jnp.where(w15 == 0, 1.0, 0.0)
+    w15 = jnp.where(w15 != 0, w36, 0.0)
+    w42 = w42 + w15
+    w42 = jnp.where(w5 != 0, w42, 0.0)
+    w5 = jnp.where(w5 == 0, 1.0, 0.0)
+    w5 = jnp.where(w5 != 0, w10, 0.0)
+    w42 = w42 + w5
+    w5 = jnp.where(w0 < w42, 1.0, 0.0)
+    w5 = jnp.where(w5 == 0, 1.0, 0.0)
+    w5 = jnp.where(w5 != 0, w44, 0.0)
+    o1_0 = w5
+    w5 = jnp.where(w57 < w56, 1.0, 0.0)
+    w57 = jnp.where(w5 != 0, w57, 0.0)
+    w5 = jnp.where(w5 == 0, 1.0, 0.0)
+    w5 = jnp.where(w5 != 0, w56, 0.0)
+    w57 = w57 + w5
+    w57 = jnp.where(w34 != 0, w57, 0.0)
+    w34 = jnp.where(w34 == 0, 1.0, 0.0)
+    w34 = jnp.where(w34 != 0, w10, 0.0)
+    w57 = w57 + w34
+    w34 = jnp.where(w0 < w57, 1.0, 0.0)
+    w34 = jnp.where(w34 == 0, 1.0, 0.0)
+    w34 = jnp.where(w34 != 0, w44, 0.0)
+    o1_1 = w34
+    w34 = jnp.where(w37 < w60, 1.0, 0.0)
+    w37 = jnp.where(w34 != 0, w37, 0.0)
+    w34 = jnp.where(w34 == 0, 1.0, 0.0)
+    w34 = jnp.where(w34 != 0, w60, 0.0)
+    w37 = w37 + w34
+    w37 = jnp.where(w45 != 0, w37, 0.0)
+    w45 = jnp.where(w45 == 0, 1.0, 0.0)
+    w45 = jnp.where(w45 != 0, w10, 0.0)
+    w37 = w37 + w45
+    w45 = jnp.where(w0 < w37, 1.0, 0.0)
+    w45 = jnp.where(w45 == 0, 1.0, 0.0)
+    w45 = jnp.where(w45 != 0, w44, 0.0)
+    o1_2 = w45
+    w45 = jnp.where(w40 < w63, 1.0, 0.0)
+    w40 = jnp.where(w45 != 0, w40, 0.0)
+    w45 = jnp.where(w45 == 0, 1.0, 0.0)
+    w45 = jnp.where(w45 != 0, w63, 0.0)
+    w40 = w40 + w45
+    w40 = jnp.where(w54 != 0, w40, 0.0)
+    w54 = jnp.where(w54 == 0, 1.0, 0.0)
+    w54 = jnp.where(w54 != 0, w10, 0.0)
+    w40 = w40 + w54
+    w54 = jnp.where(w0 < w40, 1.0, 0.0)
+    w54 = jnp.where(w54 == 0, 1.0, 0.0)
+    w54 = jnp.where(w54 != 0, w44, 0.0)
+    o1_3 = w54
+    w54 = jnp.where(w47 < w61, 1.0, 0.0)
+    w47 = jnp.where(w54 != 0, w47, 0.0)
+    w54 = jnp.where(w54 == 0, 1.0, 0.0)
+    w54 = jnp.where(w54 != 0, w61, 0.0)
+    w47 = w47 + w54
+    w47 = jnp.where(w58 != 0, w47, 0.0)
+    w58 = jnp.where(w58 == 0, 1.0, 0.0)
+    w58 = jnp.where(w58 != 0, w10, 0.0)
+    w47 = w47 + w58
+    w58 = jnp.where(w0 < w47, 1.0, 0.0)
+    w58 = jnp.where(w58 == 0, 1.0, 0.0)
+    w58 = jnp.where(w58 != 0, w44, 0.0)
+    o1_4 = w58
+    w58 = jnp.where(w4 < w62, 1.0, 0.0)
+    w4 = jnp.where(w58 != 0, w4, 0.0)
+    w58 = jnp.where(w58 == 0, 1.0, 0.0)
+    w58 = jnp.where(w58 != 0, w62, 0.0)
+    w4 = w4 + w58
+    w4 = jnp.where(w12 != 0, w4, 0.0)
+    w12 = jnp.where(w12 == 0, 1.0, 0.0)
+    w12 = jnp.where(w12 != 0, w10, 0.0)
+    w4 = w4 + w12
+    w0 = jnp.where(w0 < w4, 1.0, 0.0)
+    w0 = jnp.where(w0 == 0, 1.0, 0.0)
+    w0 = jnp.where(w0 != 0, w44, 0.0)
+    o1_5 = w0
+    o2_0 = w42
+    o2_1 = w57
+    o2_2 = w37
+    o2_3 = w40
+    o2_4 = w47
+    o2_5 = w4
     return (
         jnp.stack([jnp.asarray(o0_0, dtype=jnp.float64), jnp.asarray(o0_1, dtype=jnp.float64), jnp.asarray(o0_2, dtype=jnp.float64), jnp.asarray(o0_3, dtype=jnp.float64), jnp.asarray(o0_4, dtype=jnp.float64), jnp.asarray(o0_5, dtype=jnp.float64), jnp.asarray(o0_6, dtype=jnp.float64), jnp.asarray(o0_7, dtype=jnp.float64), jnp.asarray(o0_8, dtype=jnp.float64), jnp.asarray(o0_9, dtype=jnp.float64), jnp.asarray(o0_10, dtype=jnp.float64), jnp.asarray(o0_11, dtype=jnp.float64), jnp.asarray(o0_12, dtype=jnp.float64), jnp.asarray(o0_13, dtype=jnp.float64), jnp.asarray(o0_14, dtype=jnp.float64), jnp.asarray(o0_15, dtype=jnp.float64), jnp.asarray(o0_16, dtype=jnp.float64), jnp.asarray(o0_17, dtype=jnp.float64)]),
         jnp.stack([jnp.asarray(o1_0, dtype=jnp.float64), jnp.asarray(o1_1, dtype=jnp.float64), jnp.asarray(o1_2, dtype=jnp.float64), jnp.asarray(o1_3, dtype=jnp.float64), jnp.asarray(o1_4, dtype=jnp.float64), jnp.asarray(o1_5, dtype=jnp.float64)]),

@@ -27,7 +27,8 @@ def _assert_parts(e: KernelError, kernel: str, where: str, *expected: str) -> No
     message = str(e)
     assert e.kernel == kernel, message
     assert e.where == where, message
-    assert message.startswith(f"kernel {kernel}, {where}: "), message
+    plain = kernel.isprintable() and not any(c.isspace() for c in kernel)  # else shown quoted
+    assert message.startswith(f"kernel {kernel if plain else repr(kernel)}, {where}: "), message
     for part in expected:
         assert part in e.expected, f"{part!r} not in {message!r}"
 

@@ -22,13 +22,23 @@ from .harness import CASE_SECONDS, COUNTS, HOSTILE_NAMES, byte_mutation, example
 
 REPO = Path(__file__).resolve().parents[2]
 APPS = REPO / "gagen" / "apps"
-NUMBERS = ["nan", "inf", "-inf", "1e400", "-1e400", "-1", "0", "1.5", "3", "abc", "", "1e-320", "0x10", "1_000"]
+NUMBERS = ["nan", "inf", "-inf", "1e400", "-1e400", "-1", "0", "1.5", "3", "abc", "", "1e-320", "0x10",
+           "1_000"]
 SUBPARSERS = next(a for a in parser()._actions if a.__class__.__name__ == "_SubParsersAction")
 VERBS = sorted(SUBPARSERS.choices)
 
 
-def _options(verb: str) -> list[str]:
-    return [s for a in SUBPARSERS.choices[verb]._actions for s in a.option_strings if s not in ("-h", "--help")]
+def _subparsers(command) -> dict:
+    found = [a for a in command._actions if a.__class__.__name__ == "_SubParsersAction"]
+    return found[0].choices if found else {}
+
+
+SWEEPS = {verb: subs for verb in VERBS if (subs := _subparsers(SUBPARSERS.choices[verb]))}
+
+
+def _options(verb: str, sub: str | None = None) -> list[str]:
+    command = SUBPARSERS.choices[verb] if sub is None else SWEEPS[verb][sub]
+    return [s for a in command._actions for s in a.option_strings if s not in ("-h", "--help")]
 
 
 def _call(argv: list[str]) -> tuple[int, str, str]:
@@ -52,12 +62,16 @@ def _one_line_refusal(kind: str, argv: list[str], status: int, err: str) -> None
 @given(st.data())
 def test_drawn_arguments_are_parsed_or_refused_in_one_line(data):
     verb = data.draw(st.sampled_from(VERBS), label="verb")
-    tokens = st.one_of(st.sampled_from(_options(verb) or ["--x"]), st.sampled_from(NUMBERS),
+    head = [verb]
+    if verb in SWEEPS:  # a sweep's own sub-verb, then its options
+        head.append(data.draw(st.sampled_from(sorted(SWEEPS[verb])), label="sweep"))
+    options = _options(*head) or ["--x"]
+    tokens = st.one_of(st.sampled_from(options), st.sampled_from(NUMBERS),
                        st.sampled_from(HOSTILE_NAMES), st.sampled_from(["-", "--", "-x", "--no-such"]))
     values = st.one_of(st.sampled_from(NUMBERS), st.sampled_from(HOSTILE_NAMES))
-    pairs = st.tuples(st.sampled_from(_options(verb) or ["--x"]), values).map(list)  # an option and its value
+    pairs = st.tuples(st.sampled_from(options), values).map(list)  # an option and its value
     pieces = data.draw(st.lists(st.one_of(tokens.map(lambda t: [t]), pairs), max_size=4), label="arguments")
-    argv = [verb, *(token for piece in pieces for token in piece)]
+    argv = [*head, *(token for piece in pieces for token in piece)]
     err = io.StringIO()
     with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
         try:
@@ -67,8 +81,11 @@ def test_drawn_arguments_are_parsed_or_refused_in_one_line(data):
             if e.code != 0:
                 _one_line_refusal("CLI arguments", argv, e.code, err.getvalue())
             return
-    numbers = [v for v in vars(parsed).values() if isinstance(v, float)]
-    numbers += [x for v in vars(parsed).values() if isinstance(v, list | tuple) for x in v if isinstance(x, float)]
+    command = SUBPARSERS.choices[verb] if len(head) == 1 else SWEEPS[verb][head[1]]
+    defaults = {a.dest: a.default for a in command._actions}  # (teleop's --duration is inf until quit)
+    given = [v for k, v in vars(parsed).items() if k not in defaults or v != defaults[k]]
+    numbers = [v for v in given if isinstance(v, float)]
+    numbers += [x for v in given if isinstance(v, list | tuple) for x in v if isinstance(x, float)]
     COUNTS["CLI arguments"]["parsed"] += 1
     if not all(math.isfinite(v) for v in numbers):
         COUNTS["CLI arguments"]["wrongly accepted"] += 1
@@ -128,7 +145,8 @@ def _bad_file(draw, verb: str, folder: Path) -> tuple[str, str]:
                   "linkage": APPS / "linkage" / "robots" / "four_bar.yaml",
                   "stereo": APPS / "stereo" / "robots" / "stereo_rig.yaml"}.get(
             verb, APPS / "cooperative" / "robots" / "three_pandas_circle.yaml")
-        what, raw = draw(byte_mutation(source.read_text()).filter(lambda m: m[0].startswith(("truncate", "nul"))))
+        cuts = byte_mutation(source.read_text()).filter(lambda m: m[0].startswith(("truncate", "nul")))
+        what, raw = draw(cuts)
         path.write_bytes(raw[: max(1, len(raw) // 3)] + b"\n  - [unclosed\x00")  # certainly broken
         kind = f"mutated {source.name} ({what})"
     return kind, str(path)

@@ -153,9 +153,14 @@ def check_awkward(leg: Leg, targets: np.ndarray, solved: tuple[np.ndarray, ...])
     outside = expected > 1e-6
     assert outside.sum() >= 30
     assert (reach[outside] == 0).all() and (reach[expected == 0] == 1).all()
+    # the yaw turns the thigh joint towards the heading, or away from it (+π) where that reaches the
+    # target too and is nearer the limits; out of reach the heading is nearer (l2 = l3)
     off_axis = radial > 1e-9
-    heading = np.arctan2(hip[off_axis, 1], hip[off_axis, 0])
-    np.testing.assert_allclose(q_up[off_axis, 0], heading, rtol=0, atol=TOL)
+    heading = np.arctan2(hip[:, 1], hip[:, 0])
+    for branch in (q_up, q_down):
+        turned = np.abs(wrap(branch[:, 0] - heading))
+        np.testing.assert_allclose(turned[off_axis & outside], 0, rtol=0, atol=TOL)
+        np.testing.assert_allclose(np.minimum(turned, np.pi - turned)[off_axis], 0, rtol=0, atol=TOL)
     for branch in (q_up, q_down):
         toes = mc.to_hip(leg, mc.toe(leg, branch))
         thigh = l1 * np.stack([np.cos(branch[:, 0]), np.sin(branch[:, 0]), np.zeros(len(branch))], axis=1)

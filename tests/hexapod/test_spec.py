@@ -106,3 +106,37 @@ def test_hostile_leg_names_are_refused(tmp_path, name):
         "{name: f,", "{name: " + ('"' + name.replace('"', '\\"') + '"') + ",")
     e = _error(tmp_path, text)
     assert e.field.startswith("legs[5].name"), (e.field, e.message)
+
+
+@pytest.mark.parametrize("name", ["body", "Body", "BODY"])
+def test_a_leg_named_body_is_refused_naming_the_file_and_field(tmp_path, name):
+    """A leg ``body`` would name the kernels body_fk_pga, body_fk_cga and body_ik, which are the body's
+    (up to case: the C header upper-cases kernel names in its macros)."""
+    e = _error(tmp_path, f"app: hexapod\nname: h\n{LEG}" + _legs(("a", "b", name, "d", "e", "f")))
+    assert e.field == "legs[2].name (line 8)", e.field
+    assert "body_fk_pga" in e.message and "body_ik" in e.message and "expected" in e.message, e.message
+    assert "\n" not in str(e)
+
+
+def test_more_legs_than_the_limit_are_refused_in_one_line(tmp_path, monkeypatch):
+    """gagen.limits' hexapod_legs (16): checked before any leg is read; GAGEN_LIMIT_HEXAPOD_LEGS moves it."""
+    monkeypatch.delenv("GAGEN_LIMIT_HEXAPOD_LEGS", raising=False)
+    many = f"app: hexapod\nname: h\n{LEG}" + _legs(tuple(f"leg{i}" for i in range(17)))
+    e = _error(tmp_path, many)
+    assert e.field == "legs (line 5)" and "\n" not in str(e)
+    assert e.message == ("17 legs in one walker, over the limit of 16 (set GAGEN_LIMIT_HEXAPOD_LEGS to "
+                         "raise it)")
+    huge = f"app: hexapod\nname: h\n{LEG}legs:\n" + "  - {name: a}\n" * 2_000
+    assert _error(tmp_path, huge).message.startswith("2000 legs in one walker, over the limit of 16")
+    monkeypatch.setenv("GAGEN_LIMIT_HEXAPOD_LEGS", "20")  # raised: the limit passes, six legs do not
+    assert _error(tmp_path, many).message == "got 17 legs; a hexapod has 6"
+    monkeypatch.setenv("GAGEN_LIMIT_HEXAPOD_LEGS", "4")
+    e = _error(tmp_path, f"app: hexapod\nname: h\n{LEG}" + _legs())
+    assert e.message.startswith("6 legs in one walker, over the limit of 4")
+
+
+@pytest.mark.parametrize("lengths", ["[0.05, 1.0e-300, 1.0e-300]", "[1.0e-7, 0.2, 0.2]", "[0, 0.2, 0.2]"])
+def test_links_shorter_than_a_micron_are_refused(tmp_path, lengths):
+    """The fuzzer's find: l2 = l3 = 1e-300 made 2 l2 l3 underflow to 0 and the IK divide by it."""
+    e = _error(tmp_path, f"app: hexapod\nname: h\nleg:\n  lengths: {lengths}\n" + _legs())
+    assert e.field == "leg.lengths (line 4)" and "at least 1e-06" in e.message, (e.field, e.message)

@@ -88,3 +88,13 @@ def test_every_limit_is_checked_by_name():
         check_limit(name, entry.default, "f", "x")  # the limit itself is allowed
         with pytest.raises(SpecError, match=entry.variable):
             check_limit(name, entry.default + 1, "f", "x")
+
+
+def test_the_docs_table_lists_every_limit_with_its_default_and_variable():
+    from pathlib import Path
+
+    page = (Path(__file__).resolve().parents[2] / "docs" / "limits.md").read_text()
+    rows = {cells[0].strip("` "): (int(cells[1]), cells[3].strip("` "))
+            for line in page.splitlines() if line.startswith("| `")
+            for cells in [[c.strip() for c in line.strip("|").split("|")]]}
+    assert rows == {name: (entry.default, entry.variable) for name, entry in LIMITS.items()}

@@ -38,8 +38,6 @@ from gagen.model.euclidean import GEOMETRIES
 XYZ = ("x", "y", "z")
 TWIST = ("vx", "vy", "vz", "wx", "wy", "wz")
 ALGEBRAS = {"pga": "pga3d", "cga": "cga3d"}
-BODY_KERNELS = ("body_fk_pga", "body_fk_cga", "body_ik", "body_contact_pga", "body_contact_cga",
-                "ground_pga", "ground_cga")
 
 
 def analytic(leg: Leg) -> bool:

@@ -10,13 +10,16 @@ The Jacobian columns are read from the joint lines at q, L_j(q) = (S1…S_{j−1
 twists (v_j, ω_j) are the spatial Jacobian's columns (Pinocchio's order: linear, then angular), and
 the toe's linear velocity per joint is v_j + ω_j × p = u_j × (p − c_j) [HEX Eq. 6.1].
 
-The analytic IK [HEX 7.1] solves hip yaw by atan2 in the hip frame, then the planar two-link problem of
-thigh and knee with the l1 offset removed, by the cosine law in a form that stays accurate at full
-stretch: sin φ3 = √(((l2+l3)² − d²)(d² − (l2−l3)²)) / (2 l2 l3). A target outside the annulus
+The analytic IK [HEX 7.1] solves hip yaw by atan2 in the hip frame, towards the target's heading and
+away from it (+π: a toe behind the yaw axis), then for each yaw the planar two-link problem of thigh
+and knee with the l1 offset removed, by the cosine law in a form that stays accurate at full stretch:
+sin φ3 = √(((l2+l3)² − d²)(d² − (l2−l3)²)) / (2 l2 l3). A target outside the annulus
 |l2 − l3| ≤ d ≤ l2 + l3 gives the nearest pose (the leg stretched or folded towards it) with the flag
-``reach`` = 0 and the distance outside in ``excess``; no branch of it can give a NaN. It needs the
-planar structure (yaw about ±z, thigh and knee about ±y of the hip frame): a leg without it raises
-:class:`AnalyticIKError` and has only the numerical IK (damped least squares on the Jacobian).
+``reach`` = 0 and the distance to it in ``excess``. Per knee branch the yaw nearer the target wins,
+and of two that reach it the one nearer the joint limits; NaN, inf and huge targets give finite angles
+flagged unreachable, and no branch of it can give a NaN or inf. It needs the planar structure (yaw
+about ±z, thigh and knee about ±y of the hip frame): a leg without it raises :class:`AnalyticIKError`
+and has only the numerical IK (damped least squares on the Jacobian).
 """
 
 from __future__ import annotations
@@ -35,6 +38,8 @@ from gagen.model.kinematics import Joint, fixed_rotation
 from gagen.symbolic.backend import to_exact
 
 REACH_TOLERANCE = 1e-9  # m: a target this far outside the annulus still counts as reachable
+BRANCH_TOLERANCE = 1e-12  # m: two IK branches this close to a target are equally near (then: limits)
+MAX_TARGET = 1e9  # m: a target farther (or NaN) is not solved but flagged unreachable
 AXIS_TOLERANCE = 1e-12  # how far from ±z / ±y an axis may be for the analytic IK
 
 
@@ -170,37 +175,104 @@ def _max0(m: Any, x: Any) -> Any:
     return m.if_else(m.lt(x, 0), 0.0, x)
 
 
+def _min(m: Any, a: Any, b: Any) -> Any:
+    return m.if_else(m.lt(a, b), a, b)
+
+
 def hip_target(geo: Geometry, like: Multivector, leg: Leg, target: Sequence[Any]) -> list[Any]:
     """A body-frame position in the leg's hip frame: M~ P M with M the mount."""
     return geo.location((~mount(geo, like, leg)).sandwich(geo.point(like, list(target))))
 
 
+def _bounded(m: Any, target: Sequence[Any]) -> tuple[list[Any], Any]:
+    """(target, ok): the target where its coordinates' magnitudes sum to less than MAX_TARGET, else the
+    origin, and the condition ok that it is kept. Every comparison with a NaN is false, and a sum past
+    the largest double is inf, so NaN, inf and huge targets are replaced: no square can overflow."""
+    ok = m.lt(sum((m.fabs(t) for t in target), start=0.0), MAX_TARGET)
+    return [m.if_else(ok, t, 0.0) for t in target], ok
+
+
+def _half_turn(m: Any, v: Any) -> Any:
+    """An angle within ±2π (a sum or difference of two atan2) turned into [−π, π]."""
+    v = m.if_else(m.lt(math.pi, v), v - 2 * math.pi, v)
+    return m.if_else(m.lt(v, -math.pi), v + 2 * math.pi, v)
+
+
+def _into_limits(m: Any, v: Any, limits: tuple[float, float]) -> tuple[Any, Any]:
+    """(angle, violation) of an angle ``v`` within [−π, π]: ``v`` itself where it is within [lo, hi];
+    else v ± 2π where that is within them; else ``v``, with its distance (rad) from the limits."""
+    lo, hi = limits
+    if -math.pi <= lo and hi <= math.pi:  # no other turn of v can be within them: the cheap case
+        return v, _max0(m, lo - v) + _max0(m, v - hi)
+    turn = 2 * math.pi
+    shift = turn * math.floor((lo + math.pi) / turn)  # lo − shift ∈ [−π, π): w − lo ∈ (−2π, 2π)
+    w = v + shift if shift else v
+    w = m.if_else(m.lt(w, lo), w + turn, w)
+    w = m.if_else(m.lt(w - turn, lo), w, w - turn)  # the turn of v in [lo, lo + 2π)
+    if hi - lo >= turn:  # w is within the limits
+        return m.if_else(m.lt(v, lo), w, m.if_else(m.lt(hi, v), w, v)), 0.0
+    over = m.lt(hi, w)
+    turned = m.if_else(over, v, w)
+    angle = m.if_else(m.lt(v, lo), turned, m.if_else(m.lt(hi, v), turned, v))
+    return angle, m.if_else(over, _min(m, w - hi, lo + turn - w), 0.0)
+
+
+def _within(m: Any, leg: Leg, q: Sequence[Any]) -> tuple[list[Any], Any]:
+    """The joint angles moved into the limits where a turn does it, and their total violation."""
+    moved = [_into_limits(m, v, limits) for v, limits in zip(q, leg.limits, strict=True)]
+    return [a for a, _ in moved], sum((b for _, b in moved), start=0.0)
+
+
 def analytic_ik(geo: Geometry, like: Multivector, leg: Leg, target: Sequence[Any]) -> dict[str, Any]:
     """Joint angles reaching ``target`` (body frame) with the knee up and down, the flag ``reach``
-    (1 reachable, 0 clamped to the nearest pose) and ``excess`` (m outside the annulus)."""
+    (1 reachable, 0 clamped to the nearest pose) and ``excess`` (m from the target to the nearest toe).
+
+    The hip yaw turns the thigh joint towards the target's heading (atan2) or away from it (+π): with
+    the toe behind the yaw axis only the second may be within the limits, and with l2 ≠ l3 only the
+    second may reach (the first can leave the target inside the annulus's hole |l2 − l3|). Per knee
+    branch the yaw branch nearer the target wins; where both reach it (to BRANCH_TOLERANCE), the one
+    nearer the joint limits (each angle within [−π, π], or turned by 2π into limits outside those). A
+    target farther than MAX_TARGET (|x| + |y| + |z|; inf, NaN) is replaced by the body origin: finite
+    angles, ``reach`` 0, ``excess`` MAX_TARGET."""
     s1, s2, s3 = planar_signs(leg)
     m = like.math
     l1, l2, l3 = (_constant(like, v) for v in leg.lengths)
-    x, y, z = hip_target(geo, like, leg, target)
-    yaw = m.atan2(y, x)
-    rho = m.sqrt(x * x + y * y) - l1  # along the leg from the thigh joint
+    bounded, ok = _bounded(m, target)
+    x, y, z = hip_target(geo, like, leg, bounded)
+    heading = m.atan2(y, x)
+    r = m.sqrt(x * x + y * y)
     b = -z  # downwards: a positive thigh pitch about +y swings the leg down
-    d2 = rho * rho + b * b
     outer, inner = (l2 + l3) ** 2, (l2 - l3) ** 2
     two_l2l3 = 2 * l2 * l3
-    cos3 = (d2 - l2 * l2 - l3 * l3) / two_l2l3
-    sin3 = m.sqrt(_max0(m, (outer - d2) * (d2 - inner))) / two_l2l3
-    towards = m.atan2(b, rho)
-    d = m.sqrt(d2)
-    excess = _max0(m, m.if_else(m.lt(d2, inner), m.fabs(l2 - l3) - d,
-                               d - (l2 + l3)))
-    # knee down mirrors knee up about the line to the target: atan2 is odd in y (exactly, in IEEE
-    # arithmetic), so both branches share two atan2 calls
-    knee = m.atan2(sin3, cos3)
-    bend = m.atan2(l3 * sin3, l2 + l3 * cos3)  # the thigh's angle below the line to the target
+    branches = []
+    # the yaw towards the heading (the thigh joint at l1 along it) and away from it (at −l1)
+    for yaw, rho in ((heading, r - l1), (m.if_else(m.lt(0, heading), heading - math.pi, heading + math.pi),
+                                         -r - l1)):
+        d2 = rho * rho + b * b
+        cos3 = (d2 - l2 * l2 - l3 * l3) / two_l2l3
+        sin3 = m.sqrt(_max0(m, (outer - d2) * (d2 - inner))) / two_l2l3
+        towards = m.atan2(b, rho)
+        d = m.sqrt(d2)
+        excess = _max0(m, m.if_else(m.lt(d2, inner), m.fabs(l2 - l3) - d, d - (l2 + l3)))
+        # knee down mirrors knee up about the line to the target: atan2 is odd in y (exactly, in IEEE
+        # arithmetic), so both knees share two atan2 calls
+        knee = m.atan2(sin3, cos3)
+        bend = m.atan2(l3 * sin3, l2 + l3 * cos3)  # the thigh's angle below the line to the target
+        up = _within(m, leg, [s1 * yaw, s2 * _half_turn(m, towards - bend), s3 * knee])
+        down = _within(m, leg, [s1 * yaw, s2 * _half_turn(m, towards + bend), -s3 * knee])
+        branches.append((excess, up, down))
+    (near, up_a, down_a), (far, up_b, down_b) = branches
+
+    def pick(a: tuple[list[Any], Any], b: tuple[list[Any], Any]) -> list[Any]:
+        # 1 where the away branch wins: nearer the target, or as near and nearer the limits
+        nearer_limits = m.if_else(m.lt(b[1], a[1]), 1.0, 0.0)
+        away = m.if_else(m.lt(far + BRANCH_TOLERANCE, near), 1.0,
+                         m.if_else(m.lt(near + BRANCH_TOLERANCE, far), 0.0, nearer_limits))
+        return [m.if_else(m.lt(0.5, away), qb, qa) for qa, qb in zip(a[0], b[0], strict=True)]
+
+    excess = m.if_else(ok, _min(m, near, far), MAX_TARGET)
     reach = m.if_else(m.lt(REACH_TOLERANCE, excess), 0.0, 1.0)
-    return {"q_up": [s1 * yaw, s2 * (towards - bend), s3 * knee],
-            "q_down": [s1 * yaw, s2 * (towards + bend), -s3 * knee], "reach": reach, "excess": excess}
+    return {"q_up": pick(up_a, up_b), "q_down": pick(down_a, down_b), "reach": reach, "excess": excess}
 
 
 # -- numerical IK -------------------------------------------------------------------------------------

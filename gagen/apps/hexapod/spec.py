@@ -20,7 +20,8 @@ and ``axes[2]`` through (l1 + l2, 0, 0); its toe is at (l1 + l2 + l3, 0, 0) in t
 Errors are ``SpecError``s naming the file, the field with its line, and what was expected, from the
 strict reader every spec shares (``gagen.yaml_document``): unknown or duplicate keys, alias bombs,
 non-UTF-8 text, names that are not identifiers, numbers out of range, zero axes, empty or reversed
-limits, a neutral pose outside them, and a body with a number of legs other than six.
+limits, a neutral pose outside them, a leg named like the body kernels (``body``), more legs than
+``gagen.limits`` allows (``hexapod_legs``) and a body with a number of legs other than six.
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ from pathlib import Path
 from typing import Any
 
 from gagen.errors import SpecError
+from gagen.limits import over_limit
 from gagen.yaml_document import (
     MAX_ANGLE,
     MIN_AXIS,
@@ -47,7 +49,12 @@ TOP_KEYS = ("app", "name", "leg", "legs", "knee", "neutral")
 LEG_KEYS = ("lengths", "axes", "limits")
 MOUNT_KEYS = ("name", "xyz", "rpy", *LEG_KEYS)
 LEGS = 6
+# a leg's kernels are <leg>_<suffix>; the body's must not be among them (gagen.apps.hexapod.kernels)
+LEG_KERNEL_SUFFIXES = ("fk_pga", "fk_cga", "ik", "dls")
+BODY_KERNELS = ("body_fk_pga", "body_fk_cga", "body_ik", "body_contact_pga", "body_contact_cga",
+                "ground_pga", "ground_cga")
 MAX_LENGTH = 100.0  # m: a longer link is a unit mistake
+MIN_LENGTH = 1e-6  # m: so is a shorter one, whose squares underflow in the IK's 2 l2 l3 (1e-300)
 KNEES = ("up", "down")
 DEFAULT_AXES = ((0.0, 0.0, 1.0), (0.0, 1.0, 0.0), (0.0, 1.0, 0.0))
 Vec = tuple[float, float, float]
@@ -105,9 +112,9 @@ class Hexapod:
 
 def _lengths(spec: Document, value: Any, field: str) -> Vec:
     if not isinstance(value, list) or len(value) != 3 or \
-            not all(number(v, MAX_LENGTH) and v > 0 for v in value):
+            not all(number(v, MAX_LENGTH) and v >= MIN_LENGTH for v in value):
         raise spec.error(field, f"got {show(value)}; expected three positive lengths l1, l2, l3 in metres "
-                                f"(at most {MAX_LENGTH:g})")
+                                f"(at least {MIN_LENGTH:g}, at most {MAX_LENGTH:g})")
     return tuple(float(v) for v in value)  # type: ignore[return-value]
 
 
@@ -181,6 +188,9 @@ def load_hexapod(path: str | Path) -> Hexapod:
     identifier(spec, name, "name", "the hexapod's name")
     defaults = _leg_defaults(spec, data["leg"], "leg") if "leg" in data else {}
     listed = require(spec, data, "legs", "legs", list, f"a list of {LEGS} legs")
+    problem = over_limit("hexapod_legs", len(listed))  # before any leg is read
+    if problem:
+        raise spec.error("legs", problem)
     if len(listed) != LEGS:
         raise spec.error("legs", f"got {len(listed)} legs; a hexapod has {LEGS}")
     legs = tuple(_leg(spec, v, f"legs[{i}]", defaults) for i, v in enumerate(listed))
@@ -190,6 +200,13 @@ def load_hexapod(path: str | Path) -> Hexapod:
         if k != i:
             raise spec.error(f"legs[{i}].name", f"got {leg.name!r}, the name of legs[{k}] too (up to case); "
                                                 f"leg names name kernels and must differ")
+        clashes = [kernel for suffix in LEG_KERNEL_SUFFIXES
+                   if (kernel := f"{leg.name}_{suffix}".lower()) in BODY_KERNELS]
+        if clashes:
+            raise spec.error(f"legs[{i}].name", f"got {leg.name!r}: the leg's kernels would collide with "
+                                                f"the body's {', '.join(clashes)} (names are compared up to "
+                                                f"case); expected a leg name other than 'body', e.g. "
+                                                f"'body_leg'")
     knee = data.get("knee", "up")
     if knee not in KNEES:
         raise spec.error("knee", f"got {show(knee)}; expected one of {', '.join(KNEES)}")

@@ -34,7 +34,9 @@ The initial configuration needs to be assembled only roughly: the solver assembl
 crank's initial angle first. Each body's frame is the world frame at that configuration.
 
 Errors are ``SpecError``s naming the file, the field with its line and what was expected (the strict
-reader of every spec, ``gagen.yaml_document``): unknown bodies or points, a joint joining a body to
+reader of every spec, ``gagen.yaml_document``): names that are not identifiers (also those YAML reads
+as numbers or booleans: ``1:``, ``on:``), more bodies or joints than the limits ``linkage_bodies`` and
+``linkage_joints`` allow (``gagen.limits``), unknown bodies or points, a joint joining a body to
 itself, a body no joint reaches from the ground (dangling), a driver that is neither a crank nor a
 slider (or whose pivot is not the crank's ground pivot), bad numbers. Mobility is counted by
 Grübler–Kutzbach, 3 (n − 1) − 2 j_R − 2 j_S − j_P with the ground among the n links, a slider (a block
@@ -50,6 +52,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from gagen.errors import SpecError
+from gagen.limits import over_limit
+from gagen.names import IDENTIFIER_RULE, identifier_problem, suggest_identifier
 from gagen.yaml_document import Document, identifier, known_keys, number, require, show
 
 if TYPE_CHECKING:
@@ -188,6 +193,73 @@ def _bodies(joint: Joint) -> tuple[str, str]:
     return (joint.a[0], joint.b[0]) if isinstance(joint, Revolute) else (joint.point[0], joint.on)
 
 
+# how YAML 1.1 may spell a boolean key: to find the field (and its line) of a key read as true or false
+_BOOLEAN_WORDS = {True: ("on", "yes", "true", "y"), False: ("off", "no", "false", "n")}
+
+
+def _shown(key: Any) -> str:
+    """A mapping key as a part of a field in a one-line message: as written where it is short and
+    printable, else its repr (a key with a newline or a NUL must not break the message's line)."""
+    if not isinstance(key, str):
+        return str(key)
+    return key if key.isprintable() and len(key) <= 64 else show(key)
+
+
+def _key_field(spec: Document, prefix: str, key: Any) -> str:
+    """The field of a mapping key for a message, with its line: as the document spells the key where
+    that spelling is found among the document's fields (``bodies.on``, not ``bodies.True``)."""
+    if isinstance(key, bool):
+        spellings = [w for word in _BOOLEAN_WORDS[key] for w in (word, word.capitalize(), word.upper())]
+    else:
+        spellings = ["null", "~", "Null", "NULL", ""] if key is None else [str(key)]
+    for text in spellings:
+        line = spec.lines.get(f"{prefix}.{text}")
+        if line:
+            return f"{prefix}.{_shown(text)} (line {line})"
+    return f"{prefix}.{_shown(key)}"
+
+
+def _name(spec: Document, value: Any, prefix: str, what: str) -> str:
+    """A body or point name (a key of ``prefix``): an identifier. YAML reads some unquoted names as
+    numbers, booleans or null (``1:``, ``on:``, ``~:``); those are named as what YAML made of them."""
+    field = _key_field(spec, prefix, value)
+    if isinstance(value, bool):
+        message = (f"got the boolean {value} (YAML reads an unquoted on, off, yes, no, true or false as a "
+                   f"boolean); expected {what}: quote it, e.g. \"on\"")
+    elif value is None:
+        message = (f"got null (YAML reads an unquoted null or ~ as no value); expected {what}: "
+                   f"{IDENTIFIER_RULE}")
+    elif isinstance(value, int | float):
+        message = (f"got the number {show(value)} (YAML reads it as a number); expected {what}: "
+                   f"{IDENTIFIER_RULE}, e.g. {suggest_identifier(str(value))!r}")
+    elif not isinstance(value, str):
+        message = f"got {show(value)}; expected {what}: {IDENTIFIER_RULE}"
+    else:
+        problem = identifier_problem(value)
+        if problem is None:
+            return value
+        message = (f"got {show(value)} ({problem}); {what} names files, C symbols and Python attributes: "
+                   f"expected {IDENTIFIER_RULE}, e.g. {suggest_identifier(value)!r}")
+    raise SpecError(spec.path, field, message)
+
+
+def _known_keys(spec: Document, mapping: dict[Any, Any], field: str, allowed: tuple[str, ...]) -> None:
+    """``known_keys``, with an unknown key that is not printable text named by its repr (one line)."""
+    for key in mapping:
+        if key not in allowed and isinstance(key, str) and _shown(key) != key:
+            where = f"{field}.{_shown(key)}" if field else _shown(key)
+            raise SpecError(spec.path, where, f"unknown key {show(key)}; expected one of "
+                                              f"{', '.join(allowed)}")
+    known_keys(spec, mapping, field, allowed)
+
+
+def _check_count(spec: Document, name: str, count: int, field: str) -> None:
+    """Refuse a count over the limit ``name`` (``gagen.limits``) before any per-item work."""
+    problem = over_limit(name, count)
+    if problem:
+        raise spec.error(field, problem)
+
+
 def _xy(spec: Document, value: Any, field: str) -> Point:
     if not isinstance(value, list) or len(value) != 2 or not all(number(v, MAX_COORDINATE) for v in value):
         raise spec.error(field, f"got {show(value)}; expected [x, y], two finite numbers within "
@@ -200,7 +272,7 @@ def _points(spec: Document, value: Any, field: str, what: str) -> dict[str, Poin
         raise spec.error(field, f"got {show(value)}; expected a mapping of point names to [x, y] ({what})")
     out = {}
     for name, xy in value.items():
-        identifier(spec, name, f"{field}.{name}", "a point name")
+        _name(spec, name, field, "a point name")
         out[name] = _xy(spec, xy, f"{field}.{name}")
     return out
 
@@ -237,7 +309,7 @@ def _joint(spec: Document, value: Any, field: str, ground: dict[str, Point],
         return Revolute(a, b)
     if not isinstance(body, dict):
         raise spec.error(where, f"got {show(body)}; expected a mapping (point, slot, through, direction)")
-    known_keys(spec, body, where, PRISMATIC_KEYS)
+    _known_keys(spec, body, where, PRISMATIC_KEYS)
     point = _ref(spec, require(spec, body, "point", f"{where}.point", str, "body.point"), f"{where}.point",
                  ground, bodies)
     on = require(spec, body, "slot", f"{where}.slot", str, "the body (or ground) carrying the slot line")
@@ -267,7 +339,7 @@ def _joint(spec: Document, value: Any, field: str, ground: dict[str, Point],
 def _driver(spec: Document, driver: dict[str, Any], ground: dict[str, Point],
             bodies: dict[str, dict[str, Point]], joints: tuple[Joint, ...]) -> Driver:
     """A crank (pinned to a ground point by a revolute joint) or a slider (on a ground slider joint)."""
-    known_keys(spec, driver, "driver", DRIVER_KEYS)
+    _known_keys(spec, driver, "driver", DRIVER_KEYS)
     body = require(spec, driver, "body", "driver.body", str, "the crank or slider body")
     if body not in bodies:
         raise spec.error("driver.body", f"unknown body {body!r}; the bodies: {', '.join(bodies)}")
@@ -324,7 +396,7 @@ def load_linkage(path: str | Path) -> Linkage:
     """The linkage of a spec file."""
     spec = Document(Path(path), "a mapping with app: linkage, name, ground, bodies, joints and driver")
     data = spec.data
-    known_keys(spec, data, "", TOP_KEYS)
+    _known_keys(spec, data, "", TOP_KEYS)
     if data.get("app") != "linkage":
         raise spec.error("app", f"got {show(data.get('app'))}; a linkage spec says app: linkage")
     name = identifier(spec, require(spec, data, "name", "name", str, "the linkage's name"), "name",
@@ -332,13 +404,15 @@ def load_linkage(path: str | Path) -> Linkage:
     ground = _points(spec, require(spec, data, "ground", "ground", dict, "the ground pivots"), "ground",
                      "the ground pivots")
     listed = require(spec, data, "bodies", "bodies", dict, "a mapping of body names to their points")
+    _check_count(spec, "linkage_bodies", len(listed), "bodies")
     bodies = {}
     for body, points in listed.items():
-        identifier(spec, body, f"bodies.{body}", "a body name")
+        _name(spec, body, "bodies", "a body name")
         if body == GROUND:
             raise spec.error(f"bodies.{body}", "'ground' names the fixed frame; give the body another name")
         bodies[body] = _points(spec, points, f"bodies.{body}", "the body's points")
     joints_data = require(spec, data, "joints", "joints", list, "a list of joints")
+    _check_count(spec, "linkage_joints", len(joints_data), "joints")
     joints = tuple(_joint(spec, j, f"joints[{i}]", ground, bodies) for i, j in enumerate(joints_data))
     listed_driver = require(spec, data, "driver", "driver", dict,
                             "{body: crank, pivot: ground.point} or {body: slider}")

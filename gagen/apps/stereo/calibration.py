@@ -13,7 +13,10 @@ left camera's frame, the left camera's pose in the robot's base frame, and the o
 Camera frames follow OpenCV: x right, y down, z forward (the optical axis); a pixel (u, v) has the
 normalised image coordinates x = (u − cx)/fx, y = (v − cy)/fy, the point (x, y, 1) of the image plane
 z = 1. ``rpy`` is the URDF convention, R = Rz(yaw) Ry(pitch) Rx(roll). Errors name the file, the field
-with its line and what was expected (``gagen.yaml_document``).
+with its line and what was expected (``gagen.yaml_document``). The image size is bounded by the limit
+``image_pixels`` (``gagen.limits``), and the cameras' relative pose must leave the kernels' check scene
+(``kernels.random_scene``: axes about 1 m in front, seen from two different directions) to be found:
+a baseline of at least ``MIN_BASELINE``, not along the viewing direction.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from gagen.limits import limit, over_limit
 from gagen.yaml_document import Document, identifier, known_keys, number, require, show
 
 TOP_KEYS = ("app", "name", "cameras", "right_in_left", "left_in_base", "segmentation")
@@ -32,8 +36,16 @@ CAMERA_KEYS = ("fx", "fy", "cx", "cy", "width", "height")
 POSE_KEYS = ("xyz", "rpy")
 SEGMENTATION_KEYS = ("hue", "saturation", "value")
 HSV_LIMITS = {"hue": 179, "saturation": 255, "value": 255}  # OpenCV's 8-bit HSV
-MAX_PIXELS = 16384
 MAX_DISTANCE = 1e3  # m
+# The check scene (``kernels.random_scene``, the sampler of every kernel, so of ``gagen build --check``):
+# an axis through a point in this box (left frame, m; centred across on the rig's middle) whose two
+# viewing planes meet at a sine of at least SCENE_CONDITIONING (about baseline / depth at best) and
+# whose images are not near infinity. A rig must leave enough such axes for the sampler to find one.
+SCENE_LOW, SCENE_HIGH = (-0.15, -0.15, 0.8), (0.15, 0.15, 1.2)
+SCENE_CONDITIONING = 0.03
+MIN_BASELINE = 0.01  # m: shorter, the sampler's axes thin out (at 0.01 mm it found none in 200 000 tries)
+# the share of random axes a rig must accept: the sampler's 10 000 tries then fail with p < e⁻³⁰
+MIN_SCENE_RATE = 0.005
 
 
 @dataclass(frozen=True)
@@ -111,6 +123,33 @@ def canonical_line(theta: float, r: float) -> tuple[float, float]:
     return theta, r
 
 
+def scene_accepts(p: np.ndarray, d: np.ndarray, right_in_left: Pose,
+                  min_conditioning: float = SCENE_CONDITIONING) -> np.ndarray:
+    """Whether axes through points ``p`` along unit directions ``d`` (…, 3; left frame) make a
+    well-conditioned check scene: the planes through each camera centre and the axis meet at a sine of
+    at least ``min_conditioning``, and neither image line runs near infinity (its plane's normal at
+    least 0.2 off the camera's optical axis)."""
+    R, t = right_in_left.R, right_in_left.t
+    n_l, n_r = np.cross(p, d), np.cross(p - t, d)
+    with np.errstate(invalid="ignore", divide="ignore"):  # an axis through a centre: nan, refused
+        sine = np.linalg.norm(np.cross(n_l, n_r), axis=-1) / (np.linalg.norm(n_l, axis=-1)
+                                                              * np.linalg.norm(n_r, axis=-1))
+        flat = np.minimum(*(np.hypot(n[..., 0], n[..., 1]) / np.linalg.norm(n, axis=-1)
+                            for n in (n_l, n_r @ R)))  # n_r @ R = Rᵀ n_r, the right camera's frame
+    accepted: np.ndarray = (sine >= min_conditioning) & (flat > 0.2)
+    return accepted
+
+
+def scene_rate(right_in_left: Pose, samples: int = 4000, seed: int = 0) -> float:
+    """The share of random axes (``kernels.random_scene``'s distribution) that make a check scene."""
+    rng = np.random.default_rng(seed)
+    middle = np.array([right_in_left.t[0] / 2, right_in_left.t[1] / 2, 0.0])
+    p = middle + rng.uniform(SCENE_LOW, SCENE_HIGH, (samples, 3))
+    d = rng.normal(size=(samples, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    return float(np.mean(scene_accepts(p, d, right_in_left)))
+
+
 def rpy_matrix(rpy: tuple[float, float, float]) -> np.ndarray:
     """URDF roll-pitch-yaw: Rz(yaw) Ry(pitch) Rx(roll)."""
     r, p, y = rpy
@@ -125,12 +164,17 @@ def _camera(spec: Document, value: Any, field: str) -> Camera:
         raise spec.error(field, f"got {show(value)}; expected {{fx, fy, cx, cy, width, height}} in pixels")
     known_keys(spec, value, field, CAMERA_KEYS)
     numbers = {}
+    bound = limit("image_pixels")  # read per load: GAGEN_LIMIT_IMAGE_PIXELS raises it
     for key in CAMERA_KEYS:
         v = require(spec, value, key, f"{field}.{key}", (int, float), "a number of pixels")
-        if not number(v, MAX_PIXELS) or v <= 0 or (key in ("width", "height") and v != int(v)):
+        side = key in ("width", "height")
+        if side and isinstance(v, int) and v > 0:  # the image size: refused by the limit, which names
+            problem = over_limit("image_pixels", v)  # the variable that raises it
+            if problem:
+                raise spec.error(f"{field}.{key}", problem)
+        if not number(v, bound) or v <= 0 or (side and v != int(v)):
             raise spec.error(f"{field}.{key}", f"got {show(v)}; expected a positive "
-                                               f"{'whole ' if key in ('width', 'height') else ''}number "
-                                               f"of pixels up to {MAX_PIXELS}")
+                                               f"{'whole ' if side else ''}number of pixels up to {bound}")
         numbers[key] = v
     return Camera(float(numbers["fx"]), float(numbers["fy"]), float(numbers["cx"]), float(numbers["cy"]),
                   int(numbers["width"]), int(numbers["height"]))
@@ -189,9 +233,19 @@ def load_rig(path: str | Path) -> Rig:
     listed = require(spec, data, "right_in_left", "right_in_left", dict,
                      "the right camera's pose in the left camera's frame")
     right_in_left = _pose(spec, listed, "right_in_left")
-    if np.linalg.norm(right_in_left.t) < 1e-6:
-        raise spec.error("right_in_left.xyz", "got a zero baseline; expected the right camera's centre apart "
-                                              "from the left one's")
+    baseline = float(np.linalg.norm(right_in_left.t))
+    if baseline < MIN_BASELINE:
+        raise spec.error("right_in_left.xyz", f"got a {'zero' if baseline == 0 else f'{baseline:g} m'} "
+                                              f"baseline; expected the right camera's centre at least "
+                                              f"{MIN_BASELINE:g} m from the left one's (the axis' "
+                                              f"conditioning is about baseline / depth)")
+    rate = scene_rate(right_in_left)
+    if rate < MIN_SCENE_RATE:  # e.g. a short baseline along the viewing direction: no scene to check with
+        raise spec.error("right_in_left", f"{rate:.2%} of random axes 0.8-1.2 m in front of the left camera "
+                                          f"are seen well conditioned (viewing planes meeting at a sine "
+                                          f"≥ {SCENE_CONDITIONING:g}); expected at least "
+                                          f"{MIN_SCENE_RATE:.1%}: the right camera's centre apart from "
+                                          f"the left one's across their viewing direction, not along it")
     left_in_base = _pose(spec, data.get("left_in_base", {"xyz": [0, 0, 0]}), "left_in_base")
     low, high = _segmentation(spec, require(spec, data, "segmentation", "segmentation", dict,
                                             "the object's HSV colour range"))

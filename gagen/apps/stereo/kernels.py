@@ -29,7 +29,14 @@ from typing import Any
 import numpy as np
 
 from gagen.apps.stereo import geometry as geo
-from gagen.apps.stereo.calibration import Rig, load_rig
+from gagen.apps.stereo.calibration import (
+    SCENE_CONDITIONING,
+    SCENE_HIGH,
+    SCENE_LOW,
+    Rig,
+    load_rig,
+    scene_accepts,
+)
 from gagen.build import check_identifier
 from gagen.codegen.ir import ModuleSource
 from gagen.errors import read_input
@@ -41,6 +48,11 @@ LINES = ("theta_l", "r_l", "theta_r", "r_r")
 CENTRES = ("x_l", "y_l", "x_r", "y_r")
 SAMPLE_NOISE = 2e-3  # normalised image units: 1.2 px at f = 600 px
 KERNELS = ("image_line", "planes", "axis", "reproject", "viewing_lines", "triangulate", "estimate")
+MAX_SCENE_TRIES = 10_000  # the loader refuses rigs accepting under 0.5 % of the tries (calibration)
+
+
+class SceneError(ValueError):
+    """No well-conditioned scene in MAX_SCENE_TRIES tries: a rig the loader would refuse."""
 
 
 # -- well-conditioned samples for --check: a random axis about 1 m in front of both cameras ---------------
@@ -64,24 +76,25 @@ def hesse_of(point: np.ndarray, direction: np.ndarray) -> np.ndarray:
     return np.array([np.arctan2(n[1], n[0]), -n[2] / np.hypot(n[0], n[1])])
 
 
-def random_scene(rig: Rig, rng: np.random.Generator, min_conditioning: float = 0.03,
+def random_scene(rig: Rig, rng: np.random.Generator, min_conditioning: float = SCENE_CONDITIONING,
                  noise: float = 0.0) -> Scene:
     """An axis through a point 0.8-1.2 m deep, within ±0.15 m of the rig's middle across, with a random
     direction such that both planes meet at a sine of at least ``min_conditioning`` (≈ baseline / depth
     at best: 0.25 for the bundled rig at 1 m) and neither image line runs near infinity; the mass
     centre within 5 cm of the axis' point; ``noise``: the standard deviation of N(0, noise²) added to
     the image centres (normalised units), so that their viewing lines miss each other by a measurable
-    gap."""
+    gap. Raises SceneError after MAX_SCENE_TRIES tries (a rig whose baseline is too short for it)."""
     R, t = rig.right_in_left.R, rig.right_in_left.t
-    while True:
-        p = np.array([t[0] / 2, t[1] / 2, 0.0]) + rng.uniform([-0.15, -0.15, 0.8], [0.15, 0.15, 1.2])
+    for _ in range(MAX_SCENE_TRIES):
+        p = np.array([t[0] / 2, t[1] / 2, 0.0]) + rng.uniform(SCENE_LOW, SCENE_HIGH)
         d = rng.normal(size=3)
         d /= np.linalg.norm(d)
-        n_l, n_r = np.cross(p, d), np.cross(p - t, d)
-        sine = np.linalg.norm(np.cross(n_l, n_r)) / (np.linalg.norm(n_l) * np.linalg.norm(n_r))
-        flat = min(np.hypot(*n[:2]) / np.linalg.norm(n) for n in (n_l, R.T @ n_r))
-        if sine >= min_conditioning and flat > 0.2:
+        if scene_accepts(p, d, rig.right_in_left, min_conditioning):
             break
+    else:
+        raise SceneError(f"{rig.name}: no axis 0.8-1.2 m in front of the cameras is seen well conditioned "
+                         f"(viewing planes meeting at a sine ≥ {min_conditioning:g}) in {MAX_SCENE_TRIES} "
+                         f"tries: the baseline of {rig.baseline:g} m is too short for it")
     centre = p + rng.uniform(-0.05, 0.05) * d + rng.normal(scale=0.01, size=3)
     centre_r = R.T @ (centre - t)
     lines = np.concatenate([hesse_of(p, d), hesse_of(R.T @ (p - t), R.T @ d)])
