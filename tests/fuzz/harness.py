@@ -195,3 +195,15 @@ def mutated_file(draw, text: str, folder: Path, name: str, yaml_share: float = 0
 def print_counts() -> str:
     """The outcomes per kind, one line each (the note's table)."""
     return "\n".join(f"{kind}: {dict(sorted(counts.items()))}" for kind, counts in sorted(COUNTS.items()))
+
+
+def run_document(kind: str, file_name: str, document: Any, action: Callable[[Path], Any],
+                 check: Callable[[Any], None], *, must_refuse: bool = False, what: str = "") -> None:
+    """One case of a spec drawn from a schema: ``document`` written as YAML to ``file_name`` in a fresh
+    folder, then ``run_case`` of ``action(path)``."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / file_name
+        path.write_text(yaml.safe_dump(document, allow_unicode=True, sort_keys=False), encoding="utf-8")
+        run_case(kind, (path,), lambda: action(path), check, must_refuse=must_refuse, what=what)

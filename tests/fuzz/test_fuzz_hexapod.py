@@ -12,7 +12,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -25,7 +24,7 @@ from gagen.limits import limit
 from gagen.model.euclidean import GEOMETRIES
 from gagen.names import identifier_problem
 
-from .harness import HOSTILE_NAMES, HOSTILE_VALUES, all_finite, examples, mutated_file, run_case
+from .harness import HOSTILE_NAMES, HOSTILE_VALUES, all_finite, examples, mutated_file, run_case, run_document
 
 BUNDLED = SPEC.read_text()  # the bundled spec refers to no other file (its URDF is written from it)
 PGA = GEOMETRIES["pga3d"]
@@ -187,7 +186,4 @@ def hexapod_schema(draw) -> tuple[str, dict[str, Any], bool]:
 @given(st.data())
 def test_random_hexapod_schema(data):
     what, spec, invalid = data.draw(hexapod_schema())
-    with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / "hexapod.yaml"
-        path.write_text(yaml.safe_dump(spec, allow_unicode=True, sort_keys=False), encoding="utf-8")
-        run_case("hexapod schema", (path,), lambda: solve(path), check, must_refuse=invalid, what=what)
+    run_document("hexapod schema", "hexapod.yaml", spec, solve, check, must_refuse=invalid, what=what)

@@ -10,7 +10,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -21,7 +20,7 @@ from gagen.apps.linkage.spec import MAX_COORDINATE, load_linkage
 from gagen.limits import limit
 from gagen.names import identifier_problem
 
-from .harness import HOSTILE_NAMES, HOSTILE_VALUES, all_finite, examples, mutated_file, run_case
+from .harness import HOSTILE_NAMES, HOSTILE_VALUES, all_finite, examples, mutated_file, run_case, run_document
 
 ROBOTS = Path(__file__).resolve().parents[2] / "gagen" / "apps" / "linkage" / "robots"
 BUNDLED = {path.name: path.read_text() for path in sorted(ROBOTS.glob("*.yaml"))}
@@ -148,7 +147,4 @@ def linkage_schema(draw) -> tuple[str, dict[str, Any], bool]:
 @given(st.data())
 def test_random_linkage_schema(data):
     what, spec, invalid = data.draw(linkage_schema())
-    with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / "linkage.yaml"
-        path.write_text(yaml.safe_dump(spec, allow_unicode=True, sort_keys=False), encoding="utf-8")
-        run_case("linkage schema", (path,), lambda: solve(path), check, must_refuse=invalid, what=what)
+    run_document("linkage schema", "linkage.yaml", spec, solve, check, must_refuse=invalid, what=what)

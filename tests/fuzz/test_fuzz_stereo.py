@@ -13,7 +13,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -23,7 +22,7 @@ from gagen.apps.stereo.kernels import random_scene
 from gagen.interp import MultiVector, cga3d
 from gagen.limits import limit
 
-from .harness import all_finite, examples, mutated_file, run_case
+from .harness import all_finite, examples, mutated_file, run_case, run_document
 
 RIG = Path(__file__).resolve().parents[2] / "gagen" / "apps" / "stereo" / "robots" / "stereo_rig.yaml"
 TEXT = RIG.read_text()
@@ -111,7 +110,4 @@ def rig_schema(draw) -> tuple[str, dict[str, Any], bool]:
 @given(st.data())
 def test_random_rig_schema(data):
     what, rig, invalid = data.draw(rig_schema())
-    with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / "rig.yaml"
-        path.write_text(yaml.safe_dump(rig, allow_unicode=True, sort_keys=False), encoding="utf-8")
-        run_case("stereo schema", (path,), lambda: estimate(path), check, must_refuse=invalid, what=what)
+    run_document("stereo schema", "rig.yaml", rig, estimate, check, must_refuse=invalid, what=what)
