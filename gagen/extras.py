@@ -15,6 +15,7 @@ EXTRAS = {
     "pyarrow": "sweep",
     "tqdm": "sweep",
     "pinocchio": "dynamics",
+    "crocoddyl": "ocp",
     "pyspacemouse": "teleop",
     "jax": "jax",
     "jaxlib": "jax",

@@ -47,6 +47,7 @@ VERBS = [
     (["mpc", "--view"], "viewer"),
     (["teleop", "three_pandas_circle", "--trace", str(TRACE), "--view"], "viewer"),
     (["teleop", "three_pandas_circle", "--spacemouse"], "teleop"),
+    (["reach", "circle", "--dynamics"], "ocp"),
 ]
 
 
@@ -62,6 +63,7 @@ def test_a_verb_without_its_extra_is_one_line_and_exit_status_2(argv, extra, tmp
 @pytest.mark.parametrize(("code", "extra"), [
     ("import gagen.sweep.engine", "sweep"),
     ("import gagen.sweep.store", "sweep"),
+    ("import gagen.control.torque", "ocp"),
     ("from gagen.robots.spec import load_system\nfrom gagen.registry import bundled_specs\n"
      "from gagen.viewer import Scene\nScene(load_system(bundled_specs()['panda_point'])[0], port=0)",
      "viewer"),
@@ -78,8 +80,9 @@ def test_every_extra_named_exists_and_all_brings_them():
 
     extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
     assert set(EXTRAS.values()) <= set(extras)
-    assert extras["all"] == [f"gagen[{','.join(['sweep', 'jax', 'dynamics', 'viewer', 'teleop'])}]"]
-    assert set(EXTRAS.values()) <= {"sweep", "jax", "dynamics", "viewer", "teleop"}
+    named = ["sweep", "jax", "dynamics", "viewer", "teleop", "ocp"]
+    assert extras["all"] == [f"gagen[{','.join(named)}]"]
+    assert set(EXTRAS.values()) <= set(named)
 
 
 def test_require_passes_other_missing_modules_through():

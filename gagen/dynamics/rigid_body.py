@@ -123,7 +123,10 @@ def _append(pin: Any, world: Any, robot: Any, placement: Any, prefix: str) -> No
         parent = index[robot.parents[j]]
         joint_placement = placement * robot.jointPlacements[j] if robot.parents[j] == 0 \
             else robot.jointPlacements[j]
-        new = world.addJoint(parent, robot.joints[j], joint_placement, f"{prefix}/{robot.names[j]}")
+        v, q, nq = robot.idx_vs[j], robot.idx_qs[j], robot.nqs[j]  # the URDF's limits go along (Crocoddyl)
+        new = world.addJoint(parent, robot.joints[j], joint_placement, f"{prefix}/{robot.names[j]}",
+                             robot.effortLimit[v:v + 1], robot.velocityLimit[v:v + 1],
+                             robot.lowerPositionLimit[q:q + nq], robot.upperPositionLimit[q:q + nq])
         world.appendBodyToJoint(new, robot.inertias[j], pin.SE3.Identity())
         index[j] = new
     for frame in robot.frames:  # the links (tips included), to compare with the generated kinematics

@@ -62,6 +62,10 @@ def _reach_arguments(parser: argparse.ArgumentParser) -> None:
                         help="solver (default ipopt; ilqr: the structured iLQR in C)")
     parser.add_argument("--hessian", choices=("exact", "gauss-newton"), default="exact",
                         help="Hessian of the Lagrangian (gauss-newton: IPOPT only; default exact)")
+    parser.add_argument("--dynamics", action=FlagNeeding, module="crocoddyl",
+                        help="at the torque level instead: rigid-body dynamics from the URDFs' inertias, "
+                             "torque and joint limits, solved by Crocoddyl's box-FDDP (gagen[ocp]); "
+                             "--solver and --hessian do not apply")
     view_arguments(parser, "the optimal trajectory")
 
 

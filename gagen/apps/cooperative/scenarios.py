@@ -329,6 +329,10 @@ def run_command(args: argparse.Namespace) -> int:
         chosen = [of_goal(target, goal)]
     else:
         chosen = scenarios_of(args.scenario, args.goal)
+    if args.dynamics:
+        from gagen.apps.cooperative.torque_reach import run_scenarios
+
+        return run_scenarios(chosen, args.out, N=args.N, horizon=args.horizon)
     ok = True
     solved = []
     for scenario in chosen:

@@ -1,0 +1,223 @@
+"""Torque-level cooperative optimal control with Crocoddyl: gagen kernels as Crocoddyl residuals, and
+the cooperative reaching OCP with rigid-body dynamics.
+
+**Residuals.** ``KernelResidual`` is a Crocoddyl residual r(x) = f(q) of any generated kernel that gives
+a value and its Jacobian with respect to the joint vector: the cooperative task error e(q) = log(V_Sc(q)~
+V_Sd) with J_Be (``task_residual``), a chain's kernels, a user's formula. q is read from the state's
+configuration and the Jacobian written into the configuration columns of R_x, through the map from
+the system's joint order (the kernels') to Pinocchio's (``SystemDynamics.order``). This is the
+prototyping version: Crocoddyl calls it through Python, and the kernel itself is the compiled C.
+
+**The OCP** (``torque_reach``): the state x = (q, q̇) of the system's Pinocchio model (its URDFs'
+inertias, ``gagen.dynamics``), the control τ, free forward dynamics (ABA) integrated by symplectic
+Euler. The running cost, at node k with t = k dt, is
+    w_task ‖e(q_k; V_Sd(t))‖² + w_u ‖τ_k − g(q_k)‖² + w_v ‖q̇_k‖² + w_limit barrier(q_k, q̇_k).
+The terminal cost is w_terminal ‖e(q_N; V_Sd(t_N))‖² + w_v,N ‖q̇_N‖² + w_limit barrier. The barrier is a
+quadratic outside the URDF's position and velocity limits (Crocoddyl's quadratic barrier on the
+state). The torques are boxed by the URDF's effort limits, which box-FDDP enforces. V_Sd may move:
+give a function of t.
+
+Crocoddyl's wheels need a Pinocchio of the same release: ``gagen[ocp]`` pins crocoddyl 3.2.1 with pin
+4.0.0, because with pin 4.1.0 Crocoddyl's dynamics models fail (MemoryError, wrong accelerations).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from gagen.dynamics.rigid_body import SystemDynamics
+from gagen.extras import require
+
+crocoddyl: Any = require("crocoddyl", "gagen.control.torque (torque-level optimal control)")
+
+Array = NDArray[np.float64]
+Evaluate = Callable[[Array], tuple[ArrayLike, ArrayLike]]  # q (system order) -> (r, ∂r/∂q)
+Target = ArrayLike | Callable[[float], ArrayLike]  # V_Sd, or V_Sd(t)
+
+
+class KernelResidual(crocoddyl.ResidualModelAbstract):  # type: ignore[misc]
+    """r(x) = f(q) with ∂r/∂q from a kernel: ``evaluate(q) -> (r, J)``, q and J's columns in the
+    system's joint order; ``order[i]`` is the Pinocchio velocity index of the system's joint i."""
+
+    def __init__(self, state: Any, nu: int, nr: int, evaluate: Evaluate, order: NDArray[np.intp]) -> None:
+        crocoddyl.ResidualModelAbstract.__init__(self, state, nr, nu, True, False, False)
+        self.evaluate, self.order = evaluate, np.asarray(order)
+
+    def _q(self, x: Array) -> Array:
+        return np.asarray(x)[self.order]  # (revolute and prismatic joints: Pinocchio's q is the angle)
+
+    def calc(self, data: Any, x: Array, u: Array | None = None) -> None:
+        r, _ = self.evaluate(self._q(x))
+        data.r[:] = np.asarray(r, dtype=float).reshape(-1)
+
+    def calcDiff(self, data: Any, x: Array, u: Array | None = None) -> None:
+        _, jacobian = self.evaluate(self._q(x))
+        data.Rx[:, self.order] = np.asarray(jacobian, dtype=float).reshape(self.nr, -1)
+
+
+def _plain_joints(dynamics: SystemDynamics) -> None:
+    """Crocoddyl's state is Pinocchio's (q, q̇); a continuous joint's q there is (cos, sin)."""
+    if dynamics.model.nq != dynamics.model.nv:
+        raise ValueError("torque-level control supports revolute and prismatic joints; this system has "
+                         "continuous joints (Pinocchio's (cos q, sin q) configuration)")
+
+
+def task_residual(state: Any, dynamics: SystemDynamics, task: Any, V_Sd: ArrayLike) -> KernelResidual:
+    """The cooperative task error e(q) = log(V_Sc(q)~ V_Sd) and J_Be of a module's ``task`` kernel
+    (usually ``module.c.task``) as a residual of ``state``'s model (7 rows)."""
+    _plain_joints(dynamics)
+    target = np.asarray(V_Sd, dtype=float)
+    return KernelResidual(state, dynamics.dof, 7, lambda q: task(q, target), dynamics.order)
+
+
+@dataclass(frozen=True)
+class Weights:
+    """The cost weights (see the module docstring)."""
+
+    task: float = 1e2
+    terminal: float = 1e5
+    torque: float = 1e-4  # on τ − g(q)
+    velocity: float = 1e-1
+    terminal_velocity: float = 1e2
+    limits: float = 1e6
+
+
+@dataclass
+class TorqueResult:
+    """The solution: states xs (N+1 rows: q, q̇ in the system's order), torques us (N rows), the task
+    error at every node, and the solver's account."""
+
+    t: Array
+    q: Array
+    qdot: Array
+    tau: Array
+    errors: Array  # ‖e(q_k; V_Sd(t_k))‖
+    iterations: int
+    wall_time: float
+    converged: bool
+    cost: float
+    torque_limit: Array
+    position_limits: tuple[Array, Array]
+
+    @property
+    def error_norm(self) -> float:
+        return float(self.errors[-1])
+
+
+def _targets(target: Target, times: Array) -> list[Array]:
+    if callable(target):
+        return [np.asarray(target(float(t)), dtype=float) for t in times]
+    fixed = np.asarray(target, dtype=float)
+    return [fixed] * len(times)
+
+
+def _limits(dynamics: SystemDynamics) -> tuple[Array, Array, Array, Array]:
+    """(lower, upper, velocity, effort) of the model in Pinocchio's order: ±inf where the URDF has none."""
+    model = dynamics.model
+
+    def bounded(values: Any) -> Array:
+        array = np.array(values, dtype=float)
+        array[np.abs(array) >= 1e300] = np.inf  # Pinocchio's "no limit"
+        return array
+
+    return (-bounded(-np.asarray(model.lowerPositionLimit)), bounded(model.upperPositionLimit),
+            bounded(model.velocityLimit), bounded(model.effortLimit))
+
+
+class TorqueOCP:
+    """The cooperative reaching OCP of a system at the torque level (see the module docstring)."""
+
+    def __init__(self, spec: str | Path, task: Any, *, N: int = 50, dt: float = 0.02,
+                 weights: Weights = Weights(), torque_limits: bool = True, joint_limits: bool = True) -> None:
+        self.dynamics = SystemDynamics(spec)
+        _plain_joints(self.dynamics)
+        self.task, self.N, self.dt, self.weights = task, int(N), float(dt), weights
+        self.state = crocoddyl.StateMultibody(self.dynamics.model)
+        self.actuation = crocoddyl.ActuationModelFull(self.state)
+        self.lower, self.upper, self.velocity_limit, self.effort = _limits(self.dynamics)
+        self.torque_limits, self.joint_limits = torque_limits, joint_limits
+
+    def _model(self, V_Sd: Array, terminal: bool) -> Any:
+        w, nu, state = self.weights, self.actuation.nu, self.state
+        costs = crocoddyl.CostModelSum(state, nu)
+        costs.addCost("task", crocoddyl.CostModelResidual(
+            state, task_residual(state, self.dynamics, self.task, V_Sd)), w.terminal if terminal else w.task)
+        nq = self.dynamics.model.nq
+        velocity = crocoddyl.ActivationModelWeightedQuad(np.concatenate([np.zeros(nq), np.ones(nq)]))
+        costs.addCost("velocity", crocoddyl.CostModelResidual(
+            state, velocity, crocoddyl.ResidualModelState(state, state.zero(), nu)),
+            w.terminal_velocity if terminal else w.velocity)
+        if not terminal:
+            costs.addCost("torque", crocoddyl.CostModelResidual(
+                state, crocoddyl.ResidualModelControlGrav(state, nu)), w.torque)
+        if self.joint_limits:
+            bounds = crocoddyl.ActivationBounds(
+                np.concatenate([np.maximum(self.lower, -1e10), -np.minimum(self.velocity_limit, 1e10)]),
+                np.concatenate([np.minimum(self.upper, 1e10), np.minimum(self.velocity_limit, 1e10)]))
+            costs.addCost("limits", crocoddyl.CostModelResidual(
+                state, crocoddyl.ActivationModelQuadraticBarrier(bounds),
+                crocoddyl.ResidualModelState(state, state.zero(), nu)), w.limits)
+        dam = crocoddyl.DifferentialActionModelFreeFwdDynamics(state, self.actuation, costs)
+        model = crocoddyl.IntegratedActionModelEuler(dam, 0.0 if terminal else self.dt)
+        if self.torque_limits and not terminal:
+            model.u_lb, model.u_ub = -np.minimum(self.effort, 1e10), np.minimum(self.effort, 1e10)
+        return model
+
+    def problem(self, q0: ArrayLike, target: Target, qdot0: ArrayLike | None = None) -> tuple[Any, Array]:
+        """Crocoddyl's shooting problem from (q0, q̇0) toward ``target`` (V_Sd or V_Sd(t)), and the times."""
+        d = self.dynamics
+        times = np.arange(self.N + 1, dtype=np.float64) * self.dt
+        targets = _targets(target, times)
+        x0 = np.concatenate([d._to_pin(q0), d._to_pin(np.zeros(d.dof) if qdot0 is None else qdot0)])
+        running = [self._model(v, terminal=False) for v in targets[:-1]]
+        return crocoddyl.ShootingProblem(x0, running, self._model(targets[-1], terminal=True)), times
+
+    def solve(self, q0: ArrayLike, target: Target, *, qdot0: ArrayLike | None = None,
+              max_iterations: int = 200, warm: tuple[list[Array], list[Array]] | None = None) -> TorqueResult:
+        """Solve by box-FDDP from rest at q0 (or ``warm`` = (xs, us) in Crocoddyl's layout)."""
+        problem, times = self.problem(q0, target, qdot0)
+        solver = crocoddyl.SolverBoxFDDP(problem)
+        if warm is None:
+            xs = [problem.x0] * (self.N + 1)
+            us = list(problem.quasiStatic([problem.x0] * self.N))
+        else:
+            xs, us = warm
+        start = time.perf_counter()
+        converged = bool(solver.solve(xs, us, max_iterations, False))
+        wall = time.perf_counter() - start
+        self.solver = solver
+        return self._result(solver, times, target, converged, wall)
+
+    def _result(self, solver: Any, times: Array, target: Target, converged: bool,
+                wall: float) -> TorqueResult:
+        d, n = self.dynamics, self.dynamics.dof
+        xs = np.array(solver.xs)
+        q, qdot = xs[:, :n][:, d.order], xs[:, n:][:, d.order]
+        tau = np.array(solver.us)[:, d.order]
+        errors = np.array([np.linalg.norm(np.asarray(self.task(qk, v)[0]))
+                           for qk, v in zip(q, _targets(target, times), strict=True)])
+        return TorqueResult(times, q, qdot, tau, errors, int(solver.iter), wall, converged,
+                            float(solver.cost), self.effort[d.order],
+                            (self.lower[d.order], self.upper[d.order]))
+
+
+def resimulate(dynamics: SystemDynamics, q0: ArrayLike, qdot0: ArrayLike, tau: ArrayLike,
+               dt: float) -> tuple[Array, Array]:
+    """The states the torques ``tau`` (N rows) give from (q0, q̇0) by Pinocchio's ABA through
+    ``SystemDynamics.forward`` and symplectic Euler (q̇ += q̈ dt, then q += q̇ dt): an integration of
+    our own, to hold a solver's trajectory to."""
+    q, qdot = np.array(q0, dtype=float), np.array(qdot0, dtype=float)
+    qs, qdots = [q.copy()], [qdot.copy()]
+    for torque in np.asarray(tau, dtype=float):
+        qdot = qdot + dynamics.forward(q, qdot, torque) * dt
+        q = q + qdot * dt
+        qs.append(q.copy())
+        qdots.append(qdot.copy())
+    return np.array(qs), np.array(qdots)
