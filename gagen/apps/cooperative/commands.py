@@ -69,7 +69,8 @@ def _reach_arguments(parser: argparse.ArgumentParser) -> None:
     view_arguments(parser, "the optimal trajectory")
 
 
-_reach = _running("scenarios")
+def _reach(args: argparse.Namespace) -> int:
+    return _running("torque_reach" if args.dynamics else "scenarios")(args)
 
 
 def _nullspace_arguments(parser: argparse.ArgumentParser) -> None:

@@ -314,8 +314,9 @@ def plot_trajectory(s: Scenario, m: GeneratedModule, result: OCPResult, path: Pa
 
 
 # -- command line ------------------------------------------------------------------------------------
-def run_command(args: argparse.Namespace) -> int:
-    """``gagen reach`` on its parsed arguments (``gagen.apps.cooperative.commands``)."""
+def chosen_scenarios(args: argparse.Namespace) -> list[Scenario]:
+    """The scenarios ``gagen reach`` names: a bundled one, all, or a system's goals (or the goal given by
+    --translation, --rotation and --dilation)."""
     given = (args.translation, args.rotation, args.dilation)
     if any(v is not None for v in given):  # a goal given on the command line: a move of the ready primitive
         if args.goal is not None or args.scenario == "all":
@@ -326,13 +327,14 @@ def run_command(args: argparse.Namespace) -> int:
                     None if r is None else ((r[0], r[1], r[2]), r[3]), args.dilation or 1.0)
         target = SCENARIOS[args.scenario].system if args.scenario in SCENARIOS else args.scenario
         spec_of(target)  # a ValueError naming the bundled ones for an unknown system
-        chosen = [of_goal(target, goal)]
-    else:
-        chosen = scenarios_of(args.scenario, args.goal)
-    if args.dynamics:
-        from gagen.apps.cooperative.torque_reach import run_scenarios
+        return [of_goal(target, goal)]
+    return list(scenarios_of(args.scenario, args.goal))
 
-        return run_scenarios(chosen, args.out, N=args.N, horizon=args.horizon)
+
+def run_command(args: argparse.Namespace) -> int:
+    """``gagen reach`` on its parsed arguments (``gagen.apps.cooperative.commands``); with --dynamics,
+    ``torque_reach.run_command``."""
+    chosen = chosen_scenarios(args)
     ok = True
     solved = []
     for scenario in chosen:

@@ -4,6 +4,7 @@ Per scenario: a report line and a plot of the torques and the task error."""
 
 from __future__ import annotations
 
+import argparse
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -11,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from gagen.apps.cooperative.scenario_table import Scenario
-from gagen.apps.cooperative.scenarios import module, ready
+from gagen.apps.cooperative.scenarios import chosen_scenarios, module, ready
 from gagen.control.goals import desired
 from gagen.control.torque import TorqueOCP, TorqueResult
 from gagen.robots.goals import Goal
@@ -47,6 +48,11 @@ def plot(scenario: Scenario, result: TorqueResult, path: Path) -> Path:
     errors.set_xlabel("t (s)")
     figure.savefig(path, dpi=110)
     return path
+
+
+def run_command(args: argparse.Namespace) -> int:
+    """``gagen reach --dynamics`` on its parsed arguments (``gagen.apps.cooperative.commands``)."""
+    return run_scenarios(chosen_scenarios(args), args.out, N=args.N, horizon=args.horizon)
 
 
 def run_scenarios(chosen: Sequence[Scenario], out: str | Path, *, N: int, horizon: float) -> int:
