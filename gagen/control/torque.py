@@ -40,6 +40,7 @@ crocoddyl: Any = require("crocoddyl", "gagen.control.torque (torque-level optima
 Array = NDArray[np.float64]
 Evaluate = Callable[[Array], tuple[ArrayLike, ArrayLike]]  # q (system order) -> (r, ∂r/∂q)
 Target = ArrayLike | Callable[[float], ArrayLike]  # V_Sd, or V_Sd(t)
+Points = list[tuple[str, Array]]  # (Pinocchio frame name, target position) per chain end
 
 
 class KernelResidual(crocoddyl.ResidualModelAbstract):  # type: ignore[misc]
@@ -131,6 +132,14 @@ def _limits(dynamics: SystemDynamics) -> tuple[Array, Array, Array, Array]:
             bounded(model.velocityLimit), bounded(model.effortLimit))
 
 
+def _tip_links(spec: str | Path) -> dict[str, str]:
+    """Each URDF chain's tip link by chain name (the frame of its end point in the Pinocchio model)."""
+    import yaml
+
+    return {c["name"]: c["tip_link"] for c in yaml.safe_load(Path(spec).read_text())["chains"]
+            if isinstance(c, dict) and "tip_link" in c}
+
+
 class TorqueOCP:
     """The cooperative reaching OCP of a system at the torque level (see the module docstring)."""
 
@@ -143,12 +152,21 @@ class TorqueOCP:
         self.actuation = crocoddyl.ActuationModelFull(self.state)
         self.lower, self.upper, self.velocity_limit, self.effort = _limits(self.dynamics)
         self.torque_limits, self.joint_limits = torque_limits, joint_limits
+        self.tips = _tip_links(spec)
+        self.solver: Any = None
 
-    def _model(self, V_Sd: Array, terminal: bool) -> Any:
+    def _model(self, V_Sd: Array, terminal: bool, points: Points | None = None) -> Any:
         w, nu, state = self.weights, self.actuation.nu, self.state
         costs = crocoddyl.CostModelSum(state, nu)
-        costs.addCost("task", crocoddyl.CostModelResidual(
-            state, task_residual(state, self.dynamics, self.task, V_Sd)), w.terminal if terminal else w.task)
+        weight = w.terminal if terminal else w.task
+        if points is None:
+            costs.addCost("task", crocoddyl.CostModelResidual(
+                state, task_residual(state, self.dynamics, self.task, V_Sd)), weight)
+        else:  # the conventional formulation: each end point pinned to its target by Crocoddyl's residual
+            for frame, position in points:
+                residual = crocoddyl.ResidualModelFrameTranslation(
+                    state, self.dynamics.model.getFrameId(frame), np.asarray(position, dtype=float), nu)
+                costs.addCost(frame, crocoddyl.CostModelResidual(state, residual), weight)
         nq = self.dynamics.model.nq
         velocity = crocoddyl.ActivationModelWeightedQuad(np.concatenate([np.zeros(nq), np.ones(nq)]))
         costs.addCost("velocity", crocoddyl.CostModelResidual(
@@ -170,19 +188,24 @@ class TorqueOCP:
             model.u_lb, model.u_ub = -np.minimum(self.effort, 1e10), np.minimum(self.effort, 1e10)
         return model
 
-    def problem(self, q0: ArrayLike, target: Target, qdot0: ArrayLike | None = None) -> tuple[Any, Array]:
-        """Crocoddyl's shooting problem from (q0, q̇0) toward ``target`` (V_Sd or V_Sd(t)), and the times."""
+    def problem(self, q0: ArrayLike, target: Target, qdot0: ArrayLike | None = None,
+                points: Points | None = None) -> tuple[Any, Array]:
+        """Crocoddyl's shooting problem from (q0, q̇0) toward ``target`` (V_Sd or V_Sd(t)), and the times;
+        with ``points`` ((Pinocchio frame, target position) per chain end) the conventional formulation
+        instead of the task error."""
         d = self.dynamics
         times = np.arange(self.N + 1, dtype=np.float64) * self.dt
         targets = _targets(target, times)
         x0 = np.concatenate([d._to_pin(q0), d._to_pin(np.zeros(d.dof) if qdot0 is None else qdot0)])
-        running = [self._model(v, terminal=False) for v in targets[:-1]]
-        return crocoddyl.ShootingProblem(x0, running, self._model(targets[-1], terminal=True)), times
+        running = [self._model(v, False, points) for v in targets[:-1]]
+        return crocoddyl.ShootingProblem(x0, running, self._model(targets[-1], True, points)), times
 
     def solve(self, q0: ArrayLike, target: Target, *, qdot0: ArrayLike | None = None,
-              max_iterations: int = 200, warm: tuple[list[Array], list[Array]] | None = None) -> TorqueResult:
-        """Solve by box-FDDP from rest at q0 (or ``warm`` = (xs, us) in Crocoddyl's layout)."""
-        problem, times = self.problem(q0, target, qdot0)
+              max_iterations: int = 200, warm: tuple[list[Array], list[Array]] | None = None,
+              points: Points | None = None) -> TorqueResult:
+        """Solve by box-FDDP from rest at q0 (or ``warm`` = (xs, us) in Crocoddyl's layout); ``points``:
+        see ``problem`` (the result's errors are still the task error toward ``target``)."""
+        problem, times = self.problem(q0, target, qdot0, points)
         solver = crocoddyl.SolverBoxFDDP(problem)
         if warm is None:
             xs = [problem.x0] * (self.N + 1)
@@ -194,6 +217,21 @@ class TorqueOCP:
         wall = time.perf_counter() - start
         self.solver = solver
         return self._result(solver, times, target, converged, wall)
+
+    def end_points(self, q: ArrayLike) -> Points:
+        """(Pinocchio frame, position) of every chain's end at q: the conventional formulation's targets
+        when q reaches the goal (each chain's tip link; chains with a tool offset are not supported)."""
+        d = self.dynamics
+        data = d.model.createData()
+        pinocchio = require("pinocchio", "gagen.control.torque")
+        pinocchio.framesForwardKinematics(d.model, data, d._config(q))
+        points = []
+        for chain in d.system.chains:
+            if chain.joints[-1].name == f"{chain.name}_tool":
+                raise ValueError(f"chain {chain.name} has a tool offset: no Pinocchio frame at its end point")
+            frame = f"{chain.robot or chain.name}/{self.tips[chain.name]}"
+            points.append((frame, np.array(data.oMf[d.model.getFrameId(frame)].translation)))
+        return points
 
     def _result(self, solver: Any, times: Array, target: Target, converged: bool,
                 wall: float) -> TorqueResult:

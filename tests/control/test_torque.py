@@ -148,3 +148,17 @@ def test_gagen_reach_dynamics_reports_and_plots(tmp_path, capsys):
     assert "circle (three_pandas_circle, 21 DOF, N = 50): box-FDDP, torque level" in out and "reached" in out
     assert "joints within limits: True" in out
     assert (tmp_path / "circle_torques.png").stat().st_size > 10_000
+
+
+def test_the_conventional_formulation_reaches_the_same_circle(circle):
+    """The end points pinned by Crocoddyl's frame-translation residuals, at the points of gagen's solution:
+    the same circle, so the task error (gagen's kernel, evaluated after the solve) is as small."""
+    m, q0, V_Sd, ocp, result = circle
+    points = ocp.end_points(result.q[-1])
+    assert [frame for frame, _ in points] == ["arm0/panda_link8", "arm1/panda_link8", "arm2/panda_link8"]
+    conventional = ocp.solve(q0, V_Sd, points=points, max_iterations=100)
+    assert conventional.converged
+    assert conventional.error_norm <= 1e-4 and result.error_norm <= 1e-4, (conventional.errors[-1],
+                                                                           result.errors[-1])
+    reached = ocp.end_points(conventional.q[-1])
+    assert max(np.abs(p - r).max() for (_, p), (_, r) in zip(points, reached, strict=True)) <= 1e-4
