@@ -23,7 +23,12 @@ Crocoddyl's wheels need a Pinocchio of the same release: ``gagen[ocp]`` pins cro
 
 from __future__ import annotations
 
+import hashlib
+import os
+import sys
+import threading
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -63,6 +68,67 @@ class KernelResidual(crocoddyl.ResidualModelAbstract):  # type: ignore[misc]
         data.Rx[:, self.order] = np.asarray(jacobian, dtype=float).reshape(self.nr, -1)
 
 
+NATIVE_SOURCE = Path(__file__).with_name("crocoddyl_residual.cpp")
+_NATIVE_LOCK = threading.Lock()
+_NATIVE: dict[str, Any] = {}
+
+
+def native_residuals() -> Any:
+    """The C++ residual (``crocoddyl_residual.cpp``) compiled against the installed Crocoddyl, Pinocchio
+    and Boost.Python headers into gagen's cache (once per source and library versions) and imported: its
+    ``KernelResidual(state, nu, nr, address, parameter, order, has_parameter)`` calls a generated C
+    kernel from Crocoddyl's loop. A CompileError when no C++ compiler or header is found."""
+    with _NATIVE_LOCK:
+        if "module" not in _NATIVE:
+            _NATIVE["module"] = _compile_native()
+        return _NATIVE["module"]
+
+
+def _compile_native() -> Any:
+    import importlib.util
+    import subprocess
+    import sysconfig
+
+    import pinocchio
+
+    from gagen.build import cache_root
+    from gagen.codegen.compiler import CompileError, extension_path
+
+    prefix = Path(crocoddyl.__file__).resolve().parents[4]  # .../cmeel.prefix/lib/pythonX.Y/site-packages/
+    include = prefix / "include"
+    python = sysconfig.get_paths()["include"]
+    boost_python = f"boost_python{sys.version_info.major}{sys.version_info.minor}"
+    # (Crocoddyl 3.2.1's headers include Pinocchio's 3.x paths, which Pinocchio 4 keeps under deprecated/)
+    includes = [include, include / "pinocchio" / "deprecated", include / "eigen3", python]
+    flags = ["-std=c++17", "-O2", "-fPIC", "-shared", "-w", *(f"-I{path}" for path in includes)]
+    libraries = [f"-L{prefix / 'lib'}", "-lcrocoddyl", f"-l{boost_python}", "-lpinocchio_default",
+                 f"-Wl,-rpath,{prefix / 'lib'}"]  # (after the source: the linker drops unneeded libraries)
+    source = NATIVE_SOURCE.read_bytes()
+    versions = f"{crocoddyl.__version__} {pinocchio.__version__} {' '.join(flags + libraries)}"
+    module = f"gagen_crocoddyl_{hashlib.sha256(source + versions.encode()).hexdigest()[:12]}"
+    folder = cache_root() / "crocoddyl"
+    target = extension_path(folder, module)
+    if not target.exists():
+        folder.mkdir(parents=True, exist_ok=True)
+        compiler = os.environ.get("CXX", "c++")
+        partial = target.with_name(f"{target.name}.{os.getpid()}.{threading.get_ident()}.partial")
+        command = [compiler, *flags, f"-DGAGEN_MODULE={module}", "-o", str(partial), str(NATIVE_SOURCE),
+                   *libraries]
+        try:
+            done = subprocess.run(command, capture_output=True, text=True)
+        except OSError as e:
+            raise CompileError(f"no C++ compiler ({compiler}): {e}") from e
+        if done.returncode != 0:
+            partial.unlink(missing_ok=True)
+            raise CompileError(f"{' '.join(command)} failed:\n{done.stderr.strip()[-2000:]}")
+        partial.replace(target)
+    spec = importlib.util.spec_from_file_location(module, target)
+    assert spec is not None and spec.loader is not None
+    loaded = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(loaded)
+    return loaded
+
+
 def _plain_joints(dynamics: SystemDynamics) -> None:
     """Crocoddyl's state is Pinocchio's (q, q̇); a continuous joint's q there is (cos, sin)."""
     if dynamics.model.nq != dynamics.model.nv:
@@ -70,11 +136,19 @@ def _plain_joints(dynamics: SystemDynamics) -> None:
                          "continuous joints (Pinocchio's (cos q, sin q) configuration)")
 
 
-def task_residual(state: Any, dynamics: SystemDynamics, task: Any, V_Sd: ArrayLike) -> KernelResidual:
+def task_residual(state: Any, dynamics: SystemDynamics, task: Any, V_Sd: ArrayLike, *,
+                  native: bool = False) -> Any:
     """The cooperative task error e(q) = log(V_Sc(q)~ V_Sd) and J_Be of a module's ``task`` kernel
-    (usually ``module.c.task``) as a residual of ``state``'s model (7 rows)."""
+    (usually ``module.c.task``) as a residual of ``state``'s model (7 rows): ``KernelResidual`` (Python),
+    or with ``native`` the C++ one (``native_residuals``), which calls the kernel's C function itself."""
     _plain_joints(dynamics)
     target = np.asarray(V_Sd, dtype=float)
+    if native:
+        address = int(getattr(task, "address", 0) or 0)
+        if not address:
+            raise ValueError("the C++ residual needs a compiled kernel of a generated module (module.c.task)")
+        return native_residuals().KernelResidual(state, dynamics.dof, 7, address, target,
+                                                 np.asarray(dynamics.order, dtype=np.int32), True)
     return KernelResidual(state, dynamics.dof, 7, lambda q: task(q, target), dynamics.order)
 
 
@@ -132,6 +206,20 @@ def _limits(dynamics: SystemDynamics) -> tuple[Array, Array, Array, Array]:
             bounded(model.velocityLimit), bounded(model.effortLimit))
 
 
+def _native_possible(task: Any) -> bool:
+    if not getattr(task, "address", 0):
+        return False
+    from gagen.codegen.compiler import CompileError
+
+    try:
+        native_residuals()
+    except CompileError as e:
+        warnings.warn(f"the task residual runs through Python: the C++ one did not compile ({e})",
+                      stacklevel=3)
+        return False
+    return True
+
+
 def _tip_links(spec: str | Path) -> dict[str, str]:
     """Each URDF chain's tip link by chain name (the frame of its end point in the Pinocchio model)."""
     import yaml
@@ -144,7 +232,8 @@ class TorqueOCP:
     """The cooperative reaching OCP of a system at the torque level (see the module docstring)."""
 
     def __init__(self, spec: str | Path, task: Any, *, N: int = 50, dt: float = 0.02,
-                 weights: Weights = Weights(), torque_limits: bool = True, joint_limits: bool = True) -> None:
+                 weights: Weights = Weights(), torque_limits: bool = True, joint_limits: bool = True,
+                 native: bool | None = None) -> None:
         self.dynamics = SystemDynamics(spec)
         _plain_joints(self.dynamics)
         self.task, self.N, self.dt, self.weights = task, int(N), float(dt), weights
@@ -154,6 +243,8 @@ class TorqueOCP:
         self.torque_limits, self.joint_limits = torque_limits, joint_limits
         self.tips = _tip_links(spec)
         self.solver: Any = None
+        # the C++ residual where the kernel is compiled C and a C++ compiler is found, else the Python one
+        self.native = _native_possible(task) if native is None else native
 
     def _model(self, V_Sd: Array, terminal: bool, points: Points | None = None) -> Any:
         w, nu, state = self.weights, self.actuation.nu, self.state
@@ -161,7 +252,7 @@ class TorqueOCP:
         weight = w.terminal if terminal else w.task
         if points is None:
             costs.addCost("task", crocoddyl.CostModelResidual(
-                state, task_residual(state, self.dynamics, self.task, V_Sd)), weight)
+                state, task_residual(state, self.dynamics, self.task, V_Sd, native=self.native)), weight)
         else:  # the conventional formulation: each end point pinned to its target by Crocoddyl's residual
             for frame, position in points:
                 residual = crocoddyl.ResidualModelFrameTranslation(

@@ -28,14 +28,15 @@ def _target(module, q):
     return np.array(module.c.similarity(q)[0])
 
 
-def test_the_task_residual_equals_central_differences():
+@pytest.mark.parametrize("native", [False, True], ids=["python", "c++"])
+def test_the_task_residual_equals_central_differences(native):
     m = bundled_module("three_pandas_circle")
     dynamics = SystemDynamics(spec_of("three_pandas_circle"))
     state = crocoddyl.StateMultibody(dynamics.model)
     rng = np.random.default_rng(7)
     q0 = ready("three_pandas_circle")
     V_Sd = _target(m, q0 + rng.normal(0, 0.2, q0.size))
-    residual = task_residual(state, dynamics, m.c.task, V_Sd)
+    residual = task_residual(state, dynamics, m.c.task, V_Sd, native=native)
     data, _ = _residual_data(dynamics, residual)
     for _ in range(3):
         q = q0 + rng.normal(0, 0.3, q0.size)
@@ -59,7 +60,8 @@ def test_the_task_residual_equals_central_differences():
         assert np.all(Rx[:, q.size:] == 0)  # no velocity dependence
 
 
-def test_on_a_point_the_task_residual_is_crocoddyls_frame_translation():
+@pytest.mark.parametrize("native", [False, True], ids=["python", "c++"])
+def test_on_a_point_the_task_residual_is_crocoddyls_frame_translation(native):
     """A point primitive on one chain: e's translation part is −(p(q) − p_d), the frame-translation
     residual of the flange with its sign turned, and its Jacobian rows −R_x (LOCAL_WORLD_ALIGNED)."""
     m = bundled_module("panda_point")
@@ -70,7 +72,7 @@ def test_on_a_point_the_task_residual_is_crocoddyls_frame_translation():
     frame = dynamics.model.getFrameId("arm0/panda_link8")
     data = dynamics.model.createData()
     pinocchio.framesForwardKinematics(dynamics.model, data, q_target)
-    ours = task_residual(state, dynamics, m.c.task, _target(m, q_target))
+    ours = task_residual(state, dynamics, m.c.task, _target(m, q_target), native=native)
     theirs = crocoddyl.ResidualModelFrameTranslation(state, frame, data.oMf[frame].translation.copy(), 7)
     for _ in range(5):
         q = ready("panda_point") + rng.normal(0, 0.4, 7)
@@ -87,6 +89,45 @@ def test_on_a_point_the_task_residual_is_crocoddyls_frame_translation():
         np.testing.assert_allclose(np.array(our_data.r)[translation], -np.array(their_data.r), atol=1e-12)
         np.testing.assert_allclose(np.array(our_data.Rx)[translation], -np.array(their_data.Rx), atol=1e-12)
         assert np.abs(np.array(our_data.r)[:4]).max() <= 1e-12  # no rotation or dilation error for a point
+
+
+def test_the_cpp_residual_is_the_python_one_bit_for_bit():
+    """The C++ residual (crocoddyl_residual.cpp, the kernel called from Crocoddyl's loop) and the Python
+    one give the same r and R_x, bit for bit, and so the same solution."""
+    m = bundled_module("three_pandas_circle")
+    dynamics = SystemDynamics(spec_of("three_pandas_circle"))
+    state = crocoddyl.StateMultibody(dynamics.model)
+    q0 = ready("three_pandas_circle")
+    V_Sd = desired(SCENARIOS["circle"].goal, _target(m, q0), "circle")
+    python, native = (task_residual(state, dynamics, m.c.task, V_Sd, native=n) for n in (False, True))
+    rng = np.random.default_rng(11)
+    for _ in range(20):
+        x, u = np.concatenate([q0 + rng.normal(0, 0.5, 21), rng.normal(0, 1, 21)]), np.zeros(21)
+        datas = [_residual_data(dynamics, r)[0] for r in (python, native)]
+        for model, d in zip((python, native), datas, strict=True):
+            model.calc(d, x, u)
+            model.calcDiff(d, x, u)
+        np.testing.assert_array_equal(np.array(datas[0].r), np.array(datas[1].r))
+        np.testing.assert_array_equal(np.array(datas[0].Rx), np.array(datas[1].Rx))
+    spec = spec_of("three_pandas_circle")
+    ocps = [TorqueOCP(spec, m.c.task, N=20, dt=0.05, native=n) for n in (False, True)]
+    first, second = (ocp.solve(q0, V_Sd, max_iterations=30) for ocp in ocps)
+    assert first.iterations == second.iterations
+    np.testing.assert_allclose(first.q, second.q, atol=1e-12)
+    np.testing.assert_allclose(first.tau, second.tau, atol=1e-9)
+
+
+def test_the_cpp_residual_needs_a_compiled_kernel():
+    m = bundled_module("three_pandas_circle")
+    dynamics = SystemDynamics(spec_of("three_pandas_circle"))
+    state = crocoddyl.StateMultibody(dynamics.model)
+
+    def python_task(q, V_Sd):
+        return m.c.task(q, V_Sd)
+
+    with pytest.raises(ValueError, match="needs a compiled kernel"):
+        task_residual(state, dynamics, python_task, np.zeros(12), native=True)
+    assert not TorqueOCP(spec_of("three_pandas_circle"), python_task).native  # (the Python residual then)
 
 
 @pytest.fixture(scope="module")
@@ -153,7 +194,7 @@ def test_gagen_reach_dynamics_reports_and_plots(tmp_path, capsys):
 def test_the_conventional_formulation_reaches_the_same_circle(circle):
     """The end points pinned by Crocoddyl's frame-translation residuals, at the points of gagen's solution:
     the same circle, so the task error (gagen's kernel, evaluated after the solve) is as small."""
-    m, q0, V_Sd, ocp, result = circle
+    _, q0, V_Sd, ocp, result = circle
     points = ocp.end_points(result.q[-1])
     assert [frame for frame, _ in points] == ["arm0/panda_link8", "arm1/panda_link8", "arm2/panda_link8"]
     conventional = ocp.solve(q0, V_Sd, points=points, max_iterations=100)
