@@ -9,9 +9,10 @@ and joint limits, from rest at the ready configuration): the OCP of ``gagen.cont
   from Python (``KernelResidual``);
 - the conventional residuals a Crocoddyl user writes: each chain's flange pinned by Crocoddyl's C++
   ``ResidualModelFrameTranslation`` at the points of gagen's solution (the same circle).
-Per formulation: the median solve time, iterations, time per iteration, gagen's residual's share of it (its
-kernel calls, timed; the C++ residuals run inside Crocoddyl, untimed), and the final task error ‖e‖ from
-gagen's kernel. Not part of the test suite.
+gagen's residual runs twice: the C++ one (``crocoddyl_residual.cpp``: the kernel called from Crocoddyl's
+loop) and the Python one. Per row: the median solve time, iterations, time per iteration, the Python
+residual's kernel calls' share of it (timed; the C++ residuals run inside Crocoddyl, untimed), and the
+final task error ‖e‖ from gagen's kernel. Not part of the test suite.
 """
 
 from __future__ import annotations
@@ -65,23 +66,26 @@ def main() -> int:
         q0 = ready(system)
         V_Sd = desired(goal, np.array(m.c.similarity(q0)[0]), m.manifest["primitive"])
         task = Timed(m.c.task)
-        ocp = TorqueOCP(spec_of(system), task, N=args.N, dt=2.5 / args.N)
+        python = TorqueOCP(spec_of(system), task, N=args.N, dt=2.5 / args.N, native=False)
+        native = TorqueOCP(spec_of(system), m.c.task, N=args.N, dt=2.5 / args.N, native=True)
         points = None
-        for label in ("gagen task residual (C kernel via Python)",
-                      "conventional: 3 frame translations (C++)"):
+        rows_of = (("gagen task residual, C++ (the C kernel called by Crocoddyl)", native, False),
+                   ("gagen task residual, Python (KernelResidual)", python, False),
+                   ("conventional: 3 frame translations (C++)", native, True))
+        for label, ocp, conventional in rows_of:
             times, shares = [], []
             for _ in range(args.repeats):
                 task.seconds = 0.0
-                result = ocp.solve(q0, V_Sd, points=points)
+                result = ocp.solve(q0, V_Sd, points=points if conventional else None)
                 times.append(result.wall_time)
                 shares.append(task.seconds)
             wall = statistics.median(times)
-            share = f"{100 * statistics.median(shares) / wall:.0f} %" if points is None else "– (C++, inside)"
+            share = f"{100 * statistics.median(shares) / wall:.0f} %" if ocp is python else "–"
             rows.append([system, label, f"{wall * 1e3:.0f}", result.iterations,
                          f"{wall / result.iterations * 1e3:.1f}", share,
                          f"{result.error_norm:.1e}", "yes" if result.converged else "no"])
             if points is None:
-                points = ocp.end_points(result.q[-1])
+                points = ocp.end_points(result.q[-1])  # the conventional targets: gagen's solution's points
     print(f"# Torque-level reaching, box-FDDP (Crocoddyl)\n\n{machine()}\n")
     print(table(["scenario", "residual", "solve ms (median)", "iterations", "ms / iteration",
                  "residuals' share", "final ‖e‖", "converged"], "llrrrrrl", rows))
