@@ -16,6 +16,7 @@ EXTRAS = {
     "tqdm": "sweep",
     "pinocchio": "dynamics",
     "crocoddyl": "ocp",
+    "mujoco": "sim",
     "pyspacemouse": "teleop",
     "jax": "jax",
     "jaxlib": "jax",

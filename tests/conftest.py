@@ -48,7 +48,7 @@ def _tier_applies(config) -> bool:
 # (``bundled_module``: a fresh clone has no CasADi files, so the committed ones are rebuilt, to the same
 # bytes, and compiled: ≈ 5 s panda_point, ≈ 15 s three_pandas_circle on a 2-core VM; every other bundled
 # module is built into the gagen cache, 5-30 s), so a test that needs any other module is ``compiling``.
-FAST_MODULES = frozenset({"panda_point", "three_pandas_circle"})
+FAST_MODULES = frozenset({"panda_point", "three_pandas_circle", "three_iiwas_circle"})
 
 REPO = Path(__file__).resolve().parents[1]
 # every bundled source by module name: each app's specs and the example Python files of kernels

@@ -64,6 +64,7 @@ def test_a_verb_without_its_extra_is_one_line_and_exit_status_2(argv, extra, tmp
     ("import gagen.sweep.engine", "sweep"),
     ("import gagen.sweep.store", "sweep"),
     ("import gagen.control.torque", "ocp"),
+    ("import gagen.dynamics.mujoco_model", "sim"),
     ("from gagen.robots.spec import load_system\nfrom gagen.registry import bundled_specs\n"
      "from gagen.viewer import Scene\nScene(load_system(bundled_specs()['panda_point'])[0], port=0)",
      "viewer"),
@@ -80,7 +81,7 @@ def test_every_extra_named_exists_and_all_brings_them():
 
     extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
     assert set(EXTRAS.values()) <= set(extras)
-    named = ["sweep", "jax", "dynamics", "viewer", "teleop", "ocp"]
+    named = ["sweep", "jax", "dynamics", "viewer", "teleop", "ocp", "sim"]
     assert extras["all"] == [f"gagen[{','.join(named)}]"]
     assert set(EXTRAS.values()) <= set(named)
 

@@ -1,0 +1,69 @@
+"""An optimal torque trajectory (``gagen.control.torque``) played in MuJoCo, closed by a joint-space PD
+around it: τ = τ*(t) + M(q) (K_p (q*(t) − q) + K_d (q̇*(t) − q̇)), at the simulator's rate. The PD acts
+through the mass matrix (gains in 1/s², 1/s), so a light wrist and a heavy shoulder get the same
+bandwidth and the explicit integration stays stable. q*, q̇* are linear
+between the solution's nodes, and τ* is held over each interval as the solver applied it. The simulated
+robot is ``gagen.dynamics.mujoco_model``'s: the same URDF inertias in another engine and integrator. The
+PD absorbs that difference, so the task error the loop reaches measures how well the plan carries over.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from gagen.control.torque import TorqueResult
+from gagen.dynamics.mujoco_model import MujocoSystem
+
+Array = NDArray[np.float64]
+
+
+@dataclass
+class LoopResult:
+    """The simulated run: times, joint positions and velocities, applied torques (every step)."""
+
+    t: Array
+    q: Array
+    qdot: Array
+    tau: Array
+
+
+def reference(plan: TorqueResult, t: float) -> tuple[Array, Array, Array]:
+    """(q*, q̇*, τ*) of the plan at time t: states linear between nodes, the torque of the interval."""
+    dt = float(plan.t[1] - plan.t[0])
+    k = min(int(t / dt), len(plan.tau) - 1)
+    s = min(max(t / dt - k, 0.0), 1.0)
+    q = (1 - s) * plan.q[k] + s * plan.q[k + 1]
+    qdot = (1 - s) * plan.qdot[k] + s * plan.qdot[k + 1]
+    return q, qdot, plan.tau[k]
+
+
+def track(sim: MujocoSystem, plan: TorqueResult, *, kp: float = 400.0, kd: float = 40.0,
+          duration: float | None = None) -> LoopResult:
+    """Run the plan from its first state for ``duration`` (default: the plan's horizon; after it, the
+    last state is held with MuJoCo's own bias forces as the feedforward) in MuJoCo at its timestep."""
+    sim.set_state(plan.q[0], plan.qdot[0])
+    dt = float(sim.model.opt.timestep)
+    horizon = float(plan.t[-1])
+    steps = round((horizon if duration is None else duration) / dt)
+    ts, qs, qdots, taus = [], [], [], []
+    for i in range(steps):
+        t = i * dt
+        q, qdot = sim.state()
+        q_ref, qdot_ref, tau_ref = reference(plan, min(t, horizon))
+        if t >= horizon:  # past the plan: hold its last state against gravity (MuJoCo's bias forces)
+            qdot_ref, tau_ref = np.zeros_like(qdot_ref), sim.bias_now()
+        feedback = sim.current_mass_matrix() @ (kp * (q_ref - q) + kd * (qdot_ref - qdot))
+        tau = np.clip(tau_ref + feedback, -sim.effort, sim.effort)
+        ts.append(t)
+        qs.append(q)
+        qdots.append(qdot)
+        taus.append(tau)
+        sim.step(tau)
+    q, qdot = sim.state()
+    ts.append(steps * dt)
+    qs.append(q)
+    qdots.append(qdot)
+    return LoopResult(np.array(ts), np.array(qs), np.array(qdots), np.array(taus))
