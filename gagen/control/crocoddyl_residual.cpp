@@ -59,6 +59,12 @@ class GagenKernelResidual : public crocoddyl::ResidualModelAbstract {
     calcDiff(data, x, Eigen::VectorXd::Zero(nu_));
   }
 
+  const Eigen::VectorXd &get_parameter() const { return parameter_; }
+  void set_parameter(const Eigen::VectorXd &parameter) {
+    if (parameter.size() != parameter_.size()) throw std::invalid_argument("a parameter of another size");
+    parameter_ = parameter;
+  }
+
  private:
   void evaluate(const Eigen::Ref<const Eigen::VectorXd> &x, Eigen::VectorXd &value, Eigen::MatrixXd &jacobian) {
     Eigen::VectorXd q(order_.size());
@@ -92,7 +98,11 @@ GAGEN_PYTHON_MODULE(GAGEN_MODULE) {
       .def<Calc>("calc", &GagenKernelResidual::calc, bp::args("self", "data", "x", "u"))
       .def<Calc>("calcDiff", &GagenKernelResidual::calcDiff, bp::args("self", "data", "x", "u"))
       .def("createData", &GagenKernelResidual::createData, bp::with_custodian_and_ward_postcall<0, 2>(),
-           bp::args("self", "collector"));
+           bp::args("self", "collector"))
+      .add_property("parameter",
+                    bp::make_function(&GagenKernelResidual::get_parameter,
+                                      bp::return_value_policy<bp::copy_const_reference>()),
+                    &GagenKernelResidual::set_parameter, "the kernel's parameter (V_Sd): set it to move the target");
   bp::implicitly_convertible<std::shared_ptr<GagenKernelResidual>,
                              std::shared_ptr<crocoddyl::ResidualModelAbstract>>();
 }

@@ -43,18 +43,25 @@ from gagen.extras import require
 crocoddyl: Any = require("crocoddyl", "gagen.control.torque (torque-level optimal control)")
 
 Array = NDArray[np.float64]
-Evaluate = Callable[[Array], tuple[ArrayLike, ArrayLike]]  # q (system order) -> (r, ∂r/∂q)
 Target = ArrayLike | Callable[[float], ArrayLike]  # V_Sd, or V_Sd(t)
 Points = list[tuple[str, Array]]  # (Pinocchio frame name, target position) per chain end
 
 
 class KernelResidual(crocoddyl.ResidualModelAbstract):  # type: ignore[misc]
-    """r(x) = f(q) with ∂r/∂q from a kernel: ``evaluate(q) -> (r, J)``, q and J's columns in the
-    system's joint order; ``order[i]`` is the Pinocchio velocity index of the system's joint i."""
+    """r(x) = f(q) with ∂r/∂q from a kernel: ``evaluate(q) -> (r, J)``, or ``evaluate(q, parameter)``
+    when a ``parameter`` vector is given (the task kernel's V_Sd; set it anew to move the target), q and
+    J's columns in the system's joint order; ``order[i]`` is the Pinocchio velocity index of joint i."""
 
-    def __init__(self, state: Any, nu: int, nr: int, evaluate: Evaluate, order: NDArray[np.intp]) -> None:
+    def __init__(self, state: Any, nu: int, nr: int, evaluate: Callable[..., Any], order: NDArray[np.intp],
+                 parameter: ArrayLike | None = None) -> None:
         crocoddyl.ResidualModelAbstract.__init__(self, state, nr, nu, True, False, False)
-        self.evaluate, self.order = evaluate, np.asarray(order)
+        self.function, self.order = evaluate, np.asarray(order)
+        self.parameter = None if parameter is None else np.asarray(parameter, dtype=float)
+
+    def evaluate(self, q: Array) -> tuple[ArrayLike, ArrayLike]:
+        result: tuple[ArrayLike, ArrayLike] = self.function(q) if self.parameter is None else \
+            self.function(q, self.parameter)
+        return result
 
     def _q(self, x: Array) -> Array:
         return np.asarray(x)[self.order]  # (revolute and prismatic joints: Pinocchio's q is the angle)
@@ -149,7 +156,7 @@ def task_residual(state: Any, dynamics: SystemDynamics, task: Any, V_Sd: ArrayLi
             raise ValueError("the C++ residual needs a compiled kernel of a generated module (module.c.task)")
         return native_residuals().KernelResidual(state, dynamics.dof, 7, address, target,
                                                  np.asarray(dynamics.order, dtype=np.int32), True)
-    return KernelResidual(state, dynamics.dof, 7, lambda q: task(q, target), dynamics.order)
+    return KernelResidual(state, dynamics.dof, 7, task, dynamics.order, target)
 
 
 @dataclass(frozen=True)

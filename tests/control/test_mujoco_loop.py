@@ -66,3 +66,28 @@ def test_the_plan_played_in_mujoco_reaches_the_circle(sim):
     # without the feedback the plan alone drifts: the loop is what carries it over
     open_loop = track(sim, plan, kp=0.0, kd=0.0, duration=1.0)
     assert np.linalg.norm(m.c.task(open_loop.q[-1], V_Sd)[0]) > 10 * final
+
+
+def test_torque_mpc_in_mujoco_tracks_a_moving_growing_tilting_circle(sim):
+    """Receding-horizon box-FDDP (N = 20 × 20 ms, 2 iterations a tick, warm-started) at 50 Hz closing the
+    loop in MuJoCo at 1 kHz, the circle moving 5 cm/s forward and 3 cm/s up, tilting 0.1 rad/s and
+    growing 10 %/s: over 1 s the task error stays below 0.02, while standing still would leave ≥ 0.1."""
+    from gagen.control.torque_mpc import TorqueMPC, run
+
+    m = bundled_module(SYSTEM)
+    q0 = ready(SYSTEM)
+    V_Sc0 = m.c.similarity(q0)[0]
+
+    def target(t):
+        return target_from(V_Sc0, (0.05 * t, 0.0, 0.03 * t), ((1.0, 0.0, 0.0), 0.1 * t), 1.0 + 0.1 * t,
+                           kind="circle")
+
+    mpc = TorqueMPC(TorqueOCP(spec_of(SYSTEM), m.c.task, N=20, dt=0.02), q0, target, iterations=2)
+    loop = run(sim, mpc, duration=1.0, rate=50)
+    assert len(loop.tick_t) == 50 and len(loop.t) == 1000 and np.all(loop.iterations >= 1)
+    # the error the loop reports is the kernel's at the measured state, recomputed here at the last tick
+    k = round(loop.tick_t[-1] / 1e-3)
+    assert loop.errors[-1] == pytest.approx(np.linalg.norm(m.c.task(loop.q[k], target(loop.tick_t[-1]))[0]))
+    standing = np.linalg.norm(m.c.task(q0, target(loop.tick_t[-1]))[0])
+    assert loop.errors.max() <= 0.02 and standing >= 0.1, (loop.errors.max(), standing)
+    assert np.all(np.abs(loop.tau) <= sim.effort)
