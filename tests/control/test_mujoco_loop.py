@@ -91,3 +91,22 @@ def test_torque_mpc_in_mujoco_tracks_a_moving_growing_tilting_circle(sim):
     standing = np.linalg.norm(m.c.task(q0, target(loop.tick_t[-1]))[0])
     assert loop.errors.max() <= 0.02 and standing >= 0.1, (loop.errors.max(), standing)
     assert np.all(np.abs(loop.tau) <= sim.effort)
+
+
+def test_gagen_mpc_dynamics_reports_plots_and_animates(tmp_path, capsys):
+    from gagen.cli import main
+
+    assert main(["mpc", "--dynamics", "--duration", "0.3", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "# Torque-level MPC: three_iiwas_circle in MuJoCo" in out and "15 ticks at 50 Hz" in out
+    for name in ("torque_mpc_report.md", "torque_mpc.png", "torque_mpc.gif"):
+        assert (tmp_path / name).stat().st_size > 300, name
+
+
+def test_gagen_mpc_dynamics_on_the_pandas_is_one_line(capsys):
+    """MuJoCo refuses the published Panda's inertia: one line naming the URDF, exit status 2."""
+    from gagen.cli import main
+
+    assert main(["mpc", "three_pandas_circle", "--dynamics", "--duration", "0.1", "--no-animation"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "panda.urdf: MuJoCo cannot load it" in err[0], err

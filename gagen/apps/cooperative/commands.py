@@ -107,18 +107,23 @@ _impedance = _running("impedance_demo")
 
 
 def _mpc_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("system", nargs="?", default="three_pandas_circle",
+    parser.add_argument("system", nargs="?",
                         help="a system spanning a circle: a spec file or a bundled one (default "
-                             "three_pandas_circle)")
+                             "three_pandas_circle; with --dynamics three_iiwas_circle)")
     parser.add_argument("--out", type=Path, default=Path("plots/mpc"),
                         help="folder for the report, plots and GIF (default plots/mpc/)")
-    parser.add_argument("--rate", type=positive_float, default=100.0, help="control rate in Hz (default 100)")
+    parser.add_argument("--rate", type=positive_float,
+                        help="control rate in Hz (default 100; with --dynamics 50)")
+    parser.add_argument("--dynamics", action=FlagNeeding, module="mujoco",
+                        help="at the torque level: box-FDDP MPC (Crocoddyl) closing the loop in MuJoCo "
+                             "(gagen[ocp,sim])")
     parser.add_argument("--duration", type=positive_float, default=4.0, help="seconds (default 4)")
     parser.add_argument("--no-animation", action="store_true", help="skip the GIF")
     view_arguments(parser, "the run")
 
 
-_mpc = _running("mpc_demo")
+def _mpc(args: argparse.Namespace) -> int:
+    return _running("torque_mpc_demo" if args.dynamics else "mpc_demo")(args)
 
 
 def _teleop_arguments(parser: argparse.ArgumentParser) -> None:

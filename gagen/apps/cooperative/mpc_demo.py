@@ -167,6 +167,8 @@ def run_command(args: argparse.Namespace) -> int:
     """``gagen mpc`` on its parsed arguments (``gagen.apps.cooperative.commands``)."""
     from gagen.apps.cooperative.scenarios import system_of
 
+    args.system = args.system or SYSTEM
+    args.rate = args.rate or 100.0
     module, q0, target = setup(args.system)
     loaded = system_of(args.system)
     limits = joint_limits(loaded)[:2]
