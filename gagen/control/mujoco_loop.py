@@ -1,10 +1,13 @@
-"""An optimal torque trajectory (``gagen.control.torque``) played in MuJoCo, closed by a joint-space PD
-around it: τ = τ*(t) + M(q) (K_p (q*(t) − q) + K_d (q̇*(t) − q̇)), at the simulator's rate. The PD acts
-through the mass matrix (gains in 1/s², 1/s), so a light wrist and a heavy shoulder get the same
-bandwidth and the explicit integration stays stable. q*, q̇* are linear
-between the solution's nodes, and τ* is held over each interval as the solver applied it. The simulated
-robot is ``gagen.dynamics.mujoco_model``'s: the same URDF inertias in another engine and integrator. The
-PD absorbs that difference, so the task error the loop reaches measures how well the plan carries over.
+"""Controllers closing their loop in MuJoCo (``gagen.dynamics.mujoco_model``: the same URDF inertias
+in another engine and integrator).
+
+- ``impedance``: the similarity impedance law of ``gagen.control.impedance`` at the simulator's rate.
+- ``track``: an optimal torque trajectory (``gagen.control.torque``) closed by a joint-space PD around
+  it, τ = τ*(t) + M(q) (K_p (q*(t) − q) + K_d (q̇*(t) − q̇)). The PD acts through the mass matrix
+  (gains in 1/s², 1/s), so a light wrist and a heavy shoulder get the same bandwidth and the explicit
+  integration stays stable. q*, q̇* are linear between the solution's nodes, and τ* is held over each
+  interval as the solver applied it. The PD absorbs the difference between the two engines, so the
+  task error the loop reaches measures how well the plan carries over.
 """
 
 from __future__ import annotations
@@ -14,8 +17,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from gagen.control.impedance import ImpedanceController, Run
 from gagen.control.torque import TorqueResult
 from gagen.dynamics.mujoco_model import MujocoSystem
+from gagen.dynamics.rigid_body import DynamicsError
 
 Array = NDArray[np.float64]
 
@@ -67,3 +72,29 @@ def track(sim: MujocoSystem, plan: TorqueResult, *, kp: float = 400.0, kd: float
     qs.append(q)
     qdots.append(qdot)
     return LoopResult(np.array(ts), np.array(qs), np.array(qdots), np.array(taus))
+
+
+def impedance(sim: MujocoSystem, controller: ImpedanceController, q0: NDArray[np.float64],
+              duration: float = 4.0) -> Run:
+    """The similarity impedance law (``gagen.control.impedance``) at the simulator's rate on MuJoCo's
+    plant from rest at q0: the same record as ``impedance.simulate`` (which integrates Pinocchio's ABA by
+    RK4), so the two plants can be compared run for run. A non-finite state raises ``DynamicsError``."""
+    sim.set_state(q0, np.zeros_like(q0))
+    dt = float(sim.model.opt.timestep)
+    steps = round(duration / dt)
+    times = np.arange(steps + 1, dtype=np.float64) * dt
+    n = len(q0)
+    qs, qds = np.empty((steps + 1, n)), np.empty((steps + 1, n))
+    errors, energies, torques = np.empty(steps + 1), np.empty(steps + 1), np.empty(steps + 1)
+    for k in range(steps + 1):
+        q, qd = sim.state()
+        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))):
+            raise DynamicsError(f"the MuJoCo simulation diverged at t = {times[k]:.3f} s")
+        step = controller(q, qd)
+        qs[k], qds[k] = q, qd
+        errors[k] = np.linalg.norm(step.error)
+        energies[k] = 0.5 * step.twist @ step.twist + 0.5 * step.error @ (controller.K * step.error)
+        torques[k] = np.linalg.norm(step.tau)
+        if k < steps:
+            sim.step(step.tau)
+    return Run(times, qs, qds, errors, energies, torques)

@@ -100,6 +100,8 @@ def _impedance_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--spread", type=non_negative_float, default=0.2,
                         help="rad around the paper's q0, per joint (default 0.2)")
     parser.add_argument("--duration", type=positive_float, default=4.0, help="seconds (default 4)")
+    parser.add_argument("--mujoco", action=FlagNeeding, module="mujoco",
+                        help="run the plant in MuJoCo (gagen[sim]) instead of Pinocchio's ABA by RK4")
     view_arguments(parser, "the circle's first run")
 
 

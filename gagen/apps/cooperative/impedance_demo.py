@@ -88,16 +88,23 @@ def controller(system: str, gains: Gains) -> tuple[ImpedanceController, np.ndarr
 
 def run_all(system: str, gains_name: str, count: int = COUNT, spread: float = SPREAD,
             duration: float = DURATION, dt: float = DT, seed: int = 0,
-            log: Callable[[str], None] = print) -> Result:
+            log: Callable[[str], None] = print, mujoco: bool = False) -> Result:
     """``count`` closed-loop runs of ``system`` from random starts around q0 (the same starts for every
-    gain set: the seed is the system's)."""
+    gain set: the seed is the system's), on Pinocchio's ABA by RK4 or, with ``mujoco``, in MuJoCo."""
     control, q0 = controller(system, GAINS[gains_name])
     lower, upper, _ = joint_limits(control.dynamics.system)
     starts = random_starts(q0, count, spread, seed, lower, upper)
     runs = []
     began = time.perf_counter()
+    if mujoco:
+        from gagen.apps.cooperative.scenarios import spec_of
+        from gagen.control.mujoco_loop import impedance
+        from gagen.dynamics.mujoco_model import MujocoSystem
+
+        plant = MujocoSystem(spec_of(system), timestep=dt)
     for i, start in enumerate(starts):
-        runs.append(simulate(control, start, duration=duration, dt=dt))
+        runs.append(impedance(plant, control, start, duration) if mujoco else
+                    simulate(control, start, duration=duration, dt=dt))
         log(f"  {system} {gains_name} run {i + 1}/{count}: ‖B_S,e‖ {runs[-1].error_norm[0]:.3g} -> "
             f"{runs[-1].final_error:.3g} in {duration:g} s")
     return Result(system, gains_name, runs, time.perf_counter() - began)
@@ -122,10 +129,13 @@ def figure(results: Sequence[Result]) -> Any:
     return fig
 
 
-def report(results: Sequence[Result], duration: float) -> str:
+PLANTS = {False: "Pinocchio ABA, RK4", True: "MuJoCo's own integrator"}
+
+
+def report(results: Sequence[Result], duration: float, mujoco: bool = False) -> str:
     lines = ["# Similarity impedance control [COOP Section 4.1]", "",
              f"{len(results[0].runs)} random starts around q0 (± {SPREAD} rad per joint), {duration:g} s of "
-             f"forward dynamics (Pinocchio ABA, RK4, torque held over each 1 ms step).", "",
+             f"forward dynamics ({PLANTS[mujoco]}, torque held over each 1 ms step).", "",
              "| system | gains | ‖B_S,e‖ at 0 s (median) | at the end (median / worst) | runs < 1e-6 | "
              "largest energy increase | wall time |",
              "|---|---|---:|---:|---:|---:|---:|"]
@@ -146,10 +156,10 @@ def run_command(args: argparse.Namespace) -> int:
     results = []
     for system, gains in cases:
         print(f"{system} with the {gains} gains:", flush=True)
-        results.append(run_all(system, gains, args.runs, args.spread, args.duration))
+        results.append(run_all(system, gains, args.runs, args.spread, args.duration, mujoco=args.mujoco))
     out.mkdir(parents=True, exist_ok=True)  # after the runs: a system refused leaves nothing behind
     figure(results).savefig(out / "impedance.png", dpi=100)
-    text = report(results, args.duration)
+    text = report(results, args.duration, args.mujoco)
     (out / "impedance_report.md").write_text(text)
     print(text + f"wrote {out / 'impedance.png'} and {out / 'impedance_report.md'}")
     if args.view:  # the first system's first run with either gains, in a loop until Ctrl-C (gagen.viewer)

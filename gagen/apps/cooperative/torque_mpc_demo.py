@@ -63,8 +63,8 @@ def run_command(args: argparse.Namespace) -> int:
     """``gagen mpc --dynamics`` on its parsed arguments (``gagen.apps.cooperative.commands``)."""
     system = args.system or SYSTEM
     rate = args.rate or RATE
+    sim = MujocoSystem(spec_of(system))  # (a robot MuJoCo cannot load is refused first, before any build)
     module, q0, target = setup(system)
-    sim = MujocoSystem(spec_of(system))  # (a robot MuJoCo cannot load is refused here, before any solve)
     mpc = TorqueMPC(TorqueOCP(spec_of(system), module.c.task, N=N, dt=DT), q0, target, iterations=ITERATIONS)
     loop = run(sim, mpc, duration=args.duration, rate=rate)
     out = Path(args.out)
