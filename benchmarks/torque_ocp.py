@@ -69,14 +69,16 @@ def main() -> int:
         python = TorqueOCP(spec_of(system), task, N=args.N, dt=2.5 / args.N, native=False)
         native = TorqueOCP(spec_of(system), m.c.task, N=args.N, dt=2.5 / args.N, native=True)
         points = None
-        rows_of = (("gagen task residual, C++ (the C kernel called by Crocoddyl)", native, False),
-                   ("gagen task residual, Python (KernelResidual)", python, False),
-                   ("conventional: 3 frame translations (C++)", native, True))
+        rows_of = (("gagen task residual, C++ (the C kernel called by Crocoddyl)", native, ""),
+                   ("gagen task residual, Python (KernelResidual)", python, ""),
+                   ("conventional: 3 frame translations (C++)", native, "points"),
+                   ("conventional: circle error by 3-vector algebra (Python)", native, "circle"))
         for label, ocp, conventional in rows_of:
             times, shares = [], []
             for _ in range(args.repeats):
                 task.seconds = 0.0
-                result = ocp.solve(q0, V_Sd, points=points if conventional else None)
+                result = ocp.solve(q0, V_Sd, points=points if conventional else None,
+                                   circle=conventional == "circle")
                 times.append(result.wall_time)
                 shares.append(task.seconds)
             wall = statistics.median(times)

@@ -136,6 +136,66 @@ def _compile_native() -> Any:
     return loaded
 
 
+def _circle_function() -> Any:
+    """(p1, p2, p3) -> (centre, unit normal, radius) of their circle by 3-vector algebra, and its Jacobian
+    (9 columns): what a Crocoddyl user writes for a circle, here with CasADi's AD for the derivatives."""
+    import casadi as ca
+
+    p = ca.SX.sym("p", 9)
+    p1, p2, p3 = p[0:3], p[3:6], p[6:9]
+    a, b = p1 - p3, p2 - p3
+    axb = ca.cross(a, b)
+    area2 = ca.dot(axb, axb)
+    centre = p3 + ca.cross(ca.dot(a, a) * b - ca.dot(b, b) * a, axb) / (2 * area2)
+    radius = ca.norm_2(a) * ca.norm_2(b) * ca.norm_2(a - b) / (2 * ca.sqrt(area2))
+    value = ca.vertcat(centre, axb / ca.sqrt(area2), radius)
+    return ca.Function("circle", [p], [value, ca.jacobian(value, p)])
+
+
+class CircleResidual(crocoddyl.ResidualModelAbstract):  # type: ignore[misc]
+    """The conventional circle error: (c − c_d, n − n_d, ρ − ρ_d) of the circle through three frames'
+    origins (Pinocchio's placements and LOCAL_WORLD_ALIGNED Jacobians), by 3-vector algebra (7 rows)."""
+
+    def __init__(self, state: Any, nu: int, frames: list[int], centre: ArrayLike, normal: ArrayLike,
+                 radius: float) -> None:
+        crocoddyl.ResidualModelAbstract.__init__(self, state, 7, nu, True, False, False)
+        self.frames = frames
+        self.reference = np.concatenate([np.asarray(centre, float), np.asarray(normal, float), [radius]])
+        self.circle = _circle_function()
+        self.pinocchio = require("pinocchio", "gagen.control.torque")
+        self.data = state.pinocchio.createData()
+
+    def _points(self, x: Array, jacobians: bool) -> tuple[Array, Array | None]:
+        pin, model, data = self.pinocchio, self.state.pinocchio, self.data
+        q = np.asarray(x)[:model.nq]
+        pin.forwardKinematics(model, data, q)
+        pin.updateFramePlacements(model, data)
+        points = np.concatenate([data.oMf[f].translation for f in self.frames])
+        if not jacobians:
+            return points, None
+        pin.computeJointJacobians(model, data, q)
+        frame = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+        rows = [pin.getFrameJacobian(model, data, f, frame)[:3] for f in self.frames]
+        return points, np.vstack(rows)
+
+    def calc(self, data: Any, x: Array, u: Array | None = None) -> None:
+        points, _ = self._points(x, False)
+        value, _ = self.circle(points)
+        data.r[:] = np.asarray(value).reshape(-1) - self.reference
+
+    def calcDiff(self, data: Any, x: Array, u: Array | None = None) -> None:
+        points, jacobian = self._points(x, True)
+        _, d_points = self.circle(points)
+        data.Rx[:, :self.state.nv] = np.asarray(d_points) @ jacobian
+
+
+def circle_through(points: Points) -> tuple[Array, Array, float]:
+    """(centre, unit normal, radius) of the circle through three (frame, position) points."""
+    value, _ = _circle_function()(np.concatenate([p for _, p in points]))
+    value = np.asarray(value).reshape(-1)
+    return value[:3], value[3:6], float(value[6])
+
+
 def _plain_joints(dynamics: SystemDynamics) -> None:
     """Crocoddyl's state is Pinocchio's (q, q̇); a continuous joint's q there is (cos, sin)."""
     if dynamics.model.nq != dynamics.model.nv:
@@ -253,13 +313,17 @@ class TorqueOCP:
         # the C++ residual where the kernel is compiled C and a C++ compiler is found, else the Python one
         self.native = _native_possible(task) if native is None else native
 
-    def _model(self, V_Sd: Array, terminal: bool, points: Points | None = None) -> Any:
+    def _model(self, V_Sd: Array, terminal: bool, points: Points | None = None, circle: bool = False) -> Any:
         w, nu, state = self.weights, self.actuation.nu, self.state
         costs = crocoddyl.CostModelSum(state, nu)
         weight = w.terminal if terminal else w.task
         if points is None:
             costs.addCost("task", crocoddyl.CostModelResidual(
                 state, task_residual(state, self.dynamics, self.task, V_Sd, native=self.native)), weight)
+        elif circle:  # the conventional circle error of the end points, by 3-vector algebra
+            frames = [self.dynamics.model.getFrameId(frame) for frame, _ in points]
+            costs.addCost("circle", crocoddyl.CostModelResidual(
+                state, CircleResidual(state, nu, frames, *circle_through(points))), weight)
         else:  # the conventional formulation: each end point pinned to its target by Crocoddyl's residual
             for frame, position in points:
                 residual = crocoddyl.ResidualModelFrameTranslation(
@@ -287,23 +351,24 @@ class TorqueOCP:
         return model
 
     def problem(self, q0: ArrayLike, target: Target, qdot0: ArrayLike | None = None,
-                points: Points | None = None) -> tuple[Any, Array]:
+                points: Points | None = None, circle: bool = False) -> tuple[Any, Array]:
         """Crocoddyl's shooting problem from (q0, q̇0) toward ``target`` (V_Sd or V_Sd(t)), and the times;
-        with ``points`` ((Pinocchio frame, target position) per chain end) the conventional formulation
-        instead of the task error."""
+        with ``points`` ((Pinocchio frame, target position) per chain end) a conventional formulation
+        instead of the task error: each point pinned by a frame-translation residual, or with ``circle``
+        (three points) the error of the circle through the ends from the circle through ``points``."""
         d = self.dynamics
         times = np.arange(self.N + 1, dtype=np.float64) * self.dt
         targets = _targets(target, times)
         x0 = np.concatenate([d._to_pin(q0), d._to_pin(np.zeros(d.dof) if qdot0 is None else qdot0)])
-        running = [self._model(v, False, points) for v in targets[:-1]]
-        return crocoddyl.ShootingProblem(x0, running, self._model(targets[-1], True, points)), times
+        running = [self._model(v, False, points, circle) for v in targets[:-1]]
+        return crocoddyl.ShootingProblem(x0, running, self._model(targets[-1], True, points, circle)), times
 
     def solve(self, q0: ArrayLike, target: Target, *, qdot0: ArrayLike | None = None,
               max_iterations: int = 200, warm: tuple[list[Array], list[Array]] | None = None,
-              points: Points | None = None) -> TorqueResult:
-        """Solve by box-FDDP from rest at q0 (or ``warm`` = (xs, us) in Crocoddyl's layout); ``points``:
-        see ``problem`` (the result's errors are still the task error toward ``target``)."""
-        problem, times = self.problem(q0, target, qdot0, points)
+              points: Points | None = None, circle: bool = False) -> TorqueResult:
+        """Solve by box-FDDP from rest at q0 (or ``warm`` = (xs, us) in Crocoddyl's layout); ``points``,
+        ``circle``: see ``problem`` (the result's errors are still the task error toward ``target``)."""
+        problem, times = self.problem(q0, target, qdot0, points, circle)
         solver = crocoddyl.SolverBoxFDDP(problem)
         if warm is None:
             xs = [problem.x0] * (self.N + 1)

@@ -203,3 +203,31 @@ def test_the_conventional_formulation_reaches_the_same_circle(circle):
                                                                            result.errors[-1])
     reached = ocp.end_points(conventional.q[-1])
     assert max(np.abs(p - r).max() for (_, p), (_, r) in zip(points, reached, strict=True)) <= 1e-4
+
+
+def test_the_conventional_circle_residual_equals_differences_and_reaches_the_circle(circle):
+    """The circle error by 3-vector algebra of the three flanges (centre, normal, radius against the target
+    circle's): its R_x equals central differences, and solved in place of gagen's task error it reaches
+    the same circle (gagen's task error, evaluated after the solve, below 1e-4)."""
+    from gagen.control.torque import CircleResidual, circle_through
+
+    _, q0, V_Sd, ocp, result = circle
+    points = ocp.end_points(result.q[-1])
+    frames = [ocp.dynamics.model.getFrameId(frame) for frame, _ in points]
+    residual = CircleResidual(ocp.state, 21, frames, *circle_through(points))
+    data, _ = _residual_data(ocp.dynamics, residual)
+    x, u = np.concatenate([q0 + 0.1, np.zeros(21)]), np.zeros(21)
+    residual.calcDiff(data, x, u)
+    Rx = np.array(data.Rx)
+    h, columns = 1e-6, []
+    for i in range(21):
+        plus, minus = x.copy(), x.copy()
+        plus[i] += h
+        minus[i] -= h
+        residual.calc(data, plus, u)
+        r_plus = np.array(data.r)
+        residual.calc(data, minus, u)
+        columns.append((r_plus - np.array(data.r)) / (2 * h))
+    np.testing.assert_allclose(Rx[:, :21], np.array(columns).T, atol=1e-6 * np.abs(Rx).max())
+    solved = ocp.solve(q0, V_Sd, points=points, circle=True, max_iterations=100)
+    assert solved.converged and solved.error_norm <= 1e-4, solved.errors[-1]
