@@ -58,7 +58,7 @@ def _one_line_refusal(kind: str, argv: list[str], status: int, err: str) -> None
     assert "Traceback" not in err
 
 
-@examples(fast=60, full=500)
+@examples(fast=60, full=300)
 @given(st.data())
 def test_drawn_arguments_are_parsed_or_refused_in_one_line(data):
     verb = data.draw(st.sampled_from(VERBS), label="verb")
@@ -152,7 +152,7 @@ def _bad_file(draw, verb: str, folder: Path) -> tuple[str, str]:
     return kind, str(path)
 
 
-@examples(fast=30, full=300)
+@examples(fast=30, full=150)
 @given(st.data())
 def test_every_verb_refuses_a_bad_file_in_one_line(data):
     from conftest import deadline

@@ -122,7 +122,7 @@ def _case(data, text: str | bytes, file_name: str, refuse: bool, compile_c: bool
                  _check, must_refuse=refuse, what=what)
 
 
-@examples(fast=40, full=400)
+@examples(fast=40, full=250)
 @given(st.data())
 def test_formula_files_drawn_from_the_schema(data):
     text, refuse = data.draw(st.booleans().flatmap(formula_file), label="file")  # hostile or not
@@ -131,7 +131,7 @@ def test_formula_files_drawn_from_the_schema(data):
 
 
 @pytest.mark.filterwarnings("ignore::DeprecationWarning", "ignore::SyntaxWarning")  # a mutated "\\w"
-@examples(fast=20, full=200)
+@examples(fast=20, full=150)
 @given(st.data())
 def test_mutated_example_formulas(data):
     what, mutated = data.draw(byte_mutation(EXAMPLE.read_text()), label="mutation")

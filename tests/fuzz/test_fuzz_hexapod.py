@@ -80,7 +80,7 @@ def solve(path: Path) -> dict[str, Any]:
     return kinematics(load_hexapod(path))
 
 
-@examples(fast=40, full=400)
+@examples(fast=40, full=250)
 @given(st.data())
 def test_mutated_bundled_hexapod(data):
     with tempfile.TemporaryDirectory() as folder:
@@ -182,7 +182,7 @@ def hexapod_schema(draw) -> tuple[str, dict[str, Any], bool]:
     return what, spec, invalid
 
 
-@examples(fast=40, full=400)
+@examples(fast=40, full=250)
 @given(st.data())
 def test_random_hexapod_schema(data):
     what, spec, invalid = data.draw(hexapod_schema())

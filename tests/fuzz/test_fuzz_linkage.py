@@ -50,7 +50,7 @@ def check(trajectory: Trajectory) -> None:
         "non-finite points without a reported failure"
 
 
-@examples(fast=40, full=400)
+@examples(fast=40, full=250)
 @given(st.data())
 def test_mutated_bundled_linkage(data):
     name = data.draw(st.sampled_from(sorted(BUNDLED)))
@@ -143,7 +143,7 @@ def linkage_schema(draw) -> tuple[str, dict[str, Any], bool]:
     return what, spec, invalid
 
 
-@examples(fast=40, full=400)
+@examples(fast=40, full=250)
 @given(st.data())
 def test_random_linkage_schema(data):
     what, spec, invalid = data.draw(linkage_schema())

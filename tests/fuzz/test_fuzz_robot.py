@@ -82,7 +82,7 @@ def _urdf_mutation(draw, text: str) -> tuple[str, str | bytes]:
     return draw(byte_mutation(text))
 
 
-@examples(fast=60, full=500)
+@examples(fast=60, full=300)
 @given(st.data())
 def test_mutated_bundled_specs_and_urdfs(data):
     spec_source = data.draw(st.sampled_from(SPECS), label="spec")
@@ -133,7 +133,7 @@ def _invalid(chains: list[list[dict]], name: str) -> bool:
     return any(bad(v) for v in numbers) or not re.fullmatch(r"[A-Za-z][A-Za-z0-9]*(_[A-Za-z0-9]+)*", name)
 
 
-@examples(fast=60, full=500)
+@examples(fast=60, full=300)
 @given(st.data())
 def test_specs_drawn_from_the_schema(data):
     import yaml

@@ -47,7 +47,7 @@ def check(outputs: dict[str, Any]) -> None:
     assert all_finite(outputs), f"non-finite estimates: {outputs}"
 
 
-@examples(fast=40, full=400)
+@examples(fast=40, full=250)
 @given(st.data())
 def test_mutated_bundled_rig(data):
     with tempfile.TemporaryDirectory() as folder:
@@ -106,7 +106,7 @@ def rig_schema(draw) -> tuple[str, dict[str, Any], bool]:
     return f"{what} (baseline {xyz})", rig, invalid
 
 
-@examples(fast=40, full=400)
+@examples(fast=40, full=250)
 @given(st.data())
 def test_random_rig_schema(data):
     what, rig, invalid = data.draw(rig_schema())
