@@ -24,6 +24,20 @@ def _residual_data(dynamics, residual):
     return residual.createData(collector), collector
 
 
+def _differences(residual, data, x, u, count, h=1e-6):
+    """Central differences of the residual's r along the first ``count`` entries of the state x."""
+    columns = []
+    for i in range(count):
+        plus, minus = x.copy(), x.copy()
+        plus[i] += h
+        minus[i] -= h
+        residual.calc(data, plus, u)
+        r_plus = np.array(data.r)
+        residual.calc(data, minus, u)
+        columns.append((r_plus - np.array(data.r)) / (2 * h))
+    return np.array(columns).T
+
+
 def _target(module, q):
     return np.array(module.c.similarity(q)[0])
 
@@ -45,17 +59,7 @@ def test_the_task_residual_equals_central_differences(native):
         residual.calcDiff(data, x, u)
         r, Rx = np.array(data.r), np.array(data.Rx)
         np.testing.assert_array_equal(r, m.c.task(q, V_Sd)[0])  # q read from the state as the kernel's
-        h = 1e-6
-        columns = []
-        for i in range(x.size):
-            plus, minus = x.copy(), x.copy()
-            plus[i] += h
-            minus[i] -= h
-            residual.calc(data, plus, u)
-            r_plus = np.array(data.r)
-            residual.calc(data, minus, u)
-            columns.append((r_plus - np.array(data.r)) / (2 * h))
-        differences = np.array(columns).T
+        differences = _differences(residual, data, x, u, x.size)
         assert np.abs(Rx - differences).max() <= 1e-6 * max(1.0, np.abs(differences).max())
         assert np.all(Rx[:, q.size:] == 0)  # no velocity dependence
 
@@ -219,15 +223,7 @@ def test_the_conventional_circle_residual_equals_differences_and_reaches_the_cir
     x, u = np.concatenate([q0 + 0.1, np.zeros(21)]), np.zeros(21)
     residual.calcDiff(data, x, u)
     Rx = np.array(data.Rx)
-    h, columns = 1e-6, []
-    for i in range(21):
-        plus, minus = x.copy(), x.copy()
-        plus[i] += h
-        minus[i] -= h
-        residual.calc(data, plus, u)
-        r_plus = np.array(data.r)
-        residual.calc(data, minus, u)
-        columns.append((r_plus - np.array(data.r)) / (2 * h))
-    np.testing.assert_allclose(Rx[:, :21], np.array(columns).T, atol=1e-6 * np.abs(Rx).max())
+    differences = _differences(residual, data, x, u, 21)
+    np.testing.assert_allclose(Rx[:, :21], differences, atol=1e-6 * np.abs(Rx).max())
     solved = ocp.solve(q0, V_Sd, points=points, circle=True, max_iterations=100)
     assert solved.converged and solved.error_norm <= 1e-4, solved.errors[-1]
