@@ -203,13 +203,33 @@ def _plain_joints(dynamics: SystemDynamics) -> None:
                          "continuous joints (Pinocchio's (cos q, sin q) configuration)")
 
 
+def _check_task(task: Any, dof: int, target: Array) -> None:
+    """A ``task`` kernel of this system and a finite V_Sd of its size: the C++ residual calls the kernel's
+    raw address, so a wrong size would read or write out of bounds. Kernels of a generated module carry
+    their shapes; a plain function is held to V_Sd's size only."""
+    inputs, outputs = getattr(task, "_in_shapes", None), getattr(task, "_out_shapes", None)
+    if inputs is not None and outputs is not None:
+        expected = ([(dof, 1), (12, 1)], [(7, 1), (7, dof)])
+        if [tuple(s) for s in inputs] != expected[0] or [tuple(s) for s in outputs] != expected[1]:
+            names = getattr(task, "inputs", ())
+            shown = ", ".join(f"{n}[{s[0]}]" for n, s in zip(names, inputs, strict=False))
+            raise ValueError(f"the kernel {getattr(task, 'name', '?')} takes ({shown}) and gives "
+                             f"{[tuple(s) for s in outputs]}; a task residual needs (q[{dof}], V_Sd[12]) -> "
+                             f"(e[7], J_Be[7 x {dof}]): the system's task kernel")
+    if target.size != 12:
+        raise ValueError(f"V_Sd: expected 12 values (a similarity versor), got {target.size}")
+    if not np.all(np.isfinite(target)):
+        raise ValueError("V_Sd: expected finite values")
+
+
 def task_residual(state: Any, dynamics: SystemDynamics, task: Any, V_Sd: ArrayLike, *,
                   native: bool = False) -> Any:
     """The cooperative task error e(q) = log(V_Sc(q)~ V_Sd) and J_Be of a module's ``task`` kernel
     (usually ``module.c.task``) as a residual of ``state``'s model (7 rows): ``KernelResidual`` (Python),
     or with ``native`` the C++ one (``native_residuals``), which calls the kernel's C function itself."""
     _plain_joints(dynamics)
-    target = np.asarray(V_Sd, dtype=float)
+    target = np.asarray(V_Sd, dtype=float).reshape(-1)
+    _check_task(task, dynamics.dof, target)
     if native:
         address = int(getattr(task, "address", 0) or 0)
         if not address:

@@ -63,7 +63,10 @@ class TorqueMPC:
         """V_Sd(t), computed once per node time (ticks at multiples of dt share their nodes' targets)."""
         key = round(t / self.ocp.dt * 1e6)
         if key not in self._targets:
-            self._targets[key] = np.asarray(self.target(t), dtype=float)
+            value = np.asarray(self.target(t), dtype=float).reshape(-1)
+            if value.size != 12 or not np.all(np.isfinite(value)):
+                raise ValueError(f"the target at t = {t:g} s is not 12 finite values (a V_Sd): {value}")
+            self._targets[key] = value
         return self._targets[key]
 
     def solve(self, t: float, q: ArrayLike, qdot: ArrayLike) -> tuple[float, int]:

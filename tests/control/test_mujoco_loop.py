@@ -137,3 +137,18 @@ def test_gagen_impedance_mujoco_reports_the_plant(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "forward dynamics (MuJoCo's own integrator" in out and "| three_iiwas_circle | tuned |" in out
     assert (tmp_path / "impedance.png").is_file()
+
+
+def test_a_moving_target_that_turns_non_finite_stops_the_mpc_in_one_line(sim):
+    from gagen.control.torque_mpc import TorqueMPC, run
+
+    m = bundled_module(SYSTEM)
+    q0 = ready(SYSTEM)
+    V_Sc0 = np.asarray(m.c.similarity(q0)[0])
+
+    def target(t):
+        return V_Sc0 if t < 0.15 else np.full(12, np.nan)  # (the first horizon ends at 0.1 s)
+
+    mpc = TorqueMPC(TorqueOCP(spec_of(SYSTEM), m.c.task, N=5, dt=0.02), q0, target, iterations=1)
+    with pytest.raises(ValueError, match=r"the target at t = 0\.16 s is not 12 finite values"):
+        run(sim, mpc, duration=0.2, rate=50)

@@ -227,3 +227,41 @@ def test_the_conventional_circle_residual_equals_differences_and_reaches_the_cir
     np.testing.assert_allclose(Rx[:, :21], differences, atol=1e-6 * np.abs(Rx).max())
     solved = ocp.solve(q0, V_Sd, points=points, circle=True, max_iterations=100)
     assert solved.converged and solved.error_norm <= 1e-4, solved.errors[-1]
+
+
+@pytest.mark.parametrize("native", [False, True], ids=["python", "c++"])
+def test_a_target_or_kernel_of_the_wrong_shape_is_refused_before_the_c_is_called(native):
+    """The C++ residual calls a raw C address: a V_Sd of 10 values, a non-finite one, or a kernel of
+    another signature would make it read or write out of bounds, so each is refused in one line first."""
+    m = bundled_module("three_pandas_circle")
+    dynamics = SystemDynamics(spec_of("three_pandas_circle"))
+    state = crocoddyl.StateMultibody(dynamics.model)
+    with pytest.raises(ValueError, match=r"V_Sd: expected 12 values \(a similarity versor\), got 10"):
+        task_residual(state, dynamics, m.c.task, np.zeros(10), native=native)
+    with pytest.raises(ValueError, match=r"V_Sd: expected finite values"):
+        task_residual(state, dynamics, m.c.task, np.full(12, np.nan), native=native)
+    with pytest.raises(ValueError, match=r"the kernel similarity takes \(q\[21\]\) and gives"):
+        task_residual(state, dynamics, m.c.similarity, np.zeros(12), native=native)
+    other = bundled_module("panda_point")  # a task kernel of 7 joints for a model of 21
+    with pytest.raises(ValueError, match=r"the kernel task takes \(q\[7\], V_Sd\[12\]\)"):
+        task_residual(state, dynamics, other.c.task, np.zeros(12), native=native)
+
+
+@pytest.mark.compiling
+def test_gagen_reach_dynamics_takes_a_users_own_spec(tmp_path, capsys):
+    """A spec file of the user's (the three Pandas copied, renamed, with a goal stated on the command line)
+    works as the bundled name does: its module is built from the file, then the torque-level OCP."""
+    import shutil
+
+    from gagen.cli import main
+
+    robots = tmp_path / "robots"
+    shutil.copytree(spec_of("three_pandas_circle").parent / "panda", robots / "panda")
+    text = spec_of("three_pandas_circle").read_text().replace("name: three_pandas_circle", "name: my_cell")
+    (robots / "my_cell.yaml").write_text(text)
+    argv = [ "reach", str(robots / "my_cell.yaml"), "--translation", "0,0,0.05", "--dynamics", "--N", "40",
+            "--horizon", "1.0", "--out", str(tmp_path / "out")]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "(my_cell.yaml" in out or "my_cell" in out
+    assert "reached" in out and (tmp_path / "out" / "command_line_torques.png").is_file()
