@@ -17,6 +17,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from conftest import tiered
 
 from gagen.apps.hexapod.kernels import _ik_kernel
 from gagen.apps.hexapod.legs import analytic_ik
@@ -143,17 +144,11 @@ def _in_limit_round_trip(key: str, solver: str, count: int) -> None:
     check_in_limit_targets(leg, q, SOLVERS[solver](leg, mc.toe(leg, q)))
 
 
+@pytest.mark.parametrize("count", tiered([200, 1000], {200}))  # (1000 in the full tier)
 @pytest.mark.parametrize("solver", list(SOLVERS))
 @pytest.mark.parametrize("key", list(LEGS))
-def test_toes_of_in_limit_configurations_are_reached(key, solver):
-    _in_limit_round_trip(key, solver, 200)
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("solver", list(SOLVERS))
-@pytest.mark.parametrize("key", list(LEGS))
-def test_toes_of_in_limit_configurations_are_reached_1000(key, solver):
-    _in_limit_round_trip(key, solver, 1000)
+def test_toes_of_in_limit_configurations_are_reached(key, solver, count):
+    _in_limit_round_trip(key, solver, count)
 
 
 def any_targets(leg: Leg, rng: np.random.Generator, n: int) -> np.ndarray:
@@ -184,17 +179,11 @@ def _any_target(key: str, solver: str, count: int) -> None:
         np.testing.assert_allclose(off, want, rtol=0, atol=TOL)
 
 
+@pytest.mark.parametrize("count", tiered([200, 1000], {200}))
 @pytest.mark.parametrize("solver", list(SOLVERS))
 @pytest.mark.parametrize("key", list(LEGS))
-def test_any_target_gives_the_nearest_toe(key, solver):
-    _any_target(key, solver, 200)
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("solver", list(SOLVERS))
-@pytest.mark.parametrize("key", list(LEGS))
-def test_any_target_gives_the_nearest_toe_1000(key, solver):
-    _any_target(key, solver, 1000)
+def test_any_target_gives_the_nearest_toe(key, solver, count):
+    _any_target(key, solver, count)
 
 
 NONFINITE = np.array([
