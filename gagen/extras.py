@@ -20,6 +20,7 @@ EXTRAS = {
     "pyspacemouse": "teleop",
     "jax": "jax",
     "jaxlib": "jax",
+    "cupy": "cuda",
 }
 """Top-level module -> the extra that installs it (``all`` installs every one)."""
 

@@ -4,7 +4,9 @@ limit. The joint damping, friction and armature are zero, as in the Pinocchio mo
 ``gagen.dynamics.rigid_body``, so the two describe the same rigid bodies and a controller designed on one
 runs on the other. Gravity is −9.81 m/s² along z.
 
-``MujocoSystem`` maps the system's q order (the generated kernels') to MuJoCo's qpos, qvel and ctrl.
+``MujocoSystem`` maps the system's q order (the generated kernels') to MuJoCo's qpos, qvel and ctrl, and
+puts a site ``<robot>/<chain>/end`` at each chain's end point (``end_points``). ``mjspec`` keeps the
+model's specification: add bodies to it (a held object, ``gagen.dynamics.held_object``) and ``compile``.
 A URDF whose inertias MuJoCo refuses (the triangle inequality, e.g. the published Panda's link 4) is
 refused with its name; MuJoCo's ``balanceinertia`` would change the robot.
 """
@@ -19,6 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from gagen.dynamics.rigid_body import GRAVITY, DynamicsError, robot_sources
 from gagen.extras import require
+from gagen.yaml_document import Document
 
 mujoco: Any = require("mujoco", "gagen.dynamics.mujoco_model (MuJoCo simulation)")
 
@@ -34,14 +37,28 @@ def _quaternion(rpy: tuple[float, float, float]) -> Array:
                      cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy])
 
 
-def _robot_spec(urdf: Path) -> Any:
+def _robot_spec(urdf: Path, sites: list[tuple[str, str, list[float]]]) -> Any:
     try:
         spec = mujoco.MjSpec.from_file(str(urdf))
         spec.compiler.balanceinertia = False
+        for link, name, pos in sites:  # before compiling, which fuses a massless tip link into its parent
+            spec.body(link).add_site(name=name, pos=pos)
         spec.compile()  # (a bad inertia is refused here, naming the robot's URDF below)
     except ValueError as e:
         raise DynamicsError(f"{urdf}: MuJoCo cannot load it ({' '.join(str(e).split())})") from e
     return spec
+
+
+def _end_sites(spec_path: str | Path, system: Any) -> dict[str, list[tuple[str, str, list[float]]]]:
+    """Per robot label, a site for each of its chains: (tip link, site name, position in the tip link's
+    frame). The site ``<chain>/end`` is the chain's end point: its tip link's origin plus the spec's
+    ``tool`` offset, the point the generated kinematics give."""
+    sites: dict[str, list[tuple[str, str, list[float]]]] = {}
+    for chain, entry in zip(system.chains, Document(Path(spec_path)).data["chains"], strict=True):
+        tool = entry.get("tool", {}).get("xyz", (0.0, 0.0, 0.0))
+        sites.setdefault(chain.robot or chain.name, []).append(
+            (str(entry["tip_link"]), f"{chain.name}/end", [float(v) for v in tool]))
+    return sites
 
 
 class MujocoSystem:
@@ -52,10 +69,12 @@ class MujocoSystem:
         world = mujoco.MjSpec()
         world.option.timestep = float(timestep)
         world.option.gravity = [0.0, 0.0, -GRAVITY]
+        sites = _end_sites(spec_path, self.system)
         for source in robots:
-            robot = _robot_spec(source.urdf)
+            robot = _robot_spec(source.urdf, sites.get(source.label, []))
             frame = world.worldbody.add_frame(pos=list(source.xyz), quat=list(_quaternion(source.rpy)))
             frame.attach_body(robot.worldbody.first_body(), f"{source.label}/", "")
+        self.end_site_names = [f"{c.robot or c.name}/{c.name}/end" for c in self.system.chains]
         effort: dict[str, float] = {}
         for joint in world.joints:
             joint.damping, joint.frictionloss, joint.armature = np.zeros(3), 0.0, 0.0
@@ -74,12 +93,21 @@ class MujocoSystem:
         locked = [joint.name for joint in world.joints if joint.name not in set(names)]
         for name in locked:  # the robots' joints no chain uses, held at 0 as in the Pinocchio model
             world.add_equality(type=mujoco.mjtEq.mjEQ_JOINT, name1=name, data=[0.0] * 11)
-        self.model = world.compile()
+        self.mjspec = world
+        self.joint_names = names
+        self.effort = np.array([effort[n] for n in names])
+        self.compile()
+
+    def compile(self) -> None:
+        """(Re)compile ``mjspec`` (after adding bodies to it: a held object) into ``model`` and a fresh
+        ``data``, and map the system's joints, and its chains' end sites, into them."""
+        self.model = self.mjspec.compile()
         self.data = mujoco.MjData(self.model)
-        ids = [mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, n) for n in names]
+        ids = [mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, n) for n in self.joint_names]
         self.qpos = np.array([self.model.jnt_qposadr[i] for i in ids], dtype=np.intp)
         self.qvel = np.array([self.model.jnt_dofadr[i] for i in ids], dtype=np.intp)
-        self.effort = np.array([effort[n] for n in names])
+        self.end_sites = np.array([mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, n)
+                                   for n in self.end_site_names], dtype=np.intp)
 
     @property
     def dof(self) -> int:
@@ -93,6 +121,10 @@ class MujocoSystem:
 
     def state(self) -> tuple[Array, Array]:
         return np.array(self.data.qpos[self.qpos]), np.array(self.data.qvel[self.qvel])
+
+    def end_points(self) -> Array:
+        """The chains' end points (world frame, one row per chain) at the last computed kinematics."""
+        return np.array(self.data.site_xpos[self.end_sites])
 
     def step(self, tau: ArrayLike) -> None:
         """One timestep with the joint torques τ (clipped by MuJoCo to the effort limits)."""

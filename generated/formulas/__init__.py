@@ -2,7 +2,7 @@
 
 From formulas.py (sha256 4568caa89bea0042). Do not edit: run `gagen build formulas.py`.
 
-    from generated.formulas import casadi, c, jax
+    from generated.formulas import casadi, c, cuda, jax
     casadi.move_point       # casadi.Function: numbers, SX or MX (drops into casadi.nlpsol)
     c.move_point(...)       # compiled C (CPython binding): numpy in, numpy out
     c.move_point.batch(...) # n samples at once, shape (n, size) each
@@ -22,4 +22,5 @@ _MODULE = GeneratedModule(Path(__file__).resolve().parent)
 MANIFEST = _MODULE.manifest
 casadi = _MODULE.casadi
 c = _MODULE.c
+cuda = _MODULE.cuda
 jax = _MODULE.jax

@@ -2,7 +2,7 @@
 
 From four_bar.yaml (sha256 f1bd330044f752e2). Do not edit: run `gagen build four_bar.yaml`.
 
-    from generated.four_bar import casadi, c, jax
+    from generated.four_bar import casadi, c, cuda, jax
     casadi.newton_step       # casadi.Function: numbers, SX or MX (drops into casadi.nlpsol)
     c.newton_step(...)       # compiled C (CPython binding): numpy in, numpy out
     c.newton_step.batch(...) # n samples at once, shape (n, size) each
@@ -22,4 +22,5 @@ _MODULE = GeneratedModule(Path(__file__).resolve().parent)
 MANIFEST = _MODULE.manifest
 casadi = _MODULE.casadi
 c = _MODULE.c
+cuda = _MODULE.cuda
 jax = _MODULE.jax

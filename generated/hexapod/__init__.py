@@ -2,7 +2,7 @@
 
 From hexapod.yaml (sha256 f62e7f131a0a2db2). Do not edit: run `gagen build hexapod.yaml`.
 
-    from generated.hexapod import casadi, c, jax
+    from generated.hexapod import casadi, c, cuda, jax
     casadi.ground_cga       # casadi.Function: numbers, SX or MX (drops into casadi.nlpsol)
     c.ground_cga(...)       # compiled C (CPython binding): numpy in, numpy out
     c.ground_cga.batch(...) # n samples at once, shape (n, size) each
@@ -22,4 +22,5 @@ _MODULE = GeneratedModule(Path(__file__).resolve().parent)
 MANIFEST = _MODULE.manifest
 casadi = _MODULE.casadi
 c = _MODULE.c
+cuda = _MODULE.cuda
 jax = _MODULE.jax

@@ -2,7 +2,7 @@
 
 From panda_point.yaml (sha256 c0de11e79de637f1). Do not edit: run `gagen build panda_point.yaml`.
 
-    from generated.panda_point import casadi, c, jax
+    from generated.panda_point import casadi, c, cuda, jax
     casadi.similarity_rate       # casadi.Function: numbers, SX or MX (drops into casadi.nlpsol)
     c.similarity_rate(...)       # compiled C (CPython binding): numpy in, numpy out
     c.similarity_rate.batch(...) # n samples at once, shape (n, size) each
@@ -22,4 +22,5 @@ _MODULE = GeneratedModule(Path(__file__).resolve().parent)
 MANIFEST = _MODULE.manifest
 casadi = _MODULE.casadi
 c = _MODULE.c
+cuda = _MODULE.cuda
 jax = _MODULE.jax

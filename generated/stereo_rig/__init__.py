@@ -2,7 +2,7 @@
 
 From stereo_rig.yaml (sha256 c50d4432fd26cbc4). Do not edit: run `gagen build stereo_rig.yaml`.
 
-    from generated.stereo_rig import casadi, c, jax
+    from generated.stereo_rig import casadi, c, cuda, jax
     casadi.estimate       # casadi.Function: numbers, SX or MX (drops into casadi.nlpsol)
     c.estimate(...)       # compiled C (CPython binding): numpy in, numpy out
     c.estimate.batch(...) # n samples at once, shape (n, size) each
@@ -22,4 +22,5 @@ _MODULE = GeneratedModule(Path(__file__).resolve().parent)
 MANIFEST = _MODULE.manifest
 casadi = _MODULE.casadi
 c = _MODULE.c
+cuda = _MODULE.cuda
 jax = _MODULE.jax

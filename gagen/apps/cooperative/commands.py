@@ -153,6 +153,14 @@ def _teleop_arguments(parser: argparse.ArgumentParser) -> None:
 _teleop = _running("teleop")
 
 
+def _carry_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--out", type=Path, default=Path("plots/carry"),
+                        help="folder for the report and the plot (default plots/carry/)")
+    parser.add_argument("--duration", type=positive_float, default=2.5,
+                        help="seconds: the 2 s motion, then holding (default 2.5)")
+    parser.add_argument("--no-mpc", action="store_true", help="the impedance law only (no torque MPC)")
+
+
 VERBS = (
     Verb("reach", "cooperative reaching (IPOPT, FATROP or iLQR) on a paper scenario, with plots",
          _reach_arguments, _reach),
@@ -164,4 +172,7 @@ VERBS = (
          "loop (report, plots, GIF)", _mpc_arguments, _mpc),
     Verb("teleop", "teleoperate a cooperative primitive with six axes (a trace, the keyboard or a "
          "SpaceMouse) by differential kinematics; report and plot", _teleop_arguments, _teleop),
+    Verb("carry", "a ring held by three iiwa 14 carried in MuJoCo by the impedance law and the torque MPC "
+         "(pose error, internal forces; report, plot)", _carry_arguments, _running("held_object_demo"),
+         needs=("mujoco", "pinocchio", "crocoddyl")),
 )

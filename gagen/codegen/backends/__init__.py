@@ -6,6 +6,9 @@ in build order (a backend comes after those it requires).
   ``lib<name>_<tag>.so`` and called through ctypes (``module.c.<kernel>``);
 - ``cpython``: the CPython binding of the C kernels (``<name>_binding.c``, compiled to
   ``_gagen_<name>_<tag>``), the fast path of ``module.c``; optional (without it: ctypes);
+- ``cuda``: every kernel as CUDA C++ in ``<name>.cu`` (a ``__host__ __device__`` body per kernel over
+  float and double, a batch kernel per precision), compiled by NVRTC through CuPy at first use on a
+  GPU (``module.cuda.<kernel>``, device arrays in and out); nothing compiled at build time;
 - ``jax``: every kernel as a pure jax.numpy function in ``<name>_jax.py`` (``module.jax.<kernel>``;
   rendered from the CasADi Functions, nothing compiled; loading it needs jax, the rest of the module
   does not). Last: nothing requires it, and the other backends' files stay as they were.
@@ -20,10 +23,11 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from gagen.codegen.backends import c, casadi, cpython, jax
+from gagen.codegen.backends import c, casadi, cpython, cuda, jax
 from gagen.codegen.backends.base import Backend, Context, Output, TemplateNotFound, module_name, module_tag
 
-BACKENDS: dict[str, Backend] = {b.name: b for b in (casadi.BACKEND, c.BACKEND, cpython.BACKEND, jax.BACKEND)}
+BACKENDS: dict[str, Backend] = {b.name: b for b in (casadi.BACKEND, c.BACKEND, cpython.BACKEND, cuda.BACKEND,
+                                                  jax.BACKEND)}
 
 
 def select(names: Sequence[str] | None = None) -> list[Backend]:

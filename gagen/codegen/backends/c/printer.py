@@ -17,6 +17,7 @@ prologue from the same instructions, so they are the same doubles the body would
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import casadi as ca
@@ -25,11 +26,11 @@ from gagen.symbolic.flatten import OPCODES
 
 _BINARY = {"ADD": "{0} + {1}", "SUB": "{0} - {1}", "MUL": "{0} * {1}", "DIV": "{0} / {1}",
            "LT": "{0} < {1}", "LE": "{0} <= {1}", "EQ": "{0} == {1}", "NE": "{0} != {1}",
-           "AND": "{0} && {1}", "OR": "{0} || {1}", "IF_ELSE_ZERO": "{0} ? {1} : 0.0",
+           "AND": "{0} && {1}", "OR": "{0} || {1}", "IF_ELSE_ZERO": "{0} ? {1} : {zero}",
            "ATAN2": "atan2({0}, {1})", "POW": "pow({0}, {1})", "CONSTPOW": "pow({0}, {1})",
            "FMIN": "fmin({0}, {1})", "FMAX": "fmax({0}, {1})", "COPYSIGN": "copysign({0}, {1})",
            "FMOD": "fmod({0}, {1})", "HYPOT": "hypot({0}, {1})"}
-_UNARY = {"NEG": "-{0}", "SQ": "{0} * {0}", "TWICE": "{0} + {0}", "INV": "1.0 / {0}", "NOT": "!{0}",
+_UNARY = {"NEG": "-{0}", "SQ": "{0} * {0}", "TWICE": "{0} + {0}", "INV": "{one} / {0}", "NOT": "!{0}",
           "SIGN": "gagen_sign({0})", "FABS": "fabs({0})"}
 _LIBM = ("SQRT", "SIN", "COS", "TAN", "ASIN", "ACOS", "ATAN", "SINH", "COSH", "TANH", "ASINH", "ACOSH",
          "ATANH", "EXP", "LOG", "FLOOR", "CEIL", "ERF", "LOG1P", "EXPM1")
@@ -37,6 +38,26 @@ _LIBM = ("SQRT", "SIN", "COS", "TAN", "ASIN", "ACOS", "ATAN", "SINH", "COSH", "T
 
 class UnsupportedOperation(ValueError):
     """The graph holds an operation the emitter has no C form for."""
+
+
+@dataclass(frozen=True)
+class Dialect:
+    """How the scalar statements spell what differs between C and another C-like target (the CUDA
+    backend's type-generic bodies): the type of the locals, a constant (C: the shortest decimal that
+    reads back as the double), and an element ``k`` of a port's array ``name``."""
+
+    real: str = "double"
+    constant: Callable[[float], str] | None = None  # None: c_literal
+    element: Callable[[str, int], str] | None = None  # None: name[k]
+
+    def literal(self, value: float) -> str:
+        return self.constant(value) if self.constant else c_literal(value)
+
+    def at(self, name: str, k: int) -> str:
+        return self.element(name, k) if self.element else f"{name}[{k}]"
+
+
+C = Dialect()
 
 
 @dataclass(frozen=True)
@@ -63,7 +84,7 @@ class _TrigPlan:
 
 
 def _trig_plan(function: ca.Function, input_names: list[str],
-               in_positions: list[list[int]]) -> _TrigPlan | None:
+               in_positions: list[list[int]], dialect: Dialect = C) -> _TrigPlan | None:
     """The vector-trig prologue of ``function`` (see the module docstring), or None when fewer than two
     distinct angles qualify.
 
@@ -104,27 +125,29 @@ def _trig_plan(function: ca.Function, input_names: list[str],
         op, w = ops[k], [text[j] for j in deps[k]]
         if op == "INPUT":
             i, nz = function.instruction_input(k)
-            text[k] = f"{input_names[i]}[{in_positions[i][nz]}]"
+            text[k] = dialect.at(input_names[i], in_positions[i][nz])
             continue
         if op == "CONST":
-            text[k] = c_literal(function.instruction_constant(k))
+            text[k] = dialect.literal(function.instruction_constant(k))
             continue
         if op in ("ASSIGN", "PARAMETER"):
             text[k] = w[0]
             continue
+        words = {"zero": dialect.literal(0.0), "one": dialect.literal(1.0)}
         if op in _BINARY:
-            expr = _BINARY[op].format(*w)
+            expr = _BINARY[op].format(*w, **words)
         elif op in _UNARY:
-            expr = _UNARY[op].format(*w)
+            expr = _UNARY[op].format(*w, **words)
         elif op in _LIBM:
             expr = f"{op.lower()}({w[0]})"
         else:
             return None  # the body's emitter names the operation
-        prologue.append(f"const double gagen_a{k} = {expr};")
+        prologue.append(f"const {dialect.real} gagen_a{k} = {expr};")
         text[k] = f"gagen_a{k}"
     size = -(-len(angles) // TRIG_LANES) * TRIG_LANES
-    values = [text[k] for k in angles] + ["0.0"] * (size - len(angles))
-    prologue.append(f"double gagen_x[{size}] = {{{', '.join(values)}}}, gagen_s[{size}], gagen_c[{size}];")
+    values = [text[k] for k in angles] + [dialect.literal(0.0)] * (size - len(angles))
+    real = dialect.real
+    prologue.append(f"{real} gagen_x[{size}] = {{{', '.join(values)}}}, gagen_s[{size}], gagen_c[{size}];")
     prologue.append(f"gagen_sincos({len(angles)}, gagen_x, gagen_s, gagen_c);")
     return _TrigPlan(lanes, tuple(prologue))
 
@@ -155,13 +178,14 @@ _VECTOR_UNARY = {"NEG": "-{0}", "SQ": "{0} * {0}", "TWICE": "{0} + {0}", "INV": 
 
 
 def emit_body(function: ca.Function, input_names: list[str], output_names: list[str], *,
-              vector: bool = False) -> CBody:
+              vector: bool = False, dialect: Dialect = C) -> CBody:
     """C statements evaluating ``function`` from arrays ``input_names`` into ``output_names``, with
     the vector-trig prologue (``CBody.trig``) in the scalar form.
 
     ``vector=True`` emits the same instructions on vectors of W samples (the template's ``gagen_v``
     type): inputs are gathered from and outputs scattered to W consecutive samples of the batched
     arrays; operations without a vector form run lane by lane (``GAGEN_V1``/``GAGEN_V2``).
+    ``dialect`` spells the scalar form's types, literals and array elements (C by default).
     """
     in_positions = [_dense_positions(function.sparsity_in(i)) for i in range(function.n_in())]
     out_positions = [_dense_positions(function.sparsity_out(i)) for i in range(function.n_out())]
@@ -171,15 +195,17 @@ def emit_body(function: ca.Function, input_names: list[str], output_names: list[
     def store(o: int, k: int, value: str) -> str:
         if vector:
             return f"GAGEN_SCATTER({output_names[o]}, {out_sizes[o]}, {k}, {value});"
-        return f"{output_names[o]}[{k}] = {value};"
+        return f"{dialect.at(output_names[o], k)} = {value};"
 
     statements: list[str] = []
     for o in range(len(output_names)):  # structural zeros first, then the computed entries
         written = set(out_positions[o])
-        zero = "gagen_v_splat(0.0)" if vector else "0.0"
+        zero = "gagen_v_splat(0.0)" if vector else dialect.literal(0.0)
         statements += [store(o, k, zero) for k in range(out_sizes[o]) if k not in written]
     binary, unary = (_VECTOR_BINARY, _VECTOR_UNARY) if vector else (_BINARY, _UNARY)
-    plan = None if vector else _trig_plan(function, input_names, in_positions)
+    plan = None if vector else _trig_plan(function, input_names, in_positions, dialect)
+    words = ({"zero": "gagen_v_splat(0.0)", "one": "1.0"} if vector
+             else {"zero": dialect.literal(0.0), "one": dialect.literal(1.0)})
     used: set[int] = set()
     for k in range(function.n_instructions()):
         op = OPCODES.get(function.instruction_id(k), "?")
@@ -193,19 +219,19 @@ def emit_body(function: ca.Function, input_names: list[str], output_names: list[
         if op == "INPUT":
             i, nz = args[0], in_positions[args[0]][args[1]]
             expr = (f"GAGEN_GATHER({input_names[i]}, {in_sizes[i]}, {nz})" if vector
-                    else f"{input_names[i]}[{nz}]")
+                    else dialect.at(input_names[i], nz))
         elif op == "CONST":
-            literal = c_literal(function.instruction_constant(k))
-            expr = f"gagen_v_splat({literal})" if vector else literal
+            value = function.instruction_constant(k)
+            expr = f"gagen_v_splat({c_literal(value)})" if vector else dialect.literal(value)
         elif op in ("ASSIGN", "PARAMETER"):
             expr = w[0]
         elif plan and k in plan.lanes:
             kind, lane = plan.lanes[k]
             expr = f"gagen_{kind[0].lower()}[{lane}]"
         elif op in binary:
-            expr = binary[op].format(*w)
+            expr = binary[op].format(*w, **words)
         elif op in unary:
-            expr = unary[op].format(*w)
+            expr = unary[op].format(*w, **words)
         elif vector and (op in _LIBM or op == "SIGN"):
             expr = f"GAGEN_V1({'gagen_sign' if op == 'SIGN' else op.lower()}, {w[0]})"
         elif vector and op in _BINARY and _BINARY[op].endswith(")"):  # atan2, pow, fmin, ...

@@ -1,0 +1,92 @@
+"""Many cooperative IK problems at once, on the CPU or the GPU: Levenberg-Marquardt on the generated
+``task`` kernel (e = log(V_Sc(q)~ V_Sd) and J_Be [COOP Eq. 43-47]) for every (target, seed) pair of a
+batch, vectorised over the samples with the array module that holds them (numpy with the C kernels'
+column batch, CuPy with the CUDA kernels: the whole solve then stays on the device).
+
+Per sample and iteration: the step Δq = −J_Beᵀ (J_Be J_Beᵀ + λ I)⁻¹ e (the damped least-squares step
+of ``gagen.control.ik`` in its k × k form, k = 7 rows, one batched solve), clipped into the joint box;
+accepted when it lowers ‖e‖², and λ shrinks (× 0.3), else it is rejected and λ grows (× 10). A target
+is solved when one of its seeds reaches ‖e‖ ≤ ``tol``; ``success`` and the errors are reported per
+target, as GPU IK libraries report them (cuRobo: success rate over targets, seeds per target).
+
+Standalone on purpose (numpy or CuPy only, no other gagen import): a GPU machine runs it through the
+CUDA kernels without CasADi (benchmarks/cuda_gpu.py).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+Task = Callable[[Any, Any], tuple[Any, Any]]
+"""task(q (m, n), V_Sd (12, n)) -> (e (k, n), J_Be (k, m, n)) in the column layout:
+``module.cuda.task`` on the device, ``module.c.task.batch_columns`` on the CPU."""
+
+DAMPING = 1e-3  # the first λ, relative to ‖J‖² ~ 1 on the bundled arms
+DAMPING_MIN, DAMPING_MAX = 1e-12, 1e8
+
+
+@dataclass(frozen=True)
+class BatchIK:
+    """Outcome per (target, seed) sample, in the solve's array module: ``q`` (m, n), ``error`` ‖e‖ (n,);
+    per target (T): ``best`` the seed with the least error, ``best_error`` its error, ``success`` its
+    error ≤ tol; ``iterations`` taken."""
+
+    q: Any
+    error: Any
+    best: Any
+    best_error: Any
+    success: Any
+    iterations: int
+
+    @property
+    def success_rate(self) -> float:
+        return float(self.success.astype(float).mean())
+
+
+def solve_batch(task: Task, targets: Any, seeds: Any, lower: Any, upper: Any, *, iterations: int = 30,
+                tol: float = 1e-9, xp: Any = None) -> BatchIK:
+    """Solve every target (V_Sd, shape (12, T)) from every seed (q, shape (m, S)): n = T·S samples, the
+    target index running slowest. ``lower``/``upper``: the joint box (m,). ``xp``: the array module
+    (default: that of ``targets``)."""
+    if xp is None:
+        xp = _array_module(targets)
+    T, S = targets.shape[1], seeds.shape[1]
+    V = xp.repeat(targets, S, axis=1)  # (12, T·S), sample t·S + s
+    lower, upper = xp.asarray(lower)[:, None], xp.asarray(upper)[:, None]
+    q = xp.clip(xp.tile(seeds, (1, T)), lower, upper)
+    e, J = task(q, V)
+    cost = (e * e).sum(axis=0)
+    damping = xp.full(cost.shape, DAMPING)
+    k = e.shape[0]
+    eye = xp.eye(k)[None]
+    for _ in range(iterations):
+        Jn = xp.moveaxis(J, -1, 0)  # (n, k, m)
+        A = Jn @ xp.swapaxes(Jn, 1, 2) + damping[:, None, None] * eye
+        y = xp.linalg.solve(A, xp.moveaxis(e, -1, 0)[:, :, None])  # (n, k, 1)
+        step = -(xp.swapaxes(Jn, 1, 2) @ y)[:, :, 0].T  # (m, n)
+        trial = xp.clip(q + step, lower, upper)
+        e_new, J_new = task(trial, V)
+        cost_new = (e_new * e_new).sum(axis=0)
+        better = cost_new < cost  # NaN never is: a degenerate trial is rejected
+        q = xp.where(better[None], trial, q)
+        e = xp.where(better[None], e_new, e)
+        J = xp.where(better[None, None], J_new, J)
+        cost = xp.where(better, cost_new, cost)
+        damping = xp.clip(xp.where(better, damping * 0.3, damping * 10.0), DAMPING_MIN, DAMPING_MAX)
+    error = xp.sqrt(cost)
+    per_target = error.reshape(T, S)
+    best = per_target.argmin(axis=1)
+    best_error = per_target.min(axis=1)
+    return BatchIK(q, error, best, best_error, best_error <= tol, iterations)
+
+
+def _array_module(a: Any) -> Any:
+    if type(a).__module__.startswith("cupy"):
+        import cupy
+
+        return cupy
+    import numpy
+
+    return numpy
