@@ -20,6 +20,7 @@ import json
 import statistics
 import sys
 import time
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -125,7 +126,8 @@ def check_modules(cupy: Any, loader: Any, data: Path) -> list[dict[str, Any]]:
                                 worst64, where64 = error, f"{name}.{port.name}"
             rows.append({"module": vectors.stem, "fmad": fmad, "kernels": len(kernels), "f64": worst64,
                          "f64_at": where64, "f32": worst32, "f32_at": where32})
-            print(f"| {vectors.stem} | {'on' if fmad else 'off'} | {len(kernels)} | {worst64:.2e} ({where64}) | "
+            print(f"| {vectors.stem} | {'on' if fmad else 'off'} | {len(kernels)} | "
+                  f"{worst64:.2e} ({where64}) | "
                   f"{worst32:.2e} ({where32}) |", flush=True)
     return rows
 
@@ -155,11 +157,18 @@ def _wall(run: Any, repeats: int = 5) -> float:
     return statistics.median(times)
 
 
+def _round_trip(cupy: Any, kernel: Any, staged: list[np.ndarray]) -> None:
+    """Host inputs to the device, the kernel, every output back to the host."""
+    outs = kernel(*(cupy.asarray(a) for a in staged))
+    for o in outs if isinstance(outs, tuple) else (outs,):
+        cupy.asnumpy(o)
+
+
 def kernel_rates(cupy: Any, loader: Any, sizes: list[int]) -> list[dict[str, Any]]:
     rows = []
     cases = (("panda_point", "arm0_fk_jacobian", 7, "Panda FK + J (flange motor, point, 6×7 J)"),
              ("three_pandas_circle", "task", 21, "three-Panda circle task (e, J_Be 7×21)"))
-    for module, name, dof, what in cases:
+    for module, name, _dof, what in cases:
         kernel = _cuda_module(module, loader)[name]
         for n in sizes:
             rng = np.random.default_rng(1)
@@ -168,17 +177,13 @@ def kernel_rates(cupy: Any, loader: Any, sizes: list[int]) -> list[dict[str, Any
                 host[1] = cupy.asnumpy(cupy.ascontiguousarray(
                     _cuda_module(module, loader)["similarity"](cupy.asarray(host[0]))[0]))
             for dtype, label in ((np.float64, "fp64"), (np.float32, "fp32")):
-                device = [cupy.asarray(a.astype(dtype)) for a in host]
-                seconds = _event_time(cupy, lambda d=device: kernel(*d))
-
-                def end_to_end(h=[a.astype(dtype) for a in host]) -> None:
-                    outs = kernel(*(cupy.asarray(a) for a in h))
-                    for o in outs if isinstance(outs, tuple) else (outs,):
-                        cupy.asnumpy(o)
-
-                total = _wall(end_to_end)
+                staged = [a.astype(dtype) for a in host]
+                device = [cupy.asarray(a) for a in staged]
+                seconds = _event_time(cupy, partial(kernel, *device))
+                total = _wall(partial(_round_trip, cupy, kernel, staged))
                 rows.append({"kernel": what, "precision": label, "n": n, "kernel_s": seconds,
-                             "per_second": n / seconds, "end_to_end_s": total, "end_to_end_per_second": n / total})
+                             "per_second": n / seconds, "end_to_end_s": total,
+                             "end_to_end_per_second": n / total})
                 print(f"| {what} | {label} | {n:,} | {seconds * 1e3:.3f} ms | {n / seconds / 1e6:.1f} M/s | "
                       f"{total * 1e3:.1f} ms | {n / total / 1e6:.1f} M/s |", flush=True)
                 del device
@@ -204,10 +209,13 @@ def peers(cupy: Any, loader: Any, n: int) -> list[dict[str, Any]]:
     ref_j = _gagen_twists(J.transpose(2, 0, 1))
 
     def add(name: str, seconds: float, p: np.ndarray | None, j: np.ndarray | None, note: str = "") -> None:
-        error = max(float(np.abs(p - ref_p).max()), float(np.abs(j - ref_j).max())) if p is not None else float("nan")
-        rows.append({"backend": name, "n": n, "seconds": seconds, "per_second": n / seconds, "vs_gagen": error,
+        error = (max(float(np.abs(p - ref_p).max()), float(np.abs(j - ref_j).max())) if p is not None
+                 else float("nan"))
+        rows.append({"backend": name, "n": n, "seconds": seconds, "per_second": n / seconds,
+                     "vs_gagen": error,
                      "note": note})
-        print(f"| {name} | {n:,} | {seconds * 1e3:.2f} ms | {n / seconds / 1e6:.2f} M/s | {error:.1e} | {note} |",
+        print(f"| {name} | {n:,} | {seconds * 1e3:.2f} ms | {n / seconds / 1e6:.2f} M/s | {error:.1e} | "
+              f"{note} |",
               flush=True)
 
     for dtype, label in ((np.float64, "fp64"), (np.float32, "fp32")):
@@ -245,7 +253,8 @@ def peers(cupy: Any, loader: Any, n: int) -> list[dict[str, Any]]:
             add("adam-robotics JAX jit(vmap) fp64", _wall(lambda: jax.block_until_ready(adam(qj)), 10),
                 H[:, :3, 3], Ja)
         except Exception as error:  # a peer that cannot run: its row says why
-            rows.append({"backend": "adam-robotics", "note": f"failed: {type(error).__name__}: {error}"[:200]})
+            rows.append({"backend": "adam-robotics",
+                         "note": f"failed: {type(error).__name__}: {error}"[:200]})
             print(f"| adam-robotics | failed: {type(error).__name__}: {str(error)[:150]} |", flush=True)
     except Exception as error:
         print(f"| JAX | failed: {type(error).__name__}: {str(error)[:150]} |", flush=True)
@@ -266,7 +275,8 @@ def peers(cupy: Any, loader: Any, n: int) -> list[dict[str, Any]]:
 
             Jt, Ht = (o.double().cpu().numpy() for o in run())
             p = Ht[:, :3, 3]
-            twist = np.concatenate([Jt[:, :3] - np.cross(Jt[:, 3:], p[:, :, None], axis=1), Jt[:, 3:]], axis=1)
+            v_origin, omega = Jt[:, :3], Jt[:, 3:]
+            twist = np.concatenate([v_origin - np.cross(omega, p[:, :, None], axis=1), omega], axis=1)
             add(f"pytorch-kinematics CUDA {label}", _wall(run, 5), p, twist, f"torch {torch.__version__}")
         torch.cuda.empty_cache()
     except Exception as error:
@@ -288,41 +298,83 @@ def batched_ik(cupy: Any, loader: Any, data: Path, targets_counts: list[int], se
         targets = cupy.ascontiguousarray(kernels["similarity"](q_target)[0])
         q_seeds = lower[:, None] + (upper - lower)[:, None] * rng.random((m, seeds))
         task = kernels["task"]
-        batch_ik.solve_batch(task, targets[:, :8], q_seeds, lower, upper, iterations=2, xp=cupy)  # warm-up
-        cupy.cuda.Device().synchronize()
-        started = time.perf_counter()
-        result = batch_ik.solve_batch(task, targets, q_seeds, lower, upper, iterations=iterations, xp=cupy)
-        rate = result.success_rate  # synchronises
-        seconds = time.perf_counter() - started
-        errors = cupy.asnumpy(result.best_error)
-        rows.append({"targets": T, "seeds": seeds, "iterations": iterations, "seconds": seconds,
-                     "targets_per_second": T / seconds, "success": rate,
-                     "median_error": float(np.median(errors)), "max_error": float(errors.max())})
-        print(f"| {T:,} | {seeds} | {iterations} | {seconds * 1e3:.1f} ms | {T / seconds:,.0f} | {rate:.2%} | "
-              f"{np.median(errors):.1e} | {errors.max():.1e} |", flush=True)
-        cupy.get_default_memory_pool().free_all_blocks()
+        for compact in (5, 0):
+            batch_ik.solve_batch(task, targets[:, :64], q_seeds, lower, upper, iterations=12, xp=cupy,
+                                 compact_every=compact)  # warm-up: the element-wise kernels compile
+            cupy.cuda.Device().synchronize()
+            started = time.perf_counter()
+            result = batch_ik.solve_batch(task, targets, q_seeds, lower, upper, iterations=iterations,
+                                          xp=cupy, compact_every=compact)
+            rate = result.success_rate  # synchronises
+            seconds = time.perf_counter() - started
+            errors = cupy.asnumpy(result.best_error)
+            rows.append({"targets": T, "seeds": seeds, "iterations": iterations, "compact_every": compact,
+                         "seconds": seconds, "targets_per_second": T / seconds, "success": rate,
+                         "median_error": float(np.median(errors)), "max_error": float(errors.max())})
+            print(f"| {T:,} | {seeds} | {iterations} | {compact or 'never'} | {seconds * 1e3:.1f} ms | "
+                  f"{T / seconds:,.0f} | {rate:.2%} | {np.median(errors):.1e} | {errors.max():.1e} |",
+                  flush=True)
+            del result
+            cupy.get_default_memory_pool().free_all_blocks()
     return rows
 
 
-def device(data: Path, out: Path, quick: bool) -> None:
+def interop(cupy: Any, loader: Any) -> dict[str, str]:
+    """The outputs (a strided (6, 7, n) view among them) handed to PyTorch and JAX by DLPack."""
+    _, P, J = _cuda_module("panda_point", loader)["arm0_fk_jacobian"](
+        cupy.asarray(np.random.default_rng(3).uniform(-1, 1, (7, 256))))
+    found = {}
+    for name in ("torch", "jax"):
+        try:
+            if name == "torch":
+                import torch
+
+                to = torch.from_dlpack
+                back = lambda x: x.cpu().numpy()  # noqa: E731
+            else:
+                import jax
+                import jax.dlpack
+
+                jax.config.update("jax_enable_x64", True)  # else JAX takes float64 as float32
+                to = jax.dlpack.from_dlpack
+                back = np.asarray
+            same = all(np.array_equal(back(to(a)), cupy.asnumpy(a)) for a in (P, J))
+            found[name] = "same values" if same else "DIFFERENT values"
+        except Exception as error:
+            found[name] = f"failed: {type(error).__name__}: {str(error)[:150]}"
+        print(f"| DLPack to {name} | {found[name]} |", flush=True)
+    return found
+
+
+def device(data: Path, out: Path, quick: bool, parts: set[str]) -> None:
     import cupy
 
     loader = _by_path("gagen_cuda_loader", REPO / "gagen" / "codegen" / "backends" / "cuda" / "loader.py")
     properties = cupy.cuda.runtime.getDeviceProperties(0)
     card = properties["name"].decode()
-    print(f"# {card}, CUDA runtime {cupy.cuda.runtime.runtimeGetVersion()}, CuPy {cupy.__version__}\n", flush=True)
+    runtime = cupy.cuda.runtime.runtimeGetVersion()
+    print(f"# {card}, CUDA runtime {runtime}, CuPy {cupy.__version__}\n", flush=True)
     report: dict[str, Any] = {"device": card}
-    print("| module | FMA | kernels | fp64 vs C (relative) | fp32 vs C (relative) |\n|---|---|---:|---|---|")
-    report["check"] = check_modules(cupy, loader, data)
-    sizes = [1 << 20] if quick else [1 << 20, 1 << 22]
-    print("\n| kernel | precision | n | kernel time | per second | end to end | per second |\n"
-          "|---|---|---:|---:|---:|---:|---:|")
-    report["rates"] = kernel_rates(cupy, loader, sizes)
-    print("\n| Panda FK + J | n | time | per second | max dev. from gagen | note |\n|---|---:|---:|---:|---:|---|")
-    report["peers"] = peers(cupy, loader, 1 << 20)
-    print("\n| targets | seeds | iterations | time | targets/s | success | median ‖e‖ | max ‖e‖ |\n"
-          "|---:|---:|---:|---:|---:|---:|---:|---:|")
-    report["ik"] = batched_ik(cupy, loader, data, [1000, 10000] if quick else [1000, 10000, 50000], 16, 30)
+    if "check" in parts:
+        print("| module | FMA | kernels | fp64 vs C (relative) | fp32 vs C (relative) |\n"
+              "|---|---|---:|---|---|")
+        report["check"] = check_modules(cupy, loader, data)
+    if "interop" in parts:
+        report["interop"] = interop(cupy, loader)
+    if "rates" in parts:
+        sizes = [1 << 20] if quick else [1 << 20, 1 << 22]
+        print("\n| kernel | precision | n | kernel time | per second | end to end | per second |\n"
+              "|---|---|---:|---:|---:|---:|---:|")
+        report["rates"] = kernel_rates(cupy, loader, sizes)
+    if "peers" in parts:
+        print("\n| Panda FK + J | n | time | per second | max dev. from gagen | note |\n"
+              "|---|---:|---:|---:|---:|---|")
+        report["peers"] = peers(cupy, loader, 1 << 20)
+    if "ik" in parts:
+        print("\n| targets | seeds | iterations | set aside every | time | targets/s | success | "
+              "median ‖e‖ | max ‖e‖ |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+        counts = [1000, 10000] if quick else [10000, 50000, 100000]
+        report["ik"] = batched_ik(cupy, loader, data, counts, 16, 30)
     out.mkdir(parents=True, exist_ok=True)
     (out / "cuda_gpu.json").write_text(json.dumps(report, indent=1))
 
@@ -333,11 +385,13 @@ def main() -> None:
     parser.add_argument("data", type=Path)
     parser.add_argument("--out", type=Path, default=Path("."))
     parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--parts", default="check,interop,rates,peers,ik",
+                        help="what the device half runs (comma-separated; default all)")
     args = parser.parse_args()
     if args.mode == "prepare":
         prepare(args.data)
     else:
-        device(args.data, args.out, args.quick)
+        device(args.data, args.out, args.quick, set(args.parts.split(",")))
 
 
 if __name__ == "__main__":

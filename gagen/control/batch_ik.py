@@ -46,28 +46,31 @@ class BatchIK:
 
 
 def solve_batch(task: Task, targets: Any, seeds: Any, lower: Any, upper: Any, *, iterations: int = 30,
-                tol: float = 1e-9, xp: Any = None) -> BatchIK:
+                tol: float = 1e-9, compact_every: int = 5, xp: Any = None) -> BatchIK:
     """Solve every target (V_Sd, shape (12, T)) from every seed (q, shape (m, S)): n = T·S samples, the
     target index running slowest. ``lower``/``upper``: the joint box (m,). ``xp``: the array module
-    (default: that of ``targets``)."""
+    (default: that of ``targets``). Every ``compact_every`` iterations the samples of the targets solved
+    by then are set aside, so that the work shrinks as targets are solved (0: never)."""
     if xp is None:
         xp = _array_module(targets)
     T, S = targets.shape[1], seeds.shape[1]
-    V = xp.repeat(targets, S, axis=1)  # (12, T·S), sample t·S + s
+    n = T * S
     lower, upper = xp.asarray(lower)[:, None], xp.asarray(upper)[:, None]
+    alive = xp.arange(n)  # the samples still iterated, sample t·S + s
+    V = xp.repeat(targets, S, axis=1)
     q = xp.clip(xp.tile(seeds, (1, T)), lower, upper)
     e, J = task(q, V)
     cost = (e * e).sum(axis=0)
     damping = xp.full(cost.shape, DAMPING)
-    k = e.shape[0]
-    eye = xp.eye(k)[None]
-    for _ in range(iterations):
+    final_q, final_cost = q.copy(), cost.copy()
+    eye = xp.eye(e.shape[0])[None]
+    for iteration in range(1, iterations + 1):
         Jn = xp.moveaxis(J, -1, 0)  # (n, k, m)
         A = Jn @ xp.swapaxes(Jn, 1, 2) + damping[:, None, None] * eye
         y = xp.linalg.solve(A, xp.moveaxis(e, -1, 0)[:, :, None])  # (n, k, 1)
         step = -(xp.swapaxes(Jn, 1, 2) @ y)[:, :, 0].T  # (m, n)
         trial = xp.clip(q + step, lower, upper)
-        e_new, J_new = task(trial, V)
+        e_new, J_new = task(xp.ascontiguousarray(trial), V)
         cost_new = (e_new * e_new).sum(axis=0)
         better = cost_new < cost  # NaN never is: a degenerate trial is rejected
         q = xp.where(better[None], trial, q)
@@ -75,11 +78,21 @@ def solve_batch(task: Task, targets: Any, seeds: Any, lower: Any, upper: Any, *,
         J = xp.where(better[None, None], J_new, J)
         cost = xp.where(better, cost_new, cost)
         damping = xp.clip(xp.where(better, damping * 0.3, damping * 10.0), DAMPING_MIN, DAMPING_MAX)
-    error = xp.sqrt(cost)
+        if compact_every and iteration % compact_every == 0 and iteration < iterations:
+            final_q[:, alive], final_cost[alive] = q, cost
+            solved = (final_cost.reshape(T, S) <= tol * tol).any(axis=1)
+            keep = ~solved[alive // S]
+            if not bool(keep.all()):
+                alive, V, q, e, J = alive[keep], V[:, keep], q[:, keep], e[:, keep], J[:, :, keep]
+                cost, damping = cost[keep], damping[keep]
+                if alive.size == 0:
+                    break
+    final_q[:, alive], final_cost[alive] = q, cost
+    error = xp.sqrt(final_cost)
     per_target = error.reshape(T, S)
     best = per_target.argmin(axis=1)
     best_error = per_target.min(axis=1)
-    return BatchIK(q, error, best, best_error, best_error <= tol, iterations)
+    return BatchIK(final_q, error, best, best_error, best_error <= tol, iterations)
 
 
 def _array_module(a: Any) -> Any:
