@@ -67,43 +67,32 @@ def _close(got, want, rtol: float, what: str) -> None:
     assert error <= rtol * scale, f"{what}: {error:.3g} > {rtol:g} x {scale:.3g}"
 
 
-def _host(module, tmp_path: Path, precision: str = "f64") -> types.SimpleNamespace:
-    return host_kernels(_cu(module), tmp_path / f"lib{module.manifest['module']}_cuda_host.so",
-                        module.manifest, precision)
-
-
-def _scalar_trig_c(module, tmp_path: Path) -> dict:
-    """The module's C kernels compiled with -DGAGEN_SCALAR_TRIG (libm's sine and cosine in the single
-    calls, as the host bodies use), by kernel name."""
-    import ctypes
-
-    from gagen.codegen.backends.c.loader import CKernel
-    from gagen.codegen.compiler import compile_shared
-
-    library = tmp_path / f"lib{module.manifest['module']}_scalar_trig.so"
-    compile_shared(module.folder / module.manifest["c_source"], library, defines=("GAGEN_SCALAR_TRIG",))
-    loaded = ctypes.CDLL(str(library))
-    return {e["name"]: CKernel(loaded, e) for e in module.manifest["kernels"]}
+def _hosts(module, tmp_path: Path) -> tuple[types.SimpleNamespace, types.SimpleNamespace]:
+    """The float64 and float32 host loops of the module's .cu, compiled once."""
+    library = tmp_path / f"lib{module.manifest['module']}_cuda_host.so"
+    host64 = host_kernels(_cu(module), library, module.manifest, "f64")
+    return host64, host_kernels(None, library, module.manifest, "f32")
 
 
 def _against_c(module, tmp_path: Path, n: int = 40) -> None:
-    """Every kernel's host loop (float64) on n samples: the same doubles as the C kernel's single call
-    with libm's trigonometry (the C printer's statements in the same order, no contraction), and within
-    1e-14 of the default C batch (glibc's vector sine and cosine, within 4 ulp); float32 finite where
-    float64 is moderate."""
-    host64, host32 = _host(module, tmp_path), _host(module, tmp_path / "..", "f32")
-    scalar = _scalar_trig_c(module, tmp_path)
+    """Every kernel's host loop (float64) on n samples: the same doubles as the CasADi Function (the C
+    printer replays its instructions in its order, libm's trigonometry, no contraction: what the C
+    kernels give with -DGAGEN_SCALAR_TRIG), and within 1e-14 of the default C batch (glibc's vector sine
+    and cosine, within 4 ulp); float32 finite where float64 is moderate."""
+    host64, host32 = _hosts(module, tmp_path)
     rng = np.random.default_rng(7)
     for entry in module.manifest["kernels"]:
         name = entry["name"]
         inputs = _inputs(module, entry, n, rng)
         got = getattr(host64, name).batch(*inputs)
         got = got if isinstance(got, tuple) else (got,)
+        function = getattr(module.casadi, name)
         for s in range(n):
-            want = scalar[name](*(a[s] for a in inputs))
+            want = function(*(a[s] for a in inputs))
             want = want if isinstance(want, tuple) else (want,)
             for g, w, port in zip(got, want, entry["outputs"], strict=True):
-                assert np.array_equal(g[s].reshape(np.shape(w)), w, equal_nan=True), \
+                w = w.full().reshape(g[s].shape)
+                assert np.array_equal(g[s], w, equal_nan=True), \
                     f"{module.manifest['module']}.{name}.{port['name']} sample {s}"
         single = getattr(host64, name)(*(a[0] for a in inputs))
         single = single if isinstance(single, tuple) else (single,)
@@ -133,7 +122,8 @@ def test_host_bodies_pass_the_interpreter_check(tmp_path):
     from gagen.robots.spec import load_system
 
     module = system_module("panda_point")
-    standin = types.SimpleNamespace(manifest=module.manifest, c=_host(module, tmp_path), casadi=module.casadi)
+    standin = types.SimpleNamespace(manifest=module.manifest, c=_hosts(module, tmp_path)[0],
+                                    casadi=module.casadi)
     system, configurations = load_system(BUNDLED["panda_point"])
     report = check_module(standin, system, configurations, count=4)
     assert report and not failures(report), [d.message() for d in failures(report)]
@@ -143,7 +133,7 @@ def test_float32_tracks_float64_on_the_flange(tmp_path):
     """float32 FK + Jacobian of the Panda within 1e-5 relative of float64 (the issue's acceptance for the
     device's float32 results)."""
     module = system_module("panda_point")
-    host64, host32 = _host(module, tmp_path), _host(module, tmp_path / "..", "f32")
+    host64, host32 = _hosts(module, tmp_path)
     q = np.random.default_rng(3).uniform(-2.5, 2.5, (1000, 7))
     for a, b in zip(host32.arm0_fk_jacobian.batch(q), host64.arm0_fk_jacobian.batch(q), strict=True):
         assert np.abs(a - b).max() <= 1e-5 * max(1.0, np.abs(b).max())
@@ -330,7 +320,7 @@ def test_cuda_and_template_names_as_ports_and_tiny_guards(tmp_path):
     spec = tmp_path / "names.py"
     spec.write_text(FORMULA)
     module = __import__("gagen").load(build(spec, tmp_path / "names").folder)
-    host64, host32 = _host(module, tmp_path), _host(module, tmp_path / "..", "f32")
+    host64, host32 = _hosts(module, tmp_path)
     rng = np.random.default_rng(1)
     args = [rng.uniform(-1, 1, (6, len(p["rows"]))) for p in module.manifest["kernels"][0]["inputs"]]
     _close(host64.threadIdx.batch(*args), module.c.threadIdx.batch(*args), RTOL, "threadIdx")

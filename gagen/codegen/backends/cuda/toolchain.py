@@ -166,10 +166,11 @@ class HostKernel:
         return outs[0] if len(outs) == 1 else outs
 
 
-def host_kernels(source: Path, library: Path, manifest: dict[str, Any],
+def host_kernels(source: Path | None, library: Path, manifest: dict[str, Any],
                  precision: str = "f64") -> types.SimpleNamespace:
-    """The kernels of ``manifest`` from ``source`` compiled as host C++ into ``library``: a namespace
-    of :class:`HostKernel` by kernel name."""
-    compile_host(source, library)
+    """The kernels of ``manifest`` from ``source`` compiled as host C++ into ``library`` (``source``
+    None: the library compiled before): a namespace of :class:`HostKernel` by kernel name."""
+    if source is not None:
+        compile_host(source, library)
     loaded = ctypes.CDLL(str(library))
     return types.SimpleNamespace(**{e["name"]: HostKernel(loaded, e, precision) for e in manifest["kernels"]})
