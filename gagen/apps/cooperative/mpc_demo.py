@@ -131,6 +131,23 @@ def _target_circle(module: GeneratedModule, V_Sd: NDArray[np.float64]
             np.array([unit_normal(x)[b] for b in ("e1", "e2", "e3")]))
 
 
+def ring(centre: NDArray[np.float64], radius: float, normal: NDArray[np.float64],
+         count: int = 90) -> NDArray[np.float64]:
+    """``count`` points around the circle of this centre, radius and unit normal (closed: the last is
+    the first)."""
+    s = np.linspace(0, 2 * np.pi, count)
+    a = np.cross(normal, [1.0, 0, 0] if abs(normal[0]) < 0.9 else [0, 1.0, 0])
+    a /= np.linalg.norm(a)
+    b = np.cross(normal, a)
+    points: NDArray[np.float64] = centre + radius * (np.outer(np.cos(s), a) + np.outer(np.sin(s), b))
+    return points
+
+
+def target_ring(module: GeneratedModule, V_Sd: NDArray[np.float64], count: int = 90) -> NDArray[np.float64]:
+    """Points around the target circle X_d = V_Sd X_u V_Sd~."""
+    return ring(*_target_circle(module, V_Sd), count=count)
+
+
 def animate(module: GeneratedModule, result: MPCRun, target: Any, path: Path, fps: int = 20) -> Path:
     """A GIF of the three end points, the arms' circle and the target circle, seen from above-front."""
     from matplotlib.animation import FuncAnimation, PillowWriter
@@ -140,19 +157,11 @@ def animate(module: GeneratedModule, result: MPCRun, target: Any, path: Path, fp
     ax = fig.add_subplot(projection="3d")
     every = max(1, round(1 / (fps * result.period)))
     frames = list(range(0, len(result.t), every))
-    s = np.linspace(0, 2 * np.pi, 90)
-
-    def ring(centre: NDArray[np.float64], radius: float, normal: NDArray[np.float64]) -> NDArray[np.float64]:
-        a = np.cross(normal, [1.0, 0, 0] if abs(normal[0]) < 0.9 else [0, 1.0, 0])
-        a /= np.linalg.norm(a)
-        b = np.cross(normal, a)
-        points: NDArray[np.float64] = centre + radius * (np.outer(np.cos(s), a) + np.outer(np.sin(s), b))
-        return points
 
     def draw(k: int) -> None:
         ax.clear()
         points = end_points(module, result.q[k])
-        mine, wanted = ring(*circle_of(points)), ring(*_target_circle(module, target(result.t[k])))
+        mine, wanted = ring(*circle_of(points)), target_ring(module, target(result.t[k]))
         ax.plot(*wanted.T, "--", color="grey", lw=1)
         ax.plot(*mine.T, color="magenta", lw=2)
         ax.scatter(*points.T, color="black", s=20)

@@ -1,21 +1,24 @@
 """``gagen mpc --dynamics``: the MPC demo's moving circle (``mpc_demo.setup``: it moves, tilts and grows)
 tracked at the torque level. Receding-horizon box-FDDP (``gagen.control.torque_mpc``) closes the loop in
 MuJoCo. Writes a report (solve times against the deadline, misses, tracking error, torques over their
-limits), a plot, and a GIF of the end points' circle against the target's."""
+limits), a plot, and a GIF rendered by MuJoCo (``gagen.dynamics.mujoco_render``; matplotlib's drawing of
+the end points' circle where MuJoCo's renderer cannot start)."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from gagen.apps.cooperative.mpc_demo import animate, setup
+from gagen.apps.cooperative.mpc_demo import animate, setup, target_ring
 from gagen.apps.cooperative.scenarios import spec_of
 from gagen.control.mpc import MPCRun
 from gagen.control.torque import TorqueOCP
 from gagen.control.torque_mpc import MpcRun, TorqueMPC, run
 from gagen.dynamics.mujoco_model import MujocoSystem
+from gagen.dynamics.mujoco_render import RenderUnavailable, render_gif
 
 SYSTEM = "three_iiwas_circle"  # (MuJoCo refuses the published Panda's link-4 inertia)
 RATE = 50.0  # Hz
@@ -59,6 +62,26 @@ def plot(loop: MpcRun, path: Path) -> Path:
     return path
 
 
+def animation(sim: MujocoSystem, module: Any, loop: MpcRun, target: Any, path: Path,
+              fps: float = 20.0) -> Path:
+    """The run rendered by MuJoCo (the arms, their end points and the target circle), or, where MuJoCo's
+    offscreen renderer cannot start, the end points' circle against the target's drawn by matplotlib
+    (with a line saying why)."""
+    every = max(1, round(1.0 / (fps * (loop.t[1] - loop.t[0]))))
+    frames = np.arange(0, len(loop.t), every)
+    qpos = np.tile(sim.model.qpos0, (len(frames), 1))
+    qpos[:, sim.qpos] = loop.q[frames]
+    rings = np.array([[target_ring(module, target(loop.t[k]), 64)] for k in frames])
+    try:
+        return render_gif(sim.mjspec.to_xml(), qpos, path, polylines=rings, fps=fps)
+    except RenderUnavailable as e:
+        print(f"note: {e}; drawing the GIF with matplotlib instead", flush=True)
+    ticks = np.round(loop.tick_t / (loop.t[1] - loop.t[0])).astype(int)
+    kinematic = MPCRun(loop.tick_t, loop.q[ticks], loop.qdot[ticks], loop.tau[ticks[:-1]], loop.errors,
+                       loop.solve_time[:-1], loop.iterations[:-1], np.ones(len(ticks) - 1, bool), loop.period)
+    return animate(module, kinematic, target, path)
+
+
 def run_command(args: argparse.Namespace) -> int:
     """``gagen mpc --dynamics`` on its parsed arguments (``gagen.apps.cooperative.commands``)."""
     system = args.system or SYSTEM
@@ -72,11 +95,7 @@ def run_command(args: argparse.Namespace) -> int:
     text = report(loop, rate, system, sim.effort)
     (out / "torque_mpc_report.md").write_text(text)
     written = [out / "torque_mpc_report.md", plot(loop, out / "torque_mpc.png")]
-    if not args.no_animation:  # the end points' circle, from the ticks' states (MuJoCo renders no GIF here)
-        ticks = np.round(loop.tick_t / (loop.t[1] - loop.t[0])).astype(int)
-        kinematic = MPCRun(loop.tick_t, loop.q[ticks], loop.qdot[ticks], loop.tau[ticks[:-1]], loop.errors,
-                           loop.solve_time[:-1], loop.iterations[:-1], np.ones(len(ticks) - 1, bool),
-                           loop.period)
-        written.append(animate(module, kinematic, target, out / "torque_mpc.gif"))
+    if not args.no_animation:
+        written.append(animation(sim, module, loop, target, out / "torque_mpc.gif"))
     print(text + "wrote " + ", ".join(map(str, written)))
     return 0
