@@ -10,11 +10,13 @@ install, in one line.
 
 The bundled URDFs carry inertias but no geometry, so the arms are drawn as a scene overlay each frame:
 a capsule from every body's parent to the body (from the floor below a base link), a sphere at every
-body, the sites (the chains' end points) as MuJoCo draws them, and a floor.
+body, a sphere at every site (the chains' end points), and a floor. A free body (a held object) is
+drawn by the polylines.
 """
 
 from __future__ import annotations
 
+import importlib
 import itertools
 import os
 import subprocess
@@ -30,6 +32,9 @@ BACKENDS = ("egl", "osmesa")
 INSTALL = ("install OSMesa for software rendering (Debian/Ubuntu: apt-get install libosmesa6), or run where "
            "EGL is available (an NVIDIA driver)")
 TIMEOUT = 600  # s for one child
+NO_BACKEND = 3  # the child's exit status when MuJoCo's renderer cannot start with its backend
+# the polylines' colours in their order: magenta (a target), then teal (what was reached)
+LINE_COLOURS = tuple(np.array(c, dtype=np.float32) for c in ((0.85, 0.1, 0.55, 1), (0.05, 0.6, 0.6, 1)))
 
 
 class RenderUnavailable(RuntimeError):
@@ -39,7 +44,8 @@ class RenderUnavailable(RuntimeError):
 def render_gif(xml: str, qpos: ArrayLike, path: str | Path, *, polylines: ArrayLike | None = None,
                fps: float = 20.0, size: tuple[int, int] = (480, 360), title: str = "") -> Path:
     """Render ``qpos`` (frames × nq, the model's full qpos) of the model ``xml`` into the GIF ``path``,
-    with ``polylines`` (frames × lines × points × 3, optional) drawn as thin capsules: the written path.
+    with ``polylines`` (frames × lines × points × 3, optional) drawn as thin capsules (the first
+    magenta, the second teal and thicker): the written path.
     RenderUnavailable when no backend starts."""
     frames = np.asarray(qpos, dtype=float)
     if frames.ndim != 2 or not np.all(np.isfinite(frames)):
@@ -63,17 +69,19 @@ def render_gif(xml: str, qpos: ArrayLike, path: str | Path, *, polylines: ArrayL
                 path.parent.mkdir(parents=True, exist_ok=True)
                 (work / "out.gif").replace(path)
                 return path
-            lines = [line for line in done.stderr.splitlines() if "Error" in line] or \
-                done.stderr.strip().splitlines() or ["no output"]
-            last = lines[-1].strip()
+            told = work / "error.txt"  # the child's own one line (stderr has OpenGL's clean-up noise too)
+            last = told.read_text().strip() if told.exists() else \
+                (done.stderr.strip().splitlines() or ["no output"])[-1].strip()
+            told.unlink(missing_ok=True)
+            if done.returncode != NO_BACKEND:  # the renderer started, and the drawing failed: a bug
+                raise RuntimeError(f"rendering {path.name} with MuJoCo ({backend}) failed: {last[:300]}")
             failures.append(f"{backend}: {last[:160]}")
     raise RenderUnavailable(f"MuJoCo's offscreen renderer could not start ({'; '.join(failures)}): {INSTALL}")
 
 
 def _overlay(mujoco: Any, scene: Any, model: Any, data: Any, lines: NDArray[np.float64]) -> None:
     """The arms as capsules and spheres, the polylines as thin capsules, appended to ``scene``."""
-    grey, joint, magenta = (np.array(c, dtype=np.float32) for c in
-                            ((0.55, 0.57, 0.62, 1), (0.25, 0.27, 0.32, 1), (0.85, 0.1, 0.55, 1)))
+    grey, knuckle = (np.array(c, dtype=np.float32) for c in ((0.55, 0.57, 0.62, 1), (0.25, 0.27, 0.32, 1)))
 
     def add(kind: int, width: float, start: NDArray[np.float64], end: NDArray[np.float64],
             rgba: NDArray[np.float32]) -> None:
@@ -92,19 +100,31 @@ def _overlay(mujoco: Any, scene: Any, model: Any, data: Any, lines: NDArray[np.f
         add(sphere, 0.03, data.site_xpos[site], data.site_xpos[site] + 1e-5,
             np.array((1.0, 0.55, 0.1, 1), dtype=np.float32))
     for body in range(1, model.nbody):
+        joint = model.body_jntadr[body]
+        if joint >= 0 and model.jnt_type[joint] == mujoco.mjtJoint.mjJNT_FREE:
+            continue  # a free body (a held object) is no link: the polylines draw it
         position = data.xpos[body]
         parent = model.body_parentid[body]
         start = data.xpos[parent] if parent > 0 else np.array([position[0], position[1], 0.0])
         add(capsule, 0.035, start, position, grey)
-        add(capsule, 0.045, position, position + 1e-5, joint)
-    for line in lines:
+        add(capsule, 0.045, position, position + 1e-5, knuckle)
+    for i, line in enumerate(lines):
         for a, b in itertools.pairwise(line):
-            add(capsule, 0.006, a, b, magenta)
+            add(capsule, 0.006 * (1 + i), a, b, LINE_COLOURS[i % len(LINE_COLOURS)])
+
+
+def _no_backend(folder: Path, error: Exception) -> None:
+    (folder / "error.txt").write_text(f"{type(error).__name__}: {error}".splitlines()[0])
+    raise SystemExit(NO_BACKEND)
 
 
 def _main(folder: Path) -> None:
-    import mujoco
     from PIL import Image
+
+    try:
+        mujoco: Any = importlib.import_module("mujoco")  # it reads MUJOCO_GL here: a bad backend fails now
+    except Exception as e:
+        _no_backend(folder, e)
 
     stored = np.load(folder / "frames.npz")
     model = mujoco.MjModel.from_xml_string((folder / "model.xml").read_text())
@@ -112,7 +132,10 @@ def _main(folder: Path) -> None:
     width, height = (int(v) for v in stored["size"])
     model.vis.global_.offwidth, model.vis.global_.offheight = max(width, 640), max(height, 480)
     model.vis.headlight.ambient[:], model.vis.headlight.diffuse[:] = 0.45, 0.55  # no lights in the URDFs
-    renderer = mujoco.Renderer(model, height, width, max_geom=20000)
+    try:
+        renderer = mujoco.Renderer(model, height, width, max_geom=20000)
+    except Exception as e:  # the backend: no EGL device, no libOSMesa
+        _no_backend(folder, e)
     camera = mujoco.MjvCamera()
     data.qpos[:] = stored["qpos"][0]
     mujoco.mj_forward(model, data)
@@ -136,4 +159,8 @@ def _main(folder: Path) -> None:
 
 
 if __name__ == "__main__":
-    _main(Path(sys.argv[1]))
+    try:
+        _main(Path(sys.argv[1]))
+    except Exception as error:
+        (Path(sys.argv[1]) / "error.txt").write_text(f"{type(error).__name__}: {error}".splitlines()[0])
+        raise

@@ -159,6 +159,9 @@ def _carry_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--duration", type=positive_float, default=2.5,
                         help="seconds: the 2 s motion, then holding (default 2.5)")
     parser.add_argument("--no-mpc", action="store_true", help="the impedance law only (no torque MPC)")
+    parser.add_argument("--no-animation", action="store_true",
+                        help="skip the GIF (MuJoCo's offscreen rendering of the MPC's run, or of the "
+                             "impedance's)")
 
 
 VERBS = (

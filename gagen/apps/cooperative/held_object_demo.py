@@ -289,6 +289,32 @@ def plot(records: dict[str, CarryRecord], path: Path) -> Path:
     return path
 
 
+def animation(record: CarryRecord, path: Path, fps: float = 20.0) -> Path | None:
+    """The run rendered by MuJoCo: the arms, the commanded ring (magenta) and the held one (teal); None,
+    with a line saying why, where MuJoCo's offscreen renderer cannot start."""
+    from gagen.dynamics.mujoco_render import RenderUnavailable, render_gif
+
+    _, ring, _ = setup()
+    every = max(1, round(1.0 / (fps * (record.t[1] - record.t[0]))))
+    frames = np.arange(0, len(record.t), every)
+    qpos = np.tile(ring.model.qpos0, (len(frames), 1))
+    qpos[:, ring.qpos] = record.q[frames]
+    s = np.linspace(0, 2 * np.pi, 72)
+    circle = ring.radius * np.stack([np.cos(s), np.sin(s), np.zeros_like(s)], axis=1)
+    lines = []
+    for row, k in enumerate(frames):
+        quat = np.zeros(4)
+        mujoco.mju_mat2Quat(quat, record.rotation[k].reshape(-1))
+        qpos[row, ring.ring_qpos:ring.ring_qpos + 7] = np.concatenate([record.centre[k], quat])
+        lines.append([record.centre_d[k] + circle @ record.rotation_d[k].T,
+                      record.centre[k] + circle @ record.rotation[k].T])
+    try:
+        return render_gif(ring.mjspec.to_xml(), qpos, path, polylines=np.array(lines), fps=fps)
+    except RenderUnavailable as e:
+        print(f"note: {e}; no animation", flush=True)
+        return None
+
+
 def run_command(args: argparse.Namespace) -> int:
     """A held-ring run: ``--out``, ``--duration`` and ``--no-mpc`` (the impedance law only)."""
     command = Command()
@@ -303,6 +329,9 @@ def run_command(args: argparse.Namespace) -> int:
     text = report(records, command)
     (out / "held_object_report.md").write_text(text)
     written = [out / "held_object_report.md", plot(records, out / "held_object.png")]
+    shown = records.get("torque MPC", records["impedance"])
+    if not args.no_animation and (gif := animation(shown, out / "held_object.gif")) is not None:
+        written.append(gif)
     print(text + "wrote " + ", ".join(map(str, written)))
     return 0
 
