@@ -23,8 +23,6 @@ Crocoddyl's wheels need a Pinocchio of the same release: ``gagen[ocp]`` pins cro
 
 from __future__ import annotations
 
-import hashlib
-import os
 import sys
 import threading
 import time
@@ -93,15 +91,13 @@ def native_residuals() -> Any:
 
 def _compile_native() -> Any:
     import importlib.util
-    import subprocess
     import sysconfig
 
     import pinocchio
 
-    from gagen.build import cache_root
-    from gagen.codegen.compiler import CompileError, extension_path
+    from gagen.control.native_build import cmeel_prefix, compile_cached
 
-    prefix = Path(crocoddyl.__file__).resolve().parents[4]  # .../cmeel.prefix/lib/pythonX.Y/site-packages/
+    prefix = cmeel_prefix()
     include = prefix / "include"
     python = sysconfig.get_paths()["include"]
     boost_python = f"boost_python{sys.version_info.major}{sys.version_info.minor}"
@@ -110,25 +106,8 @@ def _compile_native() -> Any:
     flags = ["-std=c++17", "-O2", "-fPIC", "-shared", "-w", *(f"-I{path}" for path in includes)]
     libraries = [f"-L{prefix / 'lib'}", "-lcrocoddyl", f"-l{boost_python}", "-lpinocchio_default",
                  f"-Wl,-rpath,{prefix / 'lib'}"]  # (after the source: the linker drops unneeded libraries)
-    source = NATIVE_SOURCE.read_bytes()
-    versions = f"{crocoddyl.__version__} {pinocchio.__version__} {' '.join(flags + libraries)}"
-    module = f"gagen_crocoddyl_{hashlib.sha256(source + versions.encode()).hexdigest()[:12]}"
-    folder = cache_root() / "crocoddyl"
-    target = extension_path(folder, module)
-    if not target.exists():
-        folder.mkdir(parents=True, exist_ok=True)
-        compiler = os.environ.get("CXX", "c++")
-        partial = target.with_name(f"{target.name}.{os.getpid()}.{threading.get_ident()}.partial")
-        command = [compiler, *flags, f"-DGAGEN_MODULE={module}", "-o", str(partial), str(NATIVE_SOURCE),
-                   *libraries]
-        try:
-            done = subprocess.run(command, capture_output=True, text=True)
-        except OSError as e:
-            raise CompileError(f"no C++ compiler ({compiler}): {e}") from e
-        if done.returncode != 0:
-            partial.unlink(missing_ok=True)
-            raise CompileError(f"{' '.join(command)} failed:\n{done.stderr.strip()[-2000:]}")
-        partial.replace(target)
+    module, target = compile_cached(NATIVE_SOURCE, "crocoddyl", flags, libraries,
+                                    f"{crocoddyl.__version__} {pinocchio.__version__}", extension=True)
     spec = importlib.util.spec_from_file_location(module, target)
     assert spec is not None and spec.loader is not None
     loaded = importlib.util.module_from_spec(spec)
