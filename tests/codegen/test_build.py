@@ -109,7 +109,8 @@ def _tracked(pattern: str = "generated") -> list[str]:
 
 def test_generated_is_lean_text_and_representative():
     """generated/ in git: text files only (no NUL byte: the CasADi serialisations are rebuilt on
-    demand), at most 7 MB (5 MB before the CUDA sources, 1.5 MB of them), and a representative set: a module of every application and of each
+    demand), at most 7 MB (5 MB before the CUDA sources, 1.5 MB of them), and a representative set: a
+    module of every application and of each
     example file, each folder complete (every text file its manifest lists), nothing else tracked."""
     tracked = _tracked()
     binary = [path for path in tracked if _binary((REPO / path).read_bytes())]

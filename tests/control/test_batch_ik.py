@@ -12,8 +12,8 @@ import pytest
 from gagen.apps.cooperative.bundled import system_module
 from gagen.check import joint_limits
 from gagen.control.batch_ik import solve_batch
-from gagen.robots.spec import load_system
 from gagen.registry import bundled_specs
+from gagen.robots.spec import load_system
 
 TOL = 1e-9
 
