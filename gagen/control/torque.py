@@ -78,6 +78,9 @@ _NATIVE_LOCK = threading.Lock()
 _NATIVE: dict[str, Any] = {}
 
 
+THREADS = 1  # Crocoddyl's threads per shooting problem (see ``TorqueOCP.problem``)
+
+
 def native_residuals() -> Any:
     """The C++ residual (``crocoddyl_residual.cpp``) compiled against the installed Crocoddyl, Pinocchio
     and Boost.Python headers into gagen's cache (once per source and library versions) and imported: its
@@ -360,7 +363,11 @@ class TorqueOCP:
         targets = _targets(target, times)
         x0 = np.concatenate([d._to_pin(q0), d._to_pin(np.zeros(d.dof) if qdot0 is None else qdot0)])
         running = [self._model(v, False, points, circle) for v in targets[:-1]]
-        return crocoddyl.ShootingProblem(x0, running, self._model(targets[-1], True, points, circle)), times
+        problem = crocoddyl.ShootingProblem(x0, running, self._model(targets[-1], True, points, circle))
+        # one thread: the wheel's default (OpenMP, every core) made calc and calcDiff 30× slower on a
+        # 2-core machine with MuJoCo and Python beside it (6.3 against 0.21 ms for 10 nodes)
+        problem.nthreads = THREADS
+        return problem, times
 
     def solve(self, q0: ArrayLike, target: Target, *, qdot0: ArrayLike | None = None,
               max_iterations: int = 200, warm: tuple[list[Array], list[Array]] | None = None,
