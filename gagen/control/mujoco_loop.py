@@ -8,6 +8,9 @@ in another engine and integrator).
   integration stays stable. q*, q̇* are linear between the solution's nodes, and τ* is held over each
   interval as the solver applied it. The PD absorbs the difference between the two engines, so the
   task error the loop reaches measures how well the plan carries over.
+- ``follow``: a joint trajectory from a kinematic controller (a teleoperation's q(t)) tracked by
+  computed torque, τ = M(q) (q̈*(t) + K_p (q* − q) + K_d (q̇* − q̇)) + C(q, q̇) q̇ + g(q), the reference
+  read at the current time only (what an online loop would have).
 """
 
 from __future__ import annotations
@@ -72,6 +75,42 @@ def track(sim: MujocoSystem, plan: TorqueResult, *, kp: float = 400.0, kd: float
     qs.append(q)
     qdots.append(qdot)
     return LoopResult(np.array(ts), np.array(qs), np.array(qdots), np.array(taus))
+
+
+def follow(sim: MujocoSystem, t: Array, q: Array, *, kp: float = 400.0, kd: float = 40.0) -> LoopResult:
+    """Track the joint trajectory q(t) (rows at the increasing times t, q linear between them, q̇* and q̈*
+    by differences) in MuJoCo at its timestep from q(t₀) at the reference's velocity, until t's end."""
+    t, q = np.asarray(t, dtype=float), np.asarray(q, dtype=float)
+    if t.ndim != 1 or len(t) < 2 or q.shape != (len(t), sim.dof) or not np.all(np.diff(t) > 0):
+        raise ValueError(f"follow needs increasing times and a ({len(t)}, {sim.dof}) joint trajectory, got "
+                         f"times {t.shape} and q {q.shape}")
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(q))):
+        raise ValueError("follow needs a finite joint trajectory")
+    velocity = np.diff(q, axis=0) / np.diff(t)[:, None]  # per interval
+    acceleration = np.zeros_like(velocity)
+    acceleration[1:] = np.diff(velocity, axis=0) / np.diff(t)[1:, None]  # at each interval's start
+    dt = float(sim.model.opt.timestep)
+    steps = round((t[-1] - t[0]) / dt)
+    sim.set_state(q[0], velocity[0])
+    ts, qs, qdots, taus = [], [], [], []
+    for i in range(steps):
+        now = t[0] + i * dt
+        k = min(int(np.searchsorted(t, now, side="right")) - 1, len(velocity) - 1)
+        s = (now - t[k]) / (t[k + 1] - t[k])
+        q_ref, qdot_ref = (1 - s) * q[k] + s * q[k + 1], velocity[k]
+        position, rate = sim.state()
+        command = acceleration[k] + kp * (q_ref - position) + kd * (qdot_ref - rate)
+        tau = np.clip(sim.current_mass_matrix() @ command + sim.bias_now(), -sim.effort, sim.effort)
+        ts.append(now)
+        qs.append(position)
+        qdots.append(rate)
+        taus.append(tau)
+        sim.step(tau)
+        if not np.all(np.isfinite(sim.data.qpos)):
+            raise DynamicsError(f"the MuJoCo state became non-finite at t = {now:.4f} s")
+    position, rate = sim.state()
+    return LoopResult(np.array([*ts, t[0] + steps * dt]), np.array([*qs, position]),
+                      np.array([*qdots, rate]), np.array(taus))
 
 
 def impedance(sim: MujocoSystem, controller: ImpedanceController, q0: NDArray[np.float64],

@@ -147,6 +147,9 @@ def _teleop_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--dilation", type=positive_float, default=0.5, help="1/s at full deflection (0.5)")
     parser.add_argument("--out", type=Path, default=Path("plots/teleop"),
                         help="folder for the report (default plots/teleop/)")
+    parser.add_argument("--mujoco", action=FlagNeeding, module="mujoco",
+                        help="also track the run by computed torque on MuJoCo's plant (gagen[sim]; a system "
+                             "whose URDFs carry inertials)")
     view_arguments(parser, "the run")
 
 

@@ -545,6 +545,28 @@ def session_trace(r: TeleopResult) -> str:
 
 
 # -- command line ------------------------------------------------------------------------------------
+def in_mujoco(system: str, k: Kernels, result: TeleopResult) -> str:
+    """The run's joint trajectory tracked by computed torque on MuJoCo's plant (``mujoco_loop.follow``):
+    report lines with how far the joints and the primitive end up from the kinematic run's."""
+    from gagen.apps.cooperative.scenarios import spec_of
+    from gagen.control.mujoco_loop import follow
+    from gagen.dynamics.mujoco_model import MujocoSystem
+
+    loop = follow(MujocoSystem(spec_of(system)), result.t, result.q)
+    at = np.searchsorted(loop.t, result.t - 1e-9)  # the simulator's states at the run's step times
+    joints = np.abs(loop.q[at] - result.q).max(axis=1)
+    primitive = np.array([np.linalg.norm(np.asarray(k.task(q, V)[0])) for q, V in zip(loop.q[at], result.V,
+                                                                                    strict=True)])
+    speed = np.abs(np.diff(result.q, axis=0) / np.diff(result.t)[:, None]).max()
+    return "\n".join([
+        "In MuJoCo (computed torque at 1 kHz on the run's joint trajectory, the same URDF inertias):",
+        f"  the kinematic run's fastest joint: {speed:.2f} rad/s (a jump there is what the plant lags)",
+        f"  joints from the kinematic run: max {joints.max():.2e} rad, at the end {joints[-1]:.2e} rad",
+        f"  primitive from the kinematic run, ‖log(V_Sc(q_MuJoCo)~ V_Sc(q))‖: max {primitive.max():.2e}, "
+        f"at the end {primitive[-1]:.2e}",
+        f"  torque: max |τ| {np.abs(loop.tau).max():.1f} N m", ""])
+
+
 def run_command(args: argparse.Namespace) -> int:
     """``gagen teleop`` on its parsed arguments (``gagen.apps.cooperative.commands``)."""
     trace = read_trace(args.trace) if args.trace is not None else None  # before the module is built
@@ -566,6 +588,8 @@ def run_command(args: argparse.Namespace) -> int:
         print()
         recorded = session_trace(result)
     text = summary(result) + (f"\n{rows}" if rows else "")
+    if args.mujoco:
+        text += "\n" + in_mujoco(args.system, k, result)
     print(text)
     for path in write_report(result, args.out, recorded, text):
         print(f"wrote {path}")
