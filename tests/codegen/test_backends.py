@@ -32,15 +32,15 @@ def _source(name: str, scale: float) -> ModuleSource:
                         hashlib.sha256(b"").hexdigest())
 
 
-def test_the_registry_lists_casadi_c_cpython_and_jax_in_build_order():
-    assert list(BACKENDS) == ["casadi", "c", "cpython", "jax"]
+def test_the_registry_lists_casadi_c_cpython_cuda_and_jax_in_build_order():
+    assert list(BACKENDS) == ["casadi", "c", "cpython", "cuda", "jax"]
     order = list(BACKENDS)
     for backend in BACKENDS.values():
         assert all(order.index(r) < order.index(backend.name) for r in backend.requires), backend
         if backend.templates is not None:
             assert sorted(backend.templates.glob("*.j2")), backend
     namespaces = [b.namespace for b in BACKENDS.values() if b.namespace]
-    assert namespaces == ["casadi", "c", "jax"]
+    assert namespaces == ["casadi", "c", "cuda", "jax"]
     with pytest.raises(ValueError, match="unknown backend"):
         select(["fortran"])
     with pytest.raises(ValueError, match="cpython needs c"):
@@ -81,8 +81,8 @@ def test_a_backend_added_to_the_registry_is_built_listed_and_loaded(tmp_path, mo
 def test_rendering_is_deterministic_and_names_carry_no_hash():
     files = render(_source("twin", 2.0))
     assert files == render(_source("twin", 2.0))
-    assert sorted(files) == ["__init__.py", "casadi/scaled.casadi.gz", "manifest.json", "twin.c", "twin.h",
-                             "twin_binding.c", "twin_jax.py", "twin_simd.c"]
+    assert sorted(files) == ["__init__.py", "casadi/scaled.casadi.gz", "manifest.json", "twin.c", "twin.cu",
+                             "twin.h", "twin_binding.c", "twin_jax.py", "twin_simd.c"]
     assert render(_source("twin", 3.0))["twin.c"] != files["twin.c"]
 
 

@@ -140,8 +140,8 @@ def test_hostile_labels_are_escaped_in_every_comment_docstring_and_string(tmp_pa
     spec.write_bytes(SPEC.read_bytes())
     out = tmp_path / "out"
     build(spec, out, compile_c=False, **QUIET)
-    sources = sorted(p for p in out.iterdir() if p.suffix in (".c", ".h"))
-    assert len(sources) == 4
+    sources = sorted(p for p in out.iterdir() if p.suffix in (".c", ".h", ".cu"))
+    assert len(sources) == 5
     for path in sources:
         code = _code_without_comments(path.read_text())
         # (the chain name also reaches kernel names, as an identifier: "arm_attribute_constructor_...")
@@ -155,9 +155,13 @@ def test_hostile_labels_are_escaped_in_every_comment_docstring_and_string(tmp_pa
                                      f"-I{out}", f"-I{numpy.get_include()}", str(path)],
                                     capture_output=True, text=True)
             assert result.returncode == 0, result.stderr
+        if path.suffix == ".cu":  # the CUDA source as host C++ (its device half is guarded by __CUDACC__)
+            result = subprocess.run(["c++", "-x", "c++", "-std=c++17", "-fsyntax-only", "-Werror=comment",
+                                     str(path)], capture_output=True, text=True)
+            assert result.returncode == 0, result.stderr
     init = ast.parse((out / "__init__.py").read_text())
     kinds = [type(s).__name__ for s in init.body]
-    assert kinds == ["Expr", "ImportFrom", "ImportFrom", *["Assign"] * 5], kinds
+    assert kinds == ["Expr", "ImportFrom", "ImportFrom", *["Assign"] * 6], kinds
     assert SPEC_NAME in ast.get_docstring(init)
     # the JAX kernels: two imports, the x64 switch, __all__, then functions of a docstring, assignments
     # and a return only (the labels are in comments and docstrings)

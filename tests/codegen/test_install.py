@@ -95,8 +95,8 @@ def test_a_non_editable_install_builds_a_python_file_of_kernels_and_loads_it(tmp
     env["PYTHONPATH"] = str(site)  # the install, before the editable one of the environment
     _run([sys.executable, "-m", "gagen.cli", "build", "tiny.py", "-o", str(out)], work, env)
     assert sorted(p.name for p in out.iterdir() if not p.name.endswith(".so")) == [
-        ".build-key", "__init__.py", "casadi", "manifest.json", "tiny.c", "tiny.h", "tiny_binding.c",
-        "tiny_jax.py", "tiny_simd.c"]
+        ".build-key", "__init__.py", "casadi", "manifest.json", "tiny.c", "tiny.cu", "tiny.h",
+        "tiny_binding.c", "tiny_jax.py", "tiny_simd.c"]
     result = json.loads(_run([sys.executable, "-c", CALL, str(site), str(out)], work, env))
     assert Path(result["gagen"]).resolve().is_relative_to(site.resolve()), result["gagen"]
     a, b = np.array([1.0, 2.0, 3.0]), np.array([4.0, 5.0, 6.0])
