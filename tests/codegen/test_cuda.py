@@ -1,8 +1,8 @@
 """The CUDA backend without a GPU (``gagen.codegen.backends.cuda``).
 
-- Every generated ``.cu`` compiles with nvcc (the ``nvidia-cuda-nvcc`` wheel of the test extra, or the
-  machine's), for sm_90, warnings as errors: the committed modules to PTX in the fast tier, every
-  bundled module in the full tier.
+- The committed modules' ``.cu`` (every application and the example file) compile with nvcc (the
+  ``nvidia-cuda-nvcc`` wheel of the test extra, or the machine's) for sm_90, warnings as errors, and
+  with NVRTC; every bundled module's compiles as host C++.
 - Compiled as host C++, the same per-sample bodies (the ``*_host_f64`` loops) are the C kernels' to
   1e-14 and pass ``gagen build --check``'s comparison with the interpreter in place of the C kernels;
   the float32 instance is within float precision of them.
@@ -146,11 +146,12 @@ def test_every_bundled_module_host_bodies_equal_the_c_kernels(name, tmp_path):
     _against_c(bundled_module(name), tmp_path, n=8)
 
 
-@pytest.mark.parametrize("name", tiered(sorted(BUNDLED), {"panda_point"}, pytest.mark.compiling,
+@pytest.mark.parametrize("name", tiered(sorted(committed_modules()), {"panda_point"}, pytest.mark.compiling,
                                         pytest.mark.slow))
-def test_nvcc_compiles_every_generated_cu(name, tmp_path):
-    """nvcc for sm_90, warnings as errors: to PTX (front end and NVVM) for every bundled module, and the
-    committed panda_point through ptxas into a cubin too."""
+def test_nvcc_compiles_every_committed_cu(name, tmp_path):
+    """nvcc for sm_90, warnings as errors: to PTX (front end and NVVM) for the committed modules (every
+    application, the example file; the other bundled modules' bodies differ only in their statements,
+    which the host compiler checks for every one), and panda_point through ptxas into a cubin too."""
     _nvcc_or_skip()
     source = _cu(bundled_module(name))
     compile_device(source, tmp_path / f"{name}.ptx", ptx=True)
