@@ -323,11 +323,13 @@ def test_user_kernels_jax_equals_c_and_jacfwd_the_authored_jacobian(jax):
                                         pytest.mark.slow))
 def test_every_kernel_of_every_bundled_module_is_its_c_kernel(jax, name):
     """Every bundled module (the committed generated/<name>, the others built into the gagen cache on
-    first use): every kernel, JAX against C on random inputs (NaN where C has NaN)."""
+    first use): every kernel, JAX against C on random inputs (NaN where C has NaN); two draws for
+    panda_point, one elsewhere (an eager JAX call of a large kernel dispatches every operation: the
+    second draw cost 85 s of the full tier)."""
     module = bundled_module(name)
     assert "jax" in module.manifest["backends"], \
         f"{module.folder} was built before the jax backend: regenerate it (gagen build)"
     rng = np.random.default_rng(4)
     for kernel in module.kernel_names:
-        for _ in range(2):
+        for _ in range(2 if name == "panda_point" else 1):
             _same(module, kernel, _random_inputs(module, kernel, rng), name)
