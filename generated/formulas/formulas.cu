@@ -11,7 +11,8 @@
  * addresses. Per kernel:
  *   <kernel>_body<T>(ld, in..., out...)    one sample; pointers at that sample's column
  *   <kernel>_cuda_f64 / _cuda_f32          __global__: one thread per sample s < n
- *   <kernel>_host_f64 / _host_f32          the same loop on the host (not under NVRTC)
+ *   <kernel>_host_f64 / _host_f32          the same loop on the host (not under NVRTC; the float one
+ *                                          not with -DGAGEN_HOST_F64_ONLY, which halves the compile)
  */
 #if defined(__CUDACC__)
 #define GAGEN_HD __host__ __device__
@@ -183,7 +184,7 @@ extern "C" __global__ void formulas_circle_through_cuda_f32(long gagen_n, long g
   if (gagen_s < gagen_n) formulas_circle_through_body<float>(gagen_ld, in_A + gagen_s, in_B + gagen_s, in_C + gagen_s, out_circle + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void formulas_circle_through_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_A, const float *__restrict__ in_B, const float *__restrict__ in_C, float *__restrict__ out_circle) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     formulas_circle_through_body<float>(gagen_ld, in_A + gagen_s, in_B + gagen_s, in_C + gagen_s, out_circle + gagen_s);
@@ -381,7 +382,7 @@ extern "C" __global__ void formulas_circle_distance_cuda_f32(long gagen_n, long 
   if (gagen_s < gagen_n) formulas_circle_distance_body<float>(gagen_ld, in_X + gagen_s, in_C + gagen_s, out_d + gagen_s, out_J_d + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void formulas_circle_distance_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_X, const float *__restrict__ in_C, float *__restrict__ out_d, float *__restrict__ out_J_d) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     formulas_circle_distance_body<float>(gagen_ld, in_X + gagen_s, in_C + gagen_s, out_d + gagen_s, out_J_d + gagen_s);
@@ -449,7 +450,7 @@ extern "C" __global__ void formulas_plane_meet_cuda_f32(long gagen_n, long gagen
   if (gagen_s < gagen_n) formulas_plane_meet_body<float>(gagen_ld, in_A + gagen_s, in_B + gagen_s, out_line + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void formulas_plane_meet_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_A, const float *__restrict__ in_B, float *__restrict__ out_line) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     formulas_plane_meet_body<float>(gagen_ld, in_A + gagen_s, in_B + gagen_s, out_line + gagen_s);
@@ -556,7 +557,7 @@ extern "C" __global__ void formulas_move_point_cuda_f32(long gagen_n, long gagen
   if (gagen_s < gagen_n) formulas_move_point_body<float>(gagen_ld, in_M + gagen_s, in_X + gagen_s, out_moved + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void formulas_move_point_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_M, const float *__restrict__ in_X, float *__restrict__ out_moved) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     formulas_move_point_body<float>(gagen_ld, in_M + gagen_s, in_X + gagen_s, out_moved + gagen_s);

@@ -11,7 +11,8 @@
  * addresses. Per kernel:
  *   <kernel>_body<T>(ld, in..., out...)    one sample; pointers at that sample's column
  *   <kernel>_cuda_f64 / _cuda_f32          __global__: one thread per sample s < n
- *   <kernel>_host_f64 / _host_f32          the same loop on the host (not under NVRTC)
+ *   <kernel>_host_f64 / _host_f32          the same loop on the host (not under NVRTC; the float one
+ *                                          not with -DGAGEN_HOST_F64_ONLY, which halves the compile)
  */
 #if defined(__CUDACC__)
 #define GAGEN_HD __host__ __device__
@@ -241,7 +242,7 @@ extern "C" __global__ void four_bar_constraints_cuda_f32(long gagen_n, long gage
   if (gagen_s < gagen_n) four_bar_constraints_body<float>(gagen_ld, in_R + gagen_s, in_theta + gagen_s, out_F + gagen_s, out_J + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void four_bar_constraints_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_R, const float *__restrict__ in_theta, float *__restrict__ out_F, float *__restrict__ out_J) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     four_bar_constraints_body<float>(gagen_ld, in_R + gagen_s, in_theta + gagen_s, out_F + gagen_s, out_J + gagen_s);
@@ -396,7 +397,7 @@ extern "C" __global__ void four_bar_positions_cuda_f32(long gagen_n, long gagen_
   if (gagen_s < gagen_n) four_bar_positions_body<float>(gagen_ld, in_R + gagen_s, in_theta + gagen_s, out_P + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void four_bar_positions_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_R, const float *__restrict__ in_theta, float *__restrict__ out_P) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     four_bar_positions_body<float>(gagen_ld, in_R + gagen_s, in_theta + gagen_s, out_P + gagen_s);
@@ -548,7 +549,7 @@ extern "C" __global__ void four_bar_retract_cuda_f32(long gagen_n, long gagen_ld
   if (gagen_s < gagen_n) four_bar_retract_body<float>(gagen_ld, in_R + gagen_s, in_dB + gagen_s, out_R_next + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void four_bar_retract_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_R, const float *__restrict__ in_dB, float *__restrict__ out_R_next) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     four_bar_retract_body<float>(gagen_ld, in_R + gagen_s, in_dB + gagen_s, out_R_next + gagen_s);
@@ -867,7 +868,7 @@ extern "C" __global__ void four_bar_newton_step_cuda_f32(long gagen_n, long gage
   if (gagen_s < gagen_n) four_bar_newton_step_body<float>(gagen_ld, in_R + gagen_s, in_theta + gagen_s, out_R_next + gagen_s, out_residual + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void four_bar_newton_step_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_R, const float *__restrict__ in_theta, float *__restrict__ out_R_next, float *__restrict__ out_residual) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     four_bar_newton_step_body<float>(gagen_ld, in_R + gagen_s, in_theta + gagen_s, out_R_next + gagen_s, out_residual + gagen_s);

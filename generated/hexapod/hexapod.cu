@@ -11,7 +11,8 @@
  * addresses. Per kernel:
  *   <kernel>_body<T>(ld, in..., out...)    one sample; pointers at that sample's column
  *   <kernel>_cuda_f64 / _cuda_f32          __global__: one thread per sample s < n
- *   <kernel>_host_f64 / _host_f32          the same loop on the host (not under NVRTC)
+ *   <kernel>_host_f64 / _host_f32          the same loop on the host (not under NVRTC; the float one
+ *                                          not with -DGAGEN_HOST_F64_ONLY, which halves the compile)
  */
 #if defined(__CUDACC__)
 #define GAGEN_HD __host__ __device__
@@ -267,7 +268,7 @@ extern "C" __global__ void hexapod_front_left_fk_pga_cuda_f32(long gagen_n, long
   if (gagen_s < gagen_n) hexapod_front_left_fk_pga_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_front_left_fk_pga_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_M, float *__restrict__ out_toe, float *__restrict__ out_p, float *__restrict__ out_J, float *__restrict__ out_S) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_front_left_fk_pga_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
@@ -531,7 +532,7 @@ extern "C" __global__ void hexapod_front_left_fk_cga_cuda_f32(long gagen_n, long
   if (gagen_s < gagen_n) hexapod_front_left_fk_cga_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_front_left_fk_cga_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_M, float *__restrict__ out_toe, float *__restrict__ out_p, float *__restrict__ out_J, float *__restrict__ out_S) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_front_left_fk_cga_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
@@ -891,7 +892,7 @@ extern "C" __global__ void hexapod_front_left_ik_cuda_f32(long gagen_n, long gag
   if (gagen_s < gagen_n) hexapod_front_left_ik_body<float>(gagen_ld, in_target + gagen_s, out_q_up + gagen_s, out_q_down + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_front_left_ik_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_target, float *__restrict__ out_q_up, float *__restrict__ out_q_down, float *__restrict__ out_reach, float *__restrict__ out_excess) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_front_left_ik_body<float>(gagen_ld, in_target + gagen_s, out_q_up + gagen_s, out_q_down + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
@@ -1148,7 +1149,7 @@ extern "C" __global__ void hexapod_front_left_dls_cuda_f32(long gagen_n, long ga
   if (gagen_s < gagen_n) hexapod_front_left_dls_body<float>(gagen_ld, in_q + gagen_s, in_target + gagen_s, in_damping + gagen_s, out_q_next + gagen_s, out_error + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_front_left_dls_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, const float *__restrict__ in_target, const float *__restrict__ in_damping, float *__restrict__ out_q_next, float *__restrict__ out_error) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_front_left_dls_body<float>(gagen_ld, in_q + gagen_s, in_target + gagen_s, in_damping + gagen_s, out_q_next + gagen_s, out_error + gagen_s);
@@ -1359,7 +1360,7 @@ extern "C" __global__ void hexapod_middle_left_fk_pga_cuda_f32(long gagen_n, lon
   if (gagen_s < gagen_n) hexapod_middle_left_fk_pga_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_middle_left_fk_pga_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_M, float *__restrict__ out_toe, float *__restrict__ out_p, float *__restrict__ out_J, float *__restrict__ out_S) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_middle_left_fk_pga_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
@@ -1596,7 +1597,7 @@ extern "C" __global__ void hexapod_middle_left_fk_cga_cuda_f32(long gagen_n, lon
   if (gagen_s < gagen_n) hexapod_middle_left_fk_cga_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_middle_left_fk_cga_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_M, float *__restrict__ out_toe, float *__restrict__ out_p, float *__restrict__ out_J, float *__restrict__ out_S) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_middle_left_fk_cga_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
@@ -1948,7 +1949,7 @@ extern "C" __global__ void hexapod_middle_left_ik_cuda_f32(long gagen_n, long ga
   if (gagen_s < gagen_n) hexapod_middle_left_ik_body<float>(gagen_ld, in_target + gagen_s, out_q_up + gagen_s, out_q_down + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_middle_left_ik_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_target, float *__restrict__ out_q_up, float *__restrict__ out_q_down, float *__restrict__ out_reach, float *__restrict__ out_excess) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_middle_left_ik_body<float>(gagen_ld, in_target + gagen_s, out_q_up + gagen_s, out_q_down + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
@@ -2197,7 +2198,7 @@ extern "C" __global__ void hexapod_middle_left_dls_cuda_f32(long gagen_n, long g
   if (gagen_s < gagen_n) hexapod_middle_left_dls_body<float>(gagen_ld, in_q + gagen_s, in_target + gagen_s, in_damping + gagen_s, out_q_next + gagen_s, out_error + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_middle_left_dls_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, const float *__restrict__ in_target, const float *__restrict__ in_damping, float *__restrict__ out_q_next, float *__restrict__ out_error) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_middle_left_dls_body<float>(gagen_ld, in_q + gagen_s, in_target + gagen_s, in_damping + gagen_s, out_q_next + gagen_s, out_error + gagen_s);
@@ -2424,7 +2425,7 @@ extern "C" __global__ void hexapod_rear_left_fk_pga_cuda_f32(long gagen_n, long 
   if (gagen_s < gagen_n) hexapod_rear_left_fk_pga_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_rear_left_fk_pga_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_M, float *__restrict__ out_toe, float *__restrict__ out_p, float *__restrict__ out_J, float *__restrict__ out_S) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_rear_left_fk_pga_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
@@ -2688,7 +2689,7 @@ extern "C" __global__ void hexapod_rear_left_fk_cga_cuda_f32(long gagen_n, long 
   if (gagen_s < gagen_n) hexapod_rear_left_fk_cga_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_rear_left_fk_cga_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_M, float *__restrict__ out_toe, float *__restrict__ out_p, float *__restrict__ out_J, float *__restrict__ out_S) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_rear_left_fk_cga_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
@@ -3049,7 +3050,7 @@ extern "C" __global__ void hexapod_rear_left_ik_cuda_f32(long gagen_n, long gage
   if (gagen_s < gagen_n) hexapod_rear_left_ik_body<float>(gagen_ld, in_target + gagen_s, out_q_up + gagen_s, out_q_down + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_rear_left_ik_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_target, float *__restrict__ out_q_up, float *__restrict__ out_q_down, float *__restrict__ out_reach, float *__restrict__ out_excess) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_rear_left_ik_body<float>(gagen_ld, in_target + gagen_s, out_q_up + gagen_s, out_q_down + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
@@ -3306,7 +3307,7 @@ extern "C" __global__ void hexapod_rear_left_dls_cuda_f32(long gagen_n, long gag
   if (gagen_s < gagen_n) hexapod_rear_left_dls_body<float>(gagen_ld, in_q + gagen_s, in_target + gagen_s, in_damping + gagen_s, out_q_next + gagen_s, out_error + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_rear_left_dls_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, const float *__restrict__ in_target, const float *__restrict__ in_damping, float *__restrict__ out_q_next, float *__restrict__ out_error) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_rear_left_dls_body<float>(gagen_ld, in_q + gagen_s, in_target + gagen_s, in_damping + gagen_s, out_q_next + gagen_s, out_error + gagen_s);
@@ -3534,7 +3535,7 @@ extern "C" __global__ void hexapod_rear_right_fk_pga_cuda_f32(long gagen_n, long
   if (gagen_s < gagen_n) hexapod_rear_right_fk_pga_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_rear_right_fk_pga_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_M, float *__restrict__ out_toe, float *__restrict__ out_p, float *__restrict__ out_J, float *__restrict__ out_S) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_rear_right_fk_pga_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
@@ -3799,7 +3800,7 @@ extern "C" __global__ void hexapod_rear_right_fk_cga_cuda_f32(long gagen_n, long
   if (gagen_s < gagen_n) hexapod_rear_right_fk_cga_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_rear_right_fk_cga_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_M, float *__restrict__ out_toe, float *__restrict__ out_p, float *__restrict__ out_J, float *__restrict__ out_S) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_rear_right_fk_cga_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
@@ -4161,7 +4162,7 @@ extern "C" __global__ void hexapod_rear_right_ik_cuda_f32(long gagen_n, long gag
   if (gagen_s < gagen_n) hexapod_rear_right_ik_body<float>(gagen_ld, in_target + gagen_s, out_q_up + gagen_s, out_q_down + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_rear_right_ik_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_target, float *__restrict__ out_q_up, float *__restrict__ out_q_down, float *__restrict__ out_reach, float *__restrict__ out_excess) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_rear_right_ik_body<float>(gagen_ld, in_target + gagen_s, out_q_up + gagen_s, out_q_down + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
@@ -4418,7 +4419,7 @@ extern "C" __global__ void hexapod_rear_right_dls_cuda_f32(long gagen_n, long ga
   if (gagen_s < gagen_n) hexapod_rear_right_dls_body<float>(gagen_ld, in_q + gagen_s, in_target + gagen_s, in_damping + gagen_s, out_q_next + gagen_s, out_error + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_rear_right_dls_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, const float *__restrict__ in_target, const float *__restrict__ in_damping, float *__restrict__ out_q_next, float *__restrict__ out_error) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_rear_right_dls_body<float>(gagen_ld, in_q + gagen_s, in_target + gagen_s, in_damping + gagen_s, out_q_next + gagen_s, out_error + gagen_s);
@@ -4633,7 +4634,7 @@ extern "C" __global__ void hexapod_middle_right_fk_pga_cuda_f32(long gagen_n, lo
   if (gagen_s < gagen_n) hexapod_middle_right_fk_pga_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_middle_right_fk_pga_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_M, float *__restrict__ out_toe, float *__restrict__ out_p, float *__restrict__ out_J, float *__restrict__ out_S) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_middle_right_fk_pga_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
@@ -4874,7 +4875,7 @@ extern "C" __global__ void hexapod_middle_right_fk_cga_cuda_f32(long gagen_n, lo
   if (gagen_s < gagen_n) hexapod_middle_right_fk_cga_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_middle_right_fk_cga_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_M, float *__restrict__ out_toe, float *__restrict__ out_p, float *__restrict__ out_J, float *__restrict__ out_S) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_middle_right_fk_cga_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
@@ -5226,7 +5227,7 @@ extern "C" __global__ void hexapod_middle_right_ik_cuda_f32(long gagen_n, long g
   if (gagen_s < gagen_n) hexapod_middle_right_ik_body<float>(gagen_ld, in_target + gagen_s, out_q_up + gagen_s, out_q_down + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_middle_right_ik_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_target, float *__restrict__ out_q_up, float *__restrict__ out_q_down, float *__restrict__ out_reach, float *__restrict__ out_excess) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_middle_right_ik_body<float>(gagen_ld, in_target + gagen_s, out_q_up + gagen_s, out_q_down + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
@@ -5475,7 +5476,7 @@ extern "C" __global__ void hexapod_middle_right_dls_cuda_f32(long gagen_n, long 
   if (gagen_s < gagen_n) hexapod_middle_right_dls_body<float>(gagen_ld, in_q + gagen_s, in_target + gagen_s, in_damping + gagen_s, out_q_next + gagen_s, out_error + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_middle_right_dls_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, const float *__restrict__ in_target, const float *__restrict__ in_damping, float *__restrict__ out_q_next, float *__restrict__ out_error) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_middle_right_dls_body<float>(gagen_ld, in_q + gagen_s, in_target + gagen_s, in_damping + gagen_s, out_q_next + gagen_s, out_error + gagen_s);
@@ -5706,7 +5707,7 @@ extern "C" __global__ void hexapod_front_right_fk_pga_cuda_f32(long gagen_n, lon
   if (gagen_s < gagen_n) hexapod_front_right_fk_pga_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_front_right_fk_pga_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_M, float *__restrict__ out_toe, float *__restrict__ out_p, float *__restrict__ out_J, float *__restrict__ out_S) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_front_right_fk_pga_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
@@ -5974,7 +5975,7 @@ extern "C" __global__ void hexapod_front_right_fk_cga_cuda_f32(long gagen_n, lon
   if (gagen_s < gagen_n) hexapod_front_right_fk_cga_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_front_right_fk_cga_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_M, float *__restrict__ out_toe, float *__restrict__ out_p, float *__restrict__ out_J, float *__restrict__ out_S) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_front_right_fk_cga_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_toe + gagen_s, out_p + gagen_s, out_J + gagen_s, out_S + gagen_s);
@@ -6335,7 +6336,7 @@ extern "C" __global__ void hexapod_front_right_ik_cuda_f32(long gagen_n, long ga
   if (gagen_s < gagen_n) hexapod_front_right_ik_body<float>(gagen_ld, in_target + gagen_s, out_q_up + gagen_s, out_q_down + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_front_right_ik_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_target, float *__restrict__ out_q_up, float *__restrict__ out_q_down, float *__restrict__ out_reach, float *__restrict__ out_excess) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_front_right_ik_body<float>(gagen_ld, in_target + gagen_s, out_q_up + gagen_s, out_q_down + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
@@ -6592,7 +6593,7 @@ extern "C" __global__ void hexapod_front_right_dls_cuda_f32(long gagen_n, long g
   if (gagen_s < gagen_n) hexapod_front_right_dls_body<float>(gagen_ld, in_q + gagen_s, in_target + gagen_s, in_damping + gagen_s, out_q_next + gagen_s, out_error + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_front_right_dls_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, const float *__restrict__ in_target, const float *__restrict__ in_damping, float *__restrict__ out_q_next, float *__restrict__ out_error) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_front_right_dls_body<float>(gagen_ld, in_q + gagen_s, in_target + gagen_s, in_damping + gagen_s, out_q_next + gagen_s, out_error + gagen_s);
@@ -7479,7 +7480,7 @@ extern "C" __global__ void hexapod_body_fk_pga_cuda_f32(long gagen_n, long gagen
   if (gagen_s < gagen_n) hexapod_body_fk_pga_body<float>(gagen_ld, in_q + gagen_s, out_p + gagen_s, out_J + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_body_fk_pga_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_p, float *__restrict__ out_J) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_body_fk_pga_body<float>(gagen_ld, in_q + gagen_s, out_p + gagen_s, out_J + gagen_s);
@@ -8378,7 +8379,7 @@ extern "C" __global__ void hexapod_body_fk_cga_cuda_f32(long gagen_n, long gagen
   if (gagen_s < gagen_n) hexapod_body_fk_cga_body<float>(gagen_ld, in_q + gagen_s, out_p + gagen_s, out_J + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_body_fk_cga_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_p, float *__restrict__ out_J) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_body_fk_cga_body<float>(gagen_ld, in_q + gagen_s, out_p + gagen_s, out_J + gagen_s);
@@ -10181,7 +10182,7 @@ extern "C" __global__ void hexapod_body_ik_cuda_f32(long gagen_n, long gagen_ld,
   if (gagen_s < gagen_n) hexapod_body_ik_body<float>(gagen_ld, in_pose + gagen_s, in_toes + gagen_s, out_q + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_body_ik_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_pose, const float *__restrict__ in_toes, float *__restrict__ out_q, float *__restrict__ out_reach, float *__restrict__ out_excess) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_body_ik_body<float>(gagen_ld, in_pose + gagen_s, in_toes + gagen_s, out_q + gagen_s, out_reach + gagen_s, out_excess + gagen_s);
@@ -11185,7 +11186,7 @@ extern "C" __global__ void hexapod_body_contact_pga_cuda_f32(long gagen_n, long 
   if (gagen_s < gagen_n) hexapod_body_contact_pga_body<float>(gagen_ld, in_pose + gagen_s, in_q + gagen_s, in_ground + gagen_s, out_distance + gagen_s, out_feet + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_body_contact_pga_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_pose, const float *__restrict__ in_q, const float *__restrict__ in_ground, float *__restrict__ out_distance, float *__restrict__ out_feet) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_body_contact_pga_body<float>(gagen_ld, in_pose + gagen_s, in_q + gagen_s, in_ground + gagen_s, out_distance + gagen_s, out_feet + gagen_s);
@@ -12127,7 +12128,7 @@ extern "C" __global__ void hexapod_body_contact_cga_cuda_f32(long gagen_n, long 
   if (gagen_s < gagen_n) hexapod_body_contact_cga_body<float>(gagen_ld, in_pose + gagen_s, in_q + gagen_s, in_ground + gagen_s, out_distance + gagen_s, out_feet + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_body_contact_cga_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_pose, const float *__restrict__ in_q, const float *__restrict__ in_ground, float *__restrict__ out_distance, float *__restrict__ out_feet) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_body_contact_cga_body<float>(gagen_ld, in_pose + gagen_s, in_q + gagen_s, in_ground + gagen_s, out_distance + gagen_s, out_feet + gagen_s);
@@ -12252,7 +12253,7 @@ extern "C" __global__ void hexapod_ground_pga_cuda_f32(long gagen_n, long gagen_
   if (gagen_s < gagen_n) hexapod_ground_pga_body<float>(gagen_ld, in_plane + gagen_s, in_toe + gagen_s, out_distance + gagen_s, out_foot + gagen_s, out_incidence + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_ground_pga_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_plane, const float *__restrict__ in_toe, float *__restrict__ out_distance, float *__restrict__ out_foot, float *__restrict__ out_incidence) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_ground_pga_body<float>(gagen_ld, in_plane + gagen_s, in_toe + gagen_s, out_distance + gagen_s, out_foot + gagen_s, out_incidence + gagen_s);
@@ -12372,7 +12373,7 @@ extern "C" __global__ void hexapod_ground_cga_cuda_f32(long gagen_n, long gagen_
   if (gagen_s < gagen_n) hexapod_ground_cga_body<float>(gagen_ld, in_plane + gagen_s, in_toe + gagen_s, out_distance + gagen_s, out_foot + gagen_s, out_incidence + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void hexapod_ground_cga_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_plane, const float *__restrict__ in_toe, float *__restrict__ out_distance, float *__restrict__ out_foot, float *__restrict__ out_incidence) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     hexapod_ground_cga_body<float>(gagen_ld, in_plane + gagen_s, in_toe + gagen_s, out_distance + gagen_s, out_foot + gagen_s, out_incidence + gagen_s);

@@ -11,7 +11,8 @@
  * addresses. Per kernel:
  *   <kernel>_body<T>(ld, in..., out...)    one sample; pointers at that sample's column
  *   <kernel>_cuda_f64 / _cuda_f32          __global__: one thread per sample s < n
- *   <kernel>_host_f64 / _host_f32          the same loop on the host (not under NVRTC)
+ *   <kernel>_host_f64 / _host_f32          the same loop on the host (not under NVRTC; the float one
+ *                                          not with -DGAGEN_HOST_F64_ONLY, which halves the compile)
  */
 #if defined(__CUDACC__)
 #define GAGEN_HD __host__ __device__
@@ -403,7 +404,7 @@ extern "C" __global__ void panda_point_arm0_fk_cuda_f32(long gagen_n, long gagen
   if (gagen_s < gagen_n) panda_point_arm0_fk_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void panda_point_arm0_fk_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_M, float *__restrict__ out_P) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     panda_point_arm0_fk_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
@@ -908,7 +909,7 @@ extern "C" __global__ void panda_point_arm0_fk_jacobian_cuda_f32(long gagen_n, l
   if (gagen_s < gagen_n) panda_point_arm0_fk_jacobian_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void panda_point_arm0_fk_jacobian_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_M, float *__restrict__ out_P, float *__restrict__ out_J_S) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     panda_point_arm0_fk_jacobian_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
@@ -2829,7 +2830,7 @@ extern "C" __global__ void panda_point_arm0_jacobians_cuda_f32(long gagen_n, lon
   if (gagen_s < gagen_n) panda_point_arm0_jacobians_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s, out_J_b + gagen_s, out_J_A + gagen_s, out_J_P + gagen_s, out_L + gagen_s, out_J_L + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void panda_point_arm0_jacobians_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_M, float *__restrict__ out_P, float *__restrict__ out_J_S, float *__restrict__ out_J_b, float *__restrict__ out_J_A, float *__restrict__ out_J_P, float *__restrict__ out_L, float *__restrict__ out_J_L) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     panda_point_arm0_jacobians_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s, out_J_b + gagen_s, out_J_A + gagen_s, out_J_P + gagen_s, out_L + gagen_s, out_J_L + gagen_s);
@@ -3233,7 +3234,7 @@ extern "C" __global__ void panda_point_primitive_cuda_f32(long gagen_n, long gag
   if (gagen_s < gagen_n) panda_point_primitive_body<float>(gagen_ld, in_q + gagen_s, out_X_c + gagen_s, out_J_c + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void panda_point_primitive_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_X_c, float *__restrict__ out_J_c) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     panda_point_primitive_body<float>(gagen_ld, in_q + gagen_s, out_X_c + gagen_s, out_J_c + gagen_s);
@@ -3618,7 +3619,7 @@ extern "C" __global__ void panda_point_similarity_cuda_f32(long gagen_n, long ga
   if (gagen_s < gagen_n) panda_point_similarity_body<float>(gagen_ld, in_q + gagen_s, out_V_Sc + gagen_s, out_conditioning + gagen_s, out_J_G + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void panda_point_similarity_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_V_Sc, float *__restrict__ out_conditioning, float *__restrict__ out_J_G) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     panda_point_similarity_body<float>(gagen_ld, in_q + gagen_s, out_V_Sc + gagen_s, out_conditioning + gagen_s, out_J_G + gagen_s);
@@ -4110,7 +4111,7 @@ extern "C" __global__ void panda_point_similarity_jacobians_cuda_f32(long gagen_
   if (gagen_s < gagen_n) panda_point_similarity_jacobians_body<float>(gagen_ld, in_q + gagen_s, out_J_A + gagen_s, out_log_V + gagen_s, out_J_B + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void panda_point_similarity_jacobians_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_J_A, float *__restrict__ out_log_V, float *__restrict__ out_J_B) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     panda_point_similarity_jacobians_body<float>(gagen_ld, in_q + gagen_s, out_J_A + gagen_s, out_log_V + gagen_s, out_J_B + gagen_s);
@@ -4943,7 +4944,7 @@ extern "C" __global__ void panda_point_task_cuda_f32(long gagen_n, long gagen_ld
   if (gagen_s < gagen_n) panda_point_task_body<float>(gagen_ld, in_q + gagen_s, in_V_Sd + gagen_s, out_e + gagen_s, out_J_Be + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void panda_point_task_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, const float *__restrict__ in_V_Sd, float *__restrict__ out_e, float *__restrict__ out_J_Be) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     panda_point_task_body<float>(gagen_ld, in_q + gagen_s, in_V_Sd + gagen_s, out_e + gagen_s, out_J_Be + gagen_s);
@@ -5845,7 +5846,7 @@ extern "C" __global__ void panda_point_similarity_rate_cuda_f32(long gagen_n, lo
   if (gagen_s < gagen_n) panda_point_similarity_rate_body<float>(gagen_ld, in_q + gagen_s, in_qd + gagen_s, out_V_S + gagen_s, out_Jdot_qdot + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void panda_point_similarity_rate_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, const float *__restrict__ in_qd, float *__restrict__ out_V_S, float *__restrict__ out_Jdot_qdot) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     panda_point_similarity_rate_body<float>(gagen_ld, in_q + gagen_s, in_qd + gagen_s, out_V_S + gagen_s, out_Jdot_qdot + gagen_s);

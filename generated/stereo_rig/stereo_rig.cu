@@ -11,7 +11,8 @@
  * addresses. Per kernel:
  *   <kernel>_body<T>(ld, in..., out...)    one sample; pointers at that sample's column
  *   <kernel>_cuda_f64 / _cuda_f32          __global__: one thread per sample s < n
- *   <kernel>_host_f64 / _host_f32          the same loop on the host (not under NVRTC)
+ *   <kernel>_host_f64 / _host_f32          the same loop on the host (not under NVRTC; the float one
+ *                                          not with -DGAGEN_HOST_F64_ONLY, which halves the compile)
  */
 #if defined(__CUDACC__)
 #define GAGEN_HD __host__ __device__
@@ -94,7 +95,7 @@ extern "C" __global__ void stereo_rig_image_line_cuda_f32(long gagen_n, long gag
   if (gagen_s < gagen_n) stereo_rig_image_line_body<float>(gagen_ld, in_theta + gagen_s, in_r + gagen_s, out_L + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void stereo_rig_image_line_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_theta, const float *__restrict__ in_r, float *__restrict__ out_L) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     stereo_rig_image_line_body<float>(gagen_ld, in_theta + gagen_s, in_r + gagen_s, out_L + gagen_s);
@@ -195,7 +196,7 @@ extern "C" __global__ void stereo_rig_planes_cuda_f32(long gagen_n, long gagen_l
   if (gagen_s < gagen_n) stereo_rig_planes_body<float>(gagen_ld, in_lines + gagen_s, out_line_l + gagen_s, out_line_r + gagen_s, out_centre_l + gagen_s, out_centre_r + gagen_s, out_plane_l + gagen_s, out_plane_r + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void stereo_rig_planes_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_lines, float *__restrict__ out_line_l, float *__restrict__ out_line_r, float *__restrict__ out_centre_l, float *__restrict__ out_centre_r, float *__restrict__ out_plane_l, float *__restrict__ out_plane_r) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     stereo_rig_planes_body<float>(gagen_ld, in_lines + gagen_s, out_line_l + gagen_s, out_line_r + gagen_s, out_centre_l + gagen_s, out_centre_r + gagen_s, out_plane_l + gagen_s, out_plane_r + gagen_s);
@@ -377,7 +378,7 @@ extern "C" __global__ void stereo_rig_axis_cuda_f32(long gagen_n, long gagen_ld,
   if (gagen_s < gagen_n) stereo_rig_axis_body<float>(gagen_ld, in_lines + gagen_s, out_axis + gagen_s, out_point + gagen_s, out_direction + gagen_s, out_conditioning + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void stereo_rig_axis_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_lines, float *__restrict__ out_axis, float *__restrict__ out_point, float *__restrict__ out_direction, float *__restrict__ out_conditioning) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     stereo_rig_axis_body<float>(gagen_ld, in_lines + gagen_s, out_axis + gagen_s, out_point + gagen_s, out_direction + gagen_s, out_conditioning + gagen_s);
@@ -480,7 +481,7 @@ extern "C" __global__ void stereo_rig_reproject_cuda_f32(long gagen_n, long gage
   if (gagen_s < gagen_n) stereo_rig_reproject_body<float>(gagen_ld, in_line + gagen_s, out_hesse_l + gagen_s, out_hesse_r + gagen_s, out_image_l + gagen_s, out_image_r + gagen_s, out_ortho_l + gagen_s, out_ortho_r + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void stereo_rig_reproject_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_line, float *__restrict__ out_hesse_l, float *__restrict__ out_hesse_r, float *__restrict__ out_image_l, float *__restrict__ out_image_r, float *__restrict__ out_ortho_l, float *__restrict__ out_ortho_r) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     stereo_rig_reproject_body<float>(gagen_ld, in_line + gagen_s, out_hesse_l + gagen_s, out_hesse_r + gagen_s, out_image_l + gagen_s, out_image_r + gagen_s, out_ortho_l + gagen_s, out_ortho_r + gagen_s);
@@ -542,7 +543,7 @@ extern "C" __global__ void stereo_rig_viewing_lines_cuda_f32(long gagen_n, long 
   if (gagen_s < gagen_n) stereo_rig_viewing_lines_body<float>(gagen_ld, in_centres + gagen_s, out_view_l + gagen_s, out_view_r + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void stereo_rig_viewing_lines_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_centres, float *__restrict__ out_view_l, float *__restrict__ out_view_r) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     stereo_rig_viewing_lines_body<float>(gagen_ld, in_centres + gagen_s, out_view_l + gagen_s, out_view_r + gagen_s);
@@ -666,7 +667,7 @@ extern "C" __global__ void stereo_rig_triangulate_cuda_f32(long gagen_n, long ga
   if (gagen_s < gagen_n) stereo_rig_triangulate_body<float>(gagen_ld, in_centres + gagen_s, out_point + gagen_s, out_gap + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void stereo_rig_triangulate_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_centres, float *__restrict__ out_point, float *__restrict__ out_gap) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     stereo_rig_triangulate_body<float>(gagen_ld, in_centres + gagen_s, out_point + gagen_s, out_gap + gagen_s);
@@ -934,7 +935,7 @@ extern "C" __global__ void stereo_rig_estimate_cuda_f32(long gagen_n, long gagen
   if (gagen_s < gagen_n) stereo_rig_estimate_body<float>(gagen_ld, in_obs + gagen_s, out_point + gagen_s, out_direction + gagen_s, out_conditioning + gagen_s, out_centre + gagen_s, out_reference + gagen_s, out_gap + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void stereo_rig_estimate_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_obs, float *__restrict__ out_point, float *__restrict__ out_direction, float *__restrict__ out_conditioning, float *__restrict__ out_centre, float *__restrict__ out_reference, float *__restrict__ out_gap) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     stereo_rig_estimate_body<float>(gagen_ld, in_obs + gagen_s, out_point + gagen_s, out_direction + gagen_s, out_conditioning + gagen_s, out_centre + gagen_s, out_reference + gagen_s, out_gap + gagen_s);

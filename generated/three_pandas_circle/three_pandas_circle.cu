@@ -11,7 +11,8 @@
  * addresses. Per kernel:
  *   <kernel>_body<T>(ld, in..., out...)    one sample; pointers at that sample's column
  *   <kernel>_cuda_f64 / _cuda_f32          __global__: one thread per sample s < n
- *   <kernel>_host_f64 / _host_f32          the same loop on the host (not under NVRTC)
+ *   <kernel>_host_f64 / _host_f32          the same loop on the host (not under NVRTC; the float one
+ *                                          not with -DGAGEN_HOST_F64_ONLY, which halves the compile)
  */
 #if defined(__CUDACC__)
 #define GAGEN_HD __host__ __device__
@@ -404,7 +405,7 @@ extern "C" __global__ void three_pandas_circle_arm0_fk_cuda_f32(long gagen_n, lo
   if (gagen_s < gagen_n) three_pandas_circle_arm0_fk_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void three_pandas_circle_arm0_fk_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_M, float *__restrict__ out_P) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     three_pandas_circle_arm0_fk_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
@@ -924,7 +925,7 @@ extern "C" __global__ void three_pandas_circle_arm0_fk_jacobian_cuda_f32(long ga
   if (gagen_s < gagen_n) three_pandas_circle_arm0_fk_jacobian_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void three_pandas_circle_arm0_fk_jacobian_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_M, float *__restrict__ out_P, float *__restrict__ out_J_S) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     three_pandas_circle_arm0_fk_jacobian_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
@@ -2918,7 +2919,7 @@ extern "C" __global__ void three_pandas_circle_arm0_jacobians_cuda_f32(long gage
   if (gagen_s < gagen_n) three_pandas_circle_arm0_jacobians_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s, out_J_b + gagen_s, out_J_A + gagen_s, out_J_P + gagen_s, out_L + gagen_s, out_J_L + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void three_pandas_circle_arm0_jacobians_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_M, float *__restrict__ out_P, float *__restrict__ out_J_S, float *__restrict__ out_J_b, float *__restrict__ out_J_A, float *__restrict__ out_J_P, float *__restrict__ out_L, float *__restrict__ out_J_L) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     three_pandas_circle_arm0_jacobians_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s, out_J_b + gagen_s, out_J_A + gagen_s, out_J_P + gagen_s, out_L + gagen_s, out_J_L + gagen_s);
@@ -3303,7 +3304,7 @@ extern "C" __global__ void three_pandas_circle_arm1_fk_cuda_f32(long gagen_n, lo
   if (gagen_s < gagen_n) three_pandas_circle_arm1_fk_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void three_pandas_circle_arm1_fk_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_M, float *__restrict__ out_P) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     three_pandas_circle_arm1_fk_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
@@ -3856,7 +3857,7 @@ extern "C" __global__ void three_pandas_circle_arm1_fk_jacobian_cuda_f32(long ga
   if (gagen_s < gagen_n) three_pandas_circle_arm1_fk_jacobian_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void three_pandas_circle_arm1_fk_jacobian_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_M, float *__restrict__ out_P, float *__restrict__ out_J_S) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     three_pandas_circle_arm1_fk_jacobian_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
@@ -5951,7 +5952,7 @@ extern "C" __global__ void three_pandas_circle_arm1_jacobians_cuda_f32(long gage
   if (gagen_s < gagen_n) three_pandas_circle_arm1_jacobians_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s, out_J_b + gagen_s, out_J_A + gagen_s, out_J_P + gagen_s, out_L + gagen_s, out_J_L + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void three_pandas_circle_arm1_jacobians_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_M, float *__restrict__ out_P, float *__restrict__ out_J_S, float *__restrict__ out_J_b, float *__restrict__ out_J_A, float *__restrict__ out_J_P, float *__restrict__ out_L, float *__restrict__ out_J_L) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     three_pandas_circle_arm1_jacobians_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s, out_J_b + gagen_s, out_J_A + gagen_s, out_J_P + gagen_s, out_L + gagen_s, out_J_L + gagen_s);
@@ -6335,7 +6336,7 @@ extern "C" __global__ void three_pandas_circle_arm2_fk_cuda_f32(long gagen_n, lo
   if (gagen_s < gagen_n) three_pandas_circle_arm2_fk_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void three_pandas_circle_arm2_fk_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_M, float *__restrict__ out_P) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     three_pandas_circle_arm2_fk_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s);
@@ -6889,7 +6890,7 @@ extern "C" __global__ void three_pandas_circle_arm2_fk_jacobian_cuda_f32(long ga
   if (gagen_s < gagen_n) three_pandas_circle_arm2_fk_jacobian_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void three_pandas_circle_arm2_fk_jacobian_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_M, float *__restrict__ out_P, float *__restrict__ out_J_S) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     three_pandas_circle_arm2_fk_jacobian_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s);
@@ -8984,7 +8985,7 @@ extern "C" __global__ void three_pandas_circle_arm2_jacobians_cuda_f32(long gage
   if (gagen_s < gagen_n) three_pandas_circle_arm2_jacobians_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s, out_J_b + gagen_s, out_J_A + gagen_s, out_J_P + gagen_s, out_L + gagen_s, out_J_L + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void three_pandas_circle_arm2_jacobians_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_M, float *__restrict__ out_P, float *__restrict__ out_J_S, float *__restrict__ out_J_b, float *__restrict__ out_J_A, float *__restrict__ out_J_P, float *__restrict__ out_L, float *__restrict__ out_J_L) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     three_pandas_circle_arm2_jacobians_body<float>(gagen_ld, in_q + gagen_s, out_M + gagen_s, out_P + gagen_s, out_J_S + gagen_s, out_J_b + gagen_s, out_J_A + gagen_s, out_J_P + gagen_s, out_L + gagen_s, out_J_L + gagen_s);
@@ -11336,7 +11337,7 @@ extern "C" __global__ void three_pandas_circle_primitive_cuda_f32(long gagen_n, 
   if (gagen_s < gagen_n) three_pandas_circle_primitive_body<float>(gagen_ld, in_q + gagen_s, out_X_c + gagen_s, out_J_c + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void three_pandas_circle_primitive_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_X_c, float *__restrict__ out_J_c) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     three_pandas_circle_primitive_body<float>(gagen_ld, in_q + gagen_s, out_X_c + gagen_s, out_J_c + gagen_s);
@@ -15327,7 +15328,7 @@ extern "C" __global__ void three_pandas_circle_similarity_cuda_f32(long gagen_n,
   if (gagen_s < gagen_n) three_pandas_circle_similarity_body<float>(gagen_ld, in_q + gagen_s, out_V_Sc + gagen_s, out_conditioning + gagen_s, out_J_G + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void three_pandas_circle_similarity_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_V_Sc, float *__restrict__ out_conditioning, float *__restrict__ out_J_G) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     three_pandas_circle_similarity_body<float>(gagen_ld, in_q + gagen_s, out_V_Sc + gagen_s, out_conditioning + gagen_s, out_J_G + gagen_s);
@@ -24332,7 +24333,7 @@ extern "C" __global__ void three_pandas_circle_similarity_jacobians_cuda_f32(lon
   if (gagen_s < gagen_n) three_pandas_circle_similarity_jacobians_body<float>(gagen_ld, in_q + gagen_s, out_J_A + gagen_s, out_log_V + gagen_s, out_J_B + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void three_pandas_circle_similarity_jacobians_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, float *__restrict__ out_J_A, float *__restrict__ out_log_V, float *__restrict__ out_J_B) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     three_pandas_circle_similarity_jacobians_body<float>(gagen_ld, in_q + gagen_s, out_J_A + gagen_s, out_log_V + gagen_s, out_J_B + gagen_s);
@@ -31901,7 +31902,7 @@ extern "C" __global__ void three_pandas_circle_task_cuda_f32(long gagen_n, long 
   if (gagen_s < gagen_n) three_pandas_circle_task_body<float>(gagen_ld, in_q + gagen_s, in_V_Sd + gagen_s, out_e + gagen_s, out_J_Be + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void three_pandas_circle_task_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, const float *__restrict__ in_V_Sd, float *__restrict__ out_e, float *__restrict__ out_J_Be) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     three_pandas_circle_task_body<float>(gagen_ld, in_q + gagen_s, in_V_Sd + gagen_s, out_e + gagen_s, out_J_Be + gagen_s);
@@ -43073,7 +43074,7 @@ extern "C" __global__ void three_pandas_circle_similarity_rate_cuda_f32(long gag
   if (gagen_s < gagen_n) three_pandas_circle_similarity_rate_body<float>(gagen_ld, in_q + gagen_s, in_qd + gagen_s, out_V_S + gagen_s, out_Jdot_qdot + gagen_s);
 }
 #endif
-#if !defined(__CUDACC_RTC__)
+#if !defined(__CUDACC_RTC__) && !defined(GAGEN_HOST_F64_ONLY)
 extern "C" void three_pandas_circle_similarity_rate_host_f32(long gagen_n, long gagen_ld, const float *__restrict__ in_q, const float *__restrict__ in_qd, float *__restrict__ out_V_S, float *__restrict__ out_Jdot_qdot) {
   for (long gagen_s = 0; gagen_s < gagen_n; ++gagen_s)
     three_pandas_circle_similarity_rate_body<float>(gagen_ld, in_q + gagen_s, in_qd + gagen_s, out_V_S + gagen_s, out_Jdot_qdot + gagen_s);

@@ -67,14 +67,15 @@ def _close(got, want, rtol: float, what: str) -> None:
     assert error <= rtol * scale, f"{what}: {error:.3g} > {rtol:g} x {scale:.3g}"
 
 
-def _hosts(module, tmp_path: Path) -> tuple[types.SimpleNamespace, types.SimpleNamespace]:
-    """The float64 and float32 host loops of the module's .cu, compiled once."""
+def _hosts(module, tmp_path: Path, float32: bool = True
+           ) -> tuple[types.SimpleNamespace, types.SimpleNamespace | None]:
+    """The float64 and (``float32``) float32 host loops of the module's .cu, compiled once."""
     library = tmp_path / f"lib{module.manifest['module']}_cuda_host.so"
-    host64 = host_kernels(_cu(module), library, module.manifest, "f64")
-    return host64, host_kernels(None, library, module.manifest, "f32")
+    host64 = host_kernels(_cu(module), library, module.manifest, "f64", float32=float32)
+    return host64, host_kernels(None, library, module.manifest, "f32") if float32 else None
 
 
-def _against_c(module, tmp_path: Path, n: int = 40) -> None:
+def _against_c(module, tmp_path: Path, n: int = 40, float32: bool = True) -> None:
     """Every kernel's host loop (float64) on n samples: the same doubles as the CasADi Function (the C
     printer replays its instructions in its order, libm's trigonometry, no contraction: what the C
     kernels give with -DGAGEN_SCALAR_TRIG), and within 1e-14 of the default C batch (glibc's vector sine
@@ -103,6 +104,8 @@ def _against_c(module, tmp_path: Path, n: int = 40) -> None:
             for g, w, port in zip(got, batch if isinstance(batch, tuple) else (batch,), entry["outputs"],
                                   strict=True):
                 _close(g, w, RTOL, f"{name}.{port['name']} against the C batch")
+        if host32 is None:
+            continue
         got32 = getattr(host32, name).batch(*inputs)
         got32 = got32 if isinstance(got32, tuple) else (got32,)
         for g, w, port in zip(got32, got, entry["outputs"], strict=True):
@@ -143,7 +146,7 @@ def test_float32_tracks_float64_on_the_flange(tmp_path):
 @pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(set(BUNDLED) - {"panda_point"}))
 def test_every_bundled_module_host_bodies_equal_the_c_kernels(name, tmp_path):
-    _against_c(bundled_module(name), tmp_path, n=8)
+    _against_c(bundled_module(name), tmp_path, n=8, float32=False)  # (float32: panda_point's test)
 
 
 @pytest.mark.parametrize("name", tiered(sorted(committed_modules()), {"panda_point"}, pytest.mark.compiling,

@@ -116,14 +116,16 @@ def find_cxx() -> list[str]:
                            "set CXX")
 
 
-def compile_host(source: Path, library: Path, optimise: str = "-O0") -> None:
+def compile_host(source: Path, library: Path, optimise: str = "-O0", *, float32: bool = True) -> None:
     """``source`` as host C++ into ``library``: the ``*_host_*`` loops over the same bodies, without
     fused multiply-adds (the C kernels' doubles, up to libm's sine and cosine). ``-O0`` by default: the
-    same doubles as optimised code, compiled 4x faster (what the tests need)."""
+    same doubles as optimised code, compiled 4x faster (what the tests need); without ``float32`` only
+    the float64 loops (half the compile)."""
     partial = library.with_name(library.name + f".{os.getpid()}.{threading.get_ident()}.partial")
+    only = [] if float32 else ["-DGAGEN_HOST_F64_ONLY"]
     try:
-        _run([*find_cxx(), "-x", "c++", "-std=c++17", optimise, "-ffp-contract=off", "-fPIC", "-shared",
-              "-Wall", "-Werror", "-o", str(partial), str(source)])
+        _run([*find_cxx(), "-x", "c++", "-std=c++17", optimise, *only, "-ffp-contract=off", "-fPIC",
+              "-shared", "-Wall", "-Werror", "-o", str(partial), str(source)])
         partial.replace(library)
     finally:
         partial.unlink(missing_ok=True)
@@ -167,10 +169,11 @@ class HostKernel:
 
 
 def host_kernels(source: Path | None, library: Path, manifest: dict[str, Any],
-                 precision: str = "f64") -> types.SimpleNamespace:
+                 precision: str = "f64", *, float32: bool = True) -> types.SimpleNamespace:
     """The kernels of ``manifest`` from ``source`` compiled as host C++ into ``library`` (``source``
-    None: the library compiled before): a namespace of :class:`HostKernel` by kernel name."""
+    None: the library compiled before; ``float32``: with the float loops): a namespace of
+    :class:`HostKernel` by kernel name."""
     if source is not None:
-        compile_host(source, library)
+        compile_host(source, library, float32=float32)
     loaded = ctypes.CDLL(str(library))
     return types.SimpleNamespace(**{e["name"]: HostKernel(loaded, e, precision) for e in manifest["kernels"]})
