@@ -53,6 +53,7 @@ def solve_batch(task: Task, targets: Any, seeds: Any, lower: Any, upper: Any, *,
     by then are set aside, so that the work shrinks as targets are solved (0: never)."""
     if xp is None:
         xp = _array_module(targets)
+    _check(xp, targets, seeds, lower, upper, iterations, tol)
     T, S = targets.shape[1], seeds.shape[1]
     n = T * S
     lower, upper = xp.asarray(lower)[:, None], xp.asarray(upper)[:, None]
@@ -93,6 +94,25 @@ def solve_batch(task: Task, targets: Any, seeds: Any, lower: Any, upper: Any, *,
     best = per_target.argmin(axis=1)
     best_error = per_target.min(axis=1)
     return BatchIK(final_q, error, best, best_error, best_error <= tol, iterations)
+
+
+def _check(xp: Any, targets: Any, seeds: Any, lower: Any, upper: Any, iterations: int, tol: float) -> None:
+    """One-line ValueErrors for what the solve cannot take (a NaN target only fails its own target)."""
+    if getattr(targets, "ndim", 0) != 2 or targets.shape[0] != 12 or targets.shape[1] < 1:
+        raise ValueError(f"targets must be V_Sd columns of shape (12, T), T >= 1; got shape "
+                         f"{getattr(targets, 'shape', None)}")
+    m = getattr(seeds, "shape", (0, 0))[0]
+    if getattr(seeds, "ndim", 0) != 2 or seeds.shape[1] < 1 or not bool(xp.isfinite(seeds).all()):
+        raise ValueError(f"seeds must be finite joint columns of shape (m, S), S >= 1; got shape "
+                         f"{getattr(seeds, 'shape', None)}")
+    low, high = xp.asarray(lower), xp.asarray(upper)
+    if low.shape != (m,) or high.shape != (m,) or not bool(xp.all(low <= high)) or \
+            bool(xp.isnan(low).any() | xp.isnan(high).any()):
+        raise ValueError(f"lower and upper must be ({m},) joint bounds with lower <= upper; got shapes "
+                         f"{low.shape} and {high.shape}")
+    if not (isinstance(iterations, int) and iterations >= 1) or not (tol > 0 and tol < float("inf")):
+        raise ValueError(f"iterations must be a positive int and tol a positive number; got {iterations!r}, "
+                         f"{tol!r}")
 
 
 def _array_module(a: Any) -> Any:

@@ -74,3 +74,21 @@ def test_a_nan_target_fails_alone(pandas):
     result = solve_batch(task, targets, seeds, lower, upper, iterations=40, tol=TOL)
     assert not result.success[1] and result.success[[0, 2, 3]].all()
     assert np.isfinite(result.q).all()
+
+
+def test_what_the_solve_cannot_take_is_one_line(pandas):
+    module, task, lower, upper = pandas
+    targets = _targets(module, lower, upper, 2, 6)
+    seeds = np.random.default_rng(7).uniform(lower, upper, (2, lower.size)).T
+    cases = [((targets[:11], seeds, lower, upper), "shape \\(12, T\\)"),
+             ((targets, seeds[:, :0], lower, upper), "seeds"),
+             ((targets, np.where(seeds > 0, np.inf, seeds), lower, upper), "finite joint columns"),
+             ((targets, seeds, lower[:5], upper), "joint bounds"),
+             ((targets, seeds, upper, lower), "lower <= upper"),
+             ((targets, seeds, np.full_like(lower, np.nan), upper), "joint bounds")]
+    for args, message in cases:
+        with pytest.raises(ValueError, match=message) as raised:
+            solve_batch(task, *args)
+        assert "\n" not in str(raised.value)
+    with pytest.raises(ValueError, match="iterations"):
+        solve_batch(task, targets, seeds, lower, upper, iterations=0)
