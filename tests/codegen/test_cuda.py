@@ -16,6 +16,7 @@ On a GPU, ``tests/gpu`` holds the device results to the C kernels (skipped elsew
 
 from __future__ import annotations
 
+import json
 import types
 from pathlib import Path
 
@@ -23,6 +24,7 @@ import numpy as np
 import pytest
 from conftest import BUNDLED, bundled_module, committed_modules, tiered
 
+import gagen
 from gagen.apps.cooperative.bundled import system_module
 from gagen.codegen.backends.cuda import loader
 from gagen.codegen.backends.cuda.toolchain import HostKernel, compile_device, compile_host, host_kernels
@@ -184,7 +186,7 @@ def test_the_committed_cu_files_are_the_rendered_ones():
     bytes; this names the .cu files, so that a module committed without its .cu fails here)."""
     for name in committed_modules():
         folder = Path(__file__).resolve().parents[2] / "generated" / name
-        manifest = __import__("json").loads((folder / "manifest.json").read_text())
+        manifest = json.loads((folder / "manifest.json").read_text())
         assert "cuda" in manifest["backends"] and (folder / manifest["cuda_source"]).is_file(), name
 
 
@@ -323,7 +325,7 @@ def test_cuda_and_template_names_as_ports_and_tiny_guards(tmp_path):
 
     spec = tmp_path / "names.py"
     spec.write_text(FORMULA)
-    module = __import__("gagen").load(build(spec, tmp_path / "names").folder)
+    module = gagen.load(build(spec, tmp_path / "names").folder)
     host64, host32 = _hosts(module, tmp_path)
     rng = np.random.default_rng(1)
     args = [rng.uniform(-1, 1, (6, len(p["rows"]))) for p in module.manifest["kernels"][0]["inputs"]]

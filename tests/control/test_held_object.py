@@ -216,3 +216,24 @@ def test_the_commanded_pose_is_the_commanded_similaritys_circle(ring):
         x_d = target_primitive(m, V_Sd(t))
         assert x @ x_d / np.linalg.norm(x) / np.linalg.norm(x_d) > 1 - 1e-12, t
     assert np.linalg.norm(m.c.task(ring.q0, V_Sd(2.5))[0]) > 0.1  # the end is far from the start
+
+
+@pytest.mark.compiling  # builds three_iiwas_plane's module
+def test_gagen_carry_runs_on_a_users_own_spec_and_refuses_a_plane(tmp_path, capsys):
+    """A copied, renamed three-iiwa circle spec (its URDF next to it) carries the ring through the CLI;
+    a system spanning a plane is refused in one line."""
+    import shutil
+
+    from gagen.cli import main
+
+    source = spec_of("three_iiwas_circle")
+    mine = tmp_path / "my_ring_cell.yaml"
+    mine.write_text(source.read_text())
+    shutil.copytree(source.parent / "iiwa14", tmp_path / "iiwa14")
+    out = tmp_path / "out"
+    argv = ["carry", str(mine), "--no-mpc", "--no-animation", "--duration", "0.2", "--out", str(out)]
+    assert main(argv) == 0
+    assert "impedance" in capsys.readouterr().out and (out / "held_object.png").stat().st_size > 1000
+    assert main(["carry", "three_iiwas_plane", "--no-mpc", "--duration", "0.1", "--out", str(out)]) == 2
+    error = capsys.readouterr().err.strip().splitlines()[-1]  # (after the module's build progress line)
+    assert error.startswith("error: three_iiwas_plane") and "spans a plane" in error

@@ -157,6 +157,8 @@ _teleop = _running("teleop")
 
 
 def _carry_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("system", nargs="?", help="three chains spanning a circle, with inertials: a spec "
+                        "file or a bundled one (default three_iiwas_circle)")
     parser.add_argument("--out", type=Path, default=Path("plots/carry"),
                         help="folder for the report and the plot (default plots/carry/)")
     parser.add_argument("--duration", type=positive_float, default=2.5,

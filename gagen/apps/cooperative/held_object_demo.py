@@ -199,6 +199,9 @@ def setup(system: str = SYSTEM, mass: float = RING_MASS) -> tuple[Any, HeldRing,
     from gagen.apps.cooperative.scenarios import module, spec_of
 
     built = module(system)
+    if built.manifest["primitive"] != "circle":
+        raise ValueError(f"{system}: a ring is carried by a system spanning a circle; this one spans a "
+                         f"{built.manifest['primitive']}")
     q0 = start(system)
     return built, HeldRing(spec_of(system), q0, mass), np.asarray(built.c.similarity(q0)[0])
 
@@ -289,12 +292,12 @@ def plot(records: dict[str, CarryRecord], path: Path) -> Path:
     return path
 
 
-def animation(record: CarryRecord, path: Path, fps: float = 20.0) -> Path | None:
+def animation(record: CarryRecord, path: Path, fps: float = 20.0, system: str = SYSTEM) -> Path | None:
     """The run rendered by MuJoCo: the arms, the commanded ring (magenta) and the held one (teal); None,
     with a line saying why, where MuJoCo's offscreen renderer cannot start."""
     from gagen.dynamics.mujoco_render import RenderUnavailable, render_gif
 
-    _, ring, _ = setup()
+    _, ring, _ = setup(system)
     every = max(1, round(1.0 / (fps * (record.t[1] - record.t[0]))))
     frames = np.arange(0, len(record.t), every)
     qpos = np.tile(ring.model.qpos0, (len(frames), 1))
@@ -316,21 +319,25 @@ def animation(record: CarryRecord, path: Path, fps: float = 20.0) -> Path | None
 
 
 def run_command(args: argparse.Namespace) -> int:
-    """A held-ring run: ``--out``, ``--duration`` and ``--no-mpc`` (the impedance law only)."""
+    """A held-ring run: ``system`` (a bundled name or a spec file; default three_iiwas_circle), ``--out``,
+    ``--duration`` and ``--no-mpc`` (the impedance law only)."""
     command = Command()
-    records = {"impedance": run_impedance(duration=args.duration),
-               "impedance, no feed-forward": run_impedance(duration=args.duration, feedforward=False),
-               "impedance, no posture spring": run_impedance(duration=args.duration, gains=NO_POSTURE_SPRING)}
+    system = args.system or SYSTEM
+    records = {"impedance": run_impedance(system, duration=args.duration),
+               "impedance, no feed-forward": run_impedance(system, duration=args.duration, feedforward=False),
+               "impedance, no posture spring": run_impedance(system, duration=args.duration,
+                                                             gains=NO_POSTURE_SPRING)}
     if not args.no_mpc:
-        records["torque MPC"] = run_mpc(duration=args.duration)
-        records["torque MPC, no feed-forward"] = run_mpc(duration=args.duration, feedforward=False)
+        records["torque MPC"] = run_mpc(system, duration=args.duration)
+        records["torque MPC, no feed-forward"] = run_mpc(system, duration=args.duration, feedforward=False)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     text = report(records, command)
     (out / "held_object_report.md").write_text(text)
     written = [out / "held_object_report.md", plot(records, out / "held_object.png")]
     shown = records.get("torque MPC", records["impedance"])
-    if not args.no_animation and (gif := animation(shown, out / "held_object.gif")) is not None:
+    gif = None if args.no_animation else animation(shown, out / "held_object.gif", system=system)
+    if gif is not None:
         written.append(gif)
     print(text + "wrote " + ", ".join(map(str, written)))
     return 0
