@@ -82,7 +82,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from gagen.control.reaching import (
-    BLADES,
+    BLADES,  # noqa: F401 (re-exported: callers import it from here)
     DEFAULT_HORIZON,
     DEFAULT_N,
     DEFAULT_Q,
@@ -146,7 +146,8 @@ class ReachingOCP:
     q0, q̇0 and V_Sd are NLP parameters and joint limits are variable bounds, so one instance serves
     every start, target and box (and warm starts from its own previous solutions).
 
-    ``task``: a CasADi Function (q[m], V_Sd[12]) -> (e[7], …), usually ``module.casadi.task``;
+    ``task``: a CasADi Function (q[m], V_Sd[12]) -> (e[7], …), usually ``module.casadi.task`` (or any
+    residual e[r] as the terminal cost ‖e‖²_Q, e.g. ``gagen.control.objectives.Objective.task``);
     ``expand``: nlpsol's option (True: the NLP, kernel included, becomes one flat SX graph);
     ``rest``: constrain the final velocity q̇_N to zero; ``solver``: "ipopt" or "fatrop";
     ``hessian``: "exact" or "gauss-newton" (IPOPT only; see the module docstring); ``options``: nlpsol
@@ -168,7 +169,10 @@ class ReachingOCP:
         self.task, self.m, self.N, self.horizon, self.rest = task, m, N, float(horizon), rest
         self.solver, self.hessian = solver, hessian
         self.dt = self.horizon / N
-        self.R, self.Q = weight(R, m, "R"), weight(Q, len(BLADES), "Q")
+        # e may have any length: the 7 rows of log(V_Sc~ V_Sd), or a stacked objective residual
+        # (gagen.control.objectives) as the terminal cost
+        self.rows = int(task.numel_out(0))
+        self.R, self.Q = weight(R, m, "R"), weight(Q, self.rows, "Q")
         self.A, self.B = double_integrator(m, self.dt)
         self.expand = expand
         if solver == "fatrop":  # the stage structure, stated: stage 0 holds u_0 only (x_0 is a parameter)
@@ -194,7 +198,7 @@ class ReachingOCP:
         flattens both into one SX graph; without it only the kernel's own form (SX, MX, external)
         decides how its derivatives are evaluated."""
         m, N = self.m, self.N
-        n_w, n_p = N * 3 * m, 2 * m + 12 + len(BLADES)
+        n_w, n_p = N * 3 * m, 2 * m + 12 + self.rows
         w_sx, p_sx = ca.SX.sym("w", n_w), ca.SX.sym("p", n_p)
         A, B, R = ca.DM(self.A), ca.DM(self.B), ca.DM(self.R)
         x = p_sx[: 2 * m]
@@ -231,7 +235,7 @@ class ReachingOCP:
     def _gauss_newton_hessian_in(self, sym: type[Symbolic]) -> ca.Function:
         """``_gauss_newton_hessian`` in the task's own symbolic type (SX, else MX)."""
         m, N = self.m, self.N
-        n_w, n_p = N * 3 * m, 2 * m + 12 + len(BLADES)
+        n_w, n_p = N * 3 * m, 2 * m + 12 + self.rows
         w, p = sym.sym("w", n_w), sym.sym("p", n_p)
         lam_f, lam_g = sym.sym("lam_f"), sym.sym("lam_g", 2 * m * N)
         _, J = self._terminal_error(w[n_w - 2 * m: n_w - m], p[2 * m: 2 * m + 12])
@@ -305,9 +309,9 @@ class ReachingOCP:
                 raise ValueError("warm_start comes from an OCP of another size")
             start: tuple[NDArray[np.float64], NDArray[np.float64] | None, NDArray[np.float64] | None] = (
                 warm_start.w, warm_start.lam_x, warm_start.lam_g)
-            shift = warm_start.shift.copy() if exact else np.zeros(len(BLADES))
+            shift = warm_start.shift.copy() if exact else np.zeros(self.rows)
         else:
-            shift = np.zeros(len(BLADES))
+            shift = np.zeros(self.rows)
             x_guess = np.tile(np.concatenate([np.clip(q0, lower_q, upper_q), np.zeros(m)]), (N, 1))
             start = (self._stack(np.zeros((N, m)), x_guess), None, None)
         iterations, wall, functions, updates = 0, 0.0, 0.0, 0
