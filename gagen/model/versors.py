@@ -231,3 +231,105 @@ def project_point_of_origin(x: Multivector) -> Multivector:
     """(e0·X) X⁻¹: the origin projected onto a flat (a scaled point)."""
     projected: Multivector = (e0(x) | x) * ~x * safe_reciprocal(x.math, x.norm_squared())
     return projected
+
+
+# -- the similarity group's own exponential (one-parameter subgroups) --------------------------------
+# exp_similarity above is the decoupled chart T(t) R(b) D(λ) of Eq. 76, whose exp(sB) is not a
+# one-parameter subgroup when B both turns (or dilates) and translates. Interpolation [COOP Fig. 4]
+# needs the group's exponential e^{−B/2}: with A = [Θ]× + σ I (Θ = θn the rotation vector of B_R,
+# σ = −λ the log-scale rate) and v the translation part, points follow x' = A x + v, whose time-1
+# flow is x ↦ e^A x + W v with W = Σ A^k/(k+1)! = ∫₀¹ e^{sA} ds. So e^{−B/2} = T(W v) R(Θ) D(λ), and
+# W v = a0 v + c1 Θ×v + c2 Θ×(Θ×v), from w = (e^z − 1)/z, z = σ + iθ (W's eigenvalue on the plane
+# ⟂ n; a0 = (e^σ − 1)/σ along n): Im w = c1 θ, Re w = a0 − c2 θ².
+
+LIE_SERIES_BELOW = 0.25  # |z|² below this: c1, c2 from their power series (16 terms, < 1e-17 there)
+_LIE_TERMS = 16
+
+
+def _sinhc(m: Any, x: Scalar) -> Scalar:
+    """sinh(x)/x, → 1 at x = 0 (guarded like ``guarded``)."""
+    s = x * x
+    series = 1 + s / 6 + s * s / 120 + s * s * s / 5040
+    safe = x + m.if_else(m.lt(s, 1e-4), 1.0, 0.0)
+    return m.if_else(m.lt(s, 1e-4), series, m.sinh(safe) / safe)
+
+
+def similarity_flow_coefficients(m: Any, sigma: Scalar, s: Scalar) -> tuple[Scalar, Scalar, Scalar]:
+    """(a0, c1, c2) of W = a0 + c1 [Θ]× + c2 [Θ]×² for log-scale rate σ and θ² = s (see above).
+
+    Closed forms away from z = 0 (no division by θ or σ alone: sin θ/θ, (1 − cos θ)/θ² and
+    (e^σ − 1)/σ are guarded), the series Σ z^k/(k+1)! split into real recurrences below
+    ``LIE_SERIES_BELOW``: z^k = p_k + iθ q_k, (σ^k − p_k)/θ² = r_k, so c1 = Σ q_k/(k+1)!,
+    c2 = Σ r_k/(k+1)!. Both branches are exact to ~1e-15 relative and smooth (AD-safe).
+    """
+    half = sin_half_sqrt_over_sqrt(m, s)  # sin(θ/2)/θ
+    f1 = 2 * half * cos_half_sqrt(m, s)  # sin θ/θ
+    f2 = 2 * half * half  # (1 − cos θ)/θ²
+    e = m.exp(sigma)
+    a0 = m.exp(sigma * 0.5) * _sinhc(m, sigma * 0.5)  # (e^σ − 1)/σ
+    zz = sigma * sigma + s
+    near = m.lt(zz, LIE_SERIES_BELOW)
+    safe = zz + m.if_else(near, 1.0, 0.0)
+    # e^σ cos θ − 1 = (e^σ − 1) − e^σ (1 − cos θ), without the cancellation of the first form
+    c1_closed = (sigma * e * f1 - (sigma * a0 - e * s * f2)) / safe
+    c2_closed = (sigma * e * f2 + a0 - e * f1) / safe
+    p, q, r = 1.0, 0.0, 0.0  # z^0 (Scalar: floats, or symbolic after the first step)
+    c1_series: Scalar = 0.0
+    c2_series: Scalar = 0.0
+    factorial = 1
+    for k in range(_LIE_TERMS):
+        factorial *= k + 1
+        c1_series = c1_series + q * (1.0 / factorial)
+        c2_series = c2_series + r * (1.0 / factorial)
+        p, q, r = sigma * p - s * q, p + sigma * q, sigma * r + q
+    return a0, m.if_else(near, c1_series, c1_closed), m.if_else(near, c2_series, c2_closed)
+
+
+def _rotation_vector(b: Multivector) -> Multivector:
+    """Θ = θ n of a rotation generator θ(n3 e12 − n2 e13 + n1 e23), as a Euclidean vector."""
+    return vector(b, [b["e23"], -b["e13"], b["e12"]])
+
+
+def _cross(a: Multivector, b: Multivector) -> Multivector:
+    """a × b of Euclidean vectors."""
+    a1, a2, a3 = (a[k] for k in EUCLID)
+    b1, b2, b3 = (b[k] for k in EUCLID)
+    return vector(a, [a2 * b3 - a3 * b2, a3 * b1 - a1 * b3, a1 * b2 - a2 * b1])
+
+
+def _with_translation(b: Multivector, t: Multivector) -> Multivector:
+    """B with its translation part replaced by t ∧ e∞."""
+    return part(b, (*ROTATION, *DILATION)) + (t ^ einf(t))
+
+
+def exp_similarity_lie(b: Multivector) -> Multivector:
+    """The group exponential e^{−B/2} of a similarity generator B (rotation, dilation, translation):
+    exp_similarity_lie(sB) is a one-parameter subgroup, unlike the decoupled ``exp_similarity``
+    (they agree when B has no translation, or only a translation). Unit versor; valid for all B,
+    and log_similarity_lie inverts it for rotation angles θ < π."""
+    m = b.math
+    theta = _rotation_vector(b)
+    v = vector(b, [b[f"{k}inf"] for k in EUCLID])
+    a0, c1, c2 = similarity_flow_coefficients(m, -b["e0inf"], theta.sp(theta))
+    tv = _cross(theta, v)
+    return exp_similarity(_with_translation(b, v * a0 + tv * c1 + _cross(theta, tv) * c2))
+
+
+def log_similarity_lie(v: Multivector) -> Multivector:
+    """The generator B with e^{−B/2} = ±V for a unit similarity versor V, rotation angle θ ∈ [0, π]
+    (V and −V are the same similarity; the sign with the shorter turn is taken): the decoupled
+    log, then the translation part W⁻¹u, W⁻¹ = 1/a0 − (c1/|w|²)[Θ]× + (c1² − wr c2)/(a0 |w|²)[Θ]×²
+    with wr = a0 − c2 θ², |w|² = wr² + c1² θ² (> 0 for θ < 2π)."""
+    m = v.math
+    t, r, d = decompose_similarity(v)
+    r = r * m.if_else(m.lt(r.scalar(), 0), -1.0, 1.0)
+    b = log_translator(t) + log_rotor(r) + log_dilator(d)
+    theta = _rotation_vector(b)
+    u = vector(b, [b[f"{k}inf"] for k in EUCLID])
+    s = theta.sp(theta)
+    a0, c1, c2 = similarity_flow_coefficients(m, -b["e0inf"], s)
+    wr = a0 - c2 * s
+    w2 = wr * wr + c1 * c1 * s
+    tu = _cross(theta, u)
+    inverse = u * (1 / a0) + tu * (-c1 / w2) + _cross(theta, tu) * ((c1 * c1 - wr * c2) / (a0 * w2))
+    return _with_translation(b, inverse)
