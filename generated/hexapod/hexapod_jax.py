@@ -825,7 +825,7 @@ def front_left_ik(in_target):
     w19 = jnp.where(w19 != 0, w10, 0.0)
     w0 = w0 + w19
     o1_2 = w0
-    w0 = 1e-09
+    w0 = 1.553923048454e-09
     w19 = jnp.where(w18 < w13, 1.0, 0.0)
     w18 = jnp.where(w19 != 0, w18, 0.0)
     w19 = jnp.where(w19 == 0, 1.0, 0.0)
@@ -1784,7 +1784,7 @@ def middle_left_ik(in_target):
     w19 = jnp.where(w19 != 0, w10, 0.0)
     w0 = w0 + w19
     o1_2 = w0
-    w0 = 1e-09
+    w0 = 1.5700000000000002e-09
     w19 = jnp.where(w18 < w13, 1.0, 0.0)
     w18 = jnp.where(w19 != 0, w18, 0.0)
     w19 = jnp.where(w19 == 0, 1.0, 0.0)
@@ -2786,7 +2786,7 @@ def rear_left_ik(in_target):
     w19 = jnp.where(w19 != 0, w3, 0.0)
     w0 = w0 + w19
     o1_2 = w0
-    w0 = 1e-09
+    w0 = 1.553923048454e-09
     w19 = jnp.where(w18 < w13, 1.0, 0.0)
     w18 = jnp.where(w19 != 0, w18, 0.0)
     w19 = jnp.where(w19 == 0, 1.0, 0.0)
@@ -3799,7 +3799,7 @@ def rear_right_ik(in_target):
     w19 = jnp.where(w19 != 0, w10, 0.0)
     w0 = w0 + w19
     o1_2 = w0
-    w0 = 1e-09
+    w0 = 1.553923048454e-09
     w19 = jnp.where(w18 < w13, 1.0, 0.0)
     w18 = jnp.where(w19 != 0, w18, 0.0)
     w19 = jnp.where(w19 == 0, 1.0, 0.0)
@@ -4766,7 +4766,7 @@ def middle_right_ik(in_target):
     w19 = jnp.where(w19 != 0, w10, 0.0)
     w0 = w0 + w19
     o1_2 = w0
-    w0 = 1e-09
+    w0 = 1.5700000000000002e-09
     w19 = jnp.where(w18 < w13, 1.0, 0.0)
     w18 = jnp.where(w19 != 0, w18, 0.0)
     w19 = jnp.where(w19 == 0, 1.0, 0.0)
@@ -5776,7 +5776,7 @@ def front_right_ik(in_target):
     w19 = jnp.where(w19 != 0, w3, 0.0)
     w0 = w0 + w19
     o1_2 = w0
-    w0 = 1e-09
+    w0 = 1.553923048454e-09
     w19 = jnp.where(w18 < w13, 1.0, 0.0)
     w18 = jnp.where(w19 != 0, w18, 0.0)
     w19 = jnp.where(w19 == 0, 1.0, 0.0)
@@ -9396,7 +9396,7 @@ def body_ik(in_pose, in_toes):
     w15 = jnp.where(w15 != 0, w28, 0.0)
     w0 = w0 + w15
     o0_17 = w0
-    w0 = 1e-09
+    w0 = 1.553923048454e-09
     w15 = jnp.where(w42 < w36, 1.0, 0.0)
     w42 = jnp.where(w15 != 0, w42, 0.0)
     w15 = jnp.where(w15 == 0, 1.0, 0.0)
@@ -9410,16 +9410,17 @@ def body_ik(in_pose, in_toes):
     w5 = jnp.where(w5 == 0, 1.0, 0.0)
     w5 = jnp.where(w5 != 0, w44, 0.0)
     o1_0 = w5
-    w5 = jnp.where(w57 < w56, 1.0, 0.0)
-    w57 = jnp.where(w5 != 0, w57, 0.0)
-    w5 = jnp.where(w5 == 0, 1.0, 0.0)
-    w5 = jnp.where(w5 != 0, w56, 0.0)
-    w57 = w57 + w5
+    w5 = 1.5700000000000002e-09
+    w15 = jnp.where(w57 < w56, 1.0, 0.0)
+    w57 = jnp.where(w15 != 0, w57, 0.0)
+    w15 = jnp.where(w15 == 0, 1.0, 0.0)
+    w15 = jnp.where(w15 != 0, w56, 0.0)
+    w57 = w57 + w15
     w57 = jnp.where(w34 != 0, w57, 0.0)
     w34 = jnp.where(w34 == 0, 1.0, 0.0)
     w34 = jnp.where(w34 != 0, w10, 0.0)
     w57 = w57 + w34
-    w34 = jnp.where(w0 < w57, 1.0, 0.0)
+    w34 = jnp.where(w5 < w57, 1.0, 0.0)
     w34 = jnp.where(w34 == 0, 1.0, 0.0)
     w34 = jnp.where(w34 != 0, w44, 0.0)
     o1_1 = w34
@@ -9458,15 +9459,15 @@ def body_ik(in_pose, in_toes):
     w58 = jnp.where(w58 == 0, 1.0, 0.0)
     w58 = jnp.where(w58 != 0, w10, 0.0)
     w47 = w47 + w58
-    w58 = jnp.where(w0 < w47, 1.0, 0.0)
-    w58 = jnp.where(w58 == 0, 1.0, 0.0)
-    w58 = jnp.where(w58 != 0, w44, 0.0)
-    o1_4 = w58
-    w58 = jnp.where(w4 < w62, 1.0, 0.0)
-    w4 = jnp.where(w58 != 0, w4, 0.0)
-    w58 = jnp.where(w58 == 0, 1.0, 0.0)
-    w58 = jnp.where(w58 != 0, w62, 0.0)
-    w4 = w4 + w58
+    w5 = jnp.where(w5 < w47, 1.0, 0.0)
+    w5 = jnp.where(w5 == 0, 1.0, 0.0)
+    w5 = jnp.where(w5 != 0, w44, 0.0)
+    o1_4 = w5
+    w5 = jnp.where(w4 < w62, 1.0, 0.0)
+    w4 = jnp.where(w5 != 0, w4, 0.0)
+    w5 = jnp.where(w5 == 0, 1.0, 0.0)
+    w5 = jnp.where(w5 != 0, w62, 0.0)
+    w4 = w4 + w5
     w4 = jnp.where(w12 != 0, w4, 0.0)
     w12 = jnp.where(w12 == 0, 1.0, 0.0)
     w12 = jnp.where(w12 != 0, w10, 0.0)

@@ -1447,7 +1447,7 @@ static void hexapod_front_left_ik_block(const double *restrict in_target, double
   w19 = gagen_v_if_else_zero(w19, w10);
   w0 = w0 + w19;
   GAGEN_SCATTER(out_q_down, 3, 2, w0);
-  w0 = gagen_v_splat(1e-09);
+  w0 = gagen_v_splat(1.553923048454e-09);
   w19 = gagen_v_lt(w18, w13);
   w18 = gagen_v_if_else_zero(w19, w18);
   w19 = gagen_v_not(w19);
@@ -1799,7 +1799,7 @@ static void hexapod_front_left_ik_block_columns(long gagen_ld, int gagen_stream,
   w19 = gagen_v_if_else_zero(w19, w10);
   w0 = w0 + w19;
   GAGEN_SCATTER(out_q_down, 3, 2, w0);
-  w0 = gagen_v_splat(1e-09);
+  w0 = gagen_v_splat(1.553923048454e-09);
   w19 = gagen_v_lt(w18, w13);
   w18 = gagen_v_if_else_zero(w19, w18);
   w19 = gagen_v_not(w19);
@@ -3541,7 +3541,7 @@ static void hexapod_middle_left_ik_block(const double *restrict in_target, doubl
   w19 = gagen_v_if_else_zero(w19, w10);
   w0 = w0 + w19;
   GAGEN_SCATTER(out_q_down, 3, 2, w0);
-  w0 = gagen_v_splat(1e-09);
+  w0 = gagen_v_splat(1.5700000000000002e-09);
   w19 = gagen_v_lt(w18, w13);
   w18 = gagen_v_if_else_zero(w19, w18);
   w19 = gagen_v_not(w19);
@@ -3885,7 +3885,7 @@ static void hexapod_middle_left_ik_block_columns(long gagen_ld, int gagen_stream
   w19 = gagen_v_if_else_zero(w19, w10);
   w0 = w0 + w19;
   GAGEN_SCATTER(out_q_down, 3, 2, w0);
-  w0 = gagen_v_splat(1e-09);
+  w0 = gagen_v_splat(1.5700000000000002e-09);
   w19 = gagen_v_lt(w18, w13);
   w18 = gagen_v_if_else_zero(w19, w18);
   w19 = gagen_v_not(w19);
@@ -5706,7 +5706,7 @@ static void hexapod_rear_left_ik_block(const double *restrict in_target, double 
   w19 = gagen_v_if_else_zero(w19, w3);
   w0 = w0 + w19;
   GAGEN_SCATTER(out_q_down, 3, 2, w0);
-  w0 = gagen_v_splat(1e-09);
+  w0 = gagen_v_splat(1.553923048454e-09);
   w19 = gagen_v_lt(w18, w13);
   w18 = gagen_v_if_else_zero(w19, w18);
   w19 = gagen_v_not(w19);
@@ -6059,7 +6059,7 @@ static void hexapod_rear_left_ik_block_columns(long gagen_ld, int gagen_stream, 
   w19 = gagen_v_if_else_zero(w19, w3);
   w0 = w0 + w19;
   GAGEN_SCATTER(out_q_down, 3, 2, w0);
-  w0 = gagen_v_splat(1e-09);
+  w0 = gagen_v_splat(1.553923048454e-09);
   w19 = gagen_v_lt(w18, w13);
   w18 = gagen_v_if_else_zero(w19, w18);
   w19 = gagen_v_not(w19);
@@ -7901,7 +7901,7 @@ static void hexapod_rear_right_ik_block(const double *restrict in_target, double
   w19 = gagen_v_if_else_zero(w19, w10);
   w0 = w0 + w19;
   GAGEN_SCATTER(out_q_down, 3, 2, w0);
-  w0 = gagen_v_splat(1e-09);
+  w0 = gagen_v_splat(1.553923048454e-09);
   w19 = gagen_v_lt(w18, w13);
   w18 = gagen_v_if_else_zero(w19, w18);
   w19 = gagen_v_not(w19);
@@ -8255,7 +8255,7 @@ static void hexapod_rear_right_ik_block_columns(long gagen_ld, int gagen_stream,
   w19 = gagen_v_if_else_zero(w19, w10);
   w0 = w0 + w19;
   GAGEN_SCATTER(out_q_down, 3, 2, w0);
-  w0 = gagen_v_splat(1e-09);
+  w0 = gagen_v_splat(1.553923048454e-09);
   w19 = gagen_v_lt(w18, w13);
   w18 = gagen_v_if_else_zero(w19, w18);
   w19 = gagen_v_not(w19);
@@ -10013,7 +10013,7 @@ static void hexapod_middle_right_ik_block(const double *restrict in_target, doub
   w19 = gagen_v_if_else_zero(w19, w10);
   w0 = w0 + w19;
   GAGEN_SCATTER(out_q_down, 3, 2, w0);
-  w0 = gagen_v_splat(1e-09);
+  w0 = gagen_v_splat(1.5700000000000002e-09);
   w19 = gagen_v_lt(w18, w13);
   w18 = gagen_v_if_else_zero(w19, w18);
   w19 = gagen_v_not(w19);
@@ -10357,7 +10357,7 @@ static void hexapod_middle_right_ik_block_columns(long gagen_ld, int gagen_strea
   w19 = gagen_v_if_else_zero(w19, w10);
   w0 = w0 + w19;
   GAGEN_SCATTER(out_q_down, 3, 2, w0);
-  w0 = gagen_v_splat(1e-09);
+  w0 = gagen_v_splat(1.5700000000000002e-09);
   w19 = gagen_v_lt(w18, w13);
   w18 = gagen_v_if_else_zero(w19, w18);
   w19 = gagen_v_not(w19);
@@ -12194,7 +12194,7 @@ static void hexapod_front_right_ik_block(const double *restrict in_target, doubl
   w19 = gagen_v_if_else_zero(w19, w3);
   w0 = w0 + w19;
   GAGEN_SCATTER(out_q_down, 3, 2, w0);
-  w0 = gagen_v_splat(1e-09);
+  w0 = gagen_v_splat(1.553923048454e-09);
   w19 = gagen_v_lt(w18, w13);
   w18 = gagen_v_if_else_zero(w19, w18);
   w19 = gagen_v_not(w19);
@@ -12547,7 +12547,7 @@ static void hexapod_front_right_ik_block_columns(long gagen_ld, int gagen_stream
   w19 = gagen_v_if_else_zero(w19, w3);
   w0 = w0 + w19;
   GAGEN_SCATTER(out_q_down, 3, 2, w0);
-  w0 = gagen_v_splat(1e-09);
+  w0 = gagen_v_splat(1.553923048454e-09);
   w19 = gagen_v_lt(w18, w13);
   w18 = gagen_v_if_else_zero(w19, w18);
   w19 = gagen_v_not(w19);

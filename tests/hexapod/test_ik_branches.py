@@ -20,7 +20,7 @@ import pytest
 from conftest import tiered
 
 from gagen.apps.hexapod.kernels import _ik_kernel
-from gagen.apps.hexapod.legs import analytic_ik
+from gagen.apps.hexapod.legs import analytic_ik, leg_kinematics
 from gagen.apps.hexapod.spec import Leg
 from gagen.interp import MultiVector, preset
 from gagen.model.euclidean import GEOMETRIES
@@ -246,3 +246,25 @@ def test_compiled_ik_of_unequal_legs(tmp_path):
         for x in compiled(leg, NONFINITE):
             assert np.isfinite(x).all()
         assert (compiled(leg, NONFINITE)[2] == 0).all()
+
+
+
+@pytest.mark.parametrize("mount", [((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
+                                   ((-1e6, 0.12890625, 1e6), (-1000.0, 2.08757301477913, np.pi / 2))])
+def test_the_toes_of_a_leg_mounted_far_from_the_body_origin_are_reached(mount):
+    """The fuzzer's leg (tests/fuzz/test_fuzz_hexapod.py found it): mounted 1e6 m from the body origin,
+    turned by rpy (−1000, 2.09, π/2), its toes at the limits' corners. The hip-frame target carries the
+    mount's rounding (≈ 1e6 · 1e-16 m), so the former absolute reach tolerance of 1e-9 m called the leg's
+    own FK toe unreachable; the tolerance is now relative to the leg's size 1 + max|mount| + Σ lengths."""
+    xyz, rpy = mount
+    leg = Leg("front_right", xyz, rpy, (0.001, 0.3333333333333333, 0.05062471461285534))
+    like = MultiVector.zero(preset("pga3d"))
+    size = 1 + 1e6 * (xyz[0] != 0) + sum(leg.lengths)
+    lo, hi = np.array(leg.limits).T
+    for q in ((lo + hi) / 2, lo, hi):
+        toe = [float(v) for v in leg_kinematics(PGA, like, leg, [float(v) for v in q])["p"]]
+        solved = analytic_ik(PGA, like, leg, toe)
+        assert solved["reach"] == 1.0, (q, solved["excess"])
+        for branch in ("q_up", "q_down"):
+            reached = leg_kinematics(PGA, like, leg, [float(v) for v in solved[branch]])["p"]
+            assert max(abs(a - b) for a, b in zip(reached, toe, strict=True)) <= 1e-9 * size

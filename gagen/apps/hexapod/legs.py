@@ -37,7 +37,8 @@ from gagen.model.euclidean import Geometry, cross, dot
 from gagen.model.kinematics import Joint, fixed_rotation
 from gagen.symbolic.backend import to_exact
 
-REACH_TOLERANCE = 1e-9  # m: a target this far outside the annulus still counts as reachable
+REACH_TOLERANCE = 1e-9  # a target this far outside the annulus still counts as reachable, relative to the
+# leg's size 1 + max|mount| + Σ lengths (m): the hip-frame target carries the rounding of the mount's offset
 BRANCH_TOLERANCE = 1e-12  # m: two IK branches this close to a target are equally near (then: limits)
 MAX_TARGET = 1e9  # m: a target farther (or NaN) is not solved but flagged unreachable
 AXIS_TOLERANCE = 1e-12  # how far from ±z / ±y an axis may be for the analytic IK
@@ -271,7 +272,8 @@ def analytic_ik(geo: Geometry, like: Multivector, leg: Leg, target: Sequence[Any
         return [m.if_else(m.lt(0.5, away), qb, qa) for qa, qb in zip(a[0], b[0], strict=True)]
 
     excess = m.if_else(ok, _min(m, near, far), MAX_TARGET)
-    reach = m.if_else(m.lt(REACH_TOLERANCE, excess), 0.0, 1.0)
+    size = 1 + max(abs(float(v)) for v in leg.xyz) + sum(float(v) for v in leg.lengths)
+    reach = m.if_else(m.lt(REACH_TOLERANCE * size, excess), 0.0, 1.0)
     return {"q_up": pick(up_a, up_b), "q_down": pick(down_a, down_b), "reach": reach, "excess": excess}
 
 
