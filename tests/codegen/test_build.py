@@ -109,14 +109,15 @@ def _tracked(pattern: str = "generated") -> list[str]:
 
 def test_generated_is_lean_text_and_representative():
     """generated/ in git: text files only (no NUL byte: the CasADi serialisations are rebuilt on
-    demand), at most 7 MB (5 MB before the CUDA sources, 1.5 MB of them), and a representative set: a
+    demand), at most 8 MB (5 MB before the CUDA sources, 1.5 MB of them; 7 MB before the interpolation
+    example, 1.25 MB), and a representative set: a
     module of every application and of each
     example file, each folder complete (every text file its manifest lists), nothing else tracked."""
     tracked = _tracked()
     binary = [path for path in tracked if _binary((REPO / path).read_bytes())]
     assert not binary, f"binary files tracked under generated/: {binary}"
     size = sum((REPO / path).stat().st_size for path in tracked)
-    assert size <= 7_000_000, f"generated/ tracks {size / 1e6:.2f} MB (at most 7 MB)"
+    assert size <= 8_000_000, f"generated/ tracks {size / 1e6:.2f} MB (at most 8 MB)"
     names = committed_modules()
     apps = {json.loads((GENERATED / n / "manifest.json").read_text()).get("app", "cooperative")
             for n in names if BUNDLED.get(n, Path()).suffix == ".yaml"}
