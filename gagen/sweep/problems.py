@@ -10,8 +10,10 @@
   manipulability_index`` of J_G at the primitive's controllable rank r, ``CONTROLLABLE_DIMENSION``) and
   the ellipsoid's ``volume``, V_r · index with V_r the volume of the unit r-ball: the r-dimensional
   volume of {J_G q̇ : ‖q̇‖ ≤ 1}, whose semi-axes are J_G's r largest singular values. (√det(J_G J_Gᵀ),
-  Yoshikawa's measure, is 0 for every configuration here: J_G has 7 rows but rank r < 7.) All from the
-  batched C kernels (one call per chunk and per chain) and one stacked SVD.
+  Yoshikawa's measure, is 0 for every configuration here: J_G has 7 rows but rank r < 7.) Also the force
+  ellipsoid's ``force_volume`` V_r / index and, for a point pair, circle or sphere, the dilation force
+  index ``dilation_force`` 1/‖J_Gᵀ e_D‖ (``gagen.control.force_manipulability``; ∞ where singular). All
+  from the batched C kernels (one call per chunk and per chain) and one stacked SVD.
 - ``Reach``: a grid of target primitives (centres on an x-y grid at one height, each radius in
   ``radii``; circles about one ``normal`` for a system spanning a circle, spheres for one spanning a
   sphere),
@@ -40,6 +42,7 @@ from typing import Any, TypeVar, cast
 import numpy as np
 from numpy.typing import NDArray
 
+from gagen.control.force_manipulability import DILATING, DILATION_ROW
 from gagen.extras import MissingExtra
 from gagen.robots.points import end_points
 from gagen.sweep import grid as grids
@@ -243,10 +246,22 @@ class Manipulability:
         # stacked SVD: 4× the throughput of one call per row, equal to it within a few ulp (not bit for bit)
         index_values = np.prod(np.linalg.svd(J_G, compute_uv=False)[:, :rank], axis=1)
         first = index * self.chunk
-        return pa.table({"sample": np.arange(first, first + len(q), dtype=np.int64),
-                         "centre_x": centre[:, 0], "centre_y": centre[:, 1], "centre_z": centre[:, 2],
-                         "radius": radius, "conditioning": conditioning[:, 0], "index": index_values,
-                         "volume": unit_ball_volume(rank) * index_values})
+        columns = {"sample": np.arange(first, first + len(q), dtype=np.int64),
+                   "centre_x": centre[:, 0], "centre_y": centre[:, 1], "centre_z": centre[:, 2],
+                   "radius": radius, "conditioning": conditioning[:, 0], "index": index_values,
+                   "volume": unit_ball_volume(rank) * index_values,
+                   # the force ellipsoid's r-volume V_r / Π σ_i (gagen.control.force_manipulability)
+                   "force_volume": _reciprocal(index_values) * unit_ball_volume(rank)}
+        if self.cell.kind in DILATING:  # β_D = 1/‖J_Gᵀ e_D‖, the dilation force index (∞ at a zero row)
+            columns["dilation_force"] = _reciprocal(np.linalg.norm(J_G[:, DILATION_ROW, :], axis=1))
+        return pa.table(columns)
+
+
+def _reciprocal(values: NDArray[np.float64]) -> NDArray[np.float64]:
+    """1 / values, ∞ where a value is 0 (a singular configuration is reported, never NaN)."""
+    out = np.full(values.shape, np.inf)
+    np.divide(1.0, values, out=out, where=values > 0)
+    return out
 
 
 def ready_primitive(found: Cell) -> tuple[NDArray[np.float64], float, NDArray[np.float64]]:

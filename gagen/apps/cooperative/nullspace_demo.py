@@ -278,7 +278,13 @@ def plot(results: Sequence[DemoResult], out_folder: str | Path, name: str = PLOT
 
 # -- command line ------------------------------------------------------------------------------------
 def run_command(args: argparse.Namespace) -> int:
-    """``gagen nullspace`` on its parsed arguments (``gagen.apps.cooperative.commands``)."""
+    """``gagen nullspace`` on its parsed arguments (``gagen.apps.cooperative.commands``); a system spanning
+    a line or a plane runs the Fig. 18 demo (``geometric_nullspace``)."""
+    from gagen.apps.cooperative import geometric_nullspace
+
+    args.system = geometric_nullspace.chosen_system(args.system, args.primitive)
+    if geometric_nullspace.kind_of(args.system) in geometric_nullspace.KINDS:
+        return geometric_nullspace.run_command(args)
     results = [run(projected, steps=args.steps, dt=args.dt, gain=args.gain, system=args.system)
                for projected in (True, False)]
     c = results[0].circle
