@@ -12,6 +12,9 @@ A spec::
         base: {xyz: [0.8, 0, 0], rpy: [0, 0, 3.14159]}     # placement of the chain's base (optional)
         tool: {xyz: [0, 0, 0.1034]}    # tool/TCP offset from the tip link's frame (optional)
         robot: left_rig                # optional: chains with one robot label share same-named joints
+      - name: hand
+        measured: true                 # optional: its joints are measured inputs q_m, not variables
+        joints: [...]                  # (a tracked point: three prismatic joints along x, y, z)
       - name: finger
         joints:                        # explicit joints instead of a URDF
           - {name: j1, type: revolute, axis: [0, 0, 1], xyz: [0, 0, 0.1], rpy: [0, 0, 0]}
@@ -45,6 +48,10 @@ spec's numbers as written. Either way the loaded system's repr, and so the build
 
 The ``tool`` placement becomes a fixed joint ``<chain>_tool`` after the tip link: the chain's end
 point is then the tip frame's origin plus R_tip·tool.xyz.
+
+A ``measured: true`` chain (a leader: a human's hand) spans the primitive like the others, but its joints
+are inputs q_m, not variables of q (``docs/leader-follower.md``); it may share no joint with a robot
+chain, and configurations list q only.
 """
 
 from __future__ import annotations
@@ -81,7 +88,7 @@ from gagen.yaml_document import (
 )
 
 TOP_KEYS = ("app", "name", "primitive", "chains", "configurations", "goals", "snap")
-CHAIN_KEYS = ("name", "robot", "base", "tool", "urdf", "base_link", "tip_link", "joints")
+CHAIN_KEYS = ("name", "robot", "base", "tool", "urdf", "base_link", "tip_link", "joints", "measured")
 URDF_KEYS = ("urdf", "base_link", "tip_link")
 PLACEMENT_KEYS = ("xyz", "rpy")
 JOINT_KEYS = ("name", "type", "axis", "xyz", "rpy", "mimic")
@@ -188,13 +195,40 @@ def _chain(spec: Document, value: Any, field: str, snap: bool = True) -> Chain:
         joints.append(_placement(spec, value["tool"], f"{field}.tool", f"{name}_tool"))
     if not snap:  # placements and listed joints keep their numbers as written too
         joints = [replace(j, snap=False) for j in joints]
+    measured = _measured(spec, value, field)
     try:
-        chain = Chain(name, tuple(joints), robot)
+        chain = Chain(name, tuple(joints), robot, measured)
     except ValueError as e:  # the model's own consistency checks
         raise spec.error(field, str(e)) from e
     if chain.dof == 0:
         raise spec.error(field, "has no moving joint")
     return chain
+
+
+def _measured(spec: Document, value: dict[Any, Any], field: str) -> bool:
+    """``measured: true`` marks a chain whose joints are measured inputs (q_m), not variables."""
+    measured = value.get("measured", False)
+    if not isinstance(measured, bool):
+        raise spec.error(f"{field}.measured", f"got {show(measured)}; expected true (the chain's joints are "
+                                              f"measured inputs, e.g. a human's hand) or false (a robot's)")
+    return measured
+
+
+def _check_measured(spec: Document, chains: tuple[Chain, ...]) -> None:
+    """A measured chain shares no joint with a robot chain, and at least one chain is a robot's."""
+    robot = {key: i for i, chain in enumerate(chains) if not chain.measured for key in chain.joint_keys()}
+    for i, chain in enumerate(chains):
+        shared = [key for key in chain.joint_keys() if key in robot] if chain.measured else []
+        if shared:
+            k = robot[shared[0]]
+            raise spec.error(f"chains[{i}].measured", f"chain {chain.name!r} is measured but shares joint "
+                                                      f"{shared[0][1]!r} of robot {shared[0][0]!r} with "
+                                                      f"chains[{k}] ({chains[k].name!r}); a measured chain's "
+                                                      f"joints are inputs, not variables: give it its own "
+                                                      f"robot label")
+    if all(chain.measured for chain in chains):
+        raise spec.error("chains", "every chain is measured; at least one must be a robot's "
+                                   "(measured: false)")
 
 
 def _within(spec: Document, limit_name: str, count: int, field: str) -> None:
@@ -276,9 +310,11 @@ def load_system(path: str | Path) -> tuple[System, dict[str, list[float]]]:
     if kind not in KINDS:
         raise spec.error("primitive", f"got {show(kind)}; expected one of {', '.join(KINDS)}")
     chains_data = require(spec, data, "chains", "chains", list, "a list of chains")
-    if len(chains_data) != points_needed(kind):
-        raise spec.error("chains", f"a {kind} is spanned by {points_needed(kind)} chains "
-                                   f"(one per point), got {len(chains_data)}")
+    need = points_needed(kind)  # more chains than that: the best fit through their points (not for pairs)
+    if len(chains_data) < need or (kind == "point_pair" and len(chains_data) > need):
+        more = "" if kind == "point_pair" else "; more are fitted"
+        raise spec.error("chains", f"a {kind} is spanned by {need} chains (one per point{more}), "
+                                   f"got {len(chains_data)}")
     snap = data.get("snap", True)
     if not isinstance(snap, bool):
         raise spec.error("snap", f"got {show(snap)}; expected true (snap rpy angles within 1e-9 of a "
@@ -289,6 +325,7 @@ def load_system(path: str | Path) -> tuple[System, dict[str, list[float]]]:
     _within(spec, "joints_per_system", sum(len(c.joints) for c in chains), "chains")
     _check_kernel_names(spec, chains)
     _check_shared_robots(spec, chains)
+    _check_measured(spec, chains)
     try:
         system = System(name, kind, chains)
     except ValueError as e:  # the model's own consistency checks (e.g. shared mimic joints)

@@ -105,6 +105,12 @@ FILE_VERBS = {
     "teleop": lambda f: ["teleop", f, "--duration", "0.01"],
     "teleop --trace": lambda f: ["teleop", str(APPS / "cooperative" / "robots" / "three_pandas_circle.yaml"),
                                  "--trace", f, "--duration", "0.01"],
+    "interpolate": lambda f: ["interpolate", f, "--from", "ready", "--to", "ready", "--steps", "2"],
+    "manipulability": lambda f: ["manipulability", f, "--steps", "1"],
+    "follow": lambda f: ["follow", f, "--duration", "0.01"],
+    "follow --trace": lambda f: ["follow", "--trace", f, "--duration", "0.01"],
+    "objectives": lambda f: ["objectives", f, str(REPO / "examples" / "three_pandas_objectives.yaml")],
+    "objectives FILE": lambda f: ["objectives", "three_pandas_circle", f],
     "walk": lambda f: ["walk", f],
     "linkage": lambda f: ["linkage", f, "--steps", "2"],
     "stereo": lambda f: ["stereo", "--rig", f, "--duration", "0.01"],
@@ -120,7 +126,13 @@ FOREIGN = {"walk": APPS / "linkage" / "robots" / "four_bar.yaml",
            "teleop": APPS / "linkage" / "robots" / "six_bar.yaml",
            "view": APPS / "linkage" / "robots" / "four_bar.yaml",
            "reach": APPS / "hexapod" / "robots" / "hexapod.yaml",
-           "teleop --trace": APPS / "linkage" / "robots" / "six_bar.yaml"}
+           "teleop --trace": APPS / "linkage" / "robots" / "six_bar.yaml",
+           "interpolate": APPS / "hexapod" / "robots" / "hexapod.yaml",
+           "manipulability": APPS / "stereo" / "robots" / "stereo_rig.yaml",
+           "follow": APPS / "cooperative" / "robots" / "three_pandas_circle.yaml",  # no measured chain
+           "follow --trace": APPS / "cooperative" / "traces" / "fig17_dilation.csv",  # a teleop trace
+           "objectives": APPS / "linkage" / "robots" / "four_bar.yaml",
+           "objectives FILE": APPS / "cooperative" / "robots" / "three_pandas_circle.yaml"}
 
 
 @st.composite

@@ -106,7 +106,8 @@ def test_the_three_pandas_reach_defaults_are_unchanged():
 
 def test_systems_the_sweeps_cannot_handle_are_named(monkeypatch, tmp_path):
     with pytest.raises(SweepError, match=r"^system: expected a bundled cooperative system "
-                       r"\(four_pandas_sphere, .*three_pandas_circle.*\) or a spec file, got 'nope'"):
+                       r"\(four_pandas_circle, four_pandas_sphere, .*three_pandas_circle.*\) or a spec file, "
+                       r"got 'nope'"):
         Manipulability(samples=10, system="nope")
     with pytest.raises(SweepError, match=r"^system: the reach sweep has circle and sphere targets; "
                        r"two_iiwas_line spans a line"):

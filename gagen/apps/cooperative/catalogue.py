@@ -23,6 +23,12 @@ Per system:
   ``dual_task_jacobians``: q → M_r, M_a and ∂M_r/∂q, ∂M_a/∂q (both carry the motors, as every chain
   kernel carries M and P).
 
+With measured chains (``measured: true``: a leader's hand, ``docs/leader-follower.md``) every system
+kernel also takes the measured joints q_m after q, its Jacobians stay with respect to the robot's q,
+and each (but ``similarity_rate``'s, which holds q_m fixed) has a twin ``<J>_m`` with respect to q_m
+(J_c_m, J_G_m, J_A_m, J_B_m, J_Be_m: the leader's feed-forward J_m q̇_m); the dual task space is left out.
+Systems without measured chains are unchanged.
+
 No kernel is the union of the others: each output is computed by exactly one kernel, which keeps
 the generated C (and its compile time) proportional to what is asked.
 
@@ -58,6 +64,7 @@ from gagen.model.conformal import (
     point,
     vector,
 )
+from gagen.model.fitting import span
 from gagen.model.primitives import points_needed, through, unit_primitive
 from gagen.model.similarity import cooperative_similarity, similarity_factors
 from gagen.model.versors import log_similarity
@@ -76,8 +83,11 @@ class _Graph:
         self.algebra = algebra = cga3d()
         self.backend = CasadiBackend()
         self.q = ca.SX.sym("q", system.dof)
+        self.q_m = ca.SX.sym("q_m", system.measured_dof)
+        # the chains' indices point into (q, q_m) joined; without measured chains that is q itself
+        self.joined = ca.vertcat(self.q, self.q_m) if system.measured_dof else self.q
         self.zero = SparseMultivector(algebra, self.backend, {})
-        self.joint_labels = tuple(f"{robot}/{joint}" for robot, joint in system.joint_keys)
+        self.joint_labels = _labels(system)
 
     def column(self, x: Multivector, blades: Sequence[str]) -> ca.SX:
         column: ca.SX = ca.vertcat(*[self.backend.native(x[b]) for b in blades])
@@ -89,6 +99,11 @@ class _Graph:
     def multivector(self, values: ca.SX, blades: Sequence[str]) -> SparseMultivector:
         return SparseMultivector(self.algebra, self.backend, {
             self.algebra.blade(b): self.backend.lift(values[r]) for r, b in enumerate(blades)})
+
+
+def _labels(system: System) -> tuple[str, ...]:
+    """The row labels of (q, q_m) joined, "robot/joint" each."""
+    return tuple(f"{robot}/{joint}" for robot, joint in system.joint_keys + system.measured_keys)
 
 
 CHAIN_KERNELS = (
@@ -127,7 +142,7 @@ def _chain_outputs(n: int) -> dict[str, Any]:
 def chain_kernel_functions(system: System) -> dict[str, KernelFunction]:
     """``<chain>_fk``, ``<chain>_fk_jacobian`` and ``<chain>_jacobians`` of every chain, as front-end
     kernels (J_A = ∂M/∂q and J_P = ∂P/∂q are the function's own, cheaper than AD)."""
-    labels = tuple(f"{robot}/{joint}" for robot, joint in system.joint_keys)
+    labels = _labels(system)
     functions = {}
     for chain, indices in zip(system.chains, system.chain_indices(), strict=True):
         n = len(indices)
@@ -154,10 +169,13 @@ def _task_space(graph: _Graph, positions: ca.SX, vsd: ca.SX) -> dict[str, ca.SX]
     points = [point(vector(graph.zero, [graph.backend.lift(positions[3 * i + k]) for k in range(3)]))
               for i in range(len(system.chains))]
     # (the model's formulas return the multivector type they are given: symbolic points, a symbolic X_c)
-    xc = cast(SparseMultivector, through(system.kind, points))
+    spanned = span(system.kind, points)  # X_c through the points, or their best fit beyond the needed count
+    xc = cast(SparseMultivector, spanned.primitive)
     xc_blades = tuple(algebra.blade_name(b) for b in xc.support)
     factored = similarity_factors(system.kind, unit_primitive(system.kind, xc), xc)
     factors, conditioning, degenerate = factored
+    if spanned.fitted:  # the fit's own conditioning too (gagen.model.fitting)
+        conditioning = conditioning * spanned.conditioning
     v = factored.versor()
     g = _masked(_generator_jacobian(graph, factors, positions), degenerate)
     directions = [graph.multivector(g[:, k], SIMILARITY_GENERATOR) for k in range(positions.numel())]
@@ -232,8 +250,9 @@ def _log_derivative(graph: _Graph, at: ca.SX, directions: ca.SX) -> ca.SX:
 
 def _chain_rule(system: System, by_position: ca.SX, position_jacobians: Sequence[ca.SX]) -> ca.SX:
     """∂y/∂q from ∂y/∂p (3 columns per chain) and each chain's 3 × n_i position Jacobian; a joint
-    shared by several chains sums their contributions."""
-    columns: list[ca.SX | None] = [None] * system.dof
+    shared by several chains sums their contributions. With measured chains the columns are those of
+    (q, q_m) joined."""
+    columns: list[ca.SX | None] = [None] * (system.dof + system.measured_dof)
     for i, (indices, jp) in enumerate(zip(system.chain_indices(), position_jacobians, strict=True)):
         block = ca.mtimes(by_position[:, 3 * i:3 * i + 3], jp)
         for c, j in enumerate(indices):
@@ -253,9 +272,11 @@ class _SystemGraph:
     """
 
     NAMES = ("X_c", "J_c", "V_Sc", "conditioning", "J_A", "J_G", "log_V", "J_B", "e", "J_Be")
+    JACOBIANS = ("J_c", "J_A", "J_G", "J_B", "J_Be")  # with measured chains also each <J>_m (q_m's columns)
 
     def __init__(self, system: System) -> None:
         self.system = system
+        self.names = self.NAMES + (tuple(f"{j}_m" for j in self.JACOBIANS) if system.measured_dof else ())
         self._function: ca.Function | None = None
 
     @property
@@ -269,7 +290,7 @@ class _SystemGraph:
         graph = _Graph(system)
         points = []
         for indices, chain in zip(system.chain_indices(), system.chains, strict=True):
-            qi = [graph.backend.lift(graph.q[i]) for i in indices]
+            qi = [graph.backend.lift(graph.joined[i]) for i in indices]
             # the system kernels need positions and lines only: turn the frame by cos q, sin q directly
             _, free_lines, free_position = K.chain_pose(graph.zero, chain.joints, qi, with_motor=False)
             free_end = point(free_position)
@@ -289,13 +310,20 @@ class _SystemGraph:
             "J_A": _chain_rule(system, at_q["dV_Sc"], jps), "J_G": _chain_rule(system, at_q["dG"], jps),
             "log_V": at_q["log_V"], "J_B": _chain_rule(system, at_q["dlog_V"], jps),
             "e": at_q["e"], "J_Be": _chain_rule(system, at_q["de"], jps)}
-        return ca.Function("system", [graph.q, vsd], [values[k] for k in self.NAMES], ["q", "V_Sd"],
-                           list(self.NAMES))
+        if not system.measured_dof:
+            return ca.Function("system", [graph.q, vsd], [values[k] for k in self.names], ["q", "V_Sd"],
+                               list(self.names))
+        for j in self.JACOBIANS:  # the robot's columns, and the measured joints' as the twin
+            values[f"{j}_m"] = values[j][:, system.dof:]
+            values[j] = values[j][:, :system.dof]
+        return ca.Function("system", [graph.q, graph.q_m, vsd], [values[k] for k in self.names],
+                           ["q", "q_m", "V_Sd"], list(self.names))
 
     def rule(self, names: Sequence[str]) -> Callable[[dict[str, ca.SX]], dict[str, ca.SX]]:
         def expressions(inputs: dict[str, ca.SX]) -> dict[str, ca.SX]:
             vsd = inputs.get("V_Sd", ca.SX.zeros(len(SIMILARITY)))
-            values = dict(zip(self.NAMES, self.function(inputs["q"], vsd), strict=True))
+            measured = [inputs[MEASURED_INPUT]] if self.system.measured_dof else []
+            values = dict(zip(self.names, self.function(inputs["q"], *measured, vsd), strict=True))
             if RATE_INPUT in inputs:  # V_S = J_G q̇ and its derivative along q̇ (J̇_G q̇) by forward AD
                 qd = inputs[RATE_INPUT]
                 values["V_S"] = ca.mtimes(values["J_G"], qd)
@@ -338,8 +366,8 @@ class _SystemValues:
             memo[key] = compute()
         return memo[key]
 
-    def _at(self, ga: Any, q: Sequence[Any]) -> dict[str, Any]:
-        numeric = all(isinstance(v, float) for v in q)
+    def _at(self, ga: Any, q: Sequence[Any], q_m: Sequence[Any] = ()) -> dict[str, Any]:
+        numeric = all(isinstance(v, float) for v in [*q, *q_m])
         system = self.system
 
         def end_point(index: int, qc: list[Any]) -> Any:
@@ -347,16 +375,19 @@ class _SystemValues:
                 K.forward_kinematics(ga, system.chains[index].joints, qc)))
 
         def task() -> dict[str, Any]:
-            points = [end_point(i, qc) for i, qc in enumerate(system.split(list(q)))]
-            xc = through(system.kind, points)
+            points = [end_point(i, qc) for i, qc in enumerate(system.split(list(q), list(q_m)))]
+            spanned = span(system.kind, points)
+            xc = spanned.primitive
             v, conditioning = cooperative_similarity(system.kind, xc)
+            if spanned.fitted:
+                conditioning = conditioning * spanned.conditioning
             return {"X_c": xc, "V_Sc": v, "conditioning": conditioning}
 
-        return self._remember(self._task, tuple(q) if numeric else None, task)
+        return self._remember(self._task, (*q, *q_m) if numeric else None, task)
 
     def function(self, names: Sequence[str], extra: Sequence[str] = ()) -> Callable[..., dict[str, Any]]:
-        def values(ga: Any, q: Sequence[Any], V_Sd: Any = None) -> dict[str, Any]:
-            at = self._at(ga, q)
+        def values(ga: Any, q: Sequence[Any], V_Sd: Any = None, q_m: Sequence[Any] = ()) -> dict[str, Any]:
+            at = self._at(ga, q, q_m)
             found: dict[str, Callable[[], Any]] = {
                 "X_c": lambda: at["X_c"], "V_Sc": lambda: at["V_Sc"],
                 "conditioning": lambda: at["conditioning"],
@@ -366,6 +397,12 @@ class _SystemValues:
             return {name: found[name]() for name in names}
 
         extra = list(extra)
+        if extra[:1] == [MEASURED_INPUT]:  # (q, q_m, ...): the argument names are the kernel's inputs
+            if extra[1:] == ["V_Sd"]:
+                return lambda ga, q, q_m, V_Sd: values(ga, q, V_Sd, q_m)
+            if extra[1:] == [RATE_INPUT]:
+                return lambda ga, q, q_m, qd: values(ga, q, None, q_m)
+            return lambda ga, q, q_m: values(ga, q, None, q_m)
         if extra == ["V_Sd"]:
             return lambda ga, q, V_Sd: values(ga, q, V_Sd)
         if extra == [RATE_INPUT]:  # q̇ is read by the compiler's rule only: the rates' reference is
@@ -400,6 +437,17 @@ SYSTEM_KERNELS: tuple[tuple[str, str, dict[str, str], dict[str, Jacobian]], ...]
      {"V_S": ("V_Sc", "q", _generator_column, along("qd")), "Jdot_qdot": ("V_S", "q", along("qd"))}),
 )
 RATE_INPUT = "qd"  # the joint velocities of ``similarity_rate``
+MEASURED_INPUT = "q_m"  # the measured chains' joints, of a system with measured chains
+
+
+def _measured_twins(outputs: dict[str, str], jacobians: dict[str, Jacobian]
+                    ) -> tuple[dict[str, str], dict[str, Jacobian]]:
+    """A kernel's declaration with a twin ``<J>_m`` (the same derivative with respect to q_m) of every
+    Jacobian with respect to q but the directional ones (``similarity_rate``'s hold q_m fixed)."""
+    twins = {f"{name}_m": (declaration[0], MEASURED_INPUT, *declaration[2:])
+             for name, declaration in jacobians.items() if split_derivative(declaration)[3] is None}
+    return ({**outputs, **{name: outputs[name[:-2]] for name in twins}},
+            {**jacobians, **cast(dict[str, Jacobian], twins)})
 
 
 def system_kernel_functions(system: System) -> dict[str, KernelFunction]:
@@ -408,13 +456,18 @@ def system_kernel_functions(system: System) -> dict[str, KernelFunction]:
     (``_SystemGraph``) by rules, with the chain rule through the end positions."""
     graph, reference = _SystemGraph(system), _SystemValues(system)
     labels = tuple(f"{robot}/{joint}" for robot, joint in system.joint_keys)
+    columns = {"q": system.dof, MEASURED_INPUT: system.measured_dof}
     functions = {}
     for name, doc, outputs, jacobians in SYSTEM_KERNELS:
+        if system.measured_dof:
+            outputs, jacobians = _measured_twins(outputs, jacobians)
         declared: dict[str, Any] = {k: (primitive_blades(system.kind) if d == "X_c" else d)
                                     for k, d in outputs.items()}
-        declared = {k: (d, system.dof) if k in jacobians and split_derivative(jacobians[k])[3] is None
-                    else d for k, d in declared.items()}
+        declared = {k: (d, columns[jacobians[k][1]]) if k in jacobians and split_derivative(jacobians[k])[3]
+                    is None else d for k, d in declared.items()}
         inputs = {"ga": "algebra", "q": scalars(system.dof, labels)}
+        if system.measured_dof:
+            inputs[MEASURED_INPUT] = scalars(system.measured_dof, _labels(system)[system.dof:])
         if name == "task":
             inputs["V_Sd"] = "similarity"
         if name == "similarity_rate":
@@ -422,7 +475,7 @@ def system_kernel_functions(system: System) -> dict[str, KernelFunction]:
         # a Jacobian taken of an output the kernel does not return (J_A of V_Sc) is still declared on it
         hidden = sorted({of for of, *_ in jacobians.values()} - set(declared))
         values = [*(k for k in declared if k not in jacobians), *hidden]
-        extra = [k for k in inputs if k not in ("ga", "q")]
+        extra = [k for k in inputs if k not in ("ga", "q")]  # (q_m first, then V_Sd or qd)
         functions[name] = KernelFunction(
             reference.function(values, extra), algebra=cga3d(), name=name, doc=doc.format(kind=system.kind),
             inputs=inputs, outputs=declared, jacobians=jacobians, rule=graph.rule(list(declared)))
@@ -432,8 +485,8 @@ def system_kernel_functions(system: System) -> dict[str, KernelFunction]:
 def kernel_functions(system: System) -> dict[str, KernelFunction]:
     """Every kernel of ``system`` as a front-end kernel, in catalogue order (chains first, the dual task
     space last)."""
-    return {**chain_kernel_functions(system), **system_kernel_functions(system),
-            **dual_task_kernel_functions(system)}
+    dual_task = dual_task_kernel_functions(system) if not system.measured_dof else {}  # (robots only)
+    return {**chain_kernel_functions(system), **system_kernel_functions(system), **dual_task}
 
 
 def build_kernels(system: System) -> dict[str, Kernel]:

@@ -36,17 +36,20 @@ def check_module(module: GeneratedModule, system: System,
     (``check_kernels``)."""
     functions = kernel_functions(system)
     pairs = samples(system, configurations, count, seed)
+    # a measured chain's joints (q_m, a leader's) get their own draws; empty without measured chains
+    leader = np.random.default_rng(seed + 1)
+    measured = [leader.uniform(-0.5, 0.5, system.measured_dof) for _ in pairs]
     chain_of = {f"{c.name}_{suffix}": i for i, c in enumerate(system.chains)
                 for suffix in ("fk", "fk_jacobian", "jacobians")}
     inputs = {}
     for entry in module.manifest["kernels"]:
         name = entry["name"]
         points = []
-        for sample in pairs:
+        for sample, q_m in zip(pairs, measured, strict=True):
             if name in chain_of:
-                arrays = [np.array(system.split(list(sample.q))[chain_of[name]], dtype=float)]
+                arrays = [np.array(system.split(list(sample.q), list(q_m))[chain_of[name]], dtype=float)]
             else:
-                by_port = {"q": sample.q, "qd": sample.velocity,
+                by_port = {"q": sample.q, "q_m": q_m, "qd": sample.velocity,
                            "V_Sd": np.array([sample.desired[b] for b in SIMILARITY])}
                 arrays = [by_port[p["name"]] for p in entry["inputs"]]
             points.append((sample.label, arrays))

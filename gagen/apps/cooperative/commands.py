@@ -1,4 +1,5 @@
-"""The cooperative application's verbs: ``reach``, ``nullspace``, ``impedance``, ``mpc`` and ``teleop``.
+"""The cooperative application's verbs: ``reach``, ``nullspace``, ``impedance``, ``mpc``, ``teleop``,
+``carry``, ``interpolate`` and ``follow`` (a system with a measured chain, which the others refuse).
 
 Each verb's arguments are defined here, once (``gagen <verb>`` and ``python -m`` of its module use the
 same ones); the work is done by the module that runs it, imported only when the verb runs.
@@ -17,6 +18,7 @@ from gagen.arguments import (
     FlagNeeding,
     finite_float,
     non_negative_float,
+    non_negative_int,
     numbers,
     positive_float,
     positive_int,
@@ -31,6 +33,8 @@ def _running(module: str) -> Callable[[argparse.Namespace], int]:
     RuntimeError (a device that cannot be opened) is one line here, also exit status 2."""
 
     def run(args: argparse.Namespace) -> int:
+        if module != "follow":
+            _refuse_measured(args)
         loaded = importlib.import_module(f"gagen.apps.cooperative.{module}")
         command: Callable[[argparse.Namespace], int] = loaded.run_command
         try:
@@ -40,6 +44,41 @@ def _running(module: str) -> Callable[[argparse.Namespace], int]:
             return 2
 
     return run
+
+
+def _refuse_measured(args: argparse.Namespace) -> None:
+    """A ValueError (one line) when the verb's system has a measured chain: its joints are a leader's inputs,
+    which only ``gagen follow`` takes; the other verbs drive every chain."""
+    from gagen.registry import resolve_spec
+    from gagen.robots.spec import load_system
+
+    verb = getattr(getattr(args, "verb", None), "name", "this verb")
+    given = [getattr(args, name, None) for name in ("system", "scenario", "target")]
+    for value in (v for g in given for v in (g if isinstance(g, list) else [g]) if isinstance(v, str)):
+        try:
+            system, _ = load_system(resolve_spec(value, "cooperative"))
+        except ValueError:  # not a system (a scenario's name), or a bad spec: the verb says so itself
+            continue
+        if system.measured_dof:
+            raise ValueError(f"{value}: chain {system.measured_chains[0].name!r} is measured (a leader's "
+                             f"input, not a robot's); gagen {verb} drives robots only: use gagen follow "
+                             f"{value}")
+
+
+def _follow_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("system", nargs="?", default="two_pandas_hand_circle",
+                        help="a system with a measured chain (measured: true): a spec file or a leader "
+                             "spec in robots/leader (default two_pandas_hand_circle: a hand and two Pandas "
+                             "span a circle)")
+    parser.add_argument("--trace", type=Path, help="the leader's joints over time (CSV: t, then one column "
+                        "per measured joint; default the bundled synthetic hand trace "
+                        "traces/leader/hand_circle.csv)")
+    parser.add_argument("--gain", type=non_negative_float, default=20.0,
+                        help="K of differential IK's feedback, 1/s (default 20)")
+    parser.add_argument("--duration", type=positive_float, help="follow the trace's first seconds only "
+                        "(default: all of it)")
+    parser.add_argument("--out", type=Path, default=Path("plots/follow"),
+                        help="folder for the report and the plot (default plots/follow/)")
 
 
 def _reach_arguments(parser: argparse.ArgumentParser) -> None:
@@ -74,9 +113,12 @@ def _reach(args: argparse.Namespace) -> int:
 
 
 def _nullspace_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("system", nargs="?", default="three_pandas_circle",
-                        help="a system spanning a circle: a spec file or a bundled one (default "
-                             "three_pandas_circle); its first chain moves")
+    parser.add_argument("system", nargs="?",
+                        help="a system spanning a circle, a line or a plane: a spec file or a bundled one "
+                             "(default: --primitive's bundled system); its first chain moves")
+    parser.add_argument("--primitive", choices=("circle", "line", "plane"),
+                        help="circle: three Pandas [COOP Figs. 14-15] (default); line: two iiwa 14, plane: "
+                             "three iiwa 14, an end point moved within it [Fig. 18]")
     parser.add_argument("--out", type=Path, default=Path("plots"), help="folder for the plot (default "
                                                                         "plots/)")
     parser.add_argument("--steps", type=positive_int, default=400, help="RK4 steps (default 400)")
@@ -169,11 +211,66 @@ def _carry_arguments(parser: argparse.ArgumentParser) -> None:
                              "impedance's)")
 
 
+def _interpolate_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("target", metavar="TARGET",
+                        help="a primitive kind (point, point_pair, line, circle, plane, sphere) with both "
+                             "ends given by --from/--to key=value items; a system (a spec file or a bundled "
+                             "one: "
+                             f"{', '.join(bundled_specs('cooperative'))}) with a configuration or goal name "
+                             "each; or fig4 (the paper's four panels)")
+    parser.add_argument("--from", dest="start", nargs="+", metavar="ITEM",
+                        help="the start: centre=X,Y,Z radius=R normal=X,Y,Z (per kind: position; first, "
+                             "second; point, direction; centre, radius, normal; point, normal; centre, "
+                             "radius; or points=X,Y,Z/X,Y,Z/...), or a system's configuration or goal name")
+    parser.add_argument("--to", dest="end", nargs="+", metavar="ITEM", help="the end, as --from")
+    parser.add_argument("--steps", type=positive_int, default=6,
+                        help="values of t drawn and listed, 0 to 1 (default 6)")
+    parser.add_argument("--gif", action="store_true", help="also write an animated GIF")
+    parser.add_argument("--frames", type=positive_int, default=30, help="frames of the GIF (default 30)")
+    parser.add_argument("--out", type=Path, default=Path("plots/interpolation"),
+                        help="folder for the plot, the CSV and the GIF (default plots/interpolation/)")
+
+
+def _objectives_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("system", help="a spec file or a bundled system: "
+                        + ", ".join(bundled_specs("cooperative")))
+    parser.add_argument("objectives", type=Path, help="the objectives file (YAML: objectives:, start:; see "
+                                                      "docs/mixed-objectives.md)")
+    parser.add_argument("--start", help="a configuration of the spec to start from (default: the file's "
+                                        "start, else ready, else zeros)")
+    parser.add_argument("--method", choices=("lm", "ipopt"), default="lm",
+                        help="IK method (default lm: damped Gauss-Newton; ipopt: casadi.nlpsol)")
+    parser.add_argument("--N", type=non_negative_int, default=20,
+                        help="OCP time steps (default 20; 0 skips the OCP)")
+    parser.add_argument("--horizon", type=positive_float, default=2.0, help="OCP horizon, s (default 2)")
+    parser.add_argument("--out", type=Path, default=Path("plots/objectives"),
+                        help="folder for the plot (default plots/objectives/)")
+
+
+def _manipulability_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("system", nargs="?", default="three_pandas_circle",
+                        help="a spec file or a bundled system (default three_pandas_circle)")
+    parser.add_argument("--objective", choices=("dilation", "volume"),
+                        help="maximise the dilation force index (default for a point pair, circle or "
+                             "sphere) or the force ellipsoid's volume (default otherwise)")
+    parser.add_argument("--configuration", default="ready", help="the spec's configuration to start from "
+                                                                 "(default ready)")
+    parser.add_argument("--steps", type=non_negative_int, default=60, help="nullspace steps (default 60)")
+    parser.add_argument("--step-size", type=positive_float, default=0.05,
+                        help="largest joint-space step, rad (default 0.05)")
+    parser.add_argument("--out", type=Path, default=Path("plots/manipulability"),
+                        help="folder for the plot (default plots/manipulability/)")
+
+
 VERBS = (
     Verb("reach", "cooperative reaching (IPOPT, FATROP or iLQR) on a paper scenario, with plots",
          _reach_arguments, _reach),
     Verb("nullspace", "one of three Pandas moves along the circle through N(q), with and without the "
-         "projection (plots)", _nullspace_arguments, _nullspace),
+         "projection (plots); --primitive line or plane: two or three iiwa 14 [COOP Fig. 18]",
+         _nullspace_arguments, _nullspace),
+    Verb("manipulability", "velocity and force manipulability ellipsoids of a system's similarity and a "
+         "nullspace ascent of the dilation force index [COOP Sec. 3.11] (plot)", _manipulability_arguments,
+         _running("manipulability_command")),
     Verb("impedance", "similarity impedance control of three iiwa 14 on a circle and a plane: runs of "
          "Pinocchio forward dynamics [COOP Fig. 6]", _impedance_arguments, _impedance, needs=("pinocchio",)),
     Verb("mpc", "cooperative MPC: three Pandas tracking a moving circle with warm-started iLQR in closed "
@@ -183,4 +280,13 @@ VERBS = (
     Verb("carry", "a ring held by three iiwa 14 carried in MuJoCo by the impedance law and the torque MPC "
          "(pose error, internal forces; report, plot)", _carry_arguments, _running("held_object_demo"),
          needs=("mujoco", "pinocchio", "crocoddyl")),
+    Verb("follow", "leader and followers: robots keep a primitive's shape while a measured chain (a hand "
+         "trace) moves one of its points [COOP Sec. 5]; report and plot", _follow_arguments,
+         _running("follow")),
+    Verb("interpolate", "interpolate two primitives (or a system's two configurations or goals) through "
+         "their similarity versors [COOP Fig. 4]: plot, CSV, GIF", _interpolate_arguments,
+         _running("interpolate_command")),
+    Verb("objectives", "mixed objectives (cooperative primitives, Eq. 9 incidences, radii, normals) from a "
+         "file, solved by IK and the reaching OCP: residuals per term and a plot", _objectives_arguments,
+         _running("objectives_command")),
 )

@@ -1,0 +1,180 @@
+"""Systems with more chains than their primitive needs: X_c is the best fit through the end points.
+
+The two bundled ones, ``leap_hand_palm_sphere`` (four fingertips and a palm point, a sphere) and
+``four_pandas_circle`` (four Pandas, a circle): their kernels' values against the interpreter
+(span + V_S(X_u, X_c)), J_c and J_G,Sc against central differences of it, and IK reaching a circle,
+checked by a plain numpy circle fit of the end points. The spec loader and ``System`` take more
+chains, except for a point pair.
+"""
+
+from __future__ import annotations
+
+from functools import cache
+
+import numpy as np
+import pytest
+
+from gagen.apps.cooperative.bundled import bundled_specs
+from gagen.apps.cooperative.catalogue import kernel_functions
+from gagen.control import goals, solve_ik
+from gagen.errors import SpecError
+from gagen.interp import MultiVector, cga3d
+from gagen.model import kinematics as K
+from gagen.model.conformal import SIMILARITY
+from gagen.model.fitting import span
+from gagen.model.primitives import points_needed, unit_primitive
+from gagen.model.similarity import cooperative_similarity
+from gagen.robots.spec import load_system
+from gagen.robots.system import System, cooperative_jacobian
+
+ALG = cga3d()
+ZERO = MultiVector.zero(ALG)
+FITTED = ("four_pandas_circle", "leap_hand_palm_sphere")
+H = 1e-6
+
+
+@cache
+def _system(name: str) -> tuple[System, dict[str, list[float]]]:
+    return load_system(bundled_specs()[name])
+
+
+@cache
+def _kernel(name: str, kernel: str):
+    return kernel_functions(_system(name)[0])[kernel].trace()
+
+
+def _call(name: str, kernel: str, *args) -> dict[str, np.ndarray]:
+    k = _kernel(name, kernel)
+    values = k.function(*args)
+    values = values if isinstance(values, (list, tuple)) else [values]
+    return {p.name: np.asarray(v, dtype=float).reshape(p.shape)
+            for p, v in zip(k.outputs, values, strict=True)}
+
+
+def _rows(name: str, kernel: str, output: str) -> list[int]:
+    port = next(p for p in _kernel(name, kernel).outputs if p.name == output)
+    return [ALG.blade(b) for b in port.rows]
+
+
+def _ends(system: System, q) -> list[MultiVector]:
+    return [K.end_point(K.forward_kinematics(ZERO, c.joints, [float(v) for v in qc]))
+            for c, qc in zip(system.chains, system.split(list(q)), strict=True)]
+
+
+def _interp(system: System, q) -> tuple[MultiVector, MultiVector, float]:
+    """X_c (the best fit of the end points), V_Sc and its conditioning times the fit's, on the interpreter."""
+    fit = span(system.kind, _ends(system, q))
+    v, conditioning = cooperative_similarity(system.kind, fit.primitive)
+    return fit.primitive, v, conditioning * fit.conditioning
+
+
+def _configurations(name: str) -> list[np.ndarray]:
+    q0 = np.array(_system(name)[1]["ready"])
+    rng = np.random.default_rng(4)
+    return [q0, *(q0 + rng.uniform(-0.2, 0.2, q0.size) for _ in range(2))]
+
+
+@pytest.mark.parametrize("name", FITTED)
+def test_the_specs_have_more_chains_than_the_primitive_needs_and_a_well_conditioned_ready(name):
+    system, configurations = _system(name)
+    assert len(system.chains) == points_needed(system.kind) + 1
+    fit = span(system.kind, _ends(system, configurations["ready"]))
+    assert fit.fitted and fit.conditioning > 0.2
+    with pytest.raises(ValueError, match="closed-form J_c spans"):
+        cooperative_jacobian(ZERO, system, configurations["ready"])
+
+
+@pytest.mark.parametrize("name", FITTED)
+def test_kernel_values_equal_the_interpreter_and_v_sc_moves_x_u_onto_the_fit(name):
+    system, _ = _system(name)
+    for q in _configurations(name):
+        xc, v, conditioning = _interp(system, q)
+        out = {**_call(name, "primitive", q), **_call(name, "similarity", q)}
+        np.testing.assert_allclose(out["X_c"].ravel(), xc.coeffs[_rows(name, "primitive", "X_c")], rtol=0,
+                                   atol=1e-12 * np.abs(xc.coeffs).max())
+        np.testing.assert_allclose(out["V_Sc"].ravel(), [v[b] for b in SIMILARITY], rtol=0, atol=1e-10)
+        assert out["conditioning"].item() == pytest.approx(conditioning, rel=1e-9)
+        moved = v.sandwich(unit_primitive(system.kind, ZERO)).coeffs
+        scale = moved @ xc.coeffs / (xc.coeffs @ xc.coeffs)
+        assert scale > 0
+        np.testing.assert_allclose(moved, scale * xc.coeffs, rtol=0, atol=1e-10 * np.abs(moved).max())
+
+
+@pytest.mark.parametrize("name", FITTED)
+def test_j_c_and_j_g_equal_central_differences_of_the_interpreter(name):
+    """J_c = ∂X_c/∂q and J_G,Sc = −2 V_Sc~ ∂V_Sc/∂q of the kernels against central differences of the
+    interpreter's best fit (1e-7 relative to the largest entry)."""
+    system, _ = _system(name)
+    for q in _configurations(name):
+        out = {**_call(name, "primitive", q), **_call(name, "similarity", q)}
+        _, v, _ = _interp(system, q)
+        d_xc, d_v = [], []
+        for i in range(q.size):
+            step = np.zeros(q.size)
+            step[i] = H
+            (xp, vp, _), (xm, vm, _) = _interp(system, q + step), _interp(system, q - step)
+            d_xc.append((xp.coeffs - xm.coeffs) / (2 * H))
+            d_v.append((vp.coeffs - vm.coeffs) / (2 * H))
+        j_c = np.array(d_xc).T[_rows(name, "primitive", "J_c")]
+        j_g = np.array([(~v * MultiVector(ALG, c) * -2).coeffs for c in d_v]).T
+        j_g = j_g[_rows(name, "similarity", "J_G")]
+        np.testing.assert_allclose(out["J_c"], j_c, rtol=0, atol=1e-7 * np.abs(j_c).max())
+        np.testing.assert_allclose(out["J_G"], j_g, rtol=0, atol=1e-7 * np.abs(j_g).max())
+        if name == "leap_hand_palm_sphere":  # the palm point sits on joint 12's axis: it never moves
+            palm = system.chains[-1]
+            columns = K.point_jacobian(*K.chain_kinematics(ZERO, palm.joints, system.split(list(q))[-1]))
+            assert max(abs(c[b]) for c in columns for b in ("e1", "e2", "e3")) < 1e-15
+
+
+def _numpy_circle(xs: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
+    """(centre, radius, unit normal) of the algebraic circle fit in plain numpy: the SVD plane, then
+    lstsq on |x|² − 2c·x − k with c in that plane."""
+    mean = xs.mean(axis=0)
+    _, _, vt = np.linalg.svd(xs - mean)
+    u, v, n = vt
+    rows = np.c_[2 * xs @ u, 2 * xs @ v, np.ones(len(xs))]
+    (s, t, k), *_ = np.linalg.lstsq(rows, np.sum(xs**2, axis=1) - 2 * xs @ mean, rcond=None)
+    c = mean + s * u + t * v
+    return c, float(np.sqrt(k + c @ c)), n
+
+
+def test_ik_moves_the_four_pandas_fitted_circle_onto_a_target():
+    """solve_ik on the task kernel (CasADi) reaches e = 0: the numpy circle fit of the end points is then
+    the target circle; the points themselves stay off it by the fit's residuals."""
+    name = "four_pandas_circle"
+    system, configurations = _system(name)
+    centre, radius, normal = np.array([0.05, 0.0, 0.62]), 0.45, np.array([0.0, 0.2, 1.0]) / np.sqrt(1.04)
+    target = goals.circle(centre=centre, radius=radius, normal=normal)
+    task = _kernel(name, "task").function
+
+    def kernel(q, vsd):
+        e, j = task(q, vsd)
+        return np.array(e).ravel(), np.array(j)
+
+    result = solve_ik(kernel, configurations["ready"], target)
+    assert result.status == "converged" and result.error_norm < 1e-12
+    xs = np.array([[p[b] for b in ("e1", "e2", "e3")] for p in _ends(system, result.q)])
+    c, r, n = _numpy_circle(xs)
+    np.testing.assert_allclose(c, centre, rtol=0, atol=1e-9)
+    assert r == pytest.approx(radius, abs=1e-9)
+    assert abs(n @ normal) == pytest.approx(1, abs=1e-12)
+    d = xs - c
+    off_plane = d @ n
+    radial = np.linalg.norm(d - np.outer(off_plane, n), axis=1) - r
+    print(f"\n{name}: IK in {result.iterations} iterations; off-plane {off_plane} m, radial {radial} m")
+    assert np.max(np.abs(off_plane)) < 0.05 and np.max(np.abs(radial)) < 0.05
+
+
+def test_more_chains_than_a_point_pair_or_fewer_than_needed_are_refused(tmp_path):
+    panda = bundled_specs()["four_pandas_circle"].parent / "panda/panda.urdf"
+    spec = (bundled_specs()["four_pandas_circle"].read_text()
+            .replace("primitive: circle", "primitive: point_pair")
+            .replace("urdf: panda/panda.urdf", f"urdf: {panda}"))
+    path = tmp_path / "pair.yaml"
+    path.write_text(spec.split("configurations:")[0])
+    with pytest.raises(SpecError, match="a point_pair is spanned by 2 chains \\(one per point\\), got 4"):
+        load_system(path)
+    chains = _system("four_pandas_circle")[0].chains
+    with pytest.raises(ValueError, match="a sphere is spanned by 4 chains \\(more are fitted\\), got 3"):
+        System("three", "sphere", chains[:3])
+    System("five_points", "point", chains)  # the centroid of four end points
