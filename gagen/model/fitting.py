@@ -64,6 +64,7 @@ class Fit(NamedTuple):
     primitive: Any
     conditioning: Scalar
     fitted: bool
+    spanning: tuple[Any, ...] = ()  # a fit's: the positions (x, y, z) of the points through() spans it by
 
 
 def check_count(kind: str, count: int) -> None:
@@ -133,7 +134,7 @@ def best_fit(kind: str, points: Sequence[Multivector]) -> Fit:
             in_plane = [_sub(y, _scale(axis, _dot(axis, y))) for y in ys[:need]]
             projected = _onto_round(m, mean, in_plane, offset, trace)
     return Fit(through(kind, [point(vector(like, x)) for x in projected]),
-               m.if_else(coincident, 0.0, conditioning), True)
+               m.if_else(coincident, 0.0, conditioning), True, tuple(projected))
 
 
 # -- the fits' pieces ---------------------------------------------------------------------------------

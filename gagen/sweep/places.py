@@ -36,10 +36,38 @@ def circumspheres(a: Array, b: Array, c: Array, d: Array) -> tuple[Array, Array]
     return a + offset, np.linalg.norm(offset, axis=1)
 
 
+def fitted_rounds(kind: str, points: Array) -> tuple[Array, Array]:
+    """Centres (n, 3) and radii (n,) of the best-fit circles or spheres through more points (n, k, 3) than
+    the kind needs: ``gagen.model.fitting.best_fit``'s algebraic fit, batched. Centred at the centroid
+    (y = x − x̄, C = mean y yᵀ, b = ½ mean y|y|²): a sphere's centre offset solves C c = b; a circle's is
+    held in the plane of C's smallest eigenvector n, (P C P + n nᵀ) c = P b with P = I − n nᵀ; and
+    r² = mean |y|² − 2 mean(y)·c + |c|² = mean |y|² + |c|². NaN where the system is singular."""
+    mean = points.mean(axis=1)
+    y = points - mean[:, None, :]
+    squared = np.einsum("nki,nki->nk", y, y)
+    cov = np.einsum("nki,nkj->nij", y, y) / points.shape[1]
+    b = 0.5 * np.einsum("nki,nk->ni", y, squared) / points.shape[1]
+    if kind == "circle":
+        normal = np.linalg.eigh(cov)[1][:, :, 0]
+        plane = np.eye(3) - np.einsum("ni,nj->nij", normal, normal)
+        cov = plane @ cov @ plane + np.einsum("ni,nj->nij", normal, normal)
+        b = np.einsum("nij,nj->ni", plane, b)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        singular = np.abs(np.linalg.det(cov)) <= 1e-300
+        cov[singular] = np.eye(3)
+        offset = np.linalg.solve(cov, b[:, :, None])[:, :, 0]
+        offset[singular] = np.nan
+    radius = np.sqrt(squared.mean(axis=1) + np.einsum("ni,ni->n", offset, offset))
+    return mean + offset, radius
+
+
 def locate(kind: str, points: Array) -> tuple[Array, Array]:
     """Where the primitive of ``kind`` through ``points`` (n, chains, 3) is, and its size: the centre and
-    radius of a circle or sphere, the midpoint and half length of a point pair; else (a point, line or
-    plane: no centre of its own) the end points' centroid and NaN."""
+    radius of a circle or sphere (of their best fit through more chains than the kind needs), the midpoint
+    and half length of a point pair; else (a point, line or plane: no centre of its own) the end points'
+    centroid and NaN."""
+    if kind in ("circle", "sphere") and points.shape[1] > (3 if kind == "circle" else 4):
+        return fitted_rounds(kind, points)
     if kind == "circle":
         return circumcircles(*points.transpose(1, 0, 2))
     if kind == "sphere":

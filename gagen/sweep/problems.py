@@ -110,6 +110,10 @@ def cell(system: str = DEFAULT_SYSTEM) -> Cell:
                          "sample and grid within the joint limits")
     if "ready" not in configurations:
         raise SweepError(f"system: {spec} names no 'ready' configuration, which the sweeps start from")
+    measured = [chain.name for chain in loaded.chains if chain.measured]
+    if measured:
+        raise SweepError(f"system: {system} has measured chains ({', '.join(measured)}), which are inputs, "
+                         "not variables; the sweeps vary every joint (gagen follow runs such a system)")
     return Cell(system, loaded.kind, labels, tuple(lower.tolist()), tuple(upper.tolist()),
                 tuple(map(float, configurations["ready"])), CONTROLLABLE_DIMENSION[loaded.kind])
 

@@ -70,7 +70,12 @@ def _system(name: str) -> tuple[System, dict[str, list[float]], Path]:
     from gagen.robots.spec import load_system
 
     path = resolve_spec(name, "cooperative", "system")
-    return (*load_system(path), path)
+    system, configurations = load_system(path)
+    measured = [chain.name for chain in system.chains if chain.measured]
+    if measured:  # (their joints are a trace's, not a configuration's: gagen follow draws them)
+        raise ValueError(f"{path}: {system.name} has measured chains ({', '.join(measured)}) that a "
+                         "configuration does not place; gagen follow draws the run of such a system")
+    return system, configurations, path
 
 
 def configuration(args: argparse.Namespace, system: System,

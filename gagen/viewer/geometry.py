@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -154,8 +154,13 @@ def shape(kind: str, points: Array | Sequence[Sequence[float]]) -> Shape:
     need = {"point": 1, "point_pair": 2, "line": 2, "circle": 3, "plane": 3, "sphere": 4}
     if kind not in need:
         raise ValueError(f"unknown primitive kind {kind!r}; expected one of {', '.join(need)}")
-    if p.shape != (need[kind], 3):
-        raise ValueError(f"a {kind} is drawn through {need[kind]} points, got an array of shape {p.shape}")
+    if p.ndim != 2 or p.shape[1] != 3 or len(p) < need[kind] or (kind == "point_pair" and len(p) != 2):
+        raise ValueError(f"a {kind} is drawn through {need[kind]} points (or fitted to more), got an array "
+                         f"of shape {p.shape}")
+    if len(p) > need[kind]:  # more chains than the kind needs: the best fit, drawn with every point
+        spanning, conditioning = _fitted(kind, p)
+        fitted = shape(kind, spanning)
+        return replace(fitted, points=p, degenerate=fitted.degenerate or conditioning < TOLERANCE)
     centroid = p.mean(axis=0)
     if kind == "point":
         return Shape(kind, p, p[0])
@@ -176,6 +181,18 @@ def shape(kind: str, points: Array | Sequence[Sequence[float]]) -> Shape:
     if sphere is None:
         return Shape(kind, p, centroid, degenerate=True)
     return Shape(kind, p, sphere[0], sphere[1])
+
+
+def _fitted(kind: str, points: Array) -> tuple[Array, float]:
+    """The points ``gagen.model.fitting.best_fit`` spans its fit by (projected onto it), and its
+    conditioning: the same fit as the kernels', on the reference interpreter."""
+    from gagen.interp import MultiVector, preset
+    from gagen.model.conformal import point, vector
+    from gagen.model.fitting import best_fit
+
+    like = MultiVector.zero(preset("cga3d"))
+    fit = best_fit(kind, [point(vector(like, [float(c) for c in row])) for row in points])
+    return np.array(fit.spanning, dtype=float), float(fit.conditioning)
 
 
 def goal_shape(kind: str, parameters: Mapping[str, Any]) -> Shape:
@@ -207,17 +224,19 @@ def goal_shape(kind: str, parameters: Mapping[str, Any]) -> Shape:
 
 def reference_point(kind: str, points: Array) -> Array:
     """The primitive's reference point that a goal's ``move`` turns and dilates about: the image of the
-    origin under the similarity V_Sc from the unit primitive to the one through ``points`` [COOP Eq. 28]
+    origin under the similarity V_Sc from the unit primitive to the one through ``points`` (or their best
+    fit) [COOP Eq. 28]
     (the centre of a round, a point of a flat; ``gagen.control.ocp.target_from``), computed with the
     interpreter."""
     from gagen.algebra.signature import cga3d
     from gagen.interp import MultiVector
     from gagen.model.conformal import e0, location, point, vector
-    from gagen.model.primitives import through
+    from gagen.model.fitting import span
     from gagen.model.similarity import cooperative_similarity
 
     like = MultiVector.from_blades(cga3d(), {})
-    x = through(kind, [point(vector(like, [float(c) for c in p])) for p in np.asarray(points, dtype=float)])
+    ends = [point(vector(like, [float(c) for c in p])) for p in np.asarray(points, dtype=float)]
+    x = span(kind, ends).primitive
     v = cooperative_similarity(kind, x).versor
     c = location(v.sandwich(e0(v)))
     return np.array([float(c[b]) for b in ("e1", "e2", "e3")])

@@ -337,3 +337,8 @@ def test_follow_runs_on_a_users_spec_and_the_other_verbs_refuse_it(tmp_path, cap
     assert "chain 'hand' is measured" in err and "use gagen follow" in err and err.count("\n") == 1
     assert main(["follow", "three_pandas_circle", "--trace", str(trace), "--out", str(out)]) == 2
     assert "no chain is measured" in capsys.readouterr().err
+    for verb in (["view", str(spec), "--png", str(out / "view.png")],
+                 ["sweep", "manipulability", "--system", str(spec), "--out", str(out / "sweep")]):
+        assert main(verb) == 2, verb
+        err = capsys.readouterr().err
+        assert "has measured chains (hand)" in err and err.count("\n") == 1, (verb, err)

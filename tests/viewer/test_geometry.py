@@ -207,3 +207,46 @@ def test_the_server_only_listens_on_loopback():
     for host in ("0.0.0.0", "::", "192.168.1.10", "example.com", ""):
         with pytest.raises(ValueError, match="only listens on a loopback address"):
             loopback(host)
+
+
+@given(centre=vectors, radius=st.floats(0.05, 3.0), normal=vectors,
+       angles=st.lists(st.floats(0.0, 2 * math.pi), min_size=4, max_size=7, unique=True),
+       noise=st.floats(0.0, 0.02))
+def test_more_points_than_a_circle_needs_are_fitted(centre, radius, normal, angles, noise):
+    """Four to seven points near a circle (more chains than the kind needs): the viewer draws the best
+    fit, held against numpy's own fit (the plane by SVD, then the algebraic circle by lstsq with its
+    centre held in that plane),
+    and keeps every point; exactly on the circle, the fit is the circle."""
+    a = np.sort(angles)
+    if min(np.diff(np.r_[a, a[0] + 2 * math.pi])) < 0.3:  # points bunched on one arc: ill-conditioned
+        return
+    n = normal / np.linalg.norm(normal)
+    u = np.cross(n, [1, 0, 0] if abs(n[0]) < 0.9 else [0, 1, 0])
+    u /= np.linalg.norm(u)
+    v = np.cross(n, u)
+    wobble = noise * radius * np.sin(3.7 * np.arange(len(angles)) + 1.0)
+    points = np.array([centre + (radius + w) * (math.cos(t) * u + math.sin(t) * v) + w * n
+                       for t, w in zip(angles, wobble, strict=True)])
+    s = shape("circle", points)
+    assert not s.degenerate and s.points.shape == points.shape
+    mean = points.mean(axis=0)
+    normal_fit = np.linalg.svd(points - mean)[2][2]
+    e1 = np.cross(normal_fit, u if abs(normal_fit @ u) < 0.9 else v)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(normal_fit, e1)
+    xy = np.c_[(points - mean) @ e1, (points - mean) @ e2]
+    # the algebraic fit |x_i − c|² = r² with the centre c = x̄ + cx e1 + cy e2 held in the fitted plane
+    squared = ((points - mean) ** 2).sum(axis=1)
+    (cx, cy, k), *_ = np.linalg.lstsq(np.c_[2 * xy, np.ones(len(xy))], squared, rcond=None)
+    np.testing.assert_allclose(s.centre, mean + cx * e1 + cy * e2, atol=1e-9 * max(1.0, radius))
+    assert s.radius == pytest.approx(math.sqrt(k + cx * cx + cy * cy), rel=1e-9)
+    assert abs(float(s.normal @ normal_fit)) == pytest.approx(1.0, abs=1e-9)
+    if noise == 0.0:
+        np.testing.assert_allclose(s.centre, centre, atol=1e-9 * max(1.0, radius))
+
+
+def test_more_points_than_needed_degenerate_and_refused():
+    collinear = np.array([[0.0, 0, 0], [1.0, 1, 1], [2.0, 2, 2], [3.0, 3, 3]])
+    assert shape("circle", collinear).degenerate
+    with pytest.raises(ValueError, match="a point_pair is drawn through 2 points"):
+        shape("point_pair", collinear[:3])
