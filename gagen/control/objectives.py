@@ -16,7 +16,14 @@ r = (√w_1 r_1, √w_2 r_2, …)):
   through a with unit normal n it is (n·(x − a))², the squared distance;
 - ``Radius(of, radius)``: r = radius(X) − radius, for a round X [Eq. 26];
 - ``Normal(of, normal)``: r = unit normal of the circle X − normal (3 rows, oriented like
-  (x2 − x1) × (x3 − x1)) [Eq. 25].
+  (x2 − x1) × (x3 − x1)) [Eq. 25];
+- ``DilationForce(chains, kind)``: r = J_Gᵀ e_D (n rows), the dilation row of the geometric similarity
+  Jacobian J_G = −2 V_Sc~ ∂V_Sc/∂q of the primitive through those chains [Sec. 3.11]: ‖r‖ = 1/β_D, so
+  minimising it maximises the dilation force index of ``gagen.control.force_manipulability``.
+
+A ``PrimitiveTarget(..., hard=True)`` is, for ``solve_ik(..., method="ipopt")``, the equality
+constraint e(q) = 0 instead of a cost: "maximise β_D while the circle stays on its target" is
+min ‖J_Gᵀ e_D‖² s.t. e(q) = 0 within the joint limits.
 
 Operands: ``Cooperative(kind, chains)`` (the primitive through those chains' end points, Eq. 2;
 ``end_point(chain)`` is the point kind), a fixed primitive (``line``, ``plane``, ``point``,
@@ -36,6 +43,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import TypeAlias, cast
@@ -46,6 +54,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from gagen.algebra.multivector import SparseMultivector
 from gagen.algebra.signature import cga3d
+from gagen.control.differential import CONTROLLABLE_DIMENSION, nullspace_projector
+from gagen.control.force_manipulability import DILATING
 from gagen.control.ik import IKResult
 from gagen.control.ik import solve_ik as _solve_ik
 from gagen.model import kinematics as K
@@ -68,6 +78,7 @@ from gagen.symbolic.casadi_backend import CasadiBackend
 
 MV = SparseMultivector
 LM_ROUND = 10  # Levenberg-Marquardt steps between checks of the gradient (solve_ik)
+HELD = 1e-9  # rad (m): a joint this close to a limit counts as held there (hard terms' gradient)
 
 
 # -- operands ---------------------------------------------------------------------------------------------
@@ -221,6 +232,12 @@ def _weight(value: float) -> float:
     return _positive(value, "weight")
 
 
+def _hard(value: object) -> bool:
+    if not isinstance(value, bool):
+        raise ValueError(f"hard: expected True or False, got {value!r}")
+    return value
+
+
 @dataclass(frozen=True)
 class PrimitiveTarget:
     """The cooperative primitive of ``kind`` through ``chains`` reaches V_Sd = ``target`` (12
@@ -231,6 +248,7 @@ class PrimitiveTarget:
     target: tuple[float, ...]
     weight: float = 1.0
     name: str = ""
+    hard: bool = False
     of: Cooperative = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -242,6 +260,7 @@ class PrimitiveTarget:
                              f"(gagen.control.goals), got shape {values.shape}")
         object.__setattr__(self, "target", tuple(float(v) for v in values))
         object.__setattr__(self, "weight", _weight(self.weight))
+        _hard(self.hard)
 
 
 @dataclass(frozen=True)
@@ -293,7 +312,32 @@ class Normal:
         object.__setattr__(self, "weight", _weight(self.weight))
 
 
-Term: TypeAlias = "PrimitiveTarget | Incidence | Radius | Normal"
+@dataclass(frozen=True)
+class DilationForce:
+    """r = J_Gᵀ e_D (n rows, one per joint): the e0∞ row of the geometric similarity Jacobian J_G =
+    −2 V_Sc~ ∂V_Sc/∂q of the primitive of ``kind`` through ``chains`` [COOP Sec. 3.11]. ‖r‖ = 1/β_D, the
+    reciprocal dilation force index (``force_manipulability.dilation_force_index``), so the cost w/β_D²
+    pulls toward configurations that squeeze or stretch the primitive with less joint torque. Only for
+    kinds that dilate (point pair, circle, sphere)."""
+
+    chains: tuple[str, ...]
+    kind: str
+    weight: float = 1.0
+    name: str = ""
+    of: Cooperative = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if self.kind not in DILATING:
+            dilating = ", ".join(sorted(DILATING))
+            raise ValueError(f"dilation force: expected a primitive that dilates ({dilating}), "
+                             f"got {self.kind!r}")
+        object.__setattr__(self, "of", Cooperative(self.kind, tuple(self.chains)))
+        object.__setattr__(self, "chains", tuple(self.chains))
+        object.__setattr__(self, "weight", _weight(self.weight))
+
+
+Term: TypeAlias = "PrimitiveTarget | Incidence | Radius | Normal | DilationForce"
+TERM_TYPES = (PrimitiveTarget, Incidence, Radius, Normal, DilationForce)
 
 
 def _operands(term: Term) -> list[Operand]:
@@ -350,6 +394,17 @@ class _Builder:
             return cast(MV, point(vector(x, [x[f"e{k}inf"] * weight for k in "123"])))
         return x
 
+    def dilation_row(self, term: DilationForce) -> ca.SX:
+        """J_Gᵀ e_D = (−2 V~ ∂V/∂q)[e0∞] as an n-column: the e0∞ coefficient of −2 V~ D is linear in
+        D's 12 coefficients, so its gradient with respect to them (a 1 × 12 row in V) times ∂V/∂q (AD)
+        gives the row without forming n multivector products."""
+        versor = cooperative_similarity(term.kind, self.operand(term.of)).versor
+        coefficients = ca.vertcat(*[self.backend.native(versor[b]) for b in SIMILARITY])
+        d = ca.SX.sym("d", len(SIMILARITY))
+        direction = self.zero.make({b: self.backend.lift(d[i]) for i, b in enumerate(SIMILARITY)})
+        dilation = self.backend.native(((~versor) * direction * -2)["e0inf"])
+        return (ca.jacobian(dilation, d) @ ca.jacobian(coefficients, self.q)).T
+
     def column(self, x: MV) -> tuple[ca.SX, list[str]]:
         blades = [x.algebra.blade_name(b) for b in x.support]
         values = [self.backend.native(x[b]) for b in blades]
@@ -367,6 +422,8 @@ class _Builder:
         if isinstance(term, Radius):
             value = self.backend.native(radius(self.operand(term.of))) - term.radius
             return ca.vertcat(value), ["radius"]
+        if isinstance(term, DilationForce):
+            return self.dilation_row(term), [f"q{j}" for j in range(self.system.dof)]
         n = cast(MV, unit_normal(self.operand(term.of)))
         return ca.vertcat(*[self.backend.native(n[f"e{k}"]) - term.normal[k - 1] for k in (1, 2, 3)]), \
             ["n1", "n2", "n3"]
@@ -376,7 +433,8 @@ class Objective:
     """Weighted terms over the joints q of ``system``: the stacked residual r(q) = (√w_i r_i(q)) and its
     Jacobian J = ∂r/∂q, as one CasADi Function (``function``: q → r, J), built once.
 
-    ``labels``: a row label per residual entry (``term:blade``); ``rows``: each term's slice of r.
+    ``labels``: a row label per residual entry (``term:blade``); ``rows``: each term's slice of r;
+    ``hard``: the names of the terms stated ``hard=True`` (equality constraints for IPOPT).
     """
 
     def __init__(self, system: System, terms: Sequence[Term]) -> None:
@@ -385,9 +443,9 @@ class Objective:
         chains = [c.name for c in system.chains]
         names: list[str] = []
         for i, term in enumerate(terms):
-            if not isinstance(term, (PrimitiveTarget, Incidence, Radius, Normal)):
+            if not isinstance(term, TERM_TYPES):
                 raise ValueError(f"terms[{i}]: not a term: {term!r}; expected PrimitiveTarget, Incidence, "
-                                 f"Radius or Normal")
+                                 f"Radius, Normal or DilationForce")
             for chain in (c for operand in _operands(term) for c in _chains_of(operand)):
                 if chain not in chains:
                     close = difflib.get_close_matches(chain, chains, n=1)
@@ -412,6 +470,11 @@ class Objective:
         self._values: dict[Operand, ca.Function] = {}
         self._blades: dict[Operand, list[str]] = {}
         self.labels, self.rows, self.size = tuple(labels), rows, start
+        self.hard = tuple(n for n, t in zip(names, terms, strict=True) if getattr(t, "hard", False))
+        hard = set(self.hard)
+        self._hard_rows = np.array([j for n in names if n in hard for j in range(start)[rows[n]]], dtype=int)
+        self._soft_rows = np.array([j for n in names if n not in hard for j in range(start)[rows[n]]],
+                                   dtype=int)
         self.function = ca.Function("objective", [q], [residual, ca.jacobian(residual, q)], ["q"], ["r", "J"])
         V_Sd = ca.SX.sym("V_Sd", len(SIMILARITY))  # unused: the reaching OCP's task signature
         self.task = ca.Function("objective_task", [q, V_Sd], [residual, ca.jacobian(residual, q)],
@@ -473,7 +536,10 @@ class ObjectiveResult:
     """``q``: the solution; ``residual``: r(q) and ``cost`` ‖r‖²; ``gradient``: ‖Jᵀr‖ on the joints free
     to move (a joint at a limit pushed outwards counts as held); ``converged``: ‖r‖ <= tol (the terms
     agree) or gradient <= gtol (a weighted compromise: a stationary point of the cost);
-    ``iterations``; ``message``; ``ik``: the Levenberg-Marquardt result (method "lm")."""
+    ``iterations``; ``message``; ``ik``: the Levenberg-Marquardt result (method "lm"). With hard terms
+    (IPOPT) ``cost`` and ``gradient`` are the soft terms', the gradient projected onto the hard terms'
+    nullspace (I − J_h⁺ J_h) Jᵀr, ``constraint`` is ‖r_h‖ (the hard rows) and ``converged`` needs
+    ``constraint`` <= tol besides; ``seconds``: the solver's wall time."""
 
     q: NDArray[np.float64]
     residual: NDArray[np.float64]
@@ -483,15 +549,44 @@ class ObjectiveResult:
     iterations: int
     message: str
     ik: IKResult | None = None
+    constraint: float = 0.0
+    seconds: float = 0.0
 
 
 def _projected_gradient(J: NDArray[np.float64], r: NDArray[np.float64], q: NDArray[np.float64],
-                        bounds: tuple[NDArray[np.float64], NDArray[np.float64]] | None) -> float:
+                        bounds: tuple[NDArray[np.float64], NDArray[np.float64]] | None,
+                        hard: NDArray[np.int_] | None = None) -> float:
+    if hard is not None and hard.size:
+        # the soft cost's gradient along the hard terms' nullspace, on the joints off their limits (a
+        # joint at a limit, within 1e-9, counts as held whatever the sign: a convergence indicator)
+        soft = np.setdiff1d(np.arange(r.size), hard)
+        free = np.ones(q.size, dtype=bool) if bounds is None else \
+            (q > bounds[0] + HELD) & (q < bounds[1] - HELD)
+        g = nullspace_projector(J[np.ix_(hard, free)]) @ (J[np.ix_(soft, free)].T @ r[soft])
+        return float(np.linalg.norm(g))
     g = J.T @ r
     if bounds is not None:
         lower, upper = bounds
         g = np.where(((q <= lower) & (g > 0)) | ((q >= upper) & (g < 0)), 0.0, g)
     return float(np.linalg.norm(g))
+
+
+def _independent_rows(objective: Objective, stacked: ca.SX, q0: NDArray[np.float64]) -> ca.SX:
+    """The hard targets' errors as independent equality constraints: e's 7 rows have rank k =
+    CONTROLLABLE_DIMENSION[kind] < 7 (a circle cannot turn about its own normal, Table 1), and on a
+    redundant equality IPOPT's multipliers diverge (measured: |λ| ~ 1e27, stopping with a KKT residual
+    of 8e-4 relative). So each is U_kᵀ e, U_k the top k left singular vectors of ∂e/∂q at q0: range ∂e/∂q
+    at e = 0 is the target's tangent space, whatever q on its self-motion manifold, so U_kᵀ e = 0 is
+    e = 0 near the target."""
+    _, J = objective(q0)
+    parts = []
+    for name, term in zip(objective.names, objective.terms, strict=True):
+        if name in objective.hard:
+            rows = objective.rows[name]
+            k = min(CONTROLLABLE_DIMENSION[term.kind], objective.system.dof)  # type: ignore[union-attr]
+            u = np.linalg.svd(J[rows], full_matrices=False)[0][:, :k]
+            parts.append(ca.DM(u.T) @ stacked[rows.start:rows.stop])
+    return ca.vertcat(*parts) if parts else ca.SX(0, 1)
 
 
 def solve_ik(objective: Objective, q0: ArrayLike, *, limits: tuple[ArrayLike, ArrayLike] | None = None,
@@ -502,8 +597,14 @@ def solve_ik(objective: Objective, q0: ArrayLike, *, limits: tuple[ArrayLike, Ar
     ``method`` "lm": the damped Gauss-Newton (Levenberg-Marquardt) iteration of
     ``gagen.control.ik.solve_ik`` on the stacked residual (limits held by its bounded step); "ipopt":
     IPOPT through ``casadi.nlpsol`` on the cost with the limits as bounds (exact Hessian by AD), which
-    converges fast also where the terms cannot all vanish (a weighted compromise)."""
+    converges fast also where the terms cannot all vanish (a weighted compromise); the terms stated
+    ``hard=True`` are its equality constraints r_i(q) = 0 (IPOPT only)."""
     q = objective._q(q0)
+    hard, soft = objective._hard_rows, objective._soft_rows
+    if hard.size and method != "ipopt":
+        raise ValueError(f"method: hard terms ({', '.join(objective.hard)}) are equality constraints, which "
+                         f"need method 'ipopt'; got {method!r}")
+    started = time.perf_counter()
     bounds = None
     if limits is not None:
         lower, upper = (np.broadcast_to(np.asarray(b, dtype=float), q.shape).copy() for b in limits)
@@ -531,19 +632,24 @@ def solve_ik(objective: Objective, q0: ArrayLike, *, limits: tuple[ArrayLike, Ar
     elif method == "ipopt":
         x = ca.SX.sym("q", q.size)
         stacked = objective.function(x)[0]
-        solver = ca.nlpsol("objective_ik", "ipopt", {"x": x, "f": ca.dot(stacked, stacked)},
+        costs, constraints = stacked[soft.tolist()], _independent_rows(objective, stacked, q)
+        solver = ca.nlpsol("objective_ik", "ipopt", {"x": x, "f": ca.dot(costs, costs), "g": constraints},
                            {"ipopt.print_level": 0, "ipopt.sb": "yes", "print_time": False,
                             "ipopt.tol": 1e-14, "ipopt.max_iter": max_iterations})
         inf = np.full(q.size, np.inf)
         lbx, ubx = bounds if bounds is not None else (-inf, inf)
-        solution = solver(x0=q, lbx=lbx, ubx=ubx)
+        solution = solver(x0=q, lbx=lbx, ubx=ubx, lbg=0.0, ubg=0.0)
         q = np.array(solution["x"], dtype=float).ravel()
         stats = solver.stats()
         iterations, message = int(stats["iter_count"]), f"IPOPT {stats['return_status']}"
     else:
         raise ValueError(f"method: expected 'lm' or 'ipopt', got {method!r}")
+    seconds = time.perf_counter() - started
     r, J = objective(q)
-    gradient = _projected_gradient(J, r, q, bounds)
-    converged = bool(np.linalg.norm(r) <= tol or gradient <= gtol)
-    return ObjectiveResult(q=q, residual=r, cost=float(r @ r), gradient=gradient, converged=converged,
-                           iterations=iterations, message=message, ik=ik)
+    gradient = _projected_gradient(J, r, q, bounds, hard)
+    constraint = float(np.linalg.norm(r[hard]))
+    cost = float(r[soft] @ r[soft])
+    converged = bool(constraint <= tol and (math.sqrt(cost) <= tol or gradient <= gtol))
+    return ObjectiveResult(q=q, residual=r, cost=cost, gradient=gradient, converged=converged,
+                           iterations=iterations, message=message, ik=ik, constraint=constraint,
+                           seconds=seconds)

@@ -13,14 +13,16 @@
       - target:                         # the line through two arms reaches a stated line
           of: {line: [arm0, arm1]}
           goal: {line: {point: [0.3, 0.0, 0.5], direction: [0, 1, 0]}}
+        hard: false                     # optional, targets only: an equality constraint (IPOPT)
+      - dilation_force: {of: {circle: [arm0, arm1, arm2]}}   # 1/β_D² [Sec. 3.11]
 
-Each entry states exactly one of ``target``, ``incidence``, ``radius``, ``normal``. An operand is a
-mapping with one key: a primitive kind with a list of chain names (the cooperative primitive through
-their end points) or with its parameters (a fixed primitive, stated as a spec's goals state it:
-``point: {position}``, ``line: {point, direction}``, ``plane: {point, normal}``, ``circle: {centre,
-radius, normal}``, ``sphere: {centre, radius}``, ``point_pair: {first, second}``), or ``centre:
-OPERAND``, or ``meet: [OPERAND, OPERAND]``. Every key is checked; an error is one ``SpecError`` line
-naming the file, the field and its line (and the nearest valid key or chain name).
+Each entry states exactly one of ``target``, ``incidence``, ``radius``, ``normal``, ``dilation_force``.
+An operand is a mapping with one key: a primitive kind with a list of chain names (the cooperative
+primitive through their end points) or with its parameters (a fixed primitive, stated as a spec's
+goals state it: ``point: {position}``, ``line: {point, direction}``, ``plane: {point, normal}``,
+``circle: {centre, radius, normal}``, ``sphere: {centre, radius}``, ``point_pair: {first, second}``),
+or ``centre: OPERAND``, or ``meet: [OPERAND, OPERAND]``. Every key is checked; an error is one
+``SpecError`` line naming the file, the field and its line (and the nearest valid key or chain name).
 """
 
 from __future__ import annotations
@@ -40,7 +42,7 @@ from gagen.robots.goals import PRIMITIVE_PARAMETERS, _primitive
 from gagen.robots.system import System
 from gagen.yaml_document import Document, known_keys, label, number, show
 
-TERMS = ("target", "incidence", "radius", "normal")
+TERMS = ("target", "incidence", "radius", "normal", "dilation_force")
 OPERANDS = (*KINDS, "centre", "meet")
 MAX_WEIGHT = 1e12
 
@@ -106,7 +108,7 @@ class _Reader:
 
     def term(self, value: Any, field: str) -> O.Term:
         mapping = self.mapping(value, field, f"a mapping with a name, a weight and one of {', '.join(TERMS)}")
-        known_keys(self.doc, mapping, field, ("name", "weight", *TERMS))
+        known_keys(self.doc, mapping, field, ("name", "weight", "hard", *TERMS))
         stated = [k for k in TERMS if k in mapping]
         if len(stated) != 1:
             raise self.error(field, f"states {', '.join(stated) or 'nothing'}; expected exactly one of "
@@ -117,10 +119,14 @@ class _Reader:
         if not number(weight, MAX_WEIGHT) or float(weight) <= 0:
             raise self.error(f"{field}.weight", f"got {show(weight)}; expected a number > 0 within "
                                                 f"{MAX_WEIGHT:g}")
+        hard = mapping.get("hard", False)
+        if not isinstance(hard, bool) or (hard and kind != "target"):
+            raise self.error(f"{field}.hard", f"got {show(hard)}; expected true or false, and true only on a "
+                                              "target")
         where = f"{field}.{kind}"
         body = self.mapping(mapping[kind], where, f"the {kind} term's mapping")
         allowed = {"target": ("of", "goal"), "incidence": ("a", "b"), "radius": ("of", "radius"),
-                   "normal": ("of", "normal")}[kind]
+                   "normal": ("of", "normal"), "dilation_force": ("of",)}[kind]
         known_keys(self.doc, body, where, allowed)
         for key in allowed:
             if key not in body:
@@ -130,12 +136,14 @@ class _Reader:
                 a, b = self.operand(body["a"], f"{where}.a"), self.operand(body["b"], f"{where}.b")
                 return O.Incidence(a, b, float(weight), name)
             of = self.operand(body["of"], f"{where}.of")
-            if kind == "target":
+            if kind in ("target", "dilation_force"):
                 if not isinstance(of, O.Cooperative):
                     raise self.error(f"{where}.of", "expected a cooperative primitive: a kind with a list of "
                                                     "chains")
+                if kind == "dilation_force":
+                    return O.DilationForce(of.chains, of.kind, float(weight), name)
                 target = self.goal(body["goal"], f"{where}.goal", of.kind)
-                return O.PrimitiveTarget(of.chains, of.kind, target, float(weight), name)
+                return O.PrimitiveTarget(of.chains, of.kind, target, float(weight), name, hard)
             if kind == "radius":
                 r = body["radius"]
                 if not number(r, 1e6) or float(r) <= 0:

@@ -315,3 +315,140 @@ def test_bad_terms_are_refused_in_python(cartesian) -> None:
         O.Radius(CIRCLE, 0.3, weight=float("nan"))
     with pytest.raises(ValueError, match="meet: expected a line and a plane"):
         O.Meet(CIRCLE, O.plane([0, 0, 0], [0, 0, 1]))
+
+
+# -- the dilation force index as an objective [COOP Sec. 3.11] ----------------------------------------------
+ARMS = ("arm0", "arm1", "arm2")
+
+
+@pytest.fixture(scope="module")
+def pandas_force(pandas):
+    """The three Pandas' C module (the committed one: the ``similarity`` kernel's J_G is the reference)
+    and the objective 'hold the circle of ``ready`` (hard), maximise β_D'."""
+    import gagen
+
+    system, ready, _ = pandas
+    module = gagen.load(ROOT / "generated/three_pandas_circle")
+    V_Sd = np.array(module.c.similarity(ready)[0]).ravel()
+    objective = O.Objective(system, [O.PrimitiveTarget(ARMS, "circle", V_Sd, hard=True, name="hold"),
+                                     O.DilationForce(ARMS, "circle", name="beta")])
+    return system, ready, module, V_Sd, objective
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**31))
+def test_dilation_force_term_is_the_kernels_dilation_row(pandas_force, seed) -> None:
+    """r = J_Gᵀ e_D (AD of V_Sc in the objective's graph) against the e0∞ row of the ``similarity``
+    kernel's J_G, and ‖r‖ = 1/β_D of ``force_manipulability``."""
+    from gagen.control import force_manipulability as fm
+
+    _, ready, module, _, objective = pandas_force
+    q = ready + 0.4 * np.random.default_rng(seed).standard_normal(ready.size)
+    J_G = np.array(module.c.similarity(q)[2])
+    r = objective.residual(q)[objective.rows["beta"]]
+    np.testing.assert_allclose(r, J_G[fm.DILATION_ROW], rtol=0, atol=1e-12 * np.abs(J_G[3]).max())
+    assert 1 / np.linalg.norm(r) == pytest.approx(fm.dilation_force_index(J_G), rel=1e-12)
+
+
+def test_dilation_force_jacobian_matches_central_differences(pandas_force) -> None:
+    _, ready, _, _, objective = pandas_force
+    q = ready + 0.3 * np.random.default_rng(11).standard_normal(ready.size)
+    _, J = objective(q)
+    h = 1e-6
+    numeric = np.column_stack([(objective.residual(q + h * e) - objective.residual(q - h * e)) / (2 * h)
+                               for e in np.eye(q.size)])
+    rows = objective.rows["beta"]
+    assert np.abs(J[rows] - numeric[rows]).max() <= 1e-7 * np.abs(numeric[rows]).max()
+    assert np.abs(J - numeric).max() <= 1e-7 * np.abs(numeric).max()
+
+
+@settings(max_examples=10, deadline=None)
+@given(s=st.floats(-0.3, 0.6))
+def test_dilation_force_of_prismatic_points_in_closed_form(tmp_path_factory, s) -> None:
+    """Three points sliding along the radii of a horizontal circle (bases at radius 0.5, 0°, 120°, 240°):
+    at q = (s, s, s), J_Gᵀ e_D = −(1, 1, 1)/(3r) and β_D = √3 r, r = 0.5 + s."""
+    import math
+
+    system = _prisms(tmp_path_factory)
+    objective = O.Objective(system, [O.DilationForce(("arm0", "arm1", "arm2"), "circle")])
+    r = 0.5 + s
+    residual = objective.residual(np.full(3, s))
+    np.testing.assert_allclose(residual, np.full(3, -1 / (3 * r)), rtol=1e-12)
+    assert 1 / np.linalg.norm(residual) == pytest.approx(math.sqrt(3) * r, rel=1e-12)
+
+
+_PRISMS: dict[str, O.System] = {}
+
+
+def _prisms(tmp_path_factory: pytest.TempPathFactory) -> O.System:
+    import math
+
+    if "system" not in _PRISMS:
+        chains = "".join(
+            f"  - name: arm{i}\n    base: {{xyz: [{0.5 * math.cos(a)!r}, {0.5 * math.sin(a)!r}, 0.0], "
+            f"rpy: [0.0, 0.0, {a!r}]}}\n    joints:\n"
+            "      - {name: slide, type: prismatic, axis: [1, 0, 0]}\n"
+            for i, a in ((i, 2 * math.pi * i / 3) for i in range(3)))
+        path = tmp_path_factory.mktemp("prisms") / "prisms.yaml"
+        path.write_text("name: prisms\nprimitive: circle\nchains:\n" + chains)
+        _PRISMS["system"] = load_system(path)[0]
+    return _PRISMS["system"]
+
+
+def test_ipopt_maximises_the_dilation_force_with_the_circle_held(pandas_force) -> None:
+    """min ‖J_Gᵀ e_D‖² s.t. e(q) = 0 in the URDF limits from ``ready``: e (the C ``task`` kernel) stays 0,
+    the KKT conditions of max β_D hold (∇β_D = J_Gᵀ μ + Σ_held ν_i e_i with the held joints' ν pushing
+    out of the box; ∇β_D by central differences of the ``similarity`` kernel), and β_D ends far above
+    the nullspace ascent's default 60 steps (3.0526 -> 3.2662; the IPOPT optimum 6.2481, 3 wrists at
+    their lower limit)."""
+    from gagen.control import force_manipulability as fm
+
+    system, ready, module, V_Sd, objective = pandas_force
+    lower, upper, _ = joint_limits(system)
+    result = O.solve_ik(objective, ready, limits=(lower, upper), method="ipopt", max_iterations=500)
+    assert result.converged and result.message == "IPOPT Solve_Succeeded"
+    q = result.q
+    assert np.linalg.norm(np.array(module.c.task(q, V_Sd)[0])) <= 1e-9  # measured 6e-16
+    # (IPOPT relaxes the bounds by 1e-8 relative: the held joints end 1.0e-8 outside)
+    assert result.constraint <= 1e-9 and np.all((q >= lower - 2e-8) & (q <= upper + 2e-8))
+    J_G, dJ = fm.jacobian_derivatives(module.c.similarity, q)
+    beta = fm.dilation_force_index(J_G)
+    assert beta == pytest.approx(1 / np.sqrt(result.cost), rel=1e-12)
+    gradient = fm.dilation_force_gradient(J_G, dJ)
+    at_upper, at_lower = q >= upper - 1e-9, q <= lower + 1e-9
+    held = np.flatnonzero(at_upper | at_lower)
+    basis = np.hstack([J_G.T, np.eye(q.size)[:, held]])
+    multipliers, *_ = np.linalg.lstsq(basis, gradient, rcond=None)
+    assert np.linalg.norm(basis @ multipliers - gradient) <= 1e-6 * np.linalg.norm(gradient)  # 2.7e-10
+    nu = multipliers[7:]
+    assert np.all(nu[at_upper[held]] > 0) and np.all(nu[at_lower[held]] < 0)  # the limits stop the ascent
+    ascent = fm.maximise(module.c.similarity, module.c.task, ready)
+    assert beta >= ascent.dilation[-1] * 1.5 and ascent.dilation[-1] > ascent.dilation[0]
+
+
+def test_hard_targets_and_the_dilation_term_in_the_file_and_refusals(pandas, tmp_path) -> None:
+    system, _, _ = pandas
+    text = PANDAS_FILE + """  - target:
+      of: {circle: [arm0, arm1, arm2]}
+      goal: {circle: {centre: [0.0, 0.0, 0.5], radius: 0.3, normal: [0, 0, 1]}}
+    hard: true
+  - dilation_force: {of: {circle: [arm0, arm1, arm2]}}
+    weight: 0.5
+"""
+    path = tmp_path / "force.yaml"
+    path.write_text(text)
+    terms = load_objectives(path, system).terms
+    assert isinstance(terms[3], O.PrimitiveTarget) and terms[3].hard
+    assert isinstance(terms[4], O.DilationForce) and terms[4].weight == 0.5 and terms[4].kind == "circle"
+    path.write_text(text.replace("    weight: 4\n", "    weight: 4\n    hard: true\n"))
+    with pytest.raises(SpecError, match=r"objectives\[2\]\.hard .*expected true or false, and true only on"):
+        load_objectives(path, system)
+    objective = O.Objective(system, terms)
+    assert objective.hard == ("primitivetarget3",)
+    with pytest.raises(ValueError, match="hard terms \\(primitivetarget3\\) are equality constraints, "
+                                         "which need method 'ipopt'"):
+        O.solve_ik(objective, np.zeros(system.dof))
+    with pytest.raises(ValueError, match="dilation force: expected a primitive that dilates"):
+        O.DilationForce(("arm0", "arm1"), "line")
+    with pytest.raises(ValueError, match="hard: expected True or False"):
+        O.PrimitiveTarget(ARMS, "circle", goals.circle([0, 0, 0.5], 0.3, [0, 0, 1]), hard=1)  # type: ignore[arg-type]
