@@ -77,7 +77,10 @@ def test_a_non_editable_install_builds_a_python_file_of_kernels_and_loads_it(tmp
     assert (installed / "control" / "smc" / "smc_loop.c").is_file()
     assert (installed / "py.typed").is_file()  # the annotations are part of the package (PEP 561)
     bundled = sorted(p.name for p in (installed / "apps" / "cooperative" / "robots").glob("*.yaml"))
-    assert bundled == sorted(p.name for p in (REPO / "robots").glob("*.yaml")) and len(bundled) == 13
+    assert bundled == sorted(p.name for p in (REPO / "robots").glob("*.yaml")) and len(bundled) == 15
+    leader = installed / "apps" / "cooperative"
+    assert (leader / "robots" / "leader" / "two_pandas_hand_circle.yaml").is_file()
+    assert (leader / "traces" / "leader" / "hand_circle.csv").is_file()
     traces = sorted(p.name for p in (installed / "apps" / "cooperative" / "traces").glob("*.csv"))
     ours = sorted(p.name for p in (REPO / "gagen" / "apps" / "cooperative" / "traces").glob("*.csv"))
     assert traces == ours

@@ -25,6 +25,7 @@ from gagen.build import build_source, load_source, render
 from gagen.codegen.backends import BACKENDS
 from gagen.codegen.backends.jax import ModifiedFile
 from gagen.codegen.ir import ModuleSource, Port, make_kernel
+from gagen.model.primitives import points_needed
 from gagen.runtime import load
 
 REPO = Path(__file__).resolve().parents[2]
@@ -56,27 +57,33 @@ def _jax_file(folder: Path) -> Path:
     return folder / json.loads((folder / "manifest.json").read_text())["jax_source"]
 
 
-def _close(got, expected, what: str) -> None:
+def _close(got, expected, what: str, rtol: float = RTOL) -> None:
     expected = np.asarray(expected)
     got = np.asarray(got)
     assert got.shape == expected.shape, f"{what}: shape {got.shape}, C {expected.shape}"
     assert np.array_equal(np.isnan(got), np.isnan(expected)), f"{what}: NaN in other places"
     got, expected = np.nan_to_num(got), np.nan_to_num(expected)
     err = np.abs(got - expected) / np.maximum(1.0, np.abs(expected))
-    assert float(err.max(initial=0.0)) <= RTOL, f"{what}: relative error {err.max():.3g}"
+    assert float(err.max(initial=0.0)) <= rtol, f"{what}: relative error {err.max():.3g}"
 
 
 def _outputs(result) -> tuple:
     return result if isinstance(result, tuple) else (result,)
 
 
-def _same(module, kernel: str, inputs: list, what: str) -> None:
+def _same(module, kernel: str, inputs: list, what: str, rtol: float = RTOL) -> None:
     """module.jax.<kernel> = module.c.<kernel> on ``inputs``: as many outputs, each of the C shape."""
     got = _outputs(getattr(module.jax, kernel)(*inputs))
     expected = _outputs(getattr(module.c, kernel)(*inputs))
     assert len(got) == len(expected), what
     for g, e, port in zip(got, expected, getattr(module.c, kernel).outputs, strict=True):
-        _close(g, e, f"{what} {kernel} {port}")
+        _close(g, e, f"{what} {kernel} {port}", rtol)
+
+
+# systems with more chains than their primitive needs: X_c is a best fit through a closed-form 3 × 3 eigen
+# solve (cos(acos(r)/3)), whose derivatives amplify XLA's and glibc's last-ulp differences in acos and cos
+# (1.8e-12 measured on the LEAP hand with its palm point at a random configuration)
+FITTED_RTOL = 1e-11
 
 
 # -- registration and rendering -----------------------------------------------------------------------
@@ -330,6 +337,8 @@ def test_every_kernel_of_every_bundled_module_is_its_c_kernel(jax, name):
     assert "jax" in module.manifest["backends"], \
         f"{module.folder} was built before the jax backend: regenerate it (gagen build)"
     rng = np.random.default_rng(4)
+    chains = sum(k.endswith("_fk") for k in module.kernel_names)
+    fitted = "primitive" in module.manifest and chains > points_needed(module.manifest["primitive"])
     for kernel in module.kernel_names:
         for _ in range(2 if name == "panda_point" else 1):
-            _same(module, kernel, _random_inputs(module, kernel, rng), name)
+            _same(module, kernel, _random_inputs(module, kernel, rng), name, FITTED_RTOL if fitted else RTOL)
