@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import BUNDLED, bundled_module, committed_modules, tiered
+from conftest import BACKEND_MODULES, BUNDLED, bundled_module, committed_modules, tiered
 
 import gagen
 from gagen.apps.cooperative.bundled import system_module
@@ -146,8 +146,9 @@ def test_float32_tracks_float64_on_the_flange(tmp_path):
 
 @pytest.mark.compiling
 @pytest.mark.slow
-@pytest.mark.parametrize("name", sorted(set(BUNDLED) - {"panda_point"}))
+@pytest.mark.parametrize("name", sorted(set(BACKEND_MODULES) - {"panda_point"}))
 def test_every_bundled_module_host_bodies_equal_the_c_kernels(name, tmp_path):
+    """Every representative bundled module (``BACKEND_MODULES``): the host bodies equal the C kernels."""
     _against_c(bundled_module(name), tmp_path, n=8, float32=False)  # (float32: panda_point's test)
 
 

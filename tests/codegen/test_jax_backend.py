@@ -19,7 +19,7 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 import pytest
-from conftest import BUNDLED, bundled_module, tiered
+from conftest import BACKEND_MODULES, bundled_module, tiered
 
 from gagen.build import build_source, load_source, render
 from gagen.codegen.backends import BACKENDS
@@ -326,11 +326,12 @@ def test_user_kernels_jax_equals_c_and_jacfwd_the_authored_jacobian(jax):
 
 # -- the bundled modules ------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("name", tiered(sorted(BUNDLED), {"panda_point"}, pytest.mark.compiling,
+@pytest.mark.parametrize("name", tiered(list(BACKEND_MODULES), {"panda_point"}, pytest.mark.compiling,
                                         pytest.mark.slow))
 def test_every_kernel_of_every_bundled_module_is_its_c_kernel(jax, name):
-    """Every bundled module (the committed generated/<name>, the others built into the gagen cache on
-    first use): every kernel, JAX against C on random inputs (NaN where C has NaN); two draws for
+    """Every representative bundled module (``BACKEND_MODULES``: every kind of graph; the committed
+    generated/<name>, the others built into the gagen cache on first use): every kernel, JAX against C
+    on random inputs (NaN where C has NaN); two draws for
     panda_point, one elsewhere (an eager JAX call of a large kernel dispatches every operation: the
     second draw cost 85 s of the full tier)."""
     module = bundled_module(name)
