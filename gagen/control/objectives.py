@@ -56,6 +56,7 @@ from gagen.algebra.multivector import SparseMultivector
 from gagen.algebra.signature import cga3d
 from gagen.control.differential import CONTROLLABLE_DIMENSION, nullspace_projector
 from gagen.control.force_manipulability import DILATING
+from gagen.control.goals import _frame
 from gagen.control.ik import IKResult
 from gagen.control.ik import solve_ik as _solve_ik
 from gagen.model import kinematics as K
@@ -175,14 +176,6 @@ def _unit(value: ArrayLike, what: str) -> NDArray[np.float64]:
     if norm < 1e-12:
         raise ValueError(f"{what}: expected a non-zero direction, got {array.tolist()}")
     return array / norm
-
-
-def _frame(normal: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Unit u, v with u × v = normal: in-plane axes, right-handed about it (as ``goals`` uses)."""
-    helper = np.eye(3)[int(np.argmin(np.abs(normal)))]
-    u = np.cross(helper, normal)
-    u /= np.linalg.norm(u)
-    return u, np.cross(normal, u)
 
 
 def point_at(position: ArrayLike) -> Fixed:

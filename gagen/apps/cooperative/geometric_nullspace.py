@@ -65,6 +65,20 @@ def chosen_system(system: str | None, primitive: str | None) -> str:
     return system
 
 
+
+def integrate_rk4(f: Any, q: Array, dt: float, steps: int) -> Array:
+    """q over ``steps`` classical Runge-Kutta steps of q̇ = f(q) (the joint paths of the nullspace demos):
+    an array of steps + 1 configurations, q first."""
+    qs = [q]
+    for _ in range(steps):
+        k1 = f(q)
+        k2 = f(q + 0.5 * dt * k1)
+        k3 = f(q + 0.5 * dt * k2)
+        k4 = f(q + dt * k3)
+        q = q + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        qs.append(q)
+    return np.array(qs)
+
 @dataclass(frozen=True)
 class Flat:
     """The initial primitive: a ``point`` on it, its unit ``tangent`` t (toward the second end point) and
@@ -170,15 +184,7 @@ def run(system: str, projected: bool, *, steps: int = 400, dt: float = 0.01, gai
     def f(x: Array) -> Array:
         return velocity(m, x, target, gain, projected)
 
-    qs = [q]
-    for _ in range(steps):
-        k1 = f(q)
-        k2 = f(q + 0.5 * dt * k1)
-        k3 = f(q + 0.5 * dt * k2)
-        k4 = f(q + dt * k3)
-        q = q + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        qs.append(q)
-    Q = np.array(qs)
+    Q = integrate_rk4(f, q, dt, steps)
     points = np.array([end_points(m, x) for x in Q])
     return FlatResult(
         system=system, projected=projected, t=dt * np.arange(steps + 1, dtype=np.float64), q=Q, points=points,

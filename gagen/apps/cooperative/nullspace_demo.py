@@ -43,6 +43,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from gagen.apps.cooperative.geometric_nullspace import integrate_rk4
 from gagen.control.differential import damped_pseudo_inverse, nullspace_projector
 from gagen.robots.points import chain_kernels, end_points
 from gagen.runtime import GeneratedModule
@@ -193,15 +194,7 @@ def run(projected: bool, *, steps: int = DEFAULT_STEPS, dt: float = DEFAULT_DT, 
     def f(x: NDArray[np.float64]) -> NDArray[np.float64]:
         return velocity(m, x, target, gain, projected)
 
-    qs = [q]
-    for _ in range(steps):
-        k1 = f(q)
-        k2 = f(q + 0.5 * dt * k1)
-        k3 = f(q + 0.5 * dt * k2)
-        k4 = f(q + dt * k3)
-        q = q + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        qs.append(q)
-    Q = np.array(qs)
+    Q = integrate_rk4(f, q, dt, steps)
     points = np.array([end_points(m, x) for x in Q])
     similarity = np.array([np.linalg.norm(np.array(m.c.task(x, V_Sd)[0])) for x in Q])
     return DemoResult(
