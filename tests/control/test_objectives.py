@@ -452,3 +452,34 @@ def test_hard_targets_and_the_dilation_term_in_the_file_and_refusals(pandas, tmp
         O.DilationForce(("arm0", "arm1"), "line")
     with pytest.raises(ValueError, match="hard: expected True or False"):
         O.PrimitiveTarget(ARMS, "circle", goals.circle([0, 0, 0.5], 0.3, [0, 0, 1]), hard=1)  # type: ignore[arg-type]
+
+
+def test_the_command_solves_a_file_with_a_hard_target_by_ipopt_by_default(tmp_path, capsys):
+    """A file holding the three Pandas' ready circle where it is (hard) while maximising the dilation
+    force: the default method follows the file (IPOPT, which takes equality constraints), the held term's
+    residual ends at rounding, and "lm" with a hard term is refused in one line."""
+    import gagen
+    from gagen.cli import main
+    from gagen.robots.points import end_points
+
+    m = gagen.load(Path(__file__).resolve().parents[2] / "generated" / "three_pandas_circle")
+    a, b, c = end_points(m, np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785] * 3))
+    u, v = b - a, c - a
+    n = np.cross(u, v)
+    centre = a + (u @ u * np.cross(v, n) + v @ v * np.cross(n, u)) / (2 * n @ n)  # circumcentre
+    path = tmp_path / "hold.yaml"
+    path.write_text(
+        "start: ready\nobjectives:\n"
+        "  - name: hold\n    target:\n      of: {circle: [arm0, arm1, arm2]}\n"
+        f"      goal: {{circle: {{centre: {centre.tolist()}, radius: {float(np.linalg.norm(a - centre))}, "
+        f"normal: {(n / np.linalg.norm(n)).tolist()}}}}}\n    hard: true\n"
+        "  - name: squeeze\n    dilation_force: {of: {circle: [arm0, arm1, arm2]}}\n")
+    out_folder = str(tmp_path / "o")
+    assert main(["objectives", "three_pandas_circle", str(path), "--N", "0", "--out", out_folder]) == 0
+    out = capsys.readouterr().out
+    assert "IK (ipopt)" in out
+    hold = next(line for line in out.splitlines() if line.strip().startswith("hold"))
+    assert float(hold.split("->")[1]) <= 1e-9, hold
+    assert main(["objectives", "three_pandas_circle", str(path), "--N", "0", "--method", "lm",
+                 "--out", out_folder]) == 2
+    assert capsys.readouterr().err.count("\n") == 1

@@ -238,8 +238,9 @@ def _objectives_arguments(parser: argparse.ArgumentParser) -> None:
                                                       "docs/mixed-objectives.md)")
     parser.add_argument("--start", help="a configuration of the spec to start from (default: the file's "
                                         "start, else ready, else zeros)")
-    parser.add_argument("--method", choices=("lm", "ipopt"), default="lm",
-                        help="IK method (default lm: damped Gauss-Newton; ipopt: casadi.nlpsol)")
+    parser.add_argument("--method", choices=("lm", "ipopt"), default=None,
+                        help="IK method (default lm: damped Gauss-Newton; ipopt: casadi.nlpsol, the default "
+                             "when the file states a hard term)")
     parser.add_argument("--N", type=non_negative_int, default=20,
                         help="OCP time steps (default 20; 0 skips the OCP)")
     parser.add_argument("--horizon", type=positive_float, default=2.0, help="OCP horizon, s (default 2)")

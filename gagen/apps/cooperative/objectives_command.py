@@ -57,8 +57,10 @@ def run_command(args: argparse.Namespace) -> int:
     print(f"  built in {time.perf_counter() - started:.2f} s: {objective.size} residual rows", flush=True)
     lower, upper, _ = joint_limits(system)
     started = time.perf_counter()
-    ik = O.solve_ik(objective, q0, limits=(lower, upper), method=args.method)
-    print(f"IK ({args.method}): {ik.message}; ‖r‖ = {np.linalg.norm(ik.residual):.3g}, ‖Jᵀr‖ = "
+    # hard terms are equality constraints, which only IPOPT takes: the default method follows the file
+    method = args.method or ("ipopt" if objective.hard else "lm")
+    ik = O.solve_ik(objective, q0, limits=(lower, upper), method=method)
+    print(f"IK ({method}): {ik.message}; ‖r‖ = {np.linalg.norm(ik.residual):.3g}, ‖Jᵀr‖ = "
           f"{ik.gradient:.3g} in {time.perf_counter() - started:.3f} s", flush=True)
     before, after = objective.term_norms(q0), objective.term_norms(ik.q)
     for term in objective.names:
