@@ -5,8 +5,10 @@ up(x) = e0 + x + ½|x|² e∞ and x the point at the initial configuration (the 
 body's motor is the driver's: a crank's turn by θ about its ground pivot p, T(p) R(θ) T(p)~, or a
 slider's translation by s along its slot, T(s d).
 
-Residuals that vanish *linearly* at a solution, so Newton converges quadratically (the paper's
-x_i ∧ x_j has ‖x_i ∧ x_j‖² = ¼|a − b|⁴, a double root):
+Residuals that vanish *linearly* at a solution, so Newton converges quadratically. The paper's
+x_i ∧ x_j read as its six coefficients does too (its e01/e02 part is b − a), in as many iterations;
+only its scalar norm ‖x_i ∧ x_j‖² = ¼|a − b|⁴ stalls (a fourfold root). The rows used (a
+revolute joint's 2 where the wedge has 6):
 
 - revolute (two points coincide): the Euclidean part of the difference of the two (normalised) world
   points, loc(X_a) − loc(X_b): two rows, the difference a − b itself;
