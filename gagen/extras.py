@@ -21,6 +21,7 @@ EXTRAS = {
     "jax": "jax",
     "jaxlib": "jax",
     "cupy": "cuda",
+    "proxsuite": "statics",
 }
 """Top-level module -> the extra that installs it (``all`` installs every one)."""
 

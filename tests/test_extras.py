@@ -48,6 +48,7 @@ VERBS = [
     (["teleop", "three_pandas_circle", "--trace", str(TRACE), "--view"], "viewer"),
     (["teleop", "three_pandas_circle", "--spacemouse"], "teleop"),
     (["reach", "circle", "--dynamics"], "ocp"),
+    (["walk", "--no-animation", "--out", "walk"], "statics"),
 ]
 
 
@@ -65,6 +66,8 @@ def test_a_verb_without_its_extra_is_one_line_and_exit_status_2(argv, extra, tmp
     ("import gagen.sweep.store", "sweep"),
     ("import gagen.control.torque", "ocp"),
     ("import gagen.dynamics.mujoco_model", "sim"),
+    ("from gagen.apps.hexapod.statics import distribute_forces\n"
+     "distribute_forces([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [0.3, 0.3, 0.2], 1.0)", "statics"),
     ("from gagen.robots.spec import load_system\nfrom gagen.registry import bundled_specs\n"
      "from gagen.viewer import Scene\nScene(load_system(bundled_specs()['panda_point'])[0], port=0)",
      "viewer"),
@@ -81,7 +84,7 @@ def test_every_extra_named_exists_and_all_brings_them():
 
     extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
     assert set(EXTRAS.values()) <= set(extras)
-    named = ["sweep", "jax", "dynamics", "viewer", "teleop", "ocp", "sim"]
+    named = ["sweep", "jax", "dynamics", "viewer", "teleop", "ocp", "sim", "statics"]
     assert extras["all"] == [f"gagen[{','.join(named)}]"]
     assert set(EXTRAS.values()) - {"cuda"} <= set(named)  # cuda: GPU machines only, not in all
 

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from gagen.apps.hexapod.bundled import SPEC
-from gagen.arguments import finite_float, positive_float, positive_int
+from gagen.arguments import finite_float, non_negative_float, positive_float, positive_int
 from gagen.registry import Verb
 
 
@@ -40,6 +40,10 @@ def _walk_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rate", type=positive_float, default=100.0, help="samples per second (default 100)")
     parser.add_argument("--frames", type=positive_int, default=90, help="GIF frames (default 90)")
     parser.add_argument("--no-animation", action="store_true", help="skip the GIF")
+    parser.add_argument("--margin", type=finite_float, help="keep a static stability margin of at least this "
+                        "many m (shortens the stride; refused when no stride keeps it)")
+    parser.add_argument("--mu", type=non_negative_float, default=0.5, help="friction coefficient of the "
+                        "feet's cones (default 0.5)")
 
 
 def _walk(args: argparse.Namespace) -> int:
@@ -67,15 +71,37 @@ def _walk(args: argparse.Namespace) -> int:
     except CompileError as e:
         print(f"error: {e}", file=sys.stderr)
         return 1
+    from gagen.apps.hexapod import gait_statics
+
+    if args.margin is not None:
+        print(f"keeping a stability margin >= {args.margin:g} m: searching the stride", flush=True)
+        try:
+            plan = gait_statics.keep_margin(module, hexapod, params, ground, args.margin,
+                                            progress=lambda line: print(line, flush=True))
+        except ValueError as e:
+            print(f"error: {e}", file=sys.stderr)
+            return 2
+        print(f"stride {params.stride:g} -> {plan.params.stride:.4f} m (min margin {plan.margin:.4f} m, "
+              f"{len(plan.tries)} walks)")
+        params = plan.params
     result = gait.walk(module, hexapod, params, ground, progress=lambda line: print(line, flush=True))
+    from gagen.apps.hexapod.statics import DegenerateSupport
+
+    try:
+        statics = gait_statics.check_walk(result, mu=args.mu, progress=lambda line: print(line, flush=True))
+    except DegenerateSupport as e:
+        print(f"error: the walk's stance has no support polygon: {e}", file=sys.stderr)
+        return 1
     print(gait.summary(result))
+    print("\n".join(statics.lines()))
     print(f"walk computed in {time.perf_counter() - start:.2f} s")
     from gagen.apps.hexapod import plots
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     for path in (plots.joint_angles(result, out / "joint_angles.png"),
-                 plots.toe_paths(result, out / "toe_paths.png")):
+                 plots.toe_paths(result, out / "toe_paths.png"),
+                 gait_statics.margin_plot(statics, out / "margin.png", args.margin)):
         print(f"  wrote {path}")
     if not args.no_animation:
         print(f"animating {args.frames} frames (matplotlib 3D, Pillow GIF)", flush=True)
@@ -88,9 +114,36 @@ def _walk(args: argparse.Namespace) -> int:
               f"{len(result.past_limits)} joint-limit violation(s); first: {result.flags()[0]}",
               file=sys.stderr)
         return 1
+    if not statics.ok:
+        print(f"error: the walk does not stand: min stability margin {statics.margin_min()[0]:.4f} m, "
+              f"max |f_t|/f_n {statics.ratio_max()[0]:.4f} (mu = {args.mu:g})"
+              + (f"; {statics.first_infeasible}" if statics.first_infeasible else ""), file=sys.stderr)
+        return 1
     return 0
+
+
+def _walk_sim_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("spec", nargs="?", default=str(SPEC), help="hexapod spec (default: the bundled one)")
+    parser.add_argument("--slope", type=finite_float, default=0.0, help="ground slope rising along +x, "
+                        "degrees (default 0: flat)")
+    parser.add_argument("--out", default="walk_sim", help="folder for the plot and the GIF "
+                        "(default walk_sim/)")
+    parser.add_argument("--module", help="build the module into this folder (default: the committed "
+                        "generated/ for the bundled spec, else the gagen cache)")
+    parser.add_argument("--fps", type=positive_float, default=10.0, help="GIF frames per second (default 10)")
+    parser.add_argument("--no-animation", action="store_true", help="skip the GIF")
+
+
+def _walk_sim(args: argparse.Namespace) -> int:
+    """The tripod gait played in MuJoCo (gagen.apps.hexapod.mujoco_walk): drift, slip, margin, cones."""
+    from gagen.apps.hexapod.mujoco_walk import walk_sim
+
+    return walk_sim(args)
 
 
 VERBS = (Verb("walk", "a hexapod's tripod gait (straight, then a turn) on flat or sloped ground: slip, "
                       "limit margins, "
-                 "reachability; plots and a GIF", _walk_arguments, _walk),)
+                 "reachability; plots and a GIF", _walk_arguments, _walk, needs=("proxsuite",)),
+         Verb("walk-sim", "the tripod gait played in MuJoCo on flat or sloped ground: body drift, slip, "
+                          "stability margin, friction cones; a plot and an offscreen GIF",
+              _walk_sim_arguments, _walk_sim, needs=("mujoco",)))

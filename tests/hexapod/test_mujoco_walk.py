@@ -1,0 +1,124 @@
+"""The hexapod in MuJoCo (gagen.apps.hexapod.mujoco_walk): the MJCF's joints and toes against the
+generated FK and an independent matrix chain, the mass model's CoM against MuJoCo's subtree_com, the
+support margin against closed forms, and the simulated tripod walk on flat ground and a 10° slope
+(drift, yaw, slip and margin within their stated bounds; the report's drift recomputed from MuJoCo's
+qpos)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+mujoco = pytest.importorskip("mujoco")
+
+from gagen.apps.hexapod import gait  # noqa: E402
+from gagen.apps.hexapod import mujoco_walk as mw  # noqa: E402
+from gagen.apps.hexapod.mass import centre_of_mass, default_mass_model, total_mass  # noqa: E402
+
+from . import matrix_chain  # noqa: E402
+
+SLIP_BOUND = 0.005  # m: a stance toe moves less than this along the ground while in contact
+
+
+def _random_state(hexapod, rng):
+    q = np.concatenate([matrix_chain.random_configurations(leg, rng, 1)[0] for leg in hexapod.legs])
+    pose = np.eye(4)
+    pose[:3, :3] = matrix_chain.rotation(rng.normal(size=3), np.array([rng.uniform(-math.pi, math.pi)]))[0]
+    pose[:3, 3] = rng.uniform(-1, 1, size=3)
+    return q, pose
+
+
+def _place(model, data, hexapod, q, pose):
+    data.qpos[:3] = pose[:3, 3]
+    data.qpos[3:7] = gait.quaternion(pose[:3, :3])[0]
+    data.qpos[mw.joint_qpos(model, hexapod)] = q
+    mujoco.mj_forward(model, data)
+
+
+def test_joints_and_toes_match_the_spec(hexapod, hexapod_module):
+    """At random q and body poses: MuJoCo's toe sites against the generated FK (body_fk_pga) carried by
+    the pose, and its joint axes and anchors against the 4×4 matrix chain, to 1e-9."""
+    model = mw.load_model(hexapod, ground=gait.Ground(math.radians(10)))
+    data = mujoco.MjData(model)
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        q, pose = _random_state(hexapod, rng)
+        _place(model, data, hexapod, q, pose)
+        toes = hexapod_module.c.body_fk_pga(q)[0].reshape(6, 3) @ pose[:3, :3].T + pose[:3, 3]
+        sites = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, f"{leg.name}_toe")
+                 for leg in hexapod.legs]
+        np.testing.assert_allclose(data.site_xpos[sites], toes, rtol=0, atol=1e-9)
+        for i, leg in enumerate(hexapod.legs):
+            frames, _ = matrix_chain.frames(leg, q[3 * i:3 * i + 3])
+            for j, frame in enumerate(frames):
+                jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, leg.joint_names[j])
+                axis = pose[:3, :3] @ frame[0, :3, :3] @ np.array(leg.axes[j])
+                anchor = pose[:3, :3] @ frame[0, :3, 3] + pose[:3, 3]
+                np.testing.assert_allclose(data.xaxis[jid], axis, rtol=0, atol=1e-9)
+                np.testing.assert_allclose(data.xanchor[jid], anchor, rtol=0, atol=1e-9)
+
+
+def test_centre_of_mass_matches_mujoco(hexapod):
+    """The mass model's CoM and total mass against MuJoCo's subtree_com and subtree mass of the base."""
+    mass = default_mass_model(hexapod)
+    model = mw.load_model(hexapod, mass)
+    data = mujoco.MjData(model)
+    base = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "base")
+    assert model.body_subtreemass[base] == pytest.approx(total_mass(mass), abs=1e-12)
+    rng = np.random.default_rng(4)
+    for _ in range(20):
+        q, pose = _random_state(hexapod, rng)
+        _place(model, data, hexapod, q, pose)
+        np.testing.assert_allclose(centre_of_mass(hexapod, mass, pose, q), data.subtree_com[base],
+                                   rtol=0, atol=1e-9)
+
+
+def test_a_stance_without_area_has_no_static_support():
+    """Two feet in contact (or three in a line) span no support polygon: the margin is −inf, so the
+    walk's minimum margin is negative and ``gagen walk-sim`` fails, rather than a number or a NaN."""
+    down = np.array([0.0, 0.0, -9.81])
+    com = np.array([0.0, 0.0, 0.3])
+    assert mw._margin(np.array([[0.2, 0.1, 0], [-0.2, 0.1, 0]]), com, down) == -math.inf
+    assert mw._margin(np.array([[0.2, 0, 0], [0.0, 0, 0], [-0.2, 0, 0]]), com, down) == -math.inf
+    square = np.array([[0.2, 0.2, 0], [-0.2, 0.2, 0], [-0.2, -0.2, 0], [0.2, -0.2, 0]])
+    assert mw._margin(square, com, down) == pytest.approx(0.2, abs=1e-15)
+
+
+@pytest.fixture(scope="module", params=[0.0, 10.0], ids=["flat", "slope10"])
+def walked(request, hexapod, hexapod_module):
+    plan, model, record, report = mw.run(hexapod, hexapod_module, math.radians(request.param))
+    return plan, model, record, report
+
+
+def test_walk_stays_within_its_bounds(walked):
+    """Drift and yaw below the stated bounds, slip below SLIP_BOUND, the margin positive throughout and
+    within 2 cm of the plan's wherever the feet in contact are the plan's stance feet."""
+    plan, _, record, report = walked
+    assert report.drift_max < mw.DRIFT_BOUND
+    assert report.yaw_max < mw.YAW_BOUND
+    assert report.slip_max < SLIP_BOUND
+    assert report.margin_min > 0.05 and report.ok
+    j = np.round(record.t * plan.params.rate).astype(int)
+    same = (report.contact == plan.stance[j]).all(axis=1)
+    assert same.mean() > 0.8
+    assert np.abs(report.margin - report.planned_margin)[same].max() < 0.02
+    assert report.cone_max <= mw.FRICTION * (1 + 1e-6) and report.cone_inside > 0.95
+
+
+def test_report_drift_from_mujoco_qpos(walked, hexapod):
+    """The report's position and yaw error recomputed from the recorded qpos (the free joint's position
+    and quaternion through mju_quat2Mat) against the plan's own samples at the same times."""
+    plan, _, record, report = walked
+    j = np.round(record.t * plan.params.rate).astype(int)
+    on_sample = np.abs(j / plan.params.rate - record.t) < 1e-12
+    assert on_sample.sum() > 300
+    for k in np.flatnonzero(on_sample):
+        position, quat = record.qpos[k, :3], record.qpos[k, 3:7]
+        rotation = np.zeros(9)
+        mujoco.mju_quat2Mat(rotation, quat)
+        relative = plan.body.rotation[j[k]].T @ rotation.reshape(3, 3)
+        assert report.position_error[k] == pytest.approx(
+            np.linalg.norm(position - plan.body.position[j[k]]), abs=1e-12)
+        assert report.yaw_error[k] == pytest.approx(math.atan2(relative[1, 0], relative[0, 0]), abs=1e-12)
