@@ -112,11 +112,15 @@ FILE_VERBS = {
     "objectives": lambda f: ["objectives", f, str(REPO / "examples" / "three_pandas_objectives.yaml")],
     "objectives FILE": lambda f: ["objectives", "three_pandas_circle", f],
     "walk": lambda f: ["walk", f],
+    "walk-sim": lambda f: ["walk-sim", f, "--no-animation"],
+    "track-head": lambda f: ["track-head", f, "--duration", "0.01"],
     "linkage": lambda f: ["linkage", f, "--steps", "2"],
     "stereo": lambda f: ["stereo", "--rig", f, "--duration", "0.01"],
 }
 # a valid file of another kind for each verb (a spec of another application)
 FOREIGN = {"walk": APPS / "linkage" / "robots" / "four_bar.yaml",
+           "walk-sim": APPS / "stereo" / "robots" / "stereo_rig.yaml",
+           "track-head": APPS / "hexapod" / "robots" / "hexapod.yaml",
            "linkage": APPS / "hexapod" / "robots" / "hexapod.yaml",
            "stereo": APPS / "cooperative" / "robots" / "panda_point.yaml",
            "smc": APPS / "stereo" / "robots" / "stereo_rig.yaml",
@@ -154,6 +158,8 @@ def _bad_file(draw, verb: str, folder: Path) -> tuple[str, str]:
         path.write_bytes(bytes(range(256)) * 4)
     else:  # the verb's own kind of file, cut short or with flipped bytes (which may stay valid: then skip)
         source = {"walk": APPS / "hexapod" / "robots" / "hexapod.yaml",
+                  "walk-sim": APPS / "hexapod" / "robots" / "hexapod.yaml",
+                  "track-head": APPS / "stereo" / "robots" / "stereo_rig.yaml",
                   "linkage": APPS / "linkage" / "robots" / "four_bar.yaml",
                   "stereo": APPS / "stereo" / "robots" / "stereo_rig.yaml"}.get(
             verb, APPS / "cooperative" / "robots" / "three_pandas_circle.yaml")

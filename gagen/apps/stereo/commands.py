@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from gagen.apps.stereo.bundled import RIG
+from gagen.apps.stereo.pantilt_command import VERBS as PANTILT_VERBS
 from gagen.arguments import non_negative_float, non_negative_int, positive_float
 from gagen.registry import Verb
 
@@ -73,4 +74,5 @@ def _stereo(args: argparse.Namespace) -> int:
 
 VERBS = (Verb("stereo", "a moving bottle rendered by a stereo rig at 30 Hz, its symmetry axis estimated "
                         "in CGA each "
-                 "frame, tracked by the Panda's sliding-mode loop (plots)", _stereo_arguments, _stereo),)
+                 "frame, tracked by the Panda's sliding-mode loop (plots)", _stereo_arguments, _stereo),
+         *PANTILT_VERBS)
