@@ -2,7 +2,7 @@
 the bundled walk (flat and 10° slope, every sample: 3 stance feet, 9 forces, 6 balance rows, 27
 inequalities), residuals recomputed here, a markdown table on stdout.
 
-    .venv/bin/pip install -e '.[bench]' && .venv/bin/python benchmarks/hexapod_qp.py    # ~10 s (OSQP: the bench extra)
+    .venv/bin/python benchmarks/hexapod_qp.py    # ~10 s; OSQP comes with the bench extra
 
 Rows: ProxQP (dense, eps_abs 1e-12, as gagen uses it); OSQP 1.x with its defaults (eps 1e-3, no
 polish), tightened (eps_abs 1e-9, eps_rel 0, 1e5 iterations) and polished (defaults + polish). The

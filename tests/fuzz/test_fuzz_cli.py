@@ -115,6 +115,7 @@ FILE_VERBS = {
     "walk-sim": lambda f: ["walk-sim", f, "--no-animation"],
     "track-head": lambda f: ["track-head", f, "--duration", "0.01"],
     "linkage": lambda f: ["linkage", f, "--steps", "2"],
+    "singularities": lambda f: ["singularities", f, "--steps", "8"],
     "stereo": lambda f: ["stereo", "--rig", f, "--duration", "0.01"],
 }
 # a valid file of another kind for each verb (a spec of another application)
@@ -122,6 +123,7 @@ FOREIGN = {"walk": APPS / "linkage" / "robots" / "four_bar.yaml",
            "walk-sim": APPS / "stereo" / "robots" / "stereo_rig.yaml",
            "track-head": APPS / "hexapod" / "robots" / "hexapod.yaml",
            "linkage": APPS / "hexapod" / "robots" / "hexapod.yaml",
+           "singularities": APPS / "stereo" / "robots" / "stereo_rig.yaml",
            "stereo": APPS / "cooperative" / "robots" / "panda_point.yaml",
            "smc": APPS / "stereo" / "robots" / "stereo_rig.yaml",
            "nullspace": APPS / "linkage" / "robots" / "jansen.yaml",
@@ -161,6 +163,7 @@ def _bad_file(draw, verb: str, folder: Path) -> tuple[str, str]:
                   "walk-sim": APPS / "hexapod" / "robots" / "hexapod.yaml",
                   "track-head": APPS / "stereo" / "robots" / "stereo_rig.yaml",
                   "linkage": APPS / "linkage" / "robots" / "four_bar.yaml",
+                  "singularities": APPS / "linkage" / "robots" / "four_bar.yaml",
                   "stereo": APPS / "stereo" / "robots" / "stereo_rig.yaml"}.get(
             verb, APPS / "cooperative" / "robots" / "three_pandas_circle.yaml")
         cuts = byte_mutation(source.read_text()).filter(lambda m: m[0].startswith(("truncate", "nul")))

@@ -70,3 +70,12 @@ def test_batched_sweep_classifies_four_bars_like_grashof():
     assert set(Counter(expected)) == {"rocker", "crank-rocker", "double-crank"}  # every class is sampled
     reached = ~np.isnan(result.residuals)
     assert np.nanmax(result.residuals) < 1e-12 and reached.any()
+    # a mechanism that cannot turn further stays at its last solved configuration (finite, not the
+    # diverged Newton iterate of the angle it failed at)
+    frozen = [k for k in range(len(points)) if 0 < result.reached[k] < len(result.angles)]
+    assert frozen
+    for k in frozen:
+        last = result.motors[result.reached[k] - 1, k]
+        assert np.isfinite(last).all()
+        np.testing.assert_array_equal(result.motors[result.reached[k]:, k], np.broadcast_to(
+            last, result.motors[result.reached[k]:, k].shape))

@@ -65,7 +65,7 @@ def _joints(old: str, new: str) -> str:
     (HEAD + BODIES + "  spare: {S: [9, 9]}\n" + JOINTS + DRIVER, "joints", "dangling bodies"),
     (HEAD + BODIES + JOINTS + "  - {revolute: [coupler.B, ground.D]}\n" + DRIVER, "joints",
      "over-constrained"),
-    (_joints("  - {revolute: [rocker.D, ground.D]}\n", ""), "joints",
+    (_joints("  - {revolute: [rocker.D, ground.D]}\n", ""), "driver",
      "under-constrained: Grübler–Kutzbach counts 3"),
     (HEAD + BODIES + JOINTS + "driver: {body: crank, pivot: ground.D}\n", "driver.pivot",
      "no revolute joint pins crank to ground.D"),

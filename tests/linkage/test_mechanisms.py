@@ -6,7 +6,7 @@ foot path's flat bottom."""
 
 from __future__ import annotations
 
-from itertools import combinations
+from itertools import combinations, pairwise
 from pathlib import Path
 
 import numpy as np
@@ -31,7 +31,7 @@ def test_the_bundled_mechanisms_are_there():
 @pytest.mark.parametrize("spec", SPECS, ids=lambda p: p.stem)
 def test_spec_loads_with_mobility_1(spec):
     linkage = load_linkage(spec)
-    assert linkage.mobility() == 1
+    assert linkage.mobility() == len(linkage.drivers)  # 1, or k for k drivers (five_bar, crank_slider)
     assert linkage.constraint_rows == 3 * len(linkage.unknown)  # no redundant joint
     assert linkage.trace is not None
 
@@ -93,11 +93,9 @@ def _lengths(linkage, points: np.ndarray) -> np.ndarray:
 def _input_motion(linkage, values: np.ndarray) -> np.ndarray:
     """Per step, how far the driven body's farthest point moves: the crank radius × the turn, or the
     slider's displacement."""
-    if linkage.pivot is None:
-        return np.abs(np.diff(values))
-    pivot = np.array(linkage.ground[linkage.pivot])
-    radius = max(float(np.hypot(*(np.array(p) - pivot))) for p in linkage.bodies[linkage.crank].values())
-    return radius * np.abs(np.diff(values))
+    from gagen.apps.linkage.solver import _driver_motion
+
+    return np.array([_driver_motion(linkage, a, b) for a, b in pairwise(values)])
 
 
 _runs: dict[str, object] = {}

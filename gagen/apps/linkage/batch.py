@@ -5,7 +5,8 @@ points ``X0`` as an input, so one compiled module serves a whole family: :func:`
 crank of N mechanisms at once, each Newton iteration one SIMD-batched ``newton_step`` call over all
 of them (continuation per mechanism, as in ``solver.simulate``); a mechanism whose Newton fails at an
 angle has reached a configuration it cannot assemble (its crank cannot turn further) and is frozen
-there. :func:`grashof_sweep` uses it to classify four-bars by simulation.
+at its last solved configuration. :func:`classify` uses it to sort four-bars into Grashof's classes by
+simulation.
 """
 
 from __future__ import annotations
@@ -39,7 +40,7 @@ def family(linkage: Linkage) -> Any:
 def sweep(module: Any, linkage: Linkage, initial: np.ndarray, angles: np.ndarray,
           tolerance: float = TOLERANCE, max_iterations: int = MAX_ITERATIONS) -> Sweep:
     """Follow the crank of N mechanisms (``initial``: N × len(initial_labels), assembled initial
-    points) through ``angles``, all mechanisms in each batched call."""
+    points) through ``angles`` (k drivers: steps × k values), all mechanisms in each batched call."""
     X0 = np.atleast_2d(np.asarray(initial, dtype=float))
     count = len(X0)
     R = np.tile(identity_motors(linkage), (count, 1))
@@ -47,9 +48,10 @@ def sweep(module: Any, linkage: Linkage, initial: np.ndarray, angles: np.ndarray
     reached = np.zeros(count, dtype=int)
     motors, residuals, iterations = [], [], []
     for step, angle in enumerate(np.asarray(angles, dtype=float)):
-        theta = np.full((count, 1), angle)
+        theta = np.tile(np.atleast_1d(angle), (count, 1))  # (N, k): k drivers' values per mechanism
         pending = alive.copy()
         final = np.full(count, np.nan)
+        solved = R.copy()  # the configurations at the previous value: where an unsolved one stays
         for iteration in range(max_iterations + 1):
             R_next, residual = module.newton_step.batch(R, theta, X0)
             residual = np.asarray(residual).reshape(-1)
@@ -59,6 +61,7 @@ def sweep(module: Any, linkage: Linkage, initial: np.ndarray, angles: np.ndarray
             if not pending.any() or iteration == max_iterations:
                 break
             R[pending] = np.asarray(R_next)[pending]
+        R[pending] = solved[pending]  # not the diverged iterate: the last configuration it reached
         alive &= ~pending  # those still pending could not be solved at this angle: frozen
         reached[alive] = step + 1
         motors.append(R.copy())

@@ -3,7 +3,7 @@
 Each body b has an SE(2) motor R_b (on 1, e12, e1∞, e2∞); its points are X = R_b up(x) R_b~, with
 up(x) = e0 + x + ½|x|² e∞ and x the point at the initial configuration (the body's frame). The driven
 body's motor is the driver's: a crank's turn by θ about its ground pivot p, T(p) R(θ) T(p)~, or a
-slider's translation by s along its slot, T(s d).
+slider's translation by s along its slot, T(s d) (with k drivers, each driven body's from its value).
 
 Residuals that vanish *linearly* at a solution, so Newton converges quadratically. The paper's
 x_i ∧ x_j read as its six coefficients does too (its e01/e02 part is b − a), in as many iterations;
@@ -105,8 +105,13 @@ class Frames:
                  coordinates: Coordinates | None = None):
         self.like, self.linkage = like, linkage
         self.coordinates = coordinates
-        pivot = None if linkage.pivot is None else self.initial((GROUND, linkage.pivot))
-        self.motors = {**motors, linkage.crank: driver_motor(like, linkage.driver, pivot, angle)}
+        # one driver: ``angle`` is its value; k drivers: a sequence of k values, in the drivers' order
+        values = [angle] if len(linkage.drivers) == 1 else [angle[i] for i in range(len(linkage.drivers))]
+        driven = {}
+        for driver, value in zip(linkage.drivers, values, strict=True):
+            pivot = None if driver.pivot is None else self.initial((GROUND, driver.pivot))
+            driven[driver.body] = driver_motor(like, driver, pivot, value)
+        self.motors = {**motors, **driven}
 
     def initial(self, ref: tuple[str, str]) -> list[Any]:
         return _exact(self.coordinates[ref] if self.coordinates is not None else self.linkage.point(ref))

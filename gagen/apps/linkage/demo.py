@@ -31,13 +31,19 @@ def driver_path(linkage: Linkage, steps: int, cycles: int = 1) -> tuple[np.ndarr
     """The driver's values over ``cycles`` cycles of ``steps`` equal phase steps, and the phases (rad):
     a crank's angle is its phase (turning backwards for a negative rate); a slider runs its stroke
     s = a sin φ from the initial configuration, a the stroke's upper end where sin φ ≥ 0 and its lower
-    end's magnitude where sin φ < 0 (out to one end, back, out to the other, back)."""
+    end's magnitude where sin φ < 0 (out to one end, back, out to the other, back). With k drivers
+    (steps × k values), φ is the first driver's phase and driver i runs at rate_i / |rate_1| × φ."""
     phases = crank_angles(steps, cycles)
-    if linkage.driver.slide is None:
-        return np.copysign(1.0, linkage.driver.rate) * phases, phases
-    lower, upper = linkage.stroke()
-    sine = np.sin(phases)
-    return np.where(sine >= 0, upper, -lower) * sine, phases
+    columns = []
+    for driver in linkage.drivers:
+        phase = driver.rate / abs(linkage.driver.rate) * phases
+        if driver.slide is None:
+            columns.append(phase)
+            continue
+        lower, upper = linkage.stroke(driver)
+        sine = np.sin(np.abs(phase))
+        columns.append(np.where(sine >= 0, upper, -lower) * sine)
+    return (columns[0] if len(columns) == 1 else np.stack(columns, axis=1)), phases
 
 
 def summary(linkage: Linkage, trajectory: Trajectory) -> str:
@@ -52,11 +58,14 @@ def summary(linkage: Linkage, trajectory: Trajectory) -> str:
     steps = f"{len(t.angles) - 1} {driver.kind} steps over " + (
         f"{deg[-1] - deg[0]:.0f}°" if driver.slide is None else
         f"its stroke s ∈ [{t.angles.min():.4g}, {t.angles.max():.4g}] ({deg[-1] - deg[0]:.0f}° of phase)")
+    if len(linkage.drivers) > 1:
+        steps = (f"{len(t.angles) - 1} steps of {len(linkage.drivers)} drivers over {deg[-1] - deg[0]:.0f}° "
+                 f"of phase")
     lines = [
         f"{linkage.name}: {steps}, {len(linkage.bodies)} bodies, {len(linkage.joints)} joints, "
         f"{linkage.constraint_rows} constraint rows",
-        f"  driver: {driver.body} ({driver.kind}), rate {driver.rate:g} rad/s: a cycle takes "
-        f"{2 * np.pi / abs(driver.rate):.4g} s",
+        "  " + "; ".join(f"driver: {d.body} ({d.kind}), rate {d.rate:g} rad/s" for d in linkage.drivers)
+        + f": a cycle takes {2 * np.pi / abs(driver.rate):.4g} s",
         f"  mobility: Grübler–Kutzbach {linkage.mobility()}; constraint Jacobian rank {t.rank} for "
         f"{t.unknowns} unknowns and {linkage.constraint_rows} rows at the initial configuration",
         f"  Newton iterations per step: mean {t.iterations.mean():.2f}, max {t.iterations.max()} "

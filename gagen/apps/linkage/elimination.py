@@ -1,7 +1,7 @@
 """The Newton step's linear solve J ΔB = −F, flattened for a linkage's structure [LINK 3.3].
 
 A revolute joint's two rows have ∂/∂(translation) = w·I for each of its bodies (w the points' weight,
-1 for unit motors): with a spanning tree of revolute joints grown from the ground and the driven body,
+1 for unit motors): with a spanning tree of revolute joints grown from the ground and the driven bodies,
 each moving body's translation step is an affine function of the bodies' turn steps, one 2 × 2 block
 per tree joint (exact, its pivot w² never small). The rows left over (the loop closures, the slots)
 then give a dense system in the n turn steps alone: n × n instead of 3n × 3n, the classical reduction
@@ -31,7 +31,7 @@ def revolute_tree(linkage: Linkage) -> dict[str, tuple[int, str]] | None:
     for joint in linkage.active_joints:
         rows[joint] = row
         row += joint.rows
-    placed, tree = {GROUND, linkage.crank}, {}
+    placed, tree = {GROUND, *linkage.driven}, {}
     grown = True
     while grown:
         grown = False
@@ -113,7 +113,7 @@ def structured_solve(linkage: Linkage, F: ca.SX, J: ca.SX) -> ca.SX | None:
 
 def _tree_order(tree: dict[str, tuple[int, str]], linkage: Linkage) -> list[tuple[str, tuple[int, str]]]:
     """The tree's bodies, each after the body it hangs on."""
-    placed = {GROUND, linkage.crank}
+    placed = {GROUND, *linkage.driven}
     order: list[tuple[str, tuple[int, str]]] = []
     while len(order) < len(tree):
         for body, (row, parent) in tree.items():

@@ -56,6 +56,19 @@ def point_labels(linkage: Linkage) -> tuple[str, ...]:
                  for c in "xy")
 
 
+def driver_labels(linkage: Linkage) -> tuple[str, ...]:
+    """The drivers' values of a mechanism of mobility k > 1 (the kernels' input ``drivers``)."""
+    return tuple(f"{d.body}_{d.input}" for d in linkage.drivers)
+
+
+def driver_input(linkage: Linkage) -> tuple[str, Any]:
+    """The kernels' driver input: ``theta`` or ``s`` (a scalar) for one driver; ``drivers`` (k scalars,
+    ``driver_labels``) for k."""
+    if len(linkage.drivers) == 1:
+        return linkage.driver.input, "scalar"
+    return "drivers", scalars(len(linkage.drivers), driver_labels(linkage))
+
+
 def _motors(ga: Any, linkage: Linkage, R: Any) -> dict[str, Any]:
     return {body: ga.make(dict(zip(MOTOR, R[4 * i:4 * i + 4], strict=True)))
             for i, body in enumerate(linkage.unknown)}
@@ -75,10 +88,10 @@ def _near(linkage: Linkage, rng: np.random.Generator) -> list[np.ndarray]:
         c, s = np.cos(a / 2), np.sin(a / 2)
         # T(t) R(a): (1 − ½ t∧e∞)(c − s e12) on 1, e12, e1∞, e2∞
         motors += [c, -s, -0.5 * (t[0] * c - t[1] * s), -0.5 * (t[1] * c + t[0] * s)]
-    if linkage.driver.slide is None:
-        return [np.array(motors), np.array([rng.uniform(-np.pi, np.pi)])]
     size = float(np.ptp(initial_points(linkage)))
-    return [np.array(motors), np.array([rng.uniform(-0.1, 0.1) * size])]
+    values = [rng.uniform(-np.pi, np.pi) if driver.slide is None else rng.uniform(-0.1, 0.1) * size
+              for driver in linkage.drivers]
+    return [np.array(motors), np.array(values)]
 
 
 def initial_labels(linkage: Linkage) -> tuple[str, ...]:
@@ -119,7 +132,8 @@ def linkage_kernels(linkage: Linkage, parametric: bool = False) -> list[KernelFu
     compiled module solves many mechanisms of different dimensions, batched."""
     n, m = len(linkage.unknown), linkage.constraint_rows
     R = scalars(4 * n, motor_labels(linkage))
-    inputs: dict[str, Any] = {"R": R, linkage.driver.input: "scalar"}
+    driver_name, driver_type = driver_input(linkage)
+    inputs: dict[str, Any] = {"R": R, driver_name: driver_type}
     if parametric:
         inputs["X0"] = scalars(2 * (len(linkage.ground) + sum(map(len, linkage.bodies.values()))),
                                initial_labels(linkage))
@@ -162,7 +176,8 @@ def linkage_kernels(linkage: Linkage, parametric: bool = False) -> list[KernelFu
     def newton_values(R: Any, theta: Any, X0: Any, ga: Any) -> dict[str, Any]:
         # the reference, on the interpreter: the same step with numpy's least squares
         extra = [np.array(X0, dtype=float)] if parametric else []
-        F, J = constraint.reference(np.array(R, dtype=float), np.array([theta], dtype=float), *extra)
+        values = np.array(theta, dtype=float).reshape(-1)  # [θ], or the k drivers' values
+        F, J = constraint.reference(np.array(R, dtype=float), values, *extra)
         assert F is not None and J is not None  # (None only for a Jacobian left to AD: these are outputs)
         step = -np.linalg.lstsq(J, F.reshape(-1), rcond=None)[0]
         (R_next,) = retraction.reference(np.array(R, dtype=float), step)
@@ -188,8 +203,10 @@ def linkage_kernels(linkage: Linkage, parametric: bool = False) -> list[KernelFu
     if m == 3 * n:
         kernels.append(KernelFunction(
             with_points(newton_values), algebra="cga2d", name="newton_step",
-            doc=f"{linkage.name}: one Newton step at the driver's {linkage.driver.input}, and max |F| before "
-                f"it",
+            doc=f"{linkage.name}: one Newton step at the driver's {driver_name}, and max |F| before it"
+            if len(linkage.drivers) == 1 else
+            f"{linkage.name}: one Newton step at the {len(linkage.drivers)} drivers' values, and max |F| "
+            f"before it",
             inputs=inputs, outputs={"R_next": R, "residual": "scalar"}, sample=sample, rule=newton_rule))
     return kernels
 
@@ -204,6 +221,8 @@ def linkage_source(spec: str | Path) -> ModuleSource:
     meta = {**source.meta, "app": "linkage", "bodies": linkage.unknown, "crank": linkage.crank}
     if linkage.driver.slide is not None:
         meta["driver"] = "slider"
+    if len(linkage.drivers) > 1:
+        meta["drivers"] = [f"{d.body} ({d.kind})" for d in linkage.drivers]
     title = (f"kernels of {linkage.name}, a planar linkage ({len(linkage.bodies)} moving links, "
              f"{len(linkage.joints)} joints)")
     return dataclasses.replace(source, title=title, meta=meta)

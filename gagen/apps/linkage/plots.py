@@ -41,7 +41,7 @@ def _figure(size: tuple[float, float]) -> Any:  # matplotlib's Figure (imported 
 def body_colours(linkage: Linkage) -> dict[str, str]:
     """The crank green, the other bodies from a palette without green or blue."""
     others = iter(BODY_COLOURS * (1 + len(linkage.bodies) // len(BODY_COLOURS)))
-    return {body: CRANK if body == linkage.crank else next(others) for body in linkage.bodies}
+    return {body: CRANK if body in linkage.driven else next(others) for body in linkage.bodies}
 
 
 def outline(linkage: Linkage, body: str) -> list[str]:
@@ -79,18 +79,25 @@ def rigid_motion(initial: np.ndarray, current: np.ndarray) -> tuple[np.ndarray, 
 
 
 def _driver_scale(linkage: Linkage) -> float:
-    """The crank's radius, or a slider's stroke length: the size of the input motion."""
-    if linkage.pivot is None:
-        lower, upper = linkage.stroke()
-        return upper - lower
-    pivot = np.array(linkage.ground[linkage.pivot])
-    return max(max(float(np.hypot(*(np.array(p) - pivot))) for p in linkage.bodies[linkage.crank].values()),
-               1e-9)
+    """The crank's radius, or a slider's stroke length: the size of the input motion (the largest of
+    k drivers')."""
+    scales = [1e-9]
+    for driver in linkage.drivers:
+        if driver.pivot is None:
+            lower, upper = linkage.stroke(driver)
+            scales.append(upper - lower)
+            continue
+        pivot = np.array(linkage.ground[driver.pivot])
+        scales += [float(np.hypot(*(np.array(p) - pivot))) for p in linkage.bodies[driver.body].values()]
+    return max(scales)
 
 
-def _short(linkage: Linkage, value: float) -> str:
-    """The driver's value for a label: the crank angle in degrees, or the slider's s."""
-    return f"{np.degrees(value):.0f}°" if linkage.pivot is not None else f"s={round(value, 4) + 0.0:g}"
+def _short(linkage: Linkage, value: float | np.ndarray) -> str:
+    """The driver's value for a label: the crank angle in degrees, or the slider's s (k drivers: each,
+    joined by /)."""
+    values = np.atleast_1d(np.asarray(value, dtype=float)).reshape(-1)
+    return "/".join(f"{np.degrees(v):.0f}°" if d.pivot is not None else f"s={round(float(v), 4) + 0.0:g}"
+                    for d, v in zip(linkage.drivers, values, strict=False))
 
 
 def slot_segments(linkage: Linkage, row: np.ndarray) -> list[tuple[str, np.ndarray]]:
@@ -173,7 +180,7 @@ class _Mechanism:
                                 edgecolor="none", zorder=zorder)
                 ax.add_patch(patch)
                 self.patches[body] = patch
-            width = 3 if body == linkage.crank else 2
+            width = 3 if body in linkage.driven else 2
             self.lines[body] = ax.plot([], [], "-o", color=colours[body], lw=width, ms=4, mfc="white",
                                        alpha=alpha, zorder=zorder + 1)[0]
 

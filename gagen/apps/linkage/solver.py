@@ -86,11 +86,19 @@ def kernels(linkage: Linkage, module: Any | None = None) -> Kernels:
     return Kernels(module.constraints, module.retract, module.positions, getattr(module, "newton_step", None))
 
 
-def newton(k: Kernels, motors: np.ndarray, angle: float, *, tolerance: float = TOLERANCE,
+Value = float | np.ndarray  # a driver's value, or k drivers' values
+
+
+def driver_values(value: Value) -> np.ndarray:
+    """The kernels' driver input: [θ] for one driver, the k values for k."""
+    return np.atleast_1d(np.asarray(value, dtype=float)).reshape(-1)
+
+
+def newton(k: Kernels, motors: np.ndarray, angle: Value, *, tolerance: float = TOLERANCE,
            max_iterations: int = MAX_ITERATIONS) -> Solve:
-    """Newton on se(2) from ``motors`` at the driver's value ``angle``."""
+    """Newton on se(2) from ``motors`` at the driver's value ``angle`` (k drivers: a vector of k)."""
     R = np.array(motors, dtype=float)
-    theta = np.array([angle])
+    theta = driver_values(angle)
     residuals = []
     if k.newton_step is not None:  # one kernel call per iteration; J only for the conditioning
         for iteration in range(max_iterations + 1):
@@ -121,40 +129,46 @@ def _conditioned(k: Kernels, R: np.ndarray, theta: np.ndarray, iterations: int,
     return Solve(R, iterations, residuals, sigma_min, float(s[0] / sigma_min) if sigma_min > 0 else np.inf)
 
 
-def _driver_motion(linkage: Linkage, a: float, b: float) -> float:
-    """How far the driven body's farthest point moves when the driver goes from a to b (the input
-    motion): the crank's radius times the turn, or the slider's displacement."""
-    if linkage.pivot is None:
-        return abs(b - a)
-    pivot = np.array(linkage.ground[linkage.pivot])
-    radius = max(np.hypot(*(np.array(p) - pivot)) for p in linkage.bodies[linkage.crank].values())
-    return float(radius * abs(b - a))
+def _driver_motion(linkage: Linkage, a: Value, b: Value) -> float:
+    """How far a driven body's farthest point moves when the driver(s) go from a to b (the input
+    motion): the crank's radius times the turn, or the slider's displacement; the most of k drivers."""
+    out = 0.0
+    for driver, x, y in zip(linkage.drivers, driver_values(a), driver_values(b), strict=True):
+        if driver.pivot is None:
+            out = max(out, abs(y - x))
+            continue
+        pivot = np.array(linkage.ground[driver.pivot])
+        radius = max(np.hypot(*(np.array(p) - pivot)) for p in linkage.bodies[driver.body].values())
+        out = max(out, float(radius * abs(y - x)))
+    return out
 
 
-def driven_pose(linkage: Linkage, value: float) -> tuple[np.ndarray, np.ndarray]:
-    """(rotation matrix, translation) of the driven body at the driver's value."""
-    slide = linkage.driver.slide
+def driven_pose(linkage: Linkage, value: Value, index: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """(rotation matrix, translation) of a driven body (the ``index``-th driver's) at the drivers'
+    value(s)."""
+    driver, value = linkage.drivers[index], float(driver_values(value)[index])
+    slide = driver.slide
     if slide is not None:
         sign = 1.0 if slide.on == GROUND else -1.0
         return np.eye(2), sign * value * np.array(slide.direction)
-    assert linkage.pivot is not None  # a driver without a slide is a crank, turning about its pivot
-    pivot = np.array(linkage.ground[linkage.pivot])
+    assert driver.pivot is not None  # a driver without a slide is a crank, turning about its pivot
+    pivot = np.array(linkage.ground[driver.pivot])
     c, s = np.cos(value), np.sin(value)
     rotation = np.array([[c, -s], [s, c]])
     return rotation, pivot - rotation @ pivot
 
 
-def _advance(k: Kernels, linkage: Linkage, R: np.ndarray, points: np.ndarray, start: float, target: float,
-             halvings: int) -> tuple[Solve, float]:
+def _advance(k: Kernels, linkage: Linkage, R: np.ndarray, points: np.ndarray, start: Value, target: Value,
+             halvings: int, tolerance: float = TOLERANCE) -> tuple[Solve, float]:
     """Solve at ``target`` from ``start`` in 2^halvings equal crank steps; the last solve and the
     largest point displacement of a sub-step over the crank's own motion in it."""
     parts, ratio = 2 ** halvings, 0.0
     for part in range(1, parts + 1):
         a, b = start + (target - start) * (part - 1) / parts, start + (target - start) * part / parts
-        solve = newton(k, R, b)
-        if not solve.converged:
+        solve = newton(k, R, b, tolerance=tolerance)
+        if solve.residual >= tolerance:
             return solve, np.inf
-        moved = np.asarray(k.positions(solve.motors, np.array([b]))).reshape(-1)
+        moved = np.asarray(k.positions(solve.motors, driver_values(b))).reshape(-1)
         ratio = max(ratio, float(np.max(np.abs(moved - points))) / max(_driver_motion(linkage, a, b), 1e-300))
         R, points = solve.motors, moved
     return solve, ratio
@@ -162,46 +176,52 @@ def _advance(k: Kernels, linkage: Linkage, R: np.ndarray, points: np.ndarray, st
 
 def simulate(k: Kernels, linkage: Linkage, angles: ArrayLike, *, max_halvings: int = 8,
              jump: float = 20.0, progress: Callable[[str], None] = lambda _: None,
-             phases: ArrayLike | None = None) -> Trajectory:
+             phases: ArrayLike | None = None, tolerance: float = TOLERANCE) -> Trajectory:
     """Follow the driver through ``angles`` (crank angles in rad, or slider displacements, from the
-    initial configuration; ``phases`` their cycle phase, for the plots), continuing each solve from
+    initial configuration; k drivers: steps × k values; ``phases`` their cycle phase, for the plots),
+    continuing each solve from
     the previous one; the first solve assembles the initial guess (identity motors).
 
     A step is cut into 2, 4, … equal parts (at most 2^max_halvings) while Newton fails or some body
     point moves more than ``jump`` times as far as the crank's farthest point in a part: near a
     singular configuration the output races ahead of the input, and a large step there could land
     on the other assembly branch. A step that still fails is reported in ``failures``, and the
-    configuration stays at the last solved one."""
+    configuration stays at the last solved one. ``tolerance``: max |F| at convergence (the default
+    1e-12 leaves points within about 1e-12 / σ_min(J) of the exact ones)."""
     values = np.asarray(angles, dtype=float)
-    first = newton(k, identity_motors(linkage), float(values[0]))
-    R, previous = first.motors, float(values[0])
-    points = np.asarray(k.positions(R, np.array([previous]))).reshape(-1)
+    if values.ndim != (1 if len(linkage.drivers) == 1 else 2) or (values.ndim == 2 and
+                                                                    values.shape[1] != len(linkage.drivers)):
+        raise ValueError(f"{linkage.name}: driver values of shape {values.shape}; expected (steps,) for one "
+                         f"driver, (steps, k) for k drivers (k = {len(linkage.drivers)})")
+    first = newton(k, identity_motors(linkage), values[0], tolerance=tolerance)
+    R, previous = first.motors, values[0]
+    points = np.asarray(k.positions(R, driver_values(previous))).reshape(-1)
     rows: dict[str, list[Any]] = {key: [] for key in ("motors", "points", "iterations", "residuals",
                                                       "sigma_min", "condition", "halvings")}
-    failures: list[str] = [] if first.converged else [
+    failures: list[str] = [] if first.residual < tolerance else [
         f"assembly at {linkage.at(previous)}: max |F| = {first.residual:.2e}; the initial "
         f"points do not close the loop"]
     rank, unknowns = initial_rank(k, R, previous)
     if rank < unknowns:
         failures.append(f"the constraint Jacobian has rank {rank} for {unknowns} unknowns at the initial "
                         f"configuration: the mechanism is under-constrained there (or at a singular pose), "
-                        f"though Grübler–Kutzbach counts 1 degree of freedom")
+                        f"though Grübler–Kutzbach counts {linkage.mobility()} degree(s) of freedom")
     elif rank < linkage.constraint_rows:
         failures.append(f"the constraint Jacobian has rank {rank} for {linkage.constraint_rows} constraint "
                         f"rows: {linkage.constraint_rows - rank} redundant (over-constrained) at the initial "
                         f"configuration")
     for index, target in enumerate(values):
         for halvings in range(max_halvings + 1):
-            solve, ratio = _advance(k, linkage, R, points, previous, float(target), halvings)
-            if solve.converged and ratio <= jump:
+            solve, ratio = _advance(k, linkage, R, points, previous, target, halvings, tolerance)
+            if solve.residual < tolerance and ratio <= jump:
                 break
-        if not solve.converged:
+        if solve.residual >= tolerance:
             failures.append(f"step {index} ({linkage.at(target)}): Newton stopped at max |F| = "
                             f"{solve.residual:.2e} after {solve.iterations} iterations, {halvings} halvings "
                             f"(σ_min of J {solve.sigma_min:.2e}): a singular or unreachable configuration")
         else:
-            R, previous = solve.motors, float(target)
-            points = np.asarray(k.positions(R, np.array([previous]))).reshape(-1)
+            R, previous = solve.motors, target
+            points = np.asarray(k.positions(R, driver_values(previous))).reshape(-1)
         rows["motors"].append(R.copy())
         rows["points"].append(points)
         rows["iterations"].append(solve.iterations)
@@ -247,8 +267,8 @@ def travel_limits(linkage: Linkage, trajectory: Trajectory) -> list[str]:
         for angle, motors, points in frames:
             x = np.array(linkage.point(joint.point)) if fixed else points[column:column + 2]
             if joint.on != GROUND:
-                if joint.on == linkage.crank:
-                    rotation, shift = driven_pose(linkage, angle)
+                if joint.on in linkage.driven:
+                    rotation, shift = driven_pose(linkage, angle, linkage.driven.index(joint.on))
                 else:
                     i = linkage.unknown.index(joint.on)
                     rotation, shift = _pose(motors[4 * i:4 * i + 4])
@@ -266,10 +286,10 @@ def travel_limits(linkage: Linkage, trajectory: Trajectory) -> list[str]:
     return out
 
 
-def initial_rank(k: Kernels, motors: np.ndarray, angle: float, relative: float = 1e-9) -> tuple[int, int]:
+def initial_rank(k: Kernels, motors: np.ndarray, angle: Value, relative: float = 1e-9) -> tuple[int, int]:
     """The numerical rank of J (singular values above ``relative`` × the largest) and the number of
     unknowns, at a configuration: the mobility as the constraints see it, beside Grübler–Kutzbach's count."""
-    J = np.asarray(k.constraints(np.asarray(motors, dtype=float), np.array([angle]))[1])
+    J = np.asarray(k.constraints(np.asarray(motors, dtype=float), driver_values(angle))[1])
     s = np.linalg.svd(J, compute_uv=False)
     return int(np.count_nonzero(s > relative * s[0])) if s.size else 0, J.shape[1]
 

@@ -40,8 +40,10 @@ as numbers or booleans: ``1:``, ``on:``), more bodies or joints than the limits 
 itself, a body no joint reaches from the ground (dangling), a driver that is neither a crank nor a
 slider (or whose pivot is not the crank's ground pivot), bad numbers. Mobility is counted by
 Grübler–Kutzbach, 3 (n − 1) − 2 j_R − 2 j_S − j_P with the ground among the n links, a slider (a block
-on a line) taking two freedoms and a prismatic joint (a pin in a slot) one; a count other than 1 is
-reported by name (over- or under-constrained). The rank of the constraint Jacobian at the initial
+on a line) taking two freedoms and a prismatic joint (a pin in a slot) one; a mechanism of mobility k
+takes k drivers (``driver:`` a list, each on its own body: two cranks, a crank and a slider; the
+solver's and the kernels' driver value is then a vector of k), and a count that does not match the
+drivers is reported by name (over- or under-constrained). The rank of the constraint Jacobian at the initial
 configuration is checked by the solver (``gagen.apps.linkage.solver``).
 """
 
@@ -130,13 +132,24 @@ class Linkage:
     ground: dict[str, Point]
     bodies: dict[str, dict[str, Point]]
     joints: tuple[Joint, ...]
-    driver: Driver
+    driver: Driver  # the first driver
     trace: tuple[str, str] | None = None
+    more_drivers: tuple[Driver, ...] = ()  # the others, for a mechanism of mobility k > 1
+
+    @property
+    def drivers(self) -> tuple[Driver, ...]:
+        """Every driver, one per degree of freedom, in spec order."""
+        return (self.driver, *self.more_drivers)
 
     @property
     def crank(self) -> str:
-        """The driven body (a crank, or a slider block)."""
+        """The (first) driven body (a crank, or a slider block)."""
         return self.driver.body
+
+    @property
+    def driven(self) -> tuple[str, ...]:
+        """Every driven body, in the drivers' order."""
+        return tuple(d.body for d in self.drivers)
 
     @property
     def pivot(self) -> str | None:
@@ -144,15 +157,14 @@ class Linkage:
 
     @property
     def unknown(self) -> list[str]:
-        """The bodies the solver moves: all but the driven one, in spec order."""
-        return [b for b in self.bodies if b != self.crank]
+        """The bodies the solver moves: all but the driven ones, in spec order."""
+        return [b for b in self.bodies if b not in self.driven]
 
     @property
     def active_joints(self) -> tuple[Joint, ...]:
-        """The joints the solver enforces: all but those between the driven body and the ground (the
+        """The joints the solver enforces: all but those between a driven body and the ground (the
         crank's pivot or the slider's slot, which the driver's motion keeps by construction)."""
-        fixed = {GROUND, self.crank}
-        return tuple(j for j in self.joints if not {*_bodies(j)} <= fixed)
+        return tuple(j for j in self.joints if not any({*_bodies(j)} <= {GROUND, d} for d in self.driven))
 
     @property
     def constraint_rows(self) -> int:
@@ -168,20 +180,30 @@ class Linkage:
         body, name = ref
         return self.ground[name] if body == GROUND else self.bodies[body][name]
 
-    def at(self, value: float) -> str:
-        """The driver at a value, for messages: "crank 12.0°" or "slider s = 0.25"."""
-        return f"crank {math.degrees(value):.3f}°" if self.driver.slide is None else f"slider s = {value:.4g}"
+    def at(self, value: Any) -> str:
+        """The driver(s) at a value, for messages: "crank 12.0°" or "slider s = 0.25" (k drivers: a
+        vector of k values, "crank1 12.0°, crank2 −3.000°")."""
+        values = [float(v) for v in value.reshape(-1)] if hasattr(value, "reshape") else (
+            [float(v) for v in value] if isinstance(value, list | tuple) else [float(value)])
+        if len(self.drivers) == 1:
+            return _at(self.driver, values[0])
+        return ", ".join(f"{d.body} {_at(d, v).split(' ', 1)[1]}" for d, v in zip(self.drivers, values,
+                                                                                     strict=False))
 
-    def stroke(self) -> tuple[float, float]:
+    def stroke(self, driver: Driver | None = None) -> tuple[float, float]:
         """A slider driver's range of s (lower < 0 < upper): its travel, as a displacement from the
-        initial configuration."""
-        slide = self.driver.slide
+        initial configuration (the first driver's, or ``driver``'s)."""
+        slide = (driver or self.driver).slide
         if slide is None or slide.travel is None:
             raise ValueError(f"{self.name}: the driver is not a slider with a travel")
         start = slot_coordinate(slide, self.point(slide.point))
         lo, hi = slide.travel
         # the ground carries the slot: the point's coordinate is start + s; the block carries it: start − s
         return (lo - start, hi - start) if slide.on == GROUND else (start - hi, start - lo)
+
+
+def _at(driver: Driver, value: float) -> str:
+    return f"crank {math.degrees(value):.3f}°" if driver.slide is None else f"slider s = {value:.4g}"
 
 
 def slot_coordinate(joint: Prismatic, x: Point | np.ndarray) -> float:
@@ -336,28 +358,51 @@ def _joint(spec: Document, value: Any, field: str, ground: dict[str, Point],
     return kind_of(point, on, through, (dx / norm, dy / norm), travel)
 
 
+def _drivers(spec: Document, listed: Any, ground: dict[str, Point], bodies: dict[str, dict[str, Point]],
+             joints: tuple[Joint, ...]) -> tuple[Driver, ...]:
+    """One driver (a mapping) or k drivers (a list of mappings, a mechanism of mobility k), each on a
+    different body."""
+    expected = ("{body: crank, pivot: ground.point}, {body: slider}, or a list of them (one per degree of "
+                "freedom)")
+    if isinstance(listed, dict):
+        return (_driver(spec, listed, ground, bodies, joints, "driver"),)
+    if not isinstance(listed, list) or not listed:
+        raise spec.error("driver", f"got {show(listed)}; expected {expected}")
+    out: list[Driver] = []
+    for i, item in enumerate(listed):
+        if not isinstance(item, dict):
+            raise spec.error(f"driver[{i}]", f"got {show(item)}; expected {{body: crank, pivot: "
+                                             f"ground.point}} or {{body: slider}}")
+        driver = _driver(spec, item, ground, bodies, joints, f"driver[{i}]")
+        if driver.body in (d.body for d in out):
+            raise spec.error(f"driver[{i}].body", f"{driver.body} is driven twice; each driver moves its own "
+                                                  f"body")
+        out.append(driver)
+    return tuple(out)
+
+
 def _driver(spec: Document, driver: dict[str, Any], ground: dict[str, Point],
-            bodies: dict[str, dict[str, Point]], joints: tuple[Joint, ...]) -> Driver:
+            bodies: dict[str, dict[str, Point]], joints: tuple[Joint, ...], field: str) -> Driver:
     """A crank (pinned to a ground point by a revolute joint) or a slider (on a ground slider joint)."""
-    _known_keys(spec, driver, "driver", DRIVER_KEYS)
-    body = require(spec, driver, "body", "driver.body", str, "the crank or slider body")
+    _known_keys(spec, driver, field, DRIVER_KEYS)
+    body = require(spec, driver, "body", f"{field}.body", str, "the crank or slider body")
     if body not in bodies:
-        raise spec.error("driver.body", f"unknown body {body!r}; the bodies: {', '.join(bodies)}")
+        raise spec.error(f"{field}.body", f"unknown body {body!r}; the bodies: {', '.join(bodies)}")
     rate = driver.get("rate", 1.0)
     if not number(rate, MAX_RATE) or rate == 0:
-        raise spec.error("driver.rate", f"got {show(rate)}; expected a non-zero rate in rad/s within "
-                                        f"±{MAX_RATE:g}")
+        raise spec.error(f"{field}.rate", f"got {show(rate)}; expected a non-zero rate in rad/s within "
+                                          f"±{MAX_RATE:g}")
     pivots = [j.b[1] for j in joints if isinstance(j, Revolute) and j.a[0] == body and j.b[0] == GROUND]
     slides = [j for j in joints if isinstance(j, Slider) and {j.point[0], j.on} == {body, GROUND}]
     if "pivot" in driver:
-        pivot = _ref(spec, require(spec, driver, "pivot", "driver.pivot", str, "ground.point"),
-                     "driver.pivot", ground, bodies)
+        pivot = _ref(spec, require(spec, driver, "pivot", f"{field}.pivot", str, "ground.point"),
+                     f"{field}.pivot", ground, bodies)
         if pivot[0] != GROUND:
-            raise spec.error("driver.pivot", f"got {pivot[0]}.{pivot[1]}; the crank turns about a ground "
-                                             f"point")
+            raise spec.error(f"{field}.pivot", f"got {pivot[0]}.{pivot[1]}; the crank turns about a ground "
+                                               f"point")
         if pivot[1] not in pivots:
-            raise spec.error("driver.pivot", f"no revolute joint pins {body} to ground.{pivot[1]}; the crank "
-                                             f"turns about its ground pivot")
+            raise spec.error(f"{field}.pivot", f"no revolute joint pins {body} to ground.{pivot[1]}; the "
+                                               f"crank turns about its ground pivot")
         return Driver(body, pivot[1], None, float(rate))
     if len(pivots) == 1 and not slides:
         return Driver(body, pivots[0], None, float(rate))
@@ -366,11 +411,11 @@ def _driver(spec: Document, driver: dict[str, Any], ground: dict[str, Point],
         along = slot_coordinate(slide, ground[slide.point[1]] if slide.point[0] == GROUND
                                 else bodies[body][slide.point[1]])
         if slide.travel is None or not slide.travel[0] < along < slide.travel[1]:
-            raise spec.error("driver", f"the slider {body} runs its stroke over its joint's travel: give the "
+            raise spec.error(field, f"the slider {body} runs its stroke over its joint's travel: give the "
                                        f"slider joint a travel [lower, upper] with the initial position "
                                        f"{along:g} strictly inside (got {show(slide.travel)})")
         return Driver(body, None, slide, float(rate))
-    raise spec.error("driver", f"{body} is pinned to the ground by {len(pivots)} revolute and {len(slides)} "
+    raise spec.error(field, f"{body} is pinned to the ground by {len(pivots)} revolute and {len(slides)} "
                                f"slider joint(s); a driver is a crank (one revolute joint to a ground point, "
                                f"or name it with pivot: ground.<point>) or a slider (one slider joint to "
                                f"the ground)")
@@ -414,20 +459,26 @@ def load_linkage(path: str | Path) -> Linkage:
     joints_data = require(spec, data, "joints", "joints", list, "a list of joints")
     _check_count(spec, "linkage_joints", len(joints_data), "joints")
     joints = tuple(_joint(spec, j, f"joints[{i}]", ground, bodies) for i, j in enumerate(joints_data))
-    listed_driver = require(spec, data, "driver", "driver", dict,
-                            "{body: crank, pivot: ground.point} or {body: slider}")
-    driver = _driver(spec, listed_driver, ground, bodies, joints)
+    if "driver" not in data:
+        require(spec, data, "driver", "driver", dict, "{body: crank, pivot: ground.point} or {body: slider}")
+    drivers = _drivers(spec, data["driver"], ground, bodies, joints)
     trace = _ref(spec, data["trace"], "trace", ground, bodies) if "trace" in data else None
-    linkage = Linkage(name, ground, bodies, joints, driver, trace)
+    linkage = Linkage(name, ground, bodies, joints, drivers[0], trace, drivers[1:])
     dangling = _connected(linkage)
     if dangling:
         raise spec.error("joints", f"no joint connects {', '.join(dangling)} to the ground (directly or "
                                    f"through other bodies): dangling bodies")
-    mobility = linkage.mobility()
-    if mobility != 1:
-        kind = "over-constrained" if mobility < 1 else "under-constrained"
-        raise spec.error("joints", f"the mechanism is {kind}: Grübler–Kutzbach counts {mobility} "
-                                   f"degrees of freedom (3 × {len(bodies)} moving links − 2 per revolute or "
-                                   f"slider − 1 per prismatic joint); one driver moves a mechanism of "
-                                   f"exactly 1")
+    mobility, count = linkage.mobility(), len(drivers)
+    if mobility != count:
+        kind = "over-constrained" if mobility < count else "under-constrained"
+        counted = (f"Grübler–Kutzbach counts {mobility} degrees of freedom (3 × {len(bodies)} moving links "
+                   f"− 2 per revolute or slider − 1 per prismatic joint)")
+        if mobility < 1:
+            raise spec.error("joints", f"the mechanism is {kind}: {counted}; one driver moves a mechanism of "
+                                       f"exactly 1")
+        drivers_ = f"{count} driver" + ("s" if count > 1 else "")
+        raise spec.error("driver", f"the mechanism is {kind}: {counted} and {drivers_} move it; give one "
+                                   f"driver per degree of freedom (driver: a list of {mobility} drivers)"
+                                   if mobility > 1 else
+                                   f"the mechanism is {kind}: {counted} and {drivers_} move it; give one")
     return linkage
