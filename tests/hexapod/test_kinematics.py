@@ -97,9 +97,76 @@ def test_urdf_carries_the_spec_numbers_exactly():
             limit = joint.find("limit")
             assert (float(limit.get("lower")), float(limit.get("upper"))) == leg.limits[j]
             assert float(limit.get("effort")) > 0 and float(limit.get("velocity")) > 0
-    for link in root.iter("link"):  # loadable by dynamics tools and viewers
-        assert float(link.find("inertial/mass").get("value")) > 0
+    for link in root.iter("link"):  # loadable by dynamics tools and viewers; the toe frames massless
+        foot = link.get("name").endswith("_foot")
+        assert (link.find("inertial") is None) if foot else float(link.find("inertial/mass").get("value")) > 0
         assert link.find("visual/geometry") is not None
+
+
+def test_urdf_inertials_are_the_mass_models_in_pinocchio():
+    """Pinocchio's total mass, centre of mass and composite inertia of the URDF at random joint angles
+    against the mass model (gagen.apps.hexapod.mass: its own matrix chain; the inertia from its box and
+    rod formulas summed here with the parallel-axis theorem)."""
+    pin = pytest.importorskip("pinocchio")
+    from gagen.apps.hexapod.mass import (
+        box_inertia,
+        centre_of_mass,
+        default_mass_model,
+        link_centres,
+        rod_inertia,
+        total_mass,
+    )
+
+    mass = default_mass_model(HEXAPOD)
+    # a free-flyer root, so the body is a body of the model (a fixed base's goes to the universe)
+    model = pin.buildModelFromXML(write_urdf(HEXAPOD, mass), pin.JointModelFreeFlyer())
+    data = model.createData()
+    order = [model.joints[model.getJointId(name)].idx_q for name in HEXAPOD.joint_names]
+    assert pin.computeTotalMass(model) == pytest.approx(total_mass(mass), abs=1e-14)
+    rng = np.random.default_rng(11)
+    for _ in range(10):
+        q = rng.uniform(-1.0, 1.0, HEXAPOD.dof)
+        q_pin = pin.neutral(model)  # the body at the origin
+        q_pin[order] = q
+        com = pin.centerOfMass(model, data, q_pin)
+        np.testing.assert_allclose(com, centre_of_mass(HEXAPOD, mass, np.eye(4), q), rtol=0, atol=1e-15)
+        # the whole robot's rotational inertia about its CoM: CRBA's composite inertia of the subtree of
+        # the free flyer (the body at the origin: its frame is the world's)
+        pin.crba(model, data, q_pin)
+        np.testing.assert_allclose(data.Ycrb[1].lever, com, rtol=0, atol=1e-15)
+        inertia = data.Ycrb[1].inertia
+        expected = np.diag(box_inertia(mass.body_mass, mass.body_size)).astype(float)
+        expected -= mass.body_mass * _skew2(np.array(mass.body_centre) - com)
+        centres = link_centres(HEXAPOD, q)
+        frames = _link_frames(q)
+        for leg, (leg_masses, leg_centres) in enumerate(zip(mass.link_masses, centres, strict=True)):
+            for j, (m, c) in enumerate(zip(leg_masses, leg_centres, strict=True)):
+                rotation = frames[leg][j]
+                local = np.diag(rod_inertia(m, HEXAPOD.legs[leg].lengths[j], mass.link_radius))
+                expected += rotation @ local @ rotation.T - m * _skew2(c - com)
+        np.testing.assert_allclose(inertia, expected, rtol=0, atol=1e-14)
+
+
+def _skew2(v):
+    """[v]×² (so −m [r]×² is a point mass's inertia about the origin)."""
+    x, y, z = v
+    k = np.array([[0, -z, y], [z, 0, -x], [-y, x, 0]])
+    return k @ k
+
+
+def _link_frames(q):
+    """Each leg's coxa, femur and tibia rotations (body frame): the mount's rpy, then the joint turns."""
+    from scipy.spatial.transform import Rotation
+
+    frames = []
+    for leg, angles in zip(HEXAPOD.legs, np.reshape(q, (-1, 3)), strict=True):
+        rotation = Rotation.from_euler("xyz", leg.rpy).as_matrix()
+        links = []
+        for axis, angle in zip(leg.axes, angles, strict=True):
+            rotation = rotation @ Rotation.from_rotvec(angle * np.asarray(axis, float)).as_matrix()
+            links.append(rotation)
+        frames.append(links)
+    return frames
 
 
 def test_urdf_escapes_names():

@@ -10,9 +10,11 @@ The tree: ``base_link``, and per leg ``<leg>``
 
 This is the chain of :mod:`gagen.apps.hexapod.legs` (joint j turns about axes[j] through the centre
 c_j of the hip frame; the axes of the spec are relative to the hip frame, and the joint frames here
-are only translated from it, so they are the same directions). Joint limits are the spec's; effort and
-velocity are placeholders, the inertials small and the visuals plain cylinders: enough to load and look
-at, not a dynamics model. The output is deterministic (the same hexapod gives the same bytes) and every
+are only translated from it, so they are the same directions). Joint limits are the spec's; the
+inertials are the mass model's (:mod:`gagen.apps.hexapod.mass`: a uniform box for the body, uniform
+rods for the links, the foot frames massless), so a dynamics library or a simulator loading the file
+has the robot the statics and the MuJoCo walk use; effort and velocity are placeholders, the visuals
+the same box and rods. The output is deterministic (the same hexapod gives the same bytes) and every
 number is printed with ``repr`` precision, so a parser reads back exactly the spec's doubles.
 """
 
@@ -22,14 +24,12 @@ import math
 from collections.abc import Iterable, Sequence
 from xml.sax.saxutils import quoteattr
 
+from gagen.apps.hexapod.mass import MassModel, box_inertia, default_mass_model, rod_inertia
 from gagen.apps.hexapod.spec import Hexapod, Leg
 
 EFFORT = 10.0  # N m: placeholder
 VELOCITY = 5.0  # rad/s: placeholder
-LINK_MASS = 0.05  # kg per leg link: placeholder
-BODY_MASS = 1.0  # kg: placeholder
-LINK_RADIUS = 0.01  # m: visual radius of a leg link
-BODY_HEIGHT = 0.04  # m: visual height of the body disc
+FOOT_RADIUS = 0.01  # m: visual radius of a (massless) foot
 HALF_PI = math.pi / 2
 
 
@@ -55,39 +55,34 @@ def _inertial(mass: float, centre: Sequence[float], inertia: Sequence[float]) ->
             "    </inertial>"]
 
 
-def _rod_link(name: str, length: float) -> list[str]:
-    """A link along +x of its frame from 0 to ``length``: a thin rod's inertia, a cylinder to show."""
+def _rod_link(name: str, length: float, mass: float, radius: float) -> list[str]:
+    """A link along +x of its frame from 0 to ``length``: a uniform rod's inertia, a cylinder to show."""
     centre = (length / 2, 0.0, 0.0)
-    across = LINK_MASS * (3 * LINK_RADIUS ** 2 + length ** 2) / 12
-    along = LINK_MASS * LINK_RADIUS ** 2 / 2
     return [f"  <link{_attrs(name=name)}>",
-            *_inertial(LINK_MASS, centre, (along, across, across)),
+            *_inertial(mass, centre, rod_inertia(mass, length, radius)),
             "    <visual>",
             # a URDF cylinder runs along z: turned onto x
             f"      <origin{_attrs(xyz=_vec(centre), rpy=_vec((0.0, HALF_PI, 0.0)))}/>",
-            f"      <geometry><cylinder{_attrs(radius=_num(LINK_RADIUS), length=_num(length))}/></geometry>",
+            f"      <geometry><cylinder{_attrs(radius=_num(radius), length=_num(length))}/></geometry>",
             "    </visual>",
             "  </link>"]
 
 
 def _foot_link(name: str) -> list[str]:
-    mass = LINK_MASS / 10
-    inertia = 2 * mass * LINK_RADIUS ** 2 / 5
+    """The toe frame: no inertial (massless; dynamics libraries merge it into the tibia)."""
     return [f"  <link{_attrs(name=name)}>",
-            *_inertial(mass, (0.0, 0.0, 0.0), (inertia,) * 3),
             "    <visual>",
-            f"      <geometry><sphere{_attrs(radius=_num(LINK_RADIUS))}/></geometry>",
+            f"      <geometry><sphere{_attrs(radius=_num(FOOT_RADIUS))}/></geometry>",
             "    </visual>",
             "  </link>"]
 
 
-def _body_link(hexapod: Hexapod) -> list[str]:
-    radius = max(math.hypot(leg.xyz[0], leg.xyz[1]) for leg in hexapod.legs) or LINK_RADIUS
-    flat = BODY_MASS * (3 * radius ** 2 + BODY_HEIGHT ** 2) / 12
+def _body_link(mass: MassModel) -> list[str]:
     return ["  <link name=\"base_link\">",
-            *_inertial(BODY_MASS, (0.0, 0.0, 0.0), (flat, flat, BODY_MASS * radius ** 2 / 2)),
+            *_inertial(mass.body_mass, mass.body_centre, box_inertia(mass.body_mass, mass.body_size)),
             "    <visual>",
-            f"      <geometry><cylinder{_attrs(radius=_num(radius), length=_num(BODY_HEIGHT))}/></geometry>",
+            f"      <origin{_attrs(xyz=_vec(mass.body_centre), rpy='0.0 0.0 0.0')}/>",
+            f"      <geometry><box{_attrs(size=_vec(mass.body_size))}/></geometry>",
             "    </visual>",
             "  </link>"]
 
@@ -108,28 +103,35 @@ def _joint(name: str, kind: str, parent: str, child: str, xyz: Sequence[float], 
     return lines
 
 
-def _leg(leg: Leg) -> list[str]:
+def _leg(leg: Leg, masses: Sequence[float], radius: float) -> list[str]:
     l1, l2, l3 = leg.lengths
     yaw, thigh, knee = leg.joint_names
     coxa, femur, tibia, foot = (f"{leg.name}_{part}" for part in ("coxa", "femur", "tibia", "foot"))
     zero = (0.0, 0.0, 0.0)
-    return [*_rod_link(coxa, l1), *_rod_link(femur, l2), *_rod_link(tibia, l3), *_foot_link(foot),
+    return [*_rod_link(coxa, l1, masses[0], radius), *_rod_link(femur, l2, masses[1], radius),
+            *_rod_link(tibia, l3, masses[2], radius), *_foot_link(foot),
             *_joint(yaw, "revolute", "base_link", coxa, leg.xyz, leg.rpy, leg.axes[0], leg.limits[0]),
             *_joint(thigh, "revolute", coxa, femur, (l1, 0.0, 0.0), zero, leg.axes[1], leg.limits[1]),
             *_joint(knee, "revolute", femur, tibia, (l2, 0.0, 0.0), zero, leg.axes[2], leg.limits[2]),
             *_joint(f"{leg.name}_toe", "fixed", tibia, foot, (l3, 0.0, 0.0), zero)]
 
 
-def write_urdf(hexapod: Hexapod) -> str:
-    """The hexapod's URDF text (ends with a newline)."""
+def write_urdf(hexapod: Hexapod, mass: MassModel | None = None) -> str:
+    """The hexapod's URDF text (ends with a newline), with the inertials of ``mass`` (default: the
+    documented :func:`~gagen.apps.hexapod.mass.default_mass_model`)."""
+    mass = mass or default_mass_model(hexapod)
+    if len(mass.link_masses) != len(hexapod.legs):
+        raise ValueError(f"mass model has {len(mass.link_masses)} legs, the hexapod {len(hexapod.legs)}")
     lines = ["<?xml version=\"1.0\"?>",
              "<!-- Written by gagen.apps.hexapod.urdf from the hexapod spec (write_urdf): the kinematics are",
-             "     the spec's numbers; inertials, visuals, effort and velocity limits are placeholders. -->",
+             "     the spec's numbers, the inertials gagen.apps.hexapod.mass's model; effort and velocity",
+             "     limits are placeholders. -->",
              f"<robot{_attrs(name=hexapod.name)}>",
-             *_body_link(hexapod)]
-    for leg in hexapod.legs:
+             *_body_link(mass)]
+    for leg, masses in zip(hexapod.legs, mass.link_masses, strict=True):
         # a spec's leg names are identifiers, which cannot break a comment; other names go unnamed
-        lines += ["", f"  <!-- leg {leg.name if leg.name.isidentifier() else ''} -->", *_leg(leg)]
+        lines += ["", f"  <!-- leg {leg.name if leg.name.isidentifier() else ''} -->",
+                  *_leg(leg, masses, mass.link_radius)]
     lines.append("</robot>")
     return "\n".join(lines) + "\n"
 
