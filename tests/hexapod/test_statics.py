@@ -9,6 +9,7 @@ its KKT conditions; with the generated module, the bundled walk (flat, 10°) and
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -375,3 +376,59 @@ def test_walk_command_margin(hexapod_module: Any, tmp_path: Path, capsys: pytest
     assert main([*args, "--margin", "0.3"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "cannot be kept" in err[0]
+
+
+# -- leaning uphill ---------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize(("slope", "uphill"), [(10.0, 0.0), (20.0, 135.0), (0.0, 0.0)])
+def test_the_uphill_direction_lies_in_the_ground_and_rises_by_sin_slope(slope: float, uphill: float) -> None:
+    ground = gait.Ground(math.radians(slope), math.radians(uphill))
+    d = ground.uphill_direction
+    assert abs(np.linalg.norm(d) - 1) < 1e-15 and abs(d @ ground.normal) < 1e-16
+    assert abs(d[2] - math.sin(math.radians(slope))) < 1e-16  # a metre along it rises sin θ
+    assert abs(math.atan2(d[1], d[0]) - math.radians(uphill)) < 1e-15
+    with pytest.raises(ValueError, match="lean must be a finite number"):
+        gait.GaitParameters(lean=math.nan)
+
+
+@pytest.mark.compiling
+@pytest.mark.parametrize(("slope", "uphill"), [(10.0, 0.0), (20.0, 90.0), (15.0, 200.0)])
+def test_balanced_lean_gives_the_flat_grounds_standing_margin(hexapod_module: Any, hexapod: Hexapod,
+                                                              slope: float, uphill: float) -> None:
+    """Leaning by ``balanced_lean`` puts the standing CoM's projection along gravity where flat ground
+    puts it relative to the feet: the standing margin on the slope equals the flat ground's (the feet
+    form the same polygon in their plane), which the unleaned body loses by about h tan θ; the lean is
+    more than the CoM's h tan θ, as the legs' links move with the body only in part. (Uphill askew to
+    the body, 200°, the legs' IK moves the CoM a few µm across the uphill direction, which a lean
+    along it leaves.)"""
+    params = gait.GaitParameters()
+    ground = gait.Ground(math.radians(slope), math.radians(uphill))
+    flat = gait_statics.standing_margin(hexapod_module, hexapod, gait.Ground(), params)
+    lean = gait_statics.balanced_lean(hexapod_module, hexapod, params, ground)
+    leaned = gait_statics.standing_margin(hexapod_module, hexapod, ground, replace(params, lean=lean))
+    assert abs(leaned - flat) < (1e-9 if uphill % 90 == 0 else 1e-5)
+    unleaned = gait_statics.standing_margin(hexapod_module, hexapod, ground, params)
+    assert unleaned < flat - 0.01
+    com, _ = gait_statics.standing(hexapod_module, hexapod, ground, params)
+    assert float(ground.distance(com)) * math.tan(ground.slope) < lean < 0.1
+
+
+@pytest.mark.compiling
+@pytest.mark.parametrize("uphill", [90.0, 180.0])
+def test_a_leaning_walk_across_or_down_a_slope_keeps_the_flat_grounds_margin(hexapod_module: Any,
+                                                                             hexapod: Hexapod,
+                                                                             uphill: float) -> None:
+    """A straight walk on a 20° slope rising across the path (90°) or behind it (180°): the unleaned
+    body loses 24-48 mm of margin against flat ground, the balanced lean keeps it within 5 mm."""
+    params = gait.GaitParameters(straight=0.4, turn=0.0)
+    ground = gait.Ground(math.radians(20.0), math.radians(uphill))
+
+    def margin(p: gait.GaitParameters, g: gait.Ground) -> float:
+        result = gait.walk(hexapod_module, hexapod, p, g)
+        assert result.ok
+        return float(gait_statics.check_walk(result).margin.min())
+
+    flat = margin(params, gait.Ground())
+    lean = gait_statics.balanced_lean(hexapod_module, hexapod, params, ground)
+    leaned, unleaned = margin(replace(params, lean=lean), ground), margin(params, ground)
+    assert abs(leaned - flat) < 0.005 and unleaned < flat - 0.02

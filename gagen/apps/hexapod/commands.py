@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import sys
 from pathlib import Path
@@ -44,6 +45,13 @@ def _walk_arguments(parser: argparse.ArgumentParser) -> None:
                         "many m (shortens the stride; refused when no stride keeps it)")
     parser.add_argument("--mu", type=non_negative_float, default=0.5, help="friction coefficient of the "
                         "feet's cones (default 0.5)")
+    parser.add_argument("--lean", type=_lean, default=0.0, help="lean the body uphill this many m, the "
+                        "footholds unmoved, or 'auto': the lean that puts the CoM back over the feet "
+                        "as on flat ground (default 0)")
+
+
+def _lean(text: str) -> float | str:
+    return "auto" if text == "auto" else finite_float(text)
 
 
 def _walk(args: argparse.Namespace) -> int:
@@ -73,6 +81,15 @@ def _walk(args: argparse.Namespace) -> int:
         return 1
     from gagen.apps.hexapod import gait_statics
 
+    try:
+        lean = (gait_statics.balanced_lean(module, hexapod, params, ground) if args.lean == "auto"
+                else args.lean)
+        params = dataclasses.replace(params, lean=lean)
+    except ValueError as e:
+        print(f"error: --lean: {e}", file=sys.stderr)
+        return 2
+    if params.lean:
+        print(f"the body leans {params.lean:.4f} m uphill (footholds unmoved)", flush=True)
     if args.margin is not None:
         print(f"keeping a stability margin >= {args.margin:g} m: searching the stride", flush=True)
         try:

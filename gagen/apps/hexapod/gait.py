@@ -10,7 +10,11 @@ The walk, step by step:
   the ground plane; the body's origin keeps ``height`` above the ground **along the plane normal**,
   and the body is **tilted with the slope** (its z axis is the ground normal, its x axis the path
   heading turned by the minimal rotation taking the world z to the normal). Its pose is the PGA motor
-  M = T(c) R (body → world) that the generated ``body_ik`` kernel takes.
+  M = T(c) R (body → world) that the generated ``body_ik`` kernel takes. On a slope the body may
+  **lean** uphill: its origin moves ``lean`` m along the ground's uphill direction while the footholds
+  stay where the unleaned body puts them, so the centre of mass, whose projection along gravity falls
+  h tan θ downhill of its foot on the plane, comes back over the feet
+  (``gait_statics.balanced_lean`` finds the lean that undoes it exactly).
 - **Tripods** (:func:`tripods`): the legs ordered by their hips' azimuth on the body, alternately; the
   tripod A is the one holding the leg with the smallest non-negative azimuth (front left on the
   bundled hexapod: A = {front_left, rear_left, middle_right}, B = {front_right, rear_right,
@@ -107,6 +111,12 @@ class Ground:
         return np.array([-s * math.cos(self.uphill), -s * math.sin(self.uphill), c])
 
     @property
+    def uphill_direction(self) -> Array:
+        """The unit vector in the plane pointing straight uphill (along ``uphill`` on flat ground)."""
+        s, c = math.sin(self.slope), math.cos(self.slope)
+        return np.array([c * math.cos(self.uphill), c * math.sin(self.uphill), s])
+
+    @property
     def plane(self) -> Array:
         """The PGA plane's coefficients in kind order (e0, e1, e2, e3): n1 e1 + n2 e2 + n3 e3 − 0 e0."""
         return np.array([0.0, *self.normal])
@@ -137,8 +147,9 @@ class Ground:
 class GaitParameters:
     """A walk: the path (``straight`` m, then an arc of ``turn`` rad, + to the left, of ``radius`` m),
     the body's ``height`` above the ground (m), the ``stride`` (body travel per gait cycle of two
-    steps, m; each toe steps this far), ``step_time`` (s per swing), ``step_height`` (m) and the
-    sampling ``rate`` (Hz)."""
+    steps, m; each toe steps this far), ``step_time`` (s per swing), ``step_height`` (m), the
+    sampling ``rate`` (Hz) and the body's ``lean`` (m along the ground's uphill direction, the
+    footholds unmoved; module docstring)."""
 
     straight: float = 0.3
     turn: float = math.radians(60)
@@ -148,15 +159,16 @@ class GaitParameters:
     step_time: float = 0.5
     step_height: float = 0.05
     rate: float = 100.0
+    lean: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("radius", "height", "stride", "step_time", "rate"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"gait parameter {name} must be a finite number > 0, got {value!r}")
-        for name in ("straight", "turn", "step_height"):
+        for name in ("straight", "turn", "step_height", "lean"):
             value = getattr(self, name)
-            if not math.isfinite(value) or (name != "turn" and value < 0):
+            if not math.isfinite(value) or (name not in ("turn", "lean") and value < 0):
                 raise ValueError(f"gait parameter {name} must be a finite number >= 0, got {value!r}")
         if self.length <= 0:
             raise ValueError("the path is empty: give a straight part or a turn")
@@ -269,12 +281,16 @@ def motor(r: Array, c: Array) -> Array:
     return np.column_stack([w, -v1 / 2, -v2 / 2, a, -v3 / 2, b, g, -tri / 2])
 
 
-def body_trajectory(params: GaitParameters, ground: Ground, t: ArrayLike | None = None) -> BodyTrajectory:
-    """The body's poses at ``t`` (default: the walk's samples), see the module docstring."""
+def body_trajectory(params: GaitParameters, ground: Ground, t: ArrayLike | None = None,
+                    lean: bool = True) -> BodyTrajectory:
+    """The body's poses at ``t`` (default: the walk's samples), see the module docstring; ``lean=False``
+    gives the unleaned poses the footholds are placed from."""
     t = params.times() if t is None else np.asarray(t, dtype=float)
     xy, heading = path(params, arclength(params, t))
     r = ground.tilt @ rotation(np.array([0.0, 0.0, 1.0]), heading)
     c = ground.lift(xy) + params.height * ground.normal
+    if lean and params.lean:
+        c = c + params.lean * ground.uphill_direction
     return BodyTrajectory(t, c, r, motor(r, c))
 
 
@@ -431,8 +447,8 @@ def footholds(hexapod: Hexapod, params: GaitParameters, ground: Ground,
     neutral = neutral_toes(hexapod)
     k = params.phases
     # a leg swinging in step j lands on its neutral toe at the body pose of the middle of step j + 1
-    poses = body_trajectory(params, ground, (np.arange(k + 1) + 0.5) * params.step_time)
-    start = body_trajectory(params, ground, np.zeros(1))
+    poses = body_trajectory(params, ground, (np.arange(k + 1) + 0.5) * params.step_time, lean=False)
+    start = body_trajectory(params, ground, np.zeros(1), lean=False)
     placed = ground.project(poses.to_world(np.broadcast_to(neutral, (k + 1, *neutral.shape))))
     current = ground.project(start.to_world(neutral[None]))[0]
     out = np.empty((k, len(hexapod.legs), 3))
@@ -449,7 +465,7 @@ def toe_targets(hexapod: Hexapod, params: GaitParameters, ground: Ground, t: Arr
     """The commanded toes (n×6×3, world), each sample's step and the swing mask (n×6)."""
     k = params.phases
     holds = footholds(hexapod, params, ground, sets)
-    before = np.concatenate([ground.project(body_trajectory(params, ground, np.zeros(1))
+    before = np.concatenate([ground.project(body_trajectory(params, ground, np.zeros(1), lean=False)
                                             .to_world(neutral_toes(hexapod)[None])), holds[:-1]])
     phase = np.minimum((t / params.step_time + 1e-9).astype(np.int64), k - 1)
     tau = np.clip(t / params.step_time - phase, 0.0, 1.0)
@@ -508,7 +524,7 @@ def summary(result: GaitResult) -> str:
     lines = [f"tripod gait of {result.hexapod.name}: {p.straight:g} m straight, then "
              f"{math.degrees(p.turn):g}° on a {p.radius:g} m arc; height {p.height:g} m, stride "
              f"{p.stride:g} m, step {p.step_time:g} s × {p.phases}, step height {p.step_height:g} m, "
-             f"{p.rate:g} Hz ({len(result.t)} samples)",
+             f"{p.rate:g} Hz ({len(result.t)} samples)" + (f"; lean {p.lean:.4g} m uphill" if p.lean else ""),
              f"ground: slope {math.degrees(g.slope):g}° rising towards {math.degrees(g.uphill):g}°; "
              f"tripods {sets}",
              "", result.table(), "",

@@ -14,8 +14,17 @@
   min margin(stride) − M between stride 0 (the standing margin, both tripods at the neutral pose) and
   the requested stride, each evaluation a walk. A margin at or above the standing one, or one that
   needs a stride below ``MIN_STRIDE_FRACTION`` of the request, is refused with one line: no stride
-  keeps it (on a slope, the CoM's projection moves downhill by its height × tan θ, and only a lower or
-  shifted body would win that back).
+  keeps it (on a slope, the CoM's projection moves downhill by its height × tan θ, which the lean
+  wins back).
+- :func:`balanced_lean`: on a slope the CoM's projection along gravity falls h tan θ downhill of its
+  foot on the plane (h its height along the normal), so the downhill tripod edge loses that much
+  margin. Leaning the body uphill by L (``GaitParameters.lean``, the footholds unmoved) brings it
+  back; as the legs' links move with the body only in part, L is more than h tan θ: the L at which the
+  standing CoM's projection along gravity lands on the unleaned CoM's foot (where flat ground puts it,
+  relative to the feet), along the uphill direction, is found by the secant method from L = h tan θ,
+  each step the standing pose's IK. With it the standing margin on the slope is the flat ground's
+  (to a few µm where the uphill direction is askew to the body: the legs' IK then moves the CoM a
+  little across it too).
 - :func:`margin_plot`: the margin and the largest friction ratio over the walk.
 """
 
@@ -153,16 +162,61 @@ def check_walk(result: gait.GaitResult, mass: MassModel | None = None, mu: float
 
 # -- keeping a margin -------------------------------------------------------------------------------
 
-def standing_margin(hexapod: Hexapod, ground: gait.Ground, params: gait.GaitParameters,
-                    mass: MassModel | None = None) -> float:
-    """The margin of the weaker tripod with the body standing at the walk's start, every leg at its
-    neutral foothold (the limit of the walk's minimum margin as the stride goes to 0)."""
+def standing(module: Any, hexapod: Hexapod, ground: gait.Ground, params: gait.GaitParameters,
+             mass: MassModel | None = None) -> tuple[Array, Array]:
+    """(CoM (3,), feet (6×3)) with the body standing at the walk's start (leaned by ``params.lean``)
+    and every leg on its neutral foothold (placed from the unleaned body), the joints by the IK."""
     model = mass or default_mass_model(hexapod)
     body = gait.body_trajectory(params, ground, np.zeros(1))
-    q = np.asarray(hexapod.neutral * len(hexapod.legs), dtype=float)[None]
-    com = centre_of_mass_along(hexapod, model, body, q)[0]
-    feet = body.to_world(gait.neutral_toes(hexapod)[None])[0]
+    unleaned = gait.body_trajectory(params, ground, np.zeros(1), lean=False)
+    feet = ground.project(unleaned.to_world(gait.neutral_toes(hexapod)[None]))[0]
+    q, reach, _ = module.c.body_ik.batch(body.motor, feet.reshape(1, -1))
+    if np.min(reach) < 0.5:
+        raise ValueError(f"the standing pose (lean {params.lean:g} m) puts a foot out of its leg's reach")
+    return centre_of_mass_along(hexapod, model, body, np.asarray(q))[0], feet
+
+
+def standing_margin(module: Any, hexapod: Hexapod, ground: gait.Ground, params: gait.GaitParameters,
+                    mass: MassModel | None = None) -> float:
+    """The margin of the weaker tripod standing at the walk's start (:func:`standing`): the limit of the
+    walk's minimum margin as the stride goes to 0."""
+    com, feet = standing(module, hexapod, ground, params, mass)
     return min(stability_margin(feet[list(s)], com, GRAVITY) for s in gait.tripods(hexapod))
+
+
+def gravity_foot(ground: gait.Ground, point: Array) -> Array:
+    """Where the vertical line through ``point`` meets the ground plane."""
+    n = ground.normal
+    foot: Array = point - (ground.distance(point) / n[2]) * np.array([0.0, 0.0, 1.0])
+    return foot
+
+
+def balanced_lean(module: Any, hexapod: Hexapod, params: gait.GaitParameters, ground: gait.Ground,
+                  mass: MassModel | None = None, tolerance: float = 1e-12) -> float:
+    """The lean (m uphill) at which the standing CoM's projection along gravity is the unleaned CoM's
+    foot on the plane (module docstring); 0 on flat ground."""
+    if ground.slope == 0.0:
+        return 0.0
+    uphill = ground.uphill_direction
+    com0, _ = standing(module, hexapod, ground, replace(params, lean=0.0), mass)
+    target = ground.project(com0)
+
+    def offset(lean: float) -> float:
+        com, _ = standing(module, hexapod, ground, replace(params, lean=lean), mass)
+        return float((gravity_foot(ground, com) - target) @ uphill)
+
+    a, fa = 0.0, offset(0.0)
+    b = float(ground.distance(com0)) * math.tan(ground.slope)  # the whole body's share: a first guess
+    fb = offset(b)
+    for _ in range(30):
+        if abs(fb) <= tolerance or fb == fa:
+            break
+        a, fa, b = b, fb, b - fb * (b - a) / (fb - fa)
+        fb = offset(b)
+    if not abs(fb) <= 1e3 * tolerance:
+        raise ValueError(f"no lean balances the stance on a {math.degrees(ground.slope):g}° slope "
+                         f"(offset {fb:.3g} m left)")
+    return b
 
 
 @dataclass(frozen=True)
@@ -200,10 +254,13 @@ def keep_margin(module: Any, hexapod: Hexapod, params: gait.GaitParameters, grou
     m_hi, result, p = attempt(hi)
     if m_hi >= margin:
         return MarginPlan(p, result, m_hi, tuple(tries))
-    m_lo = standing_margin(hexapod, ground, params, model)
+    m_lo = standing_margin(module, hexapod, ground, params, model)
     if m_lo <= margin:
+        hint = ("; on a slope, --lean auto wins back its downhill shift" if ground.slope and not params.lean
+                else "")
         raise ValueError(f"a stability margin of {margin:g} m cannot be kept: standing on either tripod "
-                         f"gives at most {m_lo:.4f} m (the requested stride {hi:g} m gives {m_hi:.4f} m)")
+                         f"gives at most {m_lo:.4f} m (the requested stride {hi:g} m gives {m_hi:.4f} m)"
+                         + hint)
     lo, best = 0.0, None
     floor = MIN_STRIDE_FRACTION * params.stride
     while hi - lo > tolerance * params.stride:
@@ -264,5 +321,5 @@ def margin_plot(statics: WalkStatics, path: str | Path, keep: float | None = Non
     return out
 
 
-__all__ = ["MarginPlan", "WalkStatics", "centre_of_mass_along", "check_walk", "keep_margin", "margin_plot",
-           "margins_along", "standing_margin"]
+__all__ = ["MarginPlan", "WalkStatics", "balanced_lean", "centre_of_mass_along", "check_walk", "gravity_foot",
+           "keep_margin", "margin_plot", "margins_along", "standing", "standing_margin"]
