@@ -21,6 +21,7 @@ import gagen
 from gagen.apps.stereo import pantilt, pantilt_loop, scene
 from gagen.apps.stereo.calibration import Camera, load_rig
 from gagen.apps.stereo.pipeline import Estimator
+from gagen.errors import SpecError
 
 RIG = Path(__file__).resolve().parents[2] / "gagen" / "apps" / "stereo" / "robots" / "stereo_rig.yaml"
 
@@ -40,9 +41,10 @@ def reference(rig):
     return pantilt.Head(rig, interpreted=True)
 
 
-def matrix_chain(rig, q):
+def matrix_chain(rig, q, pan_behind=0.08, tilt_offset=(0.0, 0.04, 0.03)):
     """The left camera's pose in H by 4×4 matrices: T(pan offset) R(−y, q0) T(tilt offset) R(x, q1) T(mount),
-    the offsets restated from the head's description, the rotations by scipy."""
+    the offsets restated from the head's description (the rig file's defaults unless given), the
+    rotations by scipy."""
     b = rig.right_in_left.t
 
     def T(p):
@@ -55,8 +57,8 @@ def matrix_chain(rig, q):
         h[:3, :3] = Rotation.from_rotvec(np.asarray(axis, float) * angle).as_matrix()
         return h
 
-    pan = b / 2 + [0, 0, -pantilt.PAN_BEHIND]
-    tilt = np.array(pantilt.TILT_OFFSET)
+    pan = b / 2 + [0, 0, -pan_behind]
+    tilt = np.array(tilt_offset)
     return T(pan) @ R([0, -1, 0], q[0]) @ T(tilt) @ R([1, 0, 0], q[1]) @ T(-pan - tilt)
 
 
@@ -84,6 +86,27 @@ def test_kinematics_and_reference_line_match_an_independent_matrix_chain(rig, he
     np.testing.assert_allclose(step.reference, bivector(H[:3, 3], towards), atol=1e-12)  # Eq. 29
     np.testing.assert_allclose(step.s, step.line - step.reference, atol=1e-15)
     assert step.conditioning == pytest.approx(math.cos(tilt) ** 2, abs=1e-12)  # perpendicular axes
+
+
+def test_a_users_head_from_the_rig_file(tmp_path):
+    """A rig file with its own ``head:`` (pan axis 20 cm behind, tilt offset (1, −5, 2) cm): the head's
+    kinematics on the interpreter against the matrix chain with those numbers; bad head fields are
+    refused naming the field."""
+    text = RIG.read_text() + "head: {pan_behind: 0.2, tilt_offset: [0.01, -0.05, 0.02], tilt_limit: 1.0}\n"
+    (tmp_path / "rig.yaml").write_text(text)
+    rig = load_rig(tmp_path / "rig.yaml")
+    assert rig.head.pan_limit == 2.6 and rig.head.tilt_limit == 1.0
+    head = pantilt.Head(rig, interpreted=True)
+    for q in ([0.3, -0.4], [-1.1, 0.7]):
+        H = matrix_chain(rig, np.array(q), 0.2, (0.01, -0.05, 0.02))
+        step = head(np.array(q), np.array([0.1, 0.0, 1.0]))
+        np.testing.assert_allclose(step.camera.R, H[:3, :3], atol=1e-12)
+        np.testing.assert_allclose(step.centre, H[:3, 3], atol=1e-12)
+    for bad, field in (("{pan_behind: .nan}", "head.pan_behind"), ("{tilt_limit: 4}", "head.tilt_limit"),
+                       ("{tilt_offset: [0, 1]}", "head.tilt_offset"), ("{roll: 1}", "roll"), ("3", "head")):
+        (tmp_path / "bad.yaml").write_text(RIG.read_text() + f"head: {bad}\n")
+        with pytest.raises(SpecError, match=field.replace(".", r"\.")):
+            load_rig(tmp_path / "bad.yaml")
 
 
 def test_compiled_kernel_matches_the_interpreter(head, reference):

@@ -9,7 +9,12 @@ left camera's frame, the left camera's pose in the robot's base frame, and the o
     right_in_left: {xyz: [0.25, 0, 0], rpy: [0, 0, 0]}   # X_left = R X_right + t (m, rad)
     left_in_base: {xyz: [-0.425, 0.15, 1.25], rpy: [3.1416, 0, 0]}  # X_base = R X_left + t
     segmentation: {hue: [100, 130], saturation: [80, 255], value: [40, 255]}   # OpenCV HSV ranges
+    head: {pan_behind: 0.08, tilt_offset: [0, 0.04, 0.03], pan_limit: 2.6, tilt_limit: 1.2}  # optional
 
+``head`` (optional; these are its defaults) is the pan-tilt unit carrying the rig (``gagen track-head``,
+:mod:`gagen.apps.stereo.pantilt`): the pan axis runs along the left camera's −y (image up) through the
+rig's middle, ``pan_behind`` m behind the cameras; the tilt axis along the pan link's x, ``tilt_offset``
+(m, in the pan link) from the pan axis; the joint limits in rad.
 Camera frames follow OpenCV: x right, y down, z forward (the optical axis); a pixel (u, v) has the
 normalised image coordinates x = (u − cx)/fx, y = (v − cy)/fy, the point (x, y, 1) of the image plane
 z = 1. ``rpy`` is the URDF convention, R = Rz(yaw) Ry(pitch) Rx(roll). Errors name the file, the field
@@ -31,7 +36,8 @@ import numpy as np
 from gagen.limits import limit, over_limit
 from gagen.yaml_document import Document, identifier, known_keys, number, require, show
 
-TOP_KEYS = ("app", "name", "cameras", "right_in_left", "left_in_base", "segmentation")
+TOP_KEYS = ("app", "name", "cameras", "right_in_left", "left_in_base", "segmentation", "head")
+HEAD_KEYS = ("pan_behind", "tilt_offset", "pan_limit", "tilt_limit")
 CAMERA_KEYS = ("fx", "fy", "cx", "cy", "width", "height")
 POSE_KEYS = ("xyz", "rpy")
 SEGMENTATION_KEYS = ("hue", "saturation", "value")
@@ -99,6 +105,15 @@ class Pose:
 
 
 @dataclass(frozen=True)
+class Head:
+    """The pan-tilt unit carrying the rig (module docstring): offsets in m, limits in rad."""
+    pan_behind: float = 0.08
+    tilt_offset: tuple[float, float, float] = (0.0, 0.04, 0.03)
+    pan_limit: float = 2.6
+    tilt_limit: float = 1.2
+
+
+@dataclass(frozen=True)
 class Rig:
     name: str
     left: Camera
@@ -107,6 +122,7 @@ class Rig:
     left_in_base: Pose  # X_base = R X_left + t
     hsv_low: tuple[int, int, int]  # inclusive OpenCV HSV range of the object's colour
     hsv_high: tuple[int, int, int]
+    head: Head = Head()
 
     @property
     def baseline(self) -> float:
@@ -214,6 +230,27 @@ def _segmentation(spec: Document, value: Any) -> tuple[tuple[int, int, int], tup
     return (low[0], low[1], low[2]), (high[0], high[1], high[2])
 
 
+def _head(spec: Document, value: Any) -> Head:
+    if not isinstance(value, dict):
+        raise spec.error("head", f"got {show(value)}; expected {{pan_behind: m, tilt_offset: [x, y, z], "
+                                 f"pan_limit: rad, tilt_limit: rad}}")
+    known_keys(spec, value, "head", HEAD_KEYS)
+    default = Head()
+    behind = value.get("pan_behind", default.pan_behind)
+    if not number(behind, MAX_DISTANCE):
+        raise spec.error("head.pan_behind", f"got {show(behind)}; expected a finite number of m within "
+                                            f"±{MAX_DISTANCE:g}")
+    offset = _triple(spec, value.get("tilt_offset", list(default.tilt_offset)), "head.tilt_offset",
+                     MAX_DISTANCE)
+    limits = []
+    for key in ("pan_limit", "tilt_limit"):
+        v = value.get(key, getattr(default, key))
+        if not (number(v, math.pi) and v > 0):
+            raise spec.error(f"head.{key}", f"got {show(v)}; expected a number of rad in (0, π]")
+        limits.append(float(v))
+    return Head(float(behind), offset, limits[0], limits[1])
+
+
 def load_rig(path: str | Path) -> Rig:
     """The stereo rig of a calibration file."""
     spec = Document(Path(path), "a mapping with app: stereo, name, cameras, right_in_left, left_in_base and "
@@ -249,4 +286,5 @@ def load_rig(path: str | Path) -> Rig:
     left_in_base = _pose(spec, data.get("left_in_base", {"xyz": [0, 0, 0]}), "left_in_base")
     low, high = _segmentation(spec, require(spec, data, "segmentation", "segmentation", dict,
                                             "the object's HSV colour range"))
-    return Rig(name, left, right, right_in_left, left_in_base, low, high)
+    head = _head(spec, data["head"]) if "head" in data else Head()
+    return Rig(name, left, right, right_in_left, left_in_base, low, high, head)

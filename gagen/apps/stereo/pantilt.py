@@ -2,8 +2,9 @@
 multivector protocol: the interpreter runs it as the reference, the front-end compiles it (``head_kernel``).
 
 **The head** (:func:`head_joints`): the frame H is the left camera's frame at q = 0 (OpenCV axes: x right,
-y down, z forward). Pan turns about the axis along −y (image up) through the rig's middle, ``PAN_BEHIND``
-behind the cameras; tilt turns about the pan link's x axis, ``TILT_OFFSET`` from the pan axis; the left
+y down, z forward). Pan turns about the axis along −y (image up) through the rig's middle, the rig
+file's ``head.pan_behind`` behind the cameras; tilt turns about the pan link's x axis, ``head.tilt_offset``
+from the pan axis (``calibration.Head``: 8 cm and (0, 4, 3) cm unless the file says otherwise); the left
 camera is fixed on the tilt link so that it sits at H's origin for q = 0. Neither axis passes through
 the camera centre, so the centre c_l(q) moves when the head turns.
 
@@ -42,9 +43,6 @@ from gagen.model import kinematics as kin
 from gagen.model.conformal import EUCLID, einf, point, vector
 from gagen.model.guarded import safe_reciprocal
 
-PAN_BEHIND = 0.08  # m: the pan axis behind the cameras' centres
-TILT_OFFSET = (0.0, 0.04, 0.03)  # m: the tilt axis from the pan axis, in the pan link (4 cm down, 3 cm ahead)
-PAN_LIMIT, TILT_LIMIT = 2.6, 1.2  # rad (information: the law has no limit term)
 LINE_ROWS = ("e12", "e13", "e23", "e1inf", "e2inf", "e3inf")  # a line bivector: n3, −n2, n1, then moment
 MOTOR_ROWS = ("1", "e12", "e13", "e23", "e1inf", "e2inf", "e3inf", "e123inf")
 GAIN = 2.0  # k, rad/s: the largest joint speed the law commands (K = diag(k, k), Eq. 36)
@@ -53,12 +51,14 @@ EPSILON = 100.0  # tanh slope (Eq. 40): boundary layer |σ| ≲ 1/ε = 10 mrad, 
 
 def head_joints(rig: Rig) -> tuple[kin.Joint, ...]:
     """The head's chain in H (the left camera's frame at q = 0): pan, tilt, and the fixed camera mount."""
-    b = rig.right_in_left.t
-    pan = (float(b[0]) / 2, float(b[1]) / 2, float(b[2]) / 2 - PAN_BEHIND)  # behind the rig's middle
-    mount = tuple(-(p + t) for p, t in zip(pan, TILT_OFFSET, strict=True))
-    return (kin.Joint("pan", "revolute", pan, axis=(0.0, -1.0, 0.0), limits=(-PAN_LIMIT, PAN_LIMIT)),
-            kin.Joint("tilt", "revolute", TILT_OFFSET, axis=(1.0, 0.0, 0.0),
-                      limits=(-TILT_LIMIT, TILT_LIMIT)),
+    b, head = rig.right_in_left.t, rig.head
+    pan = (float(b[0]) / 2, float(b[1]) / 2, float(b[2]) / 2 - head.pan_behind)  # behind the rig's middle
+    mount = tuple(-(p + t) for p, t in zip(pan, head.tilt_offset, strict=True))
+    # (the limits are information: the law has no limit term)
+    return (kin.Joint("pan", "revolute", pan, axis=(0.0, -1.0, 0.0),
+                      limits=(-head.pan_limit, head.pan_limit)),
+            kin.Joint("tilt", "revolute", head.tilt_offset, axis=(1.0, 0.0, 0.0),
+                      limits=(-head.tilt_limit, head.tilt_limit)),
             kin.Joint("camera", "fixed", (mount[0], mount[1], mount[2])))
 
 
