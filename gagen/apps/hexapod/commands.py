@@ -7,15 +7,18 @@ import dataclasses
 import math
 import sys
 from pathlib import Path
+from typing import Any
 
 from gagen.apps.hexapod.bundled import SPEC
 from gagen.arguments import finite_float, non_negative_float, positive_float, positive_int
 from gagen.registry import Verb
 
 
-def _walk_arguments(parser: argparse.ArgumentParser) -> None:
+def _gait_arguments(parser: argparse.ArgumentParser, out: str) -> None:
+    """The spec, the module, the output folder, the path, the ground and the lean: ``walk`` and
+    ``walk-sim`` plan the same gait."""
     parser.add_argument("spec", nargs="?", default=str(SPEC), help="hexapod spec (default: the bundled one)")
-    parser.add_argument("--out", default="walk", help="folder for the plots and the GIF (default walk/)")
+    parser.add_argument("--out", default=out, help=f"folder for the plots and the GIF (default {out}/)")
     parser.add_argument("--module", help="build the module into this folder (default: the committed "
                         "generated/ for the bundled spec, else the gagen cache)")
     parser.add_argument("--straight", type=finite_float, default=0.3, help="straight part of the path, m "
@@ -39,19 +42,46 @@ def _walk_arguments(parser: argparse.ArgumentParser) -> None:
                         help="heading the ground rises towards, degrees "
                         "from +x (default 0)")
     parser.add_argument("--rate", type=positive_float, default=100.0, help="samples per second (default 100)")
-    parser.add_argument("--frames", type=positive_int, default=90, help="GIF frames (default 90)")
+    parser.add_argument("--lean", type=_lean, default=0.0, help="lean the body uphill this many m, the "
+                        "footholds unmoved, or 'auto': the lean that puts the CoM back over the feet "
+                        "as on flat ground (default 0)")
     parser.add_argument("--no-animation", action="store_true", help="skip the GIF")
+
+
+def _walk_arguments(parser: argparse.ArgumentParser) -> None:
+    _gait_arguments(parser, "walk")
+    parser.add_argument("--frames", type=positive_int, default=90, help="GIF frames (default 90)")
     parser.add_argument("--margin", type=finite_float, help="keep a static stability margin of at least this "
                         "many m (shortens the stride; refused when no stride keeps it)")
     parser.add_argument("--mu", type=non_negative_float, default=0.5, help="friction coefficient of the "
                         "feet's cones (default 0.5)")
-    parser.add_argument("--lean", type=_lean, default=0.0, help="lean the body uphill this many m, the "
-                        "footholds unmoved, or 'auto': the lean that puts the CoM back over the feet "
-                        "as on flat ground (default 0)")
 
 
 def _lean(text: str) -> float | str:
     return "auto" if text == "auto" else finite_float(text)
+
+
+def _plan(args: argparse.Namespace) -> tuple[Any, Any, Any, Any]:
+    """(hexapod, module, gait parameters, ground) of the command line; the lean solved for 'auto'.
+    SpecError, ValueError and FileNotFoundError: a bad file or parameter; CompileError: the build."""
+    from gagen.apps.hexapod import gait, gait_statics
+    from gagen.apps.hexapod.spec import load_hexapod
+
+    hexapod = load_hexapod(args.spec)
+    params = gait.GaitParameters(straight=args.straight, turn=math.radians(args.turn), radius=args.radius,
+                                 height=args.height, stride=args.stride, step_time=args.step_time,
+                                 step_height=args.step_height, rate=args.rate)
+    ground = gait.Ground(math.radians(args.slope), math.radians(args.uphill))
+    module = gait.hexapod_module(args.spec, args.module, progress=lambda line: print(line, flush=True))
+    try:
+        lean = (gait_statics.balanced_lean(module, hexapod, params, ground) if args.lean == "auto"
+                else args.lean)
+    except ValueError as e:
+        raise ValueError(f"--lean: {e}") from e
+    params = dataclasses.replace(params, lean=lean)
+    if params.lean:
+        print(f"the body leans {params.lean:.4f} m uphill (footholds unmoved)", flush=True)
+    return hexapod, module, params, ground
 
 
 def _walk(args: argparse.Namespace) -> int:
@@ -61,18 +91,12 @@ def _walk(args: argparse.Namespace) -> int:
     import time
 
     from gagen.apps.hexapod import gait
-    from gagen.apps.hexapod.spec import load_hexapod
     from gagen.codegen.compiler import CompileError
     from gagen.errors import SpecError
 
     start = time.perf_counter()
     try:
-        hexapod = load_hexapod(args.spec)
-        params = gait.GaitParameters(straight=args.straight, turn=math.radians(args.turn), radius=args.radius,
-                                     height=args.height, stride=args.stride, step_time=args.step_time,
-                                     step_height=args.step_height, rate=args.rate)
-        ground = gait.Ground(math.radians(args.slope), math.radians(args.uphill))
-        module = gait.hexapod_module(args.spec, args.module, progress=lambda line: print(line, flush=True))
+        hexapod, module, params, ground = _plan(args)
     except (SpecError, ValueError, FileNotFoundError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
@@ -81,15 +105,6 @@ def _walk(args: argparse.Namespace) -> int:
         return 1
     from gagen.apps.hexapod import gait_statics
 
-    try:
-        lean = (gait_statics.balanced_lean(module, hexapod, params, ground) if args.lean == "auto"
-                else args.lean)
-        params = dataclasses.replace(params, lean=lean)
-    except ValueError as e:
-        print(f"error: --lean: {e}", file=sys.stderr)
-        return 2
-    if params.lean:
-        print(f"the body leans {params.lean:.4f} m uphill (footholds unmoved)", flush=True)
     if args.margin is not None:
         print(f"keeping a stability margin >= {args.margin:g} m: searching the stride", flush=True)
         try:
@@ -140,22 +155,27 @@ def _walk(args: argparse.Namespace) -> int:
 
 
 def _walk_sim_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("spec", nargs="?", default=str(SPEC), help="hexapod spec (default: the bundled one)")
-    parser.add_argument("--slope", type=finite_float, default=0.0, help="ground slope rising along +x, "
-                        "degrees (default 0: flat)")
-    parser.add_argument("--out", default="walk_sim", help="folder for the plot and the GIF "
-                        "(default walk_sim/)")
-    parser.add_argument("--module", help="build the module into this folder (default: the committed "
-                        "generated/ for the bundled spec, else the gagen cache)")
+    _gait_arguments(parser, "walk_sim")
     parser.add_argument("--fps", type=positive_float, default=10.0, help="GIF frames per second (default 10)")
-    parser.add_argument("--no-animation", action="store_true", help="skip the GIF")
 
 
 def _walk_sim(args: argparse.Namespace) -> int:
-    """The tripod gait played in MuJoCo (gagen.apps.hexapod.mujoco_walk): drift, slip, margin, cones."""
+    """The tripod gait played in MuJoCo (gagen.apps.hexapod.mujoco_walk): drift, slip, margin, cones.
+    Exit 2 for a bad spec or parameters, 1 when the planned walk is not feasible or the simulated walk
+    fails its bounds."""
     from gagen.apps.hexapod.mujoco_walk import walk_sim
+    from gagen.codegen.compiler import CompileError
+    from gagen.errors import SpecError
 
-    return walk_sim(args)
+    try:
+        hexapod, module, params, ground = _plan(args)
+    except (SpecError, ValueError, FileNotFoundError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    except CompileError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    return walk_sim(args, hexapod, module, params, ground)
 
 
 VERBS = (Verb("walk", "a hexapod's tripod gait (straight, then a turn) on flat or sloped ground: slip, "

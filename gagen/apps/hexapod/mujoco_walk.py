@@ -402,12 +402,13 @@ def report(hexapod: Hexapod, plan: gait.GaitResult, record: SimRecord, mass: Mas
                      total_mass(mass), plan.params.step_time)
 
 
-def run(hexapod: Hexapod, module: Any, slope: float = 0.0, params: gait.GaitParameters | None = None,
-        mass: MassModel | None = None, progress: Callable[[str], None] = lambda _: None
+def run(hexapod: Hexapod, module: Any, ground: gait.Ground | None = None,
+        params: gait.GaitParameters | None = None, mass: MassModel | None = None,
+        progress: Callable[[str], None] = lambda _: None
         ) -> tuple[gait.GaitResult, Any, SimRecord, SimReport]:
-    """Plan the tripod gait (``gait.walk`` with the generated ``module``) on ground rising at
-    ``slope`` rad along +x, play it in MuJoCo and measure it: (plan, model, record, report)."""
-    plan = gait.walk(module, hexapod, params, gait.Ground(slope), progress=progress)
+    """Plan the tripod gait (``gait.walk`` with the generated ``module``) on ``ground`` (default flat),
+    play it in MuJoCo and measure it: (plan, model, record, report)."""
+    plan = gait.walk(module, hexapod, params, ground or gait.Ground(), progress=progress)
     if not plan.ok:
         raise ValueError(f"the planned walk is not feasible: {plan.flags()[0]}")
     model, record = simulate(hexapod, plan, mass, progress)
@@ -444,21 +445,23 @@ def plot(report_: SimReport, path: str | Path) -> Path:
     return Path(path)
 
 
-def walk_sim(args: Any) -> int:
-    """``gagen walk-sim``: plan, simulate, print the report, write the plot and (unless
-    --no-animation) the GIF; exit 1 when the margin goes negative or the drift passes its bound."""
+def walk_sim(args: Any, hexapod: Hexapod, module: Any, params: gait.GaitParameters,
+             ground: gait.Ground) -> int:
+    """``gagen walk-sim`` (the command line's ``args``: out, fps, no_animation): plan, simulate, print
+    the report, write the plot and (unless --no-animation) the GIF; exit 1 when the margin goes
+    negative, the drift passes its bound or the planned walk is not feasible."""
     import time
-
-    from gagen.apps.hexapod.spec import load_hexapod
 
     start = time.perf_counter()
 
     def say(line: str) -> None:
         print(line, flush=True)
 
-    hexapod = load_hexapod(args.spec)  # a SpecError (ValueError): one line, exit 2
-    module = gait.hexapod_module(args.spec, args.module, progress=say)
-    plan, _, record, result = run(hexapod, module, math.radians(args.slope), progress=say)
+    try:
+        plan, _, record, result = run(hexapod, module, ground, params, progress=say)
+    except ValueError as e:  # the plan is not feasible: as `gagen walk`, exit 1
+        print(f"error: {e}", file=sys.stderr)
+        return 1
     print(result.table())
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
