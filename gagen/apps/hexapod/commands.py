@@ -61,9 +61,23 @@ def _lean(text: str) -> float | str:
     return "auto" if text == "auto" else finite_float(text)
 
 
-def _plan(args: argparse.Namespace) -> tuple[Any, Any, Any, Any]:
-    """(hexapod, module, gait parameters, ground) of the command line; the lean solved for 'auto'.
-    SpecError, ValueError and FileNotFoundError: a bad file or parameter; CompileError: the build."""
+def _plan(args: argparse.Namespace) -> tuple[Any, Any, Any, Any] | int:
+    """(hexapod, module, gait parameters, ground) of the command line, the lean solved for 'auto'; or,
+    printed in one line, the exit status: 2 for a bad file or parameter, 1 for a failed build."""
+    from gagen.codegen.compiler import CompileError
+    from gagen.errors import SpecError
+
+    try:
+        return _planned(args)
+    except (SpecError, ValueError, FileNotFoundError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    except CompileError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+
+
+def _planned(args: argparse.Namespace) -> tuple[Any, Any, Any, Any]:
     from gagen.apps.hexapod import gait, gait_statics
     from gagen.apps.hexapod.spec import load_hexapod
 
@@ -91,18 +105,12 @@ def _walk(args: argparse.Namespace) -> int:
     import time
 
     from gagen.apps.hexapod import gait
-    from gagen.codegen.compiler import CompileError
-    from gagen.errors import SpecError
 
     start = time.perf_counter()
-    try:
-        hexapod, module, params, ground = _plan(args)
-    except (SpecError, ValueError, FileNotFoundError) as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
-    except CompileError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 1
+    planned = _plan(args)
+    if isinstance(planned, int):
+        return planned
+    hexapod, module, params, ground = planned
     from gagen.apps.hexapod import gait_statics
 
     if args.margin is not None:
@@ -164,18 +172,9 @@ def _walk_sim(args: argparse.Namespace) -> int:
     Exit 2 for a bad spec or parameters, 1 when the planned walk is not feasible or the simulated walk
     fails its bounds."""
     from gagen.apps.hexapod.mujoco_walk import walk_sim
-    from gagen.codegen.compiler import CompileError
-    from gagen.errors import SpecError
 
-    try:
-        hexapod, module, params, ground = _plan(args)
-    except (SpecError, ValueError, FileNotFoundError) as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
-    except CompileError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 1
-    return walk_sim(args, hexapod, module, params, ground)
+    planned = _plan(args)
+    return planned if isinstance(planned, int) else walk_sim(args, *planned)
 
 
 VERBS = (Verb("walk", "a hexapod's tripod gait (straight, then a turn) on flat or sloped ground: slip, "
