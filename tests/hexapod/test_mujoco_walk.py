@@ -150,3 +150,21 @@ def test_the_balanced_lean_keeps_the_margin_in_mujoco(hexapod, hexapod_module, t
     assert f"the body leans {lean:.4f} m uphill" in out
     line = next(x for x in out.splitlines() if "stability margin, min" in x)
     assert abs(float(line.split()[3]) - margins[1] * 1e3) < 0.05  # "stability margin, min  127.5 mm ..."
+
+
+def test_mjcf_escapes_names(hexapod):
+    """A Hexapod built in code (the spec loader takes identifiers only) with names that would break
+    the XML: the MJCF stays well-formed and MuJoCo finds every leg's joints and toe under its name."""
+    import xml.etree.ElementTree as ET
+    from dataclasses import replace
+
+    mujoco = pytest.importorskip("mujoco")
+    odd = 'a"b<c>&d\'e'
+    robot = replace(hexapod, legs=tuple(replace(leg, name=f"{odd}{i}") for i, leg in enumerate(hexapod.legs)))
+    text = mw.mjcf(robot)
+    ET.fromstring(text)
+    model = mujoco.MjModel.from_xml_string(text)
+    for leg in robot.legs:
+        assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, f"{leg.name}_toe") >= 0
+        for joint in leg.joint_names:
+            assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint) >= 0

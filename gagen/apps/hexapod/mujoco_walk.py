@@ -38,6 +38,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+from xml.sax.saxutils import escape
 
 import numpy as np
 from numpy.typing import NDArray
@@ -93,6 +94,11 @@ def _inertial(mass: float, centre: Any, moments: tuple[float, float, float]) -> 
     return f'<inertial pos="{_vec(centre)}" mass="{_num(mass)}" diaginertia="{_vec(moments)}"/>'
 
 
+def _attr(text: str) -> str:
+    """``text`` escaped for a double-quoted XML attribute."""
+    return escape(text, {'"': "&quot;"})
+
+
 def mjcf(hexapod: Hexapod, mass: MassModel | None = None, ground: gait.Ground | None = None) -> str:
     """The MuJoCo model (MJCF text) of ``hexapod`` with ``mass`` (default: the documented one) on
     ``ground`` (default flat): see the module docstring."""
@@ -107,11 +113,12 @@ def mjcf(hexapod: Hexapod, mass: MassModel | None = None, ground: gait.Ground | 
         starts = [leg.xyz, (leg.lengths[0], 0.0, 0.0), (leg.lengths[1], 0.0, 0.0)]
         quats = [f' quat="{_quat(_rpy(leg.rpy))}"', "", ""]
         opened = []
+        name = _attr(leg.name)  # a spec's names are identifiers; a Hexapod built in code may hold any
         for j, (part, length, m) in enumerate(zip(parts, leg.lengths, masses, strict=True)):
-            joint = leg.joint_names[j]
+            joint = _attr(leg.joint_names[j])
             lo, hi = leg.limits[j]
             opened.append(
-                f'<body name="{leg.name}_{part}" pos="{_vec(starts[j])}"{quats[j]}>'
+                f'<body name="{name}_{part}" pos="{_vec(starts[j])}"{quats[j]}>'
                 f'<joint name="{joint}" axis="{_vec(leg.axes[j])}" range="{_num(lo)} {_num(hi)}"/>'
                 f'{_inertial(m, (length / 2, 0.0, 0.0), rod_inertia(m, length, rad))}'
                 f'<geom type="capsule" fromto="0 0 0 {_num(length)} 0 0" size="{_num(rad)}" '
@@ -119,8 +126,8 @@ def mjcf(hexapod: Hexapod, mass: MassModel | None = None, ground: gait.Ground | 
             actuators.append(f'<position name="{joint}" joint="{joint}" kp="{_num(KP)}" kv="{_num(KV)}" '
                              f'forcerange="{_num(-EFFORT)} {_num(EFFORT)}"/>')
         toe = f"{_num(leg.lengths[2])} 0 0"
-        opened.append(f'<site name="{leg.name}_toe" pos="{toe}" size="0.004"/>'
-                      f'<geom name="{leg.name}_foot" type="sphere" pos="{toe}" size="{_num(FOOT_RADIUS)}" '
+        opened.append(f'<site name="{name}_toe" pos="{toe}" size="0.004"/>'
+                      f'<geom name="{name}_foot" type="sphere" pos="{toe}" size="{_num(FOOT_RADIUS)}" '
                       f'contype="1" conaffinity="0" condim="{CONDIM}" friction="{_vec(FRICTIONS)}" '
                       f'rgba="0.9 0.45 0.1 1"/>')
         legs.append("".join(opened) + "</body>" * 3)
